@@ -1,0 +1,103 @@
+#include "server/crossing/features.h"
+
+#include <chrono>
+
+#include <opencv2/features2d.hpp>
+#include <opencv2/imgcodecs.hpp>
+#include <opencv2/imgproc.hpp>
+
+#include "absl/strings/str_cat.h"
+#include "server/crossing/hue_histogram.h"
+
+namespace waymark::crossing {
+namespace {
+
+constexpr int kMinImageSide = 8;
+// Decoding refuses images with more pixels than this (a 16k x 16k PNG is 768 MB of BGR).
+constexpr double kMaxDecodedPixels = 64e6;
+
+double MsSince(std::chrono::steady_clock::time_point start) {
+  return std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - start)
+      .count();
+}
+
+}  // namespace
+
+absl::StatusOr<cv::Mat> DecodeImage(const std::string& bytes) {
+  if (bytes.empty()) return absl::InvalidArgumentError("image data is empty: send JPEG or PNG bytes");
+  cv::Mat image;
+  try {
+    const cv::Mat buffer(1, static_cast<int>(bytes.size()), CV_8U,
+                         const_cast<char*>(bytes.data()));
+    image = cv::imdecode(buffer, cv::IMREAD_COLOR);
+  } catch (const cv::Exception& e) {
+    return absl::InvalidArgumentError(absl::StrCat("image could not be decoded: ", e.what()));
+  }
+  if (image.empty()) {
+    return absl::InvalidArgumentError(absl::StrCat(
+        "image data (", bytes.size(), " bytes) is not a decodable JPEG or PNG image"));
+  }
+  if (image.cols < kMinImageSide || image.rows < kMinImageSide) {
+    return absl::InvalidArgumentError(absl::StrCat("image is ", image.cols, "x", image.rows,
+                                                   ": at least ", kMinImageSide, "x",
+                                                   kMinImageSide, " pixels are needed"));
+  }
+  if (static_cast<double>(image.cols) * image.rows > kMaxDecodedPixels) {
+    return absl::InvalidArgumentError(absl::StrCat("image is ", image.cols, "x", image.rows,
+                                                   ": more than 64 megapixels"));
+  }
+  return image;
+}
+
+cv::Mat ToWorkingResolution(const cv::Mat& bgr, const FeatureOptions& options) {
+  if (bgr.cols == options.work_width && bgr.rows == options.work_height) return bgr;
+  cv::Mat resized;
+  const bool shrinking = bgr.cols > options.work_width;
+  cv::resize(bgr, resized, cv::Size(options.work_width, options.work_height), 0, 0,
+             shrinking ? cv::INTER_AREA : cv::INTER_LINEAR);
+  return resized;
+}
+
+absl::StatusOr<ImageFeatures> ExtractSift(const cv::Mat& working_bgr,
+                                          const FeatureOptions& options) {
+  ImageFeatures features;
+  features.width = working_bgr.cols;
+  features.height = working_bgr.rows;
+  try {
+    cv::Mat gray;
+    cv::cvtColor(working_bgr, gray, cv::COLOR_BGR2GRAY);
+    // nfeatures = 0 keeps all; nOctaveLayers = 3 -> 6 Gaussian images per octave (the paper's).
+    auto sift = cv::SIFT::create(options.max_keypoints, 3, 0.04, 10, 1.6, CV_8U);
+    sift->detectAndCompute(gray, cv::noArray(), features.keypoints, features.descriptors);
+  } catch (const cv::Exception& e) {
+    return absl::InternalError(absl::StrCat("SIFT extraction failed: ", e.what()));
+  }
+  if (features.descriptors.empty()) {
+    features.descriptors = cv::Mat(0, kDescriptorSize, CV_8U);
+  }
+  return features;
+}
+
+absl::StatusOr<ImageFeatures> ExtractFeatures(const std::string& encoded,
+                                              const FeatureOptions& options,
+                                              ExtractionTimings* timings) {
+  ExtractionTimings local;
+  auto start = std::chrono::steady_clock::now();
+  absl::StatusOr<cv::Mat> image = DecodeImage(encoded);
+  if (!image.ok()) return image.status();
+  const cv::Mat working = ToWorkingResolution(*image, options);
+  local.decode_ms = MsSince(start);
+
+  start = std::chrono::steady_clock::now();
+  absl::StatusOr<ImageFeatures> features = ExtractSift(working, options);
+  if (!features.ok()) return features.status();
+  local.extraction_ms = MsSince(start);
+
+  start = std::chrono::steady_clock::now();
+  features->hue_hist = HueHistogram(working, options.hue_bins);
+  local.histogram_ms = MsSince(start);
+  if (timings != nullptr) *timings = local;
+  return features;
+}
+
+}  // namespace waymark::crossing

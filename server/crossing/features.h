@@ -1,0 +1,50 @@
+#ifndef WAYMARK_SERVER_CROSSING_FEATURES_H_
+#define WAYMARK_SERVER_CROSSING_FEATURES_H_
+
+// What the recognition method knows about one image: SIFT keypoints and descriptors at the working
+// resolution, and the hue histogram.
+
+#include <string>
+#include <vector>
+
+#include <opencv2/core.hpp>
+
+#include "absl/status/statusor.h"
+#include "server/crossing/options.h"
+
+namespace waymark::crossing {
+
+inline constexpr int kDescriptorSize = 128;
+
+struct ImageFeatures {
+  std::vector<cv::KeyPoint> keypoints;
+  cv::Mat descriptors;          // N x 128, CV_8U (OpenCV's SIFT values are integers in [0, 255])
+  std::vector<float> hue_hist;  // normalised
+  int width = 0;                // working resolution the features were extracted at
+  int height = 0;
+};
+
+// Decodes JPEG/PNG bytes into a BGR image. INVALID_ARGUMENT for empty, corrupt or undecodable
+// bytes, or images smaller than 8x8 (nothing to recognize).
+absl::StatusOr<cv::Mat> DecodeImage(const std::string& bytes);
+
+// Resizes to the working resolution (a plain resize, as the paper's fixed 320x240 frames).
+cv::Mat ToWorkingResolution(const cv::Mat& bgr, const FeatureOptions& options);
+
+// SIFT (OpenCV, nOctaveLayers = 3, i.e. 6 images per octave as the paper) on the working-resolution
+// image. An image without texture gives zero keypoints, not an error.
+absl::StatusOr<ImageFeatures> ExtractSift(const cv::Mat& working_bgr, const FeatureOptions& options);
+
+// Decode + resize + SIFT + hue histogram, with the time each stage took.
+struct ExtractionTimings {
+  double decode_ms = 0;
+  double extraction_ms = 0;
+  double histogram_ms = 0;
+};
+absl::StatusOr<ImageFeatures> ExtractFeatures(const std::string& encoded,
+                                              const FeatureOptions& options,
+                                              ExtractionTimings* timings = nullptr);
+
+}  // namespace waymark::crossing
+
+#endif  // WAYMARK_SERVER_CROSSING_FEATURES_H_

@@ -1,0 +1,152 @@
+#include "server/crossing/kd_forest.h"
+
+#include <algorithm>
+#include <array>
+#include <numeric>
+#include <queue>
+
+#include "server/crossing/l2_distance.h"
+
+namespace waymark::crossing {
+namespace {
+
+// Split dimension: one of the few highest-variance dimensions, chosen at random, so that the
+// trees differ (the "randomized" in randomized k-d trees; FLANN uses the top 5).
+constexpr int kRandomDims = 5;
+// Variance is estimated on at most this many descriptors of the node.
+constexpr uint32_t kVarianceSample = 100;
+
+uint32_t NextRandom(uint32_t* state) {  // xorshift32: small, fast, deterministic
+  uint32_t x = *state;
+  x ^= x << 13;
+  x ^= x >> 17;
+  x ^= x << 5;
+  return *state = x;
+}
+
+struct Branch {
+  int32_t bound;  // squared distance from the query to the splitting plane
+  uint16_t tree;
+  uint32_t node;
+  bool operator>(const Branch& other) const { return bound > other.bound; }
+};
+
+}  // namespace
+
+void KnnList::Offer(uint32_t id, int32_t squared_distance) {
+  if (full() && squared_distance >= worst()) return;
+  for (const Neighbour& n : items_) {
+    if (n.id == id) return;
+  }
+  auto it = std::upper_bound(
+      items_.begin(), items_.end(), squared_distance,
+      [](int32_t d, const Neighbour& n) { return d < n.squared_distance; });
+  items_.insert(it, Neighbour{id, squared_distance});
+  if (static_cast<int>(items_.size()) > k_) items_.pop_back();
+}
+
+KdForest::KdForest(const DescriptorStore& store, uint32_t begin, uint32_t end, int trees,
+                   int leaf_size, uint32_t seed)
+    : store_(store), begin_(begin), end_(end), leaf_size_(std::max(1, leaf_size)) {
+  trees_.resize(std::max(1, trees));
+  uint32_t rng = seed * 2654435761u + 1;
+  for (Tree& tree : trees_) {
+    tree.ids.resize(end - begin);
+    std::iota(tree.ids.begin(), tree.ids.end(), begin);
+    tree.nodes.reserve(2 * (end - begin) / leaf_size_ + 1);
+    if (end > begin) BuildNode(&tree, 0, end - begin, &rng);
+  }
+}
+
+uint32_t KdForest::BuildNode(Tree* tree, uint32_t first, uint32_t last, uint32_t* rng) {
+  const uint32_t index = static_cast<uint32_t>(tree->nodes.size());
+  tree->nodes.push_back(Node{-1, 0, first, last});
+  if (last - first <= static_cast<uint32_t>(leaf_size_)) return index;
+
+  // Mean and variance per dimension over a sample of the node's descriptors.
+  std::array<double, 128> mean{}, var{};
+  const uint32_t count = last - first;
+  const uint32_t step = std::max<uint32_t>(1, count / kVarianceSample);
+  int sampled = 0;
+  for (uint32_t i = first; i < last; i += step, ++sampled) {
+    const uint8_t* d = store_.Get(tree->ids[i]);
+    for (int k = 0; k < 128; ++k) mean[k] += d[k];
+  }
+  for (double& m : mean) m /= sampled;
+  for (uint32_t i = first; i < last; i += step) {
+    const uint8_t* d = store_.Get(tree->ids[i]);
+    for (int k = 0; k < 128; ++k) var[k] += (d[k] - mean[k]) * (d[k] - mean[k]);
+  }
+  std::array<int, 128> dims;
+  std::iota(dims.begin(), dims.end(), 0);
+  std::partial_sort(dims.begin(), dims.begin() + kRandomDims, dims.end(),
+                    [&](int a, int b) { return var[a] > var[b]; });
+  const int dim = dims[NextRandom(rng) % kRandomDims];
+  if (var[dim] <= 0) return index;  // all sampled descriptors equal: keep them as one leaf
+
+  // Split at the mean; descriptors with value <= split go left.
+  const uint8_t split = static_cast<uint8_t>(std::min(254.0, mean[dim]));
+  auto middle = std::partition(tree->ids.begin() + first, tree->ids.begin() + last,
+                               [&](uint32_t id) { return store_.Get(id)[dim] <= split; });
+  uint32_t mid = static_cast<uint32_t>(middle - tree->ids.begin());
+  if (mid == first || mid == last) mid = first + count / 2;  // degenerate: split by position
+
+  const uint32_t left = BuildNode(tree, first, mid, rng);
+  const uint32_t right = BuildNode(tree, mid, last, rng);
+  Node& node = tree->nodes[index];
+  node.dim = static_cast<int16_t>(dim);
+  node.value = split;
+  node.left_or_first = left;
+  node.right_or_last = right;
+  return index;
+}
+
+void KdForest::Search(const uint8_t* query, int checks, KnnList* result,
+                      const std::vector<uint8_t>* view_filter) const {
+  if (end_ == begin_) return;
+  std::priority_queue<Branch, std::vector<Branch>, std::greater<Branch>> branches;
+  int checked = 0;
+  // Descends from `node` to a leaf, queueing the far side of every split on the way.
+  auto descend = [&](uint16_t t, uint32_t node) {
+    const Tree& tree = trees_[t];
+    while (tree.nodes[node].dim >= 0) {
+      const Node& n = tree.nodes[node];
+      const int diff = static_cast<int>(query[n.dim]) - static_cast<int>(n.value);
+      const bool go_left = diff <= 0;
+      const uint32_t near = go_left ? n.left_or_first : n.right_or_last;
+      const uint32_t far = go_left ? n.right_or_last : n.left_or_first;
+      const int32_t bound = go_left ? (diff - 1) * (diff - 1) : diff * diff;
+      if (!result->full() || bound < result->worst()) {
+        branches.push(Branch{bound, t, far});
+      }
+      node = near;
+    }
+    const Node& leaf = tree.nodes[node];
+    for (uint32_t i = leaf.left_or_first; i < leaf.right_or_last; ++i) {
+      const uint32_t id = tree.ids[i];
+      ++checked;
+      if (view_filter != nullptr) {
+        const uint32_t view = store_.ViewOf(id);
+        if (view >= view_filter->size() || (*view_filter)[view] == 0) continue;
+      }
+      result->Offer(id, SquaredL2(query, store_.Get(id)));
+    }
+  };
+  for (uint16_t t = 0; t < trees_.size(); ++t) descend(t, 0);
+  while (!branches.empty() && checked < checks) {
+    const Branch b = branches.top();
+    branches.pop();
+    if (result->full() && b.bound >= result->worst()) break;
+    descend(b.tree, b.node);
+  }
+}
+
+size_t KdForest::memory_bytes() const {
+  size_t bytes = 0;
+  for (const Tree& t : trees_) {
+    bytes += t.nodes.capacity() * sizeof(Node) + t.ids.capacity() * sizeof(uint32_t);
+  }
+  return bytes;
+}
+
+}  // namespace waymark::crossing

@@ -1,0 +1,77 @@
+#ifndef WAYMARK_SERVER_CROSSING_KD_FOREST_H_
+#define WAYMARK_SERVER_CROSSING_KD_FOREST_H_
+
+// Randomized k-d trees (Silpa-Anan & Hartley 2008, the structure behind FLANN's KDTreeIndex) over
+// a contiguous id range of a DescriptorStore, searched best-bin-first. Written here rather than
+// taken from cv::flann because FLANN wants float data (4x the memory of the uint8 descriptors) and
+// cannot grow; this one indexes the uint8 store in place.
+
+#include <cstdint>
+#include <vector>
+
+#include "server/crossing/descriptor_store.h"
+
+namespace waymark::crossing {
+
+struct Neighbour {
+  uint32_t id;
+  int32_t squared_distance;
+};
+
+// The k best neighbours seen so far, sorted ascending; one query descriptor's result.
+class KnnList {
+ public:
+  explicit KnnList(int k) : k_(k) { items_.reserve(k + 1); }
+  // Inserts unless already present (trees overlap) or worse than the k-th.
+  void Offer(uint32_t id, int32_t squared_distance);
+  bool full() const { return static_cast<int>(items_.size()) >= k_; }
+  int32_t worst() const { return items_.back().squared_distance; }
+  const std::vector<Neighbour>& items() const { return items_; }
+  void Clear() { items_.clear(); }
+
+ private:
+  int k_;
+  std::vector<Neighbour> items_;
+};
+
+class KdForest {
+ public:
+  // Builds `trees` trees over ids [begin, end) of `store`. Deterministic for a given seed.
+  KdForest(const DescriptorStore& store, uint32_t begin, uint32_t end, int trees, int leaf_size,
+           uint32_t seed);
+
+  // Adds to `result` the neighbours of `query` found by visiting at most `checks` descriptors.
+  // With `view_filter`, only descriptors of views v with (*view_filter)[v] != 0 are offered.
+  void Search(const uint8_t* query, int checks, KnnList* result,
+              const std::vector<uint8_t>* view_filter = nullptr) const;
+
+  uint32_t begin() const { return begin_; }
+  uint32_t end() const { return end_; }
+  uint32_t size() const { return end_ - begin_; }
+  size_t memory_bytes() const;
+
+ private:
+  struct Node {
+    // Inner node: split dimension and value, children indices. Leaf: dim = -1, [first, last) into
+    // the tree's permutation.
+    int16_t dim;
+    uint8_t value;
+    uint32_t left_or_first;
+    uint32_t right_or_last;
+  };
+  struct Tree {
+    std::vector<Node> nodes;
+    std::vector<uint32_t> ids;  // permutation of the range; leaves are slices of it
+  };
+
+  uint32_t BuildNode(Tree* tree, uint32_t first, uint32_t last, uint32_t* rng);
+
+  const DescriptorStore& store_;
+  uint32_t begin_, end_;
+  int leaf_size_;
+  std::vector<Tree> trees_;
+};
+
+}  // namespace waymark::crossing
+
+#endif  // WAYMARK_SERVER_CROSSING_KD_FOREST_H_

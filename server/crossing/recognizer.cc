@@ -1,0 +1,176 @@
+#include "server/crossing/recognizer.h"
+
+#include <algorithm>
+#include <chrono>
+
+#include "absl/strings/str_cat.h"
+#include "server/crossing/decision.h"
+#include "server/crossing/geometric_verification.h"
+#include "server/crossing/hue_histogram.h"
+
+namespace waymark::crossing {
+namespace {
+
+using Clock = std::chrono::steady_clock;
+
+double MsSince(Clock::time_point start) {
+  return std::chrono::duration<double, std::milli>(Clock::now() - start).count();
+}
+
+// Match counts of the query against every view, through the index or (options.exact in the
+// index options) brute force per view: the reference the benchmark compares against.
+ViewMatches MatchQuery(const ViewDatabase& db, const cv::Mat& query, double ratio,
+                       bool resolve_exactly) {
+  if (!db.index().options().exact) {
+    return MatchAllViews(query, db.index(), db.spans(), ratio, resolve_exactly);
+  }
+  ViewMatches all;
+  for (uint32_t slot = 0; slot < db.views().size(); ++slot) {
+    auto matches = MatchViewExact(query, db.index().store(), db.spans()[slot], ratio);
+    if (!matches.empty()) all[slot] = std::move(matches);
+  }
+  return all;
+}
+
+int CountOf(const ViewMatches& matches, uint32_t slot) {
+  auto it = matches.find(slot);
+  return it == matches.end() ? 0 : static_cast<int>(it->second.size());
+}
+
+void SortByMatches(std::vector<Candidate>* list) {
+  std::stable_sort(list->begin(), list->end(), [](const Candidate& a, const Candidate& b) {
+    if (a.matches != b.matches) return a.matches > b.matches;
+    return a.slot < b.slot;
+  });
+}
+
+// Steps 6-9: keep the top N2, compare hue histograms, decide. Fills kept/similarity/decision and
+// returns the index into `list` of the winner.
+int Decide(const ViewDatabase& db, const ImageFeatures& query, const RecognitionOptions& options,
+           std::vector<Candidate>* list) {
+  const size_t kept = std::min<size_t>(list->size(), options.n2);
+  std::vector<int> m;
+  std::vector<double> s;
+  for (size_t i = 0; i < kept; ++i) {
+    Candidate& c = (*list)[i];
+    c.kept = true;
+    c.similarity = HueSimilarity(query.hue_hist, db.views()[c.slot].hue_hist);
+    m.push_back(c.matches);
+    s.push_back(c.similarity);
+  }
+  const std::vector<double> des = DecisionValues(m, s, options.alpha, options.beta);
+  for (size_t i = 0; i < kept; ++i) (*list)[i].decision = des[i];
+  return ArgMax(des);
+}
+
+void RecognizePaper(const ViewDatabase& db, const ImageFeatures& query,
+                    const RecognitionOptions& options, Recognition* out) {
+  auto start = Clock::now();
+  const ViewMatches matches = MatchQuery(db, query.descriptors, options.ratio, true);
+  // Steps 3-5: qualifying centres, then members of their clusters with at least N1 matches.
+  std::vector<Candidate> list;
+  int best_center_matches = 0;
+  for (const ClusterEntry& cluster : db.clusters()) {
+    const int m = CountOf(matches, cluster.center);
+    best_center_matches = std::max(best_center_matches, m);
+    if (m < options.n0) continue;
+    ++out->qualifying_clusters;
+    list.push_back(Candidate{cluster.center, m, 0, true});
+    for (uint32_t member : cluster.members) {
+      if (member == cluster.center) continue;
+      const int mm = CountOf(matches, member);
+      if (mm >= options.n1) list.push_back(Candidate{member, mm, 0, false});
+    }
+  }
+  out->matching_ms = MsSince(start);
+  if (list.empty()) {
+    out->reason = absl::StrCat("no cluster centre reached N0 = ", options.n0,
+                               " matches (best centre: ", best_center_matches, ")");
+    return;
+  }
+  SortByMatches(&list);
+  start = Clock::now();
+  const int best = Decide(db, query, options, &list);
+  out->histogram_ms = MsSince(start);
+  out->recognized = true;
+  out->best_slot = list[best].slot;
+  out->decision = list[best].decision;
+  out->candidates = std::move(list);
+}
+
+void RecognizeVerified(const ViewDatabase& db, const ImageFeatures& query,
+                       const RecognitionOptions& options, Recognition* out) {
+  auto start = Clock::now();
+  const ViewMatches tentative = MatchQuery(db, query.descriptors, options.verified_ratio, false);
+  // Shortlist: the views with most tentative matches.
+  std::vector<std::pair<int, uint32_t>> ranked;
+  for (const auto& [slot, m] : tentative) ranked.emplace_back(static_cast<int>(m.size()), slot);
+  std::sort(ranked.begin(), ranked.end(), [](const auto& a, const auto& b) {
+    return a.first != b.first ? a.first > b.first : a.second < b.second;
+  });
+  if (static_cast<int>(ranked.size()) > options.shortlist) ranked.resize(options.shortlist);
+  out->matching_ms = MsSince(start);
+
+  start = Clock::now();
+  VerificationOptions verification;
+  verification.threshold_px = options.ransac_threshold_px;
+  std::vector<Candidate> list;
+  for (const auto& [count, slot] : ranked) {
+    const auto& pairs = tentative.at(slot);
+    const ViewEntry& view = db.views()[slot];
+    std::vector<cv::Point2f> q, v;
+    for (const DescriptorMatch& p : pairs) {
+      q.push_back(query.keypoints[p.query_index].pt);
+      v.push_back(view.points[p.train_id - view.span.first]);
+    }
+    const int inliers = CountEpipolarInliers(q, v, verification);
+    if (inliers == 0) continue;
+    const bool is_center = view.cluster >= 0 && db.clusters()[view.cluster].center == slot;
+    list.push_back(Candidate{slot, inliers, count, is_center});
+  }
+  out->verification_ms = MsSince(start);
+  if (list.empty()) {
+    out->reason = "no view has geometrically consistent matches";
+    return;
+  }
+  SortByMatches(&list);
+  start = Clock::now();
+  const int best = Decide(db, query, options, &list);
+  out->histogram_ms = MsSince(start);
+  const Candidate& winner = list[best];
+  out->decision = winner.decision;
+  const double share = winner.tentative > 0 ? winner.matches / double(winner.tentative) : 0;
+  if (winner.matches < options.min_inliers || share < options.min_inlier_share) {
+    out->reason = absl::StrCat("best view has ", winner.matches, " inliers (", winner.tentative,
+                               " tentative): below the rejection rule (", options.min_inliers,
+                               " inliers, share ", options.min_inlier_share, ")");
+  } else {
+    out->recognized = true;
+    out->best_slot = winner.slot;
+  }
+  out->candidates = std::move(list);
+}
+
+}  // namespace
+
+absl::StatusOr<Recognition> Recognize(const ViewDatabase& database, const ImageFeatures& query,
+                                      const RecognitionOptions& options) {
+  if (absl::Status s = ValidateRecognitionOptions(options); !s.ok()) return s;
+  if (database.views().empty()) {
+    return absl::FailedPreconditionError("the database has no views: enroll some first");
+  }
+  Recognition out;
+  out.mode = options.mode;
+  if (query.descriptors.rows == 0) {
+    out.reason = "no SIFT keypoints in the image (no texture)";
+    return out;
+  }
+  if (options.mode == RecognitionMode::kVerified) {
+    RecognizeVerified(database, query, options, &out);
+  } else {
+    RecognizePaper(database, query, options, &out);
+  }
+  return out;
+}
+
+}  // namespace waymark::crossing

@@ -1,0 +1,49 @@
+#ifndef WAYMARK_SERVER_CROSSING_RECOGNIZER_H_
+#define WAYMARK_SERVER_CROSSING_RECOGNIZER_H_
+
+// Recognition of one frame against a ViewDatabase: METHODS.md section 1 steps 3-9 (paper mode), or
+// the verified mode that adds geometric verification and a rejection rule.
+
+#include <cstdint>
+#include <string>
+#include <vector>
+
+#include "absl/status/statusor.h"
+#include "server/crossing/features.h"
+#include "server/crossing/options.h"
+#include "server/crossing/view_database.h"
+
+namespace waymark::crossing {
+
+// One row of the paper's Table 1.
+struct Candidate {
+  uint32_t slot = 0;
+  int matches = 0;         // M: ratio-test matches (verified mode: epipolar inliers)
+  int tentative = 0;       // verified mode: matches before verification
+  bool is_center = false;
+  bool kept = false;       // among the top N2 that reached the histogram step
+  double similarity = 0;   // S = 1 - Bhattacharyya distance (kept views only)
+  double decision = 0;     // Des (kept views only)
+};
+
+struct Recognition {
+  bool recognized = false;
+  uint32_t best_slot = 0;  // valid when recognized
+  double decision = 0;
+  std::vector<Candidate> candidates;  // sorted by matches, descending
+  int qualifying_clusters = 0;
+  std::string reason;  // why not recognized
+  RecognitionMode mode = RecognitionMode::kPaper;
+  double matching_ms = 0;
+  double verification_ms = 0;
+  double histogram_ms = 0;  // comparing histograms (computing the query's is in extraction)
+};
+
+// INVALID_ARGUMENT for bad options, FAILED_PRECONDITION for an empty database. A frame where no
+// cluster qualifies is a normal result with recognized = false.
+absl::StatusOr<Recognition> Recognize(const ViewDatabase& database, const ImageFeatures& query,
+                                      const RecognitionOptions& options);
+
+}  // namespace waymark::crossing
+
+#endif  // WAYMARK_SERVER_CROSSING_RECOGNIZER_H_

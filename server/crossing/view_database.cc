@@ -1,0 +1,123 @@
+#include "server/crossing/view_database.h"
+
+#include <cstring>
+
+#include "server/crossing/decision.h"
+
+namespace waymark::crossing {
+
+uint32_t ViewDatabase::AddView(int64_t view_id, int64_t crossing_id, double heading_deg,
+                               const cv::Mat& descriptors, std::vector<cv::Point2f> points,
+                               std::vector<float> hue_hist, bool defer_indexing) {
+  const uint32_t slot = static_cast<uint32_t>(views_.size());
+  const cv::Mat continuous = descriptors.isContinuous() ? descriptors : descriptors.clone();
+  ViewEntry entry;
+  entry.view_id = view_id;
+  entry.crossing_id = crossing_id;
+  entry.heading_deg = heading_deg;
+  entry.span.count = static_cast<uint32_t>(continuous.rows);
+  entry.span.first = defer_indexing
+                         ? index_.AddUnindexed(continuous.ptr<uint8_t>(), entry.span.count, slot)
+                         : index_.Add(continuous.ptr<uint8_t>(), entry.span.count, slot);
+  entry.points = std::move(points);
+  entry.hue_hist = std::move(hue_hist);
+  spans_.push_back(entry.span);
+  views_.push_back(std::move(entry));
+  return slot;
+}
+
+std::vector<uint8_t> ViewDatabase::CenterFilter() const {
+  std::vector<uint8_t> filter(views_.size(), 0);
+  for (const ClusterEntry& c : clusters_) filter[c.center] = 1;
+  return filter;
+}
+
+ClusterProposal ViewDatabase::ProposeCluster(const cv::Mat& descriptors,
+                                             const ClusterOptions& options) const {
+  ClusterProposal proposal;
+  if (clusters_.empty()) return proposal;
+  const std::vector<uint8_t> filter = CenterFilter();
+  const ViewMatches matches =
+      MatchAllViews(descriptors, index_, spans_, options.ratio, /*resolve_exactly=*/true, &filter);
+  std::vector<int> per_center(clusters_.size(), 0);
+  for (size_t c = 0; c < clusters_.size(); ++c) {
+    auto it = matches.find(clusters_[c].center);
+    if (it != matches.end()) per_center[c] = static_cast<int>(it->second.size());
+  }
+  proposal.cluster = AssignCluster(per_center, options.threshold);
+  for (int m : per_center) proposal.matches = std::max(proposal.matches, m);
+  return proposal;
+}
+
+int ViewDatabase::NewCluster(int64_t cluster_id, uint32_t center_slot) {
+  ClusterEntry cluster;
+  cluster.cluster_id = cluster_id;
+  cluster.center = center_slot;
+  cluster.members.push_back(center_slot);
+  clusters_.push_back(std::move(cluster));
+  const int index = static_cast<int>(clusters_.size()) - 1;
+  views_[center_slot].cluster = index;
+  return index;
+}
+
+void ViewDatabase::AddToCluster(int cluster, uint32_t slot) {
+  clusters_[cluster].members.push_back(slot);
+  views_[slot].cluster = cluster;
+}
+
+std::vector<ClusterEntry> ViewDatabase::ComputeClusters(const ClusterOptions& options) const {
+  std::vector<ClusterEntry> clusters;
+  std::vector<uint8_t> filter(views_.size(), 0);  // centres so far
+  for (uint32_t slot = 0; slot < views_.size(); ++slot) {
+    int join = -1;
+    if (!clusters.empty()) {
+      const ViewMatches matches = MatchAllViews(Descriptors(slot), index_, spans_, options.ratio,
+                                                /*resolve_exactly=*/true, &filter);
+      std::vector<int> per_center(clusters.size(), 0);
+      for (size_t c = 0; c < clusters.size(); ++c) {
+        auto it = matches.find(clusters[c].center);
+        if (it != matches.end()) per_center[c] = static_cast<int>(it->second.size());
+      }
+      join = AssignCluster(per_center, options.threshold);
+    }
+    if (join >= 0) {
+      clusters[join].members.push_back(slot);
+    } else {
+      ClusterEntry cluster;
+      cluster.center = slot;
+      cluster.members.push_back(slot);
+      clusters.push_back(std::move(cluster));
+      filter[slot] = 1;
+    }
+  }
+  return clusters;
+}
+
+void ViewDatabase::SetClusters(std::vector<ClusterEntry> clusters) {
+  clusters_ = std::move(clusters);
+  for (ViewEntry& v : views_) v.cluster = -1;
+  for (size_t c = 0; c < clusters_.size(); ++c) {
+    for (uint32_t slot : clusters_[c].members) views_[slot].cluster = static_cast<int>(c);
+  }
+}
+
+cv::Mat ViewDatabase::Descriptors(uint32_t slot) const {
+  const ViewSpan span = views_[slot].span;
+  cv::Mat out(static_cast<int>(span.count), kDescriptorSize, CV_8U);
+  for (uint32_t i = 0; i < span.count; ++i) {
+    std::memcpy(out.ptr<uint8_t>(static_cast<int>(i)), index_.store().Get(span.first + i),
+                kDescriptorSize);
+  }
+  return out;
+}
+
+size_t ViewDatabase::memory_bytes() const {
+  size_t bytes = index_.store().descriptor_bytes() + index_.memory_bytes();
+  for (const ViewEntry& v : views_) {
+    bytes += sizeof(ViewEntry) + v.points.capacity() * sizeof(cv::Point2f) +
+             v.hue_hist.capacity() * sizeof(float);
+  }
+  return bytes;
+}
+
+}  // namespace waymark::crossing

@@ -1,0 +1,84 @@
+#ifndef WAYMARK_SERVER_CROSSING_VIEW_DATABASE_H_
+#define WAYMARK_SERVER_CROSSING_VIEW_DATABASE_H_
+
+// The in-memory side of one crossing database: the views' features, the global descriptor index
+// and the clusters. Not thread-safe: the owner serialises writers against readers (the crossing
+// service holds a reader/writer lock per database).
+
+#include <cstdint>
+#include <vector>
+
+#include <opencv2/core.hpp>
+
+#include "server/crossing/descriptor_index.h"
+#include "server/crossing/features.h"
+#include "server/crossing/options.h"
+#include "server/crossing/view_matching.h"
+
+namespace waymark::crossing {
+
+struct ViewEntry {
+  int64_t view_id = 0;      // storage id; increasing = enrollment order
+  int64_t crossing_id = 0;
+  double heading_deg = 0;
+  ViewSpan span;            // descriptors in the index's store
+  std::vector<cv::Point2f> points;  // keypoint positions at working resolution
+  std::vector<float> hue_hist;
+  int cluster = -1;         // index into clusters()
+};
+
+struct ClusterEntry {
+  int64_t cluster_id = 0;  // storage id
+  uint32_t center = 0;     // view slot
+  std::vector<uint32_t> members;  // view slots, centre first
+};
+
+// Where the clustering puts a view.
+struct ClusterProposal {
+  int cluster = -1;  // existing cluster index, or -1 for a new cluster centred on the view
+  int matches = 0;   // matches with that cluster's centre (the best centre's when -1)
+};
+
+class ViewDatabase {
+ public:
+  explicit ViewDatabase(const IndexOptions& index_options = {}) : index_(index_options) {}
+
+  // Adds a view; returns its slot. Its cluster is set separately (AddToCluster / NewCluster).
+  // With `defer_indexing` the view is searchable only after CompactIndex() (bulk loads).
+  uint32_t AddView(int64_t view_id, int64_t crossing_id, double heading_deg,
+                   const cv::Mat& descriptors, std::vector<cv::Point2f> points,
+                   std::vector<float> hue_hist, bool defer_indexing = false);
+  // Rebuilds the index as one forest (after loading many views at once).
+  void CompactIndex() { index_.Compact(); }
+
+  // The paper's clustering step for a view that is not yet a centre or member: matches against
+  // every current centre, the best one joins if it reaches the threshold.
+  ClusterProposal ProposeCluster(const cv::Mat& descriptors, const ClusterOptions& options) const;
+  int NewCluster(int64_t cluster_id, uint32_t center_slot);
+  void AddToCluster(int cluster, uint32_t slot);
+  // Re-runs the clustering over all views in enrollment order. Returns the clusters as slot lists
+  // (centre first); ids are left 0 for the caller to assign via SetClusters.
+  std::vector<ClusterEntry> ComputeClusters(const ClusterOptions& options) const;
+  void SetClusters(std::vector<ClusterEntry> clusters);
+
+  // The descriptors of a stored view as an N x 128 matrix (a copy).
+  cv::Mat Descriptors(uint32_t slot) const;
+
+  const std::vector<ViewEntry>& views() const { return views_; }
+  const std::vector<ClusterEntry>& clusters() const { return clusters_; }
+  const DescriptorIndex& index() const { return index_; }
+  const std::vector<ViewSpan>& spans() const { return spans_; }
+  size_t memory_bytes() const;  // descriptors + index + keypoints + histograms
+
+ private:
+  std::vector<uint8_t> CenterFilter() const;
+
+  DescriptorIndex index_;
+  std::vector<ViewEntry> views_;
+  std::vector<ClusterEntry> clusters_;
+  std::vector<ViewSpan> spans_;  // mirror of views_[i].span, the shape the matchers take
+};
+
+}  // namespace waymark::crossing
+
+#endif  // WAYMARK_SERVER_CROSSING_VIEW_DATABASE_H_

@@ -1,0 +1,70 @@
+#ifndef WAYMARK_SERVER_SERVICE_CROSSING_REGISTRY_H_
+#define WAYMARK_SERVER_SERVICE_CROSSING_REGISTRY_H_
+
+// The crossing databases a server holds: each one in memory (features, index, clusters) and in
+// the store, kept consistent. This is the application layer between the gRPC handlers and the
+// engine + storage; it speaks the API's messages but no gRPC, so it is tested without a server.
+//
+// Concurrency: a reader/writer lock per database. Recognitions share it; enrollments extract
+// features outside the lock, then take it exclusively only to match against the cluster centres,
+// commit one transaction and update memory, so memory never holds what the disk does not and a
+// recognition never sees half a view. The registry-wide lock guards only the name -> database map.
+
+#include <map>
+#include <memory>
+#include <shared_mutex>
+#include <string>
+#include <vector>
+
+#include "absl/status/statusor.h"
+#include "server/crossing/view_database.h"
+#include "server/service/params.h"
+#include "storage/crossing_store.h"
+#include "waymark/v1/crossing.pb.h"
+
+namespace waymark::service {
+
+class CrossingRegistry {
+ public:
+  // Loads every database of `store` into memory.
+  static absl::StatusOr<std::unique_ptr<CrossingRegistry>> Load(
+      std::unique_ptr<storage::CrossingStore> store, const crossing::IndexOptions& index = {});
+
+  absl::StatusOr<v1::CrossingDatabase> CreateDatabase(const v1::CreateDatabaseRequest& request);
+  absl::StatusOr<v1::ListDatabasesResponse> ListDatabases();
+  absl::Status DeleteDatabase(const std::string& name);
+  absl::StatusOr<v1::DatabaseStats> GetStats(const std::string& name);
+
+  absl::StatusOr<v1::Crossing> AddCrossing(const v1::AddCrossingRequest& request);
+  absl::StatusOr<v1::ListCrossingsResponse> ListCrossings(const std::string& database);
+  absl::StatusOr<v1::DeleteCrossingResponse> DeleteCrossing(const v1::DeleteCrossingRequest& r);
+
+  // `crossing_created`, if given, is set when the request created its crossing.
+  absl::StatusOr<v1::EnrollViewResponse> EnrollView(const v1::EnrollViewRequest& request,
+                                                    bool* crossing_created = nullptr);
+  absl::StatusOr<v1::RebuildClustersResponse> RebuildClusters(
+      const v1::RebuildClustersRequest& request);
+
+  absl::StatusOr<v1::RecognizeResponse> Recognize(const v1::RecognizeRequest& request);
+
+ private:
+  struct Database;
+
+  explicit CrossingRegistry(std::unique_ptr<storage::CrossingStore> store,
+                            const crossing::IndexOptions& index)
+      : store_(std::move(store)), index_options_(index) {}
+
+  absl::StatusOr<std::shared_ptr<Database>> Find(const std::string& name);
+  absl::StatusOr<std::shared_ptr<Database>> LoadDatabase(const storage::DatabaseRecord& record);
+  // The API view of a database (caller holds its lock).
+  static v1::CrossingDatabase Describe(const Database& db);
+
+  std::unique_ptr<storage::CrossingStore> store_;
+  crossing::IndexOptions index_options_;
+  std::shared_mutex mutex_;  // guards databases_ (the map, not the databases)
+  std::map<std::string, std::shared_ptr<Database>> databases_;
+};
+
+}  // namespace waymark::service
+
+#endif  // WAYMARK_SERVER_SERVICE_CROSSING_REGISTRY_H_

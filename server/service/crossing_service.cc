@@ -1,0 +1,132 @@
+#include "server/service/crossing_service.h"
+
+#include "absl/strings/str_cat.h"
+#include "server/service/grpc_status.h"
+
+namespace waymark::service {
+namespace {
+
+// Copies a registry result into the response, or returns its error.
+template <typename T>
+grpc::Status Reply(absl::StatusOr<T> result, T* response) {
+  if (!result.ok()) return ToGrpcStatus(result.status());
+  *response = std::move(*result);
+  return grpc::Status::OK;
+}
+
+}  // namespace
+
+grpc::Status CrossingServiceImpl::CreateDatabase(grpc::ServerContext*,
+                                                 const v1::CreateDatabaseRequest* request,
+                                                 v1::CrossingDatabase* response) {
+  return Reply(registry_->CreateDatabase(*request), response);
+}
+
+grpc::Status CrossingServiceImpl::ListDatabases(grpc::ServerContext*,
+                                                const v1::ListDatabasesRequest*,
+                                                v1::ListDatabasesResponse* response) {
+  return Reply(registry_->ListDatabases(), response);
+}
+
+grpc::Status CrossingServiceImpl::DeleteDatabase(grpc::ServerContext*,
+                                                 const v1::DeleteDatabaseRequest* request,
+                                                 v1::DeleteDatabaseResponse*) {
+  return ToGrpcStatus(registry_->DeleteDatabase(request->name()));
+}
+
+grpc::Status CrossingServiceImpl::GetDatabaseStats(grpc::ServerContext*,
+                                                   const v1::GetDatabaseStatsRequest* request,
+                                                   v1::DatabaseStats* response) {
+  return Reply(registry_->GetStats(request->name()), response);
+}
+
+grpc::Status CrossingServiceImpl::AddCrossing(grpc::ServerContext*,
+                                              const v1::AddCrossingRequest* request,
+                                              v1::Crossing* response) {
+  return Reply(registry_->AddCrossing(*request), response);
+}
+
+grpc::Status CrossingServiceImpl::ListCrossings(grpc::ServerContext*,
+                                                const v1::ListCrossingsRequest* request,
+                                                v1::ListCrossingsResponse* response) {
+  return Reply(registry_->ListCrossings(request->database()), response);
+}
+
+grpc::Status CrossingServiceImpl::DeleteCrossing(grpc::ServerContext*,
+                                                 const v1::DeleteCrossingRequest* request,
+                                                 v1::DeleteCrossingResponse* response) {
+  return Reply(registry_->DeleteCrossing(*request), response);
+}
+
+grpc::Status CrossingServiceImpl::EnrollView(grpc::ServerContext*,
+                                             const v1::EnrollViewRequest* request,
+                                             v1::EnrollViewResponse* response) {
+  return Reply(registry_->EnrollView(*request), response);
+}
+
+grpc::Status CrossingServiceImpl::BulkEnroll(grpc::ServerContext* context,
+                                             grpc::ServerReader<v1::EnrollViewRequest>* reader,
+                                             v1::BulkEnrollResponse* response) {
+  v1::EnrollViewRequest request;
+  while (reader->Read(&request)) {
+    if (context->IsCancelled()) return grpc::Status(grpc::StatusCode::CANCELLED, "cancelled");
+    bool created = false;
+    absl::StatusOr<v1::EnrollViewResponse> enrolled = registry_->EnrollView(request, &created);
+    if (!enrolled.ok()) {
+      // Views before this one are committed; say which one failed and how many made it.
+      return grpc::Status(
+          static_cast<grpc::StatusCode>(enrolled.status().code()),
+          absl::StrCat("view ", response->views() + 1, " (crossing \"", request.crossing(),
+                       "\", heading ", request.heading_deg(), "): ", enrolled.status().message(),
+                       " [", response->views(), " views before it were enrolled]"));
+    }
+    response->set_views(response->views() + 1);
+    response->set_crossings_created(response->crossings_created() + (created ? 1 : 0));
+    response->set_clusters_created(response->clusters_created() +
+                                   (enrolled->new_cluster() ? 1 : 0));
+    response->set_keypoints(response->keypoints() + enrolled->keypoints());
+  }
+  return grpc::Status::OK;
+}
+
+grpc::Status CrossingServiceImpl::RebuildClusters(grpc::ServerContext*,
+                                                  const v1::RebuildClustersRequest* request,
+                                                  v1::RebuildClustersResponse* response) {
+  return Reply(registry_->RebuildClusters(*request), response);
+}
+
+grpc::Status CrossingServiceImpl::RecognizeCrossing(grpc::ServerContext*,
+                                                    const v1::RecognizeRequest* request,
+                                                    v1::RecognizeResponse* response) {
+  return Reply(registry_->Recognize(*request), response);
+}
+
+grpc::Status CrossingServiceImpl::StreamRecognize(
+    grpc::ServerContext* context,
+    grpc::ServerReaderWriter<v1::RecognizeResponse, v1::RecognizeRequest>* stream) {
+  v1::RecognizeRequest request;
+  int64_t frame = 0;
+  while (stream->Read(&request)) {
+    if (context->IsCancelled()) return grpc::Status(grpc::StatusCode::CANCELLED, "cancelled");
+    absl::StatusOr<v1::RecognizeResponse> result = registry_->Recognize(request);
+    v1::RecognizeResponse response;
+    if (result.ok()) {
+      response = std::move(*result);
+    } else if (result.status().code() == absl::StatusCode::kNotFound ||
+               result.status().code() == absl::StatusCode::kFailedPrecondition) {
+      // No frame can succeed against a missing or empty database: end the stream.
+      return ToGrpcStatus(result.status());
+    } else {
+      // A bad frame (corrupt image, bad parameter) is reported and the robot keeps streaming.
+      response.set_error_code(static_cast<int32_t>(result.status().code()));
+      response.set_error_message(std::string(result.status().message()));
+      response.set_reason(absl::StrCat("frame rejected: ", result.status().message()));
+      response.set_stamp(request.image().stamp());
+    }
+    response.set_frame_index(frame++);
+    if (!stream->Write(response)) break;  // the client went away
+  }
+  return grpc::Status::OK;
+}
+
+}  // namespace waymark::service

@@ -1,0 +1,48 @@
+#ifndef WAYMARK_SERVER_SERVICE_CROSSING_SERVICE_H_
+#define WAYMARK_SERVER_SERVICE_CROSSING_SERVICE_H_
+
+// waymark.v1.CrossingService: one thin method per RPC (validate, call the registry, translate the
+// status). All the work and all the state live in CrossingRegistry.
+
+#include "server/service/crossing_registry.h"
+#include "waymark/v1/crossing.grpc.pb.h"
+
+namespace waymark::service {
+
+class CrossingServiceImpl final : public v1::CrossingService::Service {
+ public:
+  explicit CrossingServiceImpl(CrossingRegistry* registry) : registry_(registry) {}
+
+  grpc::Status CreateDatabase(grpc::ServerContext*, const v1::CreateDatabaseRequest* request,
+                              v1::CrossingDatabase* response) override;
+  grpc::Status ListDatabases(grpc::ServerContext*, const v1::ListDatabasesRequest* request,
+                             v1::ListDatabasesResponse* response) override;
+  grpc::Status DeleteDatabase(grpc::ServerContext*, const v1::DeleteDatabaseRequest* request,
+                              v1::DeleteDatabaseResponse* response) override;
+  grpc::Status GetDatabaseStats(grpc::ServerContext*, const v1::GetDatabaseStatsRequest* request,
+                                v1::DatabaseStats* response) override;
+  grpc::Status AddCrossing(grpc::ServerContext*, const v1::AddCrossingRequest* request,
+                           v1::Crossing* response) override;
+  grpc::Status ListCrossings(grpc::ServerContext*, const v1::ListCrossingsRequest* request,
+                             v1::ListCrossingsResponse* response) override;
+  grpc::Status DeleteCrossing(grpc::ServerContext*, const v1::DeleteCrossingRequest* request,
+                              v1::DeleteCrossingResponse* response) override;
+  grpc::Status EnrollView(grpc::ServerContext*, const v1::EnrollViewRequest* request,
+                          v1::EnrollViewResponse* response) override;
+  grpc::Status BulkEnroll(grpc::ServerContext*, grpc::ServerReader<v1::EnrollViewRequest>* reader,
+                          v1::BulkEnrollResponse* response) override;
+  grpc::Status RebuildClusters(grpc::ServerContext*, const v1::RebuildClustersRequest* request,
+                               v1::RebuildClustersResponse* response) override;
+  grpc::Status RecognizeCrossing(grpc::ServerContext*, const v1::RecognizeRequest* request,
+                                 v1::RecognizeResponse* response) override;
+  grpc::Status StreamRecognize(
+      grpc::ServerContext* context,
+      grpc::ServerReaderWriter<v1::RecognizeResponse, v1::RecognizeRequest>* stream) override;
+
+ private:
+  CrossingRegistry* registry_;
+};
+
+}  // namespace waymark::service
+
+#endif  // WAYMARK_SERVER_SERVICE_CROSSING_SERVICE_H_

@@ -1,0 +1,201 @@
+#include "server/crossing/recognizer.h"
+
+#include <gtest/gtest.h>
+#include <opencv2/imgproc.hpp>
+
+#include "server/crossing/features.h"
+#include "server/crossing/view_database.h"
+#include "tests/support/synthetic_scene.h"
+
+namespace waymark::crossing {
+namespace {
+
+// Three generated crossings, 12 views each at 30-degree steps, clustered as the paper does.
+class RecognizerTest : public ::testing::Test {
+ protected:
+  static void SetUpTestSuite() {
+    db_ = new ViewDatabase();
+    for (int crossing = 0; crossing < 3; ++crossing) {
+      panoramas_[crossing] = testing::MakePanorama(100 + crossing);
+      for (int k = 0; k < 12; ++k) {
+        const ImageFeatures f = Extract(testing::CropView(panoramas_[crossing], 30.0 * k));
+        std::vector<cv::Point2f> points;
+        for (const auto& kp : f.keypoints) points.push_back(kp.pt);
+        const int64_t view_id = 1 + crossing * 12 + k;
+        const ClusterProposal proposal = db_->ProposeCluster(f.descriptors, ClusterOptions{});
+        const uint32_t slot =
+            db_->AddView(view_id, crossing + 1, 30.0 * k, f.descriptors, points, f.hue_hist);
+        if (proposal.cluster >= 0) {
+          db_->AddToCluster(proposal.cluster, slot);
+        } else {
+          db_->NewCluster(1000 + slot, slot);
+        }
+      }
+    }
+  }
+  static void TearDownTestSuite() { delete db_; }
+
+  static ImageFeatures Extract(const cv::Mat& image) {
+    FeatureOptions options;
+    auto f = ExtractFeatures(testing::EncodePng(image), options);
+    EXPECT_TRUE(f.ok()) << f.status();
+    return *f;
+  }
+
+  static ViewDatabase* db_;
+  static cv::Mat panoramas_[3];
+};
+ViewDatabase* RecognizerTest::db_ = nullptr;
+cv::Mat RecognizerTest::panoramas_[3];
+
+TEST_F(RecognizerTest, ClustersAreFewerThanViewsAndCoverEveryView) {
+  EXPECT_GT(db_->clusters().size(), 2u);
+  EXPECT_LT(db_->clusters().size(), 36u);
+  size_t members = 0;
+  for (const auto& c : db_->clusters()) {
+    EXPECT_EQ(c.members.front(), c.center);
+    members += c.members.size();
+  }
+  EXPECT_EQ(members, 36u);
+  for (const auto& v : db_->views()) EXPECT_GE(v.cluster, 0);
+}
+
+TEST_F(RecognizerTest, ClusteringFollowsEnrollmentOrder) {
+  // View 1 is always the first centre, and recomputing from scratch gives the same clusters as
+  // the incremental assignment above.
+  EXPECT_EQ(db_->clusters().front().center, 0u);
+  const auto recomputed = db_->ComputeClusters(ClusterOptions{});
+  ASSERT_EQ(recomputed.size(), db_->clusters().size());
+  for (size_t c = 0; c < recomputed.size(); ++c) {
+    EXPECT_EQ(recomputed[c].members, db_->clusters()[c].members);
+  }
+}
+
+TEST_F(RecognizerTest, HigherThresholdMakesMoreClusters) {
+  ClusterOptions strict;
+  strict.threshold = 1000;  // nothing joins: every view is its own centre
+  EXPECT_EQ(db_->ComputeClusters(strict).size(), 36u);
+}
+
+TEST_F(RecognizerTest, RecognizesStoredHeadingsInPaperMode) {
+  for (int crossing = 0; crossing < 3; ++crossing) {
+    for (int k = 0; k < 12; k += 5) {
+      const auto result =
+          Recognize(*db_, Extract(testing::CropView(panoramas_[crossing], 30.0 * k)), {});
+      ASSERT_TRUE(result.ok()) << result.status();
+      ASSERT_TRUE(result->recognized) << result->reason;
+      const ViewEntry& best = db_->views()[result->best_slot];
+      EXPECT_EQ(best.crossing_id, crossing + 1);
+      EXPECT_DOUBLE_EQ(best.heading_deg, 30.0 * k);
+      EXPECT_GT(result->qualifying_clusters, 0);
+      EXPECT_FALSE(result->candidates.empty());
+    }
+  }
+}
+
+TEST_F(RecognizerTest, RecognizesTwelveDegreesOffTheStoredHeading) {
+  const auto result = Recognize(*db_, Extract(testing::CropView(panoramas_[1], 72.0)), {});
+  ASSERT_TRUE(result.ok());
+  ASSERT_TRUE(result->recognized) << result->reason;
+  const ViewEntry& best = db_->views()[result->best_slot];
+  EXPECT_EQ(best.crossing_id, 2);
+  // One of the two stored headings either side (60 or 90): the estimate is the best view's.
+  EXPECT_TRUE(best.heading_deg == 60.0 || best.heading_deg == 90.0) << best.heading_deg;
+}
+
+TEST_F(RecognizerTest, CandidateTableIsSortedAndKeepsN2) {
+  const auto result = Recognize(*db_, Extract(testing::CropView(panoramas_[0], 45.0)), {});
+  ASSERT_TRUE(result.ok());
+  ASSERT_TRUE(result->recognized);
+  int kept = 0;
+  for (size_t i = 0; i < result->candidates.size(); ++i) {
+    const Candidate& c = result->candidates[i];
+    if (i > 0) EXPECT_LE(c.matches, result->candidates[i - 1].matches);
+    if (c.kept) {
+      ++kept;
+      EXPECT_GT(c.decision, 0);
+      EXPECT_LE(c.decision, 1.0 + 1e-9);
+    }
+  }
+  EXPECT_EQ(kept, std::min<int>(3, result->candidates.size()));
+  EXPECT_NEAR(result->decision, 1.0, 0.5);
+}
+
+TEST_F(RecognizerTest, UnknownPlaceIsNotRecognized) {
+  const cv::Mat other = testing::MakePanorama(999);
+  for (RecognitionMode mode : {RecognitionMode::kPaper, RecognitionMode::kVerified}) {
+    RecognitionOptions options;
+    options.mode = mode;
+    const auto result = Recognize(*db_, Extract(testing::CropView(other, 100)), options);
+    ASSERT_TRUE(result.ok());
+    EXPECT_FALSE(result->recognized) << "mode " << static_cast<int>(mode);
+    EXPECT_FALSE(result->reason.empty());
+  }
+}
+
+TEST_F(RecognizerTest, VerifiedModeRecognizesWithInliers) {
+  RecognitionOptions options;
+  options.mode = RecognitionMode::kVerified;
+  const auto result = Recognize(*db_, Extract(testing::CropView(panoramas_[2], 200.0)), options);
+  ASSERT_TRUE(result.ok());
+  ASSERT_TRUE(result->recognized) << result->reason;
+  EXPECT_EQ(db_->views()[result->best_slot].crossing_id, 3);
+  EXPECT_GE(result->candidates.front().matches, options.min_inliers);
+  EXPECT_LE(result->candidates.front().matches, result->candidates.front().tentative);
+}
+
+TEST_F(RecognizerTest, TexturelessImageIsANormalNegativeAnswer) {
+  const cv::Mat flat(240, 320, CV_8UC3, cv::Scalar(30, 120, 200));
+  const auto result = Recognize(*db_, Extract(flat), {});
+  ASSERT_TRUE(result.ok());
+  EXPECT_FALSE(result->recognized);
+  EXPECT_NE(result->reason.find("no SIFT keypoints"), std::string::npos);
+}
+
+TEST_F(RecognizerTest, BadOptionsAreInvalidArgument) {
+  const ImageFeatures f = Extract(testing::CropView(panoramas_[0], 0));
+  RecognitionOptions options;
+  options.ratio = 1.5;
+  EXPECT_EQ(Recognize(*db_, f, options).status().code(), absl::StatusCode::kInvalidArgument);
+  options = {};
+  options.alpha = 0.7;  // alpha + beta != 1
+  EXPECT_EQ(Recognize(*db_, f, options).status().code(), absl::StatusCode::kInvalidArgument);
+}
+
+TEST(RecognizerEmptyTest, EmptyDatabaseIsFailedPrecondition) {
+  ViewDatabase empty;
+  ImageFeatures f;
+  EXPECT_EQ(Recognize(empty, f, {}).status().code(), absl::StatusCode::kFailedPrecondition);
+}
+
+TEST(FeaturesTest, CorruptAndTinyImagesAreInvalidArgument) {
+  FeatureOptions options;
+  EXPECT_EQ(ExtractFeatures("", options).status().code(), absl::StatusCode::kInvalidArgument);
+  EXPECT_EQ(ExtractFeatures("not an image at all", options).status().code(),
+            absl::StatusCode::kInvalidArgument);
+  std::string truncated = testing::EncodeJpeg(testing::MakePanorama(1, 320, 240));
+  truncated.resize(40);
+  EXPECT_EQ(ExtractFeatures(truncated, options).status().code(),
+            absl::StatusCode::kInvalidArgument);
+  const cv::Mat one(1, 1, CV_8UC3, cv::Scalar(1, 2, 3));
+  EXPECT_EQ(ExtractFeatures(testing::EncodePng(one), options).status().code(),
+            absl::StatusCode::kInvalidArgument);
+}
+
+TEST(FeaturesTest, AnySizeIsResizedToWorkingResolution) {
+  FeatureOptions options;
+  const cv::Mat big = testing::MakePanorama(7, 1280, 960);
+  auto f = ExtractFeatures(testing::EncodeJpeg(big), options);
+  ASSERT_TRUE(f.ok());
+  EXPECT_EQ(f->width, 320);
+  EXPECT_EQ(f->height, 240);
+  EXPECT_GT(f->descriptors.rows, 50);
+  EXPECT_EQ(f->descriptors.type(), CV_8U);
+  for (const auto& kp : f->keypoints) {
+    EXPECT_LT(kp.pt.x, 320);
+    EXPECT_LT(kp.pt.y, 240);
+  }
+}
+
+}  // namespace
+}  // namespace waymark::crossing
