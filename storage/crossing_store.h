@@ -1,0 +1,115 @@
+#ifndef WAYMARK_STORAGE_CROSSING_STORE_H_
+#define WAYMARK_STORAGE_CROSSING_STORE_H_
+
+// What the crossing service persists: databases, crossings, views with their features, clusters.
+// Rows and blobs only: no OpenCV, no gRPC. The interface is small so that a PostgreSQL
+// implementation can stand beside the SQLite one when a fleet outgrows one server (DESIGN.md).
+
+#include <cstdint>
+#include <memory>
+#include <string>
+#include <vector>
+
+#include "absl/status/status.h"
+#include "absl/status/statusor.h"
+
+namespace waymark::storage {
+
+// Floats stored per keypoint: x, y, size, angle, response, octave.
+inline constexpr int kKeypointFloats = 6;
+// Bytes per descriptor (SIFT, uint8-valued; lossless for OpenCV's SIFT).
+inline constexpr int kDescriptorBytes = 128;
+// Version of the feature blobs' layout; bumped when extraction changes incompatibly.
+inline constexpr int kFeatureFormatVersion = 1;
+
+struct DatabaseRecord {
+  int64_t id = 0;
+  std::string name;
+  std::string params;  // opaque to storage (the service stores the proto's JSON)
+  double created_at = 0;  // unix seconds
+};
+
+struct CrossingRecord {
+  int64_t id = 0;
+  int64_t database_id = 0;
+  std::string name;
+  std::string label;
+};
+
+struct ViewRecord {
+  int64_t id = 0;  // assigned on insert; increasing ids are the enrollment order
+  int64_t crossing_id = 0;
+  double heading_deg = 0;
+  int32_t width = 0;   // working resolution the features were extracted at
+  int32_t height = 0;
+  int32_t keypoint_count = 0;
+  std::vector<float> keypoints;      // keypoint_count * kKeypointFloats
+  std::vector<uint8_t> descriptors;  // keypoint_count * kDescriptorBytes
+  std::vector<float> hue_hist;       // normalised, any bin count
+  int32_t format_version = kFeatureFormatVersion;
+  std::string image;  // encoded image bytes; empty when not stored (LoadViews never fills it)
+};
+
+// A cluster as the clustering produced it: centre first, then the other members.
+struct ClusterRecord {
+  int64_t id = 0;  // assigned on insert
+  int64_t center_view_id = 0;
+  std::vector<int64_t> member_view_ids;  // includes the centre
+};
+
+// Where a newly enrolled view goes: a new cluster with itself as centre, or an existing cluster.
+struct ClusterAssignment {
+  bool new_cluster = true;
+  int64_t cluster_id = 0;  // when !new_cluster
+};
+
+struct AddViewResult {
+  int64_t view_id = 0;
+  int64_t cluster_id = 0;
+};
+
+// Every mutating call is one transaction: it happens entirely or not at all.
+// Errors: NOT_FOUND (unknown id/name), ALREADY_EXISTS (duplicate name), INVALID_ARGUMENT (blob sizes
+// inconsistent with counts), INTERNAL (SQLite failure, message carries SQLite's text).
+class CrossingStore {
+ public:
+  virtual ~CrossingStore() = default;
+
+  virtual absl::StatusOr<DatabaseRecord> CreateDatabase(const std::string& name,
+                                                        const std::string& params) = 0;
+  virtual absl::StatusOr<std::vector<DatabaseRecord>> ListDatabases() = 0;
+  virtual absl::StatusOr<DatabaseRecord> GetDatabase(const std::string& name) = 0;
+  virtual absl::Status UpdateDatabaseParams(int64_t database_id, const std::string& params) = 0;
+  // Deletes the database with its crossings, views and clusters.
+  virtual absl::Status DeleteDatabase(const std::string& name) = 0;
+
+  virtual absl::StatusOr<CrossingRecord> AddCrossing(int64_t database_id, const std::string& name,
+                                                     const std::string& label) = 0;
+  virtual absl::StatusOr<std::vector<CrossingRecord>> ListCrossings(int64_t database_id) = 0;
+  // Deletes the crossing and its views, and replaces the database's clusters by `clusters`
+  // (computed by the caller over the remaining views), all in one transaction.
+  // Returns the number of views deleted.
+  virtual absl::StatusOr<int> DeleteCrossing(int64_t database_id, int64_t crossing_id,
+                                             const std::vector<ClusterRecord>& clusters) = 0;
+
+  // Inserts the view and its cluster membership in one transaction.
+  virtual absl::StatusOr<AddViewResult> AddView(const ViewRecord& view,
+                                                const ClusterAssignment& assignment) = 0;
+  // All views of a database in enrollment (id) order, without image bytes.
+  virtual absl::StatusOr<std::vector<ViewRecord>> LoadViews(int64_t database_id) = 0;
+  // Encoded image of a view, NOT_FOUND when it was not stored.
+  virtual absl::StatusOr<std::string> LoadViewImage(int64_t view_id) = 0;
+  // Clusters in id order, members in view id order (centre included).
+  virtual absl::StatusOr<std::vector<ClusterRecord>> LoadClusters(int64_t database_id) = 0;
+  // Replaces all clusters of the database (ids are reassigned; returned in the given order).
+  virtual absl::StatusOr<std::vector<ClusterRecord>> ReplaceClusters(
+      int64_t database_id, const std::vector<ClusterRecord>& clusters) = 0;
+};
+
+// Opens (creating if needed) a SQLite file and migrates it to the current schema. The parent
+// directory is created. ":memory:" gives a private in-memory database (tests).
+absl::StatusOr<std::unique_ptr<CrossingStore>> OpenSqliteCrossingStore(const std::string& path);
+
+}  // namespace waymark::storage
+
+#endif  // WAYMARK_STORAGE_CROSSING_STORE_H_

@@ -1,0 +1,542 @@
+// CrossingStore on SQLite: one connection behind a mutex, one transaction per mutating call.
+
+#include <chrono>
+#include <cmath>
+#include <cstdint>
+#include <filesystem>
+#include <memory>
+#include <mutex>
+#include <string>
+#include <system_error>
+#include <unordered_set>
+#include <utility>
+#include <vector>
+
+#include "absl/status/status.h"
+#include "absl/status/statusor.h"
+#include "absl/strings/str_cat.h"
+#include "storage/crossing_store.h"
+#include "storage/migrations.h"
+#include "storage/sqlite.h"
+
+// Early returns keep each method a straight list of steps; the Transaction destructor undoes the
+// partial work when one fails.
+#define WAYMARK_STORAGE_CONCAT_INNER(a, b) a##b
+#define WAYMARK_STORAGE_CONCAT(a, b) WAYMARK_STORAGE_CONCAT_INNER(a, b)
+#define RETURN_IF_ERROR(expr)                                         \
+  do {                                                                \
+    if (absl::Status _status = (expr); !_status.ok()) return _status; \
+  } while (false)
+#define ASSIGN_OR_RETURN(lhs, expr) \
+  ASSIGN_OR_RETURN_IMPL(WAYMARK_STORAGE_CONCAT(_status_or_, __LINE__), lhs, expr)
+#define ASSIGN_OR_RETURN_IMPL(tmp, lhs, expr) \
+  auto tmp = (expr);                          \
+  if (!tmp.ok()) return tmp.status();         \
+  lhs = std::move(*tmp)
+
+namespace waymark::storage {
+namespace {
+
+using sqlite::Connection;
+using sqlite::Statement;
+using sqlite::StepResult;
+using sqlite::Transaction;
+using sqlite::UniqueViolation;
+
+double NowSeconds() {
+  return std::chrono::duration<double>(std::chrono::system_clock::now().time_since_epoch()).count();
+}
+
+// Replaces the message of an ALREADY_EXISTS status (SQLite's "UNIQUE constraint failed: ..." means
+// nothing to a robot operator); other statuses pass through.
+absl::Status NameTaken(absl::Status status, const std::string& what) {
+  if (absl::IsAlreadyExists(status)) return absl::AlreadyExistsError(what + " already exists");
+  return status;
+}
+
+std::string Quoted(const std::string& name) { return absl::StrCat("\"", name, "\""); }
+
+// Checks a view before writing it: the blob sizes must agree with the counts, or a later read
+// would misinterpret the arrays.
+absl::Status ValidateView(const ViewRecord& view) {
+  if (view.keypoint_count < 0) {
+    return absl::InvalidArgumentError(
+        absl::StrCat("keypoint_count is negative (", view.keypoint_count, ")"));
+  }
+  const int64_t count = view.keypoint_count;
+  if (static_cast<int64_t>(view.keypoints.size()) != count * kKeypointFloats) {
+    return absl::InvalidArgumentError(absl::StrCat(
+        "view has ", count, " keypoints but ", view.keypoints.size(), " keypoint floats; expected ",
+        count * kKeypointFloats, " (", kKeypointFloats, " per keypoint)"));
+  }
+  if (static_cast<int64_t>(view.descriptors.size()) != count * kDescriptorBytes) {
+    return absl::InvalidArgumentError(
+        absl::StrCat("view has ", count, " keypoints but ", view.descriptors.size(),
+                     " descriptor bytes; expected ", count * kDescriptorBytes, " (",
+                     kDescriptorBytes, " per keypoint)"));
+  }
+  if (view.width < 0 || view.height < 0) {
+    return absl::InvalidArgumentError(
+        absl::StrCat("view size ", view.width, "x", view.height, " is negative"));
+  }
+  // SQLite stores NaN as NULL, which the NOT NULL column would reject with an opaque error.
+  if (!std::isfinite(view.heading_deg)) {
+    return absl::InvalidArgumentError("view heading_deg is not a finite number");
+  }
+  return absl::OkStatus();
+}
+
+// Checks that a stored blob holds exactly `expected` bytes (DATA_LOSS otherwise: the file was
+// truncated, edited by hand or written by a buggy build).
+absl::Status CheckBlobSize(const Statement& row, int column, int64_t expected, int64_t view_id,
+                           const char* what) {
+  const int64_t actual = static_cast<int64_t>(row.ColumnBlobView(column).size());
+  if (actual != expected) {
+    return absl::DataLossError(absl::StrCat("view ", view_id, ": stored ", what, " blob has ",
+                                            actual, " bytes, expected ", expected));
+  }
+  return absl::OkStatus();
+}
+
+// Columns of kSelectViewColumns, in order.
+constexpr char kSelectViews[] =
+    "SELECT v.id, v.crossing_id, v.heading_deg, v.width, v.height, v.keypoint_count, "
+    "v.keypoints, v.descriptors, v.hue_hist, v.hue_bins, v.format_version "
+    "FROM view v JOIN crossing c ON c.id = v.crossing_id WHERE c.db_id = ? ORDER BY v.id";
+
+absl::StatusOr<ViewRecord> ReadViewRow(const Statement& row) {
+  ViewRecord view;
+  view.id = row.ColumnInt64(0);
+  view.crossing_id = row.ColumnInt64(1);
+  view.heading_deg = row.ColumnDouble(2);
+  view.width = row.ColumnInt32(3);
+  view.height = row.ColumnInt32(4);
+  view.keypoint_count = row.ColumnInt32(5);
+  const int64_t hue_bins = row.ColumnInt64(9);
+  view.format_version = row.ColumnInt32(10);
+  if (view.keypoint_count < 0 || hue_bins < 0) {
+    return absl::DataLossError(absl::StrCat("view ", view.id, ": negative stored count"));
+  }
+  const int64_t count = view.keypoint_count;
+  RETURN_IF_ERROR(CheckBlobSize(row, 6, count * kKeypointFloats * 4, view.id, "keypoints"));
+  RETURN_IF_ERROR(CheckBlobSize(row, 7, count * kDescriptorBytes, view.id, "descriptors"));
+  RETURN_IF_ERROR(CheckBlobSize(row, 8, hue_bins * 4, view.id, "hue histogram"));
+  ASSIGN_OR_RETURN(view.keypoints, row.ColumnFloatBlob(6));
+  view.descriptors = row.ColumnBlob(7);
+  ASSIGN_OR_RETURN(view.hue_hist, row.ColumnFloatBlob(8));
+  return view;
+}
+
+class SqliteCrossingStore final : public CrossingStore {
+ public:
+  explicit SqliteCrossingStore(Connection connection) : connection_(std::move(connection)) {}
+
+  absl::StatusOr<DatabaseRecord> CreateDatabase(const std::string& name,
+                                                const std::string& params) override {
+    if (name.empty()) return absl::InvalidArgumentError("database name is empty");
+    std::lock_guard<std::mutex> lock(mutex_);
+    DatabaseRecord record;
+    record.name = name;
+    record.params = params;
+    record.created_at = NowSeconds();
+    ASSIGN_OR_RETURN(Statement insert,
+                     connection_.Prepare("INSERT INTO crossing_db (name, params, created_at) "
+                                         "VALUES (?, ?, ?)"));
+    RETURN_IF_ERROR(insert.BindText(1, name));
+    RETURN_IF_ERROR(insert.BindText(2, params));
+    RETURN_IF_ERROR(insert.BindDouble(3, record.created_at));
+    RETURN_IF_ERROR(NameTaken(insert.Run(UniqueViolation::kAlreadyExists),
+                              absl::StrCat("database ", Quoted(name))));
+    record.id = connection_.LastInsertRowId();
+    return record;
+  }
+
+  absl::StatusOr<std::vector<DatabaseRecord>> ListDatabases() override {
+    std::lock_guard<std::mutex> lock(mutex_);
+    ASSIGN_OR_RETURN(Statement select,
+                     connection_.Prepare("SELECT id, name, params, created_at FROM crossing_db "
+                                         "ORDER BY name"));
+    std::vector<DatabaseRecord> records;
+    while (true) {
+      ASSIGN_OR_RETURN(StepResult step, select.Step());
+      if (step == StepResult::kDone) break;
+      records.push_back(ReadDatabaseRow(select));
+    }
+    return records;
+  }
+
+  absl::StatusOr<DatabaseRecord> GetDatabase(const std::string& name) override {
+    std::lock_guard<std::mutex> lock(mutex_);
+    ASSIGN_OR_RETURN(Statement select,
+                     connection_.Prepare("SELECT id, name, params, created_at FROM crossing_db "
+                                         "WHERE name = ?"));
+    RETURN_IF_ERROR(select.BindText(1, name));
+    ASSIGN_OR_RETURN(StepResult step, select.Step());
+    if (step == StepResult::kDone) {
+      return absl::NotFoundError(absl::StrCat("database ", Quoted(name), " not found"));
+    }
+    return ReadDatabaseRow(select);
+  }
+
+  absl::Status UpdateDatabaseParams(int64_t database_id, const std::string& params) override {
+    std::lock_guard<std::mutex> lock(mutex_);
+    // One statement: atomic on its own, no explicit transaction needed.
+    ASSIGN_OR_RETURN(Statement update,
+                     connection_.Prepare("UPDATE crossing_db SET params = ? WHERE id = ?"));
+    RETURN_IF_ERROR(update.BindText(1, params));
+    RETURN_IF_ERROR(update.BindInt64(2, database_id));
+    RETURN_IF_ERROR(update.Run());
+    if (connection_.Changes() == 0) return DatabaseNotFound(database_id);
+    return absl::OkStatus();
+  }
+
+  absl::Status DeleteDatabase(const std::string& name) override {
+    std::lock_guard<std::mutex> lock(mutex_);
+    // ON DELETE CASCADE removes crossings, their views, clusters and memberships within this one
+    // statement, so it is atomic without an explicit transaction.
+    ASSIGN_OR_RETURN(Statement remove,
+                     connection_.Prepare("DELETE FROM crossing_db WHERE name = ?"));
+    RETURN_IF_ERROR(remove.BindText(1, name));
+    RETURN_IF_ERROR(remove.Run());
+    if (connection_.Changes() == 0) {
+      return absl::NotFoundError(absl::StrCat("database ", Quoted(name), " not found"));
+    }
+    return absl::OkStatus();
+  }
+
+  absl::StatusOr<CrossingRecord> AddCrossing(int64_t database_id, const std::string& name,
+                                             const std::string& label) override {
+    if (name.empty()) return absl::InvalidArgumentError("crossing name is empty");
+    std::lock_guard<std::mutex> lock(mutex_);
+    ASSIGN_OR_RETURN(Transaction txn, Transaction::Begin(connection_));
+    ASSIGN_OR_RETURN(std::string db_name, DatabaseNameLocked(database_id));
+    ASSIGN_OR_RETURN(Statement insert,
+                     connection_.Prepare("INSERT INTO crossing (db_id, name, label) "
+                                         "VALUES (?, ?, ?)"));
+    RETURN_IF_ERROR(insert.BindInt64(1, database_id));
+    RETURN_IF_ERROR(insert.BindText(2, name));
+    RETURN_IF_ERROR(insert.BindText(3, label));
+    RETURN_IF_ERROR(
+        NameTaken(insert.Run(UniqueViolation::kAlreadyExists),
+                  absl::StrCat("crossing ", Quoted(name), " in database ", Quoted(db_name))));
+    CrossingRecord record;
+    record.id = connection_.LastInsertRowId();
+    record.database_id = database_id;
+    record.name = name;
+    record.label = label;
+    RETURN_IF_ERROR(txn.Commit());
+    return record;
+  }
+
+  absl::StatusOr<std::vector<CrossingRecord>> ListCrossings(int64_t database_id) override {
+    std::lock_guard<std::mutex> lock(mutex_);
+    RETURN_IF_ERROR(DatabaseNameLocked(database_id).status());
+    ASSIGN_OR_RETURN(Statement select,
+                     connection_.Prepare("SELECT id, db_id, name, label FROM crossing "
+                                         "WHERE db_id = ? ORDER BY id"));
+    RETURN_IF_ERROR(select.BindInt64(1, database_id));
+    std::vector<CrossingRecord> records;
+    while (true) {
+      ASSIGN_OR_RETURN(StepResult step, select.Step());
+      if (step == StepResult::kDone) break;
+      CrossingRecord record;
+      record.id = select.ColumnInt64(0);
+      record.database_id = select.ColumnInt64(1);
+      record.name = select.ColumnText(2);
+      record.label = select.ColumnText(3);
+      records.push_back(std::move(record));
+    }
+    return records;
+  }
+
+  absl::StatusOr<int> DeleteCrossing(int64_t database_id, int64_t crossing_id,
+                                     const std::vector<ClusterRecord>& clusters) override {
+    std::lock_guard<std::mutex> lock(mutex_);
+    ASSIGN_OR_RETURN(Transaction txn, Transaction::Begin(connection_));
+    ASSIGN_OR_RETURN(std::string db_name, DatabaseNameLocked(database_id));
+    ASSIGN_OR_RETURN(int64_t crossing_db, CrossingDatabaseLocked(crossing_id));
+    if (crossing_db != database_id) {
+      return absl::NotFoundError(
+          absl::StrCat("crossing ", crossing_id, " not found in database ", Quoted(db_name)));
+    }
+    ASSIGN_OR_RETURN(Statement count,
+                     connection_.Prepare("SELECT COUNT(*) FROM view WHERE crossing_id = ?"));
+    RETURN_IF_ERROR(count.BindInt64(1, crossing_id));
+    RETURN_IF_ERROR(count.Step().status());
+    const int deleted_views = static_cast<int>(count.ColumnInt64(0));
+
+    // Clusters first: the new ones are validated against the views that remain.
+    RETURN_IF_ERROR(DeleteClustersLocked(database_id));
+    ASSIGN_OR_RETURN(Statement remove, connection_.Prepare("DELETE FROM crossing WHERE id = ?"));
+    RETURN_IF_ERROR(remove.BindInt64(1, crossing_id));
+    RETURN_IF_ERROR(remove.Run());  // cascades to the views and their memberships
+    RETURN_IF_ERROR(InsertClustersLocked(database_id, clusters).status());
+    RETURN_IF_ERROR(txn.Commit());
+    return deleted_views;
+  }
+
+  absl::StatusOr<AddViewResult> AddView(const ViewRecord& view,
+                                        const ClusterAssignment& assignment) override {
+    RETURN_IF_ERROR(ValidateView(view));
+    std::lock_guard<std::mutex> lock(mutex_);
+    ASSIGN_OR_RETURN(Transaction txn, Transaction::Begin(connection_));
+    ASSIGN_OR_RETURN(int64_t database_id, CrossingDatabaseLocked(view.crossing_id));
+
+    ASSIGN_OR_RETURN(
+        Statement insert,
+        connection_.Prepare(
+            "INSERT INTO view (crossing_id, heading_deg, width, height, keypoint_count, "
+            "keypoints, descriptors, hue_hist, hue_bins, format_version, image, created_at) "
+            "VALUES (?, ?, ?, ?, ?, ?, ?, ?, ?, ?, ?, ?)"));
+    RETURN_IF_ERROR(insert.BindInt64(1, view.crossing_id));
+    RETURN_IF_ERROR(insert.BindDouble(2, view.heading_deg));
+    RETURN_IF_ERROR(insert.BindInt64(3, view.width));
+    RETURN_IF_ERROR(insert.BindInt64(4, view.height));
+    RETURN_IF_ERROR(insert.BindInt64(5, view.keypoint_count));
+    RETURN_IF_ERROR(insert.BindBlob(6, view.keypoints));
+    RETURN_IF_ERROR(insert.BindBlob(7, view.descriptors));
+    RETURN_IF_ERROR(insert.BindBlob(8, view.hue_hist));
+    RETURN_IF_ERROR(insert.BindInt64(9, static_cast<int64_t>(view.hue_hist.size())));
+    RETURN_IF_ERROR(insert.BindInt64(10, view.format_version));
+    // NULL, not an empty blob, marks "image not stored" (LoadViewImage answers NOT_FOUND).
+    RETURN_IF_ERROR(view.image.empty() ? insert.BindNull(11)
+                                       : insert.BindBlob(11, view.image.data(), view.image.size()));
+    RETURN_IF_ERROR(insert.BindDouble(12, NowSeconds()));
+    RETURN_IF_ERROR(insert.Run());
+
+    AddViewResult result;
+    result.view_id = connection_.LastInsertRowId();
+    if (assignment.new_cluster) {
+      ASSIGN_OR_RETURN(result.cluster_id, InsertClusterRowLocked(database_id, result.view_id));
+    } else {
+      ASSIGN_OR_RETURN(int64_t cluster_db, ClusterDatabaseLocked(assignment.cluster_id));
+      if (cluster_db != database_id) {
+        return absl::InvalidArgumentError(
+            absl::StrCat("cluster ", assignment.cluster_id, " belongs to database ", cluster_db,
+                         ", but crossing ", view.crossing_id, " to database ", database_id));
+      }
+      result.cluster_id = assignment.cluster_id;
+    }
+    RETURN_IF_ERROR(InsertMemberLocked(result.cluster_id, result.view_id));
+    RETURN_IF_ERROR(txn.Commit());
+    return result;
+  }
+
+  absl::StatusOr<std::vector<ViewRecord>> LoadViews(int64_t database_id) override {
+    std::lock_guard<std::mutex> lock(mutex_);
+    RETURN_IF_ERROR(DatabaseNameLocked(database_id).status());
+    ASSIGN_OR_RETURN(Statement select, connection_.Prepare(kSelectViews));
+    RETURN_IF_ERROR(select.BindInt64(1, database_id));
+    std::vector<ViewRecord> views;
+    while (true) {
+      ASSIGN_OR_RETURN(StepResult step, select.Step());
+      if (step == StepResult::kDone) break;
+      ASSIGN_OR_RETURN(ViewRecord view, ReadViewRow(select));
+      views.push_back(std::move(view));
+    }
+    return views;
+  }
+
+  absl::StatusOr<std::string> LoadViewImage(int64_t view_id) override {
+    std::lock_guard<std::mutex> lock(mutex_);
+    ASSIGN_OR_RETURN(Statement select, connection_.Prepare("SELECT image FROM view WHERE id = ?"));
+    RETURN_IF_ERROR(select.BindInt64(1, view_id));
+    ASSIGN_OR_RETURN(StepResult step, select.Step());
+    if (step == StepResult::kDone) return ViewNotFound(view_id);
+    if (select.ColumnIsNull(0)) {
+      return absl::NotFoundError(absl::StrCat("view ", view_id, " has no stored image"));
+    }
+    return std::string(select.ColumnBlobView(0));
+  }
+
+  absl::StatusOr<std::vector<ClusterRecord>> LoadClusters(int64_t database_id) override {
+    std::lock_guard<std::mutex> lock(mutex_);
+    RETURN_IF_ERROR(DatabaseNameLocked(database_id).status());
+    // LEFT JOIN so that a cluster without members (never written by this code) still shows up.
+    ASSIGN_OR_RETURN(Statement select,
+                     connection_.Prepare("SELECT c.id, c.center_view_id, m.view_id FROM cluster c "
+                                         "LEFT JOIN cluster_member m ON m.cluster_id = c.id "
+                                         "WHERE c.db_id = ? ORDER BY c.id, m.view_id"));
+    RETURN_IF_ERROR(select.BindInt64(1, database_id));
+    std::vector<ClusterRecord> clusters;
+    while (true) {
+      ASSIGN_OR_RETURN(StepResult step, select.Step());
+      if (step == StepResult::kDone) break;
+      const int64_t cluster_id = select.ColumnInt64(0);
+      if (clusters.empty() || clusters.back().id != cluster_id) {
+        ClusterRecord cluster;
+        cluster.id = cluster_id;
+        cluster.center_view_id = select.ColumnInt64(1);
+        clusters.push_back(std::move(cluster));
+      }
+      if (!select.ColumnIsNull(2)) clusters.back().member_view_ids.push_back(select.ColumnInt64(2));
+    }
+    return clusters;
+  }
+
+  absl::StatusOr<std::vector<ClusterRecord>> ReplaceClusters(
+      int64_t database_id, const std::vector<ClusterRecord>& clusters) override {
+    std::lock_guard<std::mutex> lock(mutex_);
+    ASSIGN_OR_RETURN(Transaction txn, Transaction::Begin(connection_));
+    RETURN_IF_ERROR(DatabaseNameLocked(database_id).status());
+    RETURN_IF_ERROR(DeleteClustersLocked(database_id));
+    ASSIGN_OR_RETURN(std::vector<ClusterRecord> inserted,
+                     InsertClustersLocked(database_id, clusters));
+    RETURN_IF_ERROR(txn.Commit());
+    return inserted;
+  }
+
+ private:
+  // Helpers named *Locked run with mutex_ held, inside the caller's transaction if it has one.
+
+  static DatabaseRecord ReadDatabaseRow(const Statement& row) {
+    DatabaseRecord record;
+    record.id = row.ColumnInt64(0);
+    record.name = row.ColumnText(1);
+    record.params = row.ColumnText(2);
+    record.created_at = row.ColumnDouble(3);
+    return record;
+  }
+
+  static absl::Status DatabaseNotFound(int64_t database_id) {
+    return absl::NotFoundError(absl::StrCat("database ", database_id, " not found"));
+  }
+
+  static absl::Status ViewNotFound(int64_t view_id) {
+    return absl::NotFoundError(absl::StrCat("view ", view_id, " not found"));
+  }
+
+  // The database's name (for messages), NOT_FOUND when the id is unknown.
+  absl::StatusOr<std::string> DatabaseNameLocked(int64_t database_id) {
+    ASSIGN_OR_RETURN(Statement select,
+                     connection_.Prepare("SELECT name FROM crossing_db WHERE id = ?"));
+    RETURN_IF_ERROR(select.BindInt64(1, database_id));
+    ASSIGN_OR_RETURN(StepResult step, select.Step());
+    if (step == StepResult::kDone) return DatabaseNotFound(database_id);
+    return select.ColumnText(0);
+  }
+
+  // The database a crossing belongs to, NOT_FOUND when the crossing is unknown.
+  absl::StatusOr<int64_t> CrossingDatabaseLocked(int64_t crossing_id) {
+    ASSIGN_OR_RETURN(Statement select,
+                     connection_.Prepare("SELECT db_id FROM crossing WHERE id = ?"));
+    RETURN_IF_ERROR(select.BindInt64(1, crossing_id));
+    ASSIGN_OR_RETURN(StepResult step, select.Step());
+    if (step == StepResult::kDone) {
+      return absl::NotFoundError(absl::StrCat("crossing ", crossing_id, " not found"));
+    }
+    return select.ColumnInt64(0);
+  }
+
+  // The database a cluster belongs to, NOT_FOUND when the cluster is unknown.
+  absl::StatusOr<int64_t> ClusterDatabaseLocked(int64_t cluster_id) {
+    ASSIGN_OR_RETURN(Statement select,
+                     connection_.Prepare("SELECT db_id FROM cluster WHERE id = ?"));
+    RETURN_IF_ERROR(select.BindInt64(1, cluster_id));
+    ASSIGN_OR_RETURN(StepResult step, select.Step());
+    if (step == StepResult::kDone) {
+      return absl::NotFoundError(absl::StrCat("cluster ", cluster_id, " not found"));
+    }
+    return select.ColumnInt64(0);
+  }
+
+  absl::Status DeleteClustersLocked(int64_t database_id) {
+    ASSIGN_OR_RETURN(Statement remove, connection_.Prepare("DELETE FROM cluster WHERE db_id = ?"));
+    RETURN_IF_ERROR(remove.BindInt64(1, database_id));
+    return remove.Run();  // memberships go by cascade
+  }
+
+  absl::StatusOr<int64_t> InsertClusterRowLocked(int64_t database_id, int64_t center_view_id) {
+    ASSIGN_OR_RETURN(Statement insert,
+                     connection_.Prepare("INSERT INTO cluster (db_id, center_view_id) "
+                                         "VALUES (?, ?)"));
+    RETURN_IF_ERROR(insert.BindInt64(1, database_id));
+    RETURN_IF_ERROR(insert.BindInt64(2, center_view_id));
+    RETURN_IF_ERROR(insert.Run());
+    return connection_.LastInsertRowId();
+  }
+
+  absl::Status InsertMemberLocked(int64_t cluster_id, int64_t view_id) {
+    ASSIGN_OR_RETURN(Statement insert,
+                     connection_.Prepare("INSERT INTO cluster_member (cluster_id, view_id) "
+                                         "VALUES (?, ?)"));
+    RETURN_IF_ERROR(insert.BindInt64(1, cluster_id));
+    RETURN_IF_ERROR(insert.BindInt64(2, view_id));
+    return insert.Run();
+  }
+
+  // Inserts `clusters` for the database after checking that each one is well formed (centre among
+  // its members, no duplicate member) and that every view exists and belongs to the database.
+  // Returns them in the given order with their new ids.
+  absl::StatusOr<std::vector<ClusterRecord>> InsertClustersLocked(
+      int64_t database_id, const std::vector<ClusterRecord>& clusters) {
+    // One lookup statement reused for every view: clusters cover the whole database.
+    ASSIGN_OR_RETURN(Statement view_db,
+                     connection_.Prepare("SELECT c.db_id FROM view v "
+                                         "JOIN crossing c ON c.id = v.crossing_id WHERE v.id = ?"));
+    std::vector<ClusterRecord> inserted;
+    inserted.reserve(clusters.size());
+    for (size_t i = 0; i < clusters.size(); ++i) {
+      const ClusterRecord& cluster = clusters[i];
+      const std::string where =
+          absl::StrCat("cluster #", i, " (centre view ", cluster.center_view_id, ")");
+      std::unordered_set<int64_t> seen;
+      for (int64_t view_id : cluster.member_view_ids) {
+        if (!seen.insert(view_id).second) {
+          return absl::InvalidArgumentError(absl::StrCat(where, " lists view ", view_id, " twice"));
+        }
+        view_db.Reset();
+        RETURN_IF_ERROR(view_db.BindInt64(1, view_id));
+        ASSIGN_OR_RETURN(StepResult step, view_db.Step());
+        if (step == StepResult::kDone) {
+          return absl::NotFoundError(absl::StrCat(where, ": view ", view_id, " not found"));
+        }
+        if (view_db.ColumnInt64(0) != database_id) {
+          return absl::InvalidArgumentError(absl::StrCat(
+              where, ": view ", view_id, " belongs to another database than ", database_id));
+        }
+      }
+      if (seen.count(cluster.center_view_id) == 0) {
+        return absl::InvalidArgumentError(
+            absl::StrCat(where, ": the centre is not among the members"));
+      }
+      ClusterRecord record = cluster;
+      ASSIGN_OR_RETURN(record.id, InsertClusterRowLocked(database_id, cluster.center_view_id));
+      for (int64_t view_id : cluster.member_view_ids) {
+        RETURN_IF_ERROR(InsertMemberLocked(record.id, view_id));
+      }
+      inserted.push_back(std::move(record));
+    }
+    return inserted;
+  }
+
+  std::mutex mutex_;  // one connection, used by one thread at a time
+  Connection connection_;
+};
+
+}  // namespace
+
+absl::StatusOr<std::unique_ptr<CrossingStore>> OpenSqliteCrossingStore(const std::string& path) {
+  if (!path.empty() && path != ":memory:") {
+    const std::filesystem::path parent = std::filesystem::path(path).parent_path();
+    if (!parent.empty()) {
+      std::error_code error;
+      std::filesystem::create_directories(parent, error);
+      if (error) {
+        return absl::InternalError(absl::StrCat("cannot create directory \"", parent.string(),
+                                                "\" for the database: ", error.message()));
+      }
+    }
+  }
+  ASSIGN_OR_RETURN(Connection connection, Connection::Open(path));
+  RETURN_IF_ERROR(MigrateSchema(connection));
+  return std::unique_ptr<CrossingStore>(new SqliteCrossingStore(std::move(connection)));
+}
+
+}  // namespace waymark::storage
+
+#undef ASSIGN_OR_RETURN_IMPL
+#undef ASSIGN_OR_RETURN
+#undef RETURN_IF_ERROR
+#undef WAYMARK_STORAGE_CONCAT
+#undef WAYMARK_STORAGE_CONCAT_INNER
