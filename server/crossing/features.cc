@@ -23,6 +23,13 @@ double MsSince(std::chrono::steady_clock::time_point start) {
 
 }  // namespace
 
+std::vector<cv::Point2f> KeypointPositions(const ImageFeatures& features) {
+  std::vector<cv::Point2f> points;
+  points.reserve(features.keypoints.size());
+  for (const cv::KeyPoint& kp : features.keypoints) points.push_back(kp.pt);
+  return points;
+}
+
 absl::StatusOr<cv::Mat> DecodeImage(const std::string& bytes) {
   if (bytes.empty()) return absl::InvalidArgumentError("image data is empty: send JPEG or PNG bytes");
   cv::Mat image;

@@ -24,6 +24,9 @@ struct ImageFeatures {
   int height = 0;
 };
 
+// Keypoint positions (what geometric verification needs of a stored view).
+std::vector<cv::Point2f> KeypointPositions(const ImageFeatures& features);
+
 // Decodes JPEG/PNG bytes into a BGR image. INVALID_ARGUMENT for empty, corrupt or undecodable
 // bytes, or images smaller than 8x8 (nothing to recognize).
 absl::StatusOr<cv::Mat> DecodeImage(const std::string& bytes);

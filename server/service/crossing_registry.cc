@@ -81,13 +81,6 @@ storage::ViewRecord ToRecord(int64_t crossing_id, double heading,
   return r;
 }
 
-std::vector<cv::Point2f> PointsOf(const crossing::ImageFeatures& f) {
-  std::vector<cv::Point2f> points;
-  points.reserve(f.keypoints.size());
-  for (const auto& kp : f.keypoints) points.push_back(kp.pt);
-  return points;
-}
-
 }  // namespace
 
 struct CrossingRegistry::Database {
@@ -425,7 +418,7 @@ absl::StatusOr<v1::EnrollViewResponse> CrossingRegistry::EnrollView(
   if (!added.ok()) return added.status();
 
   const uint32_t slot = db.views->AddView(added->view_id, crossing_id, request.heading_deg(),
-                                          features->descriptors, PointsOf(*features),
+                                          features->descriptors, crossing::KeypointPositions(*features),
                                           features->hue_hist);
   if (proposal.cluster >= 0) {
     db.views->AddToCluster(proposal.cluster, slot);

@@ -109,7 +109,8 @@ std::string ParamsToJson(const v1::DatabaseParams& params) {
   std::string json;
   google::protobuf::util::JsonPrintOptions options;
   options.always_print_primitive_fields = true;
-  google::protobuf::util::MessageToJsonString(params, &json, options).IgnoreError();
+  // Cannot fail for a well-formed message without Any fields.
+  (void)google::protobuf::util::MessageToJsonString(params, &json, options);
   return json;
 }
 

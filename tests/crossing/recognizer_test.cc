@@ -3,6 +3,7 @@
 #include <gtest/gtest.h>
 #include <opencv2/imgproc.hpp>
 
+#include "server/crossing/enrollment.h"
 #include "server/crossing/features.h"
 #include "server/crossing/view_database.h"
 #include "tests/support/synthetic_scene.h"
@@ -19,17 +20,7 @@ class RecognizerTest : public ::testing::Test {
       panoramas_[crossing] = testing::MakePanorama(100 + crossing);
       for (int k = 0; k < 12; ++k) {
         const ImageFeatures f = Extract(testing::CropView(panoramas_[crossing], 30.0 * k));
-        std::vector<cv::Point2f> points;
-        for (const auto& kp : f.keypoints) points.push_back(kp.pt);
-        const int64_t view_id = 1 + crossing * 12 + k;
-        const ClusterProposal proposal = db_->ProposeCluster(f.descriptors, ClusterOptions{});
-        const uint32_t slot =
-            db_->AddView(view_id, crossing + 1, 30.0 * k, f.descriptors, points, f.hue_hist);
-        if (proposal.cluster >= 0) {
-          db_->AddToCluster(proposal.cluster, slot);
-        } else {
-          db_->NewCluster(1000 + slot, slot);
-        }
+        EnrollView(db_, 1 + crossing * 12 + k, crossing + 1, 30.0 * k, f);
       }
     }
   }
