@@ -16,6 +16,25 @@ constexpr int kMinImageSide = 8;
 // Decoding refuses images with more pixels than this (a 16k x 16k PNG is 768 MB of BGR).
 constexpr double kMaxDecodedPixels = 64e6;
 
+// libjpeg and libpng decode a cut-off file with a warning and fill the rest with gray, which
+// would enroll a corrupt view. A complete JPEG ends with the EOI marker (FF D9), a complete PNG
+// with its IEND chunk; allow a little trailing padding.
+absl::Status CheckComplete(const std::string& bytes) {
+  constexpr size_t kTail = 32;
+  const std::string tail = bytes.substr(bytes.size() > kTail ? bytes.size() - kTail : 0);
+  if (bytes.size() >= 2 && static_cast<uint8_t>(bytes[0]) == 0xFF &&
+      static_cast<uint8_t>(bytes[1]) == 0xD8 && tail.find("\xFF\xD9") == std::string::npos) {
+    return absl::InvalidArgumentError(absl::StrCat(
+        "JPEG data (", bytes.size(), " bytes) is truncated: no end-of-image marker"));
+  }
+  if (bytes.size() >= 8 && bytes.compare(1, 3, "PNG") == 0 &&
+      tail.find("IEND") == std::string::npos) {
+    return absl::InvalidArgumentError(
+        absl::StrCat("PNG data (", bytes.size(), " bytes) is truncated: no IEND chunk"));
+  }
+  return absl::OkStatus();
+}
+
 double MsSince(std::chrono::steady_clock::time_point start) {
   return std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - start)
       .count();
@@ -32,6 +51,7 @@ std::vector<cv::Point2f> KeypointPositions(const ImageFeatures& features) {
 
 absl::StatusOr<cv::Mat> DecodeImage(const std::string& bytes) {
   if (bytes.empty()) return absl::InvalidArgumentError("image data is empty: send JPEG or PNG bytes");
+  if (absl::Status s = CheckComplete(bytes); !s.ok()) return s;
   cv::Mat image;
   try {
     const cv::Mat buffer(1, static_cast<int>(bytes.size()), CV_8U,

@@ -17,6 +17,9 @@ namespace {
 using Clock = std::chrono::steady_clock;
 using crossing::ViewDatabase;
 
+// A view with fewer keypoints could never reach N1 = 10 matches: refuse it at enrollment.
+constexpr int kMinEnrollKeypoints = 10;
+
 double MsSince(Clock::time_point start) {
   return std::chrono::duration<double, std::milli>(Clock::now() - start).count();
 }
@@ -383,6 +386,12 @@ absl::StatusOr<v1::EnrollViewResponse> CrossingRegistry::EnrollView(
   absl::StatusOr<crossing::ImageFeatures> features =
       crossing::ExtractFeatures(request.image().data(), db.options.features, &timings);
   if (!features.ok()) return features.status();
+  if (features->descriptors.rows < kMinEnrollKeypoints) {
+    return absl::InvalidArgumentError(absl::StrCat(
+        "the image has ", features->descriptors.rows, " SIFT keypoints at ",
+        features->width, "x", features->height, "; a view needs at least ", kMinEnrollKeypoints,
+        " to be recognizable (blank, blurred or textureless image?)"));
+  }
 
   std::unique_lock lock(db.mutex);
   if (absl::Status s = db.CheckAlive(); !s.ok()) return s;

@@ -168,6 +168,12 @@ TEST(FeaturesTest, CorruptAndTinyImagesAreInvalidArgument) {
   truncated.resize(40);
   EXPECT_EQ(ExtractFeatures(truncated, options).status().code(),
             absl::StatusCode::kInvalidArgument);
+  std::string cut_png = testing::EncodePng(testing::MakePanorama(1, 320, 240));
+  cut_png.resize(cut_png.size() / 2);
+  EXPECT_EQ(ExtractFeatures(cut_png, options).status().code(), absl::StatusCode::kInvalidArgument);
+  std::string cut_jpeg = testing::EncodeJpeg(testing::MakePanorama(1, 320, 240));
+  cut_jpeg.resize(cut_jpeg.size() * 2 / 3);  // libjpeg would decode this with gray fill
+  EXPECT_EQ(ExtractFeatures(cut_jpeg, options).status().code(), absl::StatusCode::kInvalidArgument);
   const cv::Mat one(1, 1, CV_8UC3, cv::Scalar(1, 2, 3));
   EXPECT_EQ(ExtractFeatures(testing::EncodePng(one), options).status().code(),
             absl::StatusCode::kInvalidArgument);

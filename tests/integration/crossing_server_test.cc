@@ -1,0 +1,461 @@
+// The real waymark-server binary, over gRPC on loopback: enrollment, recognition, restart, and
+// every bad input of issue 2 with its status code.
+
+#include <signal.h>
+
+#include <cmath>
+#include <filesystem>
+#include <limits>
+
+#include <grpcpp/generic/generic_stub.h>
+#include <grpcpp/grpcpp.h>
+#include <gtest/gtest.h>
+#include <opencv2/imgproc.hpp>
+
+#include "tests/support/server_process.h"
+#include "tests/support/synthetic_scene.h"
+#include "waymark/v1/crossing.grpc.pb.h"
+
+namespace waymark {
+namespace {
+
+using testing::CropView;
+using testing::EncodeJpeg;
+using testing::EncodePng;
+using testing::MakePanorama;
+using testing::ServerProcess;
+
+constexpr int kCrossings = 2;
+
+class Client {
+ public:
+  explicit Client(const std::string& address) {
+    grpc::ChannelArguments args;
+    args.SetMaxSendMessageSize(256 << 20);
+    args.SetMaxReceiveMessageSize(256 << 20);
+    channel_ = grpc::CreateCustomChannel(address, grpc::InsecureChannelCredentials(), args);
+    stub_ = v1::CrossingService::NewStub(channel_);
+  }
+  v1::CrossingService::Stub* operator->() { return stub_.get(); }
+  std::shared_ptr<grpc::Channel> channel() { return channel_; }
+
+ private:
+  std::shared_ptr<grpc::Channel> channel_;
+  std::unique_ptr<v1::CrossingService::Stub> stub_;
+};
+
+// A context with a deadline, as every robot call should have.
+std::unique_ptr<grpc::ClientContext> Ctx(int seconds = 60) {
+  auto ctx = std::make_unique<grpc::ClientContext>();
+  ctx->set_deadline(std::chrono::system_clock::now() + std::chrono::seconds(seconds));
+  return ctx;
+}
+
+v1::EnrollViewRequest View(const std::string& db, int crossing, double heading,
+                           const cv::Mat& pano) {
+  v1::EnrollViewRequest r;
+  r.set_database(db);
+  r.set_crossing("crossing-" + std::to_string(crossing));
+  r.set_heading_deg(heading);
+  r.set_create_crossing(true);
+  // Alternate PNG and JPEG, and give some views at twice the working size.
+  const cv::Mat view = CropView(pano, heading, 60, heading < 180 ? 320 : 640,
+                                heading < 180 ? 240 : 480);
+  r.mutable_image()->set_data(static_cast<int>(heading) % 60 == 0 ? EncodePng(view)
+                                                                  : EncodeJpeg(view));
+  return r;
+}
+
+v1::RecognizeRequest Query(const std::string& db, const cv::Mat& image) {
+  v1::RecognizeRequest r;
+  r.set_database(db);
+  r.mutable_image()->set_data(EncodeJpeg(image));
+  return r;
+}
+
+class CrossingServerTest : public ::testing::Test {
+ protected:
+  static void SetUpTestSuite() {
+    dir_ = new std::string(testing::MakeTempDir("waymark-it"));
+    for (int c = 0; c < kCrossings; ++c) panoramas_[c] = MakePanorama(500 + c);
+  }
+  static void TearDownTestSuite() {
+    std::filesystem::remove_all(*dir_);
+    delete dir_;
+  }
+  void SetUp() override { StartServer(); }
+  void TearDown() override {
+    if (HasFailure() && server_) std::cerr << "server log:\n" << server_->Log();
+  }
+
+  void StartServer(const std::vector<std::string>& args = {}) {
+    auto server = ServerProcess::Start(testing::ServerBinary(), *dir_ + "/waymark.db", args);
+    ASSERT_TRUE(server.ok()) << server.status();
+    server_ = std::move(*server);
+    client_ = std::make_unique<Client>(server_->address());
+  }
+
+  // Creates `name` and bulk-enrolls 12 views of each crossing.
+  void EnrollAll(const std::string& name) {
+    v1::CreateDatabaseRequest create;
+    create.set_name(name);
+    v1::CrossingDatabase created;
+    ASSERT_TRUE((*client_)->CreateDatabase(Ctx().get(), create, &created).ok());
+    auto ctx = Ctx(300);
+    v1::BulkEnrollResponse summary;
+    auto writer = (*client_)->BulkEnroll(ctx.get(), &summary);
+    for (int c = 0; c < kCrossings; ++c) {
+      for (int k = 0; k < 12; ++k) ASSERT_TRUE(writer->Write(View(name, c, 30.0 * k, panoramas_[c])));
+    }
+    writer->WritesDone();
+    const grpc::Status status = writer->Finish();
+    ASSERT_TRUE(status.ok()) << status.error_message();
+    EXPECT_EQ(summary.views(), 12 * kCrossings);
+    EXPECT_EQ(summary.crossings_created(), kCrossings);
+    EXPECT_GT(summary.clusters_created(), 0);
+    EXPECT_GT(summary.keypoints(), 100 * 12 * kCrossings);
+  }
+
+  grpc::StatusCode Code(const grpc::Status& s) { return s.error_code(); }
+
+  static std::string* dir_;
+  static cv::Mat panoramas_[kCrossings];
+  std::unique_ptr<ServerProcess> server_;
+  std::unique_ptr<Client> client_;
+};
+std::string* CrossingServerTest::dir_ = nullptr;
+cv::Mat CrossingServerTest::panoramas_[kCrossings];
+
+TEST_F(CrossingServerTest, EnrollRecognizeRestartRecognizeTheSame) {
+  EnrollAll("restart");
+  std::vector<v1::RecognizeResponse> before;
+  for (int c = 0; c < kCrossings; ++c) {
+    for (double heading : {15.0, 100.0, 270.0}) {
+      v1::RecognizeResponse r;
+      ASSERT_TRUE(
+          (*client_)->RecognizeCrossing(Ctx().get(), Query("restart", CropView(panoramas_[c], heading)), &r).ok());
+      ASSERT_TRUE(r.recognized()) << r.reason();
+      EXPECT_EQ(r.crossing(), "crossing-" + std::to_string(c));
+      const double error = std::fabs(std::remainder(r.heading_deg() - heading, 360.0));
+      EXPECT_LE(error, 30.0);
+      EXPECT_GT(r.keypoints(), 50);
+      EXPECT_GT(r.timings().extraction_ms(), 0);
+      EXPECT_FALSE(r.candidates().empty());
+      before.push_back(r);
+    }
+  }
+  v1::GetDatabaseStatsRequest stats_request;
+  stats_request.set_name("restart");
+  v1::DatabaseStats stats_before;
+  ASSERT_TRUE((*client_)->GetDatabaseStats(Ctx().get(), stats_request, &stats_before).ok());
+
+  // Graceful stop, then a new process on the same file.
+  EXPECT_EQ(server_->Stop(SIGTERM), 0);
+  StartServer();
+  v1::DatabaseStats stats_after;
+  ASSERT_TRUE((*client_)->GetDatabaseStats(Ctx().get(), stats_request, &stats_after).ok());
+  EXPECT_EQ(stats_after.database().views(), 12 * kCrossings);
+  EXPECT_EQ(stats_after.database().clusters(), stats_before.database().clusters());
+  EXPECT_EQ(stats_after.keypoints(), stats_before.keypoints());
+  size_t i = 0;
+  for (int c = 0; c < kCrossings; ++c) {
+    for (double heading : {15.0, 100.0, 270.0}) {
+      v1::RecognizeResponse r;
+      ASSERT_TRUE(
+          (*client_)->RecognizeCrossing(Ctx().get(), Query("restart", CropView(panoramas_[c], heading)), &r).ok());
+      const v1::RecognizeResponse& b = before[i++];
+      EXPECT_EQ(r.recognized(), b.recognized());
+      EXPECT_EQ(r.view_id(), b.view_id());
+      EXPECT_EQ(r.crossing(), b.crossing());
+      EXPECT_DOUBLE_EQ(r.decision(), b.decision());
+      ASSERT_EQ(r.candidates_size(), b.candidates_size());
+      for (int k = 0; k < r.candidates_size(); ++k) {
+        EXPECT_EQ(r.candidates(k).view_id(), b.candidates(k).view_id());
+        EXPECT_EQ(r.candidates(k).matches(), b.candidates(k).matches());
+      }
+    }
+  }
+}
+
+TEST_F(CrossingServerTest, DatabaseLifecycleAndNames) {
+  v1::CreateDatabaseRequest create;
+  create.set_name("lifecycle");
+  v1::CrossingDatabase db;
+  ASSERT_TRUE((*client_)->CreateDatabase(Ctx().get(), create, &db).ok());
+  EXPECT_EQ(db.params().work_width(), 320);
+  EXPECT_EQ(db.params().recognition().n0(), 5);
+  EXPECT_DOUBLE_EQ(db.params().recognition().ratio(), 0.32);
+  EXPECT_EQ(Code((*client_)->CreateDatabase(Ctx().get(), create, &db)), grpc::StatusCode::ALREADY_EXISTS);
+  create.set_name("bad/name");
+  EXPECT_EQ(Code((*client_)->CreateDatabase(Ctx().get(), create, &db)), grpc::StatusCode::INVALID_ARGUMENT);
+
+  v1::AddCrossingRequest add;
+  add.set_database("lifecycle");
+  add.set_name("main-and-5th");
+  v1::Crossing crossing;
+  ASSERT_TRUE((*client_)->AddCrossing(Ctx().get(), add, &crossing).ok());
+  EXPECT_EQ(Code((*client_)->AddCrossing(Ctx().get(), add, &crossing)), grpc::StatusCode::ALREADY_EXISTS);
+  add.set_database("nope");
+  EXPECT_EQ(Code((*client_)->AddCrossing(Ctx().get(), add, &crossing)), grpc::StatusCode::NOT_FOUND);
+
+  v1::ListDatabasesResponse list;
+  ASSERT_TRUE((*client_)->ListDatabases(Ctx().get(), {}, &list).ok());
+  bool found = false;
+  for (const auto& d : list.databases()) found |= d.name() == "lifecycle" && d.crossings() == 1;
+  EXPECT_TRUE(found);
+
+  v1::DeleteCrossingRequest del_crossing;
+  del_crossing.set_database("lifecycle");
+  del_crossing.set_name("nope");
+  v1::DeleteCrossingResponse del_crossing_response;
+  EXPECT_EQ(Code((*client_)->DeleteCrossing(Ctx().get(), del_crossing, &del_crossing_response)),
+            grpc::StatusCode::NOT_FOUND);
+
+  v1::DeleteDatabaseRequest del;
+  del.set_name("lifecycle");
+  v1::DeleteDatabaseResponse deleted;
+  ASSERT_TRUE((*client_)->DeleteDatabase(Ctx().get(), del, &deleted).ok());
+  EXPECT_EQ(Code((*client_)->DeleteDatabase(Ctx().get(), del, &deleted)), grpc::StatusCode::NOT_FOUND);
+}
+
+TEST_F(CrossingServerTest, BadParametersAreInvalidArgument) {
+  v1::CreateDatabaseRequest create;
+  create.set_name("params");
+  create.mutable_params()->mutable_recognition()->set_ratio(1.5);
+  v1::CrossingDatabase db;
+  grpc::Status s = (*client_)->CreateDatabase(Ctx().get(), create, &db);
+  EXPECT_EQ(Code(s), grpc::StatusCode::INVALID_ARGUMENT);
+  EXPECT_NE(s.error_message().find("ratio"), std::string::npos) << s.error_message();
+  create.mutable_params()->mutable_recognition()->set_ratio(0.5);
+  create.mutable_params()->mutable_recognition()->set_alpha(0.7);
+  s = (*client_)->CreateDatabase(Ctx().get(), create, &db);
+  EXPECT_EQ(Code(s), grpc::StatusCode::INVALID_ARGUMENT);
+  EXPECT_NE(s.error_message().find("alpha"), std::string::npos) << s.error_message();
+  create.mutable_params()->clear_recognition();
+  create.mutable_params()->set_work_width(5);
+  EXPECT_EQ(Code((*client_)->CreateDatabase(Ctx().get(), create, &db)), grpc::StatusCode::INVALID_ARGUMENT);
+
+  // Per-request overrides are validated too, and the database is left usable.
+  EnrollAll("params-ok");
+  v1::RecognizeRequest q = Query("params-ok", CropView(panoramas_[0], 0));
+  q.mutable_params()->set_ratio(0.0);
+  v1::RecognizeResponse r;
+  EXPECT_EQ(Code((*client_)->RecognizeCrossing(Ctx().get(), q, &r)), grpc::StatusCode::INVALID_ARGUMENT);
+  q.mutable_params()->set_ratio(0.32);
+  q.mutable_params()->set_alpha(0.2);  // beta stays 0.5
+  EXPECT_EQ(Code((*client_)->RecognizeCrossing(Ctx().get(), q, &r)), grpc::StatusCode::INVALID_ARGUMENT);
+  q.mutable_params()->set_beta(0.8);
+  ASSERT_TRUE((*client_)->RecognizeCrossing(Ctx().get(), q, &r).ok());
+  EXPECT_TRUE(r.recognized());
+  q.mutable_params()->Clear();
+  q.mutable_params()->set_mode(v1::RECOGNITION_MODE_VERIFIED);
+  ASSERT_TRUE((*client_)->RecognizeCrossing(Ctx().get(), q, &r).ok());
+  EXPECT_EQ(r.mode(), v1::RECOGNITION_MODE_VERIFIED);
+  EXPECT_TRUE(r.recognized()) << r.reason();
+}
+
+TEST_F(CrossingServerTest, BadImagesAndHeadingsAreRejectedAndNothingIsStored) {
+  EnrollAll("bad-input");
+  const cv::Mat good = CropView(panoramas_[0], 45);
+  struct Case {
+    std::string name;
+    std::string bytes;
+    double heading;
+  };
+  std::string truncated = EncodeJpeg(good);
+  truncated.resize(truncated.size() / 3);
+  const std::vector<Case> cases = {
+      {"empty", "", 10},
+      {"garbage", "this is not an image", 10},
+      {"truncated jpeg", truncated, 10},
+      {"1x1", EncodePng(cv::Mat(1, 1, CV_8UC3, cv::Scalar(1, 2, 3))), 10},
+      {"no texture", EncodePng(cv::Mat(240, 320, CV_8UC3, cv::Scalar(20, 90, 160))), 10},
+      {"heading 360", EncodeJpeg(good), 360},
+      {"heading -1", EncodeJpeg(good), -1},
+      {"heading NaN", EncodeJpeg(good), std::numeric_limits<double>::quiet_NaN()},
+  };
+  for (const Case& c : cases) {
+    v1::EnrollViewRequest r;
+    r.set_database("bad-input");
+    r.set_crossing("crossing-0");
+    r.set_heading_deg(c.heading);
+    r.mutable_image()->set_data(c.bytes);
+    v1::EnrollViewResponse response;
+    const grpc::Status s = (*client_)->EnrollView(Ctx().get(), r, &response);
+    EXPECT_EQ(Code(s), grpc::StatusCode::INVALID_ARGUMENT) << c.name << ": " << s.error_message();
+    EXPECT_FALSE(s.error_message().empty()) << c.name;
+  }
+  // Unknown crossing without create_crossing; unknown database.
+  v1::EnrollViewRequest r = View("bad-input", 9, 0, panoramas_[0]);
+  r.set_create_crossing(false);
+  v1::EnrollViewResponse response;
+  EXPECT_EQ(Code((*client_)->EnrollView(Ctx().get(), r, &response)), grpc::StatusCode::NOT_FOUND);
+  r.set_database("no-such-db");
+  EXPECT_EQ(Code((*client_)->EnrollView(Ctx().get(), r, &response)), grpc::StatusCode::NOT_FOUND);
+
+  // Nothing of the above was stored.
+  v1::GetDatabaseStatsRequest stats_request;
+  stats_request.set_name("bad-input");
+  v1::DatabaseStats stats;
+  ASSERT_TRUE((*client_)->GetDatabaseStats(Ctx().get(), stats_request, &stats).ok());
+  EXPECT_EQ(stats.database().views(), 12 * kCrossings);
+  EXPECT_EQ(stats.database().crossings(), kCrossings);
+
+  // Recognition: corrupt image, unknown database, and the server still answers afterwards.
+  v1::RecognizeRequest q;
+  q.set_database("bad-input");
+  q.mutable_image()->set_data("garbage");
+  v1::RecognizeResponse rr;
+  EXPECT_EQ(Code((*client_)->RecognizeCrossing(Ctx().get(), q, &rr)), grpc::StatusCode::INVALID_ARGUMENT);
+  q = Query("no-such-db", good);
+  EXPECT_EQ(Code((*client_)->RecognizeCrossing(Ctx().get(), q, &rr)), grpc::StatusCode::NOT_FOUND);
+  ASSERT_TRUE((*client_)->RecognizeCrossing(Ctx().get(), Query("bad-input", good), &rr).ok());
+  EXPECT_TRUE(rr.recognized());
+}
+
+TEST_F(CrossingServerTest, EmptyDatabaseAndNoTextureQueries) {
+  v1::CreateDatabaseRequest create;
+  create.set_name("empty");
+  v1::CrossingDatabase db;
+  ASSERT_TRUE((*client_)->CreateDatabase(Ctx().get(), create, &db).ok());
+  v1::RecognizeResponse r;
+  const grpc::Status s =
+      (*client_)->RecognizeCrossing(Ctx().get(), Query("empty", CropView(panoramas_[0], 0)), &r);
+  EXPECT_EQ(Code(s), grpc::StatusCode::FAILED_PRECONDITION);
+  EXPECT_NE(s.error_message().find("enroll"), std::string::npos);
+
+  EnrollAll("texture");
+  const cv::Mat flat(240, 320, CV_8UC3, cv::Scalar(20, 90, 160));
+  ASSERT_TRUE((*client_)->RecognizeCrossing(Ctx().get(), Query("texture", flat), &r).ok());
+  EXPECT_FALSE(r.recognized());
+  EXPECT_FALSE(r.reason().empty());
+  // An unknown place is a normal "not recognized" answer.
+  ASSERT_TRUE((*client_)->RecognizeCrossing(Ctx().get(), Query("texture", CropView(MakePanorama(4242), 10)), &r).ok());
+  EXPECT_FALSE(r.recognized()) << r.crossing();
+}
+
+TEST_F(CrossingServerTest, HugeImagesAreResizedAndOversizedMessagesRefused) {
+  EnrollAll("sizes");
+  // A 4000x3000 photo of a known view: resized to the working resolution, recognized.
+  cv::Mat big;
+  cv::resize(CropView(panoramas_[1], 200), big, cv::Size(4000, 3000));
+  v1::RecognizeResponse r;
+  ASSERT_TRUE((*client_)->RecognizeCrossing(Ctx().get(), Query("sizes", big), &r).ok());
+  EXPECT_TRUE(r.recognized());
+  EXPECT_EQ(r.crossing(), "crossing-1");
+
+  // Over the limit (server started with 1 MiB): RESOURCE_EXHAUSTED, and the server lives on.
+  server_->Stop(SIGTERM);
+  StartServer({"--max-message-mb", "1"});
+  v1::RecognizeRequest q;
+  q.set_database("sizes");
+  q.mutable_image()->set_data(std::string(2 << 20, 'x'));
+  EXPECT_EQ(Code((*client_)->RecognizeCrossing(Ctx().get(), q, &r)), grpc::StatusCode::RESOURCE_EXHAUSTED);
+  ASSERT_TRUE((*client_)->RecognizeCrossing(Ctx().get(), Query("sizes", CropView(panoramas_[1], 200)), &r).ok());
+  EXPECT_TRUE(r.recognized());
+}
+
+TEST_F(CrossingServerTest, StreamRecognizeAnswersEveryFrameAndSurvivesABadOne) {
+  EnrollAll("stream");
+  auto ctx = Ctx();
+  auto stream = (*client_)->StreamRecognize(ctx.get());
+  const std::vector<std::string> frames = {
+      EncodeJpeg(CropView(MakePanorama(777), 0)),  // unknown place
+      "corrupt frame",
+      EncodeJpeg(CropView(panoramas_[0], 95)),
+      EncodeJpeg(CropView(panoramas_[1], 300)),
+  };
+  for (size_t i = 0; i < frames.size(); ++i) {
+    v1::RecognizeRequest q;
+    q.set_database("stream");
+    q.mutable_image()->set_data(frames[i]);
+    q.mutable_image()->set_stamp(100.0 + i);
+    ASSERT_TRUE(stream->Write(q));
+  }
+  stream->WritesDone();
+  std::vector<v1::RecognizeResponse> responses;
+  v1::RecognizeResponse r;
+  while (stream->Read(&r)) responses.push_back(r);
+  ASSERT_TRUE(stream->Finish().ok());
+  ASSERT_EQ(responses.size(), frames.size());
+  for (size_t i = 0; i < responses.size(); ++i) {
+    EXPECT_EQ(responses[i].frame_index(), static_cast<int64_t>(i));
+    EXPECT_DOUBLE_EQ(responses[i].stamp(), 100.0 + i);
+  }
+  EXPECT_FALSE(responses[0].recognized());
+  EXPECT_EQ(responses[0].error_code(), 0);
+  EXPECT_EQ(responses[1].error_code(), static_cast<int>(grpc::StatusCode::INVALID_ARGUMENT));
+  EXPECT_TRUE(responses[2].recognized());
+  EXPECT_EQ(responses[2].crossing(), "crossing-0");
+  EXPECT_TRUE(responses[3].recognized());
+  EXPECT_EQ(responses[3].crossing(), "crossing-1");
+}
+
+TEST_F(CrossingServerTest, DeleteCrossingReclustersAndRebuildKeepsRecognition) {
+  EnrollAll("edit");
+  v1::DeleteCrossingRequest del;
+  del.set_database("edit");
+  del.set_name("crossing-0");
+  v1::DeleteCrossingResponse deleted;
+  ASSERT_TRUE((*client_)->DeleteCrossing(Ctx().get(), del, &deleted).ok());
+  EXPECT_EQ(deleted.views_deleted(), 12);
+  v1::RebuildClustersRequest rebuild;
+  rebuild.set_database("edit");
+  rebuild.set_cluster_threshold(8);
+  v1::RebuildClustersResponse rebuilt;
+  ASSERT_TRUE((*client_)->RebuildClusters(Ctx().get(), rebuild, &rebuilt).ok());
+  EXPECT_EQ(rebuilt.views(), 12);
+  rebuild.set_cluster_threshold(0);
+  EXPECT_EQ(Code((*client_)->RebuildClusters(Ctx().get(), rebuild, &rebuilt)), grpc::StatusCode::INVALID_ARGUMENT);
+  v1::RecognizeResponse r;
+  ASSERT_TRUE((*client_)->RecognizeCrossing(Ctx().get(), Query("edit", CropView(panoramas_[1], 150)), &r).ok());
+  EXPECT_TRUE(r.recognized());
+  EXPECT_EQ(r.crossing(), "crossing-1");
+  ASSERT_TRUE((*client_)->RecognizeCrossing(Ctx().get(), Query("edit", CropView(panoramas_[0], 150)), &r).ok());
+  EXPECT_FALSE(r.recognized()) << "deleted crossing still recognized";
+  // The new threshold survives a restart.
+  server_->Stop(SIGTERM);
+  StartServer();
+  v1::GetDatabaseStatsRequest stats_request;
+  stats_request.set_name("edit");
+  v1::DatabaseStats stats;
+  ASSERT_TRUE((*client_)->GetDatabaseStats(Ctx().get(), stats_request, &stats).ok());
+  EXPECT_EQ(stats.database().params().cluster_threshold(), 8);
+  EXPECT_EQ(stats.database().clusters(), rebuilt.clusters());
+}
+
+TEST_F(CrossingServerTest, HealthServiceAndGracefulShutdown) {
+  // grpc.health.v1.Health/Check with an empty request; the response's status field 1 = SERVING
+  // is encoded as the two bytes 08 01.
+  grpc::GenericStub generic(client_->channel());
+  grpc::ByteBuffer request, response;
+  {
+    grpc::Slice empty("");
+    request = grpc::ByteBuffer(&empty, 1);
+  }
+  grpc::ClientContext ctx;
+  ctx.set_deadline(std::chrono::system_clock::now() + std::chrono::seconds(10));
+  std::mutex mu;
+  std::condition_variable cv;
+  bool done = false;
+  grpc::Status status;
+  generic.UnaryCall(&ctx, "/grpc.health.v1.Health/Check", grpc::StubOptions(), &request, &response,
+                    [&](grpc::Status s) {
+                      std::lock_guard<std::mutex> lock(mu);
+                      status = s;
+                      done = true;
+                      cv.notify_one();
+                    });
+  std::unique_lock<std::mutex> lock(mu);
+  cv.wait(lock, [&] { return done; });
+  ASSERT_TRUE(status.ok()) << status.error_message();
+  std::vector<grpc::Slice> slices;
+  ASSERT_TRUE(response.Dump(&slices).ok());
+  std::string bytes;
+  for (const auto& s : slices) bytes.append(reinterpret_cast<const char*>(s.begin()), s.size());
+  EXPECT_EQ(bytes, std::string("\x08\x01", 2));
+  EXPECT_EQ(server_->Stop(SIGINT), 0);
+}
+
+}  // namespace
+}  // namespace waymark
