@@ -1,0 +1,31 @@
+#include "client/lib/status_util.h"
+
+#include <string>
+
+namespace waymark::client {
+namespace {
+
+// Highest canonical code shared by both libraries (UNAUTHENTICATED = 16).
+constexpr int kMaxCanonicalCode = 16;
+
+bool IsCanonical(int code) { return code >= 0 && code <= kMaxCanonicalCode; }
+
+}  // namespace
+
+absl::Status ToAbslStatus(const grpc::Status& status) {
+  if (status.ok()) return absl::OkStatus();
+  const int code = static_cast<int>(status.error_code());
+  return absl::Status(
+      IsCanonical(code) ? static_cast<absl::StatusCode>(code) : absl::StatusCode::kUnknown,
+      status.error_message());
+}
+
+grpc::Status ToGrpcStatus(const absl::Status& status) {
+  if (status.ok()) return grpc::Status::OK;
+  const int code = static_cast<int>(status.code());
+  return grpc::Status(
+      IsCanonical(code) ? static_cast<grpc::StatusCode>(code) : grpc::StatusCode::UNKNOWN,
+      std::string(status.message()));
+}
+
+}  // namespace waymark::client

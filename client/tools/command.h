@@ -1,0 +1,61 @@
+#ifndef WAYMARK_CLIENT_TOOLS_COMMAND_H_
+#define WAYMARK_CLIENT_TOOLS_COMMAND_H_
+
+#include <CLI/CLI.hpp>
+#include <functional>
+#include <memory>
+#include <optional>
+#include <ostream>
+#include <string>
+#include <utility>
+#include <vector>
+
+#include "client/lib/crossing_client.h"
+
+namespace waymark::cli {
+
+inline constexpr int kExitOk = 0;
+inline constexpr int kExitFailure = 1;
+
+// Options every command accepts, before or after the command name.
+struct GlobalOptions {
+  std::string server = "127.0.0.1:50051";
+  bool json = false;
+  double timeout_s = 30;
+};
+
+// What a command needs from its surroundings; streams are injected so tests can capture output.
+struct CommandContext {
+  GlobalOptions globals;
+  std::ostream& out;
+  std::ostream& err;
+  bool err_is_tty = false;  // progress bars only when a person is watching
+
+  // A client for globals.server with globals.timeout_s on every unary call.
+  std::unique_ptr<client::CrossingClient> Connect() const;
+};
+
+using CommandFn = std::function<int(CommandContext&)>;
+
+// Leaf commands and what they run. Commands run after CLI11 has checked every requirement, which
+// CLI11's own callbacks do not guarantee (they run before the requirement checks).
+class CommandRegistry {
+ public:
+  void Add(CLI::App* command, CommandFn run) { commands_.emplace_back(command, std::move(run)); }
+  // Runs the leaf command the command line selected; nullopt if none was selected.
+  std::optional<int> RunParsed(CommandContext& context) const;
+
+ private:
+  std::vector<std::pair<CLI::App*, CommandFn>> commands_;
+};
+
+// One registration function per command group (db_commands.cc, crossing_commands.cc, ...).
+void AddDbCommands(CLI::App& app, CommandRegistry& registry);
+void AddCrossingCommands(CLI::App& app, CommandRegistry& registry);
+void AddEnrollCommand(CLI::App& app, CommandRegistry& registry);
+void AddRecognizeCommand(CLI::App& app, CommandRegistry& registry);
+void AddEvalCommand(CLI::App& app, CommandRegistry& registry);
+
+}  // namespace waymark::cli
+
+#endif  // WAYMARK_CLIENT_TOOLS_COMMAND_H_

@@ -1,0 +1,322 @@
+// The `waymark` command line against the in-memory fake service: arguments reach the API, results
+// reach stdout (tables or one JSON document), errors reach stderr with code and message.
+#include "client/tools/cli.h"
+
+#include <gmock/gmock.h>
+#include <gtest/gtest.h>
+
+#include <fstream>
+#include <nlohmann/json.hpp>
+#include <sstream>
+
+#include "tests/client/fake_crossing_service.h"
+#include "tests/client/test_util.h"
+
+namespace waymark::cli {
+namespace {
+
+using ::testing::HasSubstr;
+using ::testing::Not;
+using waymark::testing::FakeServer;
+using waymark::testing::ReadAll;
+using waymark::testing::ScopedTempDir;
+using waymark::testing::WriteImage;
+
+struct CliResult {
+  int code = -1;
+  std::string out;
+  std::string err;
+
+  nlohmann::json Json() const { return nlohmann::json::parse(out); }
+};
+
+class CliTest : public ::testing::Test {
+ protected:
+  CliResult Run(std::vector<std::string> args, const std::string& server = "") {
+    args.insert(args.begin(), {"waymark", "--server", server.empty() ? server_.address() : server});
+    std::vector<const char*> argv;
+    for (const std::string& arg : args) argv.push_back(arg.c_str());
+    std::ostringstream out, err;
+    CliResult result;
+    result.code = RunCli(static_cast<int>(argv.size()), argv.data(), out, err, false);
+    result.out = out.str();
+    result.err = err.str();
+    return result;
+  }
+
+  // DIR/A/{000,090}.png and DIR/B/{000,090}.png, all different.
+  void MakeViews(const ScopedTempDir& dir) {
+    WriteImage(dir.Make("views/A/000.png"), 40, 30, cv::Scalar(255, 0, 0));
+    WriteImage(dir.Make("views/A/090.png"), 40, 30, cv::Scalar(0, 255, 0));
+    WriteImage(dir.Make("views/B/090.png"), 40, 30, cv::Scalar(0, 0, 255));
+    WriteImage(dir.Make("views/B/000.png"), 40, 30, cv::Scalar(9, 9, 9));
+  }
+
+  void Copy(const ScopedTempDir& dir, const std::string& from, const std::string& to) {
+    std::filesystem::copy_file(dir.path() / from, dir.Make(to));
+  }
+
+  FakeServer server_;
+};
+
+TEST_F(CliTest, DbCreateSendsOnlyTheGivenParams) {
+  CliResult r = Run({"db", "create", "campus", "--hue-bins", "18", "--mode", "verified", "--json"});
+  ASSERT_EQ(r.code, 0) << r.err;
+  EXPECT_EQ(r.Json()["name"], "campus");
+  const v1::CreateDatabaseRequest sent = server_.service().last_create();
+  EXPECT_EQ(sent.params().hue_bins(), 18);
+  EXPECT_EQ(sent.params().recognition().mode(), v1::RECOGNITION_MODE_VERIFIED);
+  EXPECT_FALSE(sent.params().has_work_width());
+  EXPECT_FALSE(sent.params().has_cluster_threshold());
+
+  r = Run({"db", "create", "lab", "--work-width", "640", "--work-height", "480",
+           "--cluster-threshold", "7"});
+  ASSERT_EQ(r.code, 0) << r.err;
+  EXPECT_THAT(r.out, HasSubstr("created database lab"));
+  EXPECT_THAT(r.out, HasSubstr("640x480"));
+  EXPECT_EQ(server_.service().last_create().params().cluster_threshold(), 7);
+}
+
+TEST_F(CliTest, ErrorsGoToStderrWithCodeNameAndMessage) {
+  ASSERT_EQ(Run({"db", "create", "campus"}).code, 0);
+  CliResult r = Run({"db", "create", "campus", "--json"});
+  EXPECT_NE(r.code, 0);
+  EXPECT_EQ(r.out, "");
+  EXPECT_THAT(r.err, HasSubstr("ALREADY_EXISTS: database 'campus' already exists"));
+
+  r = Run({"db", "stats", "nowhere"});
+  EXPECT_NE(r.code, 0);
+  EXPECT_THAT(r.err, HasSubstr("NOT_FOUND: no crossing database named 'nowhere'"));
+}
+
+TEST_F(CliTest, UnreachableServerNamesTheAddress) {
+  CliResult r = Run({"--timeout", "2", "db", "list"}, "127.0.0.1:1");
+  EXPECT_NE(r.code, 0);
+  EXPECT_THAT(r.err, HasSubstr("UNAVAILABLE"));
+  EXPECT_THAT(r.err, HasSubstr("127.0.0.1:1"));
+}
+
+TEST_F(CliTest, UsageErrorsFailWithoutCallingTheServer) {
+  EXPECT_NE(Run({"db"}).code, 0);
+  EXPECT_NE(Run({"db", "create"}).code, 0);
+  EXPECT_NE(Run({"recognize", "campus"}).code, 0);  // neither IMAGE nor --camera
+  EXPECT_NE(Run({"recognize", "campus", "--ratio", "2", "x.png"}).code, 0);
+  EXPECT_EQ(server_.service().calls("CreateDatabase"), 0);
+  EXPECT_EQ(server_.service().calls("RecognizeCrossing"), 0);
+}
+
+TEST_F(CliTest, DbListStatsAndDelete) {
+  ASSERT_EQ(Run({"db", "create", "campus"}).code, 0);
+  ASSERT_EQ(Run({"crossing", "add", "campus", "A", "--label", "Main St / 1st Ave"}).code, 0);
+
+  CliResult list = Run({"db", "list"});
+  ASSERT_EQ(list.code, 0) << list.err;
+  EXPECT_THAT(list.out, HasSubstr("name"));
+  EXPECT_THAT(list.out, HasSubstr("campus"));
+  EXPECT_EQ(Run({"db", "list", "--json"}).Json()["databases"][0]["crossings"], 1);
+
+  CliResult stats = Run({"db", "stats", "campus"});
+  ASSERT_EQ(stats.code, 0) << stats.err;
+  EXPECT_THAT(stats.out, HasSubstr("Main St / 1st Ave"));
+  EXPECT_THAT(stats.out, HasSubstr("members"));
+  nlohmann::json json = Run({"--json", "db", "stats", "campus"}).Json();
+  EXPECT_EQ(json["database"]["name"], "campus");
+  EXPECT_TRUE(json.contains("keypoints"));
+  EXPECT_TRUE(json.contains("descriptor_bytes"));
+  EXPECT_EQ(json["clusters"].size(), 1u);
+
+  EXPECT_EQ(Run({"db", "delete", "campus", "--json"}).Json()["deleted"], "campus");
+  EXPECT_TRUE(Run({"db", "list", "--json"}).Json()["databases"].empty());
+  EXPECT_THAT(Run({"db", "list"}).out, HasSubstr("no databases"));
+}
+
+TEST_F(CliTest, CrossingCommands) {
+  ASSERT_EQ(Run({"db", "create", "campus"}).code, 0);
+  CliResult add = Run({"crossing", "add", "campus", "A", "--json"});
+  ASSERT_EQ(add.code, 0) << add.err;
+  EXPECT_EQ(add.Json()["name"], "A");
+  EXPECT_THAT(Run({"crossing", "list", "campus"}).out, HasSubstr("A"));
+  EXPECT_EQ(Run({"crossing", "delete", "campus", "A", "--json"}).Json()["views_deleted"], 0);
+  EXPECT_NE(Run({"crossing", "delete", "campus", "A"}).code, 0);
+}
+
+TEST_F(CliTest, EnrollSendsFileBytesInCrossingThenHeadingOrder) {
+  ScopedTempDir dir;
+  MakeViews(dir);
+  ASSERT_EQ(Run({"db", "create", "campus"}).code, 0);
+  CliResult r =
+      Run({"enroll", "campus", (dir.path() / "views").string(), "--store-images", "--json"});
+  ASSERT_EQ(r.code, 0) << r.err;
+  nlohmann::json json = r.Json();
+  EXPECT_EQ(json["views"], 4);
+  EXPECT_EQ(json["crossings"], 2);
+  EXPECT_EQ(json["crossings_created"], 2);
+  EXPECT_EQ(json["keypoints"], 400);
+
+  const auto views = server_.service().views("campus");
+  ASSERT_EQ(views.size(), 4u);
+  EXPECT_EQ(views[0].crossing, "A");
+  EXPECT_EQ(views[0].heading_deg, 0);
+  EXPECT_EQ(views[1].heading_deg, 90);
+  EXPECT_EQ(views[2].crossing, "B");
+  EXPECT_EQ(views[2].heading_deg, 0);
+  EXPECT_EQ(views[2].bytes, ReadAll(dir.path() / "views/B/000.png"));  // sent as they are
+  EXPECT_TRUE(views[3].store_image);
+}
+
+TEST_F(CliTest, EnrollHumanOutputAndErrors) {
+  ScopedTempDir dir;
+  MakeViews(dir);
+  ASSERT_EQ(Run({"db", "create", "campus"}).code, 0);
+  CliResult r = Run({"enroll", "campus", (dir.path() / "views").string()});
+  ASSERT_EQ(r.code, 0) << r.err;
+  EXPECT_THAT(r.out, HasSubstr("enrolled 4 views of 2 crossings into campus"));
+  EXPECT_EQ(r.err, "");  // no progress bar when stderr is not a terminal
+
+  CliResult missing_db = Run({"enroll", "nowhere", (dir.path() / "views").string()});
+  EXPECT_NE(missing_db.code, 0);
+  EXPECT_THAT(missing_db.err, HasSubstr("NOT_FOUND"));
+
+  WriteImage(dir.Make("views/C/left.png"), 8, 8, cv::Scalar(1, 2, 3));
+  CliResult bad_name = Run({"enroll", "campus", (dir.path() / "views").string()});
+  EXPECT_NE(bad_name.code, 0);
+  EXPECT_THAT(bad_name.err, HasSubstr("left.png"));
+}
+
+TEST_F(CliTest, RecognizeImagesWithOverrides) {
+  ScopedTempDir dir;
+  MakeViews(dir);
+  ASSERT_EQ(Run({"db", "create", "campus"}).code, 0);
+  ASSERT_EQ(Run({"enroll", "campus", (dir.path() / "views").string()}).code, 0);
+  WriteImage(dir.Make("elsewhere.png"), 40, 30, cv::Scalar(1, 1, 1));
+
+  CliResult r = Run({"recognize", "campus", (dir.path() / "views/B/090.png").string(),
+                     (dir.path() / "elsewhere.png").string(), "--ratio", "0.5", "--json"});
+  ASSERT_EQ(r.code, 0) << r.err;
+  nlohmann::json results = r.Json()["results"];
+  ASSERT_EQ(results.size(), 2u);
+  EXPECT_EQ(results[0]["recognized"], true);
+  EXPECT_EQ(results[0]["crossing"], "B");
+  EXPECT_DOUBLE_EQ(results[0]["heading_deg"].get<double>(), 90);
+  EXPECT_EQ(results[1]["recognized"], false);
+  EXPECT_TRUE(results[1].contains("latency_ms"));
+
+  const v1::RecognitionParams params = server_.service().last_params();
+  EXPECT_DOUBLE_EQ(params.ratio(), 0.5);
+  EXPECT_FALSE(params.has_n0());
+  EXPECT_FALSE(params.has_mode());
+
+  CliResult verbose =
+      Run({"recognize", "campus", (dir.path() / "views/A/090.png").string(), "--verbose"});
+  ASSERT_EQ(verbose.code, 0) << verbose.err;
+  EXPECT_THAT(verbose.out, HasSubstr("recognized A, heading 90.0 deg"));
+  EXPECT_THAT(verbose.out, HasSubstr("similarity"));  // the candidate table
+  EXPECT_THAT(verbose.out, HasSubstr("decision"));
+}
+
+TEST_F(CliTest, RecognizeReportsABadFileButKeepsTheOthers) {
+  ScopedTempDir dir;
+  MakeViews(dir);
+  ASSERT_EQ(Run({"db", "create", "campus"}).code, 0);
+  ASSERT_EQ(Run({"enroll", "campus", (dir.path() / "views").string()}).code, 0);
+  CliResult r = Run({"recognize", "campus", (dir.path() / "missing.png").string(),
+                     (dir.path() / "views/A/000.png").string()});
+  EXPECT_NE(r.code, 0);
+  EXPECT_THAT(r.err, HasSubstr("NOT_FOUND"));
+  EXPECT_THAT(r.err, HasSubstr("missing.png"));
+  EXPECT_THAT(r.out, HasSubstr("recognized A"));
+}
+
+TEST_F(CliTest, RecognizeCameraStreamsFrames) {
+  ScopedTempDir dir;
+  for (int i = 0; i < 5; ++i) {
+    WriteImage(dir.Make(cv::format("cam/%03d.png", i)), 64, 48, cv::Scalar(i * 40, 50, 50));
+  }
+  ASSERT_EQ(Run({"db", "create", "campus"}).code, 0);
+  const std::string pattern = (dir.path() / "cam/%03d.png").string();
+
+  CliResult all = Run({"recognize", "campus", "--camera", pattern, "--json"});
+  ASSERT_EQ(all.code, 0) << all.err;
+  EXPECT_EQ(all.Json()["frames"].size(), 5u);
+  EXPECT_EQ(all.Json()["first_recognized_frame"], 0);
+  EXPECT_EQ(server_.service().stream_frame_sizes().front(), std::make_pair(320, 240));
+
+  CliResult limited = Run({"recognize", "campus", "--camera", pattern, "--max-frames", "2"});
+  ASSERT_EQ(limited.code, 0) << limited.err;
+  EXPECT_THAT(limited.out, HasSubstr("frame 0: recognized A"));
+  EXPECT_THAT(limited.out, HasSubstr("frame 1:"));
+  EXPECT_THAT(limited.out, Not(HasSubstr("frame 2:")));
+
+  server_.service().set_stream_recognize_from(3);
+  CliResult until =
+      Run({"recognize", "campus", "--camera", pattern, "--until-recognized", "--json"});
+  ASSERT_EQ(until.code, 0) << until.err;
+  EXPECT_EQ(until.Json()["frames"].size(), 4u);
+  EXPECT_EQ(until.Json()["first_recognized_frame"], 3);
+  EXPECT_EQ(until.Json()["end"], "recognized");
+
+  CliResult no_camera = Run({"recognize", "campus", "--camera", (dir.path() / "x.mp4").string()});
+  EXPECT_NE(no_camera.code, 0);
+  EXPECT_THAT(no_camera.err, HasSubstr("x.mp4"));
+}
+
+TEST_F(CliTest, EvalComputesTheProtocolsMetrics) {
+  ScopedTempDir dir;
+  MakeViews(dir);
+  ASSERT_EQ(Run({"db", "create", "campus"}).code, 0);
+  ASSERT_EQ(Run({"enroll", "campus", (dir.path() / "views").string()}).code, 0);
+  // The fake recognizes a query iff it is byte-identical to a view.
+  Copy(dir, "views/A/090.png", "queries/A/090.png");  // correct, heading error 0
+  Copy(dir, "views/B/000.png", "queries/A/odd.png");  // wrong crossing
+  Copy(dir, "views/B/090.png", "queries/B/080.png");  // correct, heading error 10
+  WriteImage(dir.Make("queries/unknown/park.png"), 40, 30, cv::Scalar(7, 7, 7));  // rejected
+  Copy(dir, "views/A/000.png", "queries/unknown/fake.png");                       // false accept
+  const std::string csv = (dir.path() / "per_query.csv").string();
+
+  CliResult r = Run({"eval", "campus", (dir.path() / "queries").string(), "--per-query", csv,
+                     "--n0", "4", "--json"});
+  ASSERT_EQ(r.code, 0) << r.err;
+  nlohmann::json json = r.Json();
+  EXPECT_EQ(json["queries"], 5);
+  EXPECT_EQ(json["known_queries"], 3);
+  EXPECT_EQ(json["unknown_queries"], 2);
+  EXPECT_NEAR(json["top1_accuracy"].get<double>(), 2.0 / 3.0, 1e-12);
+  EXPECT_DOUBLE_EQ(json["false_accept_rate"].get<double>(), 0.5);
+  EXPECT_DOUBLE_EQ(json["heading_error_deg_median"].get<double>(), 5);
+  EXPECT_TRUE(json["latency_ms_p50"].is_number());
+  EXPECT_TRUE(json["latency_ms_p99"].is_number());
+  EXPECT_EQ(json["confusion"]["A"]["B"], 1);
+  EXPECT_EQ(json["confusion"]["unknown"]["(not recognized)"], 1);
+  EXPECT_EQ(json["recall"]["per_crossing"]["B"]["correct"], 1);
+  EXPECT_EQ(server_.service().last_params().n0(), 4);
+
+  std::istringstream rows(ReadAll(csv));
+  int lines = 0;
+  for (std::string line; std::getline(rows, line);) ++lines;
+  EXPECT_EQ(lines, 1 + 5);
+
+  CliResult human = Run({"eval", "campus", (dir.path() / "queries").string()});
+  ASSERT_EQ(human.code, 0) << human.err;
+  EXPECT_THAT(human.out, HasSubstr("top-1 accuracy       66.7% (2/3)"));
+  EXPECT_THAT(human.out, HasSubstr("A (2): A 1, B 1"));
+}
+
+TEST_F(CliTest, EvalWithoutUnknownFolderHasNullFalseAcceptRate) {
+  ScopedTempDir dir;
+  MakeViews(dir);
+  ASSERT_EQ(Run({"db", "create", "campus"}).code, 0);
+  ASSERT_EQ(Run({"enroll", "campus", (dir.path() / "views").string()}).code, 0);
+  Copy(dir, "views/A/090.png", "queries/A/q.png");
+  CliResult r = Run({"--json", "eval", "campus", (dir.path() / "queries").string()});
+  ASSERT_EQ(r.code, 0) << r.err;
+  EXPECT_TRUE(r.Json()["false_accept_rate"].is_null());
+  EXPECT_TRUE(r.Json()["heading_error_deg_median"].is_null());  // stem "q" is no heading
+  EXPECT_DOUBLE_EQ(r.Json()["top1_accuracy"].get<double>(), 1.0);
+
+  CliResult missing_db = Run({"eval", "nowhere", (dir.path() / "queries").string()});
+  EXPECT_NE(missing_db.code, 0);
+  EXPECT_THAT(missing_db.err, HasSubstr("NOT_FOUND"));
+}
+
+}  // namespace
+}  // namespace waymark::cli

@@ -1,0 +1,39 @@
+#include "client/tools/progress_bar.h"
+
+#include <gtest/gtest.h>
+
+#include <sstream>
+
+namespace waymark::cli {
+namespace {
+
+TEST(FormatProgressTest, FillsProportionally) {
+  EXPECT_EQ(FormatProgress(0, 360, "views", 10), "[          ] 0/360 views");
+  EXPECT_EQ(FormatProgress(180, 360, "views", 10), "[#####     ] 180/360 views");
+  EXPECT_EQ(FormatProgress(360, 360, "views", 10), "[##########] 360/360 views");
+  EXPECT_EQ(FormatProgress(5, 0, "views", 4), "[####] 5/0 views");
+}
+
+TEST(ProgressBarTest, SilentWhenDisabled) {
+  std::ostringstream out;
+  {
+    ProgressBar bar(out, 3, "views", /*enabled=*/false);
+    bar.Update(1);
+    bar.Update(3);
+  }
+  EXPECT_EQ(out.str(), "");
+}
+
+TEST(ProgressBarTest, RedrawsInPlaceAndEndsTheLine) {
+  std::ostringstream out;
+  ProgressBar bar(out, 2, "views", /*enabled=*/true);
+  bar.Update(1);
+  bar.Update(2);
+  bar.Finish();
+  bar.Finish();  // idempotent
+  EXPECT_EQ(out.str(),
+            "\r" + FormatProgress(1, 2, "views") + "\r" + FormatProgress(2, 2, "views") + "\n");
+}
+
+}  // namespace
+}  // namespace waymark::cli

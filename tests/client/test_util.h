@@ -1,0 +1,34 @@
+#ifndef WAYMARK_TESTS_CLIENT_TEST_UTIL_H_
+#define WAYMARK_TESTS_CLIENT_TEST_UTIL_H_
+
+#include <filesystem>
+#include <opencv2/core.hpp>
+#include <string>
+
+namespace waymark::testing {
+
+// A fresh directory under the system temp dir, removed with everything in it on destruction.
+class ScopedTempDir {
+ public:
+  ScopedTempDir();
+  ~ScopedTempDir();
+  ScopedTempDir(const ScopedTempDir&) = delete;
+  ScopedTempDir& operator=(const ScopedTempDir&) = delete;
+
+  const std::filesystem::path& path() const { return path_; }
+  // path() / relative, with parent directories created.
+  std::filesystem::path Make(const std::string& relative) const;
+
+ private:
+  std::filesystem::path path_;
+};
+
+// Writes a real image (format from the extension) of the given size: a solid colour plus a
+// diagonal line, so that differently coloured images have different bytes.
+void WriteImage(const std::filesystem::path& path, int width, int height, cv::Scalar color);
+
+std::string ReadAll(const std::filesystem::path& path);
+
+}  // namespace waymark::testing
+
+#endif  // WAYMARK_TESTS_CLIENT_TEST_UTIL_H_
