@@ -1,6 +1,7 @@
 #include "server/crossing/descriptor_index.h"
 
 #include <algorithm>
+#include <numeric>
 
 namespace waymark::crossing {
 namespace {
@@ -9,54 +10,57 @@ namespace {
 constexpr int kMinChecksPerLevel = 32;
 // Merge the newest level into the previous when it reaches 1/kMergeRatio of its size.
 constexpr uint32_t kMergeRatio = 4;
-// A filtered search skips most of what it visits, so it gets a larger budget.
-constexpr int kFilteredChecksFactor = 4;
 
 }  // namespace
 
-uint32_t DescriptorIndex::Add(const uint8_t* descriptors, uint32_t count, uint32_t view) {
-  const uint32_t first = store_.Append(descriptors, count, view);
-  if (count == 0) return first;
-  levels_.push_back(std::make_unique<KdForest>(store_, first, first + count, options_.trees,
-                                               options_.leaf_size, first));
-  MergeLevels();
-  return first;
+std::vector<uint32_t> IdRange(uint32_t first, uint32_t count) {
+  std::vector<uint32_t> ids(count);
+  std::iota(ids.begin(), ids.end(), first);
+  return ids;
 }
 
-void DescriptorIndex::MergeLevels() {
+void ForestSet::Add(std::vector<uint32_t> ids) {
+  if (ids.empty()) return;
+  size_ += ids.size();
+  const uint32_t seed = ids.front();
+  levels_.push_back(std::make_unique<KdForest>(store_, std::move(ids), options_.trees,
+                                               options_.leaf_size, seed));
   while (levels_.size() >= 2) {
     const KdForest& last = *levels_[levels_.size() - 1];
     const KdForest& previous = *levels_[levels_.size() - 2];
     if (last.size() * kMergeRatio < previous.size()) break;
-    const uint32_t begin = previous.begin(), end = last.end();
+    std::vector<uint32_t> merged = previous.ids();
+    merged.insert(merged.end(), last.ids().begin(), last.ids().end());
+    std::sort(merged.begin(), merged.end());  // deterministic trees whatever the merge history
     levels_.pop_back();
-    levels_.back() = std::make_unique<KdForest>(store_, begin, end, options_.trees,
-                                                options_.leaf_size, begin);
+    levels_.back() = std::make_unique<KdForest>(store_, std::move(merged), options_.trees,
+                                                options_.leaf_size, seed);
   }
 }
 
-void DescriptorIndex::Compact() {
-  levels_.clear();
-  if (store_.size() == 0) return;
-  levels_.push_back(std::make_unique<KdForest>(store_, 0, store_.size(), options_.trees,
-                                               options_.leaf_size, 0));
-}
-
-void DescriptorIndex::Search(const uint8_t* query, KnnList* result,
-                             const std::vector<uint8_t>* view_filter) const {
-  const double total = std::max<uint32_t>(1, store_.size());
-  const double budget = options_.checks * (view_filter != nullptr ? kFilteredChecksFactor : 1);
+void ForestSet::Search(const uint8_t* query, KnnList* result) const {
+  const double total = std::max<size_t>(1, size_);
   for (const auto& level : levels_) {
-    const int checks =
-        std::max(kMinChecksPerLevel, static_cast<int>(budget * (level->size() / total)));
-    level->Search(query, checks, result, view_filter);
+    const int checks = std::max(kMinChecksPerLevel,
+                                static_cast<int>(options_.checks * (level->size() / total)));
+    level->Search(query, checks, result);
   }
+}
+
+size_t ForestSet::memory_bytes() const {
+  size_t bytes = 0;
+  for (const auto& level : levels_) bytes += level->memory_bytes();
+  return bytes;
+}
+
+uint32_t DescriptorIndex::Add(const uint8_t* descriptors, uint32_t count, uint32_t view) {
+  const uint32_t first = store_.Append(descriptors, count, view);
+  all_.Add(IdRange(first, count));
+  return first;
 }
 
 size_t DescriptorIndex::memory_bytes() const {
-  size_t bytes = static_cast<size_t>(store_.size()) * sizeof(uint32_t);
-  for (const auto& level : levels_) bytes += level->memory_bytes();
-  return bytes;
+  return static_cast<size_t>(store_.size()) * sizeof(uint32_t) + all_.memory_bytes();
 }
 
 }  // namespace waymark::crossing

@@ -6,10 +6,12 @@
 // paper builds, costs a search per view).
 //
 // It grows as views are enrolled without rebuilding everything: descriptors live in an
-// append-only DescriptorStore and the index is a short list of k-d forests ("levels") over
-// consecutive id ranges. A new view gets a level of its own; whenever the newest level reaches a
-// quarter of the one before, the two are merged (rebuilt as one). That keeps O(log n) levels and
-// rebuilds each descriptor O(log n) times over the life of the database.
+// append-only DescriptorStore and a ForestSet is a short list of k-d forests ("levels") over sets
+// of their ids. New ids get a level of their own; whenever the newest level reaches a quarter of
+// the one before, the two are merged (rebuilt as one). That keeps O(log n) levels and rebuilds
+// each descriptor O(log n) times over the life of the database. The search is approximate, so
+// its results depend on the trees: the levels are a pure function of the sequence of additions
+// (and their seeds of the ids), never of timing, which is what makes a restart reproducible.
 
 #include <cstdint>
 #include <memory>
@@ -21,39 +23,66 @@
 
 namespace waymark::crossing {
 
-class DescriptorIndex {
+// A searchable set of ids of a DescriptorStore. Several sets can index the same store without
+// copying it (all descriptors; the cluster centres' descriptors).
+class ForestSet {
  public:
-  explicit DescriptorIndex(const IndexOptions& options) : options_(options) {}
+  ForestSet(const DescriptorStore& store, const IndexOptions& options)
+      : store_(store), options_(options) {}
+  ForestSet(const ForestSet&) = delete;
+  ForestSet& operator=(const ForestSet&) = delete;
 
-  // Appends `count` descriptors of view slot `view` and indexes them. Returns the first id.
-  uint32_t Add(const uint8_t* descriptors, uint32_t count, uint32_t view);
-  // Appends without indexing: for bulk loads, which call Compact() once at the end. Descriptors
-  // appended this way are not searched until then.
-  uint32_t AddUnindexed(const uint8_t* descriptors, uint32_t count, uint32_t view) {
-    return store_.Append(descriptors, count, view);
+  // Indexes more ids (a new level, merged as described above).
+  void Add(std::vector<uint32_t> ids);
+  void Clear() {
+    levels_.clear();
+    size_ = 0;
   }
-  // Rebuilds all levels as one forest over everything stored.
-  void Compact();
 
-  // The `knn` nearest stored descriptors of `query` (approximate: `checks` descriptors visited,
+  // The `knn` nearest indexed descriptors of `query` (approximate: `checks` descriptors visited,
   // shared over the levels in proportion to their size).
-  // With `view_filter`, only views v with (*view_filter)[v] != 0 are searched (clustering asks
-  // for cluster centres only) and the search budget is larger.
-  void Search(const uint8_t* query, KnnList* result,
-              const std::vector<uint8_t>* view_filter = nullptr) const;
+  void Search(const uint8_t* query, KnnList* result) const;
 
   const DescriptorStore& store() const { return store_; }
   const IndexOptions& options() const { return options_; }
   size_t levels() const { return levels_.size(); }
+  size_t size() const { return size_; }
+  size_t memory_bytes() const;
+
+ private:
+  const DescriptorStore& store_;
+  IndexOptions options_;
+  std::vector<std::unique_ptr<KdForest>> levels_;
+  size_t size_ = 0;
+};
+
+// The store of all descriptors of a database and the forests over all of them.
+class DescriptorIndex {
+ public:
+  explicit DescriptorIndex(const IndexOptions& options) : all_(store_, options) {}
+  DescriptorIndex(const DescriptorIndex&) = delete;
+  DescriptorIndex& operator=(const DescriptorIndex&) = delete;
+
+  // Appends `count` descriptors of view slot `view` and indexes them. Returns the first id.
+  // The forests depend only on the sequence of Add calls, so a database reloaded by adding its
+  // views in enrollment order searches exactly as before the restart.
+  uint32_t Add(const uint8_t* descriptors, uint32_t count, uint32_t view);
+
+  void Search(const uint8_t* query, KnnList* result) const { all_.Search(query, result); }
+
+  const DescriptorStore& store() const { return store_; }
+  const ForestSet& forests() const { return all_; }
+  const IndexOptions& options() const { return all_.options(); }
+  size_t levels() const { return all_.levels(); }
   size_t memory_bytes() const;  // forests + labels, not the descriptors themselves
 
  private:
-  void MergeLevels();
-
-  IndexOptions options_;
   DescriptorStore store_;
-  std::vector<std::unique_ptr<KdForest>> levels_;
+  ForestSet all_;
 };
+
+// Ids [first, first + count).
+std::vector<uint32_t> IdRange(uint32_t first, uint32_t count);
 
 }  // namespace waymark::crossing
 

@@ -3,6 +3,7 @@
 #include <algorithm>
 #include <array>
 #include <numeric>
+#include <utility>
 #include <queue>
 
 #include "server/crossing/l2_distance.h"
@@ -45,16 +46,17 @@ void KnnList::Offer(uint32_t id, int32_t squared_distance) {
   if (static_cast<int>(items_.size()) > k_) items_.pop_back();
 }
 
-KdForest::KdForest(const DescriptorStore& store, uint32_t begin, uint32_t end, int trees,
+KdForest::KdForest(const DescriptorStore& store, std::vector<uint32_t> ids, int trees,
                    int leaf_size, uint32_t seed)
-    : store_(store), begin_(begin), end_(end), leaf_size_(std::max(1, leaf_size)) {
+    : store_(store), leaf_size_(std::max(1, leaf_size)) {
   trees_.resize(std::max(1, trees));
   uint32_t rng = seed * 2654435761u + 1;
-  for (Tree& tree : trees_) {
-    tree.ids.resize(end - begin);
-    std::iota(tree.ids.begin(), tree.ids.end(), begin);
-    tree.nodes.reserve(2 * (end - begin) / leaf_size_ + 1);
-    if (end > begin) BuildNode(&tree, 0, end - begin, &rng);
+  const uint32_t n = static_cast<uint32_t>(ids.size());
+  for (size_t t = 0; t < trees_.size(); ++t) {
+    Tree& tree = trees_[t];
+    tree.ids = t + 1 < trees_.size() ? ids : std::move(ids);
+    tree.nodes.reserve(2 * n / leaf_size_ + 1);
+    if (n > 0) BuildNode(&tree, 0, n, &rng);
   }
 }
 
@@ -101,9 +103,8 @@ uint32_t KdForest::BuildNode(Tree* tree, uint32_t first, uint32_t last, uint32_t
   return index;
 }
 
-void KdForest::Search(const uint8_t* query, int checks, KnnList* result,
-                      const std::vector<uint8_t>* view_filter) const {
-  if (end_ == begin_) return;
+void KdForest::Search(const uint8_t* query, int checks, KnnList* result) const {
+  if (size() == 0) return;
   std::priority_queue<Branch, std::vector<Branch>, std::greater<Branch>> branches;
   int checked = 0;
   // Descends from `node` to a leaf, queueing the far side of every split on the way.
@@ -124,12 +125,8 @@ void KdForest::Search(const uint8_t* query, int checks, KnnList* result,
     const Node& leaf = tree.nodes[node];
     for (uint32_t i = leaf.left_or_first; i < leaf.right_or_last; ++i) {
       const uint32_t id = tree.ids[i];
-      ++checked;
-      if (view_filter != nullptr) {
-        const uint32_t view = store_.ViewOf(id);
-        if (view >= view_filter->size() || (*view_filter)[view] == 0) continue;
-      }
       result->Offer(id, SquaredL2(query, store_.Get(id)));
+      ++checked;
     }
   };
   for (uint16_t t = 0; t < trees_.size(); ++t) descend(t, 0);

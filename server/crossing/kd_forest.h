@@ -2,7 +2,7 @@
 #define WAYMARK_SERVER_CROSSING_KD_FOREST_H_
 
 // Randomized k-d trees (Silpa-Anan & Hartley 2008, the structure behind FLANN's KDTreeIndex) over
-// a contiguous id range of a DescriptorStore, searched best-bin-first. Written here rather than
+// a set of descriptor ids of a DescriptorStore, searched best-bin-first. Written here rather than
 // taken from cv::flann because FLANN wants float data (4x the memory of the uint8 descriptors) and
 // cannot grow; this one indexes the uint8 store in place.
 
@@ -36,18 +36,16 @@ class KnnList {
 
 class KdForest {
  public:
-  // Builds `trees` trees over ids [begin, end) of `store`. Deterministic for a given seed.
-  KdForest(const DescriptorStore& store, uint32_t begin, uint32_t end, int trees, int leaf_size,
+  // Builds `trees` trees over `ids` of `store`. Deterministic for a given seed.
+  KdForest(const DescriptorStore& store, std::vector<uint32_t> ids, int trees, int leaf_size,
            uint32_t seed);
 
   // Adds to `result` the neighbours of `query` found by visiting at most `checks` descriptors.
-  // With `view_filter`, only descriptors of views v with (*view_filter)[v] != 0 are offered.
-  void Search(const uint8_t* query, int checks, KnnList* result,
-              const std::vector<uint8_t>* view_filter = nullptr) const;
+  void Search(const uint8_t* query, int checks, KnnList* result) const;
 
-  uint32_t begin() const { return begin_; }
-  uint32_t end() const { return end_; }
-  uint32_t size() const { return end_ - begin_; }
+  // The indexed ids (in tree order).
+  const std::vector<uint32_t>& ids() const { return trees_.front().ids; }
+  uint32_t size() const { return static_cast<uint32_t>(trees_.front().ids.size()); }
   size_t memory_bytes() const;
 
  private:
@@ -67,7 +65,6 @@ class KdForest {
   uint32_t BuildNode(Tree* tree, uint32_t first, uint32_t last, uint32_t* rng);
 
   const DescriptorStore& store_;
-  uint32_t begin_, end_;
   int leaf_size_;
   std::vector<Tree> trees_;
 };

@@ -116,6 +116,9 @@ void RecognizeVerified(const ViewDatabase& db, const ImageFeatures& query,
   verification.threshold_px = options.ransac_threshold_px;
   std::vector<Candidate> list;
   for (const auto& [count, slot] : ranked) {
+    // Inliers are a subset of the tentative matches: a view with fewer tentative matches than the
+    // rejection rule's minimum could never be accepted, so it is not worth a RANSAC.
+    if (count < std::max(8, options.min_inliers)) continue;
     const auto& pairs = tentative.at(slot);
     const ViewEntry& view = db.views()[slot];
     std::vector<cv::Point2f> q, v;

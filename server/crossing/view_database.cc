@@ -8,7 +8,7 @@ namespace waymark::crossing {
 
 uint32_t ViewDatabase::AddView(int64_t view_id, int64_t crossing_id, double heading_deg,
                                const cv::Mat& descriptors, std::vector<cv::Point2f> points,
-                               std::vector<float> hue_hist, bool defer_indexing) {
+                               std::vector<float> hue_hist) {
   const uint32_t slot = static_cast<uint32_t>(views_.size());
   const cv::Mat continuous = descriptors.isContinuous() ? descriptors : descriptors.clone();
   ViewEntry entry;
@@ -16,9 +16,7 @@ uint32_t ViewDatabase::AddView(int64_t view_id, int64_t crossing_id, double head
   entry.crossing_id = crossing_id;
   entry.heading_deg = heading_deg;
   entry.span.count = static_cast<uint32_t>(continuous.rows);
-  entry.span.first = defer_indexing
-                         ? index_.AddUnindexed(continuous.ptr<uint8_t>(), entry.span.count, slot)
-                         : index_.Add(continuous.ptr<uint8_t>(), entry.span.count, slot);
+  entry.span.first = index_.Add(continuous.ptr<uint8_t>(), entry.span.count, slot);
   entry.points = std::move(points);
   entry.hue_hist = std::move(hue_hist);
   spans_.push_back(entry.span);
@@ -26,24 +24,30 @@ uint32_t ViewDatabase::AddView(int64_t view_id, int64_t crossing_id, double head
   return slot;
 }
 
-std::vector<uint8_t> ViewDatabase::CenterFilter() const {
-  std::vector<uint8_t> filter(views_.size(), 0);
-  for (const ClusterEntry& c : clusters_) filter[c.center] = 1;
-  return filter;
+std::vector<int> ViewDatabase::CountCenterMatches(const cv::Mat& descriptors,
+                                                  const ForestSet& centers,
+                                                  const std::vector<ClusterEntry>& clusters,
+                                                  const ClusterOptions& options) const {
+  // The index shortlists the centres; the count itself is exact, as the paper's clustering
+  // (enrollment is not latency-bound, and a count of 4 vs 5 decides a new cluster).
+  const std::unordered_map<uint32_t, int> votes = CountViewVotes(descriptors, centers);
+  std::vector<int> per_center(clusters.size(), 0);
+  for (size_t c = 0; c < clusters.size(); ++c) {
+    auto it = votes.find(clusters[c].center);
+    if (it == votes.end() || it->second < options.threshold) continue;
+    per_center[c] = static_cast<int>(
+        MatchViewExact(descriptors, index_.store(), spans_[clusters[c].center], options.ratio)
+            .size());
+  }
+  return per_center;
 }
 
 ClusterProposal ViewDatabase::ProposeCluster(const cv::Mat& descriptors,
                                              const ClusterOptions& options) const {
   ClusterProposal proposal;
   if (clusters_.empty()) return proposal;
-  const std::vector<uint8_t> filter = CenterFilter();
-  const ViewMatches matches =
-      MatchAllViews(descriptors, index_, spans_, options.ratio, /*resolve_exactly=*/true, &filter);
-  std::vector<int> per_center(clusters_.size(), 0);
-  for (size_t c = 0; c < clusters_.size(); ++c) {
-    auto it = matches.find(clusters_[c].center);
-    if (it != matches.end()) per_center[c] = static_cast<int>(it->second.size());
-  }
+  const std::vector<int> per_center =
+      CountCenterMatches(descriptors, centers_, clusters_, options);
   proposal.cluster = AssignCluster(per_center, options.threshold);
   for (int m : per_center) proposal.matches = std::max(proposal.matches, m);
   return proposal;
@@ -57,6 +61,7 @@ int ViewDatabase::NewCluster(int64_t cluster_id, uint32_t center_slot) {
   clusters_.push_back(std::move(cluster));
   const int index = static_cast<int>(clusters_.size()) - 1;
   views_[center_slot].cluster = index;
+  centers_.Add(IdRange(views_[center_slot].span.first, views_[center_slot].span.count));
   return index;
 }
 
@@ -67,19 +72,13 @@ void ViewDatabase::AddToCluster(int cluster, uint32_t slot) {
 
 std::vector<ClusterEntry> ViewDatabase::ComputeClusters(const ClusterOptions& options) const {
   std::vector<ClusterEntry> clusters;
-  std::vector<uint8_t> filter(views_.size(), 0);  // centres so far
+  ForestSet centers(index_.store(), index_.options());  // centres so far
   for (uint32_t slot = 0; slot < views_.size(); ++slot) {
-    int join = -1;
-    if (!clusters.empty()) {
-      const ViewMatches matches = MatchAllViews(Descriptors(slot), index_, spans_, options.ratio,
-                                                /*resolve_exactly=*/true, &filter);
-      std::vector<int> per_center(clusters.size(), 0);
-      for (size_t c = 0; c < clusters.size(); ++c) {
-        auto it = matches.find(clusters[c].center);
-        if (it != matches.end()) per_center[c] = static_cast<int>(it->second.size());
-      }
-      join = AssignCluster(per_center, options.threshold);
-    }
+    const int join =
+        clusters.empty()
+            ? -1
+            : AssignCluster(CountCenterMatches(Descriptors(slot), centers, clusters, options),
+                            options.threshold);
     if (join >= 0) {
       clusters[join].members.push_back(slot);
     } else {
@@ -87,7 +86,7 @@ std::vector<ClusterEntry> ViewDatabase::ComputeClusters(const ClusterOptions& op
       cluster.center = slot;
       cluster.members.push_back(slot);
       clusters.push_back(std::move(cluster));
-      filter[slot] = 1;
+      centers.Add(IdRange(views_[slot].span.first, views_[slot].span.count));
     }
   }
   return clusters;
@@ -96,8 +95,12 @@ std::vector<ClusterEntry> ViewDatabase::ComputeClusters(const ClusterOptions& op
 void ViewDatabase::SetClusters(std::vector<ClusterEntry> clusters) {
   clusters_ = std::move(clusters);
   for (ViewEntry& v : views_) v.cluster = -1;
+  // Centres indexed in creation order, as NewCluster would have: the same forests as live.
+  centers_.Clear();
   for (size_t c = 0; c < clusters_.size(); ++c) {
     for (uint32_t slot : clusters_[c].members) views_[slot].cluster = static_cast<int>(c);
+    const ViewSpan span = views_[clusters_[c].center].span;
+    centers_.Add(IdRange(span.first, span.count));
   }
 }
 
@@ -112,7 +115,8 @@ cv::Mat ViewDatabase::Descriptors(uint32_t slot) const {
 }
 
 size_t ViewDatabase::memory_bytes() const {
-  size_t bytes = index_.store().descriptor_bytes() + index_.memory_bytes();
+  size_t bytes =
+      index_.store().descriptor_bytes() + index_.memory_bytes() + centers_.memory_bytes();
   for (const ViewEntry& v : views_) {
     bytes += sizeof(ViewEntry) + v.points.capacity() * sizeof(cv::Point2f) +
              v.hue_hist.capacity() * sizeof(float);

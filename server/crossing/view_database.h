@@ -41,15 +41,16 @@ struct ClusterProposal {
 
 class ViewDatabase {
  public:
-  explicit ViewDatabase(const IndexOptions& index_options = {}) : index_(index_options) {}
+  explicit ViewDatabase(const IndexOptions& index_options = {})
+      : index_(index_options), centers_(index_.store(), index_options) {}
+  ViewDatabase(const ViewDatabase&) = delete;
+  ViewDatabase& operator=(const ViewDatabase&) = delete;
 
   // Adds a view; returns its slot. Its cluster is set separately (AddToCluster / NewCluster).
-  // With `defer_indexing` the view is searchable only after CompactIndex() (bulk loads).
+  // Loading a database = adding its views in enrollment order, which rebuilds the index exactly.
   uint32_t AddView(int64_t view_id, int64_t crossing_id, double heading_deg,
                    const cv::Mat& descriptors, std::vector<cv::Point2f> points,
-                   std::vector<float> hue_hist, bool defer_indexing = false);
-  // Rebuilds the index as one forest (after loading many views at once).
-  void CompactIndex() { index_.Compact(); }
+                   std::vector<float> hue_hist);
 
   // The paper's clustering step for a view that is not yet a centre or member: matches against
   // every current centre, the best one joins if it reaches the threshold.
@@ -71,9 +72,16 @@ class ViewDatabase {
   size_t memory_bytes() const;  // descriptors + index + keypoints + histograms
 
  private:
-  std::vector<uint8_t> CenterFilter() const;
+  // Per-centre match counts of `descriptors`: exact for the centres `centers` (the centres'
+  // forests) shortlists, 0 for the others.
+  std::vector<int> CountCenterMatches(const cv::Mat& descriptors, const ForestSet& centers,
+                                      const std::vector<ClusterEntry>& clusters,
+                                      const ClusterOptions& options) const;
 
   DescriptorIndex index_;
+  // The cluster centres' descriptors, indexed (ids into index_'s store, nothing copied): the
+  // clustering matches new views against centres only.
+  ForestSet centers_;
   std::vector<ViewEntry> views_;
   std::vector<ClusterEntry> clusters_;
   std::vector<ViewSpan> spans_;  // mirror of views_[i].span, the shape the matchers take

@@ -1,5 +1,6 @@
 #include "server/crossing/view_matching.h"
 
+#include <algorithm>
 #include <limits>
 
 #include "server/crossing/l2_distance.h"
@@ -48,19 +49,18 @@ std::vector<DescriptorMatch> MatchViewExact(const cv::Mat& query, const Descript
   return matches;
 }
 
-ViewMatches MatchAllViews(const cv::Mat& query, const DescriptorIndex& index,
-                          const std::vector<ViewSpan>& spans, double ratio, bool resolve_exactly,
-                          const std::vector<uint8_t>* view_filter) {
+ViewMatches MatchAllViews(const cv::Mat& query, const ForestSet& forests,
+                          const std::vector<ViewSpan>& spans, double ratio, bool resolve_exactly) {
   ViewMatches result;
-  const DescriptorStore& store = index.store();
-  KnnList knn(index.options().knn);
+  const DescriptorStore& store = forests.store();
+  KnnList knn(forests.options().knn);
   // Views seen in this descriptor's neighbour list, in order of their nearest (list is sorted).
   std::vector<uint32_t> seen_views;
   std::vector<const Neighbour*> seen_first, seen_second;
   for (int i = 0; i < query.rows; ++i) {
     const uint8_t* q = query.ptr<uint8_t>(i);
     knn.Clear();
-    index.Search(q, &knn, view_filter);
+    forests.Search(q, &knn);
     seen_views.clear();
     seen_first.clear();
     seen_second.clear();
@@ -76,8 +76,11 @@ ViewMatches MatchAllViews(const cv::Mat& query, const DescriptorIndex& index,
         seen_second[k] = &n;
       }
     }
-    // Beyond the list, every descriptor is at least this far (if the list is full).
-    const int64_t beyond = knn.full() ? knn.worst() : kMaxSquaredDistance;
+    // Beyond a full list every descriptor is at least as far as its last entry. A list that is
+    // not full (a search that ended early, or a small set) bounds nothing: a view seen once in
+    // it must be settled exactly.
+    const bool bounded = knn.full();
+    const int64_t beyond = bounded ? knn.worst() : 0;
     for (size_t k = 0; k < seen_views.size(); ++k) {
       const uint32_t view = seen_views[k];
       if (view >= spans.size() || spans[view].count < 2) continue;
@@ -86,7 +89,7 @@ ViewMatches MatchAllViews(const cv::Mat& query, const DescriptorIndex& index,
       bool accept;
       if (seen_second[k] != nullptr) {
         accept = PassesRatio(a2, seen_second[k]->squared_distance, ratio);
-      } else if (PassesRatio(a2, beyond, ratio)) {
+      } else if (bounded && PassesRatio(a2, beyond, ratio)) {
         accept = true;  // dis_b >= the k-th distance already makes it pass
       } else if (resolve_exactly && PassesRatio(a2, kMaxSquaredDistance, ratio)) {
         const TwoNearest exact = FindTwoNearest(q, store, spans[view]);
@@ -99,6 +102,23 @@ ViewMatches MatchAllViews(const cv::Mat& query, const DescriptorIndex& index,
     }
   }
   return result;
+}
+
+std::unordered_map<uint32_t, int> CountViewVotes(const cv::Mat& query, const ForestSet& forests) {
+  std::unordered_map<uint32_t, int> votes;
+  KnnList knn(forests.options().knn);
+  std::vector<uint32_t> seen;
+  for (int i = 0; i < query.rows; ++i) {
+    knn.Clear();
+    forests.Search(query.ptr<uint8_t>(i), &knn);
+    seen.clear();
+    for (const Neighbour& n : knn.items()) {
+      const uint32_t view = forests.store().ViewOf(n.id);
+      if (std::find(seen.begin(), seen.end(), view) == seen.end()) seen.push_back(view);
+    }
+    for (uint32_t view : seen) ++votes[view];
+  }
+  return votes;
 }
 
 }  // namespace waymark::crossing

@@ -42,10 +42,19 @@ std::vector<DescriptorMatch> MatchViewExact(const cv::Mat& query, const Descript
 // descriptor the index returns its k nearest stored descriptors; a view seen twice among them has
 // its dis_a and dis_b; a view seen once has dis_b >= the k-th distance, which decides most cases,
 // and the rest are settled exactly against that view's descriptors (`resolve_exactly`), or
-// dropped. With `view_filter`, only views whose flag is set are matched.
-ViewMatches MatchAllViews(const cv::Mat& query, const DescriptorIndex& index,
-                          const std::vector<ViewSpan>& spans, double ratio, bool resolve_exactly,
-                          const std::vector<uint8_t>* view_filter = nullptr);
+// dropped. Only views that `forests` indexes are matched (all views, or the cluster centres).
+ViewMatches MatchAllViews(const cv::Mat& query, const ForestSet& forests,
+                          const std::vector<ViewSpan>& spans, double ratio, bool resolve_exactly);
+inline ViewMatches MatchAllViews(const cv::Mat& query, const DescriptorIndex& index,
+                                 const std::vector<ViewSpan>& spans, double ratio,
+                                 bool resolve_exactly) {
+  return MatchAllViews(query, index.forests(), spans, ratio, resolve_exactly);
+}
+
+// For each view, how many query descriptors have it among their `knn` nearest indexed
+// descriptors. A view with fewer votes than k cannot have k ratio-test matches that the index
+// would find, so votes shortlist the views worth matching exactly.
+std::unordered_map<uint32_t, int> CountViewVotes(const cv::Mat& query, const ForestSet& forests);
 
 }  // namespace waymark::crossing
 

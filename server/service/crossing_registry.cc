@@ -187,11 +187,10 @@ absl::StatusOr<std::shared_ptr<CrossingRegistry::Database>> CrossingRegistry::Lo
     const cv::Mat descriptors(v.keypoint_count, crossing::kDescriptorSize, CV_8U,
                               const_cast<uint8_t*>(v.descriptors.data()));
     db->views->AddView(v.id, v.crossing_id, v.heading_deg, descriptors, std::move(points),
-                       v.hue_hist, /*defer_indexing=*/true);
+                       v.hue_hist);
     db->views_per_crossing[v.crossing_id]++;
     db->keypoints += v.keypoint_count;
   }
-  db->views->CompactIndex();
   absl::StatusOr<std::vector<storage::ClusterRecord>> clusters = store_->LoadClusters(record.id);
   if (!clusters.ok()) return clusters.status();
   Database::InstallClusters(*clusters, db->views.get());
@@ -350,10 +349,9 @@ absl::StatusOr<v1::DeleteCrossingResponse> CrossingRegistry::DeleteCrossing(
     const crossing::ViewEntry& v = db.views->views()[s];
     if (v.crossing_id == crossing_id) continue;
     remaining->AddView(v.view_id, v.crossing_id, v.heading_deg, db.views->Descriptors(s), v.points,
-                       v.hue_hist, /*defer_indexing=*/true);
+                       v.hue_hist);
     keypoints += v.span.count;
   }
-  remaining->CompactIndex();
   const auto clusters = remaining->ComputeClusters(db.options.clustering);
   absl::StatusOr<int> deleted = store_->DeleteCrossing(
       db.record.id, crossing_id, Database::ToRecords(*remaining, clusters));

@@ -5,7 +5,9 @@
 
 #include "server/crossing/enrollment.h"
 #include "server/crossing/features.h"
+#include "server/crossing/decision.h"
 #include "server/crossing/view_database.h"
+#include "server/crossing/view_matching.h"
 #include "tests/support/synthetic_scene.h"
 
 namespace waymark::crossing {
@@ -151,6 +153,36 @@ TEST_F(RecognizerTest, BadOptionsAreInvalidArgument) {
   options = {};
   options.alpha = 0.7;  // alpha + beta != 1
   EXPECT_EQ(Recognize(*db_, f, options).status().code(), absl::StatusCode::kInvalidArgument);
+}
+
+// Clustering through the index (incremental or rebuilt from scratch) must make the same clusters
+// as the paper's quadratic procedure with exact matching against every centre.
+TEST(ClusteringTest, IndexedClusteringEqualsExactQuadraticClustering) {
+  ViewDatabase db;
+  int incremental = 0;
+  for (int crossing = 0; crossing < 12; ++crossing) {
+    const cv::Mat pano = testing::MakePanorama(300 + crossing);
+    for (int k = 0; k < 12; ++k) {
+      auto f = ExtractFeatures(testing::EncodePng(testing::CropView(pano, 30.0 * k + 7 * crossing)),
+                               FeatureOptions{});
+      ASSERT_TRUE(f.ok());
+      incremental += EnrollView(&db, crossing * 12 + k + 1, crossing + 1, 30.0 * k, *f).new_cluster;
+    }
+  }
+  std::vector<uint32_t> centres;
+  for (uint32_t s = 0; s < db.views().size(); ++s) {
+    std::vector<int> per_center;
+    for (uint32_t c : centres) {
+      per_center.push_back(static_cast<int>(
+          MatchViewExact(db.Descriptors(s), db.index().store(), db.spans()[c], 0.32).size()));
+    }
+    if (AssignCluster(per_center, 5) < 0) centres.push_back(s);
+  }
+  const auto rebuilt = db.ComputeClusters(ClusterOptions{});
+  std::vector<uint32_t> rebuilt_centres;
+  for (const auto& c : rebuilt) rebuilt_centres.push_back(c.center);
+  EXPECT_EQ(rebuilt_centres, centres);
+  EXPECT_EQ(incremental, static_cast<int>(centres.size()));
 }
 
 TEST(RecognizerEmptyTest, EmptyDatabaseIsFailedPrecondition) {

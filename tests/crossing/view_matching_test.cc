@@ -112,7 +112,7 @@ TEST(MatchAllViewsTest, AgreesWithExactPerViewMatching) {
   EXPECT_GE(all.at(17).size(), 28u);
 }
 
-TEST(MatchAllViewsTest, FilterRestrictsToFlaggedViews) {
+TEST(MatchAllViewsTest, ForestSetOverSomeViewsMatchesOnlyThose) {
   std::mt19937 rng(4);
   DescriptorIndex index(IndexOptions{});
   std::vector<ViewSpan> spans;
@@ -122,13 +122,14 @@ TEST(MatchAllViewsTest, FilterRestrictsToFlaggedViews) {
     spans.push_back(ViewSpan{index.Add(views.back().ptr<uint8_t>(), 100, v), 100});
   }
   const cv::Mat query = Perturb(views[2].rowRange(0, 20), 10, &rng);
-  std::vector<uint8_t> filter = {1, 1, 0, 1};
-  EXPECT_EQ(MatchAllViews(query, index, spans, 0.32, true, &filter).count(2), 0u);
-  filter[2] = 1;
-  EXPECT_EQ(MatchAllViews(query, index, spans, 0.32, true, &filter).at(2).size(), 20u);
+  ForestSet some(index.store(), IndexOptions{});
+  for (uint32_t v : {0u, 1u, 3u}) some.Add(IdRange(spans[v].first, spans[v].count));
+  EXPECT_EQ(MatchAllViews(query, some, spans, 0.32, true).count(2), 0u);
+  some.Add(IdRange(spans[2].first, spans[2].count));
+  EXPECT_EQ(MatchAllViews(query, some, spans, 0.32, true).at(2).size(), 20u);
 }
 
-TEST(DescriptorIndexTest, CompactKeepsResults) {
+TEST(DescriptorIndexTest, EveryDescriptorFindsItselfAcrossLevels) {
   std::mt19937 rng(5);
   DescriptorIndex index(IndexOptions{});
   cv::Mat all;
@@ -137,15 +138,34 @@ TEST(DescriptorIndexTest, CompactKeepsResults) {
     index.Add(d.ptr<uint8_t>(), 64, v);
     all.push_back(d);
   }
-  index.Compact();
-  EXPECT_EQ(index.levels(), 1u);
-  // Every stored descriptor finds itself at distance 0.
+  EXPECT_GT(index.levels(), 1u);
+  EXPECT_EQ(index.forests().size(), 20u * 64);
   for (int i = 0; i < all.rows; i += 37) {
     KnnList knn(4);
     index.Search(all.ptr<uint8_t>(i), &knn);
     ASSERT_FALSE(knn.items().empty());
     EXPECT_EQ(knn.items()[0].squared_distance, 0);
     EXPECT_EQ(knn.items()[0].id, static_cast<uint32_t>(i));
+  }
+}
+
+TEST(DescriptorIndexTest, SameAdditionsGiveTheSameSearchResults) {
+  // What a restart relies on: replaying the additions rebuilds identical forests.
+  std::mt19937 rng(8);
+  std::vector<cv::Mat> views;
+  for (int v = 0; v < 30; ++v) views.push_back(RandomDescriptors(50 + v, &rng));
+  DescriptorIndex a(IndexOptions{}), b(IndexOptions{});
+  for (uint32_t v = 0; v < views.size(); ++v) {
+    a.Add(views[v].ptr<uint8_t>(), views[v].rows, v);
+    b.Add(views[v].ptr<uint8_t>(), views[v].rows, v);
+  }
+  const cv::Mat query = RandomDescriptors(50, &rng);
+  for (int i = 0; i < query.rows; ++i) {
+    KnnList ka(8), kb(8);
+    a.Search(query.ptr<uint8_t>(i), &ka);
+    b.Search(query.ptr<uint8_t>(i), &kb);
+    ASSERT_EQ(ka.items().size(), kb.items().size());
+    for (size_t k = 0; k < ka.items().size(); ++k) EXPECT_EQ(ka.items()[k].id, kb.items()[k].id);
   }
 }
 
