@@ -1,0 +1,40 @@
+# Waymark entry points. `make run` and `make test` do all setup on a fresh Debian 12 machine.
+BUILD_DIR ?= build
+BUILD_TYPE ?= RelWithDebInfo
+JOBS ?= $(shell nproc)
+LISTEN ?= 127.0.0.1:50051
+DB ?= ./var/waymark.db
+CTEST_ARGS ?=
+
+.PHONY: all deps configure build run test bench demo clean
+
+all: build
+
+deps:
+	./scripts/install-deps.sh
+
+$(BUILD_DIR)/build.ninja: CMakeLists.txt | deps
+	cmake -S . -B $(BUILD_DIR) -G Ninja -DCMAKE_BUILD_TYPE=$(BUILD_TYPE)
+
+configure: deps $(BUILD_DIR)/build.ninja
+
+build: configure
+	cmake --build $(BUILD_DIR) -j $(JOBS)
+
+# The server on the embedded default database; stop it with Ctrl-C.
+run: build
+	@mkdir -p $(dir $(DB))
+	@echo "Talk to it from another terminal:"
+	@echo "  $(BUILD_DIR)/bin/waymark --server $(LISTEN) db create city"
+	@echo "  $(BUILD_DIR)/bin/waymark --server $(LISTEN) enroll city DIR     # DIR/<crossing>/<heading>.jpg"
+	@echo "  $(BUILD_DIR)/bin/waymark --server $(LISTEN) recognize city IMAGE.jpg"
+	$(BUILD_DIR)/bin/waymark-server --listen $(LISTEN) --db $(DB)
+
+test: build
+	cd $(BUILD_DIR) && ctest --output-on-failure -j $(JOBS) $(CTEST_ARGS)
+
+bench: build
+	./bench/run.sh $(BUILD_DIR)
+
+clean:
+	rm -rf $(BUILD_DIR)
