@@ -36,5 +36,9 @@ test: build
 bench: build
 	./bench/run.sh $(BUILD_DIR)
 
+# Enroll and query views cut from real 360-degree photos (Debian's blender-data), end to end.
+demo: build
+	./scripts/demo.sh $(BUILD_DIR)
+
 clean:
 	rm -rf $(BUILD_DIR)

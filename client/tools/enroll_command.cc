@@ -19,6 +19,7 @@ struct EnrollArgs {
   std::string database;
   std::string dir;
   bool store_images = false;
+  bool strict = false;
 };
 
 int CountCrossings(const std::vector<EnrollImage>& images) {
@@ -53,6 +54,7 @@ int RunEnroll(CommandContext& context, const EnrollArgs& args) {
     request.mutable_image()->set_data(*std::move(bytes));
     request.set_create_crossing(true);
     request.set_store_image(args.store_images);
+    request.set_skip_invalid(!args.strict);
     if (!writer->Write(request)) break;  // the server ended the stream; Finish() says why
     progress.Update(++sent);
   }
@@ -79,6 +81,11 @@ int RunEnroll(CommandContext& context, const EnrollArgs& args) {
         result->views(), crossings, args.database, result->crossings_created(),
         result->clusters_created(), result->keypoints());
   }
+  // Skipped views are worth a look (a blank wall, a corrupt file), but the rest is enrolled.
+  for (const v1::SkippedView& skipped : result->skipped()) {
+    context.err << fmt::format("skipped {}/{:g}: {}\n", skipped.crossing(), skipped.heading_deg(),
+                               skipped.reason());
+  }
   return kExitOk;
 }
 
@@ -94,6 +101,8 @@ void AddEnrollCommand(CLI::App& app, CommandRegistry& registry) {
   enroll->add_option("DIR", args->dir, "Folder of crossing folders")->required();
   enroll->add_flag("--store-images", args->store_images,
                    "Keep the encoded images in the database (for rebuilds and inspection)");
+  enroll->add_flag("--strict", args->strict,
+                   "Stop at the first invalid view (default: skip it with a warning and go on)");
   registry.Add(enroll, [args](CommandContext& c) { return RunEnroll(c, *args); });
 }
 

@@ -68,20 +68,29 @@ grpc::Status CrossingServiceImpl::BulkEnroll(grpc::ServerContext* context,
                                              grpc::ServerReader<v1::EnrollViewRequest>* reader,
                                              v1::BulkEnrollResponse* response) {
   v1::EnrollViewRequest request;
-  while (reader->Read(&request)) {
+  for (int index = 0; reader->Read(&request); ++index) {
     if (context->IsCancelled()) return grpc::Status(grpc::StatusCode::CANCELLED, "cancelled");
     bool created = false;
     absl::StatusOr<v1::EnrollViewResponse> enrolled = registry_->EnrollView(request, &created);
+    response->set_crossings_created(response->crossings_created() + (created ? 1 : 0));
+    if (!enrolled.ok() && request.skip_invalid() &&
+        enrolled.status().code() == absl::StatusCode::kInvalidArgument) {
+      v1::SkippedView* skipped = response->add_skipped();
+      skipped->set_crossing(request.crossing());
+      skipped->set_heading_deg(request.heading_deg());
+      skipped->set_index(index);
+      skipped->set_reason(std::string(enrolled.status().message()));
+      continue;
+    }
     if (!enrolled.ok()) {
       // Views before this one are committed; say which one failed and how many made it.
       return grpc::Status(
           static_cast<grpc::StatusCode>(enrolled.status().code()),
-          absl::StrCat("view ", response->views() + 1, " (crossing \"", request.crossing(),
-                       "\", heading ", request.heading_deg(), "): ", enrolled.status().message(),
-                       " [", response->views(), " views before it were enrolled]"));
+          absl::StrCat("view ", index + 1, " (crossing \"", request.crossing(), "\", heading ",
+                       request.heading_deg(), "): ", enrolled.status().message(), " [",
+                       response->views(), " views before it were enrolled]"));
     }
     response->set_views(response->views() + 1);
-    response->set_crossings_created(response->crossings_created() + (created ? 1 : 0));
     response->set_clusters_created(response->clusters_created() +
                                    (enrolled->new_cluster() ? 1 : 0));
     response->set_keypoints(response->keypoints() + enrolled->keypoints());

@@ -313,6 +313,46 @@ TEST_F(CrossingServerTest, BadImagesAndHeadingsAreRejectedAndNothingIsStored) {
   EXPECT_TRUE(rr.recognized());
 }
 
+TEST_F(CrossingServerTest, BulkEnrollSkipsInvalidViewsOnlyWhenAsked) {
+  v1::CreateDatabaseRequest create;
+  create.set_name("skip");
+  v1::CrossingDatabase db;
+  ASSERT_TRUE((*client_)->CreateDatabase(Ctx().get(), create, &db).ok());
+  for (bool skip : {true, false}) {
+    auto ctx = Ctx();
+    v1::BulkEnrollResponse summary;
+    auto writer = (*client_)->BulkEnroll(ctx.get(), &summary);
+    for (int k = 0; k < 4; ++k) {
+      v1::EnrollViewRequest r = View("skip", skip ? 0 : 1, 30.0 * k, panoramas_[0]);
+      if (k == 2) {
+        r.mutable_image()->set_data(EncodePng(cv::Mat(240, 320, CV_8UC3, cv::Scalar(9, 9, 200))));
+      }
+      r.set_skip_invalid(skip);
+      writer->Write(r);
+    }
+    writer->WritesDone();
+    const grpc::Status status = writer->Finish();
+    if (skip) {
+      ASSERT_TRUE(status.ok()) << status.error_message();
+      EXPECT_EQ(summary.views(), 3);
+      ASSERT_EQ(summary.skipped_size(), 1);
+      EXPECT_EQ(summary.skipped(0).index(), 2);
+      EXPECT_DOUBLE_EQ(summary.skipped(0).heading_deg(), 60.0);
+      EXPECT_NE(summary.skipped(0).reason().find("keypoints"), std::string::npos);
+    } else {
+      EXPECT_EQ(status.error_code(), grpc::StatusCode::INVALID_ARGUMENT);
+      EXPECT_NE(status.error_message().find("heading 60"), std::string::npos)
+          << status.error_message();
+    }
+  }
+  // 3 views from the skipping stream, 2 from the strict one (stopped at its third view).
+  v1::GetDatabaseStatsRequest stats_request;
+  stats_request.set_name("skip");
+  v1::DatabaseStats stats;
+  ASSERT_TRUE((*client_)->GetDatabaseStats(Ctx().get(), stats_request, &stats).ok());
+  EXPECT_EQ(stats.database().views(), 5);
+}
+
 TEST_F(CrossingServerTest, EmptyDatabaseAndNoTextureQueries) {
   v1::CreateDatabaseRequest create;
   create.set_name("empty");

@@ -1,0 +1,82 @@
+// Micro-benchmarks of the recognition engine's hot paths (Google Benchmark). Compare within one
+// run: e.g. BM_MatchAllViews (index) against BM_MatchEveryViewExact (linear scan) at the same size.
+
+#include <random>
+
+#include <benchmark/benchmark.h>
+
+#include "server/crossing/descriptor_index.h"
+#include "server/crossing/features.h"
+#include "server/crossing/hue_histogram.h"
+#include "server/crossing/l2_distance.h"
+#include "server/crossing/view_matching.h"
+#include "tests/support/synthetic_scene.h"
+
+namespace waymark::crossing {
+namespace {
+
+cv::Mat RandomDescriptors(int n, std::mt19937* rng) {
+  cv::Mat d(n, 128, CV_8U);
+  std::uniform_int_distribution<int> u(0, 255);
+  for (int i = 0; i < n; ++i) {
+    for (int k = 0; k < 128; ++k) d.at<uint8_t>(i, k) = static_cast<uint8_t>(u(*rng));
+  }
+  return d;
+}
+
+void BM_SquaredL2(benchmark::State& state) {
+  std::mt19937 rng(1);
+  const cv::Mat d = RandomDescriptors(2, &rng);
+  for (auto _ : state) benchmark::DoNotOptimize(SquaredL2(d.ptr<uint8_t>(0), d.ptr<uint8_t>(1)));
+}
+BENCHMARK(BM_SquaredL2);
+
+void BM_ExtractSift(benchmark::State& state) {
+  const cv::Mat view = testing::CropView(testing::MakePanorama(3), 90);
+  for (auto _ : state) benchmark::DoNotOptimize(ExtractSift(view, FeatureOptions{}));
+}
+BENCHMARK(BM_ExtractSift)->Unit(benchmark::kMillisecond);
+
+void BM_HueHistogram(benchmark::State& state) {
+  const cv::Mat view = testing::CropView(testing::MakePanorama(3), 90);
+  for (auto _ : state) benchmark::DoNotOptimize(HueHistogram(view, 36));
+}
+BENCHMARK(BM_HueHistogram)->Unit(benchmark::kMicrosecond);
+
+// A database of state.range(0) views of 300 descriptors, queried with 300 descriptors of which
+// 100 are near copies of one view's.
+struct Fixture {
+  explicit Fixture(int views) : index(IndexOptions{}) {
+    std::mt19937 rng(2);
+    for (int v = 0; v < views; ++v) {
+      const cv::Mat d = RandomDescriptors(300, &rng);
+      spans.push_back(ViewSpan{index.Add(d.ptr<uint8_t>(), 300, v), 300});
+      if (v == views / 2) query = d.rowRange(0, 100).clone();
+    }
+    query.push_back(RandomDescriptors(200, &rng));
+  }
+  DescriptorIndex index;
+  std::vector<ViewSpan> spans;
+  cv::Mat query;
+};
+
+void BM_MatchAllViews(benchmark::State& state) {
+  Fixture f(static_cast<int>(state.range(0)));
+  for (auto _ : state) benchmark::DoNotOptimize(MatchAllViews(f.query, f.index, f.spans, 0.32, true));
+}
+BENCHMARK(BM_MatchAllViews)->Arg(36)->Arg(360)->Arg(3600)->Unit(benchmark::kMillisecond);
+
+void BM_MatchEveryViewExact(benchmark::State& state) {
+  Fixture f(static_cast<int>(state.range(0)));
+  for (auto _ : state) {
+    for (const ViewSpan& span : f.spans) {
+      benchmark::DoNotOptimize(MatchViewExact(f.query, f.index.store(), span, 0.32));
+    }
+  }
+}
+BENCHMARK(BM_MatchEveryViewExact)->Arg(36)->Arg(360)->Unit(benchmark::kMillisecond);
+
+}  // namespace
+}  // namespace waymark::crossing
+
+BENCHMARK_MAIN();

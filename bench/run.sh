@@ -1,0 +1,22 @@
+#!/usr/bin/env bash
+# Runs the benchmarks and evaluations; results go to out/bench (JSON + markdown tables).
+# Needs ../shared beside the repository for the real-data parts.
+set -euo pipefail
+BUILD_DIR=${1:-build}
+SHARED=${SHARED:-$(cd "$(dirname "$0")/../.." && pwd)/shared}
+OUT=${OUT:-out/bench}
+mkdir -p "$OUT"
+echo "== micro-benchmarks (engine hot paths)"
+"$BUILD_DIR/bin/waymark-micro-bench" --benchmark_repetitions=3 --benchmark_report_aggregates_only=true \
+  --benchmark_out="$OUT/micro_bench.json" --benchmark_out_format=json
+echo "== RecognizeCrossing latency, memory and clustering vs database size"
+"$BUILD_DIR/bin/waymark-bench-recognition" --shared "$SHARED" --out "$OUT" ${BENCH_SIZES:+--sizes $BENCH_SIZES}
+if [ -x "$BUILD_DIR/bin/waymark-vpr-eval" ]; then
+  echo "== recognition accuracy on the place-recognition sets"
+  "$BUILD_DIR/bin/waymark-vpr-eval" --shared "$SHARED" --out "$OUT"
+fi
+if [ -x "$BUILD_DIR/bin/waymark-rotation-eval" ]; then
+  echo "== rotation robustness"
+  "$BUILD_DIR/bin/waymark-rotation-eval" --out "$OUT"
+fi
+echo "results in $OUT"
