@@ -464,6 +464,31 @@ TEST_F(CrossingServerTest, DeleteCrossingReclustersAndRebuildKeepsRecognition) {
   EXPECT_EQ(stats.database().clusters(), rebuilt.clusters());
 }
 
+TEST_F(CrossingServerTest, ShutdownLetsAStreamInFlightFinishAndKeepsEveryView) {
+  v1::CreateDatabaseRequest create;
+  create.set_name("inflight");
+  v1::CrossingDatabase db;
+  ASSERT_TRUE((*client_)->CreateDatabase(Ctx().get(), create, &db).ok());
+  auto ctx = Ctx();
+  v1::BulkEnrollResponse summary;
+  auto writer = (*client_)->BulkEnroll(ctx.get(), &summary);
+  for (int k = 0; k < 6; ++k) ASSERT_TRUE(writer->Write(View("inflight", 0, 30.0 * k, panoramas_[0])));
+  // SIGTERM while the stream is open: the server stops taking new calls but this one goes on.
+  kill(server_->pid(), SIGTERM);
+  for (int k = 6; k < 12; ++k) ASSERT_TRUE(writer->Write(View("inflight", 0, 30.0 * k, panoramas_[0])));
+  writer->WritesDone();
+  const grpc::Status status = writer->Finish();
+  ASSERT_TRUE(status.ok()) << status.error_message();
+  EXPECT_EQ(summary.views(), 12);
+  EXPECT_EQ(server_->Stop(SIGTERM), 0);  // already exiting; reaps it
+  StartServer();
+  v1::GetDatabaseStatsRequest stats_request;
+  stats_request.set_name("inflight");
+  v1::DatabaseStats stats;
+  ASSERT_TRUE((*client_)->GetDatabaseStats(Ctx().get(), stats_request, &stats).ok());
+  EXPECT_EQ(stats.database().views(), 12);
+}
+
 TEST_F(CrossingServerTest, HealthServiceAndGracefulShutdown) {
   // grpc.health.v1.Health/Check with an empty request; the response's status field 1 = SERVING
   // is encoded as the two bytes 08 01.
