@@ -103,7 +103,9 @@ TEST_F(RecognizerTest, CandidateTableIsSortedAndKeepsN2) {
   int kept = 0;
   for (size_t i = 0; i < result->candidates.size(); ++i) {
     const Candidate& c = result->candidates[i];
-    if (i > 0) EXPECT_LE(c.matches, result->candidates[i - 1].matches);
+    if (i > 0) {
+      EXPECT_LE(c.matches, result->candidates[i - 1].matches);
+    }
     if (c.kept) {
       ++kept;
       EXPECT_GT(c.decision, 0);
