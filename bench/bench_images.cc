@@ -44,6 +44,16 @@ std::vector<std::string> QueryImages(const std::string& shared_dir) {
   return ImagesIn(fs::path(shared_dir) / "data/vpr/corridor_vprbench/query", false);
 }
 
+cv::Mat Revisit(const cv::Mat& image) {
+  const cv::Rect crop(image.cols * 4 / 100, image.rows * 4 / 100, image.cols * 92 / 100,
+                      image.rows * 92 / 100);
+  cv::Mat out;
+  cv::resize(image(crop), out, cv::Size(320, 240), 0, 0, cv::INTER_AREA);
+  out.convertTo(out, -1, 0.9, 0);
+  cv::GaussianBlur(out, out, cv::Size(0, 0), 0.8);
+  return out;
+}
+
 cv::Mat Augment(const cv::Mat& image, int k) {
   cv::Mat base;
   cv::resize(image, base, cv::Size(320, 240), 0, 0, cv::INTER_AREA);

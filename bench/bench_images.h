@@ -18,6 +18,10 @@ std::vector<std::string> DatabaseSourceImages(const std::string& shared_dir);
 // Held-out query images: the corridor query traversal.
 std::vector<std::string> QueryImages(const std::string& shared_dir);
 
+// A robot's second visit to a stored view, at 320x240: a little closer (92 % crop), darker and
+// blurred. Recognizable, so a query exercises every step of the method.
+cv::Mat Revisit(const cv::Mat& image);
+
 // Augmented variant `k` (0 = the original) of an image, at 320x240.
 cv::Mat Augment(const cv::Mat& image, int k);
 inline constexpr int kAugmentations = 12;

@@ -10,19 +10,13 @@
 #include "server/crossing/hue_histogram.h"
 #include "server/crossing/l2_distance.h"
 #include "server/crossing/view_matching.h"
+#include "tests/support/random_descriptors.h"
 #include "tests/support/synthetic_scene.h"
 
 namespace waymark::crossing {
 namespace {
 
-cv::Mat RandomDescriptors(int n, std::mt19937* rng) {
-  cv::Mat d(n, 128, CV_8U);
-  std::uniform_int_distribution<int> u(0, 255);
-  for (int i = 0; i < n; ++i) {
-    for (int k = 0; k < 128; ++k) d.at<uint8_t>(i, k) = static_cast<uint8_t>(u(*rng));
-  }
-  return d;
-}
+using waymark::testing::RandomDescriptors;
 
 void BM_SquaredL2(benchmark::State& state) {
   std::mt19937 rng(1);

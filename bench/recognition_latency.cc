@@ -133,6 +133,7 @@ double EmptyServerRssMb(const std::string& work_dir) {
 }
 
 json RunSize(int n, const std::vector<BenchView>& all_views, const std::vector<std::string>& queries,
+             const std::vector<cv::Mat>& sources,
              const std::string& work_dir, int bf_queries, int exact_queries, double empty_rss_mb) {
   json out;
   out["views"] = n;
@@ -190,6 +191,8 @@ json RunSize(int n, const std::vector<BenchView>& all_views, const std::vector<s
   // 3. Latency of RecognizeCrossing on loopback, paper and verified modes.
   std::vector<std::string> query_jpegs;
   for (const auto& q : queries) query_jpegs.push_back(Jpeg(Augment(cv::imread(q), 0)));
+  // Half the queries revisit stored views (every database size holds the first sources).
+  for (const cv::Mat& source : sources) query_jpegs.push_back(Jpeg(Revisit(source)));
   for (const auto& [mode_name, mode] :
        std::vector<std::pair<std::string, v1::RecognitionMode>>{
            {"paper", v1::RECOGNITION_MODE_PAPER}, {"verified", v1::RECOGNITION_MODE_VERIFIED}}) {
@@ -339,7 +342,9 @@ int main(int argc, char** argv) {
   app.add_option("--shared", shared, "the shared data folder")->capture_default_str();
   app.add_option("--out", out_dir, "where to write bench_recognition.json/.md")->capture_default_str();
   app.add_option("--sizes", sizes, "database sizes in views")->delimiter(',')->capture_default_str();
-  app.add_option("--queries", query_count, "queries per size")->capture_default_str();
+  app.add_option("--queries", query_count,
+                 "queries per size: half held-out corridor frames, half revisits of stored views")
+      ->capture_default_str();
   app.add_option("--bf-queries", bf_queries, "queries for the brute-force baseline")->capture_default_str();
   app.add_option("--exact-queries", exact_queries, "queries for index-vs-exact agreement")->capture_default_str();
   CLI11_PARSE(app, argc, argv);
@@ -351,7 +356,11 @@ int main(int argc, char** argv) {
     std::cerr << "no images under " << shared << "/data: this benchmark needs the shared data\n";
     return 2;
   }
-  if (static_cast<int>(queries.size()) > query_count) queries.resize(query_count);
+  if (static_cast<int>(queries.size()) > query_count / 2) queries.resize(query_count / 2);
+  std::vector<cv::Mat> source_images;  // revisited by the other half of the queries
+  for (size_t i = 0; i < queries.size() && i < sources.size(); ++i) {
+    source_images.push_back(cv::imread(sources[i], cv::IMREAD_COLOR));
+  }
   std::filesystem::create_directories(out_dir);
   const std::string work = waymark::testing::MakeTempDir("waymark-bench");
   const int max_size = *std::max_element(sizes.begin(), sizes.end());
@@ -362,7 +371,8 @@ int main(int argc, char** argv) {
   nlohmann::json results = nlohmann::json::array();
   for (int n : sizes) {
     std::cerr << "database of " << n << " views\n";
-    results.push_back(RunSize(n, views, queries, work, bf_queries, exact_queries, empty_rss_mb));
+    results.push_back(
+        RunSize(n, views, queries, source_images, work, bf_queries, exact_queries, empty_rss_mb));
     std::cerr << results.back().dump(2) << "\n";
   }
   std::filesystem::remove_all(work);

@@ -6,6 +6,7 @@
 // implementation can stand beside the SQLite one when a fleet outgrows one server (DESIGN.md).
 
 #include <cstdint>
+#include <functional>
 #include <memory>
 #include <string>
 #include <vector>
@@ -97,6 +98,10 @@ class CrossingStore {
                                                 const ClusterAssignment& assignment) = 0;
   // All views of a database in enrollment (id) order, without image bytes.
   virtual absl::StatusOr<std::vector<ViewRecord>> LoadViews(int64_t database_id) = 0;
+  // The same, one view at a time, so a server loading thousands of views never holds all the
+  // rows at once. Stops at the first error `visit` returns and returns it.
+  virtual absl::Status ForEachView(int64_t database_id,
+                                   const std::function<absl::Status(ViewRecord&&)>& visit) = 0;
   // Encoded image of a view, NOT_FOUND when it was not stored.
   virtual absl::StatusOr<std::string> LoadViewImage(int64_t view_id) = 0;
   // Clusters in id order, members in view id order (centre included).

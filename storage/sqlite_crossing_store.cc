@@ -323,18 +323,27 @@ class SqliteCrossingStore final : public CrossingStore {
   }
 
   absl::StatusOr<std::vector<ViewRecord>> LoadViews(int64_t database_id) override {
+    std::vector<ViewRecord> views;
+    RETURN_IF_ERROR(ForEachView(database_id, [&views](ViewRecord&& view) {
+      views.push_back(std::move(view));
+      return absl::OkStatus();
+    }));
+    return views;
+  }
+
+  absl::Status ForEachView(int64_t database_id,
+                           const std::function<absl::Status(ViewRecord&&)>& visit) override {
     std::lock_guard<std::mutex> lock(mutex_);
     RETURN_IF_ERROR(DatabaseNameLocked(database_id).status());
     ASSIGN_OR_RETURN(Statement select, connection_.Prepare(kSelectViews));
     RETURN_IF_ERROR(select.BindInt64(1, database_id));
-    std::vector<ViewRecord> views;
     while (true) {
       ASSIGN_OR_RETURN(StepResult step, select.Step());
       if (step == StepResult::kDone) break;
       ASSIGN_OR_RETURN(ViewRecord view, ReadViewRow(select));
-      views.push_back(std::move(view));
+      RETURN_IF_ERROR(visit(std::move(view)));
     }
-    return views;
+    return absl::OkStatus();
   }
 
   absl::StatusOr<std::string> LoadViewImage(int64_t view_id) override {

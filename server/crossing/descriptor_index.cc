@@ -19,43 +19,75 @@ std::vector<uint32_t> IdRange(uint32_t first, uint32_t count) {
   return ids;
 }
 
-void ForestSet::Add(std::vector<uint32_t> ids) {
+void ForestSet::Add(std::vector<uint32_t> ids, bool defer_build) {
   if (ids.empty()) return;
   size_ += ids.size();
   const uint32_t seed = ids.front();
-  levels_.push_back(std::make_unique<KdForest>(store_, std::move(ids), options_.trees,
-                                               options_.leaf_size, seed));
+  const size_t count = ids.size();
+  levels_.push_back(Level{std::move(ids), count, seed, nullptr});
   while (levels_.size() >= 2) {
-    const KdForest& last = *levels_[levels_.size() - 1];
-    const KdForest& previous = *levels_[levels_.size() - 2];
-    if (last.size() * kMergeRatio < previous.size()) break;
-    std::vector<uint32_t> merged = previous.ids();
-    merged.insert(merged.end(), last.ids().begin(), last.ids().end());
-    std::sort(merged.begin(), merged.end());  // deterministic trees whatever the merge history
+    Level& last = levels_[levels_.size() - 1];
+    Level& previous = levels_[levels_.size() - 2];
+    if (last.size * kMergeRatio < previous.size) break;
+    std::vector<uint32_t> merged = TakeIds(&previous);
+    const std::vector<uint32_t> newer = TakeIds(&last);
+    merged.insert(merged.end(), newer.begin(), newer.end());
+    // Deterministic trees whatever the merge history (ids mostly arrive in order already).
+    if (!std::is_sorted(merged.begin(), merged.end())) std::sort(merged.begin(), merged.end());
+    previous.size = merged.size();
+    previous.ids = std::move(merged);
+    previous.seed = seed;
     levels_.pop_back();
-    levels_.back() = std::make_unique<KdForest>(store_, std::move(merged), options_.trees,
-                                                options_.leaf_size, seed);
+  }
+  if (!defer_build) BuildPending();
+}
+
+std::vector<uint32_t> ForestSet::TakeIds(Level* level) {
+  std::vector<uint32_t> ids;
+  if (level->forest != nullptr) {
+    ids = level->forest->ids();  // a permutation: sort it back
+    std::sort(ids.begin(), ids.end());
+    level->forest.reset();
+  } else {
+    ids = std::move(level->ids);
+  }
+  return ids;
+}
+
+void ForestSet::BuildPending() {
+  for (Level& level : levels_) {
+    if (level.forest == nullptr) {
+      // The forest keeps the ids (in tree order); the level's copy is no longer needed.
+      level.forest = std::make_unique<KdForest>(store_, std::move(level.ids), options_.trees,
+                                                options_.leaf_size, level.seed);
+      level.ids = {};
+    }
   }
 }
 
 void ForestSet::Search(const uint8_t* query, KnnList* result) const {
   const double total = std::max<size_t>(1, size_);
-  for (const auto& level : levels_) {
-    const int checks = std::max(kMinChecksPerLevel,
-                                static_cast<int>(options_.checks * (level->size() / total)));
-    level->Search(query, checks, result);
+  for (const Level& level : levels_) {
+    if (level.forest == nullptr) continue;
+    const int checks = std::max(
+        kMinChecksPerLevel, static_cast<int>(options_.checks * (level.size / total)));
+    level.forest->Search(query, checks, result);
   }
 }
 
 size_t ForestSet::memory_bytes() const {
   size_t bytes = 0;
-  for (const auto& level : levels_) bytes += level->memory_bytes();
+  for (const Level& level : levels_) {
+    bytes += level.ids.capacity() * sizeof(uint32_t);
+    if (level.forest != nullptr) bytes += level.forest->memory_bytes();
+  }
   return bytes;
 }
 
-uint32_t DescriptorIndex::Add(const uint8_t* descriptors, uint32_t count, uint32_t view) {
+uint32_t DescriptorIndex::Add(const uint8_t* descriptors, uint32_t count, uint32_t view,
+                              bool defer_build) {
   const uint32_t first = store_.Append(descriptors, count, view);
-  all_.Add(IdRange(first, count));
+  all_.Add(IdRange(first, count), defer_build);
   return first;
 }
 

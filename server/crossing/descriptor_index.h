@@ -32,8 +32,12 @@ class ForestSet {
   ForestSet(const ForestSet&) = delete;
   ForestSet& operator=(const ForestSet&) = delete;
 
-  // Indexes more ids (a new level, merged as described above).
-  void Add(std::vector<uint32_t> ids);
+  // Indexes more ids (a new level, merged as described above). With `defer_build` the levels
+  // are only planned: loading replays every addition this way, then builds the final levels
+  // once (BuildPending), which gives the same forests as building along the way at a fraction
+  // of the cost. Unbuilt levels are not searched.
+  void Add(std::vector<uint32_t> ids, bool defer_build = false);
+  void BuildPending();
   void Clear() {
     levels_.clear();
     size_ = 0;
@@ -50,9 +54,18 @@ class ForestSet {
   size_t memory_bytes() const;
 
  private:
+  struct Level {
+    std::vector<uint32_t> ids;  // sorted; only until the forest is built (it keeps them)
+    size_t size = 0;
+    uint32_t seed = 0;
+    std::unique_ptr<KdForest> forest;  // null until built
+  };
+  // The level's ids in ascending order, leaving the level empty.
+  static std::vector<uint32_t> TakeIds(Level* level);
+
   const DescriptorStore& store_;
   IndexOptions options_;
-  std::vector<std::unique_ptr<KdForest>> levels_;
+  std::vector<Level> levels_;
   size_t size_ = 0;
 };
 
@@ -65,8 +78,11 @@ class DescriptorIndex {
 
   // Appends `count` descriptors of view slot `view` and indexes them. Returns the first id.
   // The forests depend only on the sequence of Add calls, so a database reloaded by adding its
-  // views in enrollment order searches exactly as before the restart.
-  uint32_t Add(const uint8_t* descriptors, uint32_t count, uint32_t view);
+  // views in enrollment order searches exactly as before the restart. `defer_build`: see
+  // ForestSet::Add; call BuildPending() before searching.
+  uint32_t Add(const uint8_t* descriptors, uint32_t count, uint32_t view,
+               bool defer_build = false);
+  void BuildPending() { all_.BuildPending(); }
 
   void Search(const uint8_t* query, KnnList* result) const { all_.Search(query, result); }
 

@@ -8,7 +8,7 @@ namespace waymark::crossing {
 
 uint32_t ViewDatabase::AddView(int64_t view_id, int64_t crossing_id, double heading_deg,
                                const cv::Mat& descriptors, std::vector<cv::Point2f> points,
-                               std::vector<float> hue_hist) {
+                               std::vector<float> hue_hist, bool defer_indexing) {
   const uint32_t slot = static_cast<uint32_t>(views_.size());
   const cv::Mat continuous = descriptors.isContinuous() ? descriptors : descriptors.clone();
   ViewEntry entry;
@@ -16,7 +16,8 @@ uint32_t ViewDatabase::AddView(int64_t view_id, int64_t crossing_id, double head
   entry.crossing_id = crossing_id;
   entry.heading_deg = heading_deg;
   entry.span.count = static_cast<uint32_t>(continuous.rows);
-  entry.span.first = index_.Add(continuous.ptr<uint8_t>(), entry.span.count, slot);
+  entry.span.first =
+      index_.Add(continuous.ptr<uint8_t>(), entry.span.count, slot, defer_indexing);
   entry.points = std::move(points);
   entry.hue_hist = std::move(hue_hist);
   spans_.push_back(entry.span);
@@ -29,7 +30,9 @@ std::vector<int> ViewDatabase::CountCenterMatches(const cv::Mat& descriptors,
                                                   const std::vector<ClusterEntry>& clusters,
                                                   const ClusterOptions& options) const {
   // The index shortlists the centres; the count itself is exact, as the paper's clustering
-  // (enrollment is not latency-bound, and a count of 4 vs 5 decides a new cluster).
+  // (enrollment is not latency-bound, and a count of 4 vs 5 decides a new cluster). Approximate
+  // counts do not do as a shortlist: a descriptor can be distinctive within one centre yet have
+  // closer neighbours in others, and so never reach the global neighbour list.
   const std::unordered_map<uint32_t, int> votes = CountViewVotes(descriptors, centers);
   std::vector<int> per_center(clusters.size(), 0);
   for (size_t c = 0; c < clusters.size(); ++c) {
@@ -100,8 +103,9 @@ void ViewDatabase::SetClusters(std::vector<ClusterEntry> clusters) {
   for (size_t c = 0; c < clusters_.size(); ++c) {
     for (uint32_t slot : clusters_[c].members) views_[slot].cluster = static_cast<int>(c);
     const ViewSpan span = views_[clusters_[c].center].span;
-    centers_.Add(IdRange(span.first, span.count));
+    centers_.Add(IdRange(span.first, span.count), /*defer_build=*/true);
   }
+  centers_.BuildPending();
 }
 
 cv::Mat ViewDatabase::Descriptors(uint32_t slot) const {

@@ -47,10 +47,13 @@ class ViewDatabase {
   ViewDatabase& operator=(const ViewDatabase&) = delete;
 
   // Adds a view; returns its slot. Its cluster is set separately (AddToCluster / NewCluster).
-  // Loading a database = adding its views in enrollment order, which rebuilds the index exactly.
+  // Loading a database = adding its views in enrollment order, which rebuilds the index exactly;
+  // loaders pass `defer_indexing` and call FinishLoading() once at the end (much faster, same
+  // forests).
   uint32_t AddView(int64_t view_id, int64_t crossing_id, double heading_deg,
                    const cv::Mat& descriptors, std::vector<cv::Point2f> points,
-                   std::vector<float> hue_hist);
+                   std::vector<float> hue_hist, bool defer_indexing = false);
+  void FinishLoading() { index_.BuildPending(); }
 
   // The paper's clustering step for a view that is not yet a centre or member: matches against
   // every current centre, the best one joins if it reaches the threshold.

@@ -169,9 +169,8 @@ absl::StatusOr<std::shared_ptr<CrossingRegistry::Database>> CrossingRegistry::Lo
   if (!crossings.ok()) return crossings.status();
   for (const auto& c : *crossings) db->AddCrossingRecord(c);
 
-  absl::StatusOr<std::vector<storage::ViewRecord>> views = store_->LoadViews(record.id);
-  if (!views.ok()) return views.status();
-  for (const storage::ViewRecord& v : *views) {
+  // One view at a time: a large database never sits in memory twice (rows and index).
+  const absl::Status loaded = store_->ForEachView(record.id, [&](storage::ViewRecord&& v) {
     if (v.format_version != storage::kFeatureFormatVersion ||
         v.width != db->options.features.work_width ||
         v.height != db->options.features.work_height) {
@@ -185,12 +184,15 @@ absl::StatusOr<std::shared_ptr<CrossingRegistry::Database>> CrossingRegistry::Lo
                    v.keypoints[i * storage::kKeypointFloats + 1]};
     }
     const cv::Mat descriptors(v.keypoint_count, crossing::kDescriptorSize, CV_8U,
-                              const_cast<uint8_t*>(v.descriptors.data()));
+                              v.descriptors.data());
     db->views->AddView(v.id, v.crossing_id, v.heading_deg, descriptors, std::move(points),
-                       v.hue_hist);
+                       std::move(v.hue_hist), /*defer_indexing=*/true);
     db->views_per_crossing[v.crossing_id]++;
     db->keypoints += v.keypoint_count;
-  }
+    return absl::OkStatus();
+  });
+  if (!loaded.ok()) return loaded;
+  db->views->FinishLoading();
   absl::StatusOr<std::vector<storage::ClusterRecord>> clusters = store_->LoadClusters(record.id);
   if (!clusters.ok()) return clusters.status();
   Database::InstallClusters(*clusters, db->views.get());
@@ -349,9 +351,10 @@ absl::StatusOr<v1::DeleteCrossingResponse> CrossingRegistry::DeleteCrossing(
     const crossing::ViewEntry& v = db.views->views()[s];
     if (v.crossing_id == crossing_id) continue;
     remaining->AddView(v.view_id, v.crossing_id, v.heading_deg, db.views->Descriptors(s), v.points,
-                       v.hue_hist);
+                       v.hue_hist, /*defer_indexing=*/true);
     keypoints += v.span.count;
   }
+  remaining->FinishLoading();
   const auto clusters = remaining->ComputeClusters(db.options.clustering);
   absl::StatusOr<int> deleted = store_->DeleteCrossing(
       db.record.id, crossing_id, Database::ToRecords(*remaining, clusters));

@@ -6,29 +6,13 @@
 
 #include "server/crossing/descriptor_index.h"
 #include "server/crossing/l2_distance.h"
+#include "tests/support/random_descriptors.h"
 
 namespace waymark::crossing {
 namespace {
 
-cv::Mat RandomDescriptors(int n, std::mt19937* rng) {
-  cv::Mat d(n, 128, CV_8U);
-  std::uniform_int_distribution<int> u(0, 255);
-  for (int i = 0; i < n; ++i) {
-    for (int k = 0; k < 128; ++k) d.at<uint8_t>(i, k) = static_cast<uint8_t>(u(*rng));
-  }
-  return d;
-}
-
-cv::Mat Perturb(const cv::Mat& d, int amplitude, std::mt19937* rng) {
-  cv::Mat out = d.clone();
-  std::uniform_int_distribution<int> u(-amplitude, amplitude);
-  for (int i = 0; i < out.rows; ++i) {
-    for (int k = 0; k < 128; ++k) {
-      out.at<uint8_t>(i, k) = cv::saturate_cast<uint8_t>(out.at<uint8_t>(i, k) + u(*rng));
-    }
-  }
-  return out;
-}
+using waymark::testing::Perturb;
+using waymark::testing::RandomDescriptors;
 
 TEST(RatioTest, EuclideanNotSquared) {
   // dis_a = 3, dis_b = 10: 3 < 0.32 * 10 passes; dis_a = 3.3 does not.
@@ -150,15 +134,19 @@ TEST(DescriptorIndexTest, EveryDescriptorFindsItselfAcrossLevels) {
 }
 
 TEST(DescriptorIndexTest, SameAdditionsGiveTheSameSearchResults) {
-  // What a restart relies on: replaying the additions rebuilds identical forests.
+  // What a restart relies on: replaying the additions (deferred, then built once, as the server
+  // loads) rebuilds the forests that were built along the way.
   std::mt19937 rng(8);
   std::vector<cv::Mat> views;
   for (int v = 0; v < 30; ++v) views.push_back(RandomDescriptors(50 + v, &rng));
   DescriptorIndex a(IndexOptions{}), b(IndexOptions{});
   for (uint32_t v = 0; v < views.size(); ++v) {
     a.Add(views[v].ptr<uint8_t>(), views[v].rows, v);
-    b.Add(views[v].ptr<uint8_t>(), views[v].rows, v);
+    b.Add(views[v].ptr<uint8_t>(), views[v].rows, v, /*defer_build=*/true);
   }
+  b.BuildPending();
+  ASSERT_EQ(a.levels(), b.levels());
+  EXPECT_GT(a.levels(), 1u);
   const cv::Mat query = RandomDescriptors(50, &rng);
   for (int i = 0; i < query.rows; ++i) {
     KnnList ka(8), kb(8);
