@@ -14,6 +14,7 @@
 #include <filesystem>
 #include <fstream>
 #include <iostream>
+#include <limits>
 #include <map>
 #include <numeric>
 #include <sstream>
@@ -132,9 +133,17 @@ double EmptyServerRssMb(const std::string& work_dir) {
   return mb;
 }
 
+struct RunFlags {
+  int bf_queries = 5;
+  int exact_queries = 20;
+  bool server_only = false;  // skip the in-process baselines
+  bool skip_rebuild = false;
+};
+
 json RunSize(int n, const std::vector<BenchView>& all_views, const std::vector<std::string>& queries,
-             const std::vector<cv::Mat>& sources,
-             const std::string& work_dir, int bf_queries, int exact_queries, double empty_rss_mb) {
+             const std::vector<cv::Mat>& sources, const std::string& work_dir,
+             const RunFlags& flags, double empty_rss_mb) {
+  const int bf_queries = flags.bf_queries, exact_queries = flags.exact_queries;
   json out;
   out["views"] = n;
   const std::vector<BenchView> views(all_views.begin(), all_views.begin() + n);
@@ -227,6 +236,11 @@ json RunSize(int n, const std::vector<BenchView>& all_views, const std::vector<s
                       {"queries", latency.size()}};
   }
 
+  // The target compares with the query's own SIFT extraction, timed inside the server for the
+  // same requests (an in-process timing at another moment would add the machine's noise).
+  out["paper_latency_over_sift"] = out["paper"]["latency_ms_p50"].get<double>() /
+                                   out["paper"]["extraction_ms_p50"].get<double>();
+
   // 4. Server memory vs descriptor bytes.
   const long rss_kb = RssKb((*server)->pid());
   out["server_rss_mb"] = rss_kb / 1024.0;
@@ -235,13 +249,19 @@ json RunSize(int n, const std::vector<BenchView>& all_views, const std::vector<s
       (rss_kb / 1024.0 - empty_rss_mb) / std::max(1e-9, out["descriptor_mb"].get<double>());
 
   // 5. Cluster rebuild (the server's index-based clustering).
+  if (flags.skip_rebuild || flags.server_only) {
+    (*server)->Stop(SIGTERM);
+    if (flags.server_only) return out;
+  }
   v1::RebuildClustersRequest rebuild;
   rebuild.set_database("bench");
   v1::RebuildClustersResponse rebuilt;
-  stub->RebuildClusters(Ctx(3600).get(), rebuild, &rebuilt);
-  out["rebuild_clusters_s"] = rebuilt.elapsed_ms() / 1000;
-  out["rebuild_clusters"] = rebuilt.clusters();
-  (*server)->Stop(SIGTERM);
+  if (!flags.skip_rebuild) {
+    stub->RebuildClusters(Ctx(3600).get(), rebuild, &rebuilt);
+    out["rebuild_clusters_s"] = rebuilt.elapsed_ms() / 1000;
+    out["rebuild_clusters"] = rebuilt.clusters();
+    (*server)->Stop(SIGTERM);
+  }
 
   // 6. In the same run: the query's own SIFT extraction, the brute-force baseline, and the index's
   // agreement with exact matching (engine in-process, same features).
@@ -258,10 +278,6 @@ json RunSize(int n, const std::vector<BenchView>& all_views, const std::vector<s
   }
   const double extraction_p50 = Percentile(own_extraction, 0.5);
   out["query_sift_ms_p50"] = extraction_p50;
-  // The target compares with the query's own SIFT extraction, timed inside the server for the
-  // same requests (an in-process timing at another moment would add the machine's noise).
-  out["paper_latency_over_sift"] = out["paper"]["latency_ms_p50"].get<double>() /
-                                   out["paper"]["extraction_ms_p50"].get<double>();
 
   std::vector<cv::Mat> float_views;
   for (const BenchView& v : views) {
@@ -340,7 +356,8 @@ json RunSize(int n, const std::vector<BenchView>& all_views, const std::vector<s
 int main(int argc, char** argv) {
   std::string shared = "../shared", out_dir = "out/bench";
   std::vector<int> sizes = {36, 360, 3600};
-  int query_count = 40, bf_queries = 5, exact_queries = 20;
+  int query_count = 40;
+  waymark::bench::RunFlags flags;
   CLI::App app{"RecognizeCrossing latency, memory and clustering as the database grows"};
   app.add_option("--shared", shared, "the shared data folder")->capture_default_str();
   app.add_option("--out", out_dir, "where to write bench_recognition.json/.md")->capture_default_str();
@@ -348,8 +365,13 @@ int main(int argc, char** argv) {
   app.add_option("--queries", query_count,
                  "queries per size: half held-out corridor frames, half revisits of stored views")
       ->capture_default_str();
-  app.add_option("--bf-queries", bf_queries, "queries for the brute-force baseline")->capture_default_str();
-  app.add_option("--exact-queries", exact_queries, "queries for index-vs-exact agreement")->capture_default_str();
+  app.add_option("--bf-queries", flags.bf_queries, "queries for the brute-force baseline")
+      ->capture_default_str();
+  app.add_option("--exact-queries", flags.exact_queries, "queries for index-vs-exact agreement")
+      ->capture_default_str();
+  app.add_flag("--server-only", flags.server_only,
+               "only the server measurements (latency, memory), no in-process baselines");
+  app.add_flag("--skip-rebuild", flags.skip_rebuild, "do not time RebuildClusters");
   CLI11_PARSE(app, argc, argv);
 
   using namespace waymark::bench;
@@ -375,7 +397,7 @@ int main(int argc, char** argv) {
   for (int n : sizes) {
     std::cerr << "database of " << n << " views\n";
     results.push_back(
-        RunSize(n, views, queries, source_images, work, bf_queries, exact_queries, empty_rss_mb));
+        RunSize(n, views, queries, source_images, work, flags, empty_rss_mb));
     std::cerr << results.back().dump(2) << "\n";
   }
   std::filesystem::remove_all(work);
@@ -387,18 +409,19 @@ int main(int argc, char** argv) {
         "same decision as exact | server RSS MB | descriptor MB | (RSS - empty) / descriptors | "
         "rebuild clusters s |\n"
      << "|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|\n";
+  const double kNaN = std::numeric_limits<double>::quiet_NaN();  // not measured in this run
   for (const auto& r : results) {
     md << fmt::format(
         "| {} | {} | {:.1f} | {:.1f} | {:.1f} | {:.1f} | {:.1f} | {:.2f}x | {:.1f} | {:.0f} | {:.0f}x | "
         "{:.0f} % | {:.0f} | {:.0f} | {:.2f}x | {:.1f} |\n",
-        r["views"].get<int>(), r["clusters"].get<int>(), r["paper"]["latency_ms_p50"].get<double>(),
-        r["paper"]["latency_ms_p99"].get<double>(), r["paper"]["extraction_ms_p50"].get<double>(),
-        r["paper"]["matching_ms_p50"].get<double>(), r["paper"]["histogram_ms_p50"].get<double>(),
-        r["paper_latency_over_sift"].get<double>(), r["verified"]["latency_ms_p50"].get<double>(),
-        r["bruteforce_matching_ms_p50"].get<double>(), r["bruteforce_over_index_matching"].get<double>(),
-        100 * r["index_vs_exact_same_decision"].get<double>(), r["server_rss_mb"].get<double>(),
-        r["descriptor_mb"].get<double>(), r["rss_growth_over_descriptors"].get<double>(),
-        r["rebuild_clusters_s"].get<double>());
+        r.value("views", -1), r.value("clusters", -1), r["paper"].value("latency_ms_p50", kNaN),
+        r["paper"].value("latency_ms_p99", kNaN), r["paper"].value("extraction_ms_p50", kNaN),
+        r["paper"].value("matching_ms_p50", kNaN), r["paper"].value("histogram_ms_p50", kNaN),
+        r.value("paper_latency_over_sift", kNaN), r["verified"].value("latency_ms_p50", kNaN),
+        r.value("bruteforce_matching_ms_p50", kNaN), r.value("bruteforce_over_index_matching", kNaN),
+        100 * r.value("index_vs_exact_same_decision", kNaN), r.value("server_rss_mb", kNaN),
+        r.value("descriptor_mb", kNaN), r.value("rss_growth_over_descriptors", kNaN),
+        r.value("rebuild_clusters_s", kNaN));
   }
   std::ofstream(out_dir + "/bench_recognition.md") << md.str();
   std::cout << md.str();
