@@ -171,6 +171,9 @@ class Evaluation {
 
   std::string MainTable() const;
   std::string OffPositionTables() const;
+  std::string SweepHeader(const std::string& leading, const std::string& trailing,
+                          int extra_columns) const;
+  std::string SweepCells(const Run& r) const;
   std::string PaperSweepTable() const;
   std::string VerifiedSweepTable() const;
   std::string DecisionWeightsTable() const;
@@ -735,31 +738,44 @@ std::string Evaluation::OffPositionTables() const {
   return md.str();
 }
 
-std::string Evaluation::PaperSweepTable() const {
+// The columns both sweep tables share: accuracy per known set, then false accepts per unknown set.
+std::string Evaluation::SweepHeader(const std::string& leading, const std::string& trailing,
+                                    int extra_columns) const {
   std::ostringstream md;
-  md << "| ratio (lambda) |";
+  md << "| " << leading << " |";
   for (const auto& [label, groups] : AccuracySets()) md << " " << label << " |";
   if (corridor_) md << " corridor_unknown: known acc |";
   for (const std::string& g : UnknownSets()) md << " FA " << g << " |";
-  md << " ms/query (corridor) |\n|---|";
-  for (size_t i = 0; i < AccuracySets().size() + UnknownSets().size() + (corridor_ ? 2 : 1); ++i) {
-    md << "---|";
-  }
+  md << trailing << "\n|";
+  const size_t columns =
+      1 + AccuracySets().size() + UnknownSets().size() + (corridor_ ? 1 : 0) + extra_columns;
+  for (size_t i = 0; i < columns; ++i) md << "---|";
   md << "\n";
+  return md.str();
+}
+
+std::string Evaluation::SweepCells(const Run& r) const {
+  std::ostringstream md;
+  for (const auto& [label, groups] : AccuracySets()) {
+    md << " " << Pct(r.TallyOf(groups)->accuracy()) << " |";
+  }
+  if (corridor_) md << " " << Pct(r.TallyOf({kCorridorUnknown})->accuracy()) << " |";
+  for (const std::string& g : UnknownSets()) {
+    md << " " << Pct(r.TallyOf({g})->false_accept_rate()) << " |";
+  }
+  return md.str();
+}
+
+std::string Evaluation::PaperSweepTable() const {
+  std::ostringstream md;
+  md << SweepHeader("ratio (lambda)", " ms/query (corridor) |", 1);
   for (const Run& r : paper_sweep_) {
-    md << "| " << absl::StrFormat("%.2f", r.options.ratio) << " |";
-    for (const auto& [label, groups] : AccuracySets()) {
-      md << " " << Pct(r.TallyOf(groups)->accuracy()) << " |";
-    }
-    if (corridor_) md << " " << Pct(r.TallyOf({kCorridorUnknown})->accuracy()) << " |";
-    for (const std::string& g : UnknownSets()) {
-      const Tally t = *r.TallyOf({g});
-      md << " " << Pct(t.false_accept_rate()) << " |";
-    }
-    if (auto t = r.TallyOf({kCorridor}))
+    md << "| " << absl::StrFormat("%.2f", r.options.ratio) << " |" << SweepCells(r);
+    if (auto t = r.TallyOf({kCorridor})) {
       md << absl::StrFormat(" %.1f |", t->mean_ms());
-    else
+    } else {
       md << " - |";
+    }
     md << "\n";
   }
   return md.str();
@@ -767,15 +783,7 @@ std::string Evaluation::PaperSweepTable() const {
 
 std::string Evaluation::VerifiedSweepTable() const {
   std::ostringstream md;
-  md << "| min_inliers | min_inlier_share |";
-  for (const auto& [label, groups] : AccuracySets()) md << " " << label << " |";
-  if (corridor_) md << " corridor_unknown: known acc |";
-  for (const std::string& g : UnknownSets()) md << " FA " << g << " |";
-  md << " mean accuracy | worst FA |\n|---|---|";
-  for (size_t i = 0; i < AccuracySets().size() + UnknownSets().size() + (corridor_ ? 3 : 2); ++i) {
-    md << "---|";
-  }
-  md << "\n";
+  md << SweepHeader("min_inliers | min_inlier_share", " mean accuracy | worst FA |", 3);
   for (size_t i = 0; i < verified_sweep_.size(); ++i) {
     const Run& r = verified_sweep_[i];
     const bool chosen = static_cast<int>(i) == chosen_index_;
@@ -785,14 +793,7 @@ std::string Evaluation::VerifiedSweepTable() const {
     if (is_default) mark += " (defaults)";
     if (r.options.min_inliers == 0 && r.options.min_inlier_share == 0) mark = " (no rejection)";
     md << "| " << r.options.min_inliers << mark << " | "
-       << absl::StrFormat("%.1f", r.options.min_inlier_share) << " |";
-    for (const auto& [label, groups] : AccuracySets()) {
-      md << " " << Pct(r.TallyOf(groups)->accuracy()) << " |";
-    }
-    if (corridor_) md << " " << Pct(r.TallyOf({kCorridorUnknown})->accuracy()) << " |";
-    for (const std::string& g : UnknownSets()) {
-      md << " " << Pct(r.TallyOf({g})->false_accept_rate()) << " |";
-    }
+       << absl::StrFormat("%.1f", r.options.min_inlier_share) << " |" << SweepCells(r);
     md << " " << Pct(MeanAccuracy(r)) << " | " << Pct(WorstFalseAccept(r)) << " |\n";
   }
   return md.str();
