@@ -1,13 +1,12 @@
 #include "server/crossing/features.h"
 
-#include <chrono>
-
 #include <opencv2/features2d.hpp>
 #include <opencv2/imgcodecs.hpp>
 #include <opencv2/imgproc.hpp>
 
 #include "absl/strings/str_cat.h"
 #include "server/crossing/hue_histogram.h"
+#include "server/crossing/stopwatch.h"
 
 namespace waymark::crossing {
 namespace {
@@ -33,11 +32,6 @@ absl::Status CheckComplete(const std::string& bytes) {
         absl::StrCat("PNG data (", bytes.size(), " bytes) is truncated: no IEND chunk"));
   }
   return absl::OkStatus();
-}
-
-double MsSince(std::chrono::steady_clock::time_point start) {
-  return std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - start)
-      .count();
 }
 
 }  // namespace
@@ -109,18 +103,18 @@ absl::StatusOr<ImageFeatures> ExtractFeatures(const std::string& encoded,
                                               const FeatureOptions& options,
                                               ExtractionTimings* timings) {
   ExtractionTimings local;
-  auto start = std::chrono::steady_clock::now();
+  auto start = Clock::now();
   absl::StatusOr<cv::Mat> image = DecodeImage(encoded);
   if (!image.ok()) return image.status();
   const cv::Mat working = ToWorkingResolution(*image, options);
   local.decode_ms = MsSince(start);
 
-  start = std::chrono::steady_clock::now();
+  start = Clock::now();
   absl::StatusOr<ImageFeatures> features = ExtractSift(working, options);
   if (!features.ok()) return features.status();
   local.extraction_ms = MsSince(start);
 
-  start = std::chrono::steady_clock::now();
+  start = Clock::now();
   features->hue_hist = HueHistogram(working, options.hue_bins);
   local.histogram_ms = MsSince(start);
   if (timings != nullptr) *timings = local;

@@ -1,21 +1,15 @@
 #include "server/crossing/recognizer.h"
 
 #include <algorithm>
-#include <chrono>
 
 #include "absl/strings/str_cat.h"
 #include "server/crossing/decision.h"
 #include "server/crossing/geometric_verification.h"
 #include "server/crossing/hue_histogram.h"
+#include "server/crossing/stopwatch.h"
 
 namespace waymark::crossing {
 namespace {
-
-using Clock = std::chrono::steady_clock;
-
-double MsSince(Clock::time_point start) {
-  return std::chrono::duration<double, std::milli>(Clock::now() - start).count();
-}
 
 // Match counts of the query against every view, through the index or (options.exact in the
 // index options) brute force per view: the reference the benchmark compares against.

@@ -1,6 +1,5 @@
 #include "server/service/crossing_registry.h"
 
-#include <chrono>
 #include <cctype>
 #include <cmath>
 #include <cstring>
@@ -10,24 +9,18 @@
 #include "absl/strings/str_cat.h"
 #include "server/crossing/features.h"
 #include "server/crossing/recognizer.h"
+#include "server/crossing/stopwatch.h"
+#include "server/crossing/stopwatch.h"
 
 namespace waymark::service {
 namespace {
 
-using Clock = std::chrono::steady_clock;
+using crossing::Clock;
+using crossing::MsSince;
 using crossing::ViewDatabase;
 
 // A view with fewer keypoints could never reach N1 = 10 matches: refuse it at enrollment.
 constexpr int kMinEnrollKeypoints = 10;
-
-double MsSince(Clock::time_point start) {
-  return std::chrono::duration<double, std::milli>(Clock::now() - start).count();
-}
-
-double UnixNow() {
-  return std::chrono::duration<double>(std::chrono::system_clock::now().time_since_epoch())
-      .count();
-}
 
 absl::Status ValidateDatabaseName(const std::string& name) {
   if (name.empty() || name.size() > 64) {
