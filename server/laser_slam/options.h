@@ -1,0 +1,86 @@
+#ifndef WAYMARK_SERVER_LASER_SLAM_OPTIONS_H_
+#define WAYMARK_SERVER_LASER_SLAM_OPTIONS_H_
+
+// Parameters of the line-segment EKF SLAM (METHODS.md section 2). Where the paper gives a value
+// (the 6 m range) it is the default; every other default is ours and its comment says why.
+
+#include "absl/status/status.h"
+#include "server/laser_slam/types.h"
+
+namespace waymark::laser_slam {
+
+struct LineExtractionOptions {
+  // Readings beyond this range are dropped before fitting (paper: 6 m).
+  double max_range = 6.0;
+  // Readings closer than this are dropped (the laser's housing, the robot's own parts).
+  double min_range = 0.05;
+  // Range noise of one reading, 1 sigma (SICK LMS200 datasheet: about 1 cm at short range).
+  double range_sigma = 0.01;
+  // Bearing noise of one reading, 1 sigma (half a 0.25 degree quantum, generously).
+  double bearing_sigma = 0.002;
+  // Split the scan where consecutive points are further apart than
+  // discontinuity_abs + discontinuity_rel * range (m).
+  double discontinuity_abs = 0.15;
+  double discontinuity_rel = 0.05;
+  // Split-and-merge: split a cluster where a point lies further than this from the chord (m).
+  double split_distance = 0.05;
+  // A segment needs at least this many points and this length (m).
+  int min_points = 6;
+  double min_length = 0.3;
+  // Drop segments whose incidence angle to the laser beams is below this (rad): nearly parallel
+  // to the beams, their points are sparse and biased (paper step 3). 15 degrees.
+  double min_incidence = 0.26;
+  // Merge neighbouring segments of one cluster when their lines agree within these tolerances.
+  double merge_angle = 0.05;
+  double merge_distance = 0.05;
+};
+
+// Wheel-odometry error model for the prediction step: standard deviations grow with the distance
+// travelled and the angle turned between two scans (the usual Thrun et al. motion model,
+// per-scan increments). Defaults suit a Pioneer-class differential drive on an indoor floor.
+struct OdometryNoise {
+  double xy_per_m = 0.05;        // m of translational error per m travelled
+  double theta_per_rad = 0.05;   // rad of heading error per rad turned
+  double theta_per_m = 0.03;     // rad of heading error per m travelled (wheel slip, width error)
+  double xy_min = 0.002;         // floor on every increment (m)
+  double theta_min = 0.002;      // floor on every increment (rad)
+};
+
+struct EkfOptions {
+  // Mahalanobis gate for matching an observed line to a map line: chi-square with 2 degrees of
+  // freedom; 9.21 = 99 % confidence.
+  double match_chi2 = 9.21;
+  // Observed and map segments must overlap along the line, allowing this gap (m), so that a wall
+  // seen further along still matches and extends the map segment.
+  double overlap_margin = 0.3;
+  // Gate for an endpoint-position measurement (1 dof, 99 %: 6.63); beyond it the endpoint row is
+  // left out of the update instead of corrupting the line.
+  double endpoint_chi2 = 6.63;
+  // Two map segments are merged when they pass this joint gate (2 dof) and overlap or nearly touch.
+  double merge_chi2 = 9.21;
+  double merge_gap = 0.3;
+  // Try merges every this many scans (the check is over segment pairs near the robot).
+  int merge_every_scans = 5;
+  // Map segments further than this from the robot are not considered for matching (m): they cannot
+  // be seen within the range used, and skipping them keeps association linear in nearby segments.
+  double association_radius = 10.0;
+  // Scans whose odometry says the robot moved less than this since the last processed scan are
+  // skipped (0 = process every scan). Standing still adds information only about the same walls.
+  double min_travel = 0.0;
+  double min_turn = 0.0;
+};
+
+struct SlamOptions {
+  LineExtractionOptions extraction;
+  OdometryNoise odometry;
+  EkfOptions ekf;
+  // Pose of the laser on the robot (robot frame).
+  Pose2 laser_pose;
+};
+
+absl::Status ValidateSlamOptions(const SlamOptions& options);
+absl::Status ValidateScanGeometry(const ScanGeometry& geometry);
+
+}  // namespace waymark::laser_slam
+
+#endif  // WAYMARK_SERVER_LASER_SLAM_OPTIONS_H_
