@@ -6,7 +6,7 @@
 
 #include "absl/strings/str_cat.h"
 #include "server/crossing/hue_histogram.h"
-#include "server/crossing/stopwatch.h"
+#include "server/common/stopwatch.h"
 
 namespace waymark::crossing {
 namespace {

@@ -6,7 +6,7 @@
 #include "server/crossing/decision.h"
 #include "server/crossing/geometric_verification.h"
 #include "server/crossing/hue_histogram.h"
-#include "server/crossing/stopwatch.h"
+#include "server/common/stopwatch.h"
 
 namespace waymark::crossing {
 namespace {

@@ -9,14 +9,11 @@
 #include "absl/strings/str_cat.h"
 #include "server/crossing/features.h"
 #include "server/crossing/recognizer.h"
-#include "server/crossing/stopwatch.h"
-#include "server/crossing/stopwatch.h"
+#include "server/common/stopwatch.h"
 
 namespace waymark::service {
 namespace {
 
-using crossing::Clock;
-using crossing::MsSince;
 using crossing::ViewDatabase;
 
 // A view with fewer keypoints could never reach N1 = 10 matches: refuse it at enrollment.
