@@ -3,80 +3,271 @@
 #include <cmath>
 
 #include "absl/strings/str_cat.h"
+#include "server/common/stopwatch.h"
+#include "server/laser_slam/binary_io.h"
 #include "server/laser_slam/geometry.h"
 #include "server/laser_slam/line_extraction.h"
+#include "server/laser_slam/odometry_buffer.h"
+#include "server/laser_slam/segment_ekf.h"
 
 namespace waymark::laser_slam {
+namespace {
 
-// TEMPORARY dead-reckoning body so that the service and client can be built against the API while
-// the EKF is written (issue 3 in progress).
+constexpr std::uint32_t kMagic = 0x534c4d57;  // "WMLS"
+constexpr std::uint32_t kVersion = 1;
+
+double Sq(double v) { return v * v; }
+
+// Odometry error of one increment (options.h, OdometryNoise), in the robot frame at its end.
+Eigen::Matrix3d IncrementNoise(const Pose2& u, const OdometryNoise& noise) {
+  const double distance = std::hypot(u.x, u.y);
+  const double turn = std::abs(u.theta);
+  const double sxy = noise.xy_min + noise.xy_per_m * distance;
+  const double sth = noise.theta_min + noise.theta_per_rad * turn + noise.theta_per_m * distance;
+  return Eigen::Vector3d(Sq(sxy), Sq(sxy), Sq(sth)).asDiagonal();
+}
+
+}  // namespace
+
 struct LaserSlam::Impl {
+  explicit Impl(const SlamOptions& o) : options(o), ekf(o.ekf) {}
+
   SlamOptions options;
-  std::vector<OdometryReading> odometry;  // last two readings
+  SegmentEkf ekf;
+  OdometryBuffer odometry;
   bool have_scan = false;
   double last_scan_stamp = 0.0;
-  Pose2 last_scan_odom;
-  Pose2 pose;
+  Pose2 odometry_at_last_update;  // odometry pose when the filter last moved the robot
   std::vector<PoseEstimate> trajectory;
   std::uint64_t revision = 0;
   std::uint64_t scans = 0;
+
+  PoseEstimate Current(double stamp) const {
+    PoseEstimate p;
+    p.stamp = stamp;
+    p.pose = ekf.state().robot;
+    p.covariance = ekf.state().cov().topLeftCorner<3, 3>();
+    return p;
+  }
 };
 
-LaserSlam::LaserSlam(const SlamOptions& options) : impl_(std::make_unique<Impl>()) {
-  impl_->options = options;
-}
+LaserSlam::LaserSlam(const SlamOptions& options) : impl_(std::make_unique<Impl>(options)) {}
 LaserSlam::~LaserSlam() = default;
 
 absl::Status LaserSlam::AddOdometry(const OdometryReading& reading) {
-  if (!impl_->odometry.empty() && reading.stamp <= impl_->odometry.back().stamp) {
-    return absl::InvalidArgumentError(absl::StrCat("odometry stamp ", reading.stamp,
-                                                   " is not after the previous one ",
-                                                   impl_->odometry.back().stamp));
-  }
-  impl_->odometry.push_back(reading);
-  if (impl_->odometry.size() > 2) impl_->odometry.erase(impl_->odometry.begin());
-  return absl::OkStatus();
+  return impl_->odometry.Add(reading);
 }
 
 absl::StatusOr<ScanUpdate> LaserSlam::AddScan(const LaserScan& scan) {
-  if (impl_->have_scan && scan.stamp <= impl_->last_scan_stamp) {
-    return absl::InvalidArgumentError("scan stamp not increasing");
+  Impl& s = *impl_;
+  const auto start = Clock::now();
+  if (!std::isfinite(scan.stamp)) return absl::InvalidArgumentError("scan stamp must be finite");
+  if (s.have_scan && scan.stamp <= s.last_scan_stamp) {
+    return absl::InvalidArgumentError(
+        absl::StrCat("scan stamp ", scan.stamp, " is not after the previous scan's (",
+                     s.last_scan_stamp, "): scans must arrive in time order"));
   }
-  absl::StatusOr<std::vector<ObservedSegment>> segments =
-      ExtractSegments(scan, impl_->options.extraction);
-  if (!segments.ok()) return segments.status();
-  Pose2 odom = impl_->odometry.empty() ? Pose2{} : impl_->odometry.back().pose;
-  if (impl_->have_scan) {
-    impl_->pose = Compose(impl_->pose, Relative(impl_->last_scan_odom, odom));
-  }
-  impl_->last_scan_odom = odom;
-  impl_->have_scan = true;
-  impl_->last_scan_stamp = scan.stamp;
-  ++impl_->scans;
   ScanUpdate update;
-  update.pose.stamp = scan.stamp;
-  update.pose.pose = impl_->pose;
-  update.observed = static_cast<int>(segments->size());
-  impl_->trajectory.push_back(update.pose);
+  absl::StatusOr<std::vector<ObservedSegment>> observed = ExtractSegments(scan, s.options.extraction);
+  if (!observed.ok()) return observed.status();
+  update.timings.extraction = MsSince(start);
+
+  // Motion since the last update, from odometry interpolated at the scan stamp.
+  const auto predict_start = Clock::now();
+  const Pose2 odom = s.odometry.At(scan.stamp).value_or(s.odometry_at_last_update);
+  const Pose2 u = s.have_scan ? Relative(s.odometry_at_last_update, odom) : Pose2{};
+  const bool too_little_motion = s.have_scan && std::hypot(u.x, u.y) < s.options.ekf.min_travel &&
+                                 std::abs(u.theta) < s.options.ekf.min_turn;
+  s.have_scan = true;
+  s.last_scan_stamp = scan.stamp;
+  ++s.scans;
+  if (too_little_motion) {
+    // Report where odometry puts the robot without touching the filter.
+    update.skipped = true;
+    update.pose = s.Current(scan.stamp);
+    update.pose.pose = Compose(update.pose.pose, u);
+  } else {
+    if (s.scans > 1) s.ekf.Predict(u, IncrementNoise(u, s.options.odometry));
+    s.odometry_at_last_update = odom;
+    update.timings.prediction = MsSince(predict_start);
+    const ObserveStats stats = s.ekf.Observe(*observed, s.options.laser_pose, s.scans);
+    update.timings.association = stats.association_ms;
+    update.timings.update = stats.update_ms;
+    update.matched = stats.matched;
+    update.added = stats.added;
+    bool changed = stats.map_changed;
+    if (s.options.ekf.merge_every_scans > 0 && s.scans % s.options.ekf.merge_every_scans == 0) {
+      const auto merge_start = Clock::now();
+      update.merged = s.ekf.MergeSegments(s.scans);
+      update.timings.update += MsSince(merge_start);
+      changed = changed || update.merged > 0;
+    }
+    if (changed) ++s.revision;
+    update.pose = s.Current(scan.stamp);
+  }
+  s.odometry.DropBefore(scan.stamp);
+  update.observed = static_cast<int>(observed->size());
+  update.segments = static_cast<int>(s.ekf.state().segments.size());
+  update.state_size = s.ekf.state().size();
+  update.map_revision = s.revision;
+  s.trajectory.push_back(update.pose);
+  update.timings.total = MsSince(start);
   return update;
 }
 
 PoseEstimate LaserSlam::CurrentPose() const {
-  return impl_->trajectory.empty() ? PoseEstimate{} : impl_->trajectory.back();
+  return impl_->trajectory.empty() ? impl_->Current(0.0) : impl_->trajectory.back();
 }
-std::vector<MapSegment> LaserSlam::Map() const { return {}; }
+
+std::vector<MapSegment> LaserSlam::Map() const {
+  const SpState& st = impl_->ekf.state();
+  std::vector<MapSegment> out;
+  out.reserve(st.segments.size());
+  for (const SegmentEntity& e : st.segments) {
+    MapSegment m;
+    m.id = e.id;
+    m.frame = e.frame;
+    m.left = e.left;
+    m.right = e.right;
+    m.left_type = e.left_type;
+    m.right_type = e.right_type;
+    m.line_covariance << st.at(e.dof[0], e.dof[0]), st.at(e.dof[0], e.dof[1]),
+        st.at(e.dof[1], e.dof[0]), st.at(e.dof[1], e.dof[1]);
+    m.left_variance = e.dof[2] >= 0 ? st.at(e.dof[2], e.dof[2]) : 0.0;
+    m.right_variance = e.dof[3] >= 0 ? st.at(e.dof[3], e.dof[3]) : 0.0;
+    m.observations = e.observations;
+    out.push_back(m);
+  }
+  return out;
+}
+
 const std::vector<PoseEstimate>& LaserSlam::Trajectory() const { return impl_->trajectory; }
 std::uint64_t LaserSlam::map_revision() const { return impl_->revision; }
 std::uint64_t LaserSlam::scans_processed() const { return impl_->scans; }
 const SlamOptions& LaserSlam::options() const { return impl_->options; }
 
-std::string LaserSlam::SerializeState() const { return "WMLS0"; }
+namespace {
+
+void PutPose(BinaryWriter& w, const Pose2& p) {
+  w.Put(p.x);
+  w.Put(p.y);
+  w.Put(p.theta);
+}
+bool GetPose(BinaryReader& r, Pose2* p) { return r.Get(&p->x) && r.Get(&p->y) && r.Get(&p->theta); }
+
+}  // namespace
+
+std::string LaserSlam::SerializeState() const {
+  const Impl& s = *impl_;
+  const SpState& st = s.ekf.state();
+  BinaryWriter w;
+  w.Put(kMagic);
+  w.Put(kVersion);
+  w.Put<std::uint8_t>(s.have_scan);
+  w.Put(s.last_scan_stamp);
+  PutPose(w, s.odometry_at_last_update);
+  w.Put(s.revision);
+  w.Put(s.scans);
+  w.Put(s.ekf.next_segment_id());
+  w.Put<std::uint32_t>(static_cast<std::uint32_t>(s.odometry.readings().size()));
+  for (const OdometryReading& r : s.odometry.readings()) {
+    w.Put(r.stamp);
+    PutPose(w, r.pose);
+  }
+  PutPose(w, st.robot);
+  w.Put<std::uint32_t>(static_cast<std::uint32_t>(st.segments.size()));
+  for (const SegmentEntity& e : st.segments) {
+    w.Put(e.id);
+    PutPose(w, e.frame);
+    w.Put(e.left);
+    w.Put(e.right);
+    w.Put<std::uint8_t>(static_cast<std::uint8_t>(e.left_type));
+    w.Put<std::uint8_t>(static_cast<std::uint8_t>(e.right_type));
+    for (int d : e.dof) w.Put<std::int32_t>(d);
+    w.Put<std::int32_t>(e.observations);
+    w.Put(e.last_seen_scan);
+  }
+  const int n = st.size();
+  w.Put<std::int32_t>(n);
+  for (int i = 0; i < n; ++i) {
+    for (int j = 0; j <= i; ++j) w.Put(st.at(i, j));
+  }
+  return w.Take();
+}
 
 absl::StatusOr<std::unique_ptr<LaserSlam>> LaserSlam::FromCheckpoint(
     const SlamOptions& options, absl::string_view state, std::vector<PoseEstimate> trajectory) {
-  if (state != "WMLS0") return absl::DataLossError("bad laser SLAM checkpoint");
   auto slam = std::make_unique<LaserSlam>(options);
-  slam->impl_->trajectory = std::move(trajectory);
+  Impl& s = *slam->impl_;
+  BinaryReader r(state);
+  const auto corrupt = [](const char* what) {
+    return absl::DataLossError(absl::StrCat("laser SLAM checkpoint is corrupt: ", what));
+  };
+  std::uint32_t magic = 0, version = 0;
+  if (!r.Get(&magic) || magic != kMagic) return corrupt("not a checkpoint");
+  if (!r.Get(&version) || version != kVersion) {
+    return absl::FailedPreconditionError(
+        absl::StrCat("laser SLAM checkpoint version ", version, " is not supported (expected ",
+                     kVersion, ")"));
+  }
+  std::uint8_t have_scan = 0;
+  std::uint64_t next_id = 0;
+  std::uint32_t readings = 0;
+  if (!r.Get(&have_scan) || !r.Get(&s.last_scan_stamp) || !GetPose(r, &s.odometry_at_last_update) ||
+      !r.Get(&s.revision) || !r.Get(&s.scans) || !r.Get(&next_id) || !r.Get(&readings) ||
+      readings > OdometryBuffer::kCapacity) {
+    return corrupt("header");
+  }
+  s.have_scan = have_scan != 0;
+  s.ekf.set_next_segment_id(next_id);
+  for (std::uint32_t i = 0; i < readings; ++i) {
+    OdometryReading reading;
+    if (!r.Get(&reading.stamp) || !GetPose(r, &reading.pose)) return corrupt("odometry");
+    if (!s.odometry.Add(reading).ok()) return corrupt("odometry order");
+  }
+  SpState& st = s.ekf.state();
+  std::uint32_t segments = 0;
+  if (!GetPose(r, &st.robot) || !r.Get(&segments)) return corrupt("robot");
+  std::vector<SegmentEntity> entities(segments);
+  for (SegmentEntity& e : entities) {
+    std::uint8_t lt = 0, rt = 0;
+    std::int32_t obs = 0;
+    if (!r.Get(&e.id) || !GetPose(r, &e.frame) || !r.Get(&e.left) || !r.Get(&e.right) ||
+        !r.Get(&lt) || !r.Get(&rt) || lt > 1 || rt > 1) {
+      return corrupt("segment");
+    }
+    e.left_type = static_cast<EndpointType>(lt);
+    e.right_type = static_cast<EndpointType>(rt);
+    for (int& d : e.dof) {
+      std::int32_t v = 0;
+      if (!r.Get(&v)) return corrupt("segment dofs");
+      d = v;
+    }
+    if (!r.Get(&obs) || !r.Get(&e.last_seen_scan)) return corrupt("segment");
+    e.observations = obs;
+  }
+  std::int32_t n = 0;
+  if (!r.Get(&n) || n < 3 || n > 1000000) return corrupt("state size");
+  for (const SegmentEntity& e : entities) {
+    for (int k = 0; k < 4; ++k) {
+      const bool needed = k < 2 || (k == 2 ? e.left_type : e.right_type) == EndpointType::kReal;
+      if ((needed && (e.dof[k] < 3 || e.dof[k] >= n)) || (!needed && e.dof[k] != -1)) {
+        return corrupt("segment dof index");
+      }
+    }
+  }
+  st.AddDofs(n - 3);
+  for (int i = 0; i < n; ++i) {
+    for (int j = 0; j <= i; ++j) {
+      double v = 0.0;
+      if (!r.Get(&v) || !std::isfinite(v)) return corrupt("covariance");
+      st.at(i, j) = v;
+      st.at(j, i) = v;
+    }
+  }
+  if (!r.done()) return corrupt("trailing bytes");
+  st.segments = std::move(entities);
+  s.trajectory = std::move(trajectory);
   return slam;
 }
 

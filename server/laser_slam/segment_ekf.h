@@ -1,0 +1,74 @@
+#ifndef WAYMARK_SERVER_LASER_SLAM_SEGMENT_EKF_H_
+#define WAYMARK_SERVER_LASER_SLAM_SEGMENT_EKF_H_
+
+// The SP-model EKF over the robot and the map segments (METHODS.md section 2): odometry
+// prediction, nearest-neighbour association under the Mahalanobis distance of the implicit
+// line-coincidence measurement with a chi-square gate and an overlap test, batch update, centering,
+// endpoint insertion and extension, state augmentation and segment merging.
+
+#include <cstdint>
+#include <vector>
+
+#include <Eigen/Core>
+
+#include "server/laser_slam/options.h"
+#include "server/laser_slam/sp_state.h"
+#include "server/laser_slam/types.h"
+
+namespace waymark::laser_slam {
+
+struct ObserveStats {
+  int matched = 0;
+  int added = 0;
+  int merged = 0;
+  bool map_changed = false;
+  double association_ms = 0.0;
+  double update_ms = 0.0;
+};
+
+class SegmentEkf {
+ public:
+  explicit SegmentEkf(const EkfOptions& options);
+
+  // Moves the robot by the odometry increment `u` (robot frame) with error covariance `noise`.
+  void Predict(const Pose2& u, const Eigen::Matrix3d& noise);
+
+  // Fuses the segments of one scan, given in the laser frame at `laser_pose` on the robot.
+  ObserveStats Observe(const std::vector<ObservedSegment>& observed, const Pose2& laser_pose,
+                       std::uint64_t scan_index);
+
+  // Merges map segments that are the same wall; returns how many were merged away.
+  int MergeSegments(std::uint64_t scan_index);
+
+  SpState& state() { return state_; }
+  const SpState& state() const { return state_; }
+  std::uint64_t next_segment_id() const { return next_id_; }
+  void set_next_segment_id(std::uint64_t id) { next_id_ = id; }
+
+ private:
+  struct Match;
+  struct Row;
+
+  std::vector<int> NearbySegments(double radius) const;
+  bool Associate(const ObservedSegment& obs, const Pose2& in_robot,
+                 const std::vector<int>& candidates, Match* match) const;
+  void AppendRows(const Match& match, std::vector<Row>* rows) const;
+  // Applies a batch of measurement rows (innovation, sparse state Jacobian, noise); false if the
+  // innovation covariance is not positive definite (nothing changes then).
+  bool Update(const std::vector<Row>& rows, const Eigen::MatrixXd& noise);
+  // Moves the estimates by the correction and resets it to zero (the SP model's centering).
+  void Center(const Eigen::VectorXd& correction);
+  void ApplyToCovariance(const std::vector<int>& dofs, const Eigen::MatrixXd& q);
+  void Recentre(SegmentEntity& segment);
+  bool AdjustEndpoints(const Match& match);
+  void AddSegment(const ObservedSegment& obs, const Pose2& in_robot, std::uint64_t scan_index);
+  bool MergePair(int keep, int drop);
+
+  EkfOptions options_;
+  SpState state_;
+  std::uint64_t next_id_ = 1;
+};
+
+}  // namespace waymark::laser_slam
+
+#endif  // WAYMARK_SERVER_LASER_SLAM_SEGMENT_EKF_H_
