@@ -1,0 +1,48 @@
+#ifndef WAYMARK_TESTS_LASER_SLAM_SYNTHETIC_SCAN_H_
+#define WAYMARK_TESTS_LASER_SLAM_SYNTHETIC_SCAN_H_
+
+// A small 2-D ray caster for laser SLAM tests: walls are line segments in the world frame, the laser
+// sits at a pose, each beam returns the nearest wall along its ray with optional Gaussian range and
+// bearing noise (bearing noise: the beam is fired slightly off its nominal bearing but reported at
+// the nominal one).
+
+#include <random>
+#include <vector>
+
+#include <Eigen/Core>
+
+#include "server/laser_slam/types.h"
+
+namespace waymark::laser_slam::testing {
+
+struct Wall {
+  Eigen::Vector2d a;
+  Eigen::Vector2d b;
+};
+
+struct RayCastOptions {
+  double range_sigma = 0.0;    // Gaussian range noise, 1 sigma (m)
+  double bearing_sigma = 0.0;  // Gaussian bearing noise, 1 sigma (rad)
+  // Rays that hit nothing within this distance return geometry.no_return_range when that is > 0,
+  // +infinity otherwise.
+  double sensor_range = 8.0;
+};
+
+// The SICK LMS200 layout of METHODS.md: 361 beams over [-90, 90] degrees, 0.5 degree apart.
+ScanGeometry Lms200Geometry(double no_return_range = 0.0);
+
+// Distance along the ray from `origin` in direction `angle` to the nearest wall, or a negative value
+// when no wall is hit.
+double CastRay(const std::vector<Wall>& walls, const Eigen::Vector2d& origin, double angle);
+
+// One scan of `walls` from a laser at `laser_pose` (world frame). `rng` may be null when both noise
+// sigmas are zero.
+LaserScan CastScan(const std::vector<Wall>& walls, const Pose2& laser_pose,
+                   const ScanGeometry& geometry, const RayCastOptions& options, std::mt19937* rng);
+
+// Axis-aligned rectangle [x0, x1] x [y0, y1] as four walls.
+std::vector<Wall> Box(double x0, double y0, double x1, double y1);
+
+}  // namespace waymark::laser_slam::testing
+
+#endif  // WAYMARK_TESTS_LASER_SLAM_SYNTHETIC_SCAN_H_
