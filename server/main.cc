@@ -1,11 +1,12 @@
 // waymark-server: the gRPC service robots talk to.
 //
 //   waymark-server [--listen 127.0.0.1:50051] [--db ./var/waymark.db] [--threads N]
-//                  [--max-message-mb 32]
+//                  [--max-message-mb 32] [--slam-queue 64] [--slam-workers N]
+//                  [--slam-checkpoint-seconds 30] [--max-sessions 64]
 //
 // Prints "waymark-server listening on HOST:PORT" once it accepts calls (port 0 picks a free port).
 // SIGINT/SIGTERM: stop accepting, let in-flight calls finish (up to --shutdown-grace seconds),
-// then close the database.
+// then checkpoint every SLAM session in memory and close the database.
 
 #include <malloc.h>
 
@@ -25,7 +26,10 @@
 
 #include "server/service/crossing_registry.h"
 #include "server/service/crossing_service.h"
+#include "server/service/slam_registry.h"
+#include "server/service/slam_service.h"
 #include "storage/crossing_store.h"
+#include "storage/slam_store.h"
 
 namespace {
 
@@ -39,6 +43,7 @@ struct ServerFlags {
   int threads = 0;  // 0: gRPC's default (grows with load)
   int max_message_mb = 32;
   double shutdown_grace_s = 10;
+  waymark::service::SlamRegistryOptions slam;
 };
 
 // Keepalive for robots on Wi-Fi: ping idle connections so dead links are noticed in seconds, and
@@ -81,7 +86,19 @@ int Run(const ServerFlags& flags) {
                databases->databases_size(), views,
                std::chrono::duration<double>(std::chrono::steady_clock::now() - load_start).count());
 
+  auto slam_store = waymark::storage::OpenSqliteSlamStore(flags.db);
+  if (!slam_store.ok()) {
+    spdlog::error("cannot open database {}: {}", flags.db, slam_store.status().ToString());
+    return 2;
+  }
+  auto slam_registry = waymark::service::SlamRegistry::Create(std::move(*slam_store), flags.slam);
+  if (!slam_registry.ok()) {
+    spdlog::error("cannot start SLAM sessions: {}", slam_registry.status().ToString());
+    return 2;
+  }
+
   waymark::service::CrossingServiceImpl crossing_service(registry->get());
+  waymark::service::SlamServiceImpl slam_service(slam_registry->get());
   grpc::EnableDefaultHealthCheckService(true);
   grpc::reflection::InitProtoReflectionServerBuilderPlugin();
   grpc::ServerBuilder builder;
@@ -89,11 +106,14 @@ int Run(const ServerFlags& flags) {
   builder.AddListeningPort(flags.listen, grpc::InsecureServerCredentials(), &port);
   ConfigureChannel(&builder, flags);
   builder.RegisterService(&crossing_service);
+  builder.RegisterService(&slam_service);
   std::unique_ptr<grpc::Server> server = builder.BuildAndStart();
   if (server == nullptr || port == 0) {
     spdlog::error("cannot listen on {} (address in use or invalid?)", flags.listen);
     return 2;
   }
+  server->GetHealthCheckService()->SetServingStatus("waymark.v1.CrossingService", true);
+  server->GetHealthCheckService()->SetServingStatus("waymark.v1.SlamService", true);
   const std::string host = flags.listen.substr(0, flags.listen.rfind(':'));
   std::printf("waymark-server listening on %s:%d\n", host.c_str(), port);
   std::fflush(stdout);
@@ -109,6 +129,10 @@ int Run(const ServerFlags& flags) {
                         std::chrono::milliseconds(static_cast<int>(flags.shutdown_grace_s * 1000));
   server->Shutdown(deadline);
   server->Wait();
+  // Streams have ended (their accepted messages answered): save every session in memory.
+  if (absl::Status s = (*slam_registry)->Shutdown(); !s.ok()) {
+    spdlog::error("SLAM checkpoint at shutdown failed: {}", s.ToString());
+  }
   spdlog::info("stopped");
   return 0;
 }
@@ -131,6 +155,26 @@ int main(int argc, char** argv) {
   app.add_option("--shutdown-grace", flags.shutdown_grace_s,
                  "seconds in-flight calls get to finish on SIGINT/SIGTERM")
       ->check(CLI::NonNegativeNumber)
+      ->capture_default_str();
+  app.add_option("--slam-queue", flags.slam.queue_capacity,
+                 "SLAM messages waiting per session; more get RESOURCE_EXHAUSTED")
+      ->check(CLI::Range(1, 100000))
+      ->capture_default_str();
+  app.add_option("--slam-workers", flags.slam.workers,
+                 "threads processing SLAM sessions (0 = hardware threads)")
+      ->check(CLI::Range(0, 256))
+      ->capture_default_str();
+  app.add_option("--slam-checkpoint-seconds", flags.slam.checkpoint_seconds,
+                 "checkpoint a SLAM session with new data this often (0 = only on close/shutdown)")
+      ->check(CLI::NonNegativeNumber)
+      ->capture_default_str();
+  app.add_option("--slam-checkpoint-scans", flags.slam.checkpoint_scans,
+                 "also checkpoint a SLAM session every N processed scans (0 = off)")
+      ->check(CLI::NonNegativeNumber)
+      ->capture_default_str();
+  app.add_option("--max-sessions", flags.slam.max_sessions,
+                 "open SLAM sessions this server holds; CreateSession beyond gets RESOURCE_EXHAUSTED")
+      ->check(CLI::Range(1, 100000))
       ->capture_default_str();
   CLI11_PARSE(app, argc, argv);
   // glibc gives every thread that allocates its own arena and keeps freed memory in each; with

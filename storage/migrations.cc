@@ -61,6 +61,45 @@ CREATE TABLE cluster_member (
 CREATE INDEX cluster_member_view_id ON cluster_member(view_id);
 )sql";
 
+// v2: laser SLAM sessions and their trajectories.
+// - The session id is the service's random 128-bit hex string (TEXT primary key).
+// - config is the service's serialized config message and checkpoint the engine's versioned state,
+//   both opaque blobs. The counters beside them let ListSessions answer without the engine.
+// - The trajectory is append-only: a periodic checkpoint inserts the poses since the previous one
+//   (seq 0, 1, 2, ...) instead of rewriting them. covariance is 9 float64 (3x3, row-major).
+constexpr absl::string_view kV2SlamTables = R"sql(
+CREATE TABLE slam_session (
+  id TEXT PRIMARY KEY,
+  robot_id TEXT NOT NULL,
+  name TEXT NOT NULL DEFAULT '',
+  kind TEXT NOT NULL CHECK (kind IN ('laser')),
+  config BLOB NOT NULL,
+  state TEXT NOT NULL CHECK (state IN ('open', 'closed')),
+  created_at REAL NOT NULL,
+  updated_at REAL NOT NULL,
+  scans_processed INTEGER NOT NULL DEFAULT 0,
+  checkpoint BLOB,
+  checkpoint_at REAL,
+  map_revision INTEGER NOT NULL DEFAULT 0,
+  segments INTEGER NOT NULL DEFAULT 0,
+  last_scan_stamp REAL,
+  last_odometry_stamp REAL
+);
+CREATE INDEX slam_session_robot_id ON slam_session(robot_id);
+CREATE INDEX slam_session_state ON slam_session(state);
+
+CREATE TABLE slam_trajectory (
+  session_id TEXT NOT NULL REFERENCES slam_session(id) ON DELETE CASCADE,
+  seq INTEGER NOT NULL,
+  stamp REAL NOT NULL,
+  x REAL NOT NULL,
+  y REAL NOT NULL,
+  theta REAL NOT NULL,
+  covariance BLOB NOT NULL,
+  PRIMARY KEY (session_id, seq)
+) WITHOUT ROWID;
+)sql";
+
 absl::Status TooNewError(sqlite::Connection& connection, int version, int latest) {
   return absl::FailedPreconditionError(absl::StrCat(
       "database \"", connection.path(), "\" has schema version ", version,
@@ -74,6 +113,7 @@ const std::vector<absl::string_view>& SchemaMigrations() {
   // Append new steps at the end (e.g. the SLAM session tables); never edit a released one.
   static const auto* const kSteps = new std::vector<absl::string_view>{
       kV1CrossingTables,
+      kV2SlamTables,
   };
   return *kSteps;
 }

@@ -1,0 +1,261 @@
+#include "server/service/slam_params.h"
+
+#include <cmath>
+#include <string>
+
+#include "absl/strings/str_cat.h"
+
+namespace waymark::service {
+namespace {
+
+namespace ls = laser_slam;
+
+// Field paths are given from CreateSessionRequest, as a client writes them.
+constexpr char kParams[] = "laser.params.";
+
+// value in [lo, hi] (or (lo, hi] when lo_open).
+absl::Status InRange(double value, const std::string& field, double lo, double hi, bool lo_open,
+                     const char* unit) {
+  const bool ok = std::isfinite(value) && (lo_open ? value > lo : value >= lo) && value <= hi;
+  if (ok) return absl::OkStatus();
+  return absl::InvalidArgumentError(absl::StrCat(field, " must be in ", lo_open ? "(" : "[", lo,
+                                                 ", ", hi, "] ", unit, ", got ", value));
+}
+
+bool GeometryIsSet(const v1::LaserGeometry& g) {
+  return g.beam_count() != 0 || g.angle_min() != 0.0 || g.angle_increment() != 0.0 ||
+         g.no_return_range() != 0.0;
+}
+
+absl::Status ValidateGeometry(const ls::ScanGeometry& geometry, const std::string& field) {
+  absl::Status status = ls::ValidateScanGeometry(geometry);
+  if (status.ok()) return status;
+  return absl::InvalidArgumentError(absl::StrCat(field, ": ", status.message()));
+}
+
+absl::Status ValidateParams(const v1::LaserSlamParams& p, double min_range) {
+  const std::string f = kParams;
+  if (p.has_max_range()) {
+    absl::Status s = InRange(p.max_range(), f + "max_range", min_range, 100.0, true, "m");
+    if (!s.ok()) return s;
+  }
+  struct Check {
+    bool set;
+    double value;
+    const char* name;
+    double lo, hi;
+    bool lo_open;
+    const char* unit;
+  };
+  const Check checks[] = {
+      {p.has_range_sigma(), p.range_sigma(), "range_sigma", 0.0, 1.0, true, "m"},
+      {p.has_odom_xy_per_m(), p.odom_xy_per_m(), "odom_xy_per_m", 0.0, 10.0, false, "m per m"},
+      {p.has_odom_theta_per_rad(), p.odom_theta_per_rad(), "odom_theta_per_rad", 0.0, 10.0, false,
+       "rad per rad"},
+      {p.has_odom_theta_per_m(), p.odom_theta_per_m(), "odom_theta_per_m", 0.0, 10.0, false,
+       "rad per m"},
+      {p.has_match_chi2(), p.match_chi2(), "match_chi2", 0.0, 1000.0, true, "(chi-square, 2 dof)"},
+      {p.has_min_travel(), p.min_travel(), "min_travel", 0.0, 100.0, false, "m"},
+      {p.has_min_turn(), p.min_turn(), "min_turn", 0.0, M_PI, false, "rad"},
+  };
+  for (const Check& c : checks) {
+    if (!c.set) continue;
+    absl::Status s = InRange(c.value, f + c.name, c.lo, c.hi, c.lo_open, c.unit);
+    if (!s.ok()) return s;
+  }
+  return absl::OkStatus();
+}
+
+absl::Status ValidateLaserPose(const v1::Pose2D& pose) {
+  for (const auto& [value, name] : {std::pair<double, const char*>{pose.x(), "x"},
+                                    {pose.y(), "y"}}) {
+    absl::Status s = InRange(value, absl::StrCat("laser.laser_pose.", name), -100.0, 100.0, false,
+                             "m");
+    if (!s.ok()) return s;
+  }
+  return InRange(pose.theta(), "laser.laser_pose.theta", -2 * M_PI, 2 * M_PI, false, "rad");
+}
+
+}  // namespace
+
+ls::ScanGeometry ToScanGeometry(const v1::LaserGeometry& geometry) {
+  ls::ScanGeometry g;
+  g.angle_min = geometry.angle_min();
+  g.angle_increment = geometry.angle_increment();
+  // Clamp before narrowing: a uint32 above INT_MAX must not turn into a valid-looking count.
+  g.beam_count = geometry.beam_count() > 1000000000u ? 1000000000
+                                                     : static_cast<int>(geometry.beam_count());
+  g.no_return_range = geometry.no_return_range();
+  return g;
+}
+
+v1::LaserGeometry ToProtoGeometry(const ls::ScanGeometry& geometry) {
+  v1::LaserGeometry g;
+  g.set_angle_min(geometry.angle_min);
+  g.set_angle_increment(geometry.angle_increment);
+  g.set_beam_count(static_cast<uint32_t>(geometry.beam_count < 0 ? 0 : geometry.beam_count));
+  g.set_no_return_range(geometry.no_return_range);
+  return g;
+}
+
+absl::StatusOr<LaserSessionOptions> ToLaserSessionOptions(const v1::LaserSlamConfig& config) {
+  LaserSessionOptions options;
+  if (GeometryIsSet(config.laser())) {
+    options.geometry = ToScanGeometry(config.laser());
+    absl::Status s = ValidateGeometry(options.geometry, "laser.laser (session geometry)");
+    if (!s.ok()) return s;
+  }
+  if (absl::Status s = ValidateLaserPose(config.laser_pose()); !s.ok()) return s;
+  options.slam.laser_pose = FromProtoPose(config.laser_pose());
+  const v1::LaserSlamParams& p = config.params();
+  if (absl::Status s = ValidateParams(p, options.slam.extraction.min_range); !s.ok()) return s;
+  if (p.has_max_range()) options.slam.extraction.max_range = p.max_range();
+  if (p.has_range_sigma()) options.slam.extraction.range_sigma = p.range_sigma();
+  if (p.has_odom_xy_per_m()) options.slam.odometry.xy_per_m = p.odom_xy_per_m();
+  if (p.has_odom_theta_per_rad()) options.slam.odometry.theta_per_rad = p.odom_theta_per_rad();
+  if (p.has_odom_theta_per_m()) options.slam.odometry.theta_per_m = p.odom_theta_per_m();
+  if (p.has_match_chi2()) options.slam.ekf.match_chi2 = p.match_chi2();
+  if (p.has_min_travel()) options.slam.ekf.min_travel = p.min_travel();
+  if (p.has_min_turn()) options.slam.ekf.min_turn = p.min_turn();
+  // The engine's own check covers combinations (and anything added to it later).
+  if (absl::Status s = ls::ValidateSlamOptions(options.slam); !s.ok()) {
+    return absl::InvalidArgumentError(absl::StrCat("laser.params: ", s.message()));
+  }
+  return options;
+}
+
+absl::StatusOr<v1::LaserSlamConfig> EffectiveLaserConfig(const v1::LaserSlamConfig& config) {
+  absl::StatusOr<LaserSessionOptions> options = ToLaserSessionOptions(config);
+  if (!options.ok()) return options.status();
+  v1::LaserSlamConfig effective = config;
+  v1::LaserSlamParams* p = effective.mutable_params();
+  const ls::SlamOptions& o = options->slam;
+  p->set_max_range(o.extraction.max_range);
+  p->set_range_sigma(o.extraction.range_sigma);
+  p->set_odom_xy_per_m(o.odometry.xy_per_m);
+  p->set_odom_theta_per_rad(o.odometry.theta_per_rad);
+  p->set_odom_theta_per_m(o.odometry.theta_per_m);
+  p->set_match_chi2(o.ekf.match_chi2);
+  p->set_min_travel(o.ekf.min_travel);
+  p->set_min_turn(o.ekf.min_turn);
+  return effective;
+}
+
+absl::StatusOr<ls::OdometryReading> ToOdometryReading(const v1::Odometry& odometry) {
+  if (!std::isfinite(odometry.stamp())) {
+    return absl::InvalidArgumentError(
+        absl::StrCat("odometry.stamp must be a finite number of seconds, got ", odometry.stamp()));
+  }
+  const v1::Pose2D& p = odometry.pose();
+  if (!std::isfinite(p.x()) || !std::isfinite(p.y()) || !std::isfinite(p.theta())) {
+    return absl::InvalidArgumentError(absl::StrCat("odometry.pose must be finite, got (", p.x(),
+                                                   ", ", p.y(), ", ", p.theta(), ")"));
+  }
+  ls::OdometryReading reading;
+  reading.stamp = odometry.stamp();
+  reading.pose = FromProtoPose(p);
+  return reading;
+}
+
+absl::StatusOr<ls::LaserScan> ToLaserScan(const v1::LaserScan& scan,
+                                          const ls::ScanGeometry& session_geometry) {
+  if (!std::isfinite(scan.stamp())) {
+    return absl::InvalidArgumentError(
+        absl::StrCat("scan.stamp must be a finite number of seconds, got ", scan.stamp()));
+  }
+  if (scan.ranges_size() > kMaxScanBeams) {
+    return absl::InvalidArgumentError(absl::StrCat("scan has ", scan.ranges_size(),
+                                                   " ranges; at most ", kMaxScanBeams,
+                                                   " beams per scan are accepted"));
+  }
+  ls::LaserScan out;
+  out.stamp = scan.stamp();
+  if (scan.has_geometry()) {
+    out.geometry = ToScanGeometry(scan.geometry());
+    if (absl::Status s = ValidateGeometry(out.geometry, "scan.geometry"); !s.ok()) return s;
+    if (scan.ranges_size() != out.geometry.beam_count) {
+      return absl::InvalidArgumentError(
+          absl::StrCat("scan has ", scan.ranges_size(), " ranges but scan.geometry.beam_count is ",
+                       out.geometry.beam_count, "; send one range per beam"));
+    }
+  } else {
+    if (session_geometry.beam_count == 0) {
+      return absl::InvalidArgumentError(
+          "scan has no geometry and the session was created without laser geometry: set "
+          "scan.geometry (angle_min, angle_increment, beam_count) or create the session with "
+          "laser.laser");
+    }
+    out.geometry = session_geometry;
+    if (scan.ranges_size() != out.geometry.beam_count) {
+      return absl::InvalidArgumentError(absl::StrCat(
+          "scan has ", scan.ranges_size(), " ranges but the session's laser geometry has beam_count ",
+          out.geometry.beam_count, "; send one range per beam, or set scan.geometry when the beam "
+          "layout differs"));
+    }
+  }
+  out.ranges.assign(scan.ranges().begin(), scan.ranges().end());
+  return out;
+}
+
+v1::Pose2D ToProtoPose(const ls::Pose2& pose) {
+  v1::Pose2D p;
+  p.set_x(pose.x);
+  p.set_y(pose.y);
+  p.set_theta(pose.theta);
+  return p;
+}
+
+ls::Pose2 FromProtoPose(const v1::Pose2D& pose) { return ls::Pose2{pose.x(), pose.y(), pose.theta()}; }
+
+v1::TrajectoryPose ToProtoTrajectoryPose(const ls::PoseEstimate& pose) {
+  v1::TrajectoryPose p;
+  p.set_stamp(pose.stamp);
+  *p.mutable_pose() = ToProtoPose(pose.pose);
+  for (int r = 0; r < 3; ++r) {
+    for (int c = 0; c < 3; ++c) p.add_covariance(pose.covariance(r, c));
+  }
+  return p;
+}
+
+v1::MapSegment ToProtoSegment(const ls::MapSegment& segment) {
+  v1::MapSegment s;
+  s.set_id(segment.id);
+  *s.mutable_frame() = ToProtoPose(segment.frame);
+  s.set_left(segment.left);
+  s.set_right(segment.right);
+  s.set_left_type(segment.left_type == ls::EndpointType::kReal ? v1::MapSegment::REAL
+                                                                : v1::MapSegment::VIRTUAL);
+  s.set_right_type(segment.right_type == ls::EndpointType::kReal ? v1::MapSegment::REAL
+                                                                  : v1::MapSegment::VIRTUAL);
+  for (int r = 0; r < 2; ++r) {
+    for (int c = 0; c < 2; ++c) s.add_line_covariance(segment.line_covariance(r, c));
+  }
+  s.set_left_variance(segment.left_variance);
+  s.set_right_variance(segment.right_variance);
+  s.set_observations(static_cast<uint32_t>(segment.observations < 0 ? 0 : segment.observations));
+  return s;
+}
+
+void FillSlamUpdate(const ls::ScanUpdate& scan_update, v1::SlamUpdate* update) {
+  update->set_stamp(scan_update.pose.stamp);
+  *update->mutable_pose() = ToProtoPose(scan_update.pose.pose);
+  update->clear_covariance();
+  for (int r = 0; r < 3; ++r) {
+    for (int c = 0; c < 3; ++c) update->add_covariance(scan_update.pose.covariance(r, c));
+  }
+  auto count = [](int n) { return static_cast<uint32_t>(n < 0 ? 0 : n); };
+  update->set_segments(count(scan_update.segments));
+  update->set_map_revision(scan_update.map_revision);
+  update->set_observed_segments(count(scan_update.observed));
+  update->set_matched_segments(count(scan_update.matched));
+  update->set_added_segments(count(scan_update.added));
+  update->set_skipped(scan_update.skipped);
+  v1::SlamTimings* t = update->mutable_timings();
+  t->set_extraction_ms(scan_update.timings.extraction);
+  t->set_prediction_ms(scan_update.timings.prediction);
+  t->set_association_ms(scan_update.timings.association);
+  t->set_update_ms(scan_update.timings.update);
+  t->set_total_ms(scan_update.timings.total);
+}
+
+}  // namespace waymark::service

@@ -1,0 +1,842 @@
+#include "server/service/slam_registry.h"
+
+#include <spdlog/spdlog.h>
+
+#include <algorithm>
+#include <chrono>
+#include <cinttypes>
+#include <cmath>
+#include <cstdio>
+#include <deque>
+#include <exception>
+#include <optional>
+#include <random>
+#include <utility>
+
+#include "absl/strings/str_cat.h"
+#include "server/common/stopwatch.h"
+#include "server/laser_slam/laser_slam.h"
+
+namespace waymark::service {
+
+using ::waymark::MsSince;
+namespace ls = laser_slam;
+using Clock = std::chrono::steady_clock;
+
+// One accepted message, converted to engine types at admission.
+struct QueuedMessage {
+  uint64_t sequence = 0;
+  bool is_scan = false;
+  ls::OdometryReading odometry;
+  ls::LaserScan scan;
+  Clock::time_point accepted;
+};
+
+struct SlamRegistry::Session {
+  // Fixed at creation or load.
+  std::string id;
+  std::string robot_id;
+  std::string name;
+  v1::LaserSlamConfig config;  // effective (every parameter set)
+  LaserSessionOptions options;
+  double created_at = 0;
+
+  // Admission and queue. Lock order: registry mutex_ -> mu; never mu and engine_mu together.
+  std::mutex mu;
+  std::condition_variable idle_cv;  // queue empty and nothing in flight
+  std::deque<QueuedMessage> queue;
+  bool scheduled = false;  // on the run queue or being run by a worker
+  bool in_flight = false;  // a worker holds a popped message
+  bool stream_attached = false;
+  bool closed = false;  // closing or closed: no stream, no message
+  SlamUpdateSink sink;
+  std::optional<double> accepted_scan_stamp;
+  std::optional<double> accepted_odometry_stamp;
+  uint64_t rejected = 0;
+  uint64_t dropped = 0;
+
+  // The engine and what goes with it; the strand (one worker at a time) mutates, readers and
+  // checkpoints take the lock briefly.
+  std::mutex engine_mu;
+  std::unique_ptr<ls::LaserSlam> slam;
+  int64_t scans_processed = 0;
+  uint64_t map_revision = 0;
+  int segments = 0;
+  std::optional<double> processed_scan_stamp;
+  std::optional<double> processed_odometry_stamp;
+  bool dirty = false;  // processed work not in the last checkpoint
+  int scans_since_checkpoint = 0;
+  Clock::time_point last_checkpoint = Clock::now();
+  double updated_at = 0;
+  double checkpoint_at = 0;
+
+  // Serializes checkpoint writes; guards stored_poses and finalized.
+  std::mutex checkpoint_mu;
+  int64_t stored_poses = 0;  // trajectory poses already in the store
+  bool finalized = false;    // closed in the store: no more checkpoints
+};
+
+namespace {
+
+double UnixNow() {
+  return std::chrono::duration<double>(std::chrono::system_clock::now().time_since_epoch()).count();
+}
+
+std::string Quoted(const std::string& s) { return absl::StrCat("\"", s, "\""); }
+
+std::string NewSessionId() {
+  std::random_device device;
+  uint64_t words[2];
+  for (uint64_t& word : words) {
+    word = (static_cast<uint64_t>(device()) << 32) ^ static_cast<uint64_t>(device());
+  }
+  char text[33];
+  std::snprintf(text, sizeof(text), "%016" PRIx64 "%016" PRIx64, words[0], words[1]);
+  return text;
+}
+
+absl::Status NotFound(const std::string& id) {
+  return absl::NotFoundError(absl::StrCat("SLAM session ", Quoted(id), " not found"));
+}
+
+absl::Status ClosedError(const std::string& id) {
+  return absl::FailedPreconditionError(
+      absl::StrCat("SLAM session ", Quoted(id),
+                   " is closed; its map and trajectory can still be read (GetMap, GetTrajectory), "
+                   "create a new session to go on mapping"));
+}
+
+absl::Status CheckId(const std::string& id) {
+  if (id.empty()) return absl::InvalidArgumentError("session_id is empty");
+  if (id.size() > 128) {
+    return absl::InvalidArgumentError(
+        absl::StrCat("session_id is ", id.size(), " characters long; ids have 32"));
+  }
+  return absl::OkStatus();
+}
+
+v1::Session::State ToProtoState(storage::SlamSessionState state) {
+  return state == storage::SlamSessionState::kClosed ? v1::Session::CLOSED : v1::Session::OPEN;
+}
+
+ls::PoseEstimate FromRecord(const storage::TrajectoryPoseRecord& record) {
+  ls::PoseEstimate pose;
+  pose.stamp = record.stamp;
+  pose.pose = ls::Pose2{record.x, record.y, record.theta};
+  for (int i = 0; i < 9; ++i) pose.covariance(i / 3, i % 3) = record.covariance[i];
+  return pose;
+}
+
+storage::TrajectoryPoseRecord ToRecord(int64_t seq, const ls::PoseEstimate& pose) {
+  storage::TrajectoryPoseRecord record;
+  record.seq = seq;
+  record.stamp = pose.stamp;
+  record.x = pose.pose.x;
+  record.y = pose.pose.y;
+  record.theta = pose.pose.theta;
+  for (int i = 0; i < 9; ++i) record.covariance[i] = pose.covariance(i / 3, i % 3);
+  return record;
+}
+
+v1::SlamUpdate Rejection(uint64_t sequence, const absl::Status& status) {
+  v1::SlamUpdate update;
+  update.set_sequence(sequence);
+  update.mutable_rejection()->set_code(static_cast<int32_t>(status.code()));
+  update.mutable_rejection()->set_message(std::string(status.message()));
+  return update;
+}
+
+absl::Status OrderError(const char* sensor, double stamp, double previous) {
+  return absl::InvalidArgumentError(absl::StrCat(
+      sensor, " stamp ", stamp, stamp == previous ? " repeats" : " is before",
+      " the previous accepted ", sensor, " stamp ", previous,
+      "; each sensor's stamps must strictly increase (message ignored, session unchanged)"));
+}
+
+}  // namespace
+
+// ---------------------------------------------------------------------------------------------
+// Stream
+
+SlamRegistry::Stream::~Stream() { Close(); }
+
+const std::string& SlamRegistry::Stream::session_id() const { return session_->id; }
+
+absl::Status SlamRegistry::Stream::Submit(const v1::SensorData& data) {
+  if (closed_) return absl::FailedPreconditionError("the stream is closed");
+  return registry_->Submit(session_, data);
+}
+
+void SlamRegistry::Stream::Close() {
+  if (closed_) return;
+  closed_ = true;
+  WaitIdle(*session_);
+  std::lock_guard<std::mutex> lock(session_->mu);
+  session_->sink = nullptr;
+  session_->stream_attached = false;
+}
+
+// ---------------------------------------------------------------------------------------------
+// Registry
+
+absl::StatusOr<std::unique_ptr<SlamRegistry>> SlamRegistry::Create(
+    std::unique_ptr<storage::SlamStore> store, const SlamRegistryOptions& options) {
+  if (store == nullptr) return absl::InvalidArgumentError("no SLAM store");
+  if (options.queue_capacity < 1 || options.queue_capacity > 100000) {
+    return absl::InvalidArgumentError(absl::StrCat("SLAM queue capacity must be in [1, 100000], got ",
+                                                   options.queue_capacity));
+  }
+  if (options.workers < 0 || options.workers > 256) {
+    return absl::InvalidArgumentError(
+        absl::StrCat("SLAM workers must be in [0, 256] (0 = hardware threads), got ",
+                     options.workers));
+  }
+  if (!std::isfinite(options.checkpoint_seconds) || options.checkpoint_seconds < 0) {
+    return absl::InvalidArgumentError(absl::StrCat(
+        "SLAM checkpoint interval must be >= 0 s (0 = off), got ", options.checkpoint_seconds));
+  }
+  if (options.checkpoint_scans < 0) {
+    return absl::InvalidArgumentError("SLAM checkpoint scan count must be >= 0 (0 = off)");
+  }
+  if (options.max_sessions < 1) {
+    return absl::InvalidArgumentError(
+        absl::StrCat("max sessions must be at least 1, got ", options.max_sessions));
+  }
+  if (options.max_batch < 1) return absl::InvalidArgumentError("max_batch must be at least 1");
+  return std::unique_ptr<SlamRegistry>(new SlamRegistry(std::move(store), options));
+}
+
+SlamRegistry::SlamRegistry(std::unique_ptr<storage::SlamStore> store,
+                           const SlamRegistryOptions& options)
+    : options_(options), store_(std::move(store)) {
+  int workers = options_.workers;
+  if (workers == 0) workers = static_cast<int>(std::max(1u, std::thread::hardware_concurrency()));
+  for (int i = 0; i < workers; ++i) workers_.emplace_back([this] { WorkerLoop(); });
+  timer_ = std::thread([this] { TimerLoop(); });
+}
+
+SlamRegistry::~SlamRegistry() {
+  absl::Status status = Shutdown();
+  if (!status.ok()) spdlog::error("SLAM shutdown: {}", status.ToString());
+}
+
+absl::StatusOr<v1::Session> SlamRegistry::CreateSession(const v1::CreateSessionRequest& request) {
+  if (shutting_down_) return absl::UnavailableError("the server is shutting down");
+  if (request.robot_id().empty()) {
+    return absl::InvalidArgumentError("robot_id is empty: name the robot that owns the session");
+  }
+  if (request.robot_id().size() > kMaxRobotIdLength) {
+    return absl::InvalidArgumentError(absl::StrCat("robot_id is ", request.robot_id().size(),
+                                                   " bytes long; at most ", kMaxRobotIdLength));
+  }
+  if (request.name().size() > kMaxSessionNameLength) {
+    return absl::InvalidArgumentError(absl::StrCat("name is ", request.name().size(),
+                                                   " bytes long; at most ", kMaxSessionNameLength));
+  }
+  absl::StatusOr<v1::LaserSlamConfig> config = EffectiveLaserConfig(request.laser());
+  if (!config.ok()) return config.status();
+  absl::StatusOr<LaserSessionOptions> options = ToLaserSessionOptions(*config);
+  if (!options.ok()) return options.status();
+
+  std::lock_guard<std::mutex> load_lock(load_mutex_);
+  absl::StatusOr<int64_t> open = store_->CountSessions(storage::SlamSessionState::kOpen);
+  if (!open.ok()) return open.status();
+  if (*open >= options_.max_sessions) {
+    return absl::ResourceExhaustedError(absl::StrCat(
+        "this server holds ", *open, " open SLAM sessions, its limit (--max-sessions ",
+        options_.max_sessions, "); close finished sessions with CloseSession"));
+  }
+  storage::SlamSessionRecord record;
+  record.robot_id = request.robot_id();
+  record.name = request.name();
+  record.kind = "laser";
+  record.config = config->SerializeAsString();
+  absl::StatusOr<storage::SlamSessionRecord> created;
+  for (int attempt = 0; attempt < 3; ++attempt) {  // a 128-bit collision is not expected
+    record.id = NewSessionId();
+    created = store_->CreateSession(record);
+    if (!absl::IsAlreadyExists(created.status())) break;
+  }
+  if (!created.ok()) return created.status();
+
+  auto session = std::make_shared<Session>();
+  session->id = created->id;
+  session->robot_id = created->robot_id;
+  session->name = created->name;
+  session->config = *config;
+  session->options = *options;
+  session->created_at = created->created_at;
+  session->updated_at = created->updated_at;
+  session->slam = std::make_unique<ls::LaserSlam>(options->slam);
+  {
+    std::lock_guard<std::mutex> lock(mutex_);
+    sessions_[session->id] = session;
+  }
+  return Describe(*created, session.get());
+}
+
+absl::StatusOr<std::shared_ptr<SlamRegistry::Session>> SlamRegistry::FindResident(
+    const std::string& id) {
+  std::lock_guard<std::mutex> lock(mutex_);
+  auto it = sessions_.find(id);
+  if (it == sessions_.end()) return NotFound(id);
+  return it->second;
+}
+
+absl::StatusOr<std::shared_ptr<SlamRegistry::Session>> SlamRegistry::LoadSession(
+    const storage::SlamSessionRecord& record) {
+  auto session = std::make_shared<Session>();
+  session->id = record.id;
+  session->robot_id = record.robot_id;
+  session->name = record.name;
+  if (!session->config.ParseFromString(record.config)) {
+    return absl::DataLossError(
+        absl::StrCat("SLAM session ", Quoted(record.id), ": stored config is unreadable"));
+  }
+  absl::StatusOr<LaserSessionOptions> options = ToLaserSessionOptions(session->config);
+  if (!options.ok()) {
+    return absl::DataLossError(absl::StrCat("SLAM session ", Quoted(record.id),
+                                            ": stored config is invalid: ",
+                                            options.status().message()));
+  }
+  session->options = *options;
+  session->created_at = record.created_at;
+  session->updated_at = record.updated_at;
+  session->checkpoint_at = record.checkpoint_at;
+  if (record.checkpoint.empty()) {
+    // Created but never checkpointed: nothing was processed that the store knows of.
+    session->slam = std::make_unique<ls::LaserSlam>(options->slam);
+  } else {
+    absl::StatusOr<std::vector<storage::TrajectoryPoseRecord>> stored =
+        store_->LoadTrajectory(record.id);
+    if (!stored.ok()) return stored.status();
+    std::vector<ls::PoseEstimate> trajectory;
+    trajectory.reserve(stored->size());
+    for (const storage::TrajectoryPoseRecord& pose : *stored) trajectory.push_back(FromRecord(pose));
+    session->stored_poses = static_cast<int64_t>(trajectory.size());
+    absl::StatusOr<std::unique_ptr<ls::LaserSlam>> slam =
+        ls::LaserSlam::FromCheckpoint(options->slam, record.checkpoint, std::move(trajectory));
+    if (!slam.ok()) {
+      return absl::Status(slam.status().code(),
+                          absl::StrCat("SLAM session ", Quoted(record.id),
+                                       ": cannot resume from its checkpoint: ",
+                                       slam.status().message()));
+    }
+    session->slam = std::move(*slam);
+    session->stored_poses = static_cast<int64_t>(session->slam->Trajectory().size());
+  }
+  session->scans_processed = record.scans_processed;
+  session->map_revision = static_cast<uint64_t>(record.map_revision);
+  session->segments = record.segments;
+  session->processed_scan_stamp = session->accepted_scan_stamp = record.last_scan_stamp;
+  session->processed_odometry_stamp = session->accepted_odometry_stamp =
+      record.last_odometry_stamp;
+  if (record.state == storage::SlamSessionState::kClosed) {
+    session->closed = true;
+    session->finalized = true;
+  }
+  return session;
+}
+
+absl::StatusOr<std::shared_ptr<SlamRegistry::Session>> SlamRegistry::ResidentOrLoad(
+    const std::string& id) {
+  if (auto resident = FindResident(id); resident.ok()) return resident;
+  std::lock_guard<std::mutex> load_lock(load_mutex_);
+  if (auto resident = FindResident(id); resident.ok()) return resident;  // loaded meanwhile
+  absl::StatusOr<storage::SlamSessionRecord> record = store_->GetSession(id);
+  if (!record.ok()) return record.status();
+  if (record->state == storage::SlamSessionState::kClosed) return ClosedError(id);
+  absl::StatusOr<std::shared_ptr<Session>> session = LoadSession(*record);
+  if (!session.ok()) return session.status();
+  spdlog::info("SLAM session {} resumed from its checkpoint ({} scans, {} poses)", id,
+               (*session)->scans_processed, (*session)->stored_poses);
+  std::lock_guard<std::mutex> lock(mutex_);
+  sessions_[id] = *session;
+  return *session;
+}
+
+absl::StatusOr<std::unique_ptr<SlamRegistry::Stream>> SlamRegistry::OpenStream(
+    const std::string& session_id, SlamUpdateSink sink) {
+  if (absl::Status s = CheckId(session_id); !s.ok()) return s;
+  if (shutting_down_) {
+    return absl::UnavailableError("the server is shutting down; resume the session after it restarts");
+  }
+  absl::StatusOr<std::shared_ptr<Session>> session = ResidentOrLoad(session_id);
+  if (!session.ok()) return session.status();
+  {
+    std::lock_guard<std::mutex> lock((*session)->mu);
+    if ((*session)->closed) return ClosedError(session_id);
+    if ((*session)->stream_attached) {
+      return absl::FailedPreconditionError(absl::StrCat(
+          "SLAM session ", Quoted(session_id),
+          " already has an open stream (one stream per session): end the other stream first; a "
+          "stream whose connection died is noticed by keepalive within about a minute"));
+    }
+    (*session)->stream_attached = true;
+    (*session)->sink = std::move(sink);
+  }
+  return std::unique_ptr<Stream>(new Stream(this, *session));
+}
+
+absl::Status SlamRegistry::Submit(const std::shared_ptr<Session>& owner,
+                                  const v1::SensorData& data) {
+  Session& session = *owner;
+  auto reject = [&session](absl::Status status, bool dropped = false) {
+    std::lock_guard<std::mutex> lock(session.mu);
+    ++session.rejected;
+    if (dropped) ++session.dropped;
+    return status;
+  };
+  if (!data.session_id().empty() && data.session_id() != session.id) {
+    return reject(absl::InvalidArgumentError(
+        absl::StrCat("message names session ", Quoted(data.session_id()), " but this stream is on ",
+                     Quoted(session.id), "; one stream serves one session")));
+  }
+  QueuedMessage message;
+  message.sequence = data.sequence();
+  double stamp = 0;
+  switch (data.payload_case()) {
+    case v1::SensorData::kOdometry: {
+      absl::StatusOr<ls::OdometryReading> reading = ToOdometryReading(data.odometry());
+      if (!reading.ok()) return reject(reading.status());
+      message.odometry = *reading;
+      stamp = reading->stamp;
+      break;
+    }
+    case v1::SensorData::kScan: {
+      absl::StatusOr<ls::LaserScan> scan = ToLaserScan(data.scan(), session.options.geometry);
+      if (!scan.ok()) return reject(scan.status());
+      message.is_scan = true;
+      stamp = scan->stamp;
+      message.scan = std::move(*scan);
+      break;
+    }
+    default:
+      return reject(absl::InvalidArgumentError("SensorData has no payload: set odometry or scan"));
+  }
+
+  bool schedule = false;
+  {
+    std::lock_guard<std::mutex> lock(session.mu);
+    absl::Status refused;
+    std::optional<double>& last =
+        message.is_scan ? session.accepted_scan_stamp : session.accepted_odometry_stamp;
+    if (shutting_down_) {
+      refused = absl::UnavailableError(
+          "the server is shutting down; resume the session after it restarts");
+    } else if (session.closed || !session.stream_attached) {
+      refused = absl::FailedPreconditionError("the session is closed");
+    } else if (last.has_value() && !(stamp > *last)) {
+      refused = OrderError(message.is_scan ? "scan" : "odometry", stamp, *last);
+    } else if (static_cast<int>(session.queue.size()) >= options_.queue_capacity) {
+      ++session.dropped;
+      refused = absl::ResourceExhaustedError(absl::StrCat(
+          "session queue is full (", options_.queue_capacity,
+          " messages waiting; message dropped): keep at most ", options_.queue_capacity,
+          " messages outstanding (sent after the last answered scan) and resend this one"));
+    }
+    if (!refused.ok()) {
+      ++session.rejected;
+      return refused;
+    }
+    last = stamp;
+    message.accepted = Clock::now();
+    session.queue.push_back(std::move(message));
+    if (!session.scheduled) {
+      session.scheduled = true;
+      schedule = true;
+    }
+  }
+  // The run queue holds a shared_ptr: the session lives until its messages are processed.
+  if (schedule) Schedule(owner);
+  return absl::OkStatus();
+}
+
+void SlamRegistry::Schedule(std::shared_ptr<Session> session) {
+  {
+    std::lock_guard<std::mutex> lock(pool_mutex_);
+    run_queue_.push_back(std::move(session));
+  }
+  pool_cv_.notify_one();
+}
+
+void SlamRegistry::WorkerLoop() {
+  while (true) {
+    std::shared_ptr<Session> session;
+    {
+      std::unique_lock<std::mutex> lock(pool_mutex_);
+      pool_cv_.wait(lock, [this] { return stop_workers_ || !run_queue_.empty(); });
+      if (run_queue_.empty()) return;  // stopping and nothing left
+      session = std::move(run_queue_.front());
+      run_queue_.pop_front();
+    }
+    RunSession(session);
+  }
+}
+
+void SlamRegistry::RunSession(const std::shared_ptr<Session>& session) {
+  for (int i = 0; i < options_.max_batch; ++i) {
+    QueuedMessage message;
+    SlamUpdateSink sink;
+    {
+      std::lock_guard<std::mutex> lock(session->mu);
+      if (session->queue.empty()) {
+        session->scheduled = false;
+        session->idle_cv.notify_all();
+        return;
+      }
+      message = std::move(session->queue.front());
+      session->queue.pop_front();
+      session->in_flight = true;
+      sink = session->sink;
+    }
+    Process(*session, message, sink);
+    {
+      std::lock_guard<std::mutex> lock(session->mu);
+      session->in_flight = false;
+      if (session->queue.empty()) {
+        session->scheduled = false;
+        session->idle_cv.notify_all();
+        return;
+      }
+    }
+  }
+  Schedule(session);  // more waiting: go to the back of the line
+}
+
+void SlamRegistry::Process(Session& session, QueuedMessage& message, const SlamUpdateSink& sink) {
+  if (options_.before_process) options_.before_process(session.id);
+  const double queue_ms = MsSince(message.accepted);
+  absl::Status error;
+  std::optional<v1::SlamUpdate> answer;
+  {
+    std::lock_guard<std::mutex> lock(session.engine_mu);
+    try {
+      if (message.is_scan) {
+        absl::StatusOr<ls::ScanUpdate> result = session.slam->AddScan(message.scan);
+        if (result.ok()) {
+          ++session.scans_processed;
+          ++session.scans_since_checkpoint;
+          session.map_revision = result->map_revision;
+          session.segments = result->segments;
+          session.processed_scan_stamp = message.scan.stamp;
+          session.dirty = true;
+          session.updated_at = UnixNow();
+          v1::SlamUpdate update;
+          update.set_sequence(message.sequence);
+          FillSlamUpdate(*result, &update);
+          update.set_scans_processed(static_cast<uint64_t>(session.scans_processed));
+          update.mutable_timings()->set_queue_ms(queue_ms);
+          answer = std::move(update);
+        } else {
+          error = result.status();
+        }
+      } else {
+        error = session.slam->AddOdometry(message.odometry);
+        if (error.ok()) {
+          session.processed_odometry_stamp = message.odometry.stamp;
+          session.dirty = true;
+          session.updated_at = UnixNow();
+        }
+      }
+    } catch (const std::exception& e) {
+      error = absl::InternalError(absl::StrCat("the SLAM engine failed on this message: ", e.what()));
+    }
+  }
+  if (!error.ok()) {
+    {
+      std::lock_guard<std::mutex> lock(session.mu);
+      ++session.rejected;
+    }
+    answer = Rejection(message.sequence, error);
+  }
+  if (answer.has_value() && sink) sink(*answer);
+  if (message.is_scan && error.ok()) MaybeCheckpoint(session);
+}
+
+void SlamRegistry::MaybeCheckpoint(Session& session) {
+  bool due = false;
+  {
+    std::lock_guard<std::mutex> lock(session.engine_mu);
+    if (!session.dirty) return;
+    due = (options_.checkpoint_scans > 0 &&
+           session.scans_since_checkpoint >= options_.checkpoint_scans) ||
+          (options_.checkpoint_seconds > 0 &&
+           std::chrono::duration<double>(Clock::now() - session.last_checkpoint).count() >=
+               options_.checkpoint_seconds);
+  }
+  if (!due) return;
+  if (absl::Status s = Checkpoint(session, /*close=*/false); !s.ok()) {
+    spdlog::warn("SLAM session {}: checkpoint failed (will retry): {}", session.id, s.ToString());
+  }
+}
+
+absl::Status SlamRegistry::Checkpoint(Session& session, bool close) {
+  std::lock_guard<std::mutex> checkpoint_lock(session.checkpoint_mu);
+  if (session.finalized) return absl::OkStatus();
+  storage::SlamCheckpoint checkpoint;
+  int64_t trajectory_size = 0;
+  {
+    std::lock_guard<std::mutex> lock(session.engine_mu);
+    if (!close && !session.dirty) return absl::OkStatus();
+    checkpoint.state = session.slam->SerializeState();
+    checkpoint.scans_processed = session.scans_processed;
+    checkpoint.map_revision = static_cast<int64_t>(session.map_revision);
+    checkpoint.segments = session.segments;
+    checkpoint.last_scan_stamp = session.processed_scan_stamp;
+    checkpoint.last_odometry_stamp = session.processed_odometry_stamp;
+    const std::vector<ls::PoseEstimate>& trajectory = session.slam->Trajectory();
+    trajectory_size = static_cast<int64_t>(trajectory.size());
+    for (int64_t seq = session.stored_poses; seq < trajectory_size; ++seq) {
+      checkpoint.new_poses.push_back(ToRecord(seq, trajectory[static_cast<size_t>(seq)]));
+    }
+    session.dirty = false;
+    session.scans_since_checkpoint = 0;
+    session.last_checkpoint = Clock::now();
+  }
+  absl::Status status = close ? store_->CloseSession(session.id, checkpoint)
+                              : store_->WriteCheckpoint(session.id, checkpoint);
+  if (!status.ok()) {
+    std::lock_guard<std::mutex> lock(session.engine_mu);
+    session.dirty = true;
+    return status;
+  }
+  session.stored_poses = std::max(session.stored_poses, trajectory_size);
+  if (close) session.finalized = true;
+  std::lock_guard<std::mutex> lock(session.engine_mu);
+  session.checkpoint_at = UnixNow();
+  return absl::OkStatus();
+}
+
+void SlamRegistry::TimerLoop() {
+  if (options_.checkpoint_seconds <= 0) return;
+  const auto period = std::chrono::duration<double>(
+      std::clamp(options_.checkpoint_seconds / 4.0, 0.05, 5.0));
+  std::unique_lock<std::mutex> lock(timer_mutex_);
+  while (!stop_timer_) {
+    timer_cv_.wait_for(lock, period, [this] { return stop_timer_; });
+    if (stop_timer_) return;
+    lock.unlock();
+    std::vector<std::shared_ptr<Session>> sessions;
+    {
+      std::lock_guard<std::mutex> map_lock(mutex_);
+      for (const auto& [id, session] : sessions_) sessions.push_back(session);
+    }
+    for (const std::shared_ptr<Session>& session : sessions) {
+      bool due = false;
+      {
+        std::lock_guard<std::mutex> engine_lock(session->engine_mu);
+        due = session->dirty &&
+              std::chrono::duration<double>(Clock::now() - session->last_checkpoint).count() >=
+                  options_.checkpoint_seconds;
+      }
+      if (!due) continue;
+      if (absl::Status s = Checkpoint(*session, false); !s.ok()) {
+        spdlog::warn("SLAM session {}: checkpoint failed (will retry): {}", session->id,
+                     s.ToString());
+      }
+    }
+    lock.lock();
+  }
+}
+
+void SlamRegistry::WaitIdle(Session& session) {
+  std::unique_lock<std::mutex> lock(session.mu);
+  session.idle_cv.wait(lock, [&session] { return session.queue.empty() && !session.in_flight; });
+}
+
+absl::StatusOr<v1::Session> SlamRegistry::CloseSession(const std::string& session_id) {
+  if (absl::Status s = CheckId(session_id); !s.ok()) return s;
+  std::lock_guard<std::mutex> load_lock(load_mutex_);
+  absl::StatusOr<std::shared_ptr<Session>> resident = FindResident(session_id);
+  if (resident.ok()) {
+    Session& session = **resident;
+    {
+      std::lock_guard<std::mutex> lock(session.mu);
+      if (session.stream_attached) {
+        return absl::FailedPreconditionError(
+            absl::StrCat("SLAM session ", Quoted(session_id),
+                         " has an open stream: half-close it (WritesDone) and wait for its "
+                         "answers, then close the session"));
+      }
+      session.closed = true;
+    }
+    WaitIdle(session);
+    if (absl::Status s = Checkpoint(session, /*close=*/true); !s.ok()) {
+      std::lock_guard<std::mutex> lock(session.mu);
+      session.closed = false;
+      return s;
+    }
+    std::lock_guard<std::mutex> lock(mutex_);
+    sessions_.erase(session_id);
+  } else {
+    absl::StatusOr<storage::SlamSessionRecord> record = store_->GetSession(session_id);
+    if (!record.ok()) return record.status();
+    if (record->state == storage::SlamSessionState::kClosed) {
+      return absl::FailedPreconditionError(
+          absl::StrCat("SLAM session ", Quoted(session_id), " is already closed"));
+    }
+    // Not in memory: its last checkpoint is its final state.
+    storage::SlamCheckpoint checkpoint;
+    checkpoint.state = record->checkpoint;
+    checkpoint.scans_processed = record->scans_processed;
+    checkpoint.map_revision = record->map_revision;
+    checkpoint.segments = record->segments;
+    checkpoint.last_scan_stamp = record->last_scan_stamp;
+    checkpoint.last_odometry_stamp = record->last_odometry_stamp;
+    if (absl::Status s = store_->CloseSession(session_id, checkpoint); !s.ok()) return s;
+  }
+  absl::StatusOr<storage::SlamSessionRecord> closed = store_->GetSession(session_id);
+  if (!closed.ok()) return closed.status();
+  return Describe(*closed, nullptr);
+}
+
+v1::Session SlamRegistry::Describe(const storage::SlamSessionRecord& record, Session* resident) {
+  v1::Session out;
+  out.set_session_id(record.id);
+  out.set_robot_id(record.robot_id);
+  out.set_name(record.name);
+  out.set_state(ToProtoState(record.state));
+  if (resident != nullptr) {
+    *out.mutable_laser() = resident->config;
+  } else if (!out.mutable_laser()->ParseFromString(record.config)) {
+    out.clear_laser();
+  }
+  out.set_scans_processed(static_cast<uint64_t>(record.scans_processed));
+  out.set_segments(static_cast<uint32_t>(std::max(0, record.segments)));
+  out.set_map_revision(static_cast<uint64_t>(record.map_revision));
+  out.set_last_scan_stamp(record.last_scan_stamp.value_or(0.0));
+  out.set_created_at_unix(static_cast<int64_t>(record.created_at));
+  out.set_updated_at_unix(static_cast<int64_t>(record.updated_at));
+  out.set_checkpoint_at_unix(static_cast<int64_t>(record.checkpoint_at));
+  if (resident != nullptr) {
+    out.set_resident(true);
+    {
+      std::lock_guard<std::mutex> lock(resident->engine_mu);
+      out.set_scans_processed(static_cast<uint64_t>(resident->scans_processed));
+      out.set_segments(static_cast<uint32_t>(std::max(0, resident->segments)));
+      out.set_map_revision(resident->map_revision);
+      out.set_last_scan_stamp(resident->processed_scan_stamp.value_or(0.0));
+      out.set_updated_at_unix(static_cast<int64_t>(resident->updated_at));
+      out.set_checkpoint_at_unix(static_cast<int64_t>(resident->checkpoint_at));
+    }
+    std::lock_guard<std::mutex> lock(resident->mu);
+    out.set_messages_rejected(resident->rejected);
+    out.set_messages_dropped(resident->dropped);
+    out.set_queued_messages(static_cast<uint32_t>(resident->queue.size()));
+  }
+  return out;
+}
+
+absl::StatusOr<v1::Session> SlamRegistry::GetSession(const std::string& session_id) {
+  if (absl::Status s = CheckId(session_id); !s.ok()) return s;
+  absl::StatusOr<storage::SlamSessionRecord> record = store_->GetSession(session_id);
+  if (!record.ok()) return record.status();
+  absl::StatusOr<std::shared_ptr<Session>> resident = FindResident(session_id);
+  return Describe(*record, resident.ok() ? resident->get() : nullptr);
+}
+
+absl::StatusOr<v1::ListSessionsResponse> SlamRegistry::ListSessions(const std::string& robot_id) {
+  absl::StatusOr<std::vector<storage::SlamSessionRecord>> records = store_->ListSessions(robot_id);
+  if (!records.ok()) return records.status();
+  v1::ListSessionsResponse response;
+  for (const storage::SlamSessionRecord& record : *records) {
+    absl::StatusOr<std::shared_ptr<Session>> resident = FindResident(record.id);
+    *response.add_sessions() = Describe(record, resident.ok() ? resident->get() : nullptr);
+  }
+  return response;
+}
+
+absl::StatusOr<v1::SegmentMap> SlamRegistry::GetMap(const std::string& session_id) {
+  if (absl::Status s = CheckId(session_id); !s.ok()) return s;
+  std::shared_ptr<Session> session;
+  if (auto resident = FindResident(session_id); resident.ok()) {
+    session = *resident;
+  } else {
+    // Not in memory (closed, or not resumed since a restart): rebuild the engine from the
+    // checkpoint to read its map, without making the session resident.
+    absl::StatusOr<storage::SlamSessionRecord> record = store_->GetSession(session_id);
+    if (!record.ok()) return record.status();
+    absl::StatusOr<std::shared_ptr<Session>> loaded = LoadSession(*record);
+    if (!loaded.ok()) return loaded.status();
+    session = *loaded;
+  }
+  v1::SegmentMap map;
+  map.set_session_id(session_id);
+  std::lock_guard<std::mutex> lock(session->engine_mu);
+  map.set_map_revision(session->map_revision);
+  for (const ls::MapSegment& segment : session->slam->Map()) {
+    *map.add_segments() = ToProtoSegment(segment);
+  }
+  return map;
+}
+
+absl::StatusOr<v1::Trajectory> SlamRegistry::GetTrajectory(const std::string& session_id) {
+  if (absl::Status s = CheckId(session_id); !s.ok()) return s;
+  v1::Trajectory out;
+  out.set_session_id(session_id);
+  if (auto resident = FindResident(session_id); resident.ok()) {
+    std::lock_guard<std::mutex> lock((*resident)->engine_mu);
+    for (const ls::PoseEstimate& pose : (*resident)->slam->Trajectory()) {
+      *out.add_poses() = ToProtoTrajectoryPose(pose);
+    }
+    return out;
+  }
+  absl::StatusOr<std::vector<storage::TrajectoryPoseRecord>> poses =
+      store_->LoadTrajectory(session_id);
+  if (!poses.ok()) return poses.status();
+  for (const storage::TrajectoryPoseRecord& pose : *poses) {
+    *out.add_poses() = ToProtoTrajectoryPose(FromRecord(pose));
+  }
+  return out;
+}
+
+absl::Status SlamRegistry::CheckpointAll() {
+  std::vector<std::shared_ptr<Session>> sessions;
+  {
+    std::lock_guard<std::mutex> lock(mutex_);
+    for (const auto& [id, session] : sessions_) sessions.push_back(session);
+  }
+  absl::Status first;
+  for (const std::shared_ptr<Session>& session : sessions) {
+    absl::Status s = Checkpoint(*session, /*close=*/false);
+    if (!s.ok()) {
+      spdlog::error("SLAM session {}: checkpoint failed: {}", session->id, s.ToString());
+      if (first.ok()) first = s;
+    }
+  }
+  return first;
+}
+
+absl::Status SlamRegistry::Shutdown() {
+  std::lock_guard<std::mutex> shutdown_lock(shutdown_mutex_);
+  if (shut_down_) return absl::OkStatus();
+  shut_down_ = true;
+  shutting_down_ = true;  // Submit and OpenStream refuse from now on
+  std::vector<std::shared_ptr<Session>> sessions;
+  {
+    std::lock_guard<std::mutex> lock(mutex_);
+    for (const auto& [id, session] : sessions_) sessions.push_back(session);
+  }
+  // The workers still run: let every accepted message be processed (and answered) first.
+  for (const std::shared_ptr<Session>& session : sessions) WaitIdle(*session);
+  {
+    std::lock_guard<std::mutex> lock(timer_mutex_);
+    stop_timer_ = true;
+  }
+  timer_cv_.notify_all();
+  if (timer_.joinable()) timer_.join();
+  absl::Status status = CheckpointAll();
+  {
+    std::lock_guard<std::mutex> lock(pool_mutex_);
+    stop_workers_ = true;
+  }
+  pool_cv_.notify_all();
+  for (std::thread& worker : workers_) {
+    if (worker.joinable()) worker.join();
+  }
+  spdlog::info("SLAM: stopped; {} sessions in memory were saved", sessions.size());
+  return status;
+}
+
+}  // namespace waymark::service

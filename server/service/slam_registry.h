@@ -1,0 +1,184 @@
+#ifndef WAYMARK_SERVER_SERVICE_SLAM_REGISTRY_H_
+#define WAYMARK_SERVER_SERVICE_SLAM_REGISTRY_H_
+
+// The laser SLAM sessions a server holds: each one in memory (the engine, its input queue) and in
+// the store (config, counters, checkpoints, trajectory). Application layer between the gRPC
+// handlers and the engine + storage: it speaks the API's messages but no gRPC, so it is tested
+// without a server.
+//
+// Threading. Every session has a bounded FIFO of accepted messages and is processed in order on
+// its own strand: at most one worker runs a session at a time, and a worker takes at most
+// `max_batch` messages of one session before it serves the next session that has work (round
+// robin, so one fast robot cannot starve the others). The workers are a fixed pool shared by all
+// sessions (`workers`, default the hardware threads). Results go to the stream's sink on the worker
+// thread, in message order.
+//
+// Admission (checked by Submit on the caller's thread, before a message is queued, so a bad message
+// is answered at once and never reaches the engine):
+//   - the payload converts (finite stamps and poses, a valid beam geometry, the range count equal
+//     to the geometry's beam_count, at most kMaxScanBeams beams): else INVALID_ARGUMENT;
+//   - per-sensor time order: an odometry (scan) stamp must be greater than the last accepted
+//     odometry (scan) stamp, including the stamps restored from the checkpoint after a restart:
+//     else INVALID_ARGUMENT, and the session's state is unchanged;
+//   - queue policy: when `queue_capacity` messages are already waiting, the message is rejected
+//     with RESOURCE_EXHAUSTED and counted in messages_dropped. Nothing is ever dropped silently
+//     and nothing already accepted is discarded: the client sees exactly which messages were not
+//     taken (by sequence) and may resend them. A client that keeps at most `queue_capacity`
+//     messages outstanding (sent after the last answered scan) never sees RESOURCE_EXHAUSTED.
+// NaN, infinite, negative and zero ranges are passed through; the engine treats them as
+// no-returns. An error the engine returns for one message is answered as a rejection for that
+// message; the session goes on.
+//
+// Checkpoints (engine state + counters + the trajectory poses not yet stored, one transaction):
+// after every `checkpoint_scans` processed scans, when `checkpoint_seconds` have passed since the
+// last checkpoint of a session with unsaved work (checked after each scan and by a timer for idle
+// sessions), on CloseSession and on Shutdown. After a restart, OpenStream on an open session that
+// is not in memory loads it from its checkpoint and the stored trajectory; messages accepted
+// after the last checkpoint are lost with the process, and the client may resend them (their
+// stamps are newer than the restored ones).
+//
+// Limits: `max_sessions` open sessions per server (CreateSession: RESOURCE_EXHAUSTED beyond it;
+// only open sessions are held in memory, so this also bounds memory together with the queue
+// capacity and kMaxScanBeams), robot_id and name lengths, one stream per session.
+
+#include <atomic>
+#include <condition_variable>
+#include <cstdint>
+#include <deque>
+#include <functional>
+#include <map>
+#include <memory>
+#include <mutex>
+#include <string>
+#include <thread>
+#include <vector>
+
+#include "absl/status/status.h"
+#include "absl/status/statusor.h"
+#include "server/service/slam_params.h"
+#include "storage/slam_store.h"
+#include "waymark/v1/slam.pb.h"
+
+namespace waymark::service {
+
+struct QueuedMessage;  // an accepted message (slam_registry.cc)
+
+struct SlamRegistryOptions {
+  int queue_capacity = 64;        // messages waiting per session
+  int workers = 0;                // 0 = std::thread::hardware_concurrency()
+  double checkpoint_seconds = 30;  // 0 = no time-based checkpoints
+  int checkpoint_scans = 500;     // 0 = no count-based checkpoints
+  int max_sessions = 64;          // open sessions per server
+  int max_batch = 8;              // messages of one session per turn of a worker
+  // Test hook: runs on the worker thread before each message of `session_id` is processed.
+  std::function<void(const std::string& session_id)> before_process;
+};
+
+inline constexpr int kMaxRobotIdLength = 128;
+inline constexpr int kMaxSessionNameLength = 256;
+
+// Receives the answers of one stream, on a worker thread, one call at a time, in message order.
+using SlamUpdateSink = std::function<void(const v1::SlamUpdate& update)>;
+
+class SlamRegistry {
+ private:
+  struct Session;
+
+ public:
+  // One client stream attached to a session (see OpenStream). Not thread-safe: one thread (the
+  // stream's reader) calls Submit and Close. Must not outlive the registry.
+  class Stream {
+   public:
+    ~Stream();  // Close()
+    Stream(const Stream&) = delete;
+    Stream& operator=(const Stream&) = delete;
+
+    const std::string& session_id() const;
+    // OK: the message is queued and, if it is a scan, will be answered through the sink.
+    // Otherwise the message was rejected (see the admission rules above) and the status says why.
+    absl::Status Submit(const v1::SensorData& data);
+    // Waits until every accepted message has been processed and answered, then detaches the
+    // sink and frees the session for another stream. Idempotent.
+    void Close();
+
+   private:
+    friend class SlamRegistry;
+    Stream(SlamRegistry* registry, std::shared_ptr<Session> session)
+        : registry_(registry), session_(std::move(session)) {}
+    SlamRegistry* registry_;
+    std::shared_ptr<Session> session_;
+    bool closed_ = false;
+  };
+
+  static absl::StatusOr<std::unique_ptr<SlamRegistry>> Create(
+      std::unique_ptr<storage::SlamStore> store, const SlamRegistryOptions& options = {});
+  ~SlamRegistry();  // Shutdown()
+  SlamRegistry(const SlamRegistry&) = delete;
+  SlamRegistry& operator=(const SlamRegistry&) = delete;
+
+  absl::StatusOr<v1::Session> CreateSession(const v1::CreateSessionRequest& request);
+  // Attaches a stream to an open session, loading it from its checkpoint when it is not in memory.
+  // NOT_FOUND (unknown id), FAILED_PRECONDITION (closed, or another stream is attached),
+  // UNAVAILABLE (shutting down), DATA_LOSS (unreadable checkpoint).
+  absl::StatusOr<std::unique_ptr<Stream>> OpenStream(const std::string& session_id,
+                                                     SlamUpdateSink sink);
+  // Final checkpoint, then CLOSED. FAILED_PRECONDITION when a stream is attached or it is closed.
+  absl::StatusOr<v1::Session> CloseSession(const std::string& session_id);
+  absl::StatusOr<v1::Session> GetSession(const std::string& session_id);
+  absl::StatusOr<v1::SegmentMap> GetMap(const std::string& session_id);
+  absl::StatusOr<v1::Trajectory> GetTrajectory(const std::string& session_id);
+  absl::StatusOr<v1::ListSessionsResponse> ListSessions(const std::string& robot_id);
+
+  // Checkpoints every resident session with unsaved work; returns the first error.
+  absl::Status CheckpointAll();
+  // Rejects new messages and streams (UNAVAILABLE), lets the queues drain, checkpoints every
+  // resident session and stops the workers. Idempotent; the destructor calls it.
+  absl::Status Shutdown();
+
+  const SlamRegistryOptions& options() const { return options_; }
+
+ private:
+  SlamRegistry(std::unique_ptr<storage::SlamStore> store, const SlamRegistryOptions& options);
+
+  absl::StatusOr<std::shared_ptr<Session>> FindResident(const std::string& id);
+  // Builds a session (engine from the checkpoint + stored trajectory) from its stored record.
+  absl::StatusOr<std::shared_ptr<Session>> LoadSession(const storage::SlamSessionRecord& record);
+  absl::StatusOr<std::shared_ptr<Session>> ResidentOrLoad(const std::string& id);
+
+  absl::Status Submit(const std::shared_ptr<Session>& session, const v1::SensorData& data);
+  void Schedule(std::shared_ptr<Session> session);
+  void WorkerLoop();
+  void RunSession(const std::shared_ptr<Session>& session);
+  void Process(Session& session, QueuedMessage& message, const SlamUpdateSink& sink);
+  void TimerLoop();
+  static void WaitIdle(Session& session);
+  absl::Status Checkpoint(Session& session, bool close);
+  void MaybeCheckpoint(Session& session);
+  v1::Session Describe(const storage::SlamSessionRecord& record, Session* resident);
+
+  const SlamRegistryOptions options_;
+  std::unique_ptr<storage::SlamStore> store_;
+  std::atomic<bool> shutting_down_{false};
+
+  std::mutex load_mutex_;  // serializes loading/creating/closing sessions (not the hot path)
+  std::mutex mutex_;       // guards sessions_ (the map, not the sessions)
+  std::map<std::string, std::shared_ptr<Session>> sessions_;  // resident (open) sessions
+
+  std::mutex pool_mutex_;  // guards run_queue_ and stop_workers_
+  std::condition_variable pool_cv_;
+  std::deque<std::shared_ptr<Session>> run_queue_;  // sessions with work, FIFO
+  bool stop_workers_ = false;
+  std::vector<std::thread> workers_;
+
+  std::mutex timer_mutex_;
+  std::condition_variable timer_cv_;
+  bool stop_timer_ = false;
+  std::thread timer_;
+
+  std::mutex shutdown_mutex_;
+  bool shut_down_ = false;
+};
+
+}  // namespace waymark::service
+
+#endif  // WAYMARK_SERVER_SERVICE_SLAM_REGISTRY_H_

@@ -1,0 +1,106 @@
+#ifndef WAYMARK_STORAGE_SLAM_STORE_H_
+#define WAYMARK_STORAGE_SLAM_STORE_H_
+
+// What the SLAM service persists: sessions (config, state, counters, the engine's checkpoint) and
+// their trajectories. Rows and blobs only: the config is the service's serialized config message
+// and the checkpoint is the engine's own versioned bytes, both opaque here. The interface is small
+// so that a PostgreSQL implementation can stand beside the SQLite one (DESIGN.md): SLAM sessions
+// pinned to servers by id, checkpoints in the shared database.
+
+#include <array>
+#include <cstdint>
+#include <memory>
+#include <optional>
+#include <string>
+#include <vector>
+
+#include "absl/status/status.h"
+#include "absl/status/statusor.h"
+
+namespace waymark::storage {
+
+enum class SlamSessionState { kOpen, kClosed };
+
+// "open" / "closed", as stored.
+const char* SlamSessionStateName(SlamSessionState state);
+
+struct SlamSessionRecord {
+  std::string id;  // chosen by the caller (the service: 32 random hex digits)
+  std::string robot_id;
+  std::string name;
+  std::string kind = "laser";  // the only kind so far
+  std::string config;          // opaque (the service stores its serialized config message)
+  SlamSessionState state = SlamSessionState::kOpen;
+  double created_at = 0;  // unix seconds; CreateSession fills created_at and updated_at
+  double updated_at = 0;
+  int64_t scans_processed = 0;
+  int64_t map_revision = 0;
+  int32_t segments = 0;
+  // Newest stamps accepted per sensor at the last checkpoint (so a resumed session keeps
+  // enforcing time order); unset = none yet.
+  std::optional<double> last_scan_stamp;
+  std::optional<double> last_odometry_stamp;
+  std::string checkpoint;     // opaque engine state; empty = never checkpointed
+  double checkpoint_at = 0;   // unix seconds; 0 = never checkpointed
+  int64_t trajectory_length = 0;  // poses stored (read-only: filled by Get/List)
+};
+
+// One pose of a session's trajectory. seq numbers the poses 0, 1, 2, ... in order.
+struct TrajectoryPoseRecord {
+  int64_t seq = 0;
+  double stamp = 0;
+  double x = 0;
+  double y = 0;
+  double theta = 0;
+  std::array<double, 9> covariance{};  // 3x3 of (x, y, theta), row-major
+};
+
+// Everything a checkpoint writes, in one transaction: the engine state, the counters, and the
+// trajectory poses not stored yet (their seq must continue the stored trajectory without a gap).
+struct SlamCheckpoint {
+  std::string state;  // opaque engine bytes
+  int64_t scans_processed = 0;
+  int64_t map_revision = 0;
+  int32_t segments = 0;
+  std::optional<double> last_scan_stamp;
+  std::optional<double> last_odometry_stamp;
+  std::vector<TrajectoryPoseRecord> new_poses;
+};
+
+// Every mutating call is one transaction: it happens entirely or not at all.
+// Errors: NOT_FOUND (unknown session), ALREADY_EXISTS (duplicate id), FAILED_PRECONDITION
+// (checkpointing a closed session), INVALID_ARGUMENT (a trajectory seq that does not continue the
+// stored one, non-finite numbers), INTERNAL (SQLite failure, message carries SQLite's text),
+// DATA_LOSS (a stored row that cannot be read back).
+class SlamStore {
+ public:
+  virtual ~SlamStore() = default;
+
+  // Inserts a new session; returns it with created_at/updated_at set.
+  virtual absl::StatusOr<SlamSessionRecord> CreateSession(const SlamSessionRecord& session) = 0;
+  // The session with its checkpoint bytes.
+  virtual absl::StatusOr<SlamSessionRecord> GetSession(const std::string& id) = 0;
+  // Sessions in creation order, all robots when `robot_id` is empty; without checkpoint bytes.
+  virtual absl::StatusOr<std::vector<SlamSessionRecord>> ListSessions(
+      const std::string& robot_id) = 0;
+  virtual absl::StatusOr<int64_t> CountSessions(SlamSessionState state) = 0;
+  // Writes a checkpoint of an open session (see SlamCheckpoint).
+  virtual absl::Status WriteCheckpoint(const std::string& id, const SlamCheckpoint& checkpoint) = 0;
+  // Writes the final checkpoint and marks the session closed, in one transaction.
+  // FAILED_PRECONDITION when it is already closed.
+  virtual absl::Status CloseSession(const std::string& id, const SlamCheckpoint& checkpoint) = 0;
+  // The stored trajectory in seq order.
+  virtual absl::StatusOr<std::vector<TrajectoryPoseRecord>> LoadTrajectory(
+      const std::string& id) = 0;
+  // Deletes the session and its trajectory.
+  virtual absl::Status DeleteSession(const std::string& id) = 0;
+};
+
+// Opens (creating if needed) a SQLite file and migrates it to the current schema. The parent
+// directory is created. ":memory:" gives a private in-memory database (tests). The file may be the
+// one a CrossingStore uses: each store has its own connection (WAL lets them share it).
+absl::StatusOr<std::unique_ptr<SlamStore>> OpenSqliteSlamStore(const std::string& path);
+
+}  // namespace waymark::storage
+
+#endif  // WAYMARK_STORAGE_SLAM_STORE_H_
