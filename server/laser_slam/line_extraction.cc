@@ -4,13 +4,14 @@
 //  1. Beams -> points. No-returns (NaN, inf, <= 0, < min_range, >= no_return_range) and readings
 //     beyond max_range are not points; both break clusters.
 //  2. Clusters: maximal runs of points whose consecutive distance is at most
-//     discontinuity_abs + discontinuity_rel * max(r_i, r_i+1) (the larger range, because the spacing
-//     of points on an oblique wall grows with the farther one).
+//     discontinuity_abs + discontinuity_rel * max(r_i, r_i+1) (the larger range, because the
+//     spacing of points on an oblique wall grows with the farther one).
 //  3. Iterative end-point fit (while the least-squares line of a piece leaves a point further than
 //     split_distance, split it at the point farthest from the end-point chord); each split point is
 //     then handed to the segment whose line it is closer to; weighted least-squares fit per segment
 //     (line_fit.h); adjacent segments on one line are merged and refitted (see Agree); boundary
-//     points that lie closer to the neighbour's line move there.
+//     points that lie closer to the neighbour's line move there; pieces too small to be kept give
+//     their points to a neighbouring line that passes through them (see AbsorbSmallPieces).
 //  4. Endpoints classified (see Endpoint), segment frame and covariances computed (see Finish).
 //  5. Segments with too few points, too short, or at too small an incidence are dropped.
 
@@ -44,8 +45,8 @@ double LineAngle(double phi_a, double phi_b) {
 
 // Abscissa of the midpoint of the projections of a segment's first and last points.
 double MidTau(const Seg& s, const std::vector<ScanPoint>& pts) {
-  return 0.5 * (s.line.Tau(pts[s.first].x, pts[s.first].y) +
-                s.line.Tau(pts[s.last].x, pts[s.last].y));
+  return 0.5 *
+         (s.line.Tau(pts[s.first].x, pts[s.first].y) + s.line.Tau(pts[s.last].x, pts[s.last].y));
 }
 
 void PointOnLine(const PolarLine& l, double tau, double* x, double* y) {
@@ -116,9 +117,9 @@ class Extractor {
   }
 
   // True when the least-squares line of [a, b] keeps every point within split_distance. The split
-  // decision uses it rather than the end-point chord alone: the chord runs through two noisy points,
-  // so one 3-4 sigma reading would often split a straight wall. Where to split is still the point
-  // farthest from the chord (at a corner that is the corner point).
+  // decision uses it rather than the end-point chord alone: the chord runs through two noisy
+  // points, so one 3-4 sigma reading would often split a straight wall. Where to split is still the
+  // point farthest from the chord (at a corner that is the corner point).
   bool FitsWithin(int a, int b) const {
     const PolarLine l = Fit(a, b);
     if (!l.ok) return false;
@@ -163,41 +164,121 @@ class Extractor {
   // Two adjacent segments are one line when
   //  - their lines agree within merge_angle and each midpoint lies within merge_distance of the
   //    other line (the geometric test of the options), or
-  //  - the difference of their (rho, phi) is explained by the fits' covariances (chi-square, 2 dof,
-  //    99 %: 9.21) and the line fitted to both keeps every point within split_distance. This undoes
-  //    the splits that noise causes: the end-point chord goes through two noisy points, and a short
-  //    piece split off a long wall has too uncertain an angle for the geometric test.
+  //  - the line fitted to both keeps every point within split_distance: the split criterion itself,
+  //    so a merge never undoes a split that the union would need. This undoes the splits that the
+  //    end-point chord makes in the middle of a wall (the chord of two walls can be parallel to one
+  //    of them, and any noisy point of that wall is then the farthest), and short pieces whose
+  //    angle is too uncertain for the geometric test.
   bool Agree(const Seg& a, const Seg& b, PolarLine* merged) const {
     double ax, ay, bx, by;
     PointOnLine(a.line, MidTau(a, pts_), &ax, &ay);
     PointOnLine(b.line, MidTau(b, pts_), &bx, &by);
+    *merged = Fit(a.first, b.last);
+    if (!merged->ok) return false;
     if (LineAngle(a.line.phi, b.line.phi) < o_.merge_angle &&
         std::abs(b.line.Distance(ax, ay)) < o_.merge_distance &&
         std::abs(a.line.Distance(bx, by)) < o_.merge_distance) {
-      *merged = Fit(a.first, b.last);
-      return merged->ok;
+      return true;
     }
-    double dphi = NormalizeAngle(a.line.phi - b.line.phi);
-    double drho = a.line.rho - b.line.rho;
-    if (std::abs(dphi) > M_PI_2) {  // same line with opposite normals (rho near 0)
-      dphi = NormalizeAngle(dphi + M_PI);
-      drho = a.line.rho + b.line.rho;
-    }
-    const Eigen::Vector2d delta(drho, dphi);
-    const Eigen::Matrix2d c = a.line.covariance + b.line.covariance;
-    const double det = c.determinant();
-    if (!(det > 0.0)) return false;
-    const double chi2 =
-        (c(1, 1) * drho * drho - 2.0 * c(0, 1) * drho * dphi + c(0, 0) * dphi * dphi) / det;
-    if (!(chi2 < kMergeChi2)) return false;
-    *merged = Fit(a.first, b.last);
-    if (!merged->ok) return false;
     for (int i = a.first; i <= b.last; ++i) {
       if (std::abs(merged->Distance(pts_[i].x, pts_[i].y)) > o_.split_distance) return false;
     }
     return true;
   }
-  static constexpr double kMergeChi2 = 9.21;
+
+  // Merges adjacent segments on one line (see Agree) and refits them.
+  void MergeNeighbours() {
+    for (size_t k = 0; k + 1 < segs_.size();) {
+      const Seg& a = segs_[k];
+      const Seg& b = segs_[k + 1];
+      PolarLine merged;
+      if (a.line.ok && b.line.ok && a.last + 1 == b.first && Agree(a, b, &merged)) {
+        Seg m;
+        m.first = a.first;
+        m.last = b.last;
+        m.line = merged;
+        segs_[k] = m;
+        segs_.erase(segs_.begin() + k + 1);
+        if (k > 0) --k;  // the merged line may now agree with its left neighbour
+        continue;
+      }
+      ++k;
+    }
+  }
+
+  // Pieces with fewer than min_points points (they would be dropped) give their points, from the
+  // ends inwards, to an adjacent well-supported segment whose line passes within split_distance of
+  // them. The end-point chord of a long piece made of two walls can be farthest from a point that
+  // is not the corner (e.g. a wall parallel to the chord), and the following splits then leave a
+  // few points of one wall as a piece of their own next to the corner; without this the wall would
+  // end short of the corner and the corner would not be seen.
+  void AbsorbSmallPieces() {
+    const int small = std::max(o_.min_points, 3);
+    bool changed = true;
+    for (int guard = 0; changed && guard < 4 * n_; ++guard) {
+      changed = false;
+      for (size_t k = 0; k + 1 < segs_.size(); ++k) {
+        Seg& a = segs_[k];
+        Seg& b = segs_[k + 1];
+        if (a.last + 1 != b.first) continue;
+        if (b.count() < small && a.count() >= small && a.line.ok) {
+          const ScanPoint& p = pts_[b.first];
+          if (std::abs(a.line.Distance(p.x, p.y)) <= o_.split_distance) {
+            ++a.last;
+            ++b.first;
+            changed = true;
+          }
+        } else if (a.count() < small && b.count() >= small && b.line.ok) {
+          const ScanPoint& p = pts_[a.last];
+          if (std::abs(b.line.Distance(p.x, p.y)) <= o_.split_distance) {
+            --a.last;
+            --b.first;
+            changed = true;
+          }
+        }
+        if (changed) {
+          a.line = Fit(a.first, a.last);
+          b.line = Fit(b.first, b.last);
+          if (a.count() < 1 || b.count() < 1) {
+            segs_.erase(segs_.begin() + (a.count() < 1 ? k : k + 1));
+          }
+          break;
+        }
+      }
+    }
+  }
+
+  // Boundary points closer to the neighbour's line than to their own move there (a few passes).
+  void RefineBoundaries() {
+    for (int pass = 0; pass < 3; ++pass) {
+      bool changed = false;
+      for (size_t k = 0; k + 1 < segs_.size(); ++k) {
+        Seg& a = segs_[k];
+        Seg& b = segs_[k + 1];
+        if (!a.line.ok || !b.line.ok || a.count() < 3 || b.count() < 3) continue;
+        const ScanPoint& pa = pts_[a.last];
+        const ScanPoint& pb = pts_[b.first];
+        bool moved = false;
+        if (a.count() > 3 &&
+            std::abs(b.line.Distance(pa.x, pa.y)) < std::abs(a.line.Distance(pa.x, pa.y))) {
+          --a.last;
+          --b.first;
+          moved = true;
+        } else if (b.count() > 3 &&
+                   std::abs(a.line.Distance(pb.x, pb.y)) < std::abs(b.line.Distance(pb.x, pb.y))) {
+          ++a.last;
+          ++b.first;
+          moved = true;
+        }
+        if (moved) {
+          a.line = Fit(a.first, a.last);
+          b.line = Fit(b.first, b.last);
+          changed = true;
+        }
+      }
+      if (!changed) break;
+    }
+  }
 
   void ProcessCluster(int first, int last, std::vector<ObservedSegment>* out) {
     SplitCluster(first, last, &breaks_);
@@ -228,55 +309,18 @@ class Extractor {
         --a.last;
       }
     }
-    segs_.erase(std::remove_if(segs_.begin(), segs_.end(), [](const Seg& s) { return s.count() < 1; }),
-                segs_.end());
+    segs_.erase(
+        std::remove_if(segs_.begin(), segs_.end(), [](const Seg& s) { return s.count() < 1; }),
+        segs_.end());
     for (Seg& s : segs_) s.line = Fit(s.first, s.last);
-    // Merge neighbours on one line.
-    for (size_t k = 0; k + 1 < segs_.size();) {
-      const Seg& a = segs_[k];
-      const Seg& b = segs_[k + 1];
-      PolarLine merged;
-      if (a.line.ok && b.line.ok && a.last + 1 == b.first && Agree(a, b, &merged)) {
-        Seg m;
-        m.first = a.first;
-        m.last = b.last;
-        m.line = merged;
-        segs_[k] = m;
-        segs_.erase(segs_.begin() + k + 1);
-        if (k > 0) --k;  // the merged line may now agree with its left neighbour
-        continue;
-      }
-      ++k;
+    // Each step can enable another (a boundary move can leave a piece small, or make two pieces
+    // mergeable), so run them twice.
+    for (int round = 0; round < 2; ++round) {
+      MergeNeighbours();
+      RefineBoundaries();
+      AbsorbSmallPieces();
     }
-    // Boundary points closer to the neighbour's line move there (a few passes).
-    for (int pass = 0; pass < 3; ++pass) {
-      bool changed = false;
-      for (size_t k = 0; k + 1 < segs_.size(); ++k) {
-        Seg& a = segs_[k];
-        Seg& b = segs_[k + 1];
-        if (!a.line.ok || !b.line.ok || a.count() < 3 || b.count() < 3) continue;
-        const ScanPoint& pa = pts_[a.last];
-        const ScanPoint& pb = pts_[b.first];
-        bool moved = false;
-        if (a.count() > 3 &&
-            std::abs(b.line.Distance(pa.x, pa.y)) < std::abs(a.line.Distance(pa.x, pa.y))) {
-          --a.last;
-          --b.first;
-          moved = true;
-        } else if (b.count() > 3 && std::abs(a.line.Distance(pb.x, pb.y)) <
-                                        std::abs(b.line.Distance(pb.x, pb.y))) {
-          ++a.last;
-          ++b.first;
-          moved = true;
-        }
-        if (moved) {
-          a.line = Fit(a.first, a.last);
-          b.line = Fit(b.first, b.last);
-          changed = true;
-        }
-      }
-      if (!changed) break;
-    }
+    MergeNeighbours();
     for (size_t k = 0; k < segs_.size(); ++k) {
       ObservedSegment seg;
       if (Finish(k, &seg)) out->push_back(seg);
@@ -318,9 +362,8 @@ class Extractor {
     const double cp = std::cos(l.phi), sp = std::sin(l.phi);
     const double ca = p.c * cp + p.s * sp;  // cos(a_e - phi)
     const double sa = p.s * cp - p.c * sp;  // sin(a_e - phi)
-    const double noise_along =
-        o_.range_sigma * o_.range_sigma * sa * sa +
-        p.r * p.r * o_.bearing_sigma * o_.bearing_sigma * ca * ca;
+    const double noise_along = o_.range_sigma * o_.range_sigma * sa * sa +
+                               p.r * p.r * o_.bearing_sigma * o_.bearing_sigma * ca * ca;
     const double sin_inc = std::max(std::abs(ca), 1e-3);
     const double spacing = p.r * inc_ / sin_inc;
     End end;
@@ -354,8 +397,7 @@ class Extractor {
             // The intersection slides along this line as the neighbour's line moves:
             // dx = ninv.col(1) * (drho_nb - tau_nb(x) dphi_nb).
             const double g = Eigen::Vector2d(-sp, cp).dot(ninv.col(1));
-            end.variance =
-                g * g * LineVarianceAt(nb.line, nb.line.Tau(x(0), x(1))) + 1e-8;
+            end.variance = g * g * LineVarianceAt(nb.line, nb.line.Tau(x(0), x(1))) + 1e-8;
             return end;
           }
         }
@@ -415,9 +457,9 @@ class Extractor {
     seg->rho = l.rho;
     seg->phi = l.phi;
     seg->polar_covariance = l.covariance;
-    // The frame's y axis is s * n with s = -sgn. Moving the line by (drho, dphi) moves it along y at
-    // the frame origin (abscissa tau_m from the foot of the perpendicular) by
-    // p_y = s (drho - tau_m dphi) and turns it by p_theta = dphi.
+    // The frame's y axis is s * n with s = -sgn. Moving the line by (drho, dphi) moves it along y
+    // at the frame origin (abscissa tau_m from the foot of the perpendicular) by p_y = s (drho -
+    // tau_m dphi) and turns it by p_theta = dphi.
     const double sy = -sgn;
     Eigen::Matrix2d j;
     j << sy, -sy * tau_m, 0.0, 1.0;
@@ -445,8 +487,8 @@ absl::StatusOr<std::vector<ObservedSegment>> ExtractSegments(const LaserScan& sc
   if (absl::Status s = ValidateScanGeometry(scan.geometry); !s.ok()) return s;
   if (scan.ranges.size() != static_cast<size_t>(scan.geometry.beam_count)) {
     return absl::InvalidArgumentError(
-        absl::StrCat("scan has ", scan.ranges.size(), " ranges but its geometry says beam_count = ",
-                     scan.geometry.beam_count));
+        absl::StrCat("scan has ", scan.ranges.size(),
+                     " ranges but its geometry says beam_count = ", scan.geometry.beam_count));
   }
   SlamOptions check;
   check.extraction = options;

@@ -11,9 +11,7 @@ double PolarLine::ny() const { return std::sin(phi); }
 double PolarLine::Distance(double x, double y) const {
   return x * std::cos(phi) + y * std::sin(phi) - rho;
 }
-double PolarLine::Tau(double x, double y) const {
-  return -x * std::sin(phi) + y * std::cos(phi);
-}
+double PolarLine::Tau(double x, double y) const { return -x * std::sin(phi) + y * std::cos(phi); }
 
 namespace {
 
@@ -62,7 +60,9 @@ PolarLine FitLine(const std::vector<ScanPoint>& pts, int first, int last, double
   PolarLine line;
   if (last - first + 1 < 2) return line;
   double rho = 0.0, phi = 0.0;
-  if (!WeightedFit(pts, first, last, [](int) { return 1.0; }, &rho, &phi)) return line;
+  if (!WeightedFit(
+          pts, first, last, [](int) { return 1.0; }, &rho, &phi))
+    return line;
   const double vr = range_sigma * range_sigma, vb = bearing_sigma * bearing_sigma;
   // Residual variance of reading i for a line with normal angle phi.
   auto residual_variance = [&](int i, double cp, double sp) {
@@ -74,9 +74,9 @@ PolarLine FitLine(const std::vector<ScanPoint>& pts, int first, int last, double
   for (int iter = 0; iter < 2; ++iter) {
     const double cp = std::cos(phi), sp = std::sin(phi);
     double new_rho = rho, new_phi = phi;
-    if (!WeightedFit(pts, first, last,
-                     [&](int i) { return 1.0 / residual_variance(i, cp, sp); }, &new_rho,
-                     &new_phi)) {
+    if (!WeightedFit(
+            pts, first, last, [&](int i) { return 1.0 / residual_variance(i, cp, sp); }, &new_rho,
+            &new_phi)) {
       break;
     }
     rho = new_rho;

@@ -39,12 +39,12 @@ struct PolarLine {
 // Weighted least-squares line through points[first..last] (inclusive, all valid). Each reading's
 // orthogonal residual d_i = r_i cos(a_i - phi) - rho has variance
 //   sigma_r^2 cos^2(a_i - phi) + r_i^2 sigma_b^2 sin^2(a_i - phi)
-// (range noise along the beam, bearing noise across it); the fit minimises sum d_i^2 / var_i with the
-// weights re-evaluated at the current phi (an unweighted fit starts it, two reweighted passes follow;
-// the weights change little with phi, so this converges at once). The covariance is the inverse of
-// the Fisher information sum_i w_i J_i^T J_i, J_i = d d_i / d(rho, phi) = (-1, tau_i), which is the
-// first-order propagation of the per-reading noise through the weighted estimator when the weights
-// are the true inverse residual variances (the sandwich form collapses to it).
+// (range noise along the beam, bearing noise across it); the fit minimises sum d_i^2 / var_i with
+// the weights re-evaluated at the current phi (an unweighted fit starts it, two reweighted passes
+// follow; the weights change little with phi, so this converges at once). The covariance is the
+// inverse of the Fisher information sum_i w_i J_i^T J_i, J_i = d d_i / d(rho, phi) = (-1, tau_i),
+// which is the first-order propagation of the per-reading noise through the weighted estimator when
+// the weights are the true inverse residual variances (the sandwich form collapses to it).
 PolarLine FitLine(const std::vector<ScanPoint>& points, int first, int last, double range_sigma,
                   double bearing_sigma);
 

@@ -1,10 +1,12 @@
 #include "server/laser_slam/line_extraction.h"
 
+#include <algorithm>
 #include <cmath>
 #include <cstdlib>
 #include <iostream>
 #include <limits>
 #include <random>
+#include <string>
 #include <vector>
 
 #include <Eigen/Dense>
@@ -158,6 +160,62 @@ TEST(LineExtractionNees, ObliqueWallRangeAndBearingNoise) {
                    RunNees(PolarWall(1.5, -0.6, 1.0, 3.5), noise, o, 500, 4));
   ExpectConsistent("frontal far, range+bearing",
                    RunNees(Wall{{5.0, -2.5}, {5.0, 1.0}}, noise, o, 500, 5));
+}
+
+// Real endpoints: the error of the endpoint's abscissa (true end projected on the segment's x axis
+// minus the estimate) against left_variance / right_variance. The laser heading is jittered
+// uniformly over one beam increment per trial, so where the true end falls between two beams is
+// random, as the quantisation term of the variance assumes.
+struct EndpointCheck {
+  Eigen::Vector2d point;  // true end in the world frame
+  bool left;              // which endpoint of the segment it should be
+};
+
+double EndpointNees(const std::vector<Wall>& walls, double rho, const EndpointCheck& check,
+                    int trials, unsigned seed) {
+  if (const char* env = std::getenv("WAYMARK_NEES_TRIALS"); env != nullptr && std::atoi(env) > 0) {
+    trials = std::atoi(env);
+  }
+  std::mt19937 rng(seed);
+  std::uniform_real_distribution<double> jitter(0.0, M_PI / 360);
+  RayCastOptions noise;
+  noise.range_sigma = 0.01;
+  LineExtractionOptions o;
+  o.bearing_sigma = 0.0;
+  double sum = 0.0;
+  int n = 0;
+  for (int t = 0; t < trials; ++t) {
+    const Pose2 pose{0.0, 0.0, jitter(rng)};
+    const std::vector<ObservedSegment> segs =
+        Extract(CastScan(walls, pose, Lms200Geometry(), noise, &rng), o);
+    const Pose2 end = Relative(pose, Pose2{check.point.x(), check.point.y(), 0.0});
+    for (const ObservedSegment& s : segs) {
+      if (std::abs(s.rho - rho) > 0.05) continue;
+      const EndpointType type = check.left ? s.left_type : s.right_type;
+      EXPECT_EQ(type, kReal) << "trial " << t << "\n" << Describe(segs);
+      if (type != kReal) continue;
+      const double c = std::cos(s.frame.theta), sn = std::sin(s.frame.theta);
+      const double x_true = c * (end.x - s.frame.x) + sn * (end.y - s.frame.y);
+      const double e = x_true - (check.left ? s.left : s.right);
+      sum += e * e / (check.left ? s.left_variance : s.right_variance);
+      ++n;
+    }
+  }
+  EXPECT_GT(n, trials * 9 / 10);
+  return n > 0 ? sum / n : 0.0;
+}
+
+TEST(LineExtractionNees, RealEndpointVariances) {
+  // A wall end with open space behind (half-gap model) and a room corner (line intersection).
+  const std::vector<Wall> panel = {{{3.0, -1.0}, {3.0, 1.0}}, {{5.5, -5.0}, {5.5, 5.0}}};
+  const double wall_end = EndpointNees(panel, 3.0, {{3.0, 1.0}, false}, 500, 21);
+  const std::vector<Wall> room = Box(-2, -2, 4, 3);
+  const double corner = EndpointNees(room, 4.0, {{4.0, 3.0}, false}, 500, 22);
+  std::cout << "endpoint NEES (1 dof): wall end " << wall_end << ", corner " << corner << "\n";
+  EXPECT_GT(wall_end, 0.6);
+  EXPECT_LT(wall_end, 1.5);
+  EXPECT_GT(corner, 0.6);
+  EXPECT_LT(corner, 1.5);
 }
 
 // ---------------------------------------------------------------------------------------------
@@ -368,7 +426,8 @@ TEST(LineExtraction, NoReturnsSplitSegments) {
 }
 
 TEST(LineExtraction, RejectsMalformedScans) {
-  LaserScan scan = CastScan({Wall{{3.0, -3.0}, {3.0, 3.0}}}, Pose2{}, Lms200Geometry(), {}, nullptr);
+  LaserScan scan =
+      CastScan({Wall{{3.0, -3.0}, {3.0, 3.0}}}, Pose2{}, Lms200Geometry(), {}, nullptr);
   scan.ranges.pop_back();
   absl::StatusOr<std::vector<ObservedSegment>> r = ExtractSegments(scan, {});
   ASSERT_FALSE(r.ok());
@@ -378,14 +437,12 @@ TEST(LineExtraction, RejectsMalformedScans) {
 
   LaserScan bad_geometry = scan;
   bad_geometry.geometry.angle_increment = 0.0;
-  EXPECT_EQ(ExtractSegments(bad_geometry, {}).status().code(),
-            absl::StatusCode::kInvalidArgument);
+  EXPECT_EQ(ExtractSegments(bad_geometry, {}).status().code(), absl::StatusCode::kInvalidArgument);
 
   LaserScan ok = CastScan({Wall{{3.0, -3.0}, {3.0, 3.0}}}, Pose2{}, Lms200Geometry(), {}, nullptr);
   LineExtractionOptions bad_options;
   bad_options.range_sigma = 0.0;
-  EXPECT_EQ(ExtractSegments(ok, bad_options).status().code(),
-            absl::StatusCode::kInvalidArgument);
+  EXPECT_EQ(ExtractSegments(ok, bad_options).status().code(), absl::StatusCode::kInvalidArgument);
 }
 
 TEST(LineExtraction, NegativeIncrementGivesTheMirroredResult) {
@@ -430,6 +487,58 @@ TEST(LineExtraction, NegativeIncrementGivesTheMirroredResult) {
     EXPECT_NEAR(x.line_covariance(1, 1), y.line_covariance(1, 1), 1e-12);
     EXPECT_NEAR(x.line_covariance(0, 1), -y.line_covariance(0, 1), 1e-12);
   }
+}
+
+}  // namespace
+}  // namespace waymark::laser_slam
+
+namespace waymark::laser_slam {
+namespace {
+
+TEST(LineExtraction, GarbageScansNeverBreakIt) {
+  // Random geometries and readings (with NaN, inf, negative, tiny and huge values mixed in): the
+  // extraction returns OK and every segment is well formed.
+  std::mt19937 rng(23);
+  std::uniform_real_distribution<double> u(0.0, 1.0);
+  const float specials[] = {std::numeric_limits<float>::quiet_NaN(),
+                            std::numeric_limits<float>::infinity(),
+                            -std::numeric_limits<float>::infinity(), -1.0f, 0.0f, 1e-30f, 1e30f};
+  int total = 0;
+  for (int trial = 0; trial < 300; ++trial) {
+    LaserScan scan;
+    scan.geometry.beam_count = 2 + static_cast<int>(u(rng) * 800);
+    const double span = (0.1 + u(rng) * (2 * M_PI - 0.1)) * (u(rng) < 0.5 ? -1.0 : 1.0);
+    scan.geometry.angle_increment = span / (scan.geometry.beam_count - 1);
+    scan.geometry.angle_min = (u(rng) - 0.5) * 2 * M_PI;
+    scan.geometry.no_return_range = u(rng) < 0.5 ? 0.0 : 5.0;
+    scan.ranges.resize(scan.geometry.beam_count);
+    // Piecewise-smooth ranges (so that lines are found) plus junk.
+    double r = 1.0 + 4.0 * u(rng);
+    for (float& x : scan.ranges) {
+      if (u(rng) < 0.05) r = 0.1 + 7.0 * u(rng);
+      r += 0.01 * (u(rng) - 0.5);
+      x = u(rng) < 0.05 ? specials[static_cast<int>(u(rng) * 7) % 7] : static_cast<float>(r);
+    }
+    absl::StatusOr<std::vector<ObservedSegment>> segs = ExtractSegments(scan, {});
+    ASSERT_TRUE(segs.ok()) << segs.status();
+    total += static_cast<int>(segs->size());
+    for (const ObservedSegment& s : *segs) {
+      EXPECT_LT(s.left, s.right);
+      EXPECT_TRUE(std::isfinite(s.frame.x) && std::isfinite(s.frame.y) &&
+                  std::isfinite(s.frame.theta));
+      EXPECT_GE(s.rho, 0.0);
+      EXPECT_GT(s.polar_covariance.determinant(), 0.0);
+      EXPECT_GT(s.line_covariance.determinant(), 0.0);
+      EXPECT_GT(s.left_variance, 0.0);
+      EXPECT_GT(s.right_variance, 0.0);
+      EXPECT_TRUE(std::isfinite(s.left_variance) && std::isfinite(s.right_variance));
+      EXPECT_GE(s.point_count, 6);
+      EXPECT_LE(0, s.first_beam);
+      EXPECT_LT(s.last_beam, scan.geometry.beam_count);
+    }
+  }
+  std::cout << total << " segments in 300 garbage scans\n";
+  EXPECT_GT(total, 100);  // the scans do contain lines: the checks above are not vacuous
 }
 
 }  // namespace

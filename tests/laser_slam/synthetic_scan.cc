@@ -37,9 +37,8 @@ LaserScan CastScan(const std::vector<Wall>& walls, const Pose2& laser_pose,
   scan.ranges.resize(geometry.beam_count);
   std::normal_distribution<double> normal(0.0, 1.0);
   const Eigen::Vector2d origin(laser_pose.x, laser_pose.y);
-  const float miss = geometry.no_return_range > 0.0
-                         ? static_cast<float>(geometry.no_return_range)
-                         : std::numeric_limits<float>::infinity();
+  const float miss = geometry.no_return_range > 0.0 ? static_cast<float>(geometry.no_return_range)
+                                                    : std::numeric_limits<float>::infinity();
   for (int i = 0; i < geometry.beam_count; ++i) {
     double a = laser_pose.theta + geometry.angle_min + i * geometry.angle_increment;
     if (options.bearing_sigma > 0.0) a += options.bearing_sigma * normal(*rng);

@@ -1,10 +1,10 @@
 #ifndef WAYMARK_TESTS_LASER_SLAM_SYNTHETIC_SCAN_H_
 #define WAYMARK_TESTS_LASER_SLAM_SYNTHETIC_SCAN_H_
 
-// A small 2-D ray caster for laser SLAM tests: walls are line segments in the world frame, the laser
-// sits at a pose, each beam returns the nearest wall along its ray with optional Gaussian range and
-// bearing noise (bearing noise: the beam is fired slightly off its nominal bearing but reported at
-// the nominal one).
+// A small 2-D ray caster for laser SLAM tests: walls are line segments in the world frame, the
+// laser sits at a pose, each beam returns the nearest wall along its ray with optional Gaussian
+// range and bearing noise (bearing noise: the beam is fired slightly off its nominal bearing but
+// reported at the nominal one).
 
 #include <random>
 #include <vector>
@@ -31,8 +31,8 @@ struct RayCastOptions {
 // The SICK LMS200 layout of METHODS.md: 361 beams over [-90, 90] degrees, 0.5 degree apart.
 ScanGeometry Lms200Geometry(double no_return_range = 0.0);
 
-// Distance along the ray from `origin` in direction `angle` to the nearest wall, or a negative value
-// when no wall is hit.
+// Distance along the ray from `origin` in direction `angle` to the nearest wall, or a negative
+// value when no wall is hit.
 double CastRay(const std::vector<Wall>& walls, const Eigen::Vector2d& origin, double angle);
 
 // One scan of `walls` from a laser at `laser_pose` (world frame). `rng` may be null when both noise
