@@ -1,0 +1,390 @@
+// The real waymark-server binary, SlamService over gRPC on loopback: bad stream inputs answered
+// per message while the stream goes on, stream-level errors, eight robots at once, checkpoint and
+// resume across a server restart.
+
+#include <signal.h>
+
+#include <cmath>
+#include <filesystem>
+#include <limits>
+#include <map>
+#include <memory>
+#include <string>
+#include <thread>
+#include <vector>
+
+#include <grpcpp/grpcpp.h>
+#include <gtest/gtest.h>
+
+#include "tests/service/slam_test_world.h"
+#include "tests/support/server_process.h"
+#include "waymark/v1/slam.grpc.pb.h"
+
+namespace waymark {
+namespace {
+
+using testing::Odom;
+using testing::RoomScan;
+using testing::ServerProcess;
+using testing::TestSessionRequest;
+
+std::unique_ptr<grpc::ClientContext> Ctx(int seconds = 60) {
+  auto ctx = std::make_unique<grpc::ClientContext>();
+  ctx->set_deadline(std::chrono::system_clock::now() + std::chrono::seconds(seconds));
+  return ctx;
+}
+
+struct StreamResult {
+  std::map<uint64_t, v1::SlamUpdate> by_sequence;
+  std::vector<v1::SlamUpdate> scans;  // processed-scan answers in arrival order
+  int answers = 0;
+  grpc::Status status;
+};
+
+// Streams `messages` (the first one gets `session_id`), half-closes, and collects every answer.
+StreamResult RunStream(v1::SlamService::Stub* stub, const std::string& session_id,
+                       std::vector<v1::SensorData> messages) {
+  StreamResult result;
+  auto ctx = Ctx();
+  auto stream = stub->StreamSensorData(ctx.get());
+  std::thread reader([&] {
+    v1::SlamUpdate update;
+    while (stream->Read(&update)) {
+      ++result.answers;
+      result.by_sequence[update.sequence()] = update;
+      if (!update.has_rejection()) result.scans.push_back(update);
+    }
+  });
+  if (!messages.empty()) messages[0].set_session_id(session_id);
+  for (const v1::SensorData& message : messages) {
+    if (!stream->Write(message)) break;
+  }
+  stream->WritesDone();
+  reader.join();
+  result.status = stream->Finish();
+  return result;
+}
+
+// `steps` steps of 0.1 m * direction along x from step `first`, odometry then scan, sequences
+// from `seq`.
+std::vector<v1::SensorData> Drive(int first, int steps, double direction, uint64_t seq = 1) {
+  std::vector<v1::SensorData> messages;
+  for (int k = first; k < first + steps; ++k) {
+    const double x = direction * 0.1 * k;
+    messages.push_back(Odom(seq++, 1.0 + k, x, 0, 0));
+    messages.push_back(RoomScan(seq++, 1.0 + k, x, 0, 0));
+  }
+  return messages;
+}
+
+class SlamServerTest : public ::testing::Test {
+ protected:
+  void SetUp() override {
+    dir_ = testing::MakeTempDir("waymark-slam-it");
+    StartServer();
+  }
+  void TearDown() override {
+    if (HasFailure() && server_) std::cerr << "server log:\n" << server_->Log();
+    server_.reset();
+    std::filesystem::remove_all(dir_);
+  }
+  void StartServer(const std::vector<std::string>& args = {"--slam-workers", "2"}) {
+    auto server = ServerProcess::Start(testing::ServerBinary(), dir_ + "/waymark.db", args);
+    ASSERT_TRUE(server.ok()) << server.status();
+    server_ = std::move(*server);
+    channel_ = grpc::CreateChannel(server_->address(), grpc::InsecureChannelCredentials());
+    stub_ = v1::SlamService::NewStub(channel_);
+  }
+  // SIGTERM (the server checkpoints every session in memory before it exits), then start again
+  // on the same database. The client's channel is dropped first, as a robot's connection would
+  // be: gRPC otherwise holds the shutdown a few seconds for the idle connection.
+  void Restart() {
+    stub_.reset();
+    channel_.reset();
+    ASSERT_EQ(server_->Stop(SIGTERM), 0);
+    StartServer();
+  }
+  std::string CreateSession(const std::string& robot) {
+    v1::Session session;
+    const grpc::Status status =
+        stub_->CreateSession(Ctx().get(), TestSessionRequest(robot), &session);
+    EXPECT_TRUE(status.ok()) << status.error_message();
+    return session.session_id();
+  }
+
+  std::string dir_;
+  std::unique_ptr<ServerProcess> server_;
+  std::shared_ptr<grpc::Channel> channel_;
+  std::unique_ptr<v1::SlamService::Stub> stub_;
+};
+
+TEST_F(SlamServerTest, BadMessagesAreRejectedAndTheStreamGoesOn) {
+  const std::string id = CreateSession("robot-1");
+  std::vector<v1::SensorData> m;
+  m.push_back(Odom(1, 1.0, 0, 0, 0));
+  m.push_back(RoomScan(2, 1.0, 0, 0, 0));
+  m.push_back(Odom(3, 1.0, 0, 0, 0));         // duplicate odometry stamp
+  m.push_back(RoomScan(4, 0.5, 0, 0, 0));     // out-of-order scan
+  m.push_back(RoomScan(5, 1.0, 0, 0, 0));     // duplicate scan stamp
+  v1::SensorData short_scan = RoomScan(6, 2.0, 0.1, 0, 0);
+  short_scan.mutable_scan()->mutable_ranges()->Resize(100, 1.0f);  // wrong beam count
+  m.push_back(short_scan);
+  v1::SensorData huge = RoomScan(7, 2.0, 0.1, 0, 0);
+  huge.mutable_scan()->mutable_ranges()->Resize(50000, 1.0f);  // oversized scan
+  m.push_back(huge);
+  v1::SensorData empty;
+  empty.set_sequence(8);  // no payload
+  m.push_back(empty);
+  m.push_back(Odom(9, 2.0, 0.1, 0, 0));
+  v1::SensorData holes = RoomScan(10, 2.0, 0.1, 0, 0);  // NaN / inf / negative: no-returns
+  for (int i = 0; i < 20; ++i) {
+    holes.mutable_scan()->set_ranges(i, std::numeric_limits<float>::quiet_NaN());
+  }
+  holes.mutable_scan()->set_ranges(30, std::numeric_limits<float>::infinity());
+  holes.mutable_scan()->set_ranges(31, -2.0f);
+  m.push_back(holes);
+  v1::SensorData nan_stamp = Odom(11, std::nan(""), 0, 0, 0);
+  m.push_back(nan_stamp);
+  m.push_back(Odom(12, 3.0, 0.2, 0, 0));
+  m.push_back(RoomScan(13, 3.0, 0.2, 0, 0));  // good messages after all that are answered
+
+  StreamResult r = RunStream(stub_.get(), id, m);
+  ASSERT_TRUE(r.status.ok()) << r.status.error_message();
+  const std::map<uint64_t, int> rejected = {{3, 3}, {4, 3}, {5, 3}, {6, 3},
+                                            {7, 3}, {8, 3}, {11, 3}};
+  for (const auto& [seq, code] : rejected) {
+    ASSERT_EQ(r.by_sequence.count(seq), 1u) << "no answer for " << seq;
+    const v1::SlamUpdate& u = r.by_sequence[seq];
+    ASSERT_TRUE(u.has_rejection()) << seq;
+    EXPECT_EQ(u.rejection().code(), code) << seq << ": " << u.rejection().message();
+    EXPECT_FALSE(u.rejection().message().empty());
+    EXPECT_FALSE(u.has_pose());
+  }
+  EXPECT_NE(r.by_sequence[3].rejection().message().find("odometry stamp 1 repeats"),
+            std::string::npos)
+      << r.by_sequence[3].rejection().message();
+  EXPECT_NE(r.by_sequence[6].rejection().message().find("100 ranges"), std::string::npos);
+  EXPECT_NE(r.by_sequence[7].rejection().message().find("50000 ranges"), std::string::npos);
+  ASSERT_EQ(r.scans.size(), 3u);
+  EXPECT_EQ(r.scans[0].sequence(), 2u);
+  EXPECT_EQ(r.scans[1].sequence(), 10u);
+  EXPECT_EQ(r.scans[2].sequence(), 13u);
+  EXPECT_EQ(r.scans[2].scans_processed(), 3u);
+  EXPECT_NEAR(r.scans[2].pose().x(), 0.2, 0.1);
+  EXPECT_EQ(r.answers, 10);  // odometry is not answered unless rejected
+
+  v1::GetTrajectoryRequest request;
+  request.set_session_id(id);
+  v1::Trajectory trajectory;
+  ASSERT_TRUE(stub_->GetTrajectory(Ctx().get(), request, &trajectory).ok());
+  EXPECT_EQ(trajectory.poses_size(), 3);
+  v1::ListSessionsRequest list_request;
+  list_request.set_robot_id("robot-1");
+  v1::ListSessionsResponse list;
+  ASSERT_TRUE(stub_->ListSessions(Ctx().get(), list_request, &list).ok());
+  ASSERT_EQ(list.sessions_size(), 1);
+  EXPECT_EQ(list.sessions(0).messages_rejected(), 7u);
+  EXPECT_EQ(list.sessions(0).scans_processed(), 3u);
+}
+
+TEST_F(SlamServerTest, StreamLevelErrorsEndTheStreamWithTheirStatus) {
+  // No session_id on the first message.
+  std::vector<v1::SensorData> anonymous = {Odom(1, 1.0, 0, 0, 0)};
+  {
+    auto ctx = Ctx();
+    auto stream = stub_->StreamSensorData(ctx.get());
+    ASSERT_TRUE(stream->Write(anonymous[0]));
+    stream->WritesDone();
+    v1::SlamUpdate update;
+    while (stream->Read(&update)) {
+    }
+    const grpc::Status status = stream->Finish();
+    EXPECT_EQ(status.error_code(), grpc::StatusCode::INVALID_ARGUMENT);
+    EXPECT_NE(status.error_message().find("session_id"), std::string::npos);
+  }
+  // Unknown session.
+  StreamResult unknown =
+      RunStream(stub_.get(), "0123456789abcdef0123456789abcdef", Drive(0, 1, 1.0));
+  EXPECT_EQ(unknown.status.error_code(), grpc::StatusCode::NOT_FOUND);
+
+  // A second stream while the first is open.
+  const std::string id = CreateSession("robot-1");
+  auto ctx = Ctx();
+  auto first = stub_->StreamSensorData(ctx.get());
+  std::vector<v1::SensorData> hello = Drive(0, 1, 1.0);
+  hello[0].set_session_id(id);
+  for (const auto& message : hello) ASSERT_TRUE(first->Write(message));
+  v1::SlamUpdate answer;
+  ASSERT_TRUE(first->Read(&answer));  // the first stream holds the session now
+  EXPECT_FALSE(answer.has_rejection());
+  StreamResult second = RunStream(stub_.get(), id, Drive(1, 1, 1.0));
+  EXPECT_EQ(second.status.error_code(), grpc::StatusCode::FAILED_PRECONDITION);
+  EXPECT_NE(second.status.error_message().find("already has an open stream"), std::string::npos);
+  // Closing a session with a stream on it is refused too.
+  v1::CloseSessionRequest close;
+  close.set_session_id(id);
+  v1::Session closed;
+  EXPECT_EQ(stub_->CloseSession(Ctx().get(), close, &closed).error_code(),
+            grpc::StatusCode::FAILED_PRECONDITION);
+  // The first stream is unaffected.
+  for (const auto& message : Drive(1, 1, 1.0, 3)) ASSERT_TRUE(first->Write(message));
+  first->WritesDone();
+  ASSERT_TRUE(first->Read(&answer));
+  EXPECT_EQ(answer.sequence(), 4u);
+  EXPECT_EQ(answer.scans_processed(), 2u);
+  EXPECT_FALSE(first->Read(&answer));
+  ASSERT_TRUE(first->Finish().ok());
+
+  // A closed session cannot stream.
+  ASSERT_TRUE(stub_->CloseSession(Ctx().get(), close, &closed).ok());
+  EXPECT_EQ(closed.state(), v1::Session::CLOSED);
+  StreamResult after = RunStream(stub_.get(), id, Drive(2, 1, 1.0));
+  EXPECT_EQ(after.status.error_code(), grpc::StatusCode::FAILED_PRECONDITION);
+  // Unknown ids for the unary calls.
+  v1::GetMapRequest map_request;
+  map_request.set_session_id("nope");
+  v1::SegmentMap map;
+  EXPECT_EQ(stub_->GetMap(Ctx().get(), map_request, &map).error_code(),
+            grpc::StatusCode::NOT_FOUND);
+  v1::CreateSessionRequest bad = TestSessionRequest("robot-2");
+  bad.mutable_laser()->mutable_params()->set_range_sigma(0);
+  v1::Session unused;
+  const grpc::Status bad_status = stub_->CreateSession(Ctx().get(), bad, &unused);
+  EXPECT_EQ(bad_status.error_code(), grpc::StatusCode::INVALID_ARGUMENT);
+  EXPECT_NE(bad_status.error_message().find("laser.params.range_sigma"), std::string::npos);
+}
+
+TEST_F(SlamServerTest, EightRobotsStreamAtOnceAndEachGetsItsOwnAnswers) {
+  constexpr int kRobots = 8;
+  constexpr int kSteps = 12;
+  std::vector<std::string> ids;
+  for (int r = 0; r < kRobots; ++r) ids.push_back(CreateSession("robot-" + std::to_string(r)));
+  std::vector<StreamResult> results(kRobots);
+  std::vector<std::thread> robots;
+  for (int r = 0; r < kRobots; ++r) {
+    robots.emplace_back([&, r] {
+      // Even robots drive +x, odd robots -x; all use the same stamps and sequence numbers.
+      results[r] = RunStream(stub_.get(), ids[r], Drive(0, kSteps, r % 2 == 0 ? 1.0 : -1.0));
+    });
+  }
+  for (std::thread& robot : robots) robot.join();
+  for (int r = 0; r < kRobots; ++r) {
+    const StreamResult& result = results[r];
+    ASSERT_TRUE(result.status.ok()) << "robot " << r << ": " << result.status.error_message();
+    ASSERT_EQ(result.scans.size(), static_cast<size_t>(kSteps)) << "robot " << r;
+    for (int k = 0; k < kSteps; ++k) {
+      EXPECT_EQ(result.scans[k].sequence(), static_cast<uint64_t>(2 * k + 2));
+      EXPECT_EQ(result.scans[k].scans_processed(), static_cast<uint64_t>(k + 1));
+    }
+    const double expected_x = (r % 2 == 0 ? 1.0 : -1.0) * 0.1 * (kSteps - 1);
+    EXPECT_NEAR(result.scans.back().pose().x(), expected_x, 0.25) << "robot " << r;
+  }
+  v1::ListSessionsResponse list;
+  ASSERT_TRUE(stub_->ListSessions(Ctx().get(), v1::ListSessionsRequest(), &list).ok());
+  ASSERT_EQ(list.sessions_size(), kRobots);
+  for (const v1::Session& session : list.sessions()) {
+    EXPECT_EQ(session.scans_processed(), static_cast<uint64_t>(kSteps));
+    EXPECT_EQ(session.messages_rejected(), 0u);
+    EXPECT_TRUE(session.resident());
+  }
+}
+
+TEST_F(SlamServerTest, SessionsCheckpointAndResumeAfterAServerRestart) {
+  const std::string id = CreateSession("robot-1");
+  StreamResult before = RunStream(stub_.get(), id, Drive(0, 6, 1.0));
+  ASSERT_TRUE(before.status.ok()) << before.status.error_message();
+  ASSERT_EQ(before.scans.size(), 6u);
+  v1::GetTrajectoryRequest trajectory_request;
+  trajectory_request.set_session_id(id);
+  v1::Trajectory old_trajectory;
+  ASSERT_TRUE(stub_->GetTrajectory(Ctx().get(), trajectory_request, &old_trajectory).ok());
+  ASSERT_EQ(old_trajectory.poses_size(), 6);
+
+  // SIGTERM: the server checkpoints the session before it exits.
+  Restart();
+
+  v1::ListSessionsResponse list;
+  ASSERT_TRUE(stub_->ListSessions(Ctx().get(), v1::ListSessionsRequest(), &list).ok());
+  ASSERT_EQ(list.sessions_size(), 1);
+  EXPECT_EQ(list.sessions(0).session_id(), id);
+  EXPECT_EQ(list.sessions(0).state(), v1::Session::OPEN);
+  EXPECT_FALSE(list.sessions(0).resident());
+  EXPECT_EQ(list.sessions(0).scans_processed(), 6u);
+  EXPECT_GT(list.sessions(0).checkpoint_at_unix(), 0);
+  v1::Trajectory stored;
+  ASSERT_TRUE(stub_->GetTrajectory(Ctx().get(), trajectory_request, &stored).ok());
+  EXPECT_EQ(stored.poses_size(), 6);
+
+  // Resume: open the stream on the old id and go on where the robot left off.
+  std::vector<v1::SensorData> more = Drive(6, 4, 1.0, 100);
+  more.insert(more.begin(), RoomScan(99, 6.0, 0.5, 0, 0));  // already processed before: refused
+  StreamResult after = RunStream(stub_.get(), id, more);
+  ASSERT_TRUE(after.status.ok()) << after.status.error_message();
+  ASSERT_TRUE(after.by_sequence[99].has_rejection());
+  EXPECT_EQ(after.by_sequence[99].rejection().code(), 3);
+  ASSERT_EQ(after.scans.size(), 4u);
+  for (size_t i = 0; i < after.scans.size(); ++i) {
+    EXPECT_EQ(after.scans[i].scans_processed(), 7 + i);
+  }
+  EXPECT_NEAR(after.scans.back().pose().x(), 0.9, 0.25);
+
+  v1::Trajectory trajectory;
+  ASSERT_TRUE(stub_->GetTrajectory(Ctx().get(), trajectory_request, &trajectory).ok());
+  ASSERT_EQ(trajectory.poses_size(), 10);
+  for (int i = 0; i < old_trajectory.poses_size(); ++i) {
+    EXPECT_EQ(trajectory.poses(i).stamp(), old_trajectory.poses(i).stamp());
+    EXPECT_EQ(trajectory.poses(i).pose().x(), old_trajectory.poses(i).pose().x());
+    EXPECT_EQ(trajectory.poses(i).covariance_size(), 9);
+  }
+
+  v1::CloseSessionRequest close;
+  close.set_session_id(id);
+  v1::Session closed;
+  ASSERT_TRUE(stub_->CloseSession(Ctx().get(), close, &closed).ok());
+  EXPECT_EQ(closed.scans_processed(), 10u);
+  // Closed survives a restart too, and stays readable.
+  Restart();
+  v1::GetMapRequest map_request;
+  map_request.set_session_id(id);
+  v1::SegmentMap map;
+  ASSERT_TRUE(stub_->GetMap(Ctx().get(), map_request, &map).ok());
+  EXPECT_EQ(map.session_id(), id);
+  ASSERT_TRUE(stub_->GetTrajectory(Ctx().get(), trajectory_request, &trajectory).ok());
+  EXPECT_EQ(trajectory.poses_size(), 10);
+  StreamResult refused = RunStream(stub_.get(), id, Drive(10, 1, 1.0));
+  EXPECT_EQ(refused.status.error_code(), grpc::StatusCode::FAILED_PRECONDITION);
+}
+
+TEST_F(SlamServerTest, AfterACrashTheSessionResumesFromItsLastPeriodicCheckpoint) {
+  // Count-based checkpoints only, so what survives the crash does not depend on timing.
+  server_.reset();
+  StartServer({"--slam-workers", "2", "--slam-checkpoint-scans", "3",
+               "--slam-checkpoint-seconds", "0"});
+  const std::string id = CreateSession("robot-1");
+  StreamResult before = RunStream(stub_.get(), id, Drive(0, 7, 1.0));
+  ASSERT_TRUE(before.status.ok()) << before.status.error_message();
+  ASSERT_EQ(before.scans.size(), 7u);
+  stub_.reset();
+  channel_.reset();
+  server_->Stop(SIGKILL);  // no shutdown checkpoint
+  StartServer();
+
+  v1::ListSessionsResponse list;
+  ASSERT_TRUE(stub_->ListSessions(Ctx().get(), v1::ListSessionsRequest(), &list).ok());
+  ASSERT_EQ(list.sessions_size(), 1);
+  EXPECT_EQ(list.sessions(0).scans_processed(), 6u);  // checkpoints after scans 3 and 6
+  EXPECT_EQ(list.sessions(0).last_scan_stamp(), 6.0);
+  // The robot resends from the first scan the server does not have (stamp 7) and goes on.
+  StreamResult after = RunStream(stub_.get(), id, Drive(6, 3, 1.0, 100));
+  ASSERT_TRUE(after.status.ok()) << after.status.error_message();
+  ASSERT_EQ(after.scans.size(), 3u);
+  EXPECT_EQ(after.scans.back().scans_processed(), 9u);
+  v1::GetTrajectoryRequest request;
+  request.set_session_id(id);
+  v1::Trajectory trajectory;
+  ASSERT_TRUE(stub_->GetTrajectory(Ctx().get(), request, &trajectory).ok());
+  EXPECT_EQ(trajectory.poses_size(), 9);
+}
+
+}  // namespace
+}  // namespace waymark
