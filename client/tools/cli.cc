@@ -30,6 +30,8 @@ int RunCli(int argc, const char* const* argv, std::ostream& out, std::ostream& e
   AddEnrollCommand(app, registry);
   AddRecognizeCommand(app, registry);
   AddEvalCommand(app, registry);
+  AddEvalRelationsCommand(app, registry);
+  AddSlamCommands(app, registry);
 
   try {
     app.parse(argc, argv);

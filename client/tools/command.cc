@@ -11,11 +11,30 @@ std::unique_ptr<client::CrossingClient> CommandContext::Connect() const {
   return std::make_unique<client::CrossingClient>(client::MakeChannel(globals.server), options);
 }
 
+std::unique_ptr<client::SlamClient> CommandContext::ConnectSlam() const {
+  client::SlamClientOptions options;
+  options.timeout =
+      globals.timeout_s > 0 ? absl::Seconds(globals.timeout_s) : absl::InfiniteDuration();
+  return std::make_unique<client::SlamClient>(client::MakeChannel(globals.server), options);
+}
+
 std::optional<int> CommandRegistry::RunParsed(CommandContext& context) const {
+  const CommandFn* selected = nullptr;
+  int selected_depth = -1;
   for (const auto& [command, run] : commands_) {
-    if (command->parsed()) return run(context);
+    if (!command->parsed()) continue;
+    int depth = 0;
+    for (const CLI::App* parent = command->get_parent(); parent != nullptr;
+         parent = parent->get_parent()) {
+      ++depth;
+    }
+    if (depth > selected_depth) {
+      selected = &run;
+      selected_depth = depth;
+    }
   }
-  return std::nullopt;
+  if (selected == nullptr) return std::nullopt;
+  return (*selected)(context);
 }
 
 }  // namespace waymark::cli

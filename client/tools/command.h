@@ -11,6 +11,7 @@
 #include <vector>
 
 #include "client/lib/crossing_client.h"
+#include "client/lib/slam_client.h"
 
 namespace waymark::cli {
 
@@ -33,6 +34,8 @@ struct CommandContext {
 
   // A client for globals.server with globals.timeout_s on every unary call.
   std::unique_ptr<client::CrossingClient> Connect() const;
+  // The same for SlamService.
+  std::unique_ptr<client::SlamClient> ConnectSlam() const;
 };
 
 using CommandFn = std::function<int(CommandContext&)>;
@@ -42,7 +45,9 @@ using CommandFn = std::function<int(CommandContext&)>;
 class CommandRegistry {
  public:
   void Add(CLI::App* command, CommandFn run) { commands_.emplace_back(command, std::move(run)); }
-  // Runs the leaf command the command line selected; nullopt if none was selected.
+  // Runs the command the command line selected: the deepest parsed one, so a group that is itself
+  // a command (`eval NAME DIR`) can also hold subcommands (`eval relations ...`); nullopt if none
+  // was selected.
   std::optional<int> RunParsed(CommandContext& context) const;
 
  private:
@@ -55,6 +60,9 @@ void AddCrossingCommands(CLI::App& app, CommandRegistry& registry);
 void AddEnrollCommand(CLI::App& app, CommandRegistry& registry);
 void AddRecognizeCommand(CLI::App& app, CommandRegistry& registry);
 void AddEvalCommand(CLI::App& app, CommandRegistry& registry);
+// `eval relations` (relations_command.cc); call after AddEvalCommand.
+void AddEvalRelationsCommand(CLI::App& app, CommandRegistry& registry);
+void AddSlamCommands(CLI::App& app, CommandRegistry& registry);
 
 }  // namespace waymark::cli
 

@@ -115,11 +115,18 @@ void AddEvalCommand(CLI::App& app, CommandRegistry& registry) {
       "eval",
       "Evaluate recognition on QUERY_DIR/<crossing>/<file>.(jpg|png); a folder named 'unknown' "
       "holds places not in the database, which must be rejected");
-  eval->add_option("NAME", args->database, "Database name")->required();
-  eval->add_option("QUERY_DIR", args->query_dir, "Folder of query folders")->required();
+  // Required at run time rather than by CLI11, so `eval relations ...` needs neither.
+  eval->add_option("NAME", args->database, "Database name");
+  eval->add_option("QUERY_DIR", args->query_dir, "Folder of query folders");
   eval->add_option("--per-query", args->per_query_csv, "Write one CSV row per query to FILE.csv");
   args->recognition.Register(eval);
-  registry.Add(eval, [args](CommandContext& c) { return RunEval(c, *args); });
+  registry.Add(eval, [args](CommandContext& c) {
+    if (args->database.empty() || args->query_dir.empty()) {
+      return ReportError(c, absl::InvalidArgumentError(
+                                "eval needs NAME and QUERY_DIR (or a subcommand: eval relations)"));
+    }
+    return RunEval(c, *args);
+  });
 }
 
 }  // namespace waymark::cli

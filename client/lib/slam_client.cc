@@ -1,0 +1,216 @@
+#include "client/lib/slam_client.h"
+
+#include <algorithm>
+#include <utility>
+
+#include "client/lib/crossing_client.h"  // DeadlineAfter
+#include "client/lib/status_util.h"
+
+namespace waymark::client {
+
+constexpr int kResourceExhausted = 8;  // google.rpc.Code
+// A sender blocked on a full window gives up after this long without any answer.
+constexpr std::chrono::seconds kAnswerTimeout(120);
+
+SensorStream::SensorStream(v1::SlamService::StubInterface* stub, std::string session_id,
+                           int window, Deadline deadline, UpdateCallback on_update)
+    : window_(std::max(1, window)),
+      session_id_(std::move(session_id)),
+      on_update_(std::move(on_update)) {
+  if (deadline.has_value()) context_.set_deadline(*deadline);
+  stream_ = stub->StreamSensorData(&context_);
+  reader_ = std::thread([this] { ReadLoop(); });
+}
+
+SensorStream::~SensorStream() {
+  if (!finished_) {
+    context_.TryCancel();
+    if (reader_.joinable()) reader_.join();
+    stream_->Finish();
+  } else if (reader_.joinable()) {
+    reader_.join();
+  }
+}
+
+void SensorStream::ReadLoop() {
+  v1::SlamUpdate update;
+  while (stream_->Read(&update)) {
+    {
+      std::lock_guard<std::mutex> lock(mutex_);
+      const bool was_scan = outstanding_scans_.erase(update.sequence()) > 0;
+      const bool was_odometry = !was_scan && odometry_sequences_.erase(update.sequence()) > 0;
+      if (update.has_rejection()) {
+        if (update.rejection().code() == kResourceExhausted) ++stats_.queue_full;
+        if (was_scan) ++stats_.scans_rejected;
+        if (was_odometry) ++stats_.odometry_rejected;
+      } else if (was_scan) {
+        ++stats_.updates;
+      }
+    }
+    changed_.notify_all();
+    if (on_update_) on_update_(update);
+  }
+  {
+    std::lock_guard<std::mutex> lock(mutex_);
+    read_done_ = true;
+  }
+  changed_.notify_all();
+}
+
+absl::Status SensorStream::Send(v1::SensorData& message) {
+  if (!first_sent_) {
+    message.set_session_id(session_id_);
+    first_sent_ = true;
+  }
+  if (!stream_->Write(message)) {
+    return absl::UnavailableError("the stream is closed; Finish() reports why");
+  }
+  return absl::OkStatus();
+}
+
+absl::Status SensorStream::SendOdometry(const v1::Odometry& odometry) {
+  if (finished_) return absl::FailedPreconditionError("the stream is finished");
+  v1::SensorData message;
+  *message.mutable_odometry() = odometry;
+  {
+    std::lock_guard<std::mutex> lock(mutex_);
+    if (read_done_) return absl::UnavailableError("the server ended the stream");
+    message.set_sequence(next_sequence_++);
+    // Odometry is answered only when rejected; keep the recent sequences to classify those.
+    if (odometry_sequences_.size() > 4096) odometry_sequences_.clear();
+    odometry_sequences_.insert(message.sequence());
+    ++stats_.odometry_sent;
+  }
+  return Send(message);
+}
+
+absl::Status SensorStream::SendScan(const v1::LaserScan& scan) {
+  if (finished_) return absl::FailedPreconditionError("the stream is finished");
+  v1::SensorData message;
+  *message.mutable_scan() = scan;
+  {
+    std::unique_lock<std::mutex> lock(mutex_);
+    const bool ready = changed_.wait_for(lock, kAnswerTimeout, [this] {
+      return read_done_ || static_cast<int>(outstanding_scans_.size()) < window_;
+    });
+    if (!ready) {
+      return absl::DeadlineExceededError(
+          "no answer from the server for " + std::to_string(kAnswerTimeout.count()) + " s with " +
+          std::to_string(outstanding_scans_.size()) + " scans outstanding");
+    }
+    if (read_done_) return absl::UnavailableError("the server ended the stream");
+    message.set_sequence(next_sequence_++);
+    outstanding_scans_.insert(message.sequence());
+    ++stats_.scans_sent;
+    stats_.max_outstanding =
+        std::max(stats_.max_outstanding, static_cast<int>(outstanding_scans_.size()));
+  }
+  return Send(message);
+}
+
+absl::Status SensorStream::Finish() {
+  if (finished_) return absl::FailedPreconditionError("Finish() was already called");
+  finished_ = true;
+  stream_->WritesDone();
+  // The server answers every scan before it ends the stream; the reader stops at its end.
+  if (reader_.joinable()) reader_.join();
+  absl::Status status = ToAbslStatus(stream_->Finish());
+  if (status.ok()) {
+    std::lock_guard<std::mutex> lock(mutex_);
+    if (!outstanding_scans_.empty()) {
+      return absl::DataLossError("the server ended the stream with " +
+                                 std::to_string(outstanding_scans_.size()) +
+                                 " scans unanswered");
+    }
+  }
+  return status;
+}
+
+void SensorStream::Cancel() { context_.TryCancel(); }
+
+int SensorStream::outstanding() const {
+  std::lock_guard<std::mutex> lock(mutex_);
+  return static_cast<int>(outstanding_scans_.size());
+}
+
+SensorStream::Stats SensorStream::stats() const {
+  std::lock_guard<std::mutex> lock(mutex_);
+  return stats_;
+}
+
+SlamClient::SlamClient(std::shared_ptr<grpc::ChannelInterface> channel, SlamClientOptions options)
+    : SlamClient(v1::SlamService::NewStub(std::move(channel)), std::move(options)) {}
+
+SlamClient::SlamClient(std::unique_ptr<v1::SlamService::StubInterface> stub,
+                       SlamClientOptions options)
+    : stub_(std::move(stub)), options_(std::move(options)) {}
+
+// One deadline covers all attempts, as in CrossingClient.
+template <typename Response, typename Invoke>
+absl::StatusOr<Response> SlamClient::Unary(Idempotency idempotency, Invoke invoke) {
+  const Deadline deadline = DeadlineAfter(options_.timeout);
+  const int max_attempts =
+      idempotency == Idempotency::kRead ? std::max(1, options_.retry.max_attempts) : 1;
+  for (int attempt = 1;; ++attempt) {
+    grpc::ClientContext context;
+    if (deadline.has_value()) context.set_deadline(*deadline);
+    Response response;
+    absl::Status status = ToAbslStatus(invoke(&context, &response));
+    if (status.ok()) return response;
+    if (attempt >= max_attempts || !IsRetryable(status)) return status;
+    const auto delay = absl::ToChronoNanoseconds(
+        Jitter(BackoffDelay(options_.retry, attempt), options_.retry.jitter));
+    if (deadline.has_value() && std::chrono::system_clock::now() + delay >= *deadline) {
+      return status;
+    }
+    std::this_thread::sleep_for(delay);
+  }
+}
+
+absl::StatusOr<v1::Session> SlamClient::CreateSession(const v1::CreateSessionRequest& request) {
+  return Unary<v1::Session>(Idempotency::kWrite, [&](auto* context, auto* response) {
+    return stub_->CreateSession(context, request, response);
+  });
+}
+
+absl::StatusOr<v1::SegmentMap> SlamClient::GetMap(const std::string& session_id) {
+  v1::GetMapRequest request;
+  request.set_session_id(session_id);
+  return Unary<v1::SegmentMap>(Idempotency::kRead, [&](auto* context, auto* response) {
+    return stub_->GetMap(context, request, response);
+  });
+}
+
+absl::StatusOr<v1::Trajectory> SlamClient::GetTrajectory(const std::string& session_id) {
+  v1::GetTrajectoryRequest request;
+  request.set_session_id(session_id);
+  return Unary<v1::Trajectory>(Idempotency::kRead, [&](auto* context, auto* response) {
+    return stub_->GetTrajectory(context, request, response);
+  });
+}
+
+absl::StatusOr<v1::Session> SlamClient::CloseSession(const std::string& session_id) {
+  v1::CloseSessionRequest request;
+  request.set_session_id(session_id);
+  return Unary<v1::Session>(Idempotency::kWrite, [&](auto* context, auto* response) {
+    return stub_->CloseSession(context, request, response);
+  });
+}
+
+absl::StatusOr<v1::ListSessionsResponse> SlamClient::ListSessions(const std::string& robot_id) {
+  v1::ListSessionsRequest request;
+  request.set_robot_id(robot_id);
+  return Unary<v1::ListSessionsResponse>(Idempotency::kRead, [&](auto* context, auto* response) {
+    return stub_->ListSessions(context, request, response);
+  });
+}
+
+std::unique_ptr<SensorStream> SlamClient::StreamSensorData(const std::string& session_id,
+                                                           int window,
+                                                           SensorStream::UpdateCallback on_update) {
+  return std::make_unique<SensorStream>(stub_.get(), session_id, window,
+                                        DeadlineAfter(options_.stream_timeout),
+                                        std::move(on_update));
+}
+
+}  // namespace waymark::client

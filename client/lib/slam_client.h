@@ -1,0 +1,134 @@
+#ifndef WAYMARK_CLIENT_LIB_SLAM_CLIENT_H_
+#define WAYMARK_CLIENT_LIB_SLAM_CLIENT_H_
+
+#include <grpcpp/channel.h>
+#include <grpcpp/client_context.h>
+#include <grpcpp/support/sync_stream.h>
+
+#include <condition_variable>
+#include <cstdint>
+#include <functional>
+#include <memory>
+#include <mutex>
+#include <string>
+#include <thread>
+#include <unordered_set>
+
+#include "absl/status/status.h"
+#include "absl/status/statusor.h"
+#include "absl/time/time.h"
+#include "client/lib/crossing_streams.h"  // Deadline
+#include "client/lib/retry.h"
+#include "waymark/v1/slam.grpc.pb.h"
+
+namespace waymark::client {
+
+struct SlamClientOptions {
+  // Deadline of every unary call, retries and backoff included. InfiniteDuration() disables it.
+  absl::Duration timeout = absl::Seconds(30);
+  // Deadline of a whole StreamSensorData stream; a robot streams for as long as it drives.
+  absl::Duration stream_timeout = absl::InfiniteDuration();
+  // Applied to GetMap, GetTrajectory and ListSessions only (reads). CreateSession and
+  // CloseSession are never retried.
+  RetryOptions retry;
+};
+
+// Scans allowed in flight on one stream by default: well under the server's default session
+// queue (64 messages), with room for the odometry message that precedes each scan.
+inline constexpr int kDefaultScanWindow = 16;
+
+// Client side of SlamService.StreamSensorData with flow control: at most `window` scans are
+// outstanding (sent and not yet answered by a SlamUpdate; a rejection counts as an answer), so a
+// sender faster than the session never overflows the server's bounded session queue. Odometry
+// messages are not answered unless rejected, and are not windowed (each precedes a scan).
+//
+// Updates are read on an internal thread and handed to `on_update` (on that thread). Send* and
+// Finish() belong to one thread.
+class SensorStream {
+ public:
+  using UpdateCallback = std::function<void(const v1::SlamUpdate&)>;
+
+  struct Stats {
+    uint64_t scans_sent = 0;
+    uint64_t odometry_sent = 0;
+    uint64_t updates = 0;           // processed scans (no rejection)
+    uint64_t scans_rejected = 0;    // scan answered with a rejection
+    uint64_t odometry_rejected = 0;
+    uint64_t queue_full = 0;        // rejections with RESOURCE_EXHAUSTED (any message)
+    int max_outstanding = 0;        // the most scans ever in flight
+  };
+
+  SensorStream(v1::SlamService::StubInterface* stub, std::string session_id, int window,
+               Deadline deadline, UpdateCallback on_update);
+  ~SensorStream();
+  SensorStream(const SensorStream&) = delete;
+  SensorStream& operator=(const SensorStream&) = delete;
+
+  // Sends one odometry reading. A false-y status means the stream broke; Finish() says why.
+  absl::Status SendOdometry(const v1::Odometry& odometry);
+  // Waits until fewer than `window` scans are outstanding, then sends the scan.
+  absl::Status SendScan(const v1::LaserScan& scan);
+  // Half-closes, waits for every outstanding answer and returns the stream's final status.
+  absl::Status Finish();
+  // Aborts from any thread.
+  void Cancel();
+
+  int window() const { return window_; }
+  int outstanding() const;
+  Stats stats() const;
+
+ private:
+  absl::Status Send(v1::SensorData& message);
+  void ReadLoop();
+
+  const int window_;
+  const std::string session_id_;
+  UpdateCallback on_update_;
+  grpc::ClientContext context_;
+  std::unique_ptr<grpc::ClientReaderWriterInterface<v1::SensorData, v1::SlamUpdate>> stream_;
+  std::thread reader_;
+
+  mutable std::mutex mutex_;
+  std::condition_variable changed_;
+  std::unordered_set<uint64_t> outstanding_scans_;  // sequences
+  std::unordered_set<uint64_t> odometry_sequences_;  // only kept to classify rejections
+  Stats stats_;
+  bool read_done_ = false;
+  bool first_sent_ = false;
+  bool finished_ = false;
+  uint64_t next_sequence_ = 1;
+};
+
+// Typed, blocking access to waymark.v1.SlamService. Thread-safe; streams are per caller.
+class SlamClient {
+ public:
+  explicit SlamClient(std::shared_ptr<grpc::ChannelInterface> channel,
+                      SlamClientOptions options = {});
+  explicit SlamClient(std::unique_ptr<v1::SlamService::StubInterface> stub,
+                      SlamClientOptions options = {});
+
+  const SlamClientOptions& options() const { return options_; }
+
+  absl::StatusOr<v1::Session> CreateSession(const v1::CreateSessionRequest& request);
+  absl::StatusOr<v1::SegmentMap> GetMap(const std::string& session_id);
+  absl::StatusOr<v1::Trajectory> GetTrajectory(const std::string& session_id);
+  absl::StatusOr<v1::Session> CloseSession(const std::string& session_id);
+  absl::StatusOr<v1::ListSessionsResponse> ListSessions(const std::string& robot_id = "");
+
+  // Opens StreamSensorData for `session_id` (the call starts immediately).
+  std::unique_ptr<SensorStream> StreamSensorData(const std::string& session_id,
+                                                 int window = kDefaultScanWindow,
+                                                 SensorStream::UpdateCallback on_update = {});
+
+ private:
+  enum class Idempotency { kRead, kWrite };
+  template <typename Response, typename Invoke>
+  absl::StatusOr<Response> Unary(Idempotency idempotency, Invoke invoke);
+
+  std::unique_ptr<v1::SlamService::StubInterface> stub_;
+  SlamClientOptions options_;
+};
+
+}  // namespace waymark::client
+
+#endif  // WAYMARK_CLIENT_LIB_SLAM_CLIENT_H_

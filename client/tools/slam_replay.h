@@ -1,0 +1,61 @@
+#ifndef WAYMARK_CLIENT_TOOLS_SLAM_REPLAY_H_
+#define WAYMARK_CLIENT_TOOLS_SLAM_REPLAY_H_
+
+// `waymark slam replay LOG` and `waymark slam odometry LOG`: CARMEN logs into a SLAM session.
+//
+// What is sent, per laser line (FLASER or ROBOTLASER1), in file order:
+//   1. an Odometry message with the odometry pose embedded in the laser line (FLASER odom_x/y/theta,
+//      ROBOTLASER1 robot_x/y/theta) at the laser line's stamp, then
+//   2. the scan, with its own beam geometry.
+// ODOM lines are read but not sent: every laser line carries the odometry at its own instant, which
+// is exactly what the EKF's prediction needs, and the raw logs' ODOM lines add nothing between two
+// scans that the next scan's pose does not. Laser lines are sent in stamp order: the reader looks
+// 64 laser lines ahead and reorders (the Intel log has 631 FLASER lines logged up to 14 lines out
+// of order; reordered_lines counts them). A line whose stamp still does not increase (a duplicate,
+// or out of order by more than the lookahead) is skipped and counted (skipped_stamps), since the
+// server would reject it. Malformed lines are skipped and counted (the first few are printed).
+//
+// The session's laser pose on the robot is inv(odom pose) (+) laser pose of the first laser line
+// when that offset is plausible (under 1 m and 0.1 rad); otherwise (e.g. GMapping-corrected logs,
+// whose laser pose is the corrected pose) the laser is assumed at the robot's origin.
+
+#include <optional>
+#include <string>
+
+#include "client/tools/command.h"
+
+namespace waymark::cli {
+
+struct ReplayArgs {
+  std::string log;
+  std::string out_dir;  // default ./out/<log name>
+  std::string robot_id = "replay";
+  std::string name;
+  bool realtime = false;
+  int max_scans = 0;  // 0 = all
+  int window = client::kDefaultScanWindow;
+  bool show_odometry = false;
+  // LaserSlamParams; unset = server default.
+  std::optional<double> max_range;
+  std::optional<double> odom_xy_per_m;
+  std::optional<double> odom_theta_per_rad;
+  std::optional<double> odom_theta_per_m;
+  std::optional<double> match_chi2;
+};
+
+int RunSlamReplay(CommandContext& context, const ReplayArgs& args);
+
+struct OdometryArgs {
+  std::string log;
+  std::string out;  // TUM file
+  int max_scans = 0;
+};
+
+int RunSlamOdometry(CommandContext& context, const OdometryArgs& args);
+
+// "aces" for ".../aces.clf.bz2", "intel-corrected" for "intel-corrected.log.gz".
+std::string LogName(const std::string& path);
+
+}  // namespace waymark::cli
+
+#endif  // WAYMARK_CLIENT_TOOLS_SLAM_REPLAY_H_

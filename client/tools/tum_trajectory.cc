@@ -1,0 +1,81 @@
+#include "client/tools/tum_trajectory.h"
+
+#include <fmt/format.h>
+
+#include <cmath>
+#include <fstream>
+#include <sstream>
+
+#include "absl/strings/numbers.h"
+#include "absl/strings/str_cat.h"
+#include "absl/strings/str_split.h"
+#include "absl/strings/strip.h"
+#include "client/tools/read_file.h"
+
+namespace waymark::cli {
+
+double YawFromQuaternion(double qx, double qy, double qz, double qw) {
+  return std::atan2(2.0 * (qw * qz + qx * qy), 1.0 - 2.0 * (qy * qy + qz * qz));
+}
+
+void WriteTum(std::ostream& out, const std::vector<StampedPose>& poses) {
+  out << "# t x y z qx qy qz qw\n";
+  for (const StampedPose& p : poses) {
+    const double half = 0.5 * p.pose.theta;
+    out << fmt::format("{:.6f} {:.6f} {:.6f} 0 0 0 {:.9f} {:.9f}\n", p.stamp, p.pose.x, p.pose.y,
+                       std::sin(half), std::cos(half));
+  }
+}
+
+absl::Status WriteTumFile(const std::filesystem::path& path,
+                          const std::vector<StampedPose>& poses) {
+  std::ofstream out(path);
+  if (!out) return absl::PermissionDeniedError("cannot write '" + path.string() + "'");
+  WriteTum(out, poses);
+  out.close();
+  if (!out) return absl::DataLossError("writing '" + path.string() + "' failed");
+  return absl::OkStatus();
+}
+
+absl::StatusOr<std::vector<StampedPose>> ParseTum(const std::string& text) {
+  std::vector<StampedPose> poses;
+  int line_number = 0;
+  for (absl::string_view line : absl::StrSplit(text, '\n')) {
+    ++line_number;
+    line = absl::StripAsciiWhitespace(line);
+    if (line.empty() || line[0] == '#') continue;
+    std::vector<absl::string_view> fields =
+        absl::StrSplit(line, absl::ByAnyChar(" \t,"), absl::SkipEmpty());
+    if (fields.size() != 8) {
+      return absl::InvalidArgumentError(absl::StrCat(
+          "line ", line_number, ": expected 8 fields (t x y z qx qy qz qw), got ", fields.size()));
+    }
+    double v[8];
+    for (int i = 0; i < 8; ++i) {
+      if (!absl::SimpleAtod(fields[i], &v[i]) || !std::isfinite(v[i])) {
+        return absl::InvalidArgumentError(absl::StrCat("line ", line_number, ": field ", i + 1,
+                                                       " is not a finite number: '", fields[i],
+                                                       "'"));
+      }
+    }
+    if (v[4] == 0 && v[5] == 0 && v[6] == 0 && v[7] == 0) {
+      return absl::InvalidArgumentError(
+          absl::StrCat("line ", line_number, ": the quaternion is zero"));
+    }
+    poses.push_back({v[0], {v[1], v[2], YawFromQuaternion(v[4], v[5], v[6], v[7])}});
+  }
+  return poses;
+}
+
+absl::StatusOr<std::vector<StampedPose>> ReadTumFile(const std::filesystem::path& path) {
+  auto text = ReadFileBytes(path);
+  if (!text.ok()) return text.status();
+  auto poses = ParseTum(*text);
+  if (!poses.ok()) {
+    return absl::Status(poses.status().code(),
+                        absl::StrCat(path.string(), ": ", poses.status().message()));
+  }
+  return poses;
+}
+
+}  // namespace waymark::cli

@@ -1,0 +1,255 @@
+#include "tests/client/fake_slam_service.h"
+
+#include <grpcpp/security/server_credentials.h>
+#include <grpcpp/server_builder.h>
+
+#include <cmath>
+#include <condition_variable>
+#include <deque>
+#include <thread>
+
+namespace waymark::testing {
+namespace {
+
+grpc::Status NoSession(const std::string& id) {
+  return grpc::Status(grpc::StatusCode::NOT_FOUND, "no session '" + id + "'");
+}
+
+v1::SlamUpdate Rejection(uint64_t sequence, int code, const std::string& message) {
+  v1::SlamUpdate update;
+  update.set_sequence(sequence);
+  update.mutable_rejection()->set_code(code);
+  update.mutable_rejection()->set_message(message);
+  return update;
+}
+
+}  // namespace
+
+int FakeSlamService::max_outstanding_scans() const {
+  std::lock_guard<std::mutex> lock(mutex_);
+  return max_outstanding_;
+}
+int FakeSlamService::scans_received() const {
+  std::lock_guard<std::mutex> lock(mutex_);
+  return scans_received_;
+}
+int FakeSlamService::odometry_received() const {
+  std::lock_guard<std::mutex> lock(mutex_);
+  return odometry_received_;
+}
+int FakeSlamService::rejected() const {
+  std::lock_guard<std::mutex> lock(mutex_);
+  return rejected_;
+}
+v1::CreateSessionRequest FakeSlamService::last_create() const {
+  std::lock_guard<std::mutex> lock(mutex_);
+  return last_create_;
+}
+
+grpc::Status FakeSlamService::CreateSession(grpc::ServerContext*,
+                                            const v1::CreateSessionRequest* request,
+                                            v1::Session* response) {
+  std::lock_guard<std::mutex> lock(mutex_);
+  last_create_ = *request;
+  if (request->laser().laser().beam_count() == 0) {
+    return grpc::Status(grpc::StatusCode::INVALID_ARGUMENT, "laser geometry has no beams");
+  }
+  const std::string id = "s" + std::to_string(next_id_++);
+  SessionData& session = sessions_[id];
+  session.info.set_session_id(id);
+  session.info.set_robot_id(request->robot_id());
+  session.info.set_name(request->name());
+  session.info.set_state(v1::Session::OPEN);
+  *session.info.mutable_laser() = request->laser();
+  session.info.set_resident(true);
+  session.trajectory.set_session_id(id);
+  session.map.set_session_id(id);
+  *response = session.info;
+  return grpc::Status::OK;
+}
+
+grpc::Status FakeSlamService::StreamSensorData(
+    grpc::ServerContext*, grpc::ServerReaderWriter<v1::SlamUpdate, v1::SensorData>* stream) {
+  std::mutex queue_mutex;  // guards queue, done, outstanding
+  std::condition_variable queue_changed;
+  std::deque<v1::SensorData> queue;
+  bool done = false;
+  int outstanding = 0;
+  std::mutex write_mutex;  // one Write at a time
+  auto write = [&](const v1::SlamUpdate& update) {
+    std::lock_guard<std::mutex> lock(write_mutex);
+    stream->Write(update);
+  };
+
+  v1::SensorData first;
+  if (!stream->Read(&first)) return grpc::Status::OK;
+  const std::string session_id = first.session_id();
+  {
+    std::lock_guard<std::mutex> lock(mutex_);
+    if (sessions_.count(session_id) == 0) return NoSession(session_id);
+  }
+
+  std::thread worker([&] {
+    while (true) {
+      v1::SensorData message;
+      {
+        std::unique_lock<std::mutex> lock(queue_mutex);
+        queue_changed.wait(lock, [&] { return done || !queue.empty(); });
+        if (queue.empty()) return;
+        message = std::move(queue.front());
+        queue.pop_front();
+      }
+      if (message.has_scan()) std::this_thread::sleep_for(absl::ToChronoNanoseconds(scan_delay_));
+      v1::SlamUpdate update;
+      {
+        std::lock_guard<std::mutex> lock(mutex_);
+        SessionData& session = sessions_[session_id];
+        if (message.has_odometry()) {
+          if (!(message.odometry().stamp() > session.last_odometry_stamp)) {
+            ++rejected_;
+            update = Rejection(message.sequence(), 3, "odometry stamp does not increase");
+          } else {
+            session.last_odometry_stamp = message.odometry().stamp();
+            session.odometry = message.odometry().pose();
+            continue;  // odometry is answered only when rejected
+          }
+        } else {
+          const v1::LaserScan& scan = message.scan();
+          if (!(scan.stamp() > session.last_scan_stamp)) {
+            ++rejected_;
+            update = Rejection(message.sequence(), 3, "scan stamp does not increase");
+          } else if (scan.geometry().beam_count() != 0 &&
+                     scan.geometry().beam_count() != static_cast<uint32_t>(scan.ranges_size())) {
+            ++rejected_;
+            update = Rejection(message.sequence(), 3, "beam count disagrees with the ranges");
+          } else {
+            session.last_scan_stamp = scan.stamp();
+            v1::TrajectoryPose* pose = session.trajectory.add_poses();
+            pose->set_stamp(scan.stamp());
+            *pose->mutable_pose() = session.odometry;
+            const uint64_t n = session.info.scans_processed() + 1;
+            session.info.set_scans_processed(n);
+            if (n % kScansPerSegment == 1) {
+              v1::MapSegment* segment = session.map.add_segments();
+              segment->set_id(n);
+              *segment->mutable_frame() = session.odometry;
+              segment->set_left(-0.5);
+              segment->set_right(1.0 + 0.1 * (n % 3));
+              segment->set_left_type(n % 2 ? v1::MapSegment::REAL : v1::MapSegment::VIRTUAL);
+              segment->set_right_type(n % 3 ? v1::MapSegment::REAL : v1::MapSegment::VIRTUAL);
+              session.map.set_map_revision(session.map.map_revision() + 1);
+            }
+            session.info.set_segments(session.map.segments_size());
+            session.info.set_last_scan_stamp(scan.stamp());
+            update.set_sequence(message.sequence());
+            update.set_stamp(scan.stamp());
+            *update.mutable_pose() = session.odometry;
+            update.set_segments(session.map.segments_size());
+            update.set_map_revision(session.map.map_revision());
+            update.set_scans_processed(n);
+            update.mutable_timings()->set_total_ms(0.5);
+          }
+        }
+        if (update.has_rejection()) {
+          session.info.set_messages_rejected(session.info.messages_rejected() + 1);
+        }
+      }
+      if (message.has_scan()) {
+        std::lock_guard<std::mutex> lock(queue_mutex);
+        --outstanding;  // before the answer leaves, so the client can never see it early
+      }
+      write(update);
+    }
+  });
+
+  v1::SensorData message = std::move(first);
+  do {
+    std::unique_lock<std::mutex> lock(queue_mutex);
+    if (message.has_scan() || message.has_odometry()) {
+      std::lock_guard<std::mutex> stats_lock(mutex_);
+      if (message.has_scan()) ++scans_received_;
+      if (message.has_odometry()) ++odometry_received_;
+    }
+    if (static_cast<int>(queue.size()) >= queue_capacity_) {
+      lock.unlock();
+      {
+        std::lock_guard<std::mutex> stats_lock(mutex_);
+        ++rejected_;
+        SessionData& session = sessions_[session_id];
+        session.info.set_messages_rejected(session.info.messages_rejected() + 1);
+        session.info.set_messages_dropped(session.info.messages_dropped() + 1);
+      }
+      write(Rejection(message.sequence(), 8, "session queue full"));
+      continue;
+    }
+    if (message.has_scan()) {
+      ++outstanding;
+      std::lock_guard<std::mutex> stats_lock(mutex_);
+      max_outstanding_ = std::max(max_outstanding_, outstanding);
+    }
+    queue.push_back(std::move(message));
+    queue_changed.notify_all();
+  } while (stream->Read(&message));
+  {
+    std::lock_guard<std::mutex> lock(queue_mutex);
+    done = true;
+  }
+  queue_changed.notify_all();
+  worker.join();
+  return grpc::Status::OK;
+}
+
+grpc::Status FakeSlamService::GetMap(grpc::ServerContext*, const v1::GetMapRequest* request,
+                                     v1::SegmentMap* response) {
+  std::lock_guard<std::mutex> lock(mutex_);
+  auto it = sessions_.find(request->session_id());
+  if (it == sessions_.end()) return NoSession(request->session_id());
+  *response = it->second.map;
+  return grpc::Status::OK;
+}
+
+grpc::Status FakeSlamService::GetTrajectory(grpc::ServerContext*,
+                                            const v1::GetTrajectoryRequest* request,
+                                            v1::Trajectory* response) {
+  std::lock_guard<std::mutex> lock(mutex_);
+  auto it = sessions_.find(request->session_id());
+  if (it == sessions_.end()) return NoSession(request->session_id());
+  *response = it->second.trajectory;
+  return grpc::Status::OK;
+}
+
+grpc::Status FakeSlamService::CloseSession(grpc::ServerContext*,
+                                           const v1::CloseSessionRequest* request,
+                                           v1::Session* response) {
+  std::lock_guard<std::mutex> lock(mutex_);
+  auto it = sessions_.find(request->session_id());
+  if (it == sessions_.end()) return NoSession(request->session_id());
+  it->second.info.set_state(v1::Session::CLOSED);
+  *response = it->second.info;
+  return grpc::Status::OK;
+}
+
+grpc::Status FakeSlamService::ListSessions(grpc::ServerContext*,
+                                           const v1::ListSessionsRequest* request,
+                                           v1::ListSessionsResponse* response) {
+  std::lock_guard<std::mutex> lock(mutex_);
+  for (const auto& [id, session] : sessions_) {
+    if (request->robot_id().empty() || request->robot_id() == session.info.robot_id()) {
+      *response->add_sessions() = session.info;
+    }
+  }
+  return grpc::Status::OK;
+}
+
+FakeSlamServer::FakeSlamServer() {
+  grpc::ServerBuilder builder;
+  int port = 0;
+  builder.AddListeningPort("127.0.0.1:0", grpc::InsecureServerCredentials(), &port);
+  builder.RegisterService(&service_);
+  server_ = builder.BuildAndStart();
+  address_ = "127.0.0.1:" + std::to_string(port);
+}
+
+FakeSlamServer::~FakeSlamServer() { server_->Shutdown(); }
+
+}  // namespace waymark::testing

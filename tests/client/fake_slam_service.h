@@ -1,0 +1,85 @@
+#ifndef WAYMARK_TESTS_CLIENT_FAKE_SLAM_SERVICE_H_
+#define WAYMARK_TESTS_CLIENT_FAKE_SLAM_SERVICE_H_
+
+#include <grpcpp/server.h>
+
+#include <map>
+#include <memory>
+#include <mutex>
+#include <string>
+#include <vector>
+
+#include "absl/time/time.h"
+#include "waymark/v1/slam.grpc.pb.h"
+
+namespace waymark::testing {
+
+// An in-memory stand-in for SlamService. Like the real server it queues stream messages in a
+// bounded per-session queue (capacity `queue_capacity`, RESOURCE_EXHAUSTED rejection when full)
+// and processes them on a worker that takes `scan_delay` per scan; the "SLAM" is dead reckoning
+// (the pose of a scan is the last odometry pose) and one segment per `scans_per_segment` scans.
+// It records the most scans it ever held received-but-unanswered, so tests can check a client's
+// flow control, and rejects per-sensor stamps that do not increase (INVALID_ARGUMENT).
+class FakeSlamService final : public v1::SlamService::Service {
+ public:
+  void set_scan_delay(absl::Duration delay) { scan_delay_ = delay; }
+  void set_queue_capacity(int capacity) { queue_capacity_ = capacity; }
+  int max_outstanding_scans() const;
+  int scans_received() const;
+  int odometry_received() const;
+  int rejected() const;
+  v1::CreateSessionRequest last_create() const;
+
+  grpc::Status CreateSession(grpc::ServerContext*, const v1::CreateSessionRequest* request,
+                             v1::Session* response) override;
+  grpc::Status StreamSensorData(
+      grpc::ServerContext*,
+      grpc::ServerReaderWriter<v1::SlamUpdate, v1::SensorData>* stream) override;
+  grpc::Status GetMap(grpc::ServerContext*, const v1::GetMapRequest* request,
+                      v1::SegmentMap* response) override;
+  grpc::Status GetTrajectory(grpc::ServerContext*, const v1::GetTrajectoryRequest* request,
+                             v1::Trajectory* response) override;
+  grpc::Status CloseSession(grpc::ServerContext*, const v1::CloseSessionRequest* request,
+                            v1::Session* response) override;
+  grpc::Status ListSessions(grpc::ServerContext*, const v1::ListSessionsRequest* request,
+                            v1::ListSessionsResponse* response) override;
+
+ private:
+  struct SessionData {
+    v1::Session info;
+    v1::Trajectory trajectory;
+    v1::SegmentMap map;
+    v1::Pose2D odometry;
+    double last_odometry_stamp = -1e300;
+    double last_scan_stamp = -1e300;
+  };
+  static constexpr int kScansPerSegment = 10;
+
+  mutable std::mutex mutex_;
+  std::map<std::string, SessionData> sessions_;
+  int next_id_ = 1;
+  absl::Duration scan_delay_ = absl::ZeroDuration();
+  int queue_capacity_ = 64;
+  int max_outstanding_ = 0;
+  int scans_received_ = 0;
+  int odometry_received_ = 0;
+  int rejected_ = 0;
+  v1::CreateSessionRequest last_create_;
+};
+
+class FakeSlamServer {
+ public:
+  FakeSlamServer();
+  ~FakeSlamServer();
+  FakeSlamService& service() { return service_; }
+  const std::string& address() const { return address_; }
+
+ private:
+  FakeSlamService service_;
+  std::unique_ptr<grpc::Server> server_;
+  std::string address_;
+};
+
+}  // namespace waymark::testing
+
+#endif  // WAYMARK_TESTS_CLIENT_FAKE_SLAM_SERVICE_H_
