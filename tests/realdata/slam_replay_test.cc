@@ -1,0 +1,105 @@
+// End to end through the real server: `waymark slam replay` of the first 400 scans of the ACES log
+// (../shared/data/laser, read in place; skips when absent) against a waymark-server started for
+// the test, then the JSON summary, the trajectory file and the map pictures are checked.
+
+#include <gtest/gtest.h>
+#include <signal.h>
+
+#include <array>
+#include <cstdio>
+#include <filesystem>
+#include <fstream>
+#include <memory>
+#include <nlohmann/json.hpp>
+#include <opencv2/imgcodecs.hpp>
+#include <sstream>
+#include <string>
+
+#include "tests/support/server_process.h"
+
+namespace waymark {
+namespace {
+
+using testing::ServerProcess;
+
+std::string ReadText(const std::filesystem::path& path) {
+  std::ifstream in(path);
+  std::stringstream s;
+  s << in.rdbuf();
+  return s.str();
+}
+
+// Runs `command`, returns its exit code and stdout (stderr goes to the test's stderr).
+int RunCommand(const std::string& command, std::string* out) {
+  FILE* pipe = popen(command.c_str(), "r");
+  if (pipe == nullptr) return -1;
+  std::array<char, 4096> buffer;
+  size_t n;
+  while ((n = fread(buffer.data(), 1, buffer.size(), pipe)) > 0) out->append(buffer.data(), n);
+  const int status = pclose(pipe);
+  return WIFEXITED(status) ? WEXITSTATUS(status) : -1;
+}
+
+int Count(const std::string& text, const std::string& what) {
+  int n = 0;
+  for (size_t at = text.find(what); at != std::string::npos; at = text.find(what, at + 1)) ++n;
+  return n;
+}
+
+TEST(SlamReplayRealData, FirstScansOfAcesThroughTheRealServer) {
+  const std::filesystem::path log =
+      std::filesystem::path(WAYMARK_SHARED_DIR) / "data" / "laser" / "aces" / "aces.clf.bz2";
+  if (!std::filesystem::exists(log)) GTEST_SKIP() << "no " << log << " (../shared absent)";
+
+  const std::string dir = testing::MakeTempDir("waymark-slam-replay");
+  auto server = ServerProcess::Start(testing::ServerBinary(), dir + "/waymark.db");
+  ASSERT_TRUE(server.ok()) << server.status();
+  const std::string out_dir = dir + "/out";
+  const std::string cli = std::string(WAYMARK_BINARY_DIR) + "/bin/waymark";
+  std::string out;
+  const int code = RunCommand(cli + " --server " + (*server)->address() +
+                                  " slam replay --max-scans 400 --json --out " + out_dir + " " +
+                                  log.string(),
+                              &out);
+  ASSERT_EQ(code, 0) << out << "\nserver log:\n" << (*server)->Log();
+
+  const nlohmann::json json = nlohmann::json::parse(out);
+  EXPECT_EQ(json["scans_sent"], 400);
+  EXPECT_EQ(json["rejected"], 0);
+  EXPECT_EQ(json["queue_full"], 0);
+  EXPECT_EQ(json["malformed_lines"], 0);
+  // Every scan is answered; some may be skipped for too little motion.
+  EXPECT_GT(json["scans"].get<int>(), 0);
+  EXPECT_LE(json["scans"].get<int>(), 400);
+  EXPECT_GT(json["segments"].get<int>(), 5);
+  EXPECT_GT(json["log_duration_s"].get<double>(), 30);
+  EXPECT_GT(json["processing_s"].get<double>(), 0);
+  EXPECT_GT(json["realtime_factor"].get<double>(), 1);
+  EXPECT_FALSE(json["session_id"].get<std::string>().empty());
+
+  // trajectory.txt: one TUM pose per trajectory entry, within the log's stamps.
+  std::istringstream lines(ReadText(out_dir + "/trajectory.txt"));
+  int poses = 0;
+  for (std::string line; std::getline(lines, line);) {
+    if (line.empty() || line[0] == '#') continue;
+    std::istringstream fields(line);
+    double t, x, y, z, qx, qy, qz, qw;
+    ASSERT_TRUE(fields >> t >> x >> y >> z >> qx >> qy >> qz >> qw) << line;
+    EXPECT_GE(t, 70.0);
+    EXPECT_NEAR(qz * qz + qw * qw, 1.0, 1e-6);
+    ++poses;
+  }
+  EXPECT_EQ(poses, json["trajectory_poses"].get<int>());
+  EXPECT_GT(poses, 0);
+
+  const std::string svg = ReadText(out_dir + "/map.svg");
+  EXPECT_EQ(Count(svg, "class=\"segment "), json["segments"].get<int>());
+  EXPECT_FALSE(cv::imread(out_dir + "/map.png").empty());
+  EXPECT_TRUE(std::filesystem::exists(out_dir + "/summary.json"));
+
+  EXPECT_EQ((*server)->Stop(SIGTERM), 0) << (*server)->Log();
+  std::filesystem::remove_all(dir);
+}
+
+}  // namespace
+}  // namespace waymark
