@@ -32,8 +32,8 @@ double SecondsSince(Clock::time_point start) {
 }
 
 // The laser lines of a log in stamp order. Lines are reordered within a lookahead of
-// kReorderWindow laser lines (the Intel log has 631 FLASER lines logged up to 14 lines out of
-// order, none duplicated); a line whose stamp is still not above the last one emitted (a
+// kReorderWindow laser lines (see slam_replay.h: the Intel log has FLASER lines up to 14 lines
+// out of place, none duplicated); a line whose stamp is still not above the last one emitted (a
 // duplicate, or later than the lookahead) is skipped and counted.
 class LaserFeed {
  public:

@@ -10,8 +10,9 @@
 // ODOM lines are read but not sent: every laser line carries the odometry at its own instant, which
 // is exactly what the EKF's prediction needs, and the raw logs' ODOM lines add nothing between two
 // scans that the next scan's pose does not. Laser lines are sent in stamp order: the reader looks
-// 64 laser lines ahead and reorders (the Intel log has 631 FLASER lines logged up to 14 lines out
-// of order; reordered_lines counts them). A line whose stamp still does not increase (a duplicate,
+// 64 laser lines ahead and reorders (in the Intel log 631 FLASER lines carry a smaller stamp than
+// the line before them, none is repeated, none is more than 14 lines out of place;
+// reordered_lines counts the lines whose stamp is below one read earlier: 1612 there). A line whose stamp still does not increase (a duplicate,
 // or out of order by more than the lookahead) is skipped and counted (skipped_stamps), since the
 // server would reject it. Malformed lines are skipped and counted (the first few are printed).
 //
