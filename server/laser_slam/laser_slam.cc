@@ -185,6 +185,7 @@ std::string LaserSlam::SerializeState() const {
     w.Put<std::uint8_t>(static_cast<std::uint8_t>(e.right_type));
     for (int d : e.dof) w.Put<std::int32_t>(d);
     w.Put<std::int32_t>(e.observations);
+    w.Put(e.first_seen_scan);
     w.Put(e.last_seen_scan);
   }
   const int n = st.size();
@@ -243,7 +244,9 @@ absl::StatusOr<std::unique_ptr<LaserSlam>> LaserSlam::FromCheckpoint(
       if (!r.Get(&v)) return corrupt("segment dofs");
       d = v;
     }
-    if (!r.Get(&obs) || !r.Get(&e.last_seen_scan)) return corrupt("segment");
+    if (!r.Get(&obs) || !r.Get(&e.first_seen_scan) || !r.Get(&e.last_seen_scan)) {
+      return corrupt("segment");
+    }
     e.observations = obs;
   }
   std::int32_t n = 0;

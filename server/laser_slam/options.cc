@@ -62,6 +62,9 @@ absl::Status ValidateSlamOptions(const SlamOptions& options) {
                          NonNegative(k.min_turn, "min_turn")}) {
     if (!s.ok()) return s;
   }
+  if (k.confirm_observations < 1 || k.confirm_window < 1) {
+    return absl::InvalidArgumentError("confirm_observations and confirm_window must be >= 1");
+  }
   if (k.merge_every_scans < 0) return absl::InvalidArgumentError("merge_every_scans must be >= 0");
   if (!FinitePose(options.laser_pose)) {
     return absl::InvalidArgumentError("laser_pose must be finite");

@@ -47,6 +47,15 @@ struct OdometryNoise {
 };
 
 struct EkfOptions {
+  // Model error added to every observed line and endpoint (1 sigma), on top of the fit's own
+  // covariance, which only knows the random range noise. Real walls are not perfectly straight,
+  // mixed pixels and the logs' 1 cm range quantisation bias fits, and the same wall seen twice
+  // differs by more than the fit covariance says; without a floor the filter becomes
+  // overconfident and duplicates walls instead of matching them. Values from the ACES/Intel logs
+  // (ours): the spread of one wall's fit between consecutive scans of a standing robot.
+  double line_offset_floor = 0.02;   // m, along the line normal
+  double line_angle_floor = 0.01;    // rad
+  double endpoint_floor = 0.05;      // m, along the line
   // Mahalanobis gate for matching an observed line to a map line: chi-square with 2 degrees of
   // freedom; 9.21 = 99 % confidence.
   double match_chi2 = 9.21;
@@ -59,6 +68,12 @@ struct EkfOptions {
   // Two map segments are merged when they pass this joint gate (2 dof) and overlap or nearly touch.
   double merge_chi2 = 9.21;
   double merge_gap = 0.3;
+  // A new segment stays tentative until it has been matched this many times in total; one that is
+  // still tentative confirm_window scans after it appeared is removed (marginalised out). Clutter
+  // (people's legs, chairs, mixed pixels) rarely repeats; walls do. Keeps the state, and with it
+  // the quadratic update, to the structure of the building (ours).
+  int confirm_observations = 3;
+  int confirm_window = 10;
   // Try merges every this many scans (the check is over segment pairs near the robot).
   int merge_every_scans = 5;
   // Map segments further than this from the robot are not considered for matching (m): they cannot

@@ -20,6 +20,15 @@ constexpr double kMaxMatchAngle = 0.5;     // rad
 constexpr double kMaxMatchOffset = 1.5;    // m
 // An observation passing a REAL map endpoint by more than this means the endpoint was not one.
 constexpr double kRealEndpointSlack = 0.3;  // m
+// Centering transforms the covariance by Q = J2{+}^-1 of the correction, which differs from the
+// identity by the order of the correction. Far from the robot an update moves a segment by
+// micrometres; transforming its rows and columns then changes the covariance by a relative 1e-5
+// while costing O(n) each - most of the update time on a large map. Below this correction
+// (m or rad) only the estimate moves (ours).
+constexpr double kCenteringSkip = 1e-5;
+// The segment frame is moved back to the segment's midpoint only when it has drifted this far
+// from it (m): any frame on the line is exact; the midpoint only keeps the angle's moment arm short.
+constexpr double kRecentreDistance = 0.25;
 // Variance given to the perfect "same wall" constraint of a merge (keeps S invertible).
 constexpr double kMergeConstraintVariance = 1e-10;
 
@@ -240,10 +249,38 @@ void SegmentEkf::ApplyToCovariance(const std::vector<int>& dofs, const Eigen::Ma
   for (int i = 0; i < k; ++i) c.col(dofs[i]) = cols.col(i);
 }
 
+void SegmentEkf::TransformColumns(const std::vector<Transform>& transforms) {
+  auto c = state_.cov();
+  const int n = state_.size();
+  Eigen::Matrix<double, Eigen::Dynamic, 3> cols(n, 3);
+  for (const Transform& t : transforms) {
+    const int k = t.size;
+    for (int i = 0; i < k; ++i) cols.col(i) = c.col(t.dofs[i]);
+    for (int i = 0; i < k; ++i) {
+      c.col(t.dofs[i]) = cols.leftCols(k) * t.q.row(i).head(k).transpose();
+    }
+  }
+}
+
+void SegmentEkf::ApplyTransforms(const std::vector<Transform>& transforms) {
+  if (transforms.empty()) return;
+  // C' = Q C Q^T for a block-diagonal Q, as two passes over contiguous columns: C1 = C Q^T, and
+  // because C' is symmetric, C' = (Q C1)^T = C1^T Q^T. Row-wise updates of a column-major matrix
+  // would touch one cache line per element.
+  TransformColumns(transforms);
+  state_.cov().transposeInPlace();
+  TransformColumns(transforms);
+}
+
 void SegmentEkf::Center(const Eigen::VectorXd& correction) {
+  std::vector<Transform> transforms;
   const Eigen::Vector3d dr = correction.head<3>();
   state_.robot = ToPose(Eigen::Vector3d(Compose<double>(ToVector(state_.robot), dr)));
-  ApplyToCovariance({0, 1, 2}, RobotCenteringJacobian(dr));
+  Transform robot;
+  robot.size = 3;
+  robot.dofs = {0, 1, 2};
+  robot.q = RobotCenteringJacobian(dr);
+  transforms.push_back(robot);
   for (SegmentEntity& s : state_.segments) {
     const Eigen::Vector2d dl(correction(s.dof[0]), correction(s.dof[1]));
     const double dleft = s.dof[2] >= 0 ? correction(s.dof[2]) : 0.0;
@@ -252,19 +289,34 @@ void SegmentEkf::Center(const Eigen::VectorXd& correction) {
     s.frame = Compose(s.frame, Pose2{0.0, dl(0), dl(1)});
     s.left += dleft;
     s.right += dright;
-    ApplyToCovariance({s.dof[0], s.dof[1]}, LineCenteringJacobian(dl));
-    Recentre(s);
+    Eigen::Matrix2d q = Eigen::Matrix2d::Identity();
+    if (dl.cwiseAbs().maxCoeff() > kCenteringSkip) q = LineCenteringJacobian(dl);
+    const double shift = MidpointShift(s);
+    if (shift != 0.0) q = LineShiftJacobian(shift) * q;
+    if (q == Eigen::Matrix2d::Identity()) continue;
+    Transform t;
+    t.size = 2;
+    t.dofs = {s.dof[0], s.dof[1], -1};
+    t.q.setIdentity();
+    t.q.topLeftCorner<2, 2>() = q;
+    transforms.push_back(t);
   }
+  ApplyTransforms(transforms);
 }
 
-void SegmentEkf::Recentre(SegmentEntity& s) {
+double SegmentEkf::MidpointShift(SegmentEntity& s) {
   if (s.left > s.right) std::swap(s.left, s.right);  // a collapsed segment: keep order sane
   const double shift = 0.5 * (s.left + s.right);
-  if (std::abs(shift) < 1e-9) return;
+  if (std::abs(shift) < kRecentreDistance) return 0.0;
   s.frame = Compose(s.frame, Pose2{shift, 0.0, 0.0});
   s.left -= shift;
   s.right -= shift;
-  ApplyToCovariance({s.dof[0], s.dof[1]}, LineShiftJacobian(shift));
+  return shift;
+}
+
+void SegmentEkf::Recentre(SegmentEntity& s) {
+  const double shift = MidpointShift(s);
+  if (shift != 0.0) ApplyToCovariance({s.dof[0], s.dof[1]}, LineShiftJacobian(shift));
 }
 
 bool SegmentEkf::AdjustEndpoints(const Match& m) {
@@ -335,6 +387,7 @@ void SegmentEkf::AddSegment(const ObservedSegment& obs, const Pose2& laser_pose,
   s.left_type = obs.left_type;
   s.right_type = obs.right_type;
   s.observations = 1;
+  s.first_seen_scan = scan_index;
   s.last_seen_scan = scan_index;
   // New perturbation as a function of the robot's and the observation's: line (z_y, z_theta),
   // endpoints z_x + b_e (at z = 0).
@@ -377,10 +430,19 @@ void SegmentEkf::AddSegment(const ObservedSegment& obs, const Pose2& laser_pose,
   state_.segments.push_back(s);
 }
 
-ObserveStats SegmentEkf::Observe(const std::vector<ObservedSegment>& observed,
+ObserveStats SegmentEkf::Observe(const std::vector<ObservedSegment>& observed_in,
                                  const Pose2& laser_pose, std::uint64_t scan_index) {
   ObserveStats stats;
   const auto t0 = Clock::now();
+  // Model error on top of the fit covariance (options.h, line_offset_floor and friends).
+  std::vector<ObservedSegment> inflated = observed_in;
+  for (ObservedSegment& o : inflated) {
+    o.line_covariance(0, 0) += Sq(options_.line_offset_floor);
+    o.line_covariance(1, 1) += Sq(options_.line_angle_floor);
+    o.left_variance += Sq(options_.endpoint_floor);
+    o.right_variance += Sq(options_.endpoint_floor);
+  }
+  const std::vector<ObservedSegment>& observed = inflated;
   const std::vector<int> candidates = NearbySegments(options_.association_radius);
   std::vector<Match> matches;
   std::vector<const ObservedSegment*> unmatched;
@@ -438,8 +500,31 @@ ObserveStats SegmentEkf::Observe(const std::vector<ObservedSegment>& observed,
     ++stats.added;
     stats.map_changed = true;
   }
+  stats.pruned = PruneTentative(scan_index);
+  if (stats.pruned > 0) stats.map_changed = true;
   stats.update_ms = MsSince(t1);
   return stats;
+}
+
+int SegmentEkf::PruneTentative(std::uint64_t scan_index) {
+  std::vector<int> remove;
+  std::vector<SegmentEntity> kept;
+  kept.reserve(state_.segments.size());
+  for (const SegmentEntity& s : state_.segments) {
+    const bool expired = scan_index - s.first_seen_scan >=
+                         static_cast<std::uint64_t>(options_.confirm_window);
+    if (s.observations < options_.confirm_observations && expired) {
+      for (int d : SegmentDofs(s)) remove.push_back(d);
+    } else {
+      kept.push_back(s);
+    }
+  }
+  const int pruned = static_cast<int>(state_.segments.size() - kept.size());
+  if (pruned == 0) return 0;
+  // Dropping a Gaussian's components is exact marginalisation: nothing else changes.
+  state_.segments = std::move(kept);
+  state_.RemoveDofs(remove);
+  return pruned;
 }
 
 int SegmentEkf::MergeSegments(std::uint64_t scan_index) {

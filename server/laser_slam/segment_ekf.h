@@ -6,6 +6,7 @@
 // line-coincidence measurement with a chi-square gate and an overlap test, batch update, centering,
 // endpoint insertion and extension, state augmentation and segment merging.
 
+#include <array>
 #include <cstdint>
 #include <vector>
 
@@ -21,6 +22,7 @@ struct ObserveStats {
   int matched = 0;
   int added = 0;
   int merged = 0;
+  int pruned = 0;  // tentative segments that were never confirmed
   bool map_changed = false;
   double association_ms = 0.0;
   double update_ms = 0.0;
@@ -34,7 +36,7 @@ class SegmentEkf {
   void Predict(const Pose2& u, const Eigen::Matrix3d& noise);
 
   // Fuses the segments of one scan, given in the laser frame at `laser_pose` on the robot.
-  ObserveStats Observe(const std::vector<ObservedSegment>& observed, const Pose2& laser_pose,
+  ObserveStats Observe(const std::vector<ObservedSegment>& observed_in, const Pose2& laser_pose,
                        std::uint64_t scan_index);
 
   // Merges map segments that are the same wall; returns how many were merged away.
@@ -48,6 +50,12 @@ class SegmentEkf {
  private:
   struct Match;
   struct Row;
+  // One block of a block-diagonal covariance transform: dofs (up to 3) and their Jacobian.
+  struct Transform {
+    int size = 0;
+    std::array<int, 3> dofs{};
+    Eigen::Matrix3d q = Eigen::Matrix3d::Identity();
+  };
 
   std::vector<int> NearbySegments(double radius) const;
   bool Associate(const ObservedSegment& obs, const Pose2& in_robot,
@@ -59,10 +67,15 @@ class SegmentEkf {
   // Moves the estimates by the correction and resets it to zero (the SP model's centering).
   void Center(const Eigen::VectorXd& correction);
   void ApplyToCovariance(const std::vector<int>& dofs, const Eigen::MatrixXd& q);
+  void TransformColumns(const std::vector<Transform>& transforms);
+  void ApplyTransforms(const std::vector<Transform>& transforms);
+  // Moves the frame back to the midpoint when it drifted far; returns the shift (0 = none).
+  double MidpointShift(SegmentEntity& segment);
   void Recentre(SegmentEntity& segment);
   bool AdjustEndpoints(const Match& match);
   void AddSegment(const ObservedSegment& obs, const Pose2& in_robot, std::uint64_t scan_index);
   bool MergePair(int keep, int drop);
+  int PruneTentative(std::uint64_t scan_index);
 
   EkfOptions options_;
   SpState state_;

@@ -33,6 +33,7 @@ struct SegmentEntity {
   // State indices of the dofs [p_y, p_theta, p_l, p_r]; -1 for an endpoint that is virtual.
   std::array<int, 4> dof = {-1, -1, -1, -1};
   int observations = 0;
+  std::uint64_t first_seen_scan = 0;
   std::uint64_t last_seen_scan = 0;
 };
 
