@@ -4,6 +4,7 @@
 #include "server/laser_slam/laser_slam.h"
 
 #include <cmath>
+#include <limits>
 #include <random>
 
 #include <gtest/gtest.h>
@@ -121,6 +122,95 @@ TEST(LaserSlamTest, RobotDrivingASquareRoomRecoversIt) {
       EXPECT_NEAR(std::abs(b.y), 2.5, 0.03);
     }
   }
+}
+
+}  // namespace
+}  // namespace waymark::laser_slam
+
+namespace waymark::laser_slam {
+namespace {
+
+std::vector<Step> ShortDrive() {
+  return SquareDrive(testing::Box(-3.0, -2.5, 3.0, 2.5), 2.0, 1, 0.01, 0.02, 9);
+}
+
+TEST(LaserSlamTest, BadInputIsRejectedAndLeavesTheSessionUnchanged) {
+  const std::vector<Step> steps = ShortDrive();
+  LaserSlam slam{SlamOptions{}};
+  for (int i = 0; i < 5; ++i) {
+    ASSERT_TRUE(slam.AddOdometry({steps[i].scan.stamp, steps[i].odometry}).ok());
+    ASSERT_TRUE(slam.AddScan(steps[i].scan).ok());
+  }
+  const PoseEstimate before = slam.CurrentPose();
+  const std::size_t segments = slam.Map().size();
+
+  LaserScan old = steps[4].scan;  // duplicate stamp
+  EXPECT_EQ(slam.AddScan(old).status().code(), absl::StatusCode::kInvalidArgument);
+  old.stamp = steps[2].scan.stamp;  // out of order
+  EXPECT_EQ(slam.AddScan(old).status().code(), absl::StatusCode::kInvalidArgument);
+  LaserScan short_scan = steps[5].scan;
+  short_scan.ranges.pop_back();  // disagrees with its geometry
+  EXPECT_EQ(slam.AddScan(short_scan).status().code(), absl::StatusCode::kInvalidArgument);
+  EXPECT_EQ(slam.AddOdometry({steps[1].scan.stamp, steps[1].odometry}).code(),
+            absl::StatusCode::kInvalidArgument);
+  EXPECT_EQ(slam.AddOdometry({std::nan(""), steps[1].odometry}).code(),
+            absl::StatusCode::kInvalidArgument);
+  EXPECT_EQ(slam.scans_processed(), 5u);
+  EXPECT_EQ(slam.CurrentPose().pose.x, before.pose.x);
+  EXPECT_EQ(slam.Map().size(), segments);
+
+  // NaN, infinite and negative ranges are no-returns: the scan is processed.
+  LaserScan holes = steps[5].scan;
+  for (std::size_t i = 0; i < holes.ranges.size(); i += 7) holes.ranges[i] = std::nanf("");
+  holes.ranges[3] = -1.0f;
+  holes.ranges[4] = std::numeric_limits<float>::infinity();
+  ASSERT_TRUE(slam.AddOdometry({holes.stamp, steps[5].odometry}).ok());
+  EXPECT_TRUE(slam.AddScan(holes).ok());
+  EXPECT_EQ(slam.scans_processed(), 6u);
+}
+
+TEST(LaserSlamTest, CheckpointResumesExactly) {
+  const std::vector<Step> steps = ShortDrive();
+  const SlamOptions options;
+  LaserSlam uninterrupted(options);
+  LaserSlam first_half(options);
+  const std::size_t half = steps.size() / 2;
+  for (std::size_t i = 0; i < steps.size(); ++i) {
+    ASSERT_TRUE(uninterrupted.AddOdometry({steps[i].scan.stamp, steps[i].odometry}).ok());
+    ASSERT_TRUE(uninterrupted.AddScan(steps[i].scan).ok());
+    if (i < half) {
+      ASSERT_TRUE(first_half.AddOdometry({steps[i].scan.stamp, steps[i].odometry}).ok());
+      ASSERT_TRUE(first_half.AddScan(steps[i].scan).ok());
+    }
+  }
+  absl::StatusOr<std::unique_ptr<LaserSlam>> resumed =
+      LaserSlam::FromCheckpoint(options, first_half.SerializeState(), first_half.Trajectory());
+  ASSERT_TRUE(resumed.ok()) << resumed.status();
+  EXPECT_EQ((*resumed)->scans_processed(), half);
+  for (std::size_t i = half; i < steps.size(); ++i) {
+    ASSERT_TRUE((*resumed)->AddOdometry({steps[i].scan.stamp, steps[i].odometry}).ok());
+    ASSERT_TRUE((*resumed)->AddScan(steps[i].scan).ok());
+  }
+  // Equal up to rounding: the restored covariance is rebuilt from its lower triangle and lives in
+  // a matrix of another capacity, so sums may be taken in another order.
+  const PoseEstimate a = uninterrupted.CurrentPose(), b = (*resumed)->CurrentPose();
+  EXPECT_NEAR(a.pose.x, b.pose.x, 1e-9);
+  EXPECT_NEAR(a.pose.y, b.pose.y, 1e-9);
+  EXPECT_NEAR(a.pose.theta, b.pose.theta, 1e-9);
+  EXPECT_LT((a.covariance - b.covariance).cwiseAbs().maxCoeff(), 1e-12);
+  EXPECT_EQ(uninterrupted.Map().size(), (*resumed)->Map().size());
+  EXPECT_EQ(uninterrupted.Trajectory().size(), (*resumed)->Trajectory().size());
+  EXPECT_EQ(uninterrupted.map_revision(), (*resumed)->map_revision());
+
+  // Damaged bytes are refused, never half-loaded.
+  std::string state = first_half.SerializeState();
+  EXPECT_EQ(LaserSlam::FromCheckpoint(options, state.substr(0, state.size() / 2), {})
+                .status()
+                .code(),
+            absl::StatusCode::kDataLoss);
+  state[0] = 'X';
+  EXPECT_EQ(LaserSlam::FromCheckpoint(options, state, {}).status().code(),
+            absl::StatusCode::kDataLoss);
 }
 
 }  // namespace
