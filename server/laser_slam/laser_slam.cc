@@ -107,7 +107,8 @@ absl::StatusOr<ScanUpdate> LaserSlam::AddScan(const LaserScan& scan) {
   }
   s.odometry.DropBefore(scan.stamp);
   update.observed = static_cast<int>(observed->size());
-  update.segments = static_cast<int>(s.ekf.state().segments.size());
+  update.active_segments = static_cast<int>(s.ekf.state().segments.size());
+  update.segments = update.active_segments + static_cast<int>(s.ekf.state().frozen.size());
   update.state_size = s.ekf.state().size();
   update.map_revision = s.revision;
   s.trajectory.push_back(update.pose);
@@ -136,6 +137,23 @@ std::vector<MapSegment> LaserSlam::Map() const {
     m.left_variance = e.dof[2] >= 0 ? st.at(e.dof[2], e.dof[2]) : 0.0;
     m.right_variance = e.dof[3] >= 0 ? st.at(e.dof[3], e.dof[3]) : 0.0;
     m.observations = e.observations;
+    m.active = true;
+    out.push_back(m);
+  }
+  for (const FrozenSegment& f : st.frozen) {
+    MapSegment m;
+    const SegmentEntity& e = f.entity;
+    m.id = e.id;
+    m.frame = e.frame;
+    m.left = e.left;
+    m.right = e.right;
+    m.left_type = e.left_type;
+    m.right_type = e.right_type;
+    m.line_covariance = f.line_covariance;
+    m.left_variance = f.left_variance;
+    m.right_variance = f.right_variance;
+    m.observations = e.observations;
+    m.active = false;
     out.push_back(m);
   }
   return out;
@@ -154,6 +172,38 @@ void PutPose(BinaryWriter& w, const Pose2& p) {
   w.Put(p.theta);
 }
 bool GetPose(BinaryReader& r, Pose2* p) { return r.Get(&p->x) && r.Get(&p->y) && r.Get(&p->theta); }
+
+void PutSegment(BinaryWriter& w, const SegmentEntity& e) {
+  w.Put(e.id);
+  PutPose(w, e.frame);
+  w.Put(e.left);
+  w.Put(e.right);
+  w.Put<std::uint8_t>(static_cast<std::uint8_t>(e.left_type));
+  w.Put<std::uint8_t>(static_cast<std::uint8_t>(e.right_type));
+  for (int d : e.dof) w.Put<std::int32_t>(d);
+  w.Put<std::int32_t>(e.observations);
+  w.Put(e.first_seen_scan);
+  w.Put(e.last_seen_scan);
+}
+
+bool GetSegment(BinaryReader& r, SegmentEntity* e) {
+  std::uint8_t lt = 0, rt = 0;
+  std::int32_t obs = 0;
+  if (!r.Get(&e->id) || !GetPose(r, &e->frame) || !r.Get(&e->left) || !r.Get(&e->right) ||
+      !r.Get(&lt) || !r.Get(&rt) || lt > 1 || rt > 1) {
+    return false;
+  }
+  e->left_type = static_cast<EndpointType>(lt);
+  e->right_type = static_cast<EndpointType>(rt);
+  for (int& d : e->dof) {
+    std::int32_t v = 0;
+    if (!r.Get(&v)) return false;
+    d = v;
+  }
+  if (!r.Get(&obs) || !r.Get(&e->first_seen_scan) || !r.Get(&e->last_seen_scan)) return false;
+  e->observations = obs;
+  return true;
+}
 
 }  // namespace
 
@@ -176,17 +226,13 @@ std::string LaserSlam::SerializeState() const {
   }
   PutPose(w, st.robot);
   w.Put<std::uint32_t>(static_cast<std::uint32_t>(st.segments.size()));
-  for (const SegmentEntity& e : st.segments) {
-    w.Put(e.id);
-    PutPose(w, e.frame);
-    w.Put(e.left);
-    w.Put(e.right);
-    w.Put<std::uint8_t>(static_cast<std::uint8_t>(e.left_type));
-    w.Put<std::uint8_t>(static_cast<std::uint8_t>(e.right_type));
-    for (int d : e.dof) w.Put<std::int32_t>(d);
-    w.Put<std::int32_t>(e.observations);
-    w.Put(e.first_seen_scan);
-    w.Put(e.last_seen_scan);
+  for (const SegmentEntity& e : st.segments) PutSegment(w, e);
+  w.Put<std::uint32_t>(static_cast<std::uint32_t>(st.frozen.size()));
+  for (const FrozenSegment& f : st.frozen) {
+    PutSegment(w, f.entity);
+    for (int i = 0; i < 4; ++i) w.Put(f.line_covariance(i / 2, i % 2));
+    w.Put(f.left_variance);
+    w.Put(f.right_variance);
   }
   const int n = st.size();
   w.Put<std::int32_t>(n);
@@ -231,23 +277,17 @@ absl::StatusOr<std::unique_ptr<LaserSlam>> LaserSlam::FromCheckpoint(
   if (!GetPose(r, &st.robot) || !r.Get(&segments)) return corrupt("robot");
   std::vector<SegmentEntity> entities(segments);
   for (SegmentEntity& e : entities) {
-    std::uint8_t lt = 0, rt = 0;
-    std::int32_t obs = 0;
-    if (!r.Get(&e.id) || !GetPose(r, &e.frame) || !r.Get(&e.left) || !r.Get(&e.right) ||
-        !r.Get(&lt) || !r.Get(&rt) || lt > 1 || rt > 1) {
-      return corrupt("segment");
+    if (!GetSegment(r, &e)) return corrupt("segment");
+  }
+  std::uint32_t frozen = 0;
+  if (!r.Get(&frozen) || frozen > 10000000) return corrupt("frozen segments");
+  std::vector<FrozenSegment> frozen_segments(frozen);
+  for (FrozenSegment& f : frozen_segments) {
+    if (!GetSegment(r, &f.entity)) return corrupt("frozen segment");
+    for (int i = 0; i < 4; ++i) {
+      if (!r.Get(&f.line_covariance(i / 2, i % 2))) return corrupt("frozen segment");
     }
-    e.left_type = static_cast<EndpointType>(lt);
-    e.right_type = static_cast<EndpointType>(rt);
-    for (int& d : e.dof) {
-      std::int32_t v = 0;
-      if (!r.Get(&v)) return corrupt("segment dofs");
-      d = v;
-    }
-    if (!r.Get(&obs) || !r.Get(&e.first_seen_scan) || !r.Get(&e.last_seen_scan)) {
-      return corrupt("segment");
-    }
-    e.observations = obs;
+    if (!r.Get(&f.left_variance) || !r.Get(&f.right_variance)) return corrupt("frozen segment");
   }
   std::int32_t n = 0;
   if (!r.Get(&n) || n < 3 || n > 1000000) return corrupt("state size");
@@ -270,6 +310,7 @@ absl::StatusOr<std::unique_ptr<LaserSlam>> LaserSlam::FromCheckpoint(
   }
   if (!r.done()) return corrupt("trailing bytes");
   st.segments = std::move(entities);
+  st.frozen = std::move(frozen_segments);
   s.trajectory = std::move(trajectory);
   return slam;
 }

@@ -37,6 +37,8 @@ struct MapSegment {
   double left_variance = 0.0;   // of the endpoint along the line; 0 for a virtual endpoint
   double right_variance = 0.0;
   int observations = 0;         // scans that matched it
+  // In the filter's active window; false = frozen (marginalised out, see EkfOptions).
+  bool active = true;
 };
 
 struct StageMs {
@@ -55,7 +57,8 @@ struct ScanUpdate {
   int matched = 0;            // ... that matched a map segment
   int added = 0;              // ... added as new map segments
   int merged = 0;             // map segments merged into others after this scan
-  int segments = 0;           // map segments now
+  int segments = 0;           // map segments now (active + frozen)
+  int active_segments = 0;    // ... of which in the filter
   int state_size = 0;         // dimension of the EKF state
   std::uint64_t map_revision = 0;  // increases whenever the map changes
   StageMs timings;

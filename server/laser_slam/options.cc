@@ -65,6 +65,13 @@ absl::Status ValidateSlamOptions(const SlamOptions& options) {
   if (k.confirm_observations < 1 || k.confirm_window < 1) {
     return absl::InvalidArgumentError("confirm_observations and confirm_window must be >= 1");
   }
+  if (!(k.active_radius > k.association_radius)) {
+    return absl::InvalidArgumentError("active_radius must exceed association_radius");
+  }
+  if (k.freeze_after_scans < 1 || k.max_active_segments < 10) {
+    return absl::InvalidArgumentError(
+        "freeze_after_scans must be >= 1 and max_active_segments >= 10");
+  }
   if (k.merge_every_scans < 0) return absl::InvalidArgumentError("merge_every_scans must be >= 0");
   if (!FinitePose(options.laser_pose)) {
     return absl::InvalidArgumentError("laser_pose must be finite");

@@ -501,9 +501,60 @@ ObserveStats SegmentEkf::Observe(const std::vector<ObservedSegment>& observed_in
     stats.map_changed = true;
   }
   stats.pruned = PruneTentative(scan_index);
-  if (stats.pruned > 0) stats.map_changed = true;
+  stats.frozen = FreezeOutsideWindow(scan_index);
+  if (stats.pruned > 0 || stats.frozen > 0) stats.map_changed = true;
   stats.update_ms = MsSince(t1);
   return stats;
+}
+
+int SegmentEkf::FreezeOutsideWindow(std::uint64_t scan_index) {
+  const int count = static_cast<int>(state_.segments.size());
+  std::vector<char> freeze(count, 0);
+  const std::vector<int> near = NearbySegments(options_.active_radius);
+  std::vector<char> is_near(count, 0);
+  for (int i : near) is_near[i] = 1;
+  int active = count;
+  for (int i = 0; i < count; ++i) {
+    const SegmentEntity& s = state_.segments[i];
+    if (!is_near[i] && scan_index - s.last_seen_scan >=
+                           static_cast<std::uint64_t>(options_.freeze_after_scans)) {
+      freeze[i] = 1;
+      --active;
+    }
+  }
+  if (active > options_.max_active_segments) {
+    std::vector<int> order;
+    for (int i = 0; i < count; ++i) {
+      if (!freeze[i]) order.push_back(i);
+    }
+    std::sort(order.begin(), order.end(), [&](int a, int b) {
+      return state_.segments[a].last_seen_scan < state_.segments[b].last_seen_scan;
+    });
+    for (int i = 0; i < active - options_.max_active_segments; ++i) freeze[order[i]] = 1;
+  }
+  std::vector<int> remove;
+  std::vector<SegmentEntity> kept;
+  for (int i = 0; i < count; ++i) {
+    SegmentEntity& s = state_.segments[i];
+    if (!freeze[i]) {
+      kept.push_back(s);
+      continue;
+    }
+    FrozenSegment f;
+    f.line_covariance << state_.at(s.dof[0], s.dof[0]), state_.at(s.dof[0], s.dof[1]),
+        state_.at(s.dof[1], s.dof[0]), state_.at(s.dof[1], s.dof[1]);
+    f.left_variance = s.dof[2] >= 0 ? state_.at(s.dof[2], s.dof[2]) : 0.0;
+    f.right_variance = s.dof[3] >= 0 ? state_.at(s.dof[3], s.dof[3]) : 0.0;
+    for (int d : SegmentDofs(s)) remove.push_back(d);
+    f.entity = s;
+    f.entity.dof = {-1, -1, -1, -1};
+    state_.frozen.push_back(f);
+  }
+  const int frozen = count - static_cast<int>(kept.size());
+  if (frozen == 0) return 0;
+  state_.segments = std::move(kept);
+  state_.RemoveDofs(remove);
+  return frozen;
 }
 
 int SegmentEkf::PruneTentative(std::uint64_t scan_index) {

@@ -23,6 +23,7 @@ struct ObserveStats {
   int added = 0;
   int merged = 0;
   int pruned = 0;  // tentative segments that were never confirmed
+  int frozen = 0;  // segments that left the active window
   bool map_changed = false;
   double association_ms = 0.0;
   double update_ms = 0.0;
@@ -76,6 +77,7 @@ class SegmentEkf {
   void AddSegment(const ObservedSegment& obs, const Pose2& in_robot, std::uint64_t scan_index);
   bool MergePair(int keep, int drop);
   int PruneTentative(std::uint64_t scan_index);
+  int FreezeOutsideWindow(std::uint64_t scan_index);
 
   EkfOptions options_;
   SpState state_;

@@ -37,6 +37,15 @@ struct SegmentEntity {
   std::uint64_t last_seen_scan = 0;
 };
 
+// A segment that left the active window: marginalised out of the filter (its last estimate and
+// marginal covariance kept for the map, never updated again).
+struct FrozenSegment {
+  SegmentEntity entity;  // dof indices are meaningless (all -1)
+  Eigen::Matrix2d line_covariance = Eigen::Matrix2d::Zero();
+  double left_variance = 0.0;
+  double right_variance = 0.0;
+};
+
 class SpState {
  public:
   SpState();
@@ -54,7 +63,8 @@ class SpState {
   void RemoveDofs(std::vector<int> dofs);
 
   Pose2 robot;  // robot location estimate; dofs 0..2
-  std::vector<SegmentEntity> segments;
+  std::vector<SegmentEntity> segments;  // in the filter
+  std::vector<FrozenSegment> frozen;    // out of it, oldest first
 
  private:
   void Reserve(int capacity);
