@@ -19,4 +19,15 @@ if [ -x "$BUILD_DIR/bin/waymark-rotation-eval" ]; then
   echo "== rotation robustness"
   "$BUILD_DIR/bin/waymark-rotation-eval" --out "$OUT"
 fi
+if [ -x "$BUILD_DIR/bin/waymark-laser-eval" ]; then
+  echo "== laser SLAM engine (in-process): time, memory, relations metric"
+  LASER="$SHARED/data/laser"
+  for log in aces intel; do
+    "$BUILD_DIR/bin/waymark-laser-eval" --log "$LASER/$log/$log.clf.bz2" \
+      --relations "$LASER/$log/$log.relations" --out "$OUT/laser_$log" --json > "$OUT/laser_$log.json"
+  done
+  # Update cost vs segments in the filter (the per-bin timings; see bench/laser_slam_eval.cc).
+  "$BUILD_DIR/bin/waymark-laser-eval" --log "$LASER/aces/aces.clf.bz2" --max-active-segments 400 \
+    --json > "$OUT/laser_aces_active400.json"
+fi
 echo "results in $OUT"

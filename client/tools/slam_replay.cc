@@ -115,15 +115,6 @@ v1::Pose2D ToProto(const adapters::CarmenPose& p) {
   return pose;
 }
 
-// See the header: the laser's mounting from the first line, when plausible.
-Pose2 LaserMount(const CarmenLaser& laser) {
-  const Pose2 odom{laser.odom_pose.x, laser.odom_pose.y, laser.odom_pose.theta};
-  const Pose2 sensor{laser.laser_pose.x, laser.laser_pose.y, laser.laser_pose.theta};
-  const Pose2 mount = Compose(Inverse(odom), sensor);
-  if (std::hypot(mount.x, mount.y) < 1.0 && std::abs(mount.theta) < 0.1) return mount;
-  return {};
-}
-
 double Percentile(std::vector<double> values, double q) {
   if (values.empty()) return 0;
   std::sort(values.begin(), values.end());
@@ -139,6 +130,15 @@ void PrintReadProblems(CommandContext& context, CarmenLogReader& reader) {
 }
 
 }  // namespace
+
+// See the header: the laser's mounting from the first line, when plausible.
+Pose2 LaserMount(const CarmenLaser& laser) {
+  const Pose2 odom{laser.odom_pose.x, laser.odom_pose.y, laser.odom_pose.theta};
+  const Pose2 sensor{laser.laser_pose.x, laser.laser_pose.y, laser.laser_pose.theta};
+  const Pose2 mount = Compose(Inverse(odom), sensor);
+  if (std::hypot(mount.x, mount.y) < 1.0 && std::abs(mount.theta) < 0.1) return mount;
+  return {};
+}
 
 std::string LogName(const std::string& path) {
   std::filesystem::path name = std::filesystem::path(path).filename();

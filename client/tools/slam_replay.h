@@ -24,6 +24,11 @@
 #include <string>
 
 #include "client/tools/command.h"
+#include "client/tools/tum_trajectory.h"
+
+namespace waymark::adapters {
+struct CarmenLaser;
+}  // namespace waymark::adapters
 
 namespace waymark::cli {
 
@@ -53,6 +58,10 @@ struct OdometryArgs {
 };
 
 int RunSlamOdometry(CommandContext& context, const OdometryArgs& args);
+
+// The laser's pose on the robot from one laser line: inv(odom pose) (+) laser pose when under 1 m
+// and 0.1 rad, else the robot's origin (see the file comment). Shared with bench/laser_slam_eval.
+Pose2 LaserMount(const adapters::CarmenLaser& laser);
 
 // "aces" for ".../aces.clf.bz2", "intel-corrected" for "intel-corrected.log.gz".
 std::string LogName(const std::string& path);

@@ -1,0 +1,466 @@
+// waymark-laser-eval: the laser SLAM engine alone (in-process, no server) on a CARMEN log.
+//
+//   waymark-laser-eval --log LOG [--relations FILE] [--max-scans N] [--out DIR] [--json]
+//                      [--max-active-segments N] [--active-radius M] [--freeze-after-scans N]
+//                      [--min-travel M --min-turn R] [--match-chi2 X]
+//
+// All laser lines (FLASER / ROBOTLASER1) are read first, stable-sorted by stamp (the Intel log has
+// lines out of order) and lines with a stamp equal to the previous one are dropped and counted.
+// Then, as `waymark slam replay` sends them (client/tools/slam_replay.h): per line, AddOdometry
+// with the odometry pose embedded in the line at the line's stamp, then AddScan with the line's
+// own beam geometry; the laser's mounting comes from the first line (cli::LaserMount). Only the
+// two engine calls are timed (steady clock), never the reading.
+//
+// Reported: scans, log duration, engine seconds, real-time factor (duration / engine seconds),
+// per-scan time p50/p90/p99/max, the same p50/p99 binned by the number of segments in the filter
+// after the scan (active_segments; bins of 50: 0-49, 50-99, ...), final segments (total, active),
+// peak RSS (getrusage; includes the log held in memory, see rss_after_load_mb). With --relations:
+// the relations metric (Kummerle et al.) of the SLAM trajectory and of the raw odometry at the same
+// stamps, over all relations and over the "local" ones (t2 - t1 <= 10 s), which separates local
+// accuracy from long-range drift (the engine closes no loops).
+//
+// Update cost against the size of the state ("EKF update p99 at 300 segments"): building a state of
+// N segments synthetically is not possible through the engine's public API, so it is measured on
+// real data instead: run the ACES log with a larger active window,
+//   waymark-laser-eval --log aces.clf.bz2 --max-active-segments 400 [--active-radius 50
+//                      --freeze-after-scans 1000000]
+// and read the per-bin p50/p99 (bins of active segments); bench/run.sh does this. The figure for
+// "300 segments" is the p99 of the 300-349 bin.
+//
+// --out DIR writes trajectory.txt and odometry.txt (TUM), map.svg / map.png (segments and the
+// trajectory) and summary.json; --json prints the same JSON object on stdout.
+
+#include <sys/resource.h>
+
+#include <algorithm>
+#include <chrono>
+#include <cmath>
+#include <cstdio>
+#include <filesystem>
+#include <fstream>
+#include <iostream>
+#include <map>
+#include <nlohmann/json.hpp>
+#include <string>
+#include <vector>
+
+#include "absl/strings/str_format.h"
+#include "client/adapters/carmen_log.h"
+#include "client/tools/map_render.h"
+#include "client/tools/relations_metric.h"
+#include "client/tools/slam_replay.h"
+#include "client/tools/tum_trajectory.h"
+#include "server/laser_slam/laser_slam.h"
+#include "server/laser_slam/options.h"
+
+namespace waymark::bench {
+namespace {
+
+namespace ls = waymark::laser_slam;
+using adapters::CarmenLaser;
+using adapters::CarmenLogReader;
+using adapters::CarmenRecord;
+using Clock = std::chrono::steady_clock;
+
+constexpr double kLocalRelationS = 10.0;
+constexpr int kBinWidth = 50;
+
+struct Args {
+  std::string log;
+  std::string relations;
+  std::string out;
+  int max_scans = 0;
+  bool json = false;
+  ls::SlamOptions options;
+};
+
+void Usage() {
+  std::cerr
+      << "usage: waymark-laser-eval --log LOG [--relations FILE] [--max-scans N] [--out DIR]\n"
+         "                          [--json] [--max-active-segments N] [--active-radius M]\n"
+         "                          [--freeze-after-scans N] [--min-travel M --min-turn R]\n"
+         "                          [--match-chi2 X]\n";
+}
+
+bool ParseArgs(int argc, char** argv, Args* args) {
+  for (int i = 1; i < argc; ++i) {
+    const std::string a = argv[i];
+    if (a == "--json") {
+      args->json = true;
+      continue;
+    }
+    if (a == "-h" || a == "--help") return false;
+    if (i + 1 >= argc) {
+      std::cerr << "missing value for " << a << "\n";
+      return false;
+    }
+    const std::string v = argv[++i];
+    try {
+      if (a == "--log") {
+        args->log = v;
+      } else if (a == "--relations") {
+        args->relations = v;
+      } else if (a == "--out") {
+        args->out = v;
+      } else if (a == "--max-scans") {
+        args->max_scans = std::stoi(v);
+      } else if (a == "--max-active-segments") {
+        args->options.ekf.max_active_segments = std::stoi(v);
+      } else if (a == "--active-radius") {
+        args->options.ekf.active_radius = std::stod(v);
+      } else if (a == "--freeze-after-scans") {
+        args->options.ekf.freeze_after_scans = std::stoi(v);
+      } else if (a == "--min-travel") {
+        args->options.ekf.min_travel = std::stod(v);
+      } else if (a == "--min-turn") {
+        args->options.ekf.min_turn = std::stod(v);
+      } else if (a == "--match-chi2") {
+        args->options.ekf.match_chi2 = std::stod(v);
+      } else {
+        std::cerr << "unknown option " << a << "\n";
+        return false;
+      }
+    } catch (...) {
+      std::cerr << "bad value for " << a << ": " << v << "\n";
+      return false;
+    }
+  }
+  if (args->log.empty()) {
+    std::cerr << "--log is required\n";
+    return false;
+  }
+  return true;
+}
+
+// Nearest-rank percentile, as slam_replay reports it.
+double Percentile(std::vector<double> values, double q) {
+  if (values.empty()) return 0;
+  std::sort(values.begin(), values.end());
+  const size_t index =
+      std::min(values.size() - 1, static_cast<size_t>(q * (values.size() - 1) + 0.5));
+  return values[index];
+}
+
+double PeakRssMb() {
+  rusage usage{};
+  getrusage(RUSAGE_SELF, &usage);
+  return usage.ru_maxrss / 1024.0;  // Linux: KiB
+}
+
+double CurrentRssMb() {
+  std::ifstream status("/proc/self/status");
+  std::string line;
+  while (std::getline(status, line)) {
+    if (line.rfind("VmRSS:", 0) == 0) return std::stod(line.substr(6)) / 1024.0;
+  }
+  return 0;
+}
+
+struct LogLasers {
+  std::vector<CarmenLaser> lasers;  // stamp order, no repeated stamp
+  int64_t duplicate_stamps = 0;
+  int64_t out_of_order = 0;  // lines whose stamp is below one read earlier
+  int64_t malformed = 0;
+  std::vector<std::string> first_errors;
+};
+
+absl::StatusOr<LogLasers> ReadLasers(const std::string& path) {
+  auto reader = CarmenLogReader::Open(path);
+  if (!reader.ok()) return reader.status();
+  LogLasers out;
+  CarmenRecord record;
+  double max_read = -INFINITY;
+  while (true) {
+    auto more = (*reader)->Next(&record);
+    if (!more.ok()) return more.status();
+    if (!*more) break;
+    if (record.type != CarmenRecord::Type::kLaser) continue;
+    if (record.laser.stamp < max_read) ++out.out_of_order;
+    max_read = std::max(max_read, record.laser.stamp);
+    out.lasers.push_back(std::move(record.laser));
+  }
+  out.malformed = (*reader)->malformed_lines();
+  out.first_errors = (*reader)->first_errors();
+  std::stable_sort(out.lasers.begin(), out.lasers.end(),
+                   [](const CarmenLaser& a, const CarmenLaser& b) { return a.stamp < b.stamp; });
+  std::vector<CarmenLaser> unique;
+  unique.reserve(out.lasers.size());
+  for (CarmenLaser& laser : out.lasers) {
+    if (!unique.empty() && !(laser.stamp > unique.back().stamp)) {
+      ++out.duplicate_stamps;
+      continue;
+    }
+    unique.push_back(std::move(laser));
+  }
+  out.lasers = std::move(unique);
+  return out;
+}
+
+nlohmann::json MetricJson(const cli::RelationsResult& r) {
+  return {{"relations", r.relations},         {"relations_used", r.relations_used},
+          {"trans_abs_mean_m", r.trans_abs.mean}, {"trans_abs_std_m", r.trans_abs.std},
+          {"trans_sq_mean_m2", r.trans_sq.mean},  {"rot_abs_mean_deg", r.rot_abs_deg.mean},
+          {"rot_abs_std_deg", r.rot_abs_deg.std}, {"rot_sq_mean_deg2", r.rot_sq_deg2.mean},
+          {"trans_abs_max_m", r.trans_abs_max},   {"rot_abs_max_deg", r.rot_abs_max_deg}};
+}
+
+std::string MetricLine(const cli::RelationsResult& r) {
+  return absl::StrFormat("%5d/%-5d used  trans %.3f +- %.3f m (max %.2f)  rot %.2f +- %.2f deg",
+                         r.relations_used, r.relations, r.trans_abs.mean, r.trans_abs.std,
+                         r.trans_abs_max, r.rot_abs_deg.mean, r.rot_abs_deg.std);
+}
+
+cli::SceneSegment SceneOf(const ls::MapSegment& s) {
+  const double c = std::cos(s.frame.theta), sn = std::sin(s.frame.theta);
+  cli::SceneSegment out;
+  out.a = {s.frame.x + c * s.left, s.frame.y + sn * s.left};
+  out.b = {s.frame.x + c * s.right, s.frame.y + sn * s.right};
+  out.a_real = s.left_type == ls::EndpointType::kReal;
+  out.b_real = s.right_type == ls::EndpointType::kReal;
+  return out;
+}
+
+int Run(const Args& args) {
+  auto read = ReadLasers(args.log);
+  if (!read.ok()) {
+    std::cerr << args.log << ": " << read.status() << "\n";
+    return 1;
+  }
+  LogLasers& log = *read;
+  if (log.malformed > 0) {
+    std::cerr << "warning: skipped " << log.malformed << " malformed line(s)";
+    for (const std::string& e : log.first_errors) std::cerr << "\n  " << e;
+    std::cerr << "\n";
+  }
+  if (log.lasers.empty()) {
+    std::cerr << args.log << ": no laser lines (FLASER or ROBOTLASER1)\n";
+    return 1;
+  }
+  if (args.max_scans > 0 && static_cast<size_t>(args.max_scans) < log.lasers.size()) {
+    log.lasers.resize(args.max_scans);
+  }
+  const double rss_after_load_mb = CurrentRssMb();
+
+  ls::SlamOptions options = args.options;
+  const cli::Pose2 mount = cli::LaserMount(log.lasers.front());
+  options.laser_pose = {mount.x, mount.y, mount.theta};
+  if (absl::Status s = ls::ValidateSlamOptions(options); !s.ok()) {
+    std::cerr << "options: " << s << "\n";
+    return 1;
+  }
+  ls::LaserSlam slam(options);
+
+  std::vector<double> scan_ms;
+  std::map<int, std::vector<double>> bin_ms;  // bin index -> per-scan ms (processed scans only)
+  std::vector<cli::StampedPose> odometry;     // embedded odometry at every scan stamp
+  int64_t rejected = 0, skipped_motion = 0;
+  int max_active = 0, max_state = 0;
+  std::vector<std::string> rejections;
+  double engine_s = 0;
+  for (CarmenLaser& laser : log.lasers) {
+    ls::OdometryReading reading;
+    reading.stamp = laser.stamp;
+    reading.pose = {laser.odom_pose.x, laser.odom_pose.y, laser.odom_pose.theta};
+    odometry.push_back({laser.stamp, {reading.pose.x, reading.pose.y, reading.pose.theta}});
+    ls::LaserScan scan;
+    scan.stamp = laser.stamp;
+    scan.geometry.angle_min = laser.angle_min;
+    scan.geometry.angle_increment = laser.angle_increment;
+    scan.geometry.beam_count = static_cast<int>(laser.ranges.size());
+    scan.geometry.no_return_range = laser.no_return_range;
+    scan.ranges = std::move(laser.ranges);
+
+    const Clock::time_point start = Clock::now();
+    absl::Status odom_status = slam.AddOdometry(reading);
+    absl::StatusOr<ls::ScanUpdate> update = slam.AddScan(scan);
+    const double ms = std::chrono::duration<double, std::milli>(Clock::now() - start).count();
+    engine_s += ms / 1000.0;
+    scan_ms.push_back(ms);
+    if (!odom_status.ok() || !update.ok()) {
+      ++rejected;
+      if (rejections.size() < 5) {
+        rejections.push_back(absl::StrFormat("stamp %.6f: %s", laser.stamp,
+                                             (!odom_status.ok() ? odom_status : update.status())
+                                                 .ToString()));
+      }
+      continue;
+    }
+    if (update->skipped) {
+      ++skipped_motion;
+      continue;
+    }
+    max_active = std::max(max_active, update->active_segments);
+    max_state = std::max(max_state, update->state_size);
+    bin_ms[update->active_segments / kBinWidth].push_back(ms);
+  }
+  for (const std::string& r : rejections) std::cerr << "warning: rejected " << r << "\n";
+
+  const double duration_s = log.lasers.back().stamp - log.lasers.front().stamp;
+  std::vector<cli::StampedPose> trajectory;
+  for (const ls::PoseEstimate& p : slam.Trajectory()) {
+    trajectory.push_back({p.stamp, {p.pose.x, p.pose.y, p.pose.theta}});
+  }
+  const std::vector<ls::MapSegment> map = slam.Map();
+  int active_final = 0;
+  for (const ls::MapSegment& s : map) active_final += s.active ? 1 : 0;
+
+  nlohmann::json j = {
+      {"log", args.log},
+      {"scans", log.lasers.size()},
+      {"scans_processed", slam.scans_processed()},
+      {"scans_skipped_motion", skipped_motion},
+      {"rejected", rejected},
+      {"duplicate_stamps", log.duplicate_stamps},
+      {"reordered_lines", log.out_of_order},
+      {"malformed_lines", log.malformed},
+      {"trajectory_poses", trajectory.size()},
+      {"log_duration_s", duration_s},
+      {"engine_s", engine_s},
+      {"realtime_factor", engine_s > 0 ? duration_s / engine_s : 0.0},
+      {"scan_ms_p50", Percentile(scan_ms, 0.5)},
+      {"scan_ms_p90", Percentile(scan_ms, 0.9)},
+      {"scan_ms_p99", Percentile(scan_ms, 0.99)},
+      {"scan_ms_max", scan_ms.empty() ? 0.0 : *std::max_element(scan_ms.begin(), scan_ms.end())},
+      {"segments", map.size()},
+      {"active_segments", active_final},
+      {"max_active_segments_seen", max_active},
+      {"max_state_size", max_state},
+      {"peak_rss_mb", PeakRssMb()},
+      {"rss_after_load_mb", rss_after_load_mb},
+      {"options",
+       {{"max_active_segments", options.ekf.max_active_segments},
+        {"active_radius", options.ekf.active_radius},
+        {"freeze_after_scans", options.ekf.freeze_after_scans},
+        {"min_travel", options.ekf.min_travel},
+        {"min_turn", options.ekf.min_turn},
+        {"match_chi2", options.ekf.match_chi2},
+        {"laser_pose", {mount.x, mount.y, mount.theta}}}},
+  };
+  nlohmann::json bins = nlohmann::json::array();
+  for (const auto& [bin, values] : bin_ms) {
+    bins.push_back({{"active_from", bin * kBinWidth},
+                    {"active_to", bin * kBinWidth + kBinWidth - 1},
+                    {"count", values.size()},
+                    {"p50_ms", Percentile(values, 0.5)},
+                    {"p99_ms", Percentile(values, 0.99)}});
+  }
+  j["by_active_segments"] = bins;
+
+  std::vector<std::string> metric_lines;
+  if (!args.relations.empty()) {
+    auto relations = cli::ReadRelationsFile(args.relations);
+    if (!relations.ok()) {
+      std::cerr << args.relations << ": " << relations.status() << "\n";
+      return 1;
+    }
+    std::vector<cli::Relation> local;
+    for (const cli::Relation& r : *relations) {
+      if (std::abs(r.t2 - r.t1) <= kLocalRelationS) local.push_back(r);
+    }
+    // The odometry at the stamps the SLAM trajectory has (the same poses, had no scan failed).
+    std::vector<cli::StampedPose> odom_at_slam;
+    {
+      size_t k = 0;
+      for (const cli::StampedPose& p : trajectory) {
+        while (k < odometry.size() && odometry[k].stamp < p.stamp) ++k;
+        if (k < odometry.size() && odometry[k].stamp == p.stamp) odom_at_slam.push_back(odometry[k]);
+      }
+    }
+    const cli::RelationsResult slam_all = cli::EvaluateRelations(trajectory, *relations);
+    const cli::RelationsResult odom_all = cli::EvaluateRelations(odom_at_slam, *relations);
+    const cli::RelationsResult slam_local = cli::EvaluateRelations(trajectory, local);
+    const cli::RelationsResult odom_local = cli::EvaluateRelations(odom_at_slam, local);
+    j["relations"] = {{"file", args.relations},
+                      {"local_max_dt_s", kLocalRelationS},
+                      {"slam", MetricJson(slam_all)},
+                      {"odometry", MetricJson(odom_all)},
+                      {"slam_local", MetricJson(slam_local)},
+                      {"odometry_local", MetricJson(odom_local)}};
+    metric_lines = {"  slam      all   " + MetricLine(slam_all),
+                    "  odometry  all   " + MetricLine(odom_all),
+                    "  slam      local " + MetricLine(slam_local),
+                    "  odometry  local " + MetricLine(odom_local)};
+  }
+
+  if (!args.out.empty()) {
+    const std::filesystem::path dir(args.out);
+    std::error_code ec;
+    std::filesystem::create_directories(dir, ec);
+    if (ec) {
+      std::cerr << "cannot create " << dir << ": " << ec.message() << "\n";
+      return 1;
+    }
+    for (const auto& [name, poses] : {std::pair<const char*, const std::vector<cli::StampedPose>*>{
+                                          "trajectory.txt", &trajectory},
+                                      {"odometry.txt", &odometry}}) {
+      if (absl::Status s = cli::WriteTumFile(dir / name, *poses); !s.ok()) {
+        std::cerr << s << "\n";
+        return 1;
+      }
+    }
+    cli::MapScene scene;
+    scene.title = absl::StrFormat("%s: %d scans, %d segments (engine only)",
+                                  cli::LogName(args.log), log.lasers.size(), map.size());
+    for (const ls::MapSegment& s : map) scene.segments.push_back(SceneOf(s));
+    cli::ScenePolyline path;
+    path.color = {30, 150, 60};
+    path.label = "trajectory";
+    for (const cli::StampedPose& p : trajectory) path.points.push_back({p.pose.x, p.pose.y});
+    scene.polylines.push_back(std::move(path));
+    if (absl::Status s = cli::WriteMapPictures(scene, dir / "map.svg", dir / "map.png"); !s.ok()) {
+      std::cerr << s << "\n";
+      return 1;
+    }
+    j["out_dir"] = dir.string();
+    std::ofstream summary(dir / "summary.json");
+    summary << j.dump(2) << "\n";
+    if (!summary) {
+      std::cerr << "cannot write " << (dir / "summary.json") << "\n";
+      return 1;
+    }
+  }
+
+  if (args.json) {
+    std::cout << j.dump(2) << "\n";
+    return 0;
+  }
+  std::cout << absl::StrFormat(
+      "%s: %d scans (%d duplicate stamps dropped, %d lines reordered, %d rejected, %d skipped "
+      "for motion)\n"
+      "log %.1f s, engine %.2f s: real-time factor %.1fx\n"
+      "per scan: p50 %.2f ms  p90 %.2f ms  p99 %.2f ms  max %.2f ms\n"
+      "segments: %d (%d active at the end, at most %d active, state size up to %d); peak RSS "
+      "%.1f MB (%.1f MB after loading the log)\n",
+      args.log, log.lasers.size(), log.duplicate_stamps, log.out_of_order, rejected,
+      skipped_motion, duration_s, engine_s, engine_s > 0 ? duration_s / engine_s : 0.0,
+      j["scan_ms_p50"].get<double>(), j["scan_ms_p90"].get<double>(),
+      j["scan_ms_p99"].get<double>(), j["scan_ms_max"].get<double>(), map.size(), active_final,
+      max_active, max_state, j["peak_rss_mb"].get<double>(), rss_after_load_mb);
+  std::cout << "per scan by active segments (processed scans):\n";
+  for (const auto& [bin, values] : bin_ms) {
+    std::cout << absl::StrFormat("  %4d-%-4d  %6d scans  p50 %7.2f ms  p99 %7.2f ms\n",
+                                 bin * kBinWidth, bin * kBinWidth + kBinWidth - 1, values.size(),
+                                 Percentile(values, 0.5), Percentile(values, 0.99));
+  }
+  if (!metric_lines.empty()) {
+    std::cout << "relations metric (local: t2 - t1 <= " << kLocalRelationS << " s):\n";
+    for (const std::string& line : metric_lines) std::cout << line << "\n";
+  }
+  if (!args.out.empty()) {
+    std::cout << "wrote " << args.out << "/trajectory.txt, odometry.txt, map.svg, map.png, "
+              << "summary.json\n";
+  }
+  return 0;
+}
+
+}  // namespace
+}  // namespace waymark::bench
+
+int main(int argc, char** argv) {
+  waymark::bench::Args args;
+  if (!waymark::bench::ParseArgs(argc, argv, &args)) {
+    waymark::bench::Usage();
+    return 2;
+  }
+  return waymark::bench::Run(args);
+}
