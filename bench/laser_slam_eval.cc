@@ -22,10 +22,12 @@
 // Update cost against the size of the state ("EKF update p99 at 300 segments"): building a state of
 // N segments synthetically is not possible through the engine's public API, so it is measured on
 // real data instead: run the ACES log with a larger active window,
-//   waymark-laser-eval --log aces.clf.bz2 --max-active-segments 400 [--active-radius 50
-//                      --freeze-after-scans 1000000]
+//   waymark-laser-eval --log aces.clf.bz2 --max-active-segments 400 --active-radius 1000
+//                      --freeze-after-scans 1000000
 // and read the per-bin p50/p99 (bins of active segments); bench/run.sh does this. The figure for
-// "300 segments" is the p99 of the 300-349 bin.
+// "300 segments" is the p99 of the 300-349 bin. The radius and freeze settings are needed: with the
+// defaults (12 m, 20 scans) segments freeze long before the cap and ACES never has more than about
+// 140 active segments, whatever --max-active-segments says.
 //
 // --out DIR writes trajectory.txt and odometry.txt (TUM), map.svg / map.png (segments and the
 // trajectory) and summary.json; --json prints the same JSON object on stdout.

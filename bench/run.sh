@@ -28,6 +28,6 @@ if [ -x "$BUILD_DIR/bin/waymark-laser-eval" ]; then
   done
   # Update cost vs segments in the filter (the per-bin timings; see bench/laser_slam_eval.cc).
   "$BUILD_DIR/bin/waymark-laser-eval" --log "$LASER/aces/aces.clf.bz2" --max-active-segments 400 \
-    --json > "$OUT/laser_aces_active400.json"
+    --active-radius 1000 --freeze-after-scans 1000000 --json > "$OUT/laser_aces_active400.json"
 fi
 echo "results in $OUT"
