@@ -233,6 +233,7 @@ v1::MapSegment ToProtoSegment(const ls::MapSegment& segment) {
   s.set_left_variance(segment.left_variance);
   s.set_right_variance(segment.right_variance);
   s.set_observations(static_cast<uint32_t>(segment.observations < 0 ? 0 : segment.observations));
+  s.set_active(segment.active);
   return s;
 }
 
