@@ -1,5 +1,8 @@
 #include "storage/migrations.h"
 
+#include <filesystem>
+#include <system_error>
+
 #include "absl/strings/str_cat.h"
 
 namespace waymark::storage {
@@ -162,6 +165,24 @@ absl::Status ApplyMigrations(sqlite::Connection& connection,
 
 absl::Status MigrateSchema(sqlite::Connection& connection) {
   return ApplyMigrations(connection, SchemaMigrations());
+}
+
+absl::StatusOr<sqlite::Connection> OpenMigratedDatabase(const std::string& path) {
+  if (!path.empty() && path != ":memory:") {
+    const std::filesystem::path parent = std::filesystem::path(path).parent_path();
+    if (!parent.empty()) {
+      std::error_code error;
+      std::filesystem::create_directories(parent, error);
+      if (error) {
+        return absl::InternalError(absl::StrCat("cannot create directory \"", parent.string(),
+                                                "\" for the database: ", error.message()));
+      }
+    }
+  }
+  absl::StatusOr<sqlite::Connection> connection = sqlite::Connection::Open(path);
+  if (!connection.ok()) return connection.status();
+  if (absl::Status s = MigrateSchema(*connection); !s.ok()) return s;
+  return connection;
 }
 
 }  // namespace waymark::storage

@@ -5,6 +5,7 @@
 // later SLAM sessions), so there is one ordered list of steps for the whole file: step i takes the
 // schema from version i to i + 1. Steps are append-only; a released step is never edited.
 
+#include <string>
 #include <vector>
 
 #include "absl/status/status.h"
@@ -32,6 +33,11 @@ absl::Status ApplyMigrations(sqlite::Connection& connection,
 
 // ApplyMigrations(connection, SchemaMigrations()).
 absl::Status MigrateSchema(sqlite::Connection& connection);
+
+// Opens (creating it and its parent directory when missing) the database file at `path`, or an
+// in-memory database for "" / ":memory:", and migrates it to the current schema. Every store opens
+// its file through this.
+absl::StatusOr<sqlite::Connection> OpenMigratedDatabase(const std::string& path);
 
 }  // namespace waymark::storage
 

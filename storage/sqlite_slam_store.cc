@@ -329,19 +329,7 @@ class SqliteSlamStore final : public SlamStore {
 }  // namespace
 
 absl::StatusOr<std::unique_ptr<SlamStore>> OpenSqliteSlamStore(const std::string& path) {
-  if (!path.empty() && path != ":memory:") {
-    const std::filesystem::path parent = std::filesystem::path(path).parent_path();
-    if (!parent.empty()) {
-      std::error_code error;
-      std::filesystem::create_directories(parent, error);
-      if (error) {
-        return absl::InternalError(absl::StrCat("cannot create directory \"", parent.string(),
-                                                "\" for the database: ", error.message()));
-      }
-    }
-  }
-  ASSIGN_OR_RETURN(Connection connection, Connection::Open(path));
-  RETURN_IF_ERROR(MigrateSchema(connection));
+  ASSIGN_OR_RETURN(Connection connection, OpenMigratedDatabase(path));
   return std::unique_ptr<SlamStore>(new SqliteSlamStore(std::move(connection)));
 }
 

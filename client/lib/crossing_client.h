@@ -58,11 +58,6 @@ class CrossingClient {
   std::unique_ptr<RecognizeStream> StreamRecognize();
 
  private:
-  enum class Idempotency { kRead, kWrite };
-
-  template <typename Response, typename Invoke>
-  absl::StatusOr<Response> Unary(Idempotency idempotency, Invoke invoke);
-
   std::unique_ptr<v1::CrossingService::StubInterface> stub_;
   CrossingClientOptions options_;
 };

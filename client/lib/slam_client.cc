@@ -5,6 +5,7 @@
 
 #include "client/lib/crossing_client.h"  // DeadlineAfter
 #include "client/lib/status_util.h"
+#include "client/lib/unary_call.h"
 
 namespace waymark::client {
 
@@ -12,8 +13,8 @@ constexpr int kResourceExhausted = 8;  // google.rpc.Code
 // A sender blocked on a full window gives up after this long without any answer.
 constexpr std::chrono::seconds kAnswerTimeout(120);
 
-SensorStream::SensorStream(v1::SlamService::StubInterface* stub, std::string session_id,
-                           int window, Deadline deadline, UpdateCallback on_update)
+SensorStream::SensorStream(v1::SlamService::StubInterface* stub, std::string session_id, int window,
+                           Deadline deadline, UpdateCallback on_update)
     : window_(std::max(1, window)),
       session_id_(std::move(session_id)),
       on_update_(std::move(on_update)) {
@@ -119,8 +120,7 @@ absl::Status SensorStream::Finish() {
     std::lock_guard<std::mutex> lock(mutex_);
     if (!outstanding_scans_.empty()) {
       return absl::DataLossError("the server ended the stream with " +
-                                 std::to_string(outstanding_scans_.size()) +
-                                 " scans unanswered");
+                                 std::to_string(outstanding_scans_.size()) + " scans unanswered");
     }
   }
   return status;
@@ -145,64 +145,46 @@ SlamClient::SlamClient(std::unique_ptr<v1::SlamService::StubInterface> stub,
                        SlamClientOptions options)
     : stub_(std::move(stub)), options_(std::move(options)) {}
 
-// One deadline covers all attempts, as in CrossingClient.
-template <typename Response, typename Invoke>
-absl::StatusOr<Response> SlamClient::Unary(Idempotency idempotency, Invoke invoke) {
-  const Deadline deadline = DeadlineAfter(options_.timeout);
-  const int max_attempts =
-      idempotency == Idempotency::kRead ? std::max(1, options_.retry.max_attempts) : 1;
-  for (int attempt = 1;; ++attempt) {
-    grpc::ClientContext context;
-    if (deadline.has_value()) context.set_deadline(*deadline);
-    Response response;
-    absl::Status status = ToAbslStatus(invoke(&context, &response));
-    if (status.ok()) return response;
-    if (attempt >= max_attempts || !IsRetryable(status)) return status;
-    const auto delay = absl::ToChronoNanoseconds(
-        Jitter(BackoffDelay(options_.retry, attempt), options_.retry.jitter));
-    if (deadline.has_value() && std::chrono::system_clock::now() + delay >= *deadline) {
-      return status;
-    }
-    std::this_thread::sleep_for(delay);
-  }
-}
-
 absl::StatusOr<v1::Session> SlamClient::CreateSession(const v1::CreateSessionRequest& request) {
-  return Unary<v1::Session>(Idempotency::kWrite, [&](auto* context, auto* response) {
-    return stub_->CreateSession(context, request, response);
-  });
+  return CallUnary<v1::Session>(options_.timeout, options_.retry, Idempotency::kWrite,
+                                [&](auto* context, auto* response) {
+                                  return stub_->CreateSession(context, request, response);
+                                });
 }
 
 absl::StatusOr<v1::SegmentMap> SlamClient::GetMap(const std::string& session_id) {
   v1::GetMapRequest request;
   request.set_session_id(session_id);
-  return Unary<v1::SegmentMap>(Idempotency::kRead, [&](auto* context, auto* response) {
-    return stub_->GetMap(context, request, response);
-  });
+  return CallUnary<v1::SegmentMap>(
+      options_.timeout, options_.retry, Idempotency::kRead,
+      [&](auto* context, auto* response) { return stub_->GetMap(context, request, response); });
 }
 
 absl::StatusOr<v1::Trajectory> SlamClient::GetTrajectory(const std::string& session_id) {
   v1::GetTrajectoryRequest request;
   request.set_session_id(session_id);
-  return Unary<v1::Trajectory>(Idempotency::kRead, [&](auto* context, auto* response) {
-    return stub_->GetTrajectory(context, request, response);
-  });
+  return CallUnary<v1::Trajectory>(options_.timeout, options_.retry, Idempotency::kRead,
+                                   [&](auto* context, auto* response) {
+                                     return stub_->GetTrajectory(context, request, response);
+                                   });
 }
 
 absl::StatusOr<v1::Session> SlamClient::CloseSession(const std::string& session_id) {
   v1::CloseSessionRequest request;
   request.set_session_id(session_id);
-  return Unary<v1::Session>(Idempotency::kWrite, [&](auto* context, auto* response) {
-    return stub_->CloseSession(context, request, response);
-  });
+  return CallUnary<v1::Session>(options_.timeout, options_.retry, Idempotency::kWrite,
+                                [&](auto* context, auto* response) {
+                                  return stub_->CloseSession(context, request, response);
+                                });
 }
 
 absl::StatusOr<v1::ListSessionsResponse> SlamClient::ListSessions(const std::string& robot_id) {
   v1::ListSessionsRequest request;
   request.set_robot_id(robot_id);
-  return Unary<v1::ListSessionsResponse>(Idempotency::kRead, [&](auto* context, auto* response) {
-    return stub_->ListSessions(context, request, response);
-  });
+  return CallUnary<v1::ListSessionsResponse>(
+      options_.timeout, options_.retry, Idempotency::kRead, [&](auto* context, auto* response) {
+        return stub_->ListSessions(context, request, response);
+      });
 }
 
 std::unique_ptr<SensorStream> SlamClient::StreamSensorData(const std::string& session_id,

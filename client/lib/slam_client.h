@@ -121,10 +121,6 @@ class SlamClient {
                                                  SensorStream::UpdateCallback on_update = {});
 
  private:
-  enum class Idempotency { kRead, kWrite };
-  template <typename Response, typename Invoke>
-  absl::StatusOr<Response> Unary(Idempotency idempotency, Invoke invoke);
-
   std::unique_ptr<v1::SlamService::StubInterface> stub_;
   SlamClientOptions options_;
 };
