@@ -18,21 +18,7 @@
 #include "storage/crossing_store.h"
 #include "storage/migrations.h"
 #include "storage/sqlite.h"
-
-// Early returns keep each method a straight list of steps; the Transaction destructor undoes the
-// partial work when one fails.
-#define WAYMARK_STORAGE_CONCAT_INNER(a, b) a##b
-#define WAYMARK_STORAGE_CONCAT(a, b) WAYMARK_STORAGE_CONCAT_INNER(a, b)
-#define RETURN_IF_ERROR(expr)                                         \
-  do {                                                                \
-    if (absl::Status _status = (expr); !_status.ok()) return _status; \
-  } while (false)
-#define ASSIGN_OR_RETURN(lhs, expr) \
-  ASSIGN_OR_RETURN_IMPL(WAYMARK_STORAGE_CONCAT(_status_or_, __LINE__), lhs, expr)
-#define ASSIGN_OR_RETURN_IMPL(tmp, lhs, expr) \
-  auto tmp = (expr);                          \
-  if (!tmp.ok()) return tmp.status();         \
-  lhs = std::move(*tmp)
+#include "storage/status_macros.h"
 
 namespace waymark::storage {
 namespace {
@@ -531,9 +517,3 @@ absl::StatusOr<std::unique_ptr<CrossingStore>> OpenSqliteCrossingStore(const std
 }
 
 }  // namespace waymark::storage
-
-#undef ASSIGN_OR_RETURN_IMPL
-#undef ASSIGN_OR_RETURN
-#undef RETURN_IF_ERROR
-#undef WAYMARK_STORAGE_CONCAT
-#undef WAYMARK_STORAGE_CONCAT_INNER
