@@ -1,4 +1,5 @@
 #include "client/tools/relations_metric.h"
+#include "client/tools/numeric_table.h"
 
 #include <fmt/format.h>
 
@@ -65,41 +66,20 @@ MeanStd ComputeMeanStd(const std::vector<double>& values) {
 }
 
 absl::StatusOr<std::vector<Relation>> ParseRelations(const std::string& text) {
+  absl::StatusOr<std::vector<NumericRow>> rows =
+      ParseNumericRows(text, 8, "t1 t2 x y z roll pitch yaw", " \t");
+  if (!rows.ok()) return rows.status();
   std::vector<Relation> relations;
-  int line_number = 0;
-  for (absl::string_view line : absl::StrSplit(text, '\n')) {
-    ++line_number;
-    line = absl::StripAsciiWhitespace(line);
-    if (line.empty() || line[0] == '#') continue;
-    std::vector<absl::string_view> fields =
-        absl::StrSplit(line, absl::ByAnyChar(" \t"), absl::SkipEmpty());
-    if (fields.size() != 8) {
-      return absl::InvalidArgumentError(
-          absl::StrCat("line ", line_number,
-                       ": expected 8 fields (t1 t2 x y z roll pitch yaw), got ", fields.size()));
-    }
-    double v[8];
-    for (int i = 0; i < 8; ++i) {
-      if (!absl::SimpleAtod(fields[i], &v[i]) || !std::isfinite(v[i])) {
-        return absl::InvalidArgumentError(absl::StrCat("line ", line_number, ": field ", i + 1,
-                                                       " is not a finite number: '", fields[i],
-                                                       "'"));
-      }
-    }
+  relations.reserve(rows->size());
+  for (const NumericRow& row : *rows) {
+    const std::vector<double>& v = row.values;
     relations.push_back({v[0], v[1], {v[2], v[3], v[7]}});
   }
   return relations;
 }
 
 absl::StatusOr<std::vector<Relation>> ReadRelationsFile(const std::string& path) {
-  auto text = ReadFileBytes(path);
-  if (!text.ok()) return text.status();
-  auto relations = ParseRelations(*text);
-  if (!relations.ok()) {
-    return absl::Status(relations.status().code(),
-                        absl::StrCat(path, ": ", relations.status().message()));
-  }
-  return relations;
+  return ReadAndParse(path, ParseRelations);
 }
 
 RelationsResult EvaluateRelations(const std::vector<StampedPose>& trajectory,

@@ -1,4 +1,5 @@
 #include "client/tools/tum_trajectory.h"
+#include "client/tools/numeric_table.h"
 
 #include <fmt/format.h>
 
@@ -38,29 +39,16 @@ absl::Status WriteTumFile(const std::filesystem::path& path,
 }
 
 absl::StatusOr<std::vector<StampedPose>> ParseTum(const std::string& text) {
+  absl::StatusOr<std::vector<NumericRow>> rows =
+      ParseNumericRows(text, 8, "t x y z qx qy qz qw", " \t,");
+  if (!rows.ok()) return rows.status();
   std::vector<StampedPose> poses;
-  int line_number = 0;
-  for (absl::string_view line : absl::StrSplit(text, '\n')) {
-    ++line_number;
-    line = absl::StripAsciiWhitespace(line);
-    if (line.empty() || line[0] == '#') continue;
-    std::vector<absl::string_view> fields =
-        absl::StrSplit(line, absl::ByAnyChar(" \t,"), absl::SkipEmpty());
-    if (fields.size() != 8) {
-      return absl::InvalidArgumentError(absl::StrCat(
-          "line ", line_number, ": expected 8 fields (t x y z qx qy qz qw), got ", fields.size()));
-    }
-    double v[8];
-    for (int i = 0; i < 8; ++i) {
-      if (!absl::SimpleAtod(fields[i], &v[i]) || !std::isfinite(v[i])) {
-        return absl::InvalidArgumentError(absl::StrCat("line ", line_number, ": field ", i + 1,
-                                                       " is not a finite number: '", fields[i],
-                                                       "'"));
-      }
-    }
+  poses.reserve(rows->size());
+  for (const NumericRow& row : *rows) {
+    const std::vector<double>& v = row.values;
     if (v[4] == 0 && v[5] == 0 && v[6] == 0 && v[7] == 0) {
       return absl::InvalidArgumentError(
-          absl::StrCat("line ", line_number, ": the quaternion is zero"));
+          absl::StrCat("line ", row.line, ": the quaternion is zero"));
     }
     poses.push_back({v[0], {v[1], v[2], YawFromQuaternion(v[4], v[5], v[6], v[7])}});
   }
@@ -68,14 +56,7 @@ absl::StatusOr<std::vector<StampedPose>> ParseTum(const std::string& text) {
 }
 
 absl::StatusOr<std::vector<StampedPose>> ReadTumFile(const std::filesystem::path& path) {
-  auto text = ReadFileBytes(path);
-  if (!text.ok()) return text.status();
-  auto poses = ParseTum(*text);
-  if (!poses.ok()) {
-    return absl::Status(poses.status().code(),
-                        absl::StrCat(path.string(), ": ", poses.status().message()));
-  }
-  return poses;
+  return ReadAndParse(path, ParseTum);
 }
 
 }  // namespace waymark::cli
