@@ -1,12 +1,17 @@
 #include "server/laser_slam/laser_slam.h"
 
+#include <algorithm>
 #include <cmath>
 
 #include "absl/strings/str_cat.h"
+#include <Eigen/LU>
+
 #include "server/common/stopwatch.h"
 #include "server/laser_slam/binary_io.h"
+#include "server/laser_slam/exploration_planner.h"
 #include "server/laser_slam/geometry.h"
 #include "server/laser_slam/line_extraction.h"
+#include "server/laser_slam/motion.h"
 #include "server/laser_slam/odometry_buffer.h"
 #include "server/laser_slam/segment_ekf.h"
 
@@ -16,24 +21,19 @@ namespace {
 constexpr std::uint32_t kMagic = 0x534c4d57;  // "WMLS"
 constexpr std::uint32_t kVersion = 1;
 
-double Sq(double v) { return v * v; }
-
-// Odometry error of one increment (options.h, OdometryNoise), in the robot frame at its end.
-Eigen::Matrix3d IncrementNoise(const Pose2& u, const OdometryNoise& noise) {
-  const double distance = std::hypot(u.x, u.y);
-  const double turn = std::abs(u.theta);
-  const double sxy = noise.xy_min + noise.xy_per_m * distance;
-  const double sth = noise.theta_min + noise.theta_per_rad * turn + noise.theta_per_m * distance;
-  return Eigen::Vector3d(Sq(sxy), Sq(sxy), Sq(sth)).asDiagonal();
-}
-
 }  // namespace
 
 struct LaserSlam::Impl {
-  explicit Impl(const SlamOptions& o) : options(o), ekf(o.ekf) {}
+  explicit Impl(const SlamOptions& o) : options(o), ekf(o.ekf) {
+    if (o.exploration.mode != ExplorationMode::kPassive) {
+      planner = std::make_unique<ExplorationPlanner>(o.exploration);
+    }
+  }
 
   SlamOptions options;
   SegmentEkf ekf;
+  std::unique_ptr<ExplorationPlanner> planner;  // active and wander sessions
+  LaserScan last_scan;                          // what the planner avoids
   OdometryBuffer odometry;
   bool have_scan = false;
   double last_scan_stamp = 0.0;
@@ -71,6 +71,7 @@ absl::StatusOr<ScanUpdate> LaserSlam::AddScan(const LaserScan& scan) {
   absl::StatusOr<std::vector<ObservedSegment>> observed = ExtractSegments(scan, s.options.extraction);
   if (!observed.ok()) return observed.status();
   update.timings.extraction = MsSince(start);
+  s.last_scan = scan;
 
   // Motion since the last update, from odometry interpolated at the scan stamp.
   const auto predict_start = Clock::now();
@@ -111,13 +112,39 @@ absl::StatusOr<ScanUpdate> LaserSlam::AddScan(const LaserScan& scan) {
   update.segments = update.active_segments + static_cast<int>(s.ekf.state().frozen.size());
   update.state_size = s.ekf.state().size();
   update.map_revision = s.revision;
+  update.covariance_trace_mean = s.ekf.state().cov().trace() / s.ekf.state().size();
   s.trajectory.push_back(update.pose);
   update.timings.total = MsSince(start);
+  // Planning is timed on its own (Suggestion::planning_ms), not as part of the filter's total.
+  if (s.planner) update.suggestion = s.planner->Decide(View());
   return update;
 }
 
 PoseEstimate LaserSlam::CurrentPose() const {
   return impl_->trajectory.empty() ? impl_->Current(0.0) : impl_->trajectory.back();
+}
+
+ExplorationView LaserSlam::View() const {
+  const Impl& s = *impl_;
+  const SpState& st = s.ekf.state();
+  ExplorationView view;
+  view.robot = st.robot;
+  view.robot_covariance = st.cov().topLeftCorner<3, 3>();
+  for (const SegmentEntity& e : st.segments) {
+    const std::vector<int> dofs = SegmentDofs(e);
+    Eigen::MatrixXd block(dofs.size(), dofs.size());
+    for (size_t i = 0; i < dofs.size(); ++i) {
+      for (size_t j = 0; j < dofs.size(); ++j) block(i, j) = st.at(dofs[i], dofs[j]);
+    }
+    view.map_uncertainty += M_PI * std::sqrt(std::max(block.determinant(), 0.0));
+  }
+  view.segments = Map();
+  view.scan = s.last_scan;
+  view.laser_pose = s.options.laser_pose;
+  view.max_range = s.options.extraction.max_range;
+  view.min_incidence = s.options.extraction.min_incidence;
+  view.odometry = s.options.odometry;
+  return view;
 }
 
 std::vector<MapSegment> LaserSlam::Map() const {

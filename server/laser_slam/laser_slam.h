@@ -6,6 +6,7 @@
 
 #include <cstdint>
 #include <memory>
+#include <optional>
 #include <string>
 #include <vector>
 
@@ -14,32 +15,11 @@
 #include "absl/status/status.h"
 #include "absl/status/statusor.h"
 #include "absl/strings/string_view.h"
+#include "server/laser_slam/exploration_types.h"
 #include "server/laser_slam/options.h"
 #include "server/laser_slam/types.h"
 
 namespace waymark::laser_slam {
-
-struct PoseEstimate {
-  double stamp = 0.0;
-  Pose2 pose;                                        // robot pose in the map frame
-  Eigen::Matrix3d covariance = Eigen::Matrix3d::Zero();  // of (x, y, theta)
-};
-
-// A segment of the map in the map frame, as the SP model holds it.
-struct MapSegment {
-  std::uint64_t id = 0;
-  Pose2 frame;             // on the line, x axis along it
-  double left = 0.0;       // endpoint abscissae along the frame's x axis, left < right
-  double right = 0.0;
-  EndpointType left_type = EndpointType::kVirtual;
-  EndpointType right_type = EndpointType::kVirtual;
-  Eigen::Matrix2d line_covariance = Eigen::Matrix2d::Zero();  // of (p_y, p_theta)
-  double left_variance = 0.0;   // of the endpoint along the line; 0 for a virtual endpoint
-  double right_variance = 0.0;
-  int observations = 0;         // scans that matched it
-  // In the filter's active window; false = frozen (marginalised out, see EkfOptions).
-  bool active = true;
-};
 
 struct StageMs {
   double extraction = 0.0;
@@ -61,6 +41,11 @@ struct ScanUpdate {
   int active_segments = 0;    // ... of which in the filter
   int state_size = 0;         // dimension of the EKF state
   std::uint64_t map_revision = 0;  // increases whenever the map changes
+  // Mean of the diagonal of the filter covariance (robot and active segments): the paper's
+  // uncertainty measure ("mean covariance trace").
+  double covariance_trace_mean = 0.0;
+  // The next control, in active and wander sessions (options.exploration.mode).
+  std::optional<Suggestion> suggestion;
   StageMs timings;
 };
 
@@ -81,6 +66,8 @@ class LaserSlam {
   absl::StatusOr<ScanUpdate> AddScan(const LaserScan& scan);
 
   PoseEstimate CurrentPose() const;
+  // What the exploration planner needs: pose, covariances, map, last scan.
+  ExplorationView View() const;
   std::vector<MapSegment> Map() const;
   const std::vector<PoseEstimate>& Trajectory() const;
   std::uint64_t map_revision() const;

@@ -76,7 +76,7 @@ absl::Status ValidateSlamOptions(const SlamOptions& options) {
   if (!FinitePose(options.laser_pose)) {
     return absl::InvalidArgumentError("laser_pose must be finite");
   }
-  return absl::OkStatus();
+  return ValidateExplorationOptions(options.exploration);
 }
 
 absl::Status ValidateScanGeometry(const ScanGeometry& geometry) {

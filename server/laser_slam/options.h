@@ -5,6 +5,7 @@
 // (the 6 m range) it is the default; every other default is ours and its comment says why.
 
 #include "absl/status/status.h"
+#include "server/laser_slam/exploration_options.h"
 #include "server/laser_slam/types.h"
 
 namespace waymark::laser_slam {
@@ -105,6 +106,8 @@ struct SlamOptions {
   EkfOptions ekf;
   // Pose of the laser on the robot (robot frame).
   Pose2 laser_pose;
+  // Active exploration; mode kPassive (the default) suggests nothing.
+  ExplorationOptions exploration;
 };
 
 absl::Status ValidateSlamOptions(const SlamOptions& options);

@@ -68,6 +68,28 @@ struct ObservedSegment {
   int point_count = 0;
 };
 
+struct PoseEstimate {
+  double stamp = 0.0;
+  Pose2 pose;                                        // robot pose in the map frame
+  Eigen::Matrix3d covariance = Eigen::Matrix3d::Zero();  // of (x, y, theta)
+};
+
+// A segment of the map in the map frame, as the SP model holds it.
+struct MapSegment {
+  std::uint64_t id = 0;
+  Pose2 frame;             // on the line, x axis along it
+  double left = 0.0;       // endpoint abscissae along the frame's x axis, left < right
+  double right = 0.0;
+  EndpointType left_type = EndpointType::kVirtual;
+  EndpointType right_type = EndpointType::kVirtual;
+  Eigen::Matrix2d line_covariance = Eigen::Matrix2d::Zero();  // of (p_y, p_theta)
+  double left_variance = 0.0;   // of the endpoint along the line; 0 for a virtual endpoint
+  double right_variance = 0.0;
+  int observations = 0;         // scans that matched it
+  // In the filter's active window; false = frozen (marginalised out, see EkfOptions).
+  bool active = true;
+};
+
 }  // namespace waymark::laser_slam
 
 #endif  // WAYMARK_SERVER_LASER_SLAM_TYPES_H_

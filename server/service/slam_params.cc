@@ -4,6 +4,7 @@
 #include <string>
 
 #include "absl/strings/str_cat.h"
+#include "server/service/exploration_params.h"
 
 namespace waymark::service {
 namespace {
@@ -12,15 +13,6 @@ namespace ls = laser_slam;
 
 // Field paths are given from CreateSessionRequest, as a client writes them.
 constexpr char kParams[] = "laser.params.";
-
-// value in [lo, hi] (or (lo, hi] when lo_open).
-absl::Status InRange(double value, const std::string& field, double lo, double hi, bool lo_open,
-                     const char* unit) {
-  const bool ok = std::isfinite(value) && (lo_open ? value > lo : value >= lo) && value <= hi;
-  if (ok) return absl::OkStatus();
-  return absl::InvalidArgumentError(absl::StrCat(field, " must be in ", lo_open ? "(" : "[", lo,
-                                                 ", ", hi, "] ", unit, ", got ", value));
-}
 
 bool GeometryIsSet(const v1::LaserGeometry& g) {
   return g.beam_count() != 0 || g.angle_min() != 0.0 || g.angle_increment() != 0.0 ||
@@ -78,6 +70,14 @@ absl::Status ValidateLaserPose(const v1::Pose2D& pose) {
 
 }  // namespace
 
+absl::Status InRange(double value, const std::string& field, double lo, double hi, bool lo_open,
+                     const char* unit) {
+  const bool ok = std::isfinite(value) && (lo_open ? value > lo : value >= lo) && value <= hi;
+  if (ok) return absl::OkStatus();
+  return absl::InvalidArgumentError(absl::StrCat(field, " must be in ", lo_open ? "(" : "[", lo,
+                                                 ", ", hi, "] ", unit, ", got ", value));
+}
+
 ls::ScanGeometry ToScanGeometry(const v1::LaserGeometry& geometry) {
   ls::ScanGeometry g;
   g.angle_min = geometry.angle_min();
@@ -117,6 +117,10 @@ absl::StatusOr<LaserSessionOptions> ToLaserSessionOptions(const v1::LaserSlamCon
   if (p.has_match_chi2()) options.slam.ekf.match_chi2 = p.match_chi2();
   if (p.has_min_travel()) options.slam.ekf.min_travel = p.min_travel();
   if (p.has_min_turn()) options.slam.ekf.min_turn = p.min_turn();
+  if (absl::Status s = ApplyExplorationConfig(config.exploration(), &options.slam.exploration);
+      !s.ok()) {
+    return s;
+  }
   // The engine's own check covers combinations (and anything added to it later).
   if (absl::Status s = ls::ValidateSlamOptions(options.slam); !s.ok()) {
     return absl::InvalidArgumentError(absl::StrCat("laser.params: ", s.message()));
@@ -138,6 +142,7 @@ absl::StatusOr<v1::LaserSlamConfig> EffectiveLaserConfig(const v1::LaserSlamConf
   p->set_match_chi2(o.ekf.match_chi2);
   p->set_min_travel(o.ekf.min_travel);
   p->set_min_turn(o.ekf.min_turn);
+  FillEffectiveExploration(o.exploration, effective.mutable_exploration());
   return effective;
 }
 
@@ -257,6 +262,8 @@ void FillSlamUpdate(const ls::ScanUpdate& scan_update, v1::SlamUpdate* update) {
   t->set_association_ms(scan_update.timings.association);
   t->set_update_ms(scan_update.timings.update);
   t->set_total_ms(scan_update.timings.total);
+  update->set_covariance_trace_mean(scan_update.covariance_trace_mean);
+  if (scan_update.suggestion) FillSuggestion(*scan_update.suggestion, update->mutable_suggestion());
 }
 
 }  // namespace waymark::service

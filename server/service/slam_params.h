@@ -5,6 +5,8 @@
 // messages that name the field, the value and the allowed range, so a robot engineer knows what to
 // fix. Unset optional parameters take the engine defaults (server/laser_slam/options.h).
 
+#include <string>
+
 #include "absl/status/status.h"
 #include "absl/status/statusor.h"
 #include "server/laser_slam/laser_slam.h"
@@ -24,6 +26,11 @@ struct LaserSessionOptions {
   // every scan must carry its own geometry).
   laser_slam::ScanGeometry geometry;
 };
+
+// OK when value is in [lo, hi] (or (lo, hi] when lo_open); else INVALID_ARGUMENT
+// "<field> must be in [lo, hi] <unit>, got <value>".
+absl::Status InRange(double value, const std::string& field, double lo, double hi, bool lo_open,
+                     const char* unit);
 
 // Validates a CreateSessionRequest.laser config and returns it with every unset parameter set to
 // the engine default, as it is stored and reported. INVALID_ARGUMENT naming the field.

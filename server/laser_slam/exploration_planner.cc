@@ -1,0 +1,157 @@
+#include "server/laser_slam/exploration_planner.h"
+
+#include <algorithm>
+#include <cmath>
+#include <limits>
+
+#include <Eigen/LU>
+
+#include "server/common/stopwatch.h"
+#include "server/laser_slam/clearance.h"
+#include "server/laser_slam/geometry.h"
+#include "server/laser_slam/motion.h"
+
+namespace waymark::laser_slam {
+namespace {
+
+// The map counts as grown when its length increases by more than this (m): merges and endpoint
+// noise move the total by centimetres.
+constexpr double kGrowthEpsilon = 0.1;
+
+double Lg(double value, double floor) { return std::log10(std::max(value, floor)); }
+
+}  // namespace
+
+const char* BehaviourName(Behaviour behaviour) {
+  switch (behaviour) {
+    case Behaviour::kNone: return "none";
+    case Behaviour::kOptimal: return "optimal";
+    case Behaviour::kWallFollowing: return "wall-following";
+    case Behaviour::kWander: return "wander";
+    case Behaviour::kBlocked: return "blocked";
+  }
+  return "unknown";
+}
+
+ExplorationPlanner::ExplorationPlanner(const ExplorationOptions& options)
+    : options_(options), follower_(options), wander_(options) {}
+
+std::vector<Control> ExplorationPlanner::Candidates() const {
+  std::vector<Control> out;
+  const int half = options_.angular_steps / 2;
+  const double dw = half > 0 ? options_.max_angular / half : 0.0;
+  for (int i = options_.linear_steps - 1; i >= 0; --i) {
+    const double v = options_.max_linear * i / (options_.linear_steps - 1);
+    for (int k = 0; k <= half; ++k) {
+      for (int sign : {1, -1}) {
+        if (k == 0 && sign < 0) continue;
+        const double w = sign * k * dw;
+        if (v == 0.0 && w == 0.0) continue;
+        out.push_back(Control{v, w});
+      }
+    }
+  }
+  return out;
+}
+
+ControlScore ExplorationPlanner::Score(const ExplorationView& view,
+                                       const ObservationPredictor& predictor,
+                                       const MapTotals& totals, const Control& control) const {
+  const Pose2 u = UnicycleArc(control.linear, control.angular, options_.observation_period);
+  const Eigen::Matrix3d c = PredictRobotCovariance(view.robot_covariance, u, view.odometry);
+  const double u_min = M_PI * view.odometry.xy_min * view.odometry.xy_min * view.odometry.theta_min;
+  const double uncertainty = M_PI * std::sqrt(std::max(c.determinant(), 0.0)) + view.map_uncertainty;
+  ControlScore score;
+  score.j1 = uncertainty > 0.0 ? u_min / uncertainty : 1.0;
+  const ExplorationGain gain = predictor.Predict(Compose(view.robot, u));
+  score.j21 = totals.length > 0.0 ? gain.extension / totals.length : 0.0;
+  score.j22 = totals.segments > 0 ? gain.new_real_endpoints / (2.0 * totals.segments) : 0.0;
+  score.j = options_.weight_uncertainty * Lg(score.j1, std::numeric_limits<double>::min()) +
+            options_.weight_extension * Lg(score.j21, options_.zero_floor) +
+            options_.weight_endpoints * Lg(score.j22, options_.zero_floor);
+  return score;
+}
+
+void ExplorationPlanner::UpdateTrapState(const MapTotals& totals, bool any_gain) {
+  const bool grew = !have_totals_ || totals.length > largest_.length + kGrowthEpsilon;
+  if (grew) largest_ = totals;
+  have_totals_ = true;
+  if (following_) {
+    if (totals.length >= follow_start_.length + options_.exit_growth) {
+      following_ = false;  // step 4: the map grows again
+      zero_streak_ = 0;
+      stall_ = 0;
+    }
+    return;
+  }
+  zero_streak_ = any_gain ? 0 : zero_streak_ + 1;
+  stall_ = grew ? 0 : stall_ + 1;
+  if (zero_streak_ >= options_.trap_decisions || stall_ >= options_.stall_decisions) {
+    following_ = true;
+    follow_start_ = totals;
+    zero_streak_ = 0;
+    stall_ = 0;
+  }
+}
+
+Suggestion ExplorationPlanner::Decide(const ExplorationView& view) {
+  const auto start = Clock::now();
+  Suggestion s;
+  s.duration = options_.observation_period;
+  const double travel = options_.max_linear * options_.observation_period;
+  const double required = options_.robot_radius + options_.clearance;
+  const ClearanceMap clearance(view, travel + required + 0.5);
+  const std::vector<Control> candidates = Candidates();
+  std::vector<Control> feasible;
+  for (const Control& c : candidates) {
+    if (PathIsFree(clearance, c.linear, c.angular, options_.observation_period,
+                   options_.control_period, required)) {
+      feasible.push_back(c);
+    }
+  }
+  s.candidates = static_cast<int>(candidates.size());
+  s.feasible = static_cast<int>(feasible.size());
+
+  std::optional<Control> chosen;
+  if (options_.mode == ExplorationMode::kWander) {
+    chosen = wander_.Choose(view, clearance);
+    s.behaviour = Behaviour::kWander;
+  } else if (!feasible.empty()) {
+    const ObservationPredictor predictor(view, options_, travel);
+    const MapTotals totals = Totals(view.segments);
+    std::vector<ControlScore> scores;
+    scores.reserve(feasible.size());
+    bool any_gain = false;
+    int best = 0;
+    for (size_t i = 0; i < feasible.size(); ++i) {
+      scores.push_back(Score(view, predictor, totals, feasible[i]));
+      any_gain = any_gain || scores[i].j21 > 0.0 || scores[i].j22 > 0.0;
+      if (scores[i].j > scores[best].j) best = static_cast<int>(i);
+    }
+    UpdateTrapState(totals, any_gain);
+    if (following_) {
+      chosen = follower_.Choose(view, feasible);
+      s.behaviour = Behaviour::kWallFollowing;
+      s.tracked_segment = follower_.tracked_segment();
+      if (!chosen) {  // nothing mapped to follow yet
+        chosen = wander_.Choose(view, clearance);
+        s.behaviour = Behaviour::kWander;
+      }
+      s.score = Score(view, predictor, totals, *chosen);
+    } else {
+      chosen = feasible[best];
+      s.behaviour = Behaviour::kOptimal;
+      s.score = scores[best];
+    }
+  }
+  if (!chosen) {
+    s.behaviour = Behaviour::kBlocked;
+    chosen = Control{0.0, 0.0};
+  }
+  s.linear = chosen->linear;
+  s.angular = chosen->angular;
+  s.planning_ms = MsSince(start);
+  return s;
+}
+
+}  // namespace waymark::laser_slam

@@ -1,0 +1,69 @@
+#ifndef WAYMARK_SERVER_LASER_SLAM_EXPLORATION_PLANNER_H_
+#define WAYMARK_SERVER_LASER_SLAM_EXPLORATION_PLANNER_H_
+
+// Active exploration by optimal control (METHODS.md section 2): after each scan, score every
+// collision-free candidate control u (held for one observation period) by
+//   J(u) = w1 lg J1 + w21 lg J21 + w22 lg J22,   u_opt = argmax J(u), where
+//   J1  = U_min / U(C_k),  U(C) = pi sqrt(det C_R) + pi sum_i sqrt(det C_i)   (eq 18-19)
+//         C_R predicted through u with the odometry model, no observation update; the segment
+//         blocks are unchanged by a prediction, so they enter as one constant. U_min, the
+//         sensor-model lower bound, is taken as the uncertainty of the smallest odometry
+//         increment the model knows (its floors): a constant, so it only shifts J.
+//   J21 = sum_j V_k(j) / sum_i L_{k-1}(i)   predicted virtual extension over mapped length (eq 20)
+//   J22 = (sum_i N_k-(i) - sum_i N_{k-1}(i)) / 2m   predicted new real endpoints (eq 21)
+// (observation_prediction.h says how V and N are predicted). Zero cases: an empty map has
+// sum L = 0 and m = 0, which make J21 and J22 zero; a zero J21 or J22 enters as lg(zero_floor)
+// instead of lg 0 = -inf, so that J1 still ranks the candidates without exploration gain.
+//
+// Local traps (step 4 of the method and its trigger): when no candidate predicts any gain for
+// trap_decisions decisions in a row, or the map has not grown for stall_decisions decisions, the
+// planner follows walls (wall_follower.h) until the mapped length grew by exit_growth, then
+// returns to optimal control. With no map at all to follow it wanders (wander_policy.h).
+//
+// The planner's state (trap counters, the followed wall) is not part of a session checkpoint: a
+// resumed session starts again in optimal control, which costs at most a few decisions.
+
+#include <vector>
+
+#include "server/laser_slam/exploration_options.h"
+#include "server/laser_slam/exploration_types.h"
+#include "server/laser_slam/observation_prediction.h"
+#include "server/laser_slam/wall_follower.h"
+#include "server/laser_slam/wander_policy.h"
+
+namespace waymark::laser_slam {
+
+class ExplorationPlanner {
+ public:
+  // `options` must pass ValidateExplorationOptions; mode kActive or kWander.
+  explicit ExplorationPlanner(const ExplorationOptions& options);
+
+  // The control to hold until the next scan.
+  Suggestion Decide(const ExplorationView& view);
+
+  // The candidate controls, fastest and straightest first (so ties go to them).
+  std::vector<Control> Candidates() const;
+  // J and its terms for one control.
+  ControlScore Score(const ExplorationView& view, const ObservationPredictor& predictor,
+                     const MapTotals& totals, const Control& control) const;
+
+  bool wall_following() const { return following_; }
+  const WallFollower& follower() const { return follower_; }
+
+ private:
+  void UpdateTrapState(const MapTotals& totals, bool any_gain);
+
+  ExplorationOptions options_;
+  WallFollower follower_;
+  WanderPolicy wander_;
+  bool following_ = false;
+  int zero_streak_ = 0;
+  int stall_ = 0;
+  bool have_totals_ = false;
+  MapTotals largest_;       // the largest map seen so far (growth is measured against it)
+  MapTotals follow_start_;  // the map when wall following started
+};
+
+}  // namespace waymark::laser_slam
+
+#endif  // WAYMARK_SERVER_LASER_SLAM_EXPLORATION_PLANNER_H_

@@ -1,0 +1,65 @@
+#ifndef WAYMARK_SERVER_LASER_SLAM_EXPLORATION_TYPES_H_
+#define WAYMARK_SERVER_LASER_SLAM_EXPLORATION_TYPES_H_
+
+// What the exploration planner sees of a session (ExplorationView) and what it answers
+// (Suggestion).
+
+#include <cstdint>
+#include <vector>
+
+#include <Eigen/Core>
+
+#include "server/laser_slam/options.h"
+#include "server/laser_slam/types.h"
+
+namespace waymark::laser_slam {
+
+struct ExplorationView {
+  Pose2 robot;                                                 // map frame
+  Eigen::Matrix3d robot_covariance = Eigen::Matrix3d::Zero();  // of the robot perturbation
+  // pi * sum_i sqrt(det C_i) over the segments in the filter: the map's share of U(C) (eq 19).
+  // The planner predicts without observation updates, so it is the same for every candidate.
+  double map_uncertainty = 0.0;
+  std::vector<MapSegment> segments;  // the whole map (active and frozen)
+  // The last scan, as received, and where the laser sits on the robot: the obstacles the robot
+  // saw last and the beam layout the predicted observation uses.
+  LaserScan scan;
+  Pose2 laser_pose;
+  double max_range = 6.0;  // range the filter uses (extraction max_range)
+  double min_incidence = 0.26;  // the extraction's incidence filter (rad)
+  OdometryNoise odometry;
+};
+
+enum class Behaviour : std::uint8_t {
+  kNone = 0,
+  kOptimal = 1,        // argmax of J
+  kWallFollowing = 2,  // local trap
+  kWander = 3,
+  kBlocked = 4,        // no collision-free candidate: stand still
+};
+
+const char* BehaviourName(Behaviour behaviour);
+
+// The terms of the objective for one control (METHODS.md: J1, J21, J22, J).
+struct ControlScore {
+  double j1 = 0.0;
+  double j21 = 0.0;
+  double j22 = 0.0;
+  double j = 0.0;
+};
+
+struct Suggestion {
+  double linear = 0.0;    // m/s
+  double angular = 0.0;   // rad/s
+  double duration = 0.0;  // s
+  Behaviour behaviour = Behaviour::kNone;
+  ControlScore score;     // of the chosen control
+  int candidates = 0;
+  int feasible = 0;
+  std::uint64_t tracked_segment = 0;  // wall following
+  double planning_ms = 0.0;
+};
+
+}  // namespace waymark::laser_slam
+
+#endif  // WAYMARK_SERVER_LASER_SLAM_EXPLORATION_TYPES_H_
