@@ -1,0 +1,211 @@
+#include "client/adapters/sim_world.h"
+
+#include <gmock/gmock.h>
+#include <gtest/gtest.h>
+
+#include <algorithm>
+#include <cmath>
+#include <cstdio>
+#include <fstream>
+#include <queue>
+#include <string>
+#include <vector>
+
+#include "absl/status/status.h"
+#include "client/adapters/sim_geometry.h"
+
+namespace waymark::adapters {
+namespace {
+
+using ::testing::HasSubstr;
+
+std::string ParseError(const std::string& text) {
+  absl::StatusOr<World> world = ParseWorld(text);
+  EXPECT_FALSE(world.ok()) << text;
+  if (world.ok()) return "";
+  EXPECT_EQ(world.status().code(), absl::StatusCode::kInvalidArgument);
+  return std::string(world.status().message());
+}
+
+TEST(ParseWorldTest, ReadsStatementsCommentsAndBlankLines) {
+  absl::StatusOr<World> world = ParseWorld(
+      "# a test world\n"
+      "\n"
+      "name two rooms   # trailing comment\n"
+      "start 1 2 0.5\n"
+      "wall 0 0 3 4\r\n"
+      "  box 10 10 8 9\n");
+  ASSERT_TRUE(world.ok()) << world.status();
+  EXPECT_EQ(world->name, "two rooms");
+  EXPECT_DOUBLE_EQ(world->start.x, 1);
+  EXPECT_DOUBLE_EQ(world->start.y, 2);
+  EXPECT_DOUBLE_EQ(world->start.theta, 0.5);
+  ASSERT_EQ(world->walls.size(), 5u);
+  EXPECT_DOUBLE_EQ(world->walls[0].x2, 3);
+  EXPECT_DOUBLE_EQ(world->walls[0].y2, 4);
+  // wall 5 m + box 2 x 1 m.
+  EXPECT_DOUBLE_EQ(world->WallLength(), 5 + 2 * (2 + 1));
+  for (size_t i = 1; i < 5; ++i) {
+    const Wall& w = world->walls[i];
+    EXPECT_TRUE(w.x1 == w.x2 || w.y1 == w.y2);
+    EXPECT_GE(std::min(w.x1, w.x2), 8);
+    EXPECT_LE(std::max(w.y1, w.y2), 10);
+  }
+}
+
+TEST(ParseWorldTest, ErrorsNameTheLineAndTheProblem) {
+  EXPECT_THAT(ParseError("start 0 0 0\n\nwindow 1 2 3 4\n"), HasSubstr("line 3"));
+  EXPECT_THAT(ParseError("start 0 0 0\n\nwindow 1 2 3 4\n"), HasSubstr("unknown keyword 'window'"));
+  EXPECT_THAT(ParseError("start 0 0 0\nwall 1 2 3\n"), HasSubstr("line 2: 'wall' takes 4 numbers"));
+  EXPECT_THAT(ParseError("start 0 0 0\nwall 1 2 3\n"), HasSubstr("got 3"));
+  EXPECT_THAT(ParseError("start 0 0\n"), HasSubstr("line 1: 'start' takes 3 numbers"));
+  EXPECT_THAT(ParseError("start 0 0 0\nbox 1 2 3 4 5\n"), HasSubstr("line 2"));
+  EXPECT_THAT(ParseError("start 0 0 0\nwall 1 x 3 4\n"), HasSubstr("line 2: 'x' is not a number"));
+  EXPECT_THAT(ParseError("start 0 0 0\n#\nwall 1 inf 3 4\n"),
+              HasSubstr("line 3: 'inf' is not a finite number"));
+  EXPECT_THAT(ParseError("start 0 nan 0\n"), HasSubstr("line 1: 'nan' is not a finite number"));
+  EXPECT_THAT(ParseError("start 0 0 0\nwall 1 2 3 4\nwall 1 1 1 1\n"),
+              HasSubstr("line 3: zero-length wall"));
+  EXPECT_THAT(ParseError("start 0 0 0\nbox 1 1 1 4\n"), HasSubstr("line 2: box with zero width"));
+  EXPECT_THAT(ParseError("wall 0 0 1 1\n"), HasSubstr("no start pose"));
+  EXPECT_THAT(ParseError(""), HasSubstr("no start pose"));
+  EXPECT_THAT(ParseError("start 0 0 0\nwall 0 0 1 1\nstart 1 1 1\n"),
+              HasSubstr("line 3: duplicate 'start' (first on line 1)"));
+  EXPECT_THAT(ParseError("start 0 0 0\nname\n"), HasSubstr("line 2: 'name' needs a name"));
+}
+
+TEST(LoadWorldTest, FilesBuiltinsAndNotFound) {
+  const std::string path = testing::TempDir() + "/sim_world_test.world";
+  {
+    std::ofstream file(path);
+    file << "name file world\nstart 0 0 0\nwall 0 1 2 1\nwall 0 -1 2 -1\n";
+  }
+  absl::StatusOr<World> from_file = LoadWorld(path);
+  ASSERT_TRUE(from_file.ok()) << from_file.status();
+  EXPECT_EQ(from_file->name, "file world");
+  EXPECT_DOUBLE_EQ(from_file->WallLength(), 4);
+
+  {
+    std::ofstream file(path);
+    file << "start 0 0 0\nwal 0 1 2 1\n";
+  }
+  absl::StatusOr<World> bad = LoadWorldFile(path);
+  EXPECT_EQ(bad.status().code(), absl::StatusCode::kInvalidArgument);
+  EXPECT_THAT(bad.status().message(), HasSubstr(path + ": line 2: unknown keyword 'wal'"));
+  std::remove(path.c_str());
+
+  EXPECT_EQ(LoadWorldFile(path).status().code(), absl::StatusCode::kNotFound);
+  absl::StatusOr<World> missing = LoadWorld("no-such-world");
+  EXPECT_EQ(missing.status().code(), absl::StatusCode::kNotFound);
+  EXPECT_THAT(missing.status().message(), HasSubstr("no-such-world"));
+  EXPECT_THAT(missing.status().message(), HasSubstr("corridor, loop, office"));
+}
+
+// A grid over the world's bounding box (plus a margin): the cells a disc of `radius` can reach
+// from the start without crossing a wall.
+struct Reach {
+  double x0, y0, cell;
+  int nx, ny;
+  std::vector<char> reached;
+  bool leaked = false;  // reached the margin: the world is not closed
+};
+
+Reach Flood(const World& world, double radius, double cell) {
+  double xmin = world.start.x, xmax = xmin, ymin = world.start.y, ymax = ymin;
+  for (const Wall& w : world.walls) {
+    xmin = std::min({xmin, w.x1, w.x2});
+    xmax = std::max({xmax, w.x1, w.x2});
+    ymin = std::min({ymin, w.y1, w.y2});
+    ymax = std::max({ymax, w.y1, w.y2});
+  }
+  Reach r;
+  r.cell = cell;
+  r.x0 = std::floor(xmin) - 1;
+  r.y0 = std::floor(ymin) - 1;
+  r.nx = static_cast<int>(std::ceil((xmax + 1 - r.x0) / cell)) + 1;
+  r.ny = static_cast<int>(std::ceil((ymax + 1 - r.y0) / cell)) + 1;
+  r.reached.assign(static_cast<size_t>(r.nx) * r.ny, 0);
+  const auto free = [&](int i, int j) {
+    return geometry::Clearance(world.walls, r.x0 + i * cell, r.y0 + j * cell) >= radius;
+  };
+  std::queue<std::pair<int, int>> queue;
+  const int si = static_cast<int>(std::lround((world.start.x - r.x0) / cell));
+  const int sj = static_cast<int>(std::lround((world.start.y - r.y0) / cell));
+  if (!free(si, sj)) return r;
+  r.reached[sj * r.nx + si] = 1;
+  queue.push({si, sj});
+  while (!queue.empty()) {
+    const auto [i, j] = queue.front();
+    queue.pop();
+    if (i == 0 || j == 0 || i == r.nx - 1 || j == r.ny - 1) {
+      r.leaked = true;
+      continue;
+    }
+    // Moving to a neighbour cell also needs the segment between them free; at this cell size
+    // (much smaller than the radius) both ends being free is enough.
+    for (const auto& [di, dj] : {std::pair{1, 0}, {-1, 0}, {0, 1}, {0, -1}}) {
+      const int ni = i + di, nj = j + dj;
+      char& seen = r.reached[nj * r.nx + ni];
+      if (seen || !free(ni, nj)) continue;
+      seen = 1;
+      queue.push({ni, nj});
+    }
+  }
+  return r;
+}
+
+TEST(BuiltinWorldsTest, ParseWithStartInFreeSpace) {
+  ASSERT_EQ(BuiltinWorldNames(), (std::vector<std::string>{"corridor", "loop", "office"}));
+  for (const std::string& name : BuiltinWorldNames()) {
+    SCOPED_TRACE(name);
+    absl::StatusOr<World> world = LoadWorld(name);
+    ASSERT_TRUE(world.ok()) << world.status();
+    EXPECT_EQ(world->name, name);
+    EXPECT_GT(world->WallLength(), 0);
+    EXPECT_GE(world->walls.size(), 10u);
+    EXPECT_GE(geometry::Clearance(world->walls, world->start.x, world->start.y), 0.6);
+  }
+}
+
+// Every space is reachable through openings at least 1.2 m wide (a disc of nearly 0.6 m radius
+// gets through), the world is closed, and every wall can be seen from somewhere reachable.
+TEST(BuiltinWorldsTest, ClosedAndEveryWallVisibleFromReachableSpace) {
+  for (const std::string& name : BuiltinWorldNames()) {
+    SCOPED_TRACE(name);
+    absl::StatusOr<World> world = LoadWorld(name);
+    ASSERT_TRUE(world.ok()) << world.status();
+    const Reach reach = Flood(*world, 0.55, 0.05);
+    EXPECT_FALSE(reach.leaked);
+    std::vector<std::pair<double, double>> places;  // reachable places, every 0.2 m
+    for (int j = 0; j < reach.ny; j += 4) {
+      for (int i = 0; i < reach.nx; i += 4) {
+        if (reach.reached[j * reach.nx + i]) {
+          places.emplace_back(reach.x0 + i * reach.cell, reach.y0 + j * reach.cell);
+        }
+      }
+    }
+    ASSERT_GT(places.size(), 100u);
+    for (size_t k = 0; k < world->walls.size(); ++k) {
+      const Wall& w = world->walls[k];
+      bool visible = false;
+      for (int s = 1; s < 20 && !visible; ++s) {
+        const double px = w.x1 + (w.x2 - w.x1) * s / 20.0;
+        const double py = w.y1 + (w.y2 - w.y1) * s / 20.0;
+        for (const auto& [x, y] : places) {
+          const double d = std::hypot(px - x, py - y);
+          if (d > 8.0) continue;  // beyond the laser's range
+          const double hit = geometry::CastRay(world->walls, x, y, (px - x) / d, (py - y) / d);
+          if (hit >= d - 1e-6) {
+            visible = true;
+            break;
+          }
+        }
+      }
+      EXPECT_TRUE(visible) << "wall " << k << ": " << w.x1 << " " << w.y1 << " " << w.x2 << " "
+                           << w.y2;
+    }
+  }
+}
+
+}  // namespace
+}  // namespace waymark::adapters
