@@ -9,6 +9,9 @@ mkdir -p "$OUT"
 echo "== micro-benchmarks (engine hot paths)"
 "$BUILD_DIR/bin/waymark-micro-bench" --benchmark_repetitions=3 --benchmark_report_aggregates_only=true \
   --benchmark_out="$OUT/micro_bench.json" --benchmark_out_format=json
+echo "== active-exploration planner: ms per decision vs candidate controls and segments"
+"$BUILD_DIR/bin/waymark-planner-bench" --benchmark_repetitions=5 --benchmark_report_aggregates_only=true \
+  --benchmark_out="$OUT/planner_bench.json" --benchmark_out_format=json
 echo "== RecognizeCrossing latency, memory and clustering vs database size"
 "$BUILD_DIR/bin/waymark-bench-recognition" --shared "$SHARED" --out "$OUT" ${BENCH_SIZES:+--sizes $BENCH_SIZES}
 if [ -x "$BUILD_DIR/bin/waymark-vpr-eval" ]; then
