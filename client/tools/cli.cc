@@ -32,6 +32,7 @@ int RunCli(int argc, const char* const* argv, std::ostream& out, std::ostream& e
   AddEvalCommand(app, registry);
   AddEvalRelationsCommand(app, registry);
   AddSlamCommands(app, registry);
+  AddSimCommands(app, registry);
 
   try {
     app.parse(argc, argv);

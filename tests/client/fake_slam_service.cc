@@ -41,6 +41,18 @@ int FakeSlamService::rejected() const {
   std::lock_guard<std::mutex> lock(mutex_);
   return rejected_;
 }
+void FakeSlamService::set_suggestion(const v1::SuggestedControl& suggestion) {
+  std::lock_guard<std::mutex> lock(mutex_);
+  suggestion_ = suggestion;
+}
+std::vector<double> FakeSlamService::odometry_stamps() const {
+  std::lock_guard<std::mutex> lock(mutex_);
+  return odometry_stamps_;
+}
+std::vector<double> FakeSlamService::scan_stamps() const {
+  std::lock_guard<std::mutex> lock(mutex_);
+  return scan_stamps_;
+}
 v1::CreateSessionRequest FakeSlamService::last_create() const {
   std::lock_guard<std::mutex> lock(mutex_);
   return last_create_;
@@ -148,6 +160,10 @@ grpc::Status FakeSlamService::StreamSensorData(
             update.set_map_revision(session.map.map_revision());
             update.set_scans_processed(n);
             update.mutable_timings()->set_total_ms(0.5);
+            update.set_covariance_trace_mean(0.001 * n);
+            if (suggestion_.behaviour() != v1::SuggestedControl::BEHAVIOUR_UNSPECIFIED) {
+              *update.mutable_suggestion() = suggestion_;
+            }
           }
         }
         if (update.has_rejection()) {
@@ -167,8 +183,14 @@ grpc::Status FakeSlamService::StreamSensorData(
     std::unique_lock<std::mutex> lock(queue_mutex);
     if (message.has_scan() || message.has_odometry()) {
       std::lock_guard<std::mutex> stats_lock(mutex_);
-      if (message.has_scan()) ++scans_received_;
-      if (message.has_odometry()) ++odometry_received_;
+      if (message.has_scan()) {
+        ++scans_received_;
+        scan_stamps_.push_back(message.scan().stamp());
+      }
+      if (message.has_odometry()) {
+        ++odometry_received_;
+        odometry_stamps_.push_back(message.odometry().stamp());
+      }
     }
     if (static_cast<int>(queue.size()) >= queue_capacity_) {
       lock.unlock();

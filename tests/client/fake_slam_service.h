@@ -20,10 +20,18 @@ namespace waymark::testing {
 // (the pose of a scan is the last odometry pose) and one segment per `scans_per_segment` scans.
 // It records the most scans it ever held received-but-unanswered, so tests can check a client's
 // flow control, and rejects per-sensor stamps that do not increase (INVALID_ARGUMENT).
+// For exploration clients it can answer every scan with a fixed suggested control (set_suggestion)
+// and a covariance_trace_mean growing with the scan count, and it keeps the stamps it received.
 class FakeSlamService final : public v1::SlamService::Service {
  public:
   void set_scan_delay(absl::Duration delay) { scan_delay_ = delay; }
   void set_queue_capacity(int capacity) { queue_capacity_ = capacity; }
+  // Attached to every scan's update; the default (BEHAVIOUR_UNSPECIFIED) attaches none, as a
+  // passive session does.
+  void set_suggestion(const v1::SuggestedControl& suggestion);
+  // Stamps of the messages received, in arrival order (rejected ones included).
+  std::vector<double> odometry_stamps() const;
+  std::vector<double> scan_stamps() const;
   int max_outstanding_scans() const;
   int scans_received() const;
   int odometry_received() const;
@@ -65,6 +73,9 @@ class FakeSlamService final : public v1::SlamService::Service {
   int odometry_received_ = 0;
   int rejected_ = 0;
   v1::CreateSessionRequest last_create_;
+  v1::SuggestedControl suggestion_;
+  std::vector<double> odometry_stamps_;
+  std::vector<double> scan_stamps_;
 };
 
 class FakeSlamServer {
