@@ -73,9 +73,12 @@ MapScene ExploreScene(const ExploreResult& result, const adapters::World& world)
   scene.references.push_back(
       Path(result, &ScanRecord::odometry_world, {150, 150, 150}, "odometry only"));
   scene.segments = result.final_map_world;
+  // The estimate wide underneath, the truth thin on top: where they agree both stay visible.
+  ScenePolyline estimate =
+      Path(result, &ScanRecord::estimate_world, {230, 80, 80}, "estimated trajectory");
+  estimate.width_px = 3;
+  scene.polylines.push_back(std::move(estimate));
   scene.polylines.push_back(Path(result, &ScanRecord::true_pose, {0, 0, 0}, "true trajectory"));
-  scene.polylines.push_back(
-      Path(result, &ScanRecord::estimate_world, {220, 30, 30}, "estimated trajectory"));
   return scene;
 }
 
@@ -177,7 +180,7 @@ void PrintSummary(std::ostream& out, const nlohmann::json& s) {
   table.AddRow({"localisation error final (m)", number("loc_error_final_m", 3)});
   table.AddRow({"odometry-only error final (m)", number("odometry_error_final_m", 3)});
   table.AddRow(
-      {"mean covariance trace (mean)", FormatNumber(s["cov_trace_mean"].get<double>(), 5)});
+      {"mean covariance trace (run mean)", FormatNumber(s["cov_trace_mean"].get<double>(), 5)});
   table.AddRow({"collisions", std::to_string(s["collisions"].get<int>())});
   table.AddRow({"wall following share", FormatPercent(s["wall_following_share"].get<double>())});
   table.AddRow({"planning p50 (ms)", number("planning_ms_p50", 2)});

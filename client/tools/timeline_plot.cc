@@ -166,7 +166,7 @@ Drawing LayoutTimeline(const TimelinePlot& plot, const TimelineOptions& options)
     // Legend in the panel's top right corner, one row per labelled series.
     double legend_w = 0;
     for (const PlotSeries& s : panel.series) legend_w = std::max(legend_w, TextWidth(s.label, 11));
-    const double lx = x1 - legend_w - 40;
+    const double lx = x1 - legend_w - 50;  // the PNG's Hershey font runs wider than the SVG's
     double ly = top + 14;
     for (const PlotSeries& s : panel.series) {
       if (s.label.empty()) continue;
