@@ -95,6 +95,12 @@ ObservationPredictor::ObservationPredictor(const ExplorationView& view,
       frontiers_.push_back(f);
     }
   }
+  // What the laser sees past each frontier from where the robot stands now. The map does not
+  // have it although the last scan was taken here, so it is not wall (the wall ended where the
+  // range or an opening cut it): only what a move adds beyond it counts as gain.
+  const Pose2 laser = Compose(view.robot, laser_pose_);
+  const std::vector<double> ranges = CastMap(laser);
+  for (const Frontier& f : frontiers_) seen_now_.push_back(RunOf(f, laser, ranges));
 }
 
 std::vector<double> ObservationPredictor::CastMap(const Pose2& laser) const {
@@ -130,33 +136,43 @@ bool ObservationPredictor::Visible(const Pose2& laser, const std::vector<double>
   return distance <= ranges[beam] + kOcclusionTolerance;
 }
 
+ObservationPredictor::Run ObservationPredictor::RunOf(const Frontier& f, const Pose2& laser,
+                                                     const std::vector<double>& ranges) const {
+  Run run;
+  // The observation must also cover the mapped segment at this end, or it would not match it.
+  if (!Visible(laser, ranges, f.endpoint - f.back * f.outward, f.outward) ||
+      !Visible(laser, ranges, f.endpoint, f.outward)) {
+    return run;
+  }
+  // Samples every sample_step out to the reach, the last one exactly at it (at the corner).
+  const int samples = std::max(1, static_cast<int>(std::ceil(f.reach / options_.sample_step - 1e-9)));
+  bool reached = true;
+  for (int k = 1; k <= samples; ++k) {
+    const double s = std::min(f.reach, k * options_.sample_step);
+    if (!Visible(laser, ranges, f.endpoint + s * f.outward, f.outward)) {
+      reached = false;
+      break;
+    }
+    run.length = s;
+  }
+  if (f.corner && reached) {
+    run.corner = true;
+    run.length = f.reach;
+  }
+  return run;
+}
+
 ExplorationGain ObservationPredictor::Predict(const Pose2& robot) const {
   ExplorationGain gain;
   if (frontiers_.empty() || beams_.beam_count < 2) return gain;
   const Pose2 laser = Compose(robot, laser_pose_);
   const std::vector<double> ranges = CastMap(laser);
-  const double step = options_.sample_step;
-  for (const Frontier& f : frontiers_) {
-    // The observation must also cover the mapped segment at this end, or it would not match it.
-    if (!Visible(laser, ranges, f.endpoint - f.back * f.outward, f.outward) ||
-        !Visible(laser, ranges, f.endpoint, f.outward)) {
-      continue;
-    }
-    double run = 0.0;
-    bool reached = true;
-    for (double s = std::min(step, f.reach); s <= f.reach + 1e-9; s += step) {
-      if (!Visible(laser, ranges, f.endpoint + s * f.outward, f.outward)) {
-        reached = false;
-        break;
-      }
-      run = s;
-      if (s < f.reach && s + step > f.reach) s = f.reach - step;  // sample the corner itself
-    }
-    if (f.corner && reached) {
-      ++gain.new_real_endpoints;
-      run = f.reach;
-    }
-    if (run >= options_.min_extension) gain.extension += run;
+  for (size_t i = 0; i < frontiers_.size(); ++i) {
+    const Run run = RunOf(frontiers_[i], laser, ranges);
+    const Run& now = seen_now_[i];
+    if (run.corner && !now.corner) ++gain.new_real_endpoints;
+    const double extension = run.length - now.length;
+    if (extension >= options_.min_extension) gain.extension += extension;
   }
   return gain;
 }

@@ -10,12 +10,16 @@
 //   behind a mapped segment (a ray cast of the map over the scan's own beams) and not at a grazing
 //   angle the line extraction would drop (min_incidence).
 // - Beyond a virtual endpoint the wall is presumed to go on along the segment's line. The
-//   predicted extension is the visible run from the endpoint outwards, if the laser also sees the
-//   mapped segment next to the endpoint (so the observation would match it). Runs shorter than
-//   min_extension count as zero.
+//   predicted extension is how much further the visible run from the endpoint outwards reaches
+//   than it does from the robot's current pose (the last scan was taken there and did not extend
+//   the segment, so what it saw past the end is not wall: a range-cut wall end facing open space
+//   would otherwise attract the robot for ever), provided the laser also sees the mapped segment
+//   next to the endpoint (so the observation would match it). Gains under min_extension count as
+//   zero.
 // - Where another mapped line crosses within corner_reach past a virtual endpoint (at an angle
 //   over corner_angle, the crossing within corner_reach of that segment), a corner is predicted:
-//   the extension stops there, and if the run reaches it the endpoint is predicted to turn real.
+//   the extension stops there, and if the run reaches it (and does not from the current pose) the
+//   endpoint is predicted to turn real.
 
 #include <vector>
 
@@ -61,6 +65,11 @@ class ObservationPredictor {
     bool corner = false;        // reach ends at a predicted corner
   };
 
+  struct Run {
+    double length = 0.0;  // visible run past the endpoint (m)
+    bool corner = false;  // the run reaches a predicted corner
+  };
+  Run RunOf(const Frontier& f, const Pose2& laser, const std::vector<double>& ranges) const;
   // Ranges of the map seen from `laser` (map frame) over the scan's beams.
   std::vector<double> CastMap(const Pose2& laser) const;
   bool Visible(const Pose2& laser, const std::vector<double>& ranges,
@@ -73,6 +82,7 @@ class ObservationPredictor {
   double min_incidence_sin_;
   std::vector<std::pair<Eigen::Vector2d, Eigen::Vector2d>> occluders_;
   std::vector<Frontier> frontiers_;
+  std::vector<Run> seen_now_;  // per frontier, from the robot's current pose
 };
 
 }  // namespace waymark::laser_slam

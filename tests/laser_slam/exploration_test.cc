@@ -109,8 +109,11 @@ class EngineLoop {
   double t_ = 0.0;
 };
 
+// The robot at the origin facing -y, where the tests put no map: what it sees from there is the
+// predictor's baseline.
 ExplorationView EmptyView() {
   ExplorationView view;
+  view.robot = Pose2{0.0, 0.0, -M_PI / 2};
   view.robot_covariance = Eigen::Matrix3d::Identity() * 1e-4;
   view.scan.geometry = Lms200At1Degree();
   view.scan.ranges.assign(181, 8.183f);
@@ -158,6 +161,7 @@ TEST(ObservationPredictionTest, ExtensionHiddenBehindAMappedWallIsNotPredicted) 
 
 TEST(ClearanceTest, PathIntoAWallIsNotFreeButTurningAwayIs) {
   ExplorationView view = EmptyView();
+  view.robot = Pose2{};
   // A wall 0.8 m ahead, seen by the scan.
   const std::vector<Wall> walls = {W(0.8, -3, 0.8, 3)};
   view.scan = CastScan(walls, Pose2{}, Lms200At1Degree(), RayCastOptions{}, nullptr);
@@ -168,6 +172,7 @@ TEST(ClearanceTest, PathIntoAWallIsNotFreeButTurningAwayIs) {
   EXPECT_TRUE(PathIsFree(map, 0.05, 0.0, 4.0, 0.1, 0.4));  // 0.2 m, stays 0.6 m away
   // A mapped wall the scan does not show (here: the scan is empty) also counts.
   ExplorationView side = EmptyView();
+  side.robot = Pose2{};
   side.segments = {Segment(1, -3, 0.5, 3, 0.5, EndpointType::kReal, EndpointType::kReal)};
   const ClearanceMap beside(side, 2.0);
   EXPECT_NEAR(beside.Distance(Eigen::Vector2d::Zero()), 0.5, 1e-9);
