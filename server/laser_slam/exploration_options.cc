@@ -43,8 +43,9 @@ absl::Status ValidateExplorationOptions(const ExplorationOptions& o) {
         "ahead is a candidate), got ",
         o.linear_steps, " and ", o.angular_steps));
   }
-  if (o.trap_decisions < 1 || o.stall_decisions < 1) {
-    return absl::InvalidArgumentError("trap_decisions and stall_decisions must be >= 1");
+  if (o.trap_decisions < 1 || o.stall_decisions < 1 || o.escape_after < 1) {
+    return absl::InvalidArgumentError(
+        "trap_decisions, stall_decisions and escape_after must be >= 1");
   }
   return absl::OkStatus();
 }

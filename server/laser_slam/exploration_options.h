@@ -61,6 +61,9 @@ struct ExplorationOptions {
   // of mapped length or by a segment or a real endpoint since it started.
   int trap_decisions = 2;
   int stall_decisions = 12;
+  // Wall following that has not grown the map for this many decisions gives way to wandering
+  // until the map grows (see exploration_planner.h).
+  int escape_after = 15;
   double exit_growth = 1.0;  // m
   // Wall following: offset of the tracking line from the wall, distance from the tracked
   // segment's end at which to switch to the adjacent one, the gap within which two segment ends

@@ -79,15 +79,22 @@ void ExplorationPlanner::UpdateTrapState(const MapTotals& totals, bool any_gain)
   if (following_) {
     if (totals.length >= follow_start_.length + options_.exit_growth) {
       following_ = false;  // step 4: the map grows again
+      escaping_ = false;
       zero_streak_ = 0;
       stall_ = 0;
+      return;
     }
+    stall_ = grew ? 0 : stall_ + 1;
+    // Wall following that has found nothing for a long time (round and round a room whose
+    // doorway it cannot see as an opening, up and down a dead end) hands over to wandering.
+    if (stall_ >= options_.escape_after) escaping_ = true;
     return;
   }
   zero_streak_ = any_gain ? 0 : zero_streak_ + 1;
   stall_ = grew ? 0 : stall_ + 1;
   if (zero_streak_ >= options_.trap_decisions || stall_ >= options_.stall_decisions) {
     following_ = true;
+    escaping_ = false;
     follow_start_ = totals;
     zero_streak_ = 0;
     stall_ = 0;
@@ -130,10 +137,12 @@ Suggestion ExplorationPlanner::Decide(const ExplorationView& view) {
     }
     UpdateTrapState(totals, any_gain);
     if (following_) {
-      chosen = follower_.Choose(view, feasible);
-      s.behaviour = Behaviour::kWallFollowing;
-      s.tracked_segment = follower_.tracked_segment();
-      if (!chosen) {  // nothing mapped to follow yet
+      if (!escaping_) {
+        chosen = follower_.Choose(view, feasible);
+        s.behaviour = Behaviour::kWallFollowing;
+        s.tracked_segment = follower_.tracked_segment();
+      }
+      if (!chosen) {  // nothing mapped to follow yet, or escaping a wall-following loop
         chosen = wander_.Choose(view, clearance);
         s.behaviour = Behaviour::kWander;
       }

@@ -18,7 +18,10 @@
 // Local traps (step 4 of the method and its trigger): when no candidate predicts any gain for
 // trap_decisions decisions in a row, or the map has not grown for stall_decisions decisions, the
 // planner follows walls (wall_follower.h) until the mapped length grew by exit_growth, then
-// returns to optimal control. With no map at all to follow it wanders (wander_policy.h).
+// returns to optimal control. With no map at all to follow it wanders (wander_policy.h), and so
+// it does when wall following has not grown the map for escape_after decisions (ours: the
+// follower can circle a room or pace a dead end for ever; wandering breaks the loop), until the
+// map grows by exit_growth.
 //
 // The planner's state (trap counters, the followed wall) is not part of a session checkpoint: a
 // resumed session starts again in optimal control, which costs at most a few decisions.
@@ -57,6 +60,7 @@ class ExplorationPlanner {
   WallFollower follower_;
   WanderPolicy wander_;
   bool following_ = false;
+  bool escaping_ = false;  // wall following found nothing for escape_after decisions: wander
   int zero_streak_ = 0;
   int stall_ = 0;
   bool have_totals_ = false;
