@@ -33,4 +33,6 @@ if [ -x "$BUILD_DIR/bin/waymark-laser-eval" ]; then
   "$BUILD_DIR/bin/waymark-laser-eval" --log "$LASER/aces/aces.clf.bz2" --max-active-segments 400 \
     --active-radius 1000 --freeze-after-scans 1000000 --json > "$OUT/laser_aces_active400.json"
 fi
+echo "== active exploration vs wandering in the simulator (every world x mode x seed)"
+OUT="$OUT/explore" "$(dirname "$0")/explore_eval.sh" "$BUILD_DIR"
 echo "results in $OUT"
