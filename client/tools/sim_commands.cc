@@ -29,6 +29,8 @@ struct ExploreArgs {
   std::string mode = "active";
   double duration_s = 300;
   uint64_t seed = 1;
+  bool half_degree = false;
+  double odometry_error = 1.0;
   std::string out_dir;  // default ./out/sim-<world>-<mode>-s<seed>
 };
 
@@ -199,6 +201,8 @@ int RunExplore(CommandContext& context, const ExploreArgs& args) {
       args.mode == "wander" ? v1::ExplorationConfig::WANDER : v1::ExplorationConfig::ACTIVE;
   options.duration_s = args.duration_s;
   options.seed = args.seed;
+  options.half_degree = args.half_degree;
+  options.odometry_error = args.odometry_error;
   // Per scan: the server's processing and planning, bounded like any request (--timeout).
   options.answer_timeout =
       context.globals.timeout_s > 0 ? absl::Seconds(context.globals.timeout_s) : absl::Hours(24);
@@ -267,6 +271,13 @@ void AddSimCommands(CLI::App& app, CommandRegistry& registry) {
       ->check(CLI::PositiveNumber)
       ->required();
   explore->add_option("--seed", args->seed, "Simulator seed")->capture_default_str();
+  explore->add_flag("--half-degree", args->half_degree,
+                    "LMS200 0.5-degree mode (361 beams) instead of 1 degree (181)");
+  explore->add_option("--odometry-error", args->odometry_error,
+                      "Scale of the simulated odometry error (0 = perfect, 1 = default: 1 % "
+                      "distance and 0.5 % turn scale error, 0.005 rad/m drift, 2 % random)")
+      ->check(CLI::Range(0.0, 100.0))
+      ->capture_default_str();
   explore->add_option("--out", args->out_dir,
                       "Output folder (default ./out/sim-<world>-<mode>-s<seed>)");
   registry.Add(explore, [args](CommandContext& context) { return RunExplore(context, *args); });

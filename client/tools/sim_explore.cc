@@ -168,6 +168,15 @@ absl::StatusOr<ExploreResult> RunExploration(client::SlamClient& client,
                                              const ScanCallback& on_scan) {
   adapters::SimOptions sim_options;
   sim_options.seed = options.seed;
+  sim_options.half_degree = options.half_degree;
+  adapters::OdometryError& e = sim_options.odometry;
+  const double k = options.odometry_error;
+  e.distance_scale = 1.0 + k * (e.distance_scale - 1.0);
+  e.turn_scale = 1.0 + k * (e.turn_scale - 1.0);
+  e.drift_per_m *= k;
+  e.distance_sigma *= k;
+  e.turn_sigma *= k;
+  e.turn_per_m_sigma *= k;
   Simulation sim(world, sim_options);
 
   auto session = client.CreateSession(SessionRequest(sim, world, options));

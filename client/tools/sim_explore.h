@@ -53,6 +53,10 @@ struct ExploreOptions {
   v1::ExplorationConfig::Mode mode = v1::ExplorationConfig::ACTIVE;
   double duration_s = 300;  // simulated
   uint64_t seed = 1;
+  bool half_degree = false;  // LMS200 0.5-degree mode: 361 beams instead of 181
+  // Multiplies every odometry error of the simulator (systematic and random; 0 = perfect
+  // odometry), SimOptions defaults at 1.
+  double odometry_error = 1.0;
   std::string session_name;  // default "sim explore <world> <mode> s<seed>"
   absl::Duration answer_timeout = absl::Seconds(120);  // per scan, planner time included
 };
