@@ -329,10 +329,8 @@ cv::Mat RenderImage(const MapScene& scene, const RenderOptions& options) {
   return DrawingToImage(LayoutScene(scene, options));
 }
 
-absl::Status WriteMapPictures(const MapScene& scene, const std::filesystem::path& svg_path,
-                              const std::filesystem::path& png_path,
-                              const RenderOptions& options) {
-  const Drawing drawing = LayoutScene(scene, options);
+absl::Status WriteDrawing(const Drawing& drawing, const std::filesystem::path& svg_path,
+                          const std::filesystem::path& png_path) {
   {
     std::ofstream out(svg_path);
     if (!out) return absl::PermissionDeniedError("cannot write '" + svg_path.string() + "'");
@@ -348,6 +346,11 @@ absl::Status WriteMapPictures(const MapScene& scene, const std::filesystem::path
     return absl::InternalError("writing '" + png_path.string() + "': " + e.what());
   }
   return absl::OkStatus();
+}
+
+absl::Status WriteMapPictures(const MapScene& scene, const std::filesystem::path& svg_path,
+                              const std::filesystem::path& png_path, const RenderOptions& options) {
+  return WriteDrawing(LayoutScene(scene, options), svg_path, png_path);
 }
 
 }  // namespace waymark::cli

@@ -96,6 +96,11 @@ cv::Mat DrawingToImage(const Drawing& drawing);  // 8-bit BGR, anti-aliased, whi
 std::string RenderSvg(const MapScene& scene, const RenderOptions& options = {});
 cv::Mat RenderImage(const MapScene& scene, const RenderOptions& options = {});
 
+// Writes a drawing as SVG to `svg_path` and as PNG to `png_path`: PermissionDenied if a file
+// cannot be opened or written, DataLoss if writing the SVG fails, Internal on an OpenCV error.
+absl::Status WriteDrawing(const Drawing& drawing, const std::filesystem::path& svg_path,
+                          const std::filesystem::path& png_path);
+
 // Writes both pictures from one layout.
 absl::Status WriteMapPictures(const MapScene& scene, const std::filesystem::path& svg_path,
                               const std::filesystem::path& png_path,

@@ -4,9 +4,7 @@
 
 #include <algorithm>
 #include <cmath>
-#include <fstream>
 #include <limits>
-#include <opencv2/imgcodecs.hpp>
 
 namespace waymark::cli {
 namespace {
@@ -188,21 +186,7 @@ Drawing LayoutTimeline(const TimelinePlot& plot, const TimelineOptions& options)
 absl::Status WriteTimelinePictures(const TimelinePlot& plot, const std::filesystem::path& svg_path,
                                    const std::filesystem::path& png_path,
                                    const TimelineOptions& options) {
-  const Drawing drawing = LayoutTimeline(plot, options);
-  {
-    std::ofstream out(svg_path);
-    out << DrawingToSvg(drawing);
-    out.close();
-    if (!out) return absl::PermissionDeniedError("cannot write '" + svg_path.string() + "'");
-  }
-  try {
-    if (!cv::imwrite(png_path.string(), DrawingToImage(drawing))) {
-      return absl::PermissionDeniedError("cannot write '" + png_path.string() + "'");
-    }
-  } catch (const cv::Exception& e) {
-    return absl::InternalError("writing '" + png_path.string() + "': " + e.what());
-  }
-  return absl::OkStatus();
+  return WriteDrawing(LayoutTimeline(plot, options), svg_path, png_path);
 }
 
 }  // namespace waymark::cli
