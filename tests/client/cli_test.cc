@@ -7,7 +7,6 @@
 
 #include <fstream>
 #include <nlohmann/json.hpp>
-#include <sstream>
 
 #include "tests/client/fake_crossing_service.h"
 #include "tests/client/test_util.h"
@@ -17,31 +16,17 @@ namespace {
 
 using ::testing::HasSubstr;
 using ::testing::Not;
+using waymark::testing::CliResult;
 using waymark::testing::FakeServer;
 using waymark::testing::ReadAll;
+using waymark::testing::RunWaymark;
 using waymark::testing::ScopedTempDir;
 using waymark::testing::WriteImage;
-
-struct CliResult {
-  int code = -1;
-  std::string out;
-  std::string err;
-
-  nlohmann::json Json() const { return nlohmann::json::parse(out); }
-};
 
 class CliTest : public ::testing::Test {
  protected:
   CliResult Run(std::vector<std::string> args, const std::string& server = "") {
-    args.insert(args.begin(), {"waymark", "--server", server.empty() ? server_.address() : server});
-    std::vector<const char*> argv;
-    for (const std::string& arg : args) argv.push_back(arg.c_str());
-    std::ostringstream out, err;
-    CliResult result;
-    result.code = RunCli(static_cast<int>(argv.size()), argv.data(), out, err, false);
-    result.out = out.str();
-    result.err = err.str();
-    return result;
+    return RunWaymark(server.empty() ? server_.address() : server, std::move(args));
   }
 
   // DIR/A/{000,090}.png and DIR/B/{000,090}.png, all different.

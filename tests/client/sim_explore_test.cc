@@ -20,8 +20,10 @@ namespace waymark::cli {
 namespace {
 
 using ::testing::HasSubstr;
+using waymark::testing::CliResult;
 using waymark::testing::FakeSlamServer;
 using waymark::testing::ReadAll;
+using waymark::testing::RunWaymark;
 using waymark::testing::ScopedTempDir;
 
 // A 10 x 6 m room; the robot starts in the middle facing +x, 4.75 m from the far wall.
@@ -55,21 +57,8 @@ class SimExploreTest : public ::testing::Test {
     return RunExploration(client, *world, options);
   }
 
-  struct CliResult {
-    int code = -1;
-    std::string out;
-    std::string err;
-  };
   CliResult Run(std::vector<std::string> args) {
-    args.insert(args.begin(), {"waymark", "--server", server_.address()});
-    std::vector<const char*> argv;
-    for (const std::string& arg : args) argv.push_back(arg.c_str());
-    std::ostringstream out, err;
-    CliResult r;
-    r.code = RunCli(static_cast<int>(argv.size()), argv.data(), out, err, false);
-    r.out = out.str();
-    r.err = err.str();
-    return r;
+    return RunWaymark(server_.address(), std::move(args));
   }
 
   std::string WorldFile() {

@@ -20,16 +20,11 @@ namespace waymark::cli {
 namespace {
 
 using ::testing::HasSubstr;
+using waymark::testing::CliResult;
 using waymark::testing::FakeSlamServer;
 using waymark::testing::ReadAll;
+using waymark::testing::RunWaymark;
 using waymark::testing::ScopedTempDir;
-
-struct CliResult {
-  int code = -1;
-  std::string out;
-  std::string err;
-  nlohmann::json Json() const { return nlohmann::json::parse(out); }
-};
 
 int Count(const std::string& text, const std::string& what) {
   int n = 0;
@@ -69,15 +64,7 @@ std::string MakeLog(int scans) {
 class SlamCliTest : public ::testing::Test {
  protected:
   CliResult Run(std::vector<std::string> args) {
-    args.insert(args.begin(), {"waymark", "--server", server_.address()});
-    std::vector<const char*> argv;
-    for (const std::string& arg : args) argv.push_back(arg.c_str());
-    std::ostringstream out, err;
-    CliResult result;
-    result.code = RunCli(static_cast<int>(argv.size()), argv.data(), out, err, false);
-    result.out = out.str();
-    result.err = err.str();
-    return result;
+    return RunWaymark(server_.address(), std::move(args));
   }
 
   std::string WriteLog(int scans) {

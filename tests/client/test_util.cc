@@ -5,7 +5,10 @@
 #include <opencv2/imgcodecs.hpp>
 #include <opencv2/imgproc.hpp>
 #include <random>
+#include <sstream>
 #include <stdexcept>
+
+#include "client/tools/cli.h"
 
 namespace waymark::testing {
 
@@ -47,6 +50,18 @@ void WriteImage(const fs::path& path, int width, int height, cv::Scalar color) {
 std::string ReadAll(const fs::path& path) {
   std::ifstream in(path, std::ios::binary);
   return std::string((std::istreambuf_iterator<char>(in)), std::istreambuf_iterator<char>());
+}
+
+CliResult RunWaymark(const std::string& server, std::vector<std::string> args) {
+  args.insert(args.begin(), {"waymark", "--server", server});
+  std::vector<const char*> argv;
+  for (const std::string& arg : args) argv.push_back(arg.c_str());
+  std::ostringstream out, err;
+  CliResult result;
+  result.code = cli::RunCli(static_cast<int>(argv.size()), argv.data(), out, err, false);
+  result.out = out.str();
+  result.err = err.str();
+  return result;
 }
 
 }  // namespace waymark::testing

@@ -2,8 +2,10 @@
 #define WAYMARK_TESTS_CLIENT_TEST_UTIL_H_
 
 #include <filesystem>
+#include <nlohmann/json.hpp>
 #include <opencv2/core.hpp>
 #include <string>
+#include <vector>
 
 namespace waymark::testing {
 
@@ -28,6 +30,18 @@ class ScopedTempDir {
 void WriteImage(const std::filesystem::path& path, int width, int height, cv::Scalar color);
 
 std::string ReadAll(const std::filesystem::path& path);
+
+// The outcome of one `waymark` command line run in process.
+struct CliResult {
+  int code = -1;
+  std::string out;
+  std::string err;
+
+  nlohmann::json Json() const { return nlohmann::json::parse(out); }
+};
+
+// Runs `waymark --server SERVER ARGS...` through cli::RunCli (stderr not a terminal).
+CliResult RunWaymark(const std::string& server, std::vector<std::string> args);
 
 }  // namespace waymark::testing
 
