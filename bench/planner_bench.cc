@@ -33,22 +33,15 @@ namespace waymark::laser_slam {
 namespace {
 
 using testing::CastScan;
+using testing::Lms200OneDegreeGeometry;
 using testing::RayCastOptions;
+using testing::SegmentBetween;
 using testing::Wall;
 
 constexpr int kMaxWalls = 400;
 constexpr double kExtent = 15.0;       // walls within [-15, 15] m in x and y
 constexpr double kRobotFree = 1.2;     // no wall nearer the robot than this (m)
 constexpr std::uint32_t kSeed = 20240611;
-
-ScanGeometry Lms200At1Degree() {
-  ScanGeometry g;
-  g.angle_min = -M_PI / 2;
-  g.angle_increment = M_PI / 180;
-  g.beam_count = 181;
-  g.no_return_range = 8.183;
-  return g;
-}
 
 double DistanceToOrigin(const Wall& w) {
   const Eigen::Vector2d ab = w.b - w.a;
@@ -103,15 +96,7 @@ const World& FullWorld() {
 }
 
 MapSegment ToSegment(std::uint64_t id, const Wall& w, EndpointType left, EndpointType right) {
-  MapSegment s;
-  s.id = id;
-  const Eigen::Vector2d d = w.b - w.a;
-  const double length = d.norm();
-  s.frame = Pose2{(w.a.x() + w.b.x()) / 2, (w.a.y() + w.b.y()) / 2, std::atan2(d.y(), d.x())};
-  s.left = -length / 2;
-  s.right = length / 2;
-  s.left_type = left;
-  s.right_type = right;
+  MapSegment s = SegmentBetween(id, w.a.x(), w.a.y(), w.b.x(), w.b.y(), left, right);
   s.line_covariance = Eigen::Matrix2d::Identity() * 1e-4;
   s.observations = 3;
   return s;
@@ -129,7 +114,7 @@ ExplorationView MakeView(int segments) {
     view.segments.push_back(ToSegment(i + 1, walls[i], world.left[i], world.right[i]));
     view.map_uncertainty += M_PI * 1e-4;  // pi sqrt(det C_i) for C_i = 1e-4 I (2x2)
   }
-  view.scan = CastScan(walls, Pose2{}, Lms200At1Degree(), RayCastOptions{}, nullptr);
+  view.scan = CastScan(walls, Pose2{}, Lms200OneDegreeGeometry(), RayCastOptions{}, nullptr);
   return view;
 }
 

@@ -23,33 +23,13 @@ namespace {
 
 using testing::Box;
 using testing::CastScan;
+using testing::Lms200OneDegreeGeometry;
 using testing::RayCastOptions;
+using testing::SegmentBetween;
 using testing::Wall;
-
-ScanGeometry Lms200At1Degree() {
-  ScanGeometry g;
-  g.angle_min = -M_PI / 2;
-  g.angle_increment = M_PI / 180;
-  g.beam_count = 181;
-  g.no_return_range = 8.183;
-  return g;
-}
 
 Wall W(double x1, double y1, double x2, double y2) {
   return Wall{Eigen::Vector2d(x1, y1), Eigen::Vector2d(x2, y2)};
-}
-
-MapSegment Segment(std::uint64_t id, double x1, double y1, double x2, double y2, EndpointType left,
-                   EndpointType right) {
-  MapSegment s;
-  s.id = id;
-  const double length = std::hypot(x2 - x1, y2 - y1);
-  s.frame = Pose2{(x1 + x2) / 2, (y1 + y2) / 2, std::atan2(y2 - y1, x2 - x1)};
-  s.left = -length / 2;
-  s.right = length / 2;
-  s.left_type = left;
-  s.right_type = right;
-  return s;
 }
 
 double DistanceToWalls(const std::vector<Wall>& walls, const Eigen::Vector2d& p) {
@@ -78,7 +58,7 @@ class EngineLoop {
   ScanUpdate Observe() {
     t_ += 0.1;
     EXPECT_TRUE(slam_.AddOdometry({t_, Relative(start_, truth_)}).ok());
-    LaserScan scan = CastScan(walls_, truth_, Lms200At1Degree(), RayCastOptions{}, nullptr);
+    LaserScan scan = CastScan(walls_, truth_, Lms200OneDegreeGeometry(), RayCastOptions{}, nullptr);
     scan.stamp = t_;
     absl::StatusOr<ScanUpdate> u = slam_.AddScan(scan);
     EXPECT_TRUE(u.ok()) << u.status();
@@ -115,7 +95,7 @@ ExplorationView EmptyView() {
   ExplorationView view;
   view.robot = Pose2{0.0, 0.0, -M_PI / 2};
   view.robot_covariance = Eigen::Matrix3d::Identity() * 1e-4;
-  view.scan.geometry = Lms200At1Degree();
+  view.scan.geometry = Lms200OneDegreeGeometry();
   view.scan.ranges.assign(181, 8.183f);
   return view;
 }
@@ -123,7 +103,7 @@ ExplorationView EmptyView() {
 TEST(ObservationPredictionTest, VirtualEndpointExtendsAsFarAsTheLaserSees) {
   ExplorationView view = EmptyView();
   // A wall along y = 2 mapped over x in [-1, 1], its right end virtual (cut by range, say).
-  view.segments = {Segment(1, -1, 2, 1, 2, EndpointType::kReal, EndpointType::kVirtual)};
+  view.segments = {SegmentBetween(1, -1, 2, 1, 2, EndpointType::kReal, EndpointType::kVirtual)};
   ExplorationOptions options;
   const ObservationPredictor predictor(view, options, 0.0);
   ASSERT_EQ(predictor.frontier_count(), 1);
@@ -137,9 +117,10 @@ TEST(ObservationPredictionTest, VirtualEndpointExtendsAsFarAsTheLaserSees) {
 
 TEST(ObservationPredictionTest, CrossingLineNearTheEndPredictsACorner) {
   ExplorationView view = EmptyView();
-  view.segments = {Segment(1, -1, 2, 1, 2, EndpointType::kReal, EndpointType::kVirtual),
-                   // A wall along x = 1.8 from y = 2.3 up: the two lines meet at (1.8, 2).
-                   Segment(2, 1.8, 2.3, 1.8, 4.0, EndpointType::kVirtual, EndpointType::kReal)};
+  view.segments = {
+      SegmentBetween(1, -1, 2, 1, 2, EndpointType::kReal, EndpointType::kVirtual),
+      // A wall along x = 1.8 from y = 2.3 up: the two lines meet at (1.8, 2).
+      SegmentBetween(2, 1.8, 2.3, 1.8, 4.0, EndpointType::kVirtual, EndpointType::kReal)};
   ExplorationOptions options;
   const ObservationPredictor predictor(view, options, 0.0);
   const ExplorationGain gain = predictor.Predict(Pose2{0.0, 0.0, M_PI / 2});
@@ -151,9 +132,10 @@ TEST(ObservationPredictionTest, CrossingLineNearTheEndPredictsACorner) {
 
 TEST(ObservationPredictionTest, ExtensionHiddenBehindAMappedWallIsNotPredicted) {
   ExplorationView view = EmptyView();
-  view.segments = {Segment(1, -1, 2, 1, 2, EndpointType::kReal, EndpointType::kVirtual),
-                   // A wall between the robot and the line's continuation.
-                   Segment(2, 1.05, 1.0, 8.0, 1.0, EndpointType::kReal, EndpointType::kReal)};
+  view.segments = {
+      SegmentBetween(1, -1, 2, 1, 2, EndpointType::kReal, EndpointType::kVirtual),
+      // A wall between the robot and the line's continuation.
+      SegmentBetween(2, 1.05, 1.0, 8.0, 1.0, EndpointType::kReal, EndpointType::kReal)};
   ExplorationOptions options;
   const ObservationPredictor predictor(view, options, 0.0);
   EXPECT_LT(predictor.Predict(Pose2{1.0, 0.0, M_PI / 2}).extension, 0.3);
@@ -164,7 +146,7 @@ TEST(ClearanceTest, PathIntoAWallIsNotFreeButTurningAwayIs) {
   view.robot = Pose2{};
   // A wall 0.8 m ahead, seen by the scan.
   const std::vector<Wall> walls = {W(0.8, -3, 0.8, 3)};
-  view.scan = CastScan(walls, Pose2{}, Lms200At1Degree(), RayCastOptions{}, nullptr);
+  view.scan = CastScan(walls, Pose2{}, Lms200OneDegreeGeometry(), RayCastOptions{}, nullptr);
   const ClearanceMap map(view, 2.0);
   EXPECT_NEAR(map.Distance(Eigen::Vector2d::Zero()), 0.8, 0.01);
   EXPECT_FALSE(PathIsFree(map, 0.15, 0.0, 4.0, 0.1, 0.4));
@@ -173,7 +155,7 @@ TEST(ClearanceTest, PathIntoAWallIsNotFreeButTurningAwayIs) {
   // A mapped wall the scan does not show (here: the scan is empty) also counts.
   ExplorationView side = EmptyView();
   side.robot = Pose2{};
-  side.segments = {Segment(1, -3, 0.5, 3, 0.5, EndpointType::kReal, EndpointType::kReal)};
+  side.segments = {SegmentBetween(1, -3, 0.5, 3, 0.5, EndpointType::kReal, EndpointType::kReal)};
   const ClearanceMap beside(side, 2.0);
   EXPECT_NEAR(beside.Distance(Eigen::Vector2d::Zero()), 0.5, 1e-9);
   // Already too close: moving parallel to the wall without getting closer is allowed.

@@ -14,6 +14,29 @@ ScanGeometry Lms200Geometry(double no_return_range) {
   return g;
 }
 
+ScanGeometry Lms200OneDegreeGeometry() {
+  ScanGeometry g;
+  g.angle_min = -M_PI / 2;
+  g.angle_increment = M_PI / 180;
+  g.beam_count = 181;
+  g.no_return_range = 8.183;
+  return g;
+}
+
+MapSegment SegmentBetween(std::uint64_t id, double x1, double y1, double x2, double y2,
+                          EndpointType left_type, EndpointType right_type) {
+  MapSegment s;
+  s.id = id;
+  const Eigen::Vector2d d(x2 - x1, y2 - y1);
+  const double length = d.norm();
+  s.frame = Pose2{(x1 + x2) / 2, (y1 + y2) / 2, std::atan2(d.y(), d.x())};
+  s.left = -length / 2;
+  s.right = length / 2;
+  s.left_type = left_type;
+  s.right_type = right_type;
+  return s;
+}
+
 double CastRay(const std::vector<Wall>& walls, const Eigen::Vector2d& origin, double angle) {
   const Eigen::Vector2d d(std::cos(angle), std::sin(angle));
   double best = -1.0;

@@ -6,6 +6,7 @@
 // range and bearing noise (bearing noise: the beam is fired slightly off its nominal bearing but
 // reported at the nominal one).
 
+#include <cstdint>
 #include <random>
 #include <vector>
 
@@ -30,6 +31,14 @@ struct RayCastOptions {
 
 // The SICK LMS200 layout of METHODS.md: 361 beams over [-90, 90] degrees, 0.5 degree apart.
 ScanGeometry Lms200Geometry(double no_return_range = 0.0);
+
+// The LMS200 at 1 degree resolution: 181 beams over [-90, 90] degrees, no-return range 8.183 m.
+ScanGeometry Lms200OneDegreeGeometry();
+
+// A map segment with the given id from (x1, y1) (its left end) to (x2, y2) (its right end): frame
+// at the midpoint with the x axis along the segment; covariances and observations left at zero.
+MapSegment SegmentBetween(std::uint64_t id, double x1, double y1, double x2, double y2,
+                          EndpointType left_type, EndpointType right_type);
 
 // Distance along the ray from `origin` in direction `angle` to the nearest wall, or a negative
 // value when no wall is hit.
