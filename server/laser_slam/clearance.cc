@@ -9,14 +9,6 @@
 namespace waymark::laser_slam {
 namespace {
 
-double PointSegmentDistance(const Eigen::Vector2d& p, const Eigen::Vector2d& a,
-                            const Eigen::Vector2d& b) {
-  const Eigen::Vector2d ab = b - a;
-  const double length2 = ab.squaredNorm();
-  const double t = length2 > 0.0 ? std::clamp((p - a).dot(ab) / length2, 0.0, 1.0) : 0.0;
-  return (a + t * ab - p).norm();
-}
-
 Eigen::Vector2d ToRobot(const Pose2& robot, const Pose2& point_in_map) {
   const Pose2 local = Relative(robot, point_in_map);
   return Eigen::Vector2d(local.x, local.y);

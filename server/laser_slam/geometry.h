@@ -5,6 +5,7 @@
 // The templates take any scalar (double, or Eigen's AutoDiffScalar for exact Jacobians of the
 // composite measurement functions in ekf_*.cc).
 
+#include <algorithm>
 #include <cmath>
 
 #include <Eigen/Core>
@@ -21,6 +22,15 @@ inline double NormalizeAngle(double a) {
   a = std::fmod(a + M_PI, 2.0 * M_PI);
   if (a <= 0.0) a += 2.0 * M_PI;
   return a - M_PI;
+}
+
+// Euclidean distance from p to the segment [a, b] (to a when the segment has zero length).
+inline double PointSegmentDistance(const Eigen::Vector2d& p, const Eigen::Vector2d& a,
+                                   const Eigen::Vector2d& b) {
+  const Eigen::Vector2d ab = b - a;
+  const double length2 = ab.squaredNorm();
+  const double t = length2 > 0.0 ? std::clamp((p - a).dot(ab) / length2, 0.0, 1.0) : 0.0;
+  return (a + t * ab - p).norm();
 }
 
 // a (+) b: the location b, given relative to frame a, expressed in a's parent frame.

@@ -72,9 +72,7 @@ const MapSegment* WallFollower::Adjacent(const std::vector<MapSegment>& segments
     // A T junction: it passes here (not along our own line); follow it on the robot's side.
     const Eigen::Vector2d other_axis(std::cos(other.frame.theta), std::sin(other.frame.theta));
     if (std::abs(axis.x() * other_axis.y() - axis.y() * other_axis.x()) < kMinJunctionSine) continue;
-    const Eigen::Vector2d ab = b - a;
-    const double t = std::clamp((end - a).dot(ab) / ab.squaredNorm(), 0.0, 1.0);
-    const double gap = (a + t * ab - end).norm();
+    const double gap = PointSegmentDistance(end, a, b);
     if (gap < best_gap) {
       best_gap = gap;
       best = &other;
