@@ -102,7 +102,8 @@ TEST_F(ExplorationServerTest, WanderRunDrivesAndTurnsWithoutTouchingAWall) {
   EXPECT_GT(result->distance_m, 10.0);
 }
 
-TEST_F(ExplorationServerTest, ActiveSessionReportsItsEffectiveExplorationConfig) {
+// A session request for robot-1 with a 181-beam, 1-degree laser and ACTIVE exploration.
+v1::CreateSessionRequest ActiveRequest() {
   v1::CreateSessionRequest request;
   request.set_robot_id("robot-1");
   v1::LaserGeometry* g = request.mutable_laser()->mutable_laser();
@@ -110,6 +111,11 @@ TEST_F(ExplorationServerTest, ActiveSessionReportsItsEffectiveExplorationConfig)
   g->set_angle_increment(M_PI / 180);
   g->set_beam_count(181);
   request.mutable_laser()->mutable_exploration()->set_mode(v1::ExplorationConfig::ACTIVE);
+  return request;
+}
+
+TEST_F(ExplorationServerTest, ActiveSessionReportsItsEffectiveExplorationConfig) {
+  v1::CreateSessionRequest request = ActiveRequest();
   request.mutable_laser()->mutable_exploration()->set_max_linear(0.3);
   auto session = client_->CreateSession(request);
   ASSERT_TRUE(session.ok()) << session.status();
@@ -125,13 +131,7 @@ TEST_F(ExplorationServerTest, ActiveSessionReportsItsEffectiveExplorationConfig)
 TEST_F(ExplorationServerTest, BadExplorationConfigsAreRefusedNamingTheField) {
   const auto refused = [&](const std::function<void(v1::ExplorationConfig*)>& edit,
                            const std::string& field) {
-    v1::CreateSessionRequest request;
-    request.set_robot_id("robot-1");
-    v1::LaserGeometry* g = request.mutable_laser()->mutable_laser();
-    g->set_angle_min(-M_PI / 2);
-    g->set_angle_increment(M_PI / 180);
-    g->set_beam_count(181);
-    request.mutable_laser()->mutable_exploration()->set_mode(v1::ExplorationConfig::ACTIVE);
+    v1::CreateSessionRequest request = ActiveRequest();
     edit(request.mutable_laser()->mutable_exploration());
     auto session = client_->CreateSession(request);
     ASSERT_FALSE(session.ok()) << field;
