@@ -2,13 +2,17 @@
 // loop (client/tools/sim_explore.h). Suggestions respect the limits, the robot never touches a
 // wall, and a short run maps most of a small world; bad exploration configs are refused.
 
+#include <signal.h>
+
 #include <cmath>
+#include <vector>
 #include <memory>
 #include <string>
 
 #include <grpcpp/grpcpp.h>
 #include <gtest/gtest.h>
 
+#include "client/adapters/sim_robot.h"
 #include "client/adapters/sim_world.h"
 #include "client/lib/slam_client.h"
 #include "client/tools/sim_explore.h"
@@ -126,6 +130,49 @@ TEST_F(ExplorationServerTest, ActiveSessionReportsItsEffectiveExplorationConfig)
   EXPECT_DOUBLE_EQ(e.observation_period(), 4.0);
   EXPECT_DOUBLE_EQ(e.control_period(), 0.1);
   EXPECT_EQ(e.angular_steps(), 7u);
+}
+
+// Streams one odometry reading and one scan of `world` from its start pose at `stamp` into
+// `session_id`; returns the scan's answer.
+v1::SlamUpdate ScanOnce(client::SlamClient& client, const std::string& session_id,
+                        const adapters::World& world, double stamp) {
+  adapters::Simulation sim(world, adapters::SimOptions{});
+  std::vector<v1::SlamUpdate> updates;
+  auto stream = client.StreamSensorData(session_id, 1, [&](const v1::SlamUpdate& u) {
+    updates.push_back(u);
+  });
+  v1::Odometry odometry;
+  odometry.set_stamp(stamp);
+  odometry.mutable_pose()->set_x(world.start.x);
+  odometry.mutable_pose()->set_y(world.start.y);
+  odometry.mutable_pose()->set_theta(world.start.theta);
+  EXPECT_TRUE(stream->SendOdometry(odometry).ok());
+  v1::LaserScan scan;
+  scan.set_stamp(stamp);
+  const adapters::LaserReading reading = sim.Scan();
+  for (float r : reading.ranges) scan.add_ranges(r);
+  EXPECT_TRUE(stream->SendScan(scan).ok());
+  EXPECT_TRUE(stream->Finish().ok());
+  EXPECT_EQ(updates.size(), 1u);
+  return updates.empty() ? v1::SlamUpdate() : updates.front();
+}
+
+TEST_F(ExplorationServerTest, ActiveSessionStillSuggestsAfterAServerRestart) {
+  auto session = client_->CreateSession(ActiveRequest());
+  ASSERT_TRUE(session.ok()) << session.status();
+  const v1::SlamUpdate before = ScanOnce(*client_, session->session_id(), world_, 1.0);
+  EXPECT_EQ(before.suggestion().behaviour(), v1::SuggestedControl::OPTIMAL);
+  ASSERT_EQ(server_->Stop(SIGTERM), 0);
+  auto restarted = ServerProcess::Start(testing::ServerBinary(), dir_ + "/w.db");
+  ASSERT_TRUE(restarted.ok()) << restarted.status();
+  server_ = std::move(*restarted);
+  client_ = std::make_unique<client::SlamClient>(
+      grpc::CreateChannel(server_->address(), grpc::InsecureChannelCredentials()));
+  // The resumed session is still active (its exploration config was stored with it).
+  const v1::SlamUpdate after = ScanOnce(*client_, session->session_id(), world_, 2.0);
+  EXPECT_FALSE(after.has_rejection()) << after.rejection().message();
+  EXPECT_EQ(after.suggestion().behaviour(), v1::SuggestedControl::OPTIMAL);
+  EXPECT_DOUBLE_EQ(after.suggestion().duration(), 4.0);
 }
 
 TEST_F(ExplorationServerTest, BadExplorationConfigsAreRefusedNamingTheField) {
