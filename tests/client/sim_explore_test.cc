@@ -202,6 +202,27 @@ TEST_F(SimExploreTest, CliWritesEveryOutputAndOneJsonObject) {
   EXPECT_FALSE(cv::imread((out / "map.png").string()).empty());
 }
 
+TEST_F(SimExploreTest, CliLaserModeAndOdometryErrorReachTheSimulator) {
+  server_.service().set_suggestion(Straight());
+  const auto run = [&](std::vector<std::string> extra) {
+    std::vector<std::string> args = {"--json", "sim", "explore", "--world", WorldFile(),
+                                     "--duration", "12", "--out", (dir_.path() / "flags").string()};
+    args.insert(args.end(), extra.begin(), extra.end());
+    CliResult r = Run(args);
+    EXPECT_EQ(r.code, 0) << r.err;
+    return r.code == 0 ? nlohmann::json::parse(r.out) : nlohmann::json::object();
+  };
+  // Perfect odometry stays on the truth; the default drifts.
+  EXPECT_EQ(run({"--odometry-error", "0"})["odometry_error_final_m"], 0.0);
+  EXPECT_GT(run({})["odometry_error_final_m"].get<double>(), 0.0);
+  // The 0.5-degree mode sends 361 beams and says so when it creates the session.
+  run({"--half-degree"});
+  EXPECT_EQ(server_.service().last_create().laser().laser().beam_count(), 361u);
+  EXPECT_NE(Run({"sim", "explore", "--world", WorldFile(), "--duration", "4",
+                 "--odometry-error", "-1"}).code,
+            0);
+}
+
 TEST_F(SimExploreTest, CliHumanOutputIsASummaryTable) {
   server_.service().set_suggestion(Straight());
   CliResult r = Run({"sim", "explore", "--world", WorldFile(), "--duration", "4", "--out",
