@@ -57,13 +57,7 @@ DrawItem Marker(Vec2 at, Rgb color, bool real) {
 }
 
 DrawItem Text(Vec2 at, std::string text, double font_px = 12) {
-  DrawItem item;
-  item.kind = DrawItem::Kind::kText;
-  item.points = {at};
-  item.stroke = kBlack;
-  item.text = std::move(text);
-  item.font_px = font_px;
-  return item;
+  return TextItem(at, std::move(text), font_px);
 }
 
 std::string Hex(Rgb c) { return fmt::format("#{:02x}{:02x}{:02x}", c.r, c.g, c.b); }
@@ -351,6 +345,17 @@ absl::Status WriteDrawing(const Drawing& drawing, const std::filesystem::path& s
 absl::Status WriteMapPictures(const MapScene& scene, const std::filesystem::path& svg_path,
                               const std::filesystem::path& png_path, const RenderOptions& options) {
   return WriteDrawing(LayoutScene(scene, options), svg_path, png_path);
+}
+
+DrawItem TextItem(Vec2 at, std::string text, double font_px, std::string css_class) {
+  DrawItem item;
+  item.kind = DrawItem::Kind::kText;
+  item.points = {at};
+  item.stroke = kBlack;
+  item.text = std::move(text);
+  item.font_px = font_px;
+  item.css_class = std::move(css_class);
+  return item;
 }
 
 }  // namespace waymark::cli

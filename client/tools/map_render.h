@@ -85,6 +85,9 @@ struct Drawing {
   double pixels_per_metre = 1;
 };
 
+// A black text item anchored at its left end (the SVG and PNG back ends draw it alike).
+DrawItem TextItem(Vec2 at, std::string text, double font_px, std::string css_class = "");
+
 Drawing LayoutScene(const MapScene& scene, const RenderOptions& options = {});
 
 // A "nice" scale bar length (1, 2 or 5 times a power of ten) close to `target_m`.

@@ -29,14 +29,7 @@ DrawItem Line(std::vector<Vec2> points, Rgb color, double width, std::string css
 }
 
 DrawItem Text(Vec2 at, std::string text, double font_px, std::string css) {
-  DrawItem item;
-  item.kind = DrawItem::Kind::kText;
-  item.points = {at};
-  item.stroke = kBlack;
-  item.text = std::move(text);
-  item.font_px = font_px;
-  item.css_class = std::move(css);
-  return item;
+  return TextItem(at, std::move(text), font_px, std::move(css));
 }
 
 // Text items are anchored at their left end; sans-serif digits are about 0.6 em wide, which is
