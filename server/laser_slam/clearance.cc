@@ -18,11 +18,10 @@ Eigen::Vector2d ToRobot(const Pose2& robot, const Pose2& point_in_map) {
 
 ClearanceMap::ClearanceMap(const ExplorationView& view, double reach) : reach_(reach) {
   const LaserScan& scan = view.scan;
-  const double no_return = scan.geometry.no_return_range;
   const int beams = std::min<int>(scan.geometry.beam_count, static_cast<int>(scan.ranges.size()));
   for (int i = 0; i < beams; ++i) {
     const double r = scan.ranges[i];
-    if (!std::isfinite(r) || r <= 0.0 || (no_return > 0.0 && r >= no_return)) continue;
+    if (!IsReturn(r, scan.geometry)) continue;
     const double bearing = scan.geometry.angle_min + i * scan.geometry.angle_increment;
     const Pose2 hit = Compose(view.laser_pose, Pose2{r * std::cos(bearing), r * std::sin(bearing), 0});
     const Eigen::Vector2d p(hit.x, hit.y);

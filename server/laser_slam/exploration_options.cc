@@ -5,6 +5,7 @@
 #include <utility>
 
 #include "absl/strings/str_cat.h"
+#include "server/laser_slam/option_checks.h"
 
 namespace waymark::laser_slam {
 
@@ -17,10 +18,7 @@ absl::Status ValidateExplorationOptions(const ExplorationOptions& o) {
       {o.switch_distance, "switch_distance"}, {o.adjacency, "adjacency"},
       {o.lookahead, "lookahead"},           {o.exit_growth, "exit_growth"}};
   for (const auto& [value, name] : positive) {
-    if (!std::isfinite(value) || value <= 0.0) {
-      return absl::InvalidArgumentError(
-          absl::StrCat("exploration ", name, " must be a positive number, got ", value));
-    }
+    if (absl::Status s = Positive(value, absl::StrCat("exploration ", name)); !s.ok()) return s;
   }
   const std::initializer_list<std::pair<double, const char*>> non_negative = {
       {o.clearance, "clearance"},           {o.weight_uncertainty, "weight_uncertainty"},
@@ -28,10 +26,7 @@ absl::Status ValidateExplorationOptions(const ExplorationOptions& o) {
       {o.min_extension, "min_extension"},   {o.corner_reach, "corner_reach"},
       {o.corner_angle, "corner_angle"}};
   for (const auto& [value, name] : non_negative) {
-    if (!std::isfinite(value) || value < 0.0) {
-      return absl::InvalidArgumentError(
-          absl::StrCat("exploration ", name, " must be >= 0, got ", value));
-    }
+    if (absl::Status s = NonNegative(value, absl::StrCat("exploration ", name)); !s.ok()) return s;
   }
   if (o.control_period > o.observation_period) {
     return absl::InvalidArgumentError("control_period must not exceed observation_period");

@@ -147,40 +147,41 @@ ExplorationView LaserSlam::View() const {
   return view;
 }
 
+namespace {
+
+// The fields a map segment takes from its entity, active or frozen alike.
+MapSegment FromEntity(const SegmentEntity& e, bool active) {
+  MapSegment m;
+  m.id = e.id;
+  m.frame = e.frame;
+  m.left = e.left;
+  m.right = e.right;
+  m.left_type = e.left_type;
+  m.right_type = e.right_type;
+  m.observations = e.observations;
+  m.active = active;
+  return m;
+}
+
+}  // namespace
+
 std::vector<MapSegment> LaserSlam::Map() const {
   const SpState& st = impl_->ekf.state();
   std::vector<MapSegment> out;
-  out.reserve(st.segments.size());
+  out.reserve(st.segments.size() + st.frozen.size());
   for (const SegmentEntity& e : st.segments) {
-    MapSegment m;
-    m.id = e.id;
-    m.frame = e.frame;
-    m.left = e.left;
-    m.right = e.right;
-    m.left_type = e.left_type;
-    m.right_type = e.right_type;
+    MapSegment m = FromEntity(e, true);
     m.line_covariance << st.at(e.dof[0], e.dof[0]), st.at(e.dof[0], e.dof[1]),
         st.at(e.dof[1], e.dof[0]), st.at(e.dof[1], e.dof[1]);
     m.left_variance = e.dof[2] >= 0 ? st.at(e.dof[2], e.dof[2]) : 0.0;
     m.right_variance = e.dof[3] >= 0 ? st.at(e.dof[3], e.dof[3]) : 0.0;
-    m.observations = e.observations;
-    m.active = true;
     out.push_back(m);
   }
   for (const FrozenSegment& f : st.frozen) {
-    MapSegment m;
-    const SegmentEntity& e = f.entity;
-    m.id = e.id;
-    m.frame = e.frame;
-    m.left = e.left;
-    m.right = e.right;
-    m.left_type = e.left_type;
-    m.right_type = e.right_type;
+    MapSegment m = FromEntity(f.entity, false);
     m.line_covariance = f.line_covariance;
     m.left_variance = f.left_variance;
     m.right_variance = f.right_variance;
-    m.observations = e.observations;
-    m.active = false;
     out.push_back(m);
   }
   return out;

@@ -67,14 +67,13 @@ class Extractor {
       : o_(o), n_(scan.geometry.beam_count), inc_(std::abs(scan.geometry.angle_increment)) {
     pts_.resize(n_);
     state_.resize(n_);
-    const double no_return = scan.geometry.no_return_range;
     for (int i = 0; i < n_; ++i) {
       const double a = scan.geometry.angle_min + i * scan.geometry.angle_increment;
       const double r = scan.ranges[i];
       ScanPoint& p = pts_[i];
       p.c = std::cos(a);
       p.s = std::sin(a);
-      if (!std::isfinite(r) || r <= 0.0 || r < o.min_range || (no_return > 0.0 && r >= no_return)) {
+      if (!IsReturn(r, scan.geometry) || r < o.min_range) {
         state_[i] = BeamState::kNoReturn;
       } else if (r > o.max_range) {
         state_[i] = BeamState::kOutOfRange;

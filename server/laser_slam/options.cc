@@ -3,23 +3,10 @@
 #include <cmath>
 
 #include "absl/strings/str_cat.h"
+#include "server/laser_slam/option_checks.h"
 
 namespace waymark::laser_slam {
 namespace {
-
-absl::Status Positive(double value, const char* name) {
-  if (!std::isfinite(value) || value <= 0.0) {
-    return absl::InvalidArgumentError(absl::StrCat(name, " must be a positive number, got ", value));
-  }
-  return absl::OkStatus();
-}
-
-absl::Status NonNegative(double value, const char* name) {
-  if (!std::isfinite(value) || value < 0.0) {
-    return absl::InvalidArgumentError(absl::StrCat(name, " must be >= 0, got ", value));
-  }
-  return absl::OkStatus();
-}
 
 bool FinitePose(const Pose2& pose) {
   return std::isfinite(pose.x) && std::isfinite(pose.y) && std::isfinite(pose.theta);

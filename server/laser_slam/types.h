@@ -4,6 +4,7 @@
 // Value types shared by the laser SLAM engine: poses, scans, observed and mapped segments.
 // Units are SI: metres, radians, seconds. Angles are normalised to (-pi, pi].
 
+#include <cmath>
 #include <cstdint>
 #include <vector>
 
@@ -26,6 +27,13 @@ struct ScanGeometry {
   // Readings at or above this value mean "no return" (the sensor's max-range marker). 0 = none.
   double no_return_range = 0.0;
 };
+
+// Whether `range` is a real return under `geometry`: NaN, infinite, negative, zero and readings
+// at or above the no-return marker are not.
+inline bool IsReturn(double range, const ScanGeometry& geometry) {
+  return std::isfinite(range) && range > 0.0 &&
+         !(geometry.no_return_range > 0.0 && range >= geometry.no_return_range);
+}
 
 struct LaserScan {
   double stamp = 0.0;

@@ -10,10 +10,9 @@ int WanderPolicy::OpenerSide(const ExplorationView& view) {
   double left = 0.0, right = 0.0;
   const int beams = std::min<int>(scan.geometry.beam_count, static_cast<int>(scan.ranges.size()));
   for (int i = 0; i < beams; ++i) {
-    double r = scan.ranges[i];
-    const bool no_return = !std::isfinite(r) || r <= 0.0 ||
-                           (scan.geometry.no_return_range > 0 && r >= scan.geometry.no_return_range);
-    r = no_return ? view.max_range : std::min<double>(r, view.max_range);
+    const double r = IsReturn(scan.ranges[i], scan.geometry)
+                         ? std::min<double>(scan.ranges[i], view.max_range)
+                         : view.max_range;
     const double bearing = scan.geometry.angle_min + i * scan.geometry.angle_increment +
                            view.laser_pose.theta;
     (bearing >= 0.0 ? left : right) += r;
