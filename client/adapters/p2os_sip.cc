@@ -1,5 +1,6 @@
 #include "client/adapters/p2os_sip.h"
 
+#include <algorithm>
 #include <cmath>
 
 #include "absl/strings/str_cat.h"
@@ -19,6 +20,11 @@ int Int16(const std::vector<std::uint8_t>& p, std::size_t at) {
 int Uint16(const std::vector<std::uint8_t>& p, std::size_t at) { return p[at] | (p[at + 1] << 8); }
 
 // Difference of two wrapping counters, in (-range/2, range/2].
+void Put16(std::vector<std::uint8_t>& p, int v) {
+  p.push_back(static_cast<std::uint8_t>(v & 0xFF));
+  p.push_back(static_cast<std::uint8_t>((v >> 8) & 0xFF));
+}
+
 int WrapDelta(int now, int before) {
   int d = (now - before) % kCounterRange;
   if (d > kCounterRange / 2) d -= kCounterRange;
@@ -36,9 +42,8 @@ absl::StatusOr<StandardSip> DecodeStandardSip(const P2osPacket& packet) {
   const std::vector<std::uint8_t>& p = packet.payload;
   constexpr std::size_t kFixed = 19;  // XPOS .. SONAR COUNT
   if (p.size() < kFixed) {
-    return absl::InvalidArgumentError(
-        absl::StrCat("standard SIP of ", p.size(), " bytes is shorter than its ", kFixed,
-                     " fixed bytes"));
+    return absl::InvalidArgumentError(absl::StrCat(
+        "standard SIP of ", p.size(), " bytes is shorter than its ", kFixed, " fixed bytes"));
   }
   StandardSip sip;
   sip.moving = packet.id == kSipMoving;
@@ -67,6 +72,31 @@ absl::StatusOr<StandardSip> DecodeStandardSip(const P2osPacket& packet) {
     sip.sonars.emplace_back(p[at], Uint16(p, at + 1));
   }
   return sip;
+}
+
+std::vector<std::uint8_t> EncodeStandardSipPayload(const StandardSip& sip) {
+  std::vector<std::uint8_t> p;
+  p.reserve(19 + 3 * sip.sonars.size());
+  Put16(p, sip.x_raw & (kCounterRange - 1));
+  Put16(p, sip.y_raw & (kCounterRange - 1));
+  Put16(p, sip.theta_raw);
+  Put16(p, sip.left_velocity);
+  Put16(p, sip.right_velocity);
+  const long decivolts = std::lround(sip.battery_volts * 10.0);
+  p.push_back(static_cast<std::uint8_t>(std::clamp(decivolts, 0L, 255L)));
+  p.push_back(static_cast<std::uint8_t>((sip.front_bumpers << 1) | (sip.left_stall ? 1 : 0)));
+  p.push_back(static_cast<std::uint8_t>((sip.rear_bumpers << 1) | (sip.right_stall ? 1 : 0)));
+  Put16(p, 0);                                 // CONTROL
+  Put16(p, sip.motors_enabled ? 0x01 : 0x00);  // FLAGS
+  p.push_back(0);                              // COMPASS
+  // The count is one byte: at most 255 readings, and the 200-byte packet limit is the caller's.
+  const std::size_t sonar_count = std::min<std::size_t>(sip.sonars.size(), 255);
+  p.push_back(static_cast<std::uint8_t>(sonar_count));
+  for (std::size_t i = 0; i < sonar_count; ++i) {
+    p.push_back(static_cast<std::uint8_t>(sip.sonars[i].first));
+    Put16(p, sip.sonars[i].second);
+  }
+  return p;
 }
 
 SipOdometry::Pose SipOdometry::Update(const StandardSip& sip) {

@@ -21,11 +21,11 @@
 namespace waymark::adapters {
 
 struct StandardSip {
-  bool moving = false;        // id 0x33
-  int x_raw = 0;              // 15-bit counters as sent
+  bool moving = false;  // id 0x33
+  int x_raw = 0;        // 15-bit counters as sent
   int y_raw = 0;
-  int theta_raw = 0;          // 2 pi / 4096 units
-  int left_velocity = 0;      // mm/s
+  int theta_raw = 0;      // 2 pi / 4096 units
+  int left_velocity = 0;  // mm/s
   int right_velocity = 0;
   double battery_volts = 0;
   bool left_stall = false;
@@ -38,6 +38,11 @@ struct StandardSip {
 
 // INVALID_ARGUMENT for a packet that is not a standard SIP or is too short for what it claims.
 absl::StatusOr<StandardSip> DecodeStandardSip(const P2osPacket& packet);
+
+// The payload DecodeStandardSip reads (the packet id, 0x32 or 0x33 from `moving`, is not part of
+// it): what a robot or a fake robot sends. Fields are truncated to their wire width (x/y to 15
+// bits, velocities to 16, the battery to 0.1 V in a byte); CONTROL and COMPASS are sent as 0.
+std::vector<std::uint8_t> EncodeStandardSipPayload(const StandardSip& sip);
 
 // Turns the wrapping 15-bit x/y counters into continuous metres (each step assumed shorter than
 // half the counter range, 16.4 m) and theta into radians.

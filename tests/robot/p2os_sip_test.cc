@@ -2,10 +2,10 @@
 
 #include "client/adapters/p2os_sip.h"
 
+#include <gtest/gtest.h>
+
 #include <cmath>
 #include <vector>
-
-#include <gtest/gtest.h>
 
 namespace waymark::adapters {
 namespace {
@@ -15,7 +15,8 @@ void Put16(std::vector<std::uint8_t>& p, int v) {
   p.push_back(static_cast<std::uint8_t>((v >> 8) & 0xFF));
 }
 
-P2osPacket Sip(int x, int y, int theta, int lvel, int rvel, std::vector<std::pair<int, int>> sonars = {}) {
+P2osPacket Sip(int x, int y, int theta, int lvel, int rvel,
+               std::vector<std::pair<int, int>> sonars = {}) {
   P2osPacket packet;
   packet.id = 0x33;
   auto& p = packet.payload;
@@ -80,6 +81,63 @@ TEST(P2osSipTest, OdometryUnwrapsThe15BitCounters) {
   EXPECT_NEAR(std::abs(c.theta), M_PI, 1e-9);  // 2048 units = half a turn
   auto d = odometry.Update(*DecodeStandardSip(Sip(32760, 5, 1024, 0, 0)));
   EXPECT_NEAR(d.theta, M_PI / 2, 1e-9);
+}
+
+// The encoder against the hand-built golden payload: an independent check of the byte layout.
+TEST(P2osSipTest, EncoderReproducesTheHandBuiltPayload) {
+  const P2osPacket golden = Sip(1000, 2000, 1024, -150, 200, {{0, 500}, {7, 5000}});
+  StandardSip sip;
+  sip.moving = true;
+  sip.x_raw = 1000;
+  sip.y_raw = 2000;
+  sip.theta_raw = 1024;
+  sip.left_velocity = -150;
+  sip.right_velocity = 200;
+  sip.battery_volts = 12.5;
+  sip.left_stall = true;
+  sip.front_bumpers = 0x02;
+  sip.rear_bumpers = 0x01;
+  sip.motors_enabled = true;
+  sip.sonars = {{0, 500}, {7, 5000}};
+  EXPECT_EQ(EncodeStandardSipPayload(sip), golden.payload);
+}
+
+TEST(P2osSipTest, EncodeThenDecodeRoundTrips) {
+  StandardSip sip;
+  sip.moving = false;
+  sip.x_raw = 32767;
+  sip.y_raw = 0;
+  sip.theta_raw = -2047;
+  sip.left_velocity = -32000;
+  sip.right_velocity = 1;
+  sip.battery_volts = 13.1;
+  sip.right_stall = true;
+  sip.front_bumpers = 0x7F;
+  sip.rear_bumpers = 0x40;
+  sip.motors_enabled = false;
+  sip.sonars = {{15, 65535}, {3, 0}};
+  P2osPacket packet;
+  packet.id = 0x32;
+  packet.payload = EncodeStandardSipPayload(sip);
+  auto back = DecodeStandardSip(packet);
+  ASSERT_TRUE(back.ok()) << back.status();
+  EXPECT_FALSE(back->moving);
+  EXPECT_EQ(back->x_raw, sip.x_raw);
+  EXPECT_EQ(back->y_raw, sip.y_raw);
+  EXPECT_EQ(back->theta_raw, sip.theta_raw);
+  EXPECT_EQ(back->left_velocity, sip.left_velocity);
+  EXPECT_EQ(back->right_velocity, sip.right_velocity);
+  EXPECT_NEAR(back->battery_volts, 13.1, 1e-9);
+  EXPECT_FALSE(back->left_stall);
+  EXPECT_TRUE(back->right_stall);
+  EXPECT_EQ(back->front_bumpers, 0x7F);
+  EXPECT_EQ(back->rear_bumpers, 0x40);
+  EXPECT_FALSE(back->motors_enabled);
+  EXPECT_EQ(back->sonars, sip.sonars);
+  // Counters beyond 15 bits wrap as on the robot.
+  sip.x_raw = 32768 + 5;
+  packet.payload = EncodeStandardSipPayload(sip);
+  EXPECT_EQ(DecodeStandardSip(packet)->x_raw, 5);
 }
 
 }  // namespace
