@@ -10,8 +10,6 @@
 namespace waymark::client {
 
 constexpr int kResourceExhausted = 8;  // google.rpc.Code
-// A sender blocked on a full window gives up after this long without any answer.
-constexpr std::chrono::seconds kAnswerTimeout(120);
 
 SensorStream::SensorStream(v1::SlamService::StubInterface* stub, std::string session_id, int window,
                            Deadline deadline, UpdateCallback on_update)
@@ -36,6 +34,9 @@ SensorStream::~SensorStream() {
 void SensorStream::ReadLoop() {
   v1::SlamUpdate update;
   while (stream_->Read(&update)) {
+    // The callback runs before the answer is counted, so a caller woken by WaitIdle or SendScan
+    // already sees what the callback recorded.
+    if (on_update_) on_update_(update);
     {
       std::lock_guard<std::mutex> lock(mutex_);
       const bool was_scan = outstanding_scans_.erase(update.sequence()) > 0;
@@ -49,7 +50,6 @@ void SensorStream::ReadLoop() {
       }
     }
     changed_.notify_all();
-    if (on_update_) on_update_(update);
   }
   {
     std::lock_guard<std::mutex> lock(mutex_);
@@ -91,12 +91,13 @@ absl::Status SensorStream::SendScan(const v1::LaserScan& scan) {
   *message.mutable_scan() = scan;
   {
     std::unique_lock<std::mutex> lock(mutex_);
-    const bool ready = changed_.wait_for(lock, kAnswerTimeout, [this] {
-      return read_done_ || static_cast<int>(outstanding_scans_.size()) < window_;
-    });
+    const bool ready =
+        changed_.wait_for(lock, absl::ToChronoNanoseconds(answer_timeout_), [this] {
+          return read_done_ || static_cast<int>(outstanding_scans_.size()) < window_;
+        });
     if (!ready) {
       return absl::DeadlineExceededError(
-          "no answer from the server for " + std::to_string(kAnswerTimeout.count()) + " s with " +
+          "no answer from the server for " + absl::FormatDuration(answer_timeout_) + " with " +
           std::to_string(outstanding_scans_.size()) + " scans outstanding");
     }
     if (read_done_) return absl::UnavailableError("the server ended the stream");
@@ -124,6 +125,28 @@ absl::Status SensorStream::Finish() {
     }
   }
   return status;
+}
+
+absl::Status SensorStream::WaitIdle(absl::Duration timeout) {
+  std::unique_lock<std::mutex> lock(mutex_);
+  const bool ready = changed_.wait_for(lock, absl::ToChronoNanoseconds(timeout), [this] {
+    return read_done_ || outstanding_scans_.empty();
+  });
+  if (!outstanding_scans_.empty()) {
+    if (read_done_) return absl::UnavailableError("the server ended the stream");
+    if (!ready) {
+      return absl::DeadlineExceededError("no answer from the server within " +
+                                         absl::FormatDuration(timeout) + " with " +
+                                         std::to_string(outstanding_scans_.size()) +
+                                         " scans outstanding");
+    }
+  }
+  return absl::OkStatus();
+}
+
+bool SensorStream::ended() const {
+  std::lock_guard<std::mutex> lock(mutex_);
+  return read_done_;
 }
 
 void SensorStream::Cancel() { context_.TryCancel(); }

@@ -68,6 +68,15 @@ class SensorStream {
   absl::Status SendOdometry(const v1::Odometry& odometry);
   // Waits until fewer than `window` scans are outstanding, then sends the scan.
   absl::Status SendScan(const v1::LaserScan& scan);
+  // Waits until every scan sent so far is answered (a rejection counts). DEADLINE_EXCEEDED after
+  // `timeout`, UNAVAILABLE if the stream ended first. The update callback of the last answer has
+  // returned by then.
+  absl::Status WaitIdle(absl::Duration timeout);
+  // How long SendScan waits on a full window before giving up (default 120 s). A robot wants to
+  // know sooner that its server hangs.
+  void set_answer_timeout(absl::Duration timeout) { answer_timeout_ = timeout; }
+  // True once the server ended the stream (or it broke); Finish() says why.
+  bool ended() const;
   // Half-closes, waits for every outstanding answer and returns the stream's final status.
   absl::Status Finish();
   // Aborts from any thread.
@@ -93,6 +102,7 @@ class SensorStream {
   std::unordered_set<uint64_t> outstanding_scans_;  // sequences
   std::unordered_set<uint64_t> odometry_sequences_;  // only kept to classify rejections
   Stats stats_;
+  absl::Duration answer_timeout_ = absl::Seconds(120);
   bool read_done_ = false;
   bool first_sent_ = false;
   bool finished_ = false;

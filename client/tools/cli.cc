@@ -33,6 +33,7 @@ int RunCli(int argc, const char* const* argv, std::ostream& out, std::ostream& e
   AddEvalRelationsCommand(app, registry);
   AddSlamCommands(app, registry);
   AddSimCommands(app, registry);
+  AddRobotCommand(app, registry);
 
   try {
     app.parse(argc, argv);

@@ -65,6 +65,8 @@ void AddEvalRelationsCommand(CLI::App& app, CommandRegistry& registry);
 void AddSlamCommands(CLI::App& app, CommandRegistry& registry);
 // `sim explore`, `sim worlds` (sim_commands.cc).
 void AddSimCommands(CLI::App& app, CommandRegistry& registry);
+// `robot` (robot_command.cc).
+void AddRobotCommand(CLI::App& app, CommandRegistry& registry);
 
 }  // namespace waymark::cli
 

@@ -96,10 +96,15 @@ grpc::Status FakeSlamService::StreamSensorData(
   v1::SensorData first;
   if (!stream->Read(&first)) return grpc::Status::OK;
   const std::string session_id = first.session_id();
+  int break_after = 0;
   {
     std::lock_guard<std::mutex> lock(mutex_);
     if (sessions_.count(session_id) == 0) return NoSession(session_id);
+    ++streams_opened_;
+    break_after = break_streams_after_;
   }
+  int scans_in_stream = 0;
+  bool broken = false;
 
   std::thread worker([&] {
     while (true) {
@@ -180,6 +185,10 @@ grpc::Status FakeSlamService::StreamSensorData(
 
   v1::SensorData message = std::move(first);
   do {
+    if (message.has_scan() && break_after > 0 && ++scans_in_stream > break_after) {
+      broken = true;  // like a server that dies: this scan is never answered
+      break;
+    }
     std::unique_lock<std::mutex> lock(queue_mutex);
     if (message.has_scan() || message.has_odometry()) {
       std::lock_guard<std::mutex> stats_lock(mutex_);
@@ -218,6 +227,7 @@ grpc::Status FakeSlamService::StreamSensorData(
   }
   queue_changed.notify_all();
   worker.join();
+  if (broken) return grpc::Status(grpc::StatusCode::UNAVAILABLE, "fake: stream broken on purpose");
   return grpc::Status::OK;
 }
 

@@ -29,6 +29,16 @@ class FakeSlamService final : public v1::SlamService::Service {
   // Attached to every scan's update; the default (BEHAVIOUR_UNSPECIFIED) attaches none, as a
   // passive session does.
   void set_suggestion(const v1::SuggestedControl& suggestion);
+  // Every stream ends with UNAVAILABLE when its scan number `scans` + 1 arrives (that scan is not
+  // answered): a server or network that dies under a robot. 0 = never.
+  void set_break_streams_after(int scans) {
+    std::lock_guard<std::mutex> lock(mutex_);
+    break_streams_after_ = scans;
+  }
+  int streams_opened() const {
+    std::lock_guard<std::mutex> lock(mutex_);
+    return streams_opened_;
+  }
   // Stamps of the messages received, in arrival order (rejected ones included).
   std::vector<double> odometry_stamps() const;
   std::vector<double> scan_stamps() const;
@@ -72,6 +82,8 @@ class FakeSlamService final : public v1::SlamService::Service {
   int scans_received_ = 0;
   int odometry_received_ = 0;
   int rejected_ = 0;
+  int break_streams_after_ = 0;
+  int streams_opened_ = 0;
   v1::CreateSessionRequest last_create_;
   v1::SuggestedControl suggestion_;
   std::vector<double> odometry_stamps_;

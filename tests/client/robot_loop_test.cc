@@ -1,0 +1,449 @@
+// The robot loop (`waymark robot`) and its safety pieces against the fake SlamService: scripted
+// devices to check each stop rule, the simulator in fast real time for the whole loop, a stream
+// the fake breaks on purpose for the stop-reconnect-resume path.
+#include "client/tools/robot_loop.h"
+
+#include <gmock/gmock.h>
+#include <gtest/gtest.h>
+
+#include <chrono>
+#include <thread>
+
+#include "client/adapters/sim_realtime.h"
+#include "client/adapters/sim_world.h"
+#include "client/lib/channel.h"
+#include "client/tools/robot_setup.h"
+#include "client/tools/safety_guard.h"
+#include "client/tools/teleop_keys.h"
+#include "tests/client/fake_slam_service.h"
+#include "tests/client/test_util.h"
+
+namespace waymark::cli {
+namespace {
+
+using ::testing::HasSubstr;
+using waymark::testing::CliResult;
+using waymark::testing::FakeSlamServer;
+using waymark::testing::RunWaymark;
+
+double Now() {
+  return std::chrono::duration<double>(std::chrono::steady_clock::now().time_since_epoch())
+      .count();
+}
+
+// Polls `condition` for up to `seconds`.
+template <typename F>
+bool WaitFor(F condition, double seconds = 5) {
+  const double end = Now() + seconds;
+  while (Now() < end) {
+    if (condition()) return true;
+    std::this_thread::sleep_for(std::chrono::milliseconds(5));
+  }
+  return condition();
+}
+
+// A base that records every command; stamps are the wall clock; bumped/stalled/failing on demand.
+class ScriptedBase : public adapters::MobileBase {
+ public:
+  struct Command {
+    bool stop;
+    double linear, angular;
+  };
+  absl::Status SetVelocity(double linear, double angular) override {
+    std::lock_guard<std::mutex> lock(mutex_);
+    commands_.push_back({false, linear, angular});
+    return absl::OkStatus();
+  }
+  absl::Status Stop() override {
+    std::lock_guard<std::mutex> lock(mutex_);
+    commands_.push_back({true, 0, 0});
+    return absl::OkStatus();
+  }
+  absl::StatusOr<adapters::BaseState> Read() override {
+    std::lock_guard<std::mutex> lock(mutex_);
+    if (failing_) return absl::UnavailableError("no SIP for 1 s");
+    adapters::BaseState state;
+    state.stamp = Now();
+    state.bumped = bumped_;
+    state.stalled = stalled_;
+    return state;
+  }
+  double max_linear() const override { return 0.5; }
+  double max_angular() const override { return 1.0; }
+
+  std::vector<Command> commands() const {
+    std::lock_guard<std::mutex> lock(mutex_);
+    return commands_;
+  }
+  bool last_is_stop() const {
+    std::lock_guard<std::mutex> lock(mutex_);
+    return !commands_.empty() && commands_.back().stop;
+  }
+  void set_bumped(bool b) {
+    std::lock_guard<std::mutex> lock(mutex_);
+    bumped_ = b;
+  }
+  void set_stalled(bool b) {
+    std::lock_guard<std::mutex> lock(mutex_);
+    stalled_ = b;
+  }
+  void set_failing(bool b) {
+    std::lock_guard<std::mutex> lock(mutex_);
+    failing_ = b;
+  }
+
+ private:
+  mutable std::mutex mutex_;
+  std::vector<Command> commands_;
+  bool bumped_ = false, stalled_ = false, failing_ = false;
+};
+
+// A 181-beam laser delivering a scan every 20 ms (wall clock), or failing on demand.
+class ScriptedLaser : public adapters::LaserScanner {
+ public:
+  adapters::LaserLayout layout() const override {
+    adapters::LaserLayout l;
+    l.angle_min = -M_PI / 2;
+    l.angle_increment = M_PI / 180;
+    l.beam_count = 181;
+    l.no_return_range = 8.183;
+    return l;
+  }
+  absl::StatusOr<adapters::LaserReading> Read() override {
+    std::this_thread::sleep_for(std::chrono::milliseconds(20));
+    if (failing_.load()) return absl::UnavailableError("LMS200 on /dev/ttyUSB0 hung up");
+    return adapters::LaserReading{Now(), std::vector<float>(181, 3.0f)};
+  }
+  std::atomic<bool> failing_{false};
+};
+
+v1::SuggestedControl Forward(double duration = 0.3) {
+  v1::SuggestedControl c;
+  c.set_linear(0.1);
+  c.set_duration(duration);
+  c.set_behaviour(v1::SuggestedControl::OPTIMAL);
+  return c;
+}
+
+// ---- SafetyGuard ------------------------------------------------------------------------------
+
+TEST(SafetyGuardTest, ClampsToTheConfiguredAndTheBaseLimits) {
+  ScriptedBase base;  // its own limits: 0.5 m/s, 1 rad/s
+  SafetyGuard guard(base, {/*max_linear=*/2.0, /*max_angular=*/0.3});
+  EXPECT_DOUBLE_EQ(guard.limits().max_linear, 0.5);
+  EXPECT_DOUBLE_EQ(guard.limits().max_angular, 0.3);
+  ASSERT_TRUE(guard.Drive(5.0, -4.0, 10).ok());
+  ASSERT_FALSE(base.commands().empty());
+  EXPECT_DOUBLE_EQ(base.commands().back().linear, 0.5);
+  EXPECT_DOUBLE_EQ(base.commands().back().angular, -0.3);
+}
+
+TEST(SafetyGuardTest, WatchdogStopsACommandThatOutlivesItsValidity) {
+  ScriptedBase base;
+  SafetyGuard guard(base, {}, /*time_scale=*/1.0, /*grace=*/0.0);
+  ASSERT_TRUE(guard.Drive(0.2, 0, /*valid_for=*/0.05).ok());
+  EXPECT_TRUE(WaitFor([&] { return !guard.moving(); }));
+  EXPECT_TRUE(base.last_is_stop());
+  EXPECT_EQ(guard.stops(StopReason::kCommandExpired), 1u);
+  // A renewed command keeps it going: no expiry while commands keep coming.
+  ASSERT_TRUE(guard.Drive(0.2, 0, 10).ok());
+  std::this_thread::sleep_for(std::chrono::milliseconds(100));
+  EXPECT_TRUE(guard.moving());
+  EXPECT_EQ(guard.stops(StopReason::kCommandExpired), 1u);
+}
+
+TEST(SafetyGuardTest, RefusesNonFiniteCommandsAndStops) {
+  ScriptedBase base;
+  SafetyGuard guard(base, {});
+  ASSERT_TRUE(guard.Drive(0.2, 0, 10).ok());
+  EXPECT_EQ(guard.Drive(std::nan(""), 0, 1).code(), absl::StatusCode::kInvalidArgument);
+  EXPECT_FALSE(guard.moving());
+  EXPECT_TRUE(base.last_is_stop());
+  EXPECT_EQ(guard.Drive(0.1, INFINITY, 1).code(), absl::StatusCode::kInvalidArgument);
+}
+
+TEST(SafetyGuardTest, HaltCountsItsReasonAndStopsTheBaseOnDestruction) {
+  ScriptedBase base;
+  {
+    SafetyGuard guard(base, {});
+    ASSERT_TRUE(guard.Drive(0.2, 0.1, 10).ok());
+    ASSERT_TRUE(guard.Halt(StopReason::kBumper).ok());
+    EXPECT_EQ(guard.stops(StopReason::kBumper), 1u);
+    EXPECT_FALSE(guard.moving());
+    ASSERT_TRUE(guard.Drive(0.2, 0.1, 10).ok());
+  }
+  EXPECT_TRUE(base.last_is_stop());
+}
+
+// ---- Teleop keys ------------------------------------------------------------------------------
+
+TEST(TeleopKeysTest, StepsClampsStopsAndQuits) {
+  TeleopTarget t;
+  const VelocityLimits limits{0.12, 0.25};
+  EXPECT_EQ(ApplyTeleopKey('w', t, limits), TeleopAction::kDrive);
+  EXPECT_DOUBLE_EQ(t.linear, 0.05);
+  ApplyTeleopKey('W', t, limits);
+  ApplyTeleopKey('w', t, limits);
+  EXPECT_DOUBLE_EQ(t.linear, 0.12);  // clamped
+  ApplyTeleopKey('a', t, limits);
+  ApplyTeleopKey('a', t, limits);
+  ApplyTeleopKey('a', t, limits);
+  EXPECT_DOUBLE_EQ(t.angular, 0.25);
+  ApplyTeleopKey('d', t, limits);
+  EXPECT_NEAR(t.angular, 0.15, 1e-12);
+  for (int i = 0; i < 10; ++i) ApplyTeleopKey('s', t, limits);
+  EXPECT_DOUBLE_EQ(t.linear, -0.12);  // backwards, clamped too
+  EXPECT_EQ(ApplyTeleopKey(' ', t, limits), TeleopAction::kStop);
+  EXPECT_EQ(t.linear, 0);
+  EXPECT_EQ(t.angular, 0);
+  EXPECT_EQ(ApplyTeleopKey('c', t, limits), TeleopAction::kRecognize);
+  EXPECT_EQ(ApplyTeleopKey('q', t, limits), TeleopAction::kQuit);
+  EXPECT_EQ(ApplyTeleopKey('?', t, limits), TeleopAction::kNone);
+}
+
+// ---- Device specs -----------------------------------------------------------------------------
+
+TEST(RobotSetupTest, ParsesDeviceSpecsAndRefusesMixtures) {
+  auto serial = ParseDeviceSpec("serial:/dev/ttyS0", "--base");
+  ASSERT_TRUE(serial.ok());
+  EXPECT_EQ(serial->kind, DeviceSpec::Kind::kSerial);
+  EXPECT_EQ(serial->argument, "/dev/ttyS0");
+  auto sim = ParseDeviceSpec("sim:office", "--base");
+  ASSERT_TRUE(sim.ok());
+  EXPECT_EQ(sim->kind, DeviceSpec::Kind::kSim);
+  EXPECT_EQ(sim->argument, "office");
+  auto bad = ParseDeviceSpec("/dev/ttyS0", "--base");
+  ASSERT_FALSE(bad.ok());
+  EXPECT_THAT(std::string(bad.status().message()), HasSubstr("serial:DEVICE"));
+  EXPECT_FALSE(ParseDeviceSpec("serial:", "--laser").ok());
+
+  RobotSetupOptions mixed;
+  mixed.base = "sim:corridor";
+  mixed.laser = "serial:/dev/ttyUSB0";
+  EXPECT_EQ(OpenRobotDevices(mixed).status().code(), absl::StatusCode::kInvalidArgument);
+  RobotSetupOptions no_world;
+  no_world.base = "sim";
+  EXPECT_EQ(OpenRobotDevices(no_world).status().code(), absl::StatusCode::kInvalidArgument);
+  RobotSetupOptions unknown_world;
+  unknown_world.base = "sim:atlantis";
+  EXPECT_FALSE(OpenRobotDevices(unknown_world).ok());
+  RobotSetupOptions missing_port;
+  missing_port.base = "serial:/dev/ttyWAYMARK_none";
+  missing_port.laser = "serial:/dev/ttyWAYMARK_none2";
+  auto opened = OpenRobotDevices(missing_port);
+  ASSERT_FALSE(opened.ok());
+  EXPECT_THAT(std::string(opened.status().message()), HasSubstr("/dev/ttyWAYMARK_none2"));
+}
+
+// ---- The loop ---------------------------------------------------------------------------------
+
+class RobotLoopTest : public ::testing::Test {
+ protected:
+  client::SlamClient& Client() {
+    if (!client_) client_ = std::make_unique<client::SlamClient>(client::MakeChannel(server_.address()));
+    return *client_;
+  }
+
+  FakeSlamServer server_;
+  std::unique_ptr<client::SlamClient> client_;
+  std::atomic<bool> stop_{false};
+};
+
+TEST_F(RobotLoopTest, PassiveStreamsEveryScanWithIncreasingStampsAndClosesTheSession) {
+  auto world = adapters::LoadWorld("office");
+  ASSERT_TRUE(world.ok());
+  adapters::RealTimeSimOptions sim_options;
+  sim_options.speed = 20;
+  adapters::RealTimeSimulation sim(*world, sim_options);
+  RobotLoopOptions options;
+  options.robot_id = "r1";
+  options.duration_s = 4;
+  options.time_scale = 20;
+  RobotLoop loop(Client(), sim.base(), sim.laser(), options);
+  auto status = loop.Run(stop_);
+  ASSERT_TRUE(status.ok()) << status.status();
+  // ~40 scans in 4 simulated seconds at 10 Hz; the loop may skip a few when the machine is slow.
+  EXPECT_GE(status->scans_answered, 20u);
+  EXPECT_LE(status->scans_sent, 42u);  // never faster than the laser's rate
+  EXPECT_EQ(status->scans_rejected, 0u);
+  EXPECT_EQ(server_.service().last_create().robot_id(), "r1");
+  EXPECT_EQ(server_.service().last_create().laser().laser().beam_count(), 181u);
+  EXPECT_EQ(server_.service().last_create().laser().exploration().mode(),
+            v1::ExplorationConfig::PASSIVE);
+  const auto scans = server_.service().scan_stamps();
+  for (size_t i = 1; i < scans.size(); ++i) EXPECT_GT(scans[i], scans[i - 1]);
+  EXPECT_DOUBLE_EQ(sim.distance_travelled(), 0);  // passive: never moves
+  auto sessions = Client().ListSessions();
+  ASSERT_TRUE(sessions.ok());
+  ASSERT_EQ(sessions->sessions_size(), 1);
+  EXPECT_EQ(sessions->sessions(0).state(), v1::Session::CLOSED);
+}
+
+TEST_F(RobotLoopTest, ActiveDrivesEachSuggestionForItsDurationThenStops) {
+  server_.service().set_suggestion(Forward(/*duration=*/1.0));
+  auto world = adapters::LoadWorld("office");
+  ASSERT_TRUE(world.ok());
+  adapters::RealTimeSimOptions sim_options;
+  sim_options.speed = 20;
+  adapters::RealTimeSimulation sim(*world, sim_options);
+  RobotLoopOptions options;
+  options.mode = DriveMode::kActive;
+  options.duration_s = 5;
+  options.time_scale = 20;
+  RobotLoop loop(Client(), sim.base(), sim.laser(), options);
+  auto status = loop.Run(stop_);
+  ASSERT_TRUE(status.ok()) << status.status();
+  EXPECT_EQ(server_.service().last_create().laser().exploration().mode(),
+            v1::ExplorationConfig::ACTIVE);
+  // Go-stop: 1 s holds plus settle and answer time: 3 to 5 suggestions in 5 s.
+  EXPECT_GE(status->suggestions_driven, 3u);
+  EXPECT_LE(status->suggestions_driven, 5u);
+  // The simulated Pioneer is capped at 0.15 m/s; 0.1 m/s for ~4 s of holds.
+  EXPECT_GT(sim.distance_travelled(), 0.25);
+  EXPECT_LT(sim.distance_travelled(), 0.55);
+  EXPECT_EQ(status->stops[static_cast<int>(StopReason::kCommandExpired)], 0u);
+  auto state = sim.base().Read();
+  ASSERT_TRUE(state.ok());
+  EXPECT_EQ(state->linear, 0);  // stopped at the end
+}
+
+TEST_F(RobotLoopTest, ActiveModeOnAPassiveSessionIsAnErrorAndTheRobotStaysStill) {
+  ScriptedBase base;
+  ScriptedLaser laser;
+  RobotLoopOptions options;
+  options.mode = DriveMode::kActive;
+  RobotLoop loop(Client(), base, laser, options);
+  auto status = loop.Run(stop_);
+  ASSERT_FALSE(status.ok());
+  EXPECT_EQ(status.status().code(), absl::StatusCode::kFailedPrecondition);
+  EXPECT_THAT(std::string(status.status().message()), HasSubstr("suggests no controls"));
+  for (const auto& c : base.commands()) EXPECT_TRUE(c.stop);
+}
+
+TEST_F(RobotLoopTest, ABrokenStreamStopsTheBaseThenTheLoopReconnectsToTheSameSession) {
+  server_.service().set_suggestion(Forward(/*duration=*/0.3));
+  server_.service().set_break_streams_after(3);
+  ScriptedBase base;
+  ScriptedLaser laser;
+  RobotLoopOptions options;
+  options.mode = DriveMode::kActive;
+  options.reconnect_initial = absl::Milliseconds(50);
+  options.reconnect_max = absl::Milliseconds(200);
+  options.answer_timeout = absl::Seconds(2);
+  RobotLoop loop(Client(), base, laser, options);
+  std::vector<bool> stopped_at_break;
+  loop.set_event_callback([&](const std::string& e) {
+    if (e.find("stream broken") != std::string::npos) stopped_at_break.push_back(base.last_is_stop());
+  });
+  std::thread stopper([&] {
+    WaitFor([&] { return server_.service().streams_opened() >= 3; }, 20);
+    stop_ = true;
+  });
+  auto status = loop.Run(stop_);
+  stopper.join();
+  ASSERT_TRUE(status.ok()) << status.status();
+  ASSERT_GE(stopped_at_break.size(), 2u);
+  for (bool stopped : stopped_at_break) EXPECT_TRUE(stopped);
+  EXPECT_GE(status->stops[static_cast<int>(StopReason::kStreamBroken)], 2u);
+  EXPECT_GE(status->reconnects, 2u);
+  EXPECT_GE(server_.service().streams_opened(), 3);
+  // One session throughout: the reconnects resumed it.
+  auto sessions = Client().ListSessions();
+  ASSERT_TRUE(sessions.ok());
+  EXPECT_EQ(sessions->sessions_size(), 1);
+  EXPECT_GE(status->scans_answered, 6u);
+  EXPECT_TRUE(base.last_is_stop());
+}
+
+TEST_F(RobotLoopTest, BumperAndStallStopTheBase) {
+  server_.service().set_suggestion(Forward(/*duration=*/5.0));
+  ScriptedBase base;
+  ScriptedLaser laser;
+  RobotLoopOptions options;
+  options.mode = DriveMode::kActive;
+  RobotLoop loop(Client(), base, laser, options);
+  std::thread script([&] {
+    WaitFor([&] {
+      auto c = base.commands();
+      return !c.empty() && !c.back().stop;
+    });
+    base.set_bumped(true);
+    WaitFor([&] { return loop.status().stops[static_cast<int>(StopReason::kBumper)] > 0; });
+    base.set_bumped(false);
+    base.set_stalled(true);
+    WaitFor([&] { return loop.status().stops[static_cast<int>(StopReason::kStall)] > 0; });
+    stop_ = true;
+  });
+  auto status = loop.Run(stop_);
+  script.join();
+  ASSERT_TRUE(status.ok()) << status.status();
+  EXPECT_GE(status->stops[static_cast<int>(StopReason::kBumper)], 1u);
+  EXPECT_GE(status->stops[static_cast<int>(StopReason::kStall)], 1u);
+  // Stopped well before the 5 s holds ran out: the bumper cut them, not the watchdog.
+  EXPECT_EQ(status->stops[static_cast<int>(StopReason::kCommandExpired)], 0u);
+  EXPECT_TRUE(base.last_is_stop());
+}
+
+TEST_F(RobotLoopTest, ALaserThatKeepsFailingEndsTheRunWithTheRobotStopped) {
+  ScriptedBase base;
+  ScriptedLaser laser;
+  laser.failing_ = true;
+  RobotLoopOptions options;
+  options.device_grace = absl::Milliseconds(300);
+  RobotLoop loop(Client(), base, laser, options);
+  auto status = loop.Run(stop_);
+  ASSERT_FALSE(status.ok());
+  EXPECT_EQ(status.status().code(), absl::StatusCode::kUnavailable);
+  EXPECT_THAT(std::string(status.status().message()), HasSubstr("laser stopped reporting"));
+  EXPECT_THAT(std::string(status.status().message()), HasSubstr("/dev/ttyUSB0"));
+  EXPECT_TRUE(base.last_is_stop());
+}
+
+TEST_F(RobotLoopTest, ResumesAnOpenSessionInsteadOfCreatingOne) {
+  ScriptedBase base;
+  ScriptedLaser laser;
+  v1::CreateSessionRequest create;
+  create.set_robot_id("r2");
+  create.mutable_laser()->mutable_laser()->set_beam_count(181);
+  auto session = Client().CreateSession(create);
+  ASSERT_TRUE(session.ok());
+  RobotLoopOptions options;
+  options.resume_session_id = session->session_id();
+  options.close_session = false;
+  options.duration_s = 0.3;
+  RobotLoop loop(Client(), base, laser, options);
+  auto status = loop.Run(stop_);
+  ASSERT_TRUE(status.ok()) << status.status();
+  EXPECT_EQ(status->session_id, session->session_id());
+  auto sessions = Client().ListSessions();
+  ASSERT_TRUE(sessions.ok());
+  EXPECT_EQ(sessions->sessions_size(), 1);
+  EXPECT_GT(status->scans_answered, 0u);
+}
+
+// ---- The command ------------------------------------------------------------------------------
+
+TEST_F(RobotLoopTest, CommandRunsTheSimulatorAndPrintsStatusLinesAndASummary) {
+  CliResult r = RunWaymark(server_.address(),
+                           {"robot", "--base", "sim:office", "--laser", "sim", "--duration", "3",
+                            "--sim-speed", "10", "--robot-id", "cli-robot"});
+  ASSERT_EQ(r.code, 0) << r.err;
+  EXPECT_THAT(r.out, HasSubstr("simulated Pioneer with LMS200 in world 'office'"));
+  EXPECT_THAT(r.out, HasSubstr("pose=("));
+  EXPECT_THAT(r.out, HasSubstr("server=ok"));
+  EXPECT_THAT(r.out, HasSubstr("stopped: session"));
+  EXPECT_EQ(server_.service().last_create().robot_id(), "cli-robot");
+}
+
+TEST_F(RobotLoopTest, CommandErrorsAreClear) {
+  CliResult r = RunWaymark(server_.address(), {"robot", "--base", "ttyS0", "--laser", "sim"});
+  EXPECT_NE(r.code, 0);
+  EXPECT_THAT(r.err, HasSubstr("serial:DEVICE"));
+  r = RunWaymark(server_.address(),
+                 {"robot", "--base", "sim:office", "--laser", "sim", "--camera", "0"});
+  EXPECT_NE(r.code, 0);
+  EXPECT_THAT(r.err, HasSubstr("--camera and --crossings go together"));
+}
+
+}  // namespace
+}  // namespace waymark::cli
