@@ -14,6 +14,7 @@
 #include <thread>
 
 #include "client/adapters/camera_source.h"
+#include "client/adapters/sim_realtime.h"
 #include "client/tools/command.h"
 #include "client/tools/crossing_watch.h"
 #include "client/tools/output.h"
@@ -224,7 +225,13 @@ int RunRobot(CommandContext& context, RobotArgs args) {
   if (keys.joinable()) keys.join();
   watch.reset();
   if (!result.ok()) return ReportError(context, result.status(), "robot");
-  const nlohmann::json summary = SummaryJson(*result, mode, devices->description);
+  nlohmann::json summary = SummaryJson(*result, mode, devices->description);
+  if (devices->sim) {
+    const adapters::BasePose truth = devices->sim->true_pose();
+    summary["sim"] = {{"collisions", devices->sim->collisions()},
+                      {"distance_m", devices->sim->distance_travelled()},
+                      {"true_pose", {{"x", truth.x}, {"y", truth.y}, {"theta", truth.theta}}}};
+  }
   if (context.globals.json) {
     PrintJson(context.out, summary);
   } else {

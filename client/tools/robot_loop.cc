@@ -92,9 +92,9 @@ class RobotLoop::Impl {
   absl::StatusOr<RobotStatus> Run(const std::atomic<bool>& stop, const StatusCallback& on_status,
                                   const EventCallback& on_event) {
     on_event_ = on_event;
+    on_status_ = on_status;
     if (absl::Status s = OpenSession(); !s.ok()) return s;
     absl::Status result = absl::OkStatus();
-    double next_status = WallSeconds();
     double backoff = absl::ToDoubleSeconds(options_.reconnect_initial);
     while (!stop.load() && !DurationReached()) {
       if (!stream_) {
@@ -118,10 +118,7 @@ class RobotLoop::Impl {
       } else if (answered_since_open_) {
         backoff = absl::ToDoubleSeconds(options_.reconnect_initial);
       }
-      if (on_status && WallSeconds() >= next_status) {
-        on_status(Snapshot());
-        next_status = WallSeconds() + absl::ToDoubleSeconds(options_.status_period);
-      }
+      MaybeReportStatus();
     }
     guard_.Halt(StopReason::kShutdown).IgnoreError();
     FinishStream(/*cancel=*/!result.ok());
@@ -129,10 +126,8 @@ class RobotLoop::Impl {
       auto closed = client_.CloseSession(session_id_);
       if (!closed.ok()) Event(fmt::format("could not close the session: {}", closed.status().ToString()));
     }
-    RobotStatus status = Snapshot();
-    if (on_status) on_status(status);
     if (!result.ok()) return result;
-    return status;
+    return Snapshot();
   }
 
   absl::Status Teleop(double linear, double angular) {
@@ -167,6 +162,19 @@ class RobotLoop::Impl {
  private:
   void Event(const std::string& message) {
     if (on_event_) on_event_(message);
+  }
+
+  // Every status_period of wall time, also in the middle of a hold.
+  void MaybeReportStatus() {
+    if (!on_status_ || WallSeconds() < next_status_) return;
+    on_status_(Snapshot());
+    next_status_ = WallSeconds() + absl::ToDoubleSeconds(options_.status_period);
+  }
+
+  double RemainingDeviceTime() const {
+    std::lock_guard<std::mutex> lock(mutex_);
+    if (options_.duration_s <= 0 || !start_stamp_) return 1e300;
+    return options_.duration_s - (last_base_stamp_ - *start_stamp_);
   }
 
   bool DurationReached() const {
@@ -370,7 +378,10 @@ class RobotLoop::Impl {
           "(create a new session with --mode active)",
           session_id_));
     }
-    const double hold = control.duration() > 0 ? control.duration() : options_.odometry_period;
+    // The last hold ends with the run.
+    const double hold = std::min(
+        control.duration() > 0 ? control.duration() : options_.odometry_period,
+        std::max(options_.odometry_period, RemainingDeviceTime()));
     {
       std::lock_guard<std::mutex> lock(mutex_);
       status_.behaviour = absl::AsciiStrToLower(
@@ -390,6 +401,7 @@ class RobotLoop::Impl {
       if (!fatal.ok()) return fatal;
       if (!during) continue;
       now = during->stamp;
+      MaybeReportStatus();
       absl::Status s = SendOdometry(*during);
       if (s.ok() && stream_->ended()) s = absl::UnavailableError("the server ended the stream");
       if (!s.ok()) {
@@ -408,6 +420,8 @@ class RobotLoop::Impl {
   DeviceHealth base_health_;
   DeviceHealth laser_health_;
   EventCallback on_event_;
+  StatusCallback on_status_;
+  double next_status_ = 0;
 
   std::string session_id_;
   absl::Status session_gone_;

@@ -40,10 +40,11 @@ std::string MakeTempDir(const std::string& prefix) {
 }
 
 absl::StatusOr<std::unique_ptr<ServerProcess>> ServerProcess::Start(
-    const std::string& binary, const std::string& db_path, const std::vector<std::string>& args) {
+    const std::string& binary, const std::string& db_path, const std::vector<std::string>& args,
+    const std::string& listen) {
   std::unique_ptr<ServerProcess> server(new ServerProcess());
   server->log_path_ = db_path + ".log." + std::to_string(std::rand());
-  std::vector<std::string> argv = {binary, "--listen", "127.0.0.1:0", "--db", db_path};
+  std::vector<std::string> argv = {binary, "--listen", listen, "--db", db_path};
   argv.insert(argv.end(), args.begin(), args.end());
   const pid_t pid = fork();
   if (pid < 0) return absl::InternalError("fork failed");

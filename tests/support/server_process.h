@@ -18,9 +18,11 @@ class ServerProcess {
  public:
   // Starts `binary --listen 127.0.0.1:0 --db db_path args...` and waits (up to 60 s) for its
   // "listening on" line.
+  // `listen` replaces 127.0.0.1:0, e.g. to restart a server on the port it had.
   static absl::StatusOr<std::unique_ptr<ServerProcess>> Start(const std::string& binary,
                                                               const std::string& db_path,
-                                                              const std::vector<std::string>& args = {});
+                                                              const std::vector<std::string>& args = {},
+                                                              const std::string& listen = "127.0.0.1:0");
   ~ServerProcess();
 
   const std::string& address() const { return address_; }

@@ -1,0 +1,235 @@
+// The robot loop end to end: the Pioneer and LMS200 drivers over pseudo-terminals to the fake
+// ARCOS controller and the fake LMS200, streaming into the real waymark-server; a server killed
+// under a driving robot must stop it, and the loop must resume the same session once the server
+// is back. Also `waymark robot` itself, on the serial fakes and on the simulator.
+#include <gmock/gmock.h>
+#include <gtest/gtest.h>
+#include <sys/wait.h>
+
+#include <cmath>
+#include <csignal>
+#include <cstdio>
+#include <thread>
+
+#include <nlohmann/json.hpp>
+
+#include "absl/time/clock.h"
+#include "client/adapters/lms200_scanner.h"
+#include "client/adapters/pioneer_base.h"
+#include "client/lib/channel.h"
+#include "client/tools/robot_loop.h"
+#include "tests/robot/fake_arcos_peer.h"
+#include "tests/robot/fake_lms200_peer.h"
+#include "tests/support/server_process.h"
+
+namespace waymark::cli {
+namespace {
+
+using ::testing::HasSubstr;
+using testing::FakeArcosPeer;
+using testing::FakeLms200Options;
+using testing::FakeLms200Peer;
+using testing::PtyPair;
+using testing::ServerProcess;
+
+bool Eventually(const std::function<bool()>& condition, absl::Duration timeout = absl::Seconds(10)) {
+  const absl::Time deadline = absl::Now() + timeout;
+  while (absl::Now() < deadline) {
+    if (condition()) return true;
+    absl::SleepFor(absl::Milliseconds(10));
+  }
+  return condition();
+}
+
+// The robot in the middle of a 5 x 3 m room, facing +x: what each LMS200 beam reads (mm).
+std::uint16_t RoomRangeMm(int beam, int beam_count) {
+  const double angle = -M_PI / 2 + beam * M_PI / (beam_count - 1);
+  const double c = std::cos(angle), s = std::sin(angle);
+  double range = 8.0;
+  if (c > 1e-9) range = std::min(range, 3.0 / c);
+  if (c < -1e-9) range = std::min(range, -2.0 / c);
+  if (s > 1e-9) range = std::min(range, 1.5 / s);
+  if (s < -1e-9) range = std::min(range, -1.5 / s);
+  return static_cast<std::uint16_t>(std::lround(range * 1000));
+}
+
+// The last VEL and RVEL arguments the fake robot received.
+std::pair<int, int> LastVelocities(const FakeArcosPeer& robot) {
+  int vel = 0, rvel = 0;
+  for (const auto& c : robot.commands()) {
+    if (c.name == "VEL") vel = c.arg;
+    if (c.name == "RVEL") rvel = c.arg;
+  }
+  return {vel, rvel};
+}
+
+bool EverMoved(const FakeArcosPeer& robot) {
+  for (const auto& c : robot.commands()) {
+    if ((c.name == "VEL" || c.name == "RVEL") && c.arg != 0) return true;
+  }
+  return false;
+}
+
+class RobotLoopServerTest : public ::testing::Test {
+ protected:
+  void SetUp() override {
+    dir_ = testing::MakeTempDir("robot-loop");
+    db_ = dir_ + "/waymark.db";
+    auto server = ServerProcess::Start(testing::ServerBinary(), db_);
+    ASSERT_TRUE(server.ok()) << server.status();
+    server_ = *std::move(server);
+    auto pty = PtyPair::Open();
+    ASSERT_TRUE(pty.ok()) << pty.status();
+    robot_ = std::make_unique<FakeArcosPeer>(*std::move(pty));
+    FakeLms200Options laser_options;
+    laser_options.scan_period = absl::Milliseconds(100);
+    laser_options.range_mm = RoomRangeMm;
+    auto laser = FakeLms200Peer::Start(laser_options);
+    ASSERT_TRUE(laser.ok()) << laser.status();
+    laser_ = *std::move(laser);
+  }
+
+  void ConnectDevices() {
+    auto base = adapters::PioneerBase::Connect(robot_->device_path());
+    ASSERT_TRUE(base.ok()) << base.status();
+    base_ = *std::move(base);
+    auto scanner = adapters::Lms200Scanner::Connect(laser_->device_path());
+    ASSERT_TRUE(scanner.ok()) << scanner.status();
+    scanner_ = *std::move(scanner);
+    client_ = std::make_unique<client::SlamClient>(client::MakeChannel(server_->address()));
+  }
+
+  std::string dir_, db_;
+  std::unique_ptr<ServerProcess> server_;
+  std::unique_ptr<FakeArcosPeer> robot_;
+  std::unique_ptr<FakeLms200Peer> laser_;
+  std::unique_ptr<adapters::PioneerBase> base_;
+  std::unique_ptr<adapters::Lms200Scanner> scanner_;
+  std::unique_ptr<client::SlamClient> client_;
+  std::atomic<bool> stop_{false};
+};
+
+TEST_F(RobotLoopServerTest, PassiveOverSerialMapsTheRoomAndNeverMovesTheRobot) {
+  ConnectDevices();
+  RobotLoopOptions options;
+  options.robot_id = "pioneer";
+  options.duration_s = 2;
+  RobotLoop loop(*client_, *base_, *scanner_, options);
+  auto status = loop.Run(stop_);
+  ASSERT_TRUE(status.ok()) << status.status() << "\n" << server_->Log();
+  EXPECT_GE(status->scans_answered, 8u);  // 10 Hz for 2 s, minus connect jitter
+  EXPECT_EQ(status->scans_rejected, 0u);
+  EXPECT_GE(status->segments, 3);         // the room's walls
+  EXPECT_FALSE(EverMoved(*robot_));
+}
+
+TEST_F(RobotLoopServerTest, AKilledServerStopsTheDrivingRobotAndTheLoopResumesTheSession) {
+  ConnectDevices();
+  RobotLoopOptions options;
+  options.robot_id = "pioneer";
+  options.mode = DriveMode::kActive;
+  options.reconnect_initial = absl::Milliseconds(100);
+  options.reconnect_max = absl::Milliseconds(500);
+  RobotLoop loop(*client_, *base_, *scanner_, options);
+  std::vector<std::string> events;
+  std::mutex events_mutex;
+  loop.set_event_callback([&](const std::string& e) {
+    std::lock_guard<std::mutex> lock(events_mutex);
+    events.push_back(e);
+  });
+  absl::StatusOr<RobotStatus> result;
+  std::thread runner([&] { result = loop.Run(stop_); });
+
+  // Driving a suggestion: the robot got a non-zero velocity.
+  const bool moved = Eventually([&] { return EverMoved(*robot_); }, absl::Seconds(20));
+  EXPECT_TRUE(moved) << server_->Log();
+  const uint64_t answered_before = loop.status().scans_answered;
+  const std::string session = loop.status().session_id;
+  const std::string address = server_->address();
+  server_->Stop(SIGKILL);
+  // The robot must be told to stop (VEL 0, RVEL 0) and stay stopped while the server is down.
+  EXPECT_TRUE(Eventually([&] {
+    return LastVelocities(*robot_) == std::make_pair(0, 0) &&
+           loop.status().stops[static_cast<int>(StopReason::kStreamBroken)] > 0;
+  }));
+  absl::SleepFor(absl::Milliseconds(500));
+  EXPECT_EQ(LastVelocities(*robot_), std::make_pair(0, 0));
+  EXPECT_FALSE(loop.status().server_connected);
+
+  auto restarted = ServerProcess::Start(testing::ServerBinary(), db_, {}, address);
+  ASSERT_TRUE(restarted.ok()) << restarted.status();
+  server_ = *std::move(restarted);
+  EXPECT_TRUE(Eventually(
+      [&] { return loop.status().scans_answered >= answered_before + 3; }, absl::Seconds(30)))
+      << server_->Log();
+  stop_ = true;
+  runner.join();
+  ASSERT_TRUE(result.ok()) << result.status() << "\n" << server_->Log();
+  EXPECT_EQ(result->session_id, session);
+  EXPECT_GE(result->reconnects, 1u);
+  auto sessions = client_->ListSessions("pioneer");
+  ASSERT_TRUE(sessions.ok()) << sessions.status();
+  EXPECT_EQ(sessions->sessions_size(), 1);
+  EXPECT_EQ(LastVelocities(*robot_), std::make_pair(0, 0));
+}
+
+// Runs the waymark binary of this build; returns (exit code, stdout, stderr).
+struct BinaryRun {
+  int code = -1;
+  std::string out, err;
+};
+BinaryRun RunWaymarkBinary(const std::string& server, const std::vector<std::string>& args,
+                     const std::string& dir) {
+  std::string command = std::string(WAYMARK_BINARY_DIR) + "/bin/waymark --server " + server;
+  for (const auto& a : args) command += " '" + a + "'";
+  const std::string out = dir + "/out.txt", err = dir + "/err.txt";
+  command += " >" + out + " 2>" + err;
+  BinaryRun r;
+  const int status = std::system(command.c_str());
+  r.code = WIFEXITED(status) ? WEXITSTATUS(status) : -1;
+  auto slurp = [](const std::string& path) {
+    std::string text;
+    if (FILE* f = std::fopen(path.c_str(), "r")) {
+      char buffer[4096];
+      size_t n;
+      while ((n = std::fread(buffer, 1, sizeof(buffer), f)) > 0) text.append(buffer, n);
+      std::fclose(f);
+    }
+    return text;
+  };
+  r.out = slurp(out);
+  r.err = slurp(err);
+  return r;
+}
+
+TEST_F(RobotLoopServerTest, CommandOnTheSerialFakes) {
+  BinaryRun r = RunWaymarkBinary(server_->address(),
+                           {"robot", "--base", "serial:" + robot_->device_path(), "--laser",
+                            "serial:" + laser_->device_path(), "--duration", "1.5", "--json"},
+                           dir_);
+  ASSERT_EQ(r.code, 0) << r.err << r.out;
+  const nlohmann::json summary = nlohmann::json::parse(r.out);
+  EXPECT_EQ(summary["mode"], "passive");
+  EXPECT_GE(summary["scans_answered"].get<int>(), 5);
+  EXPECT_THAT(summary["devices"].get<std::string>(), HasSubstr("181 beams"));
+  EXPECT_THAT(r.err, HasSubstr("server=ok"));
+  // The drivers said goodbye: the laser stopped streaming, the robot connection was closed.
+  EXPECT_TRUE(Eventually([&] { return !robot_->is_open(); }));
+}
+
+TEST_F(RobotLoopServerTest, CommandDrivesTheSimulatorThroughTheRealServerWithoutCollisions) {
+  BinaryRun r = RunWaymarkBinary(server_->address(),
+                           {"robot", "--base", "sim:office", "--laser", "sim", "--mode", "active",
+                            "--duration", "40", "--sim-speed", "10", "--json"},
+                           dir_);
+  ASSERT_EQ(r.code, 0) << r.err << r.out;
+  const nlohmann::json summary = nlohmann::json::parse(r.out);
+  EXPECT_GE(summary["suggestions_driven"].get<int>(), 5);
+  EXPECT_GT(summary["sim"]["distance_m"].get<double>(), 0.3);
+  EXPECT_EQ(summary["sim"]["collisions"].get<int>(), 0);
+  EXPECT_EQ(summary["safety_stops"]["server stream broken"].get<int>(), 0);
+  EXPECT_GE(summary["segments"].get<int>(), 5);
+}
+
+}  // namespace
+}  // namespace waymark::cli
