@@ -21,6 +21,11 @@
 #include "tests/robot/fake_arcos_peer.h"
 #include "tests/robot/fake_lms200_peer.h"
 #include "tests/support/server_process.h"
+#include "tests/support/synthetic_scene.h"
+
+#include <filesystem>
+#include <fstream>
+#include <opencv2/imgcodecs.hpp>
 
 namespace waymark::cli {
 namespace {
@@ -229,6 +234,50 @@ TEST_F(RobotLoopServerTest, CommandDrivesTheSimulatorThroughTheRealServerWithout
   EXPECT_EQ(summary["sim"]["collisions"].get<int>(), 0);
   EXPECT_EQ(summary["safety_stops"]["server stream broken"].get<int>(), 0);
   EXPECT_GE(summary["segments"].get<int>(), 5);
+}
+
+TEST_F(RobotLoopServerTest, CommandRecognizesTheCrossingFromTheCamera) {
+  // One crossing enrolled from four views of a synthetic panorama; the "camera" is an image
+  // sequence of one of those views seen again.
+  namespace fs = std::filesystem;
+  const cv::Mat panorama = testing::MakePanorama(/*seed=*/42);
+  const fs::path enroll_dir = fs::path(dir_) / "enroll" / "K3";
+  fs::create_directories(enroll_dir);
+  for (int heading : {0, 90, 180, 270}) {
+    cv::imwrite((enroll_dir / (std::to_string(heading) + ".png")).string(),
+                testing::CropView(panorama, heading));
+  }
+  const fs::path camera_dir = fs::path(dir_) / "camera";
+  fs::create_directories(camera_dir);
+  for (int i = 0; i < 2; ++i) {
+    cv::imwrite((camera_dir / ("frame" + std::to_string(i) + ".png")).string(),
+                testing::CropView(panorama, 92));
+  }
+  ASSERT_EQ(RunWaymarkBinary(server_->address(), {"db", "create", "streets"}, dir_).code, 0);
+  BinaryRun enrolled =
+      RunWaymarkBinary(server_->address(), {"enroll", "streets", (fs::path(dir_) / "enroll").string()}, dir_);
+  ASSERT_EQ(enrolled.code, 0) << enrolled.err;
+
+  BinaryRun r = RunWaymarkBinary(
+      server_->address(),
+      {"robot", "--base", "sim:office", "--laser", "sim", "--duration", "20", "--sim-speed", "10",
+       "--camera", (camera_dir / "frame%d.png").string(), "--crossings", "streets",
+       "--recognize-every", "0.5"},
+      dir_);
+  ASSERT_EQ(r.code, 0) << r.err << r.out;
+  EXPECT_THAT(r.out, HasSubstr("crossing: K3 (heading 90 deg"));
+  EXPECT_THAT(r.out, HasSubstr("crossing=K3"));
+  // The image sequence runs out after 2 frames: reported, and the robot goes on.
+  EXPECT_THAT(r.out, HasSubstr("camera: OUT_OF_RANGE")) << r.out;
+  EXPECT_THAT(r.out, HasSubstr("stopped: session"));
+
+  BinaryRun unknown = RunWaymarkBinary(
+      server_->address(),
+      {"robot", "--base", "sim:office", "--laser", "sim", "--camera",
+       (camera_dir / "frame%d.png").string(), "--crossings", "nowhere"},
+      dir_);
+  EXPECT_NE(unknown.code, 0);
+  EXPECT_THAT(unknown.err, HasSubstr("crossing database 'nowhere' not found"));
 }
 
 }  // namespace
