@@ -118,7 +118,15 @@ void TeleopKeys(RobotLoop& loop, const VelocityLimits& limits, StopSignals& sign
   while (!signals.stop_requested().load()) {
     pollfd p{STDIN_FILENO, POLLIN, 0};
     char key = 0;
-    if (::poll(&p, 1, 150) > 0 && ::read(STDIN_FILENO, &key, 1) == 1) {
+    const int ready = ::poll(&p, 1, 150);
+    const ssize_t got = ready > 0 ? ::read(STDIN_FILENO, &key, 1) : 0;
+    if (ready > 0 && got <= 0) {
+      // The terminal went away (EOF, hang-up): nobody is steering any more.
+      err << "teleop: no more keyboard input; stopping\n";
+      loop.Teleop(0, 0).IgnoreError();
+      return;
+    }
+    if (got == 1) {
       switch (ApplyTeleopKey(key, target, limits)) {
         case TeleopAction::kQuit: signals.RequestStop(); return;
         case TeleopAction::kRecognize:
