@@ -18,19 +18,14 @@ class RealTimeSimulation::Base final : public MobileBase {
  public:
   explicit Base(RealTimeSimulation& owner) : owner_(owner) {}
   absl::Status SetVelocity(double linear, double angular) override {
-    std::lock_guard<std::mutex> lock(owner_.mutex_);
-    owner_.CatchUpLocked();
-    return owner_.sim_.base().SetVelocity(linear, angular);
+    return owner_.CaughtUp(
+        [&](Simulation& sim) { return sim.base().SetVelocity(linear, angular); });
   }
   absl::Status Stop() override {
-    std::lock_guard<std::mutex> lock(owner_.mutex_);
-    owner_.CatchUpLocked();
-    return owner_.sim_.base().Stop();
+    return owner_.CaughtUp([](Simulation& sim) { return sim.base().Stop(); });
   }
   absl::StatusOr<BaseState> Read() override {
-    std::lock_guard<std::mutex> lock(owner_.mutex_);
-    owner_.CatchUpLocked();
-    return owner_.sim_.base().Read();
+    return owner_.CaughtUp([](Simulation& sim) { return sim.base().Read(); });
   }
   double max_linear() const override { return owner_.options_.sim.max_linear; }
   double max_angular() const override { return owner_.options_.sim.max_angular; }
@@ -89,27 +84,19 @@ void RealTimeSimulation::CatchUpLocked() {
 }
 
 BasePose RealTimeSimulation::true_pose() {
-  std::lock_guard<std::mutex> lock(mutex_);
-  CatchUpLocked();
-  return sim_.true_pose();
+  return CaughtUp([](Simulation& sim) { return sim.true_pose(); });
 }
 
 int RealTimeSimulation::collisions() {
-  std::lock_guard<std::mutex> lock(mutex_);
-  CatchUpLocked();
-  return sim_.collisions();
+  return CaughtUp([](Simulation& sim) { return sim.collisions(); });
 }
 
 double RealTimeSimulation::distance_travelled() {
-  std::lock_guard<std::mutex> lock(mutex_);
-  CatchUpLocked();
-  return sim_.distance_travelled();
+  return CaughtUp([](Simulation& sim) { return sim.distance_travelled(); });
 }
 
 double RealTimeSimulation::now() {
-  std::lock_guard<std::mutex> lock(mutex_);
-  CatchUpLocked();
-  return sim_.now();
+  return CaughtUp([](Simulation& sim) { return sim.now(); });
 }
 
 }  // namespace waymark::adapters

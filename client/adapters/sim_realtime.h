@@ -45,6 +45,13 @@ class RealTimeSimulation {
   class Laser;
   // Advances the simulation to the wall clock's time. Call with mutex_ held.
   void CatchUpLocked();
+  // Runs `f` on the simulation caught up with the wall clock, under the lock.
+  template <typename F>
+  auto CaughtUp(F&& f) {
+    std::lock_guard<std::mutex> lock(mutex_);
+    CatchUpLocked();
+    return f(sim_);
+  }
   double SimTimeNow() const;
 
   RealTimeSimOptions options_;

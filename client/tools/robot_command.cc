@@ -59,7 +59,11 @@ std::string StatusLine(const RobotStatus& s, const std::optional<CrossingWatch::
   if (s.scans_rejected > 0) line += fmt::format(" rejected={}", s.scans_rejected);
   line += fmt::format(" v={:.2f} w={:.2f}", s.linear, s.angular);
   if (mode == DriveMode::kActive && !s.behaviour.empty()) line += " [" + s.behaviour + "]";
-  line += s.server_connected ? " server=ok" : " server=DOWN";
+  if (s.server_connected) {
+    line += " server=ok";
+  } else {
+    line += s.reconnects > 0 || !s.server_error.empty() ? " server=DOWN" : " server=connecting";
+  }
   if (s.reconnects > 0) line += fmt::format(" reconnects={}", s.reconnects);
   line += s.base_error.empty() ? " base=ok" : " base=ERROR";
   line += s.laser_error.empty() ? " laser=ok" : " laser=ERROR";

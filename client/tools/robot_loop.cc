@@ -11,6 +11,7 @@
 
 #include "absl/strings/ascii.h"
 #include "absl/strings/match.h"
+#include "client/tools/laser_session.h"
 
 namespace waymark::cli {
 namespace {
@@ -40,14 +41,6 @@ bool SessionIsGone(const absl::Status& status) {
          status.code() == absl::StatusCode::kInvalidArgument ||
          status.code() == absl::StatusCode::kPermissionDenied ||
          status.code() == absl::StatusCode::kUnauthenticated;
-}
-
-v1::Pose2D ToProto(const adapters::BasePose& p) {
-  v1::Pose2D out;
-  out.set_x(p.x);
-  out.set_y(p.y);
-  out.set_theta(p.theta);
-  return out;
 }
 
 // Remembers when a device started failing; the run ends when it keeps failing past the grace.
@@ -143,7 +136,7 @@ class RobotLoop::Impl {
     s.session_id = session_id_;
     s.device_time = start_stamp_ ? last_base_stamp_ - *start_stamp_ : 0;
     s.reconnects = reconnects_;
-    s.server_connected = stream_ != nullptr;
+    s.server_connected = stream_ != nullptr && answered_since_open_;
     s.linear = guard_.commanded_linear();
     s.angular = guard_.commanded_angular();
     s.suggestions_driven = suggestions_driven_;
@@ -189,22 +182,13 @@ class RobotLoop::Impl {
       Event(fmt::format("resuming session {}", session_id_));
       return absl::OkStatus();
     }
-    const adapters::LaserLayout layout = laser_.layout();
-    v1::CreateSessionRequest request;
-    request.set_robot_id(options_.robot_id);
-    request.set_name(!options_.session_name.empty()
-                         ? options_.session_name
-                         : fmt::format("{} {}", options_.robot_id, DriveModeName(options_.mode)));
-    v1::LaserSlamConfig* config = request.mutable_laser();
-    config->mutable_laser()->set_angle_min(layout.angle_min);
-    config->mutable_laser()->set_angle_increment(layout.angle_increment);
-    config->mutable_laser()->set_beam_count(layout.beam_count);
-    config->mutable_laser()->set_no_return_range(layout.no_return_range);
-    *config->mutable_laser_pose() = ToProto(layout.mount);
-    config->mutable_exploration()->set_mode(options_.mode == DriveMode::kActive
-                                                ? options_.exploration
-                                                : v1::ExplorationConfig::PASSIVE);
-    auto session = client_.CreateSession(request);
+    auto session = client_.CreateSession(LaserSessionRequest(
+        laser_.layout(), options_.robot_id,
+        !options_.session_name.empty()
+            ? options_.session_name
+            : fmt::format("{} {}", options_.robot_id, DriveModeName(options_.mode)),
+        options_.mode == DriveMode::kActive ? options_.exploration
+                                            : v1::ExplorationConfig::PASSIVE));
     if (!session.ok()) return session.status();
     session_id_ = session->session_id();
     Event(fmt::format("session {} created", session_id_));
@@ -223,6 +207,7 @@ class RobotLoop::Impl {
 
   void OnUpdate(const v1::SlamUpdate& update) {
     std::lock_guard<std::mutex> lock(mutex_);
+    answered_since_open_ = true;  // a rejection too: the server is there
     if (update.has_rejection()) {
       ++status_.scans_rejected;
       status_.last_rejection = update.rejection().message();
@@ -230,7 +215,6 @@ class RobotLoop::Impl {
       return;
     }
     last_rejected_ = false;
-    answered_since_open_ = true;
     ++status_.scans_answered;
     status_.pose = update.pose();
     status_.segments = update.segments();
@@ -263,20 +247,27 @@ class RobotLoop::Impl {
     FinishStream(/*cancel=*/why.code() != absl::StatusCode::kUnavailable);
   }
 
+  // A failed device read: the base stops at once (a robot that cannot see or feel its wheels must
+  // not move); the run ends once the device has failed for longer than the grace.
+  void DeviceFailed(const char* device, const absl::Status& error, std::string& error_field,
+                    DeviceHealth& health, absl::Status& fatal) {
+    guard_.Halt(StopReason::kDeviceError).IgnoreError();
+    {
+      std::lock_guard<std::mutex> lock(mutex_);
+      error_field = error.ToString();
+    }
+    if (health.Fail()) {
+      fatal = absl::UnavailableError(
+          fmt::format("the {} stopped reporting: {}", device, error.ToString()));
+    }
+  }
+
   // Reads the base; stops it on bumpers or a stall. nullopt when the read failed (and the run
   // goes on unless the base keeps failing, reported through `fatal`).
   std::optional<adapters::BaseState> ReadBase(absl::Status& fatal) {
     absl::StatusOr<adapters::BaseState> state = base_.Read();
     if (!state.ok()) {
-      guard_.Halt(StopReason::kDeviceError).IgnoreError();
-      {
-        std::lock_guard<std::mutex> lock(mutex_);
-        status_.base_error = state.status().ToString();
-      }
-      if (base_health_.Fail()) {
-        fatal = absl::UnavailableError(
-            fmt::format("the base stopped reporting: {}", state.status().ToString()));
-      }
+      DeviceFailed("base", state.status(), status_.base_error, base_health_, fatal);
       return std::nullopt;
     }
     base_health_.Ok();
@@ -298,15 +289,7 @@ class RobotLoop::Impl {
   std::optional<adapters::LaserReading> ReadLaser(absl::Status& fatal) {
     absl::StatusOr<adapters::LaserReading> reading = laser_.Read();
     if (!reading.ok()) {
-      guard_.Halt(StopReason::kDeviceError).IgnoreError();
-      {
-        std::lock_guard<std::mutex> lock(mutex_);
-        status_.laser_error = reading.status().ToString();
-      }
-      if (laser_health_.Fail()) {
-        fatal = absl::UnavailableError(
-            fmt::format("the laser stopped reporting: {}", reading.status().ToString()));
-      }
+      DeviceFailed("laser", reading.status(), status_.laser_error, laser_health_, fatal);
       return std::nullopt;
     }
     laser_health_.Ok();

@@ -65,9 +65,11 @@ struct RobotStatus {
   int segments = 0;
   uint64_t scans_sent = 0;
   uint64_t scans_answered = 0;
-  uint64_t scans_rejected = 0;
+  uint64_t scans_rejected = 0;  // messages the server refused (scans or odometry)
   std::string last_rejection;
   uint64_t reconnects = 0;
+  // The current stream has answered a scan. A stream reopened while the server is down exists
+  // but has not: the link is not up until the server answers.
   bool server_connected = false;
   std::string server_error;  // why the last stream ended
   std::string base_error;    // empty while the base reports

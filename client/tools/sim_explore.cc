@@ -12,6 +12,7 @@
 #include "client/adapters/sim_robot.h"
 #include "client/tools/eval_metrics.h"  // Percentile
 #include "client/tools/exploration_metrics.h"
+#include "client/tools/laser_session.h"
 #include "client/tools/slam_output.h"  // SegmentEndpoints
 
 namespace waymark::cli {
@@ -22,13 +23,6 @@ using adapters::Simulation;
 
 Pose2 ToPose2(const BasePose& p) { return {p.x, p.y, p.theta}; }
 Pose2 ToPose2(const v1::Pose2D& p) { return {p.x(), p.y(), p.theta()}; }
-v1::Pose2D ToProto(const BasePose& p) {
-  v1::Pose2D out;
-  out.set_x(p.x);
-  out.set_y(p.y);
-  out.set_theta(p.theta);
-  return out;
-}
 
 // Turns the stream's asynchronous answers into "wait for the answer to the scan just sent". Any
 // rejection (odometry ones arrive unprompted) is kept and ends the run at the next wait.
@@ -82,21 +76,13 @@ class AnswerWaiter {
 
 v1::CreateSessionRequest SessionRequest(const Simulation& sim, const adapters::World& world,
                                         const ExploreOptions& options) {
-  const adapters::LaserLayout layout = sim.laser_layout();
-  v1::CreateSessionRequest request;
-  request.set_robot_id("sim");
-  request.set_name(!options.session_name.empty()
-                       ? options.session_name
-                       : fmt::format("sim explore {} {} s{}", world.name,
-                                     ExplorationModeName(options.mode), options.seed));
-  v1::LaserSlamConfig* config = request.mutable_laser();
-  config->mutable_laser()->set_angle_min(layout.angle_min);
-  config->mutable_laser()->set_angle_increment(layout.angle_increment);
-  config->mutable_laser()->set_beam_count(layout.beam_count);
-  config->mutable_laser()->set_no_return_range(layout.no_return_range);
-  *config->mutable_laser_pose() = ToProto(layout.mount);
-  config->mutable_exploration()->set_mode(options.mode);
-  return request;
+  return LaserSessionRequest(
+      sim.laser_layout(), "sim",
+      !options.session_name.empty()
+          ? options.session_name
+          : fmt::format("sim explore {} {} s{}", world.name, ExplorationModeName(options.mode),
+                        options.seed),
+      options.mode);
 }
 
 // The sensor side of the loop: stamps and messages from the simulation onto the stream.

@@ -244,17 +244,23 @@ class RobotLoopTest : public ::testing::Test {
     return *client_;
   }
 
+  // The built-in office world, `speed` times faster than real time.
+  static std::unique_ptr<adapters::RealTimeSimulation> Office(double speed) {
+    auto world = adapters::LoadWorld("office");
+    EXPECT_TRUE(world.ok()) << world.status();
+    adapters::RealTimeSimOptions options;
+    options.speed = speed;
+    return std::make_unique<adapters::RealTimeSimulation>(*std::move(world), options);
+  }
+
   FakeSlamServer server_;
   std::unique_ptr<client::SlamClient> client_;
   std::atomic<bool> stop_{false};
 };
 
 TEST_F(RobotLoopTest, PassiveStreamsEveryScanWithIncreasingStampsAndClosesTheSession) {
-  auto world = adapters::LoadWorld("office");
-  ASSERT_TRUE(world.ok());
-  adapters::RealTimeSimOptions sim_options;
-  sim_options.speed = 20;
-  adapters::RealTimeSimulation sim(*world, sim_options);
+  auto office = Office(/*speed=*/20);
+  adapters::RealTimeSimulation& sim = *office;
   RobotLoopOptions options;
   options.robot_id = "r1";
   options.duration_s = 4;
@@ -281,11 +287,8 @@ TEST_F(RobotLoopTest, PassiveStreamsEveryScanWithIncreasingStampsAndClosesTheSes
 
 TEST_F(RobotLoopTest, ActiveDrivesEachSuggestionForItsDurationThenStops) {
   server_.service().set_suggestion(Forward(/*duration=*/1.0));
-  auto world = adapters::LoadWorld("office");
-  ASSERT_TRUE(world.ok());
-  adapters::RealTimeSimOptions sim_options;
-  sim_options.speed = 20;
-  adapters::RealTimeSimulation sim(*world, sim_options);
+  auto office = Office(/*speed=*/20);
+  adapters::RealTimeSimulation& sim = *office;
   RobotLoopOptions options;
   options.mode = DriveMode::kActive;
   options.duration_s = 5;
@@ -425,12 +428,12 @@ TEST_F(RobotLoopTest, ResumesAnOpenSessionInsteadOfCreatingOne) {
 
 TEST_F(RobotLoopTest, CommandRunsTheSimulatorAndPrintsStatusLinesAndASummary) {
   CliResult r = RunWaymark(server_.address(),
-                           {"robot", "--base", "sim:office", "--laser", "sim", "--duration", "3",
+                           {"robot", "--base", "sim:office", "--laser", "sim", "--duration", "15",
                             "--sim-speed", "10", "--robot-id", "cli-robot"});
   ASSERT_EQ(r.code, 0) << r.err;
   EXPECT_THAT(r.out, HasSubstr("simulated Pioneer with LMS200 in world 'office'"));
   EXPECT_THAT(r.out, HasSubstr("pose=("));
-  EXPECT_THAT(r.out, HasSubstr("server=ok"));
+  EXPECT_THAT(r.out, HasSubstr("server=ok"));          // a status line every second of 1.5 s
   EXPECT_THAT(r.out, HasSubstr("stopped: session"));
   EXPECT_EQ(server_.service().last_create().robot_id(), "cli-robot");
 }

@@ -6,6 +6,7 @@
 #include <cmath>
 #include <functional>
 
+#include "tests/robot/eventually.h"
 #include "tests/robot/fake_lms200_peer.h"
 #include "tests/robot/pty_pair.h"
 
@@ -35,14 +36,6 @@ Lms200Options TestOptions() {
   return options;
 }
 
-bool WaitFor(const std::function<bool()>& condition, absl::Duration limit = absl::Seconds(5)) {
-  const absl::Time deadline = absl::Now() + limit;
-  while (absl::Now() < deadline) {
-    if (condition()) return true;
-    absl::SleepFor(absl::Milliseconds(10));
-  }
-  return condition();
-}
 
 std::unique_ptr<FakeLms200Peer> StartFake(FakeLms200Options options = {}) {
   auto fake = FakeLms200Peer::Start(std::move(options));
@@ -332,7 +325,7 @@ TEST(Lms200ScannerTest, DestructorStopsTheOutput) {
     ASSERT_TRUE((*scanner)->Read().ok());
     EXPECT_TRUE(fake->streaming());
   }
-  EXPECT_TRUE(WaitFor([&] { return !fake->streaming(); }));
+  EXPECT_TRUE(testing::Eventually([&] { return !fake->streaming(); }));
   const auto heard = fake->heard();
   ASSERT_FALSE(heard.empty());
   EXPECT_EQ(heard.back().telegram, kStopTelegram);

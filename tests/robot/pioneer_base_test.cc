@@ -11,6 +11,7 @@
 
 #include "client/adapters/p2os_packet.h"
 #include "client/adapters/serial_port.h"
+#include "tests/robot/eventually.h"
 #include "tests/robot/fake_arcos_peer.h"
 
 namespace waymark::adapters {
@@ -32,15 +33,7 @@ std::unique_ptr<FakeArcosPeer> StartPeer(const FakeArcosOptions& options = {}) {
   return std::make_unique<FakeArcosPeer>(std::move(*pty), options);
 }
 
-// Polls `condition` until it holds or `timeout` passes.
-bool Eventually(const std::function<bool()>& condition, absl::Duration timeout = kPatience) {
-  const absl::Time deadline = absl::Now() + timeout;
-  while (absl::Now() < deadline) {
-    if (condition()) return true;
-    absl::SleepFor(absl::Milliseconds(10));
-  }
-  return condition();
-}
+using testing::Eventually;
 
 bool HasCommand(const Commands& log, const std::string& name, int arg) {
   for (const auto& c : log) {

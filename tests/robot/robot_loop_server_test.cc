@@ -19,12 +19,14 @@
 #include "client/lib/channel.h"
 #include "client/tools/robot_loop.h"
 #include "tests/robot/fake_arcos_peer.h"
+#include "tests/robot/eventually.h"
 #include "tests/robot/fake_lms200_peer.h"
 #include "tests/support/server_process.h"
 #include "tests/support/synthetic_scene.h"
 
 #include <filesystem>
 #include <fstream>
+#include <sstream>
 #include <opencv2/imgcodecs.hpp>
 
 namespace waymark::cli {
@@ -37,14 +39,7 @@ using testing::FakeLms200Peer;
 using testing::PtyPair;
 using testing::ServerProcess;
 
-bool Eventually(const std::function<bool()>& condition, absl::Duration timeout = absl::Seconds(10)) {
-  const absl::Time deadline = absl::Now() + timeout;
-  while (absl::Now() < deadline) {
-    if (condition()) return true;
-    absl::SleepFor(absl::Milliseconds(10));
-  }
-  return condition();
-}
+using testing::Eventually;
 
 // The robot in the middle of a 5 x 3 m room, facing +x: what each LMS200 beam reads (mm).
 std::uint16_t RoomRangeMm(int beam, int beam_count) {
@@ -236,6 +231,27 @@ TEST_F(RobotLoopServerTest, CommandDrivesTheSimulatorThroughTheRealServerWithout
   EXPECT_EQ(summary["sim"]["collisions"].get<int>(), 0);
   EXPECT_EQ(summary["safety_stops"]["server stream broken"].get<int>(), 0);
   EXPECT_GE(summary["segments"].get<int>(), 5);
+}
+
+TEST_F(RobotLoopServerTest, CtrlCStopsTheRobotClosesTheSessionAndExitsCleanly) {
+  const std::string out = dir_ + "/sigint.json", err = dir_ + "/sigint.err";
+  const std::string command =
+      std::string(WAYMARK_BINARY_DIR) + "/bin/waymark --server " + server_->address() +
+      " robot --base sim:office --laser sim --mode active --sim-speed 10 --json >" + out + " 2>" +
+      err + " & pid=$!; sleep 2; kill -INT $pid; wait $pid";
+  const int status = std::system(("sh -c '" + command + "'").c_str());
+  ASSERT_TRUE(WIFEXITED(status));
+  std::ifstream in(out);
+  std::stringstream text;
+  text << in.rdbuf();
+  EXPECT_EQ(WEXITSTATUS(status), 0) << text.str();
+  const nlohmann::json summary = nlohmann::json::parse(text.str());
+  EXPECT_EQ(summary["safety_stops"]["shutdown"].get<int>(), 1);
+  EXPECT_GE(summary["suggestions_driven"].get<int>(), 1);
+  auto sessions = client::SlamClient(client::MakeChannel(server_->address())).ListSessions();
+  ASSERT_TRUE(sessions.ok());
+  ASSERT_EQ(sessions->sessions_size(), 1);
+  EXPECT_EQ(sessions->sessions(0).state(), v1::Session::CLOSED);
 }
 
 TEST_F(RobotLoopServerTest, TeleopDrivesWithKeysAndQuitsOnQ) {

@@ -1,0 +1,22 @@
+#ifndef WAYMARK_CLIENT_TOOLS_LASER_SESSION_H_
+#define WAYMARK_CLIENT_TOOLS_LASER_SESSION_H_
+
+// What every laser client sends the SLAM service the same way: the CreateSession request for a
+// laser's beam layout and mount, and poses in wire form.
+
+#include <string>
+
+#include "client/adapters/robot_devices.h"
+#include "waymark/v1/slam.pb.h"
+
+namespace waymark::cli {
+
+v1::Pose2D ToProto(const adapters::BasePose& pose);
+
+v1::CreateSessionRequest LaserSessionRequest(const adapters::LaserLayout& layout,
+                                             const std::string& robot_id, const std::string& name,
+                                             v1::ExplorationConfig::Mode mode);
+
+}  // namespace waymark::cli
+
+#endif  // WAYMARK_CLIENT_TOOLS_LASER_SESSION_H_
