@@ -20,6 +20,7 @@ std::shared_ptr<grpc::Channel> MakeChannel(const std::string& address,
   // By default gRPC stops pinging after two pings without data; idle robots must keep pinging.
   args.SetInt(GRPC_ARG_HTTP2_MAX_PINGS_WITHOUT_DATA, 0);
   args.SetInt(GRPC_ARG_MAX_RECONNECT_BACKOFF_MS, ToMillis(options.max_reconnect_backoff));
+  args.SetInt(GRPC_ARG_INITIAL_RECONNECT_BACKOFF_MS, ToMillis(options.initial_reconnect_backoff));
   args.SetMaxSendMessageSize(options.max_message_bytes);
   args.SetMaxReceiveMessageSize(options.max_message_bytes);
   auto credentials = options.credentials ? options.credentials : grpc::InsecureChannelCredentials();

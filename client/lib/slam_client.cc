@@ -51,11 +51,25 @@ void SensorStream::ReadLoop() {
     }
     changed_.notify_all();
   }
+  std::function<void()> on_end;
   {
     std::lock_guard<std::mutex> lock(mutex_);
     read_done_ = true;
+    on_end = std::move(on_end_);
   }
   changed_.notify_all();
+  if (on_end) on_end();
+}
+
+void SensorStream::set_end_callback(std::function<void()> callback) {
+  {
+    std::lock_guard<std::mutex> lock(mutex_);
+    if (!read_done_) {
+      on_end_ = std::move(callback);
+      return;
+    }
+  }
+  if (callback) callback();
 }
 
 absl::Status SensorStream::Send(v1::SensorData& message) {
@@ -162,7 +176,20 @@ SensorStream::Stats SensorStream::stats() const {
 }
 
 SlamClient::SlamClient(std::shared_ptr<grpc::ChannelInterface> channel, SlamClientOptions options)
-    : SlamClient(v1::SlamService::NewStub(std::move(channel)), std::move(options)) {}
+    : SlamClient(v1::SlamService::NewStub(channel), std::move(options)) {
+  channel_ = std::move(channel);
+}
+
+bool SlamClient::WaitForConnected(absl::Duration timeout) {
+  if (!channel_) return true;
+  return channel_->WaitForConnected(absl::ToChronoTime(absl::Now() + timeout));
+}
+
+void SlamClient::ResetConnectBackoff() {
+  if (auto* channel = dynamic_cast<grpc::Channel*>(channel_.get())) {
+    grpc::experimental::ChannelResetConnectionBackoff(channel);
+  }
+}
 
 SlamClient::SlamClient(std::unique_ptr<v1::SlamService::StubInterface> stub,
                        SlamClientOptions options)

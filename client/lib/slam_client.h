@@ -77,6 +77,10 @@ class SensorStream {
   void set_answer_timeout(absl::Duration timeout) { answer_timeout_ = timeout; }
   // True once the server ended the stream (or it broke); Finish() says why.
   bool ended() const;
+  // Called once when the stream ends for any reason, on the reader thread (at once, on the
+  // caller's thread, if it already has): a robot stops its motors here rather than at its next
+  // send.
+  void set_end_callback(std::function<void()> callback);
   // Half-closes, waits for every outstanding answer and returns the stream's final status.
   absl::Status Finish();
   // Aborts from any thread.
@@ -103,6 +107,7 @@ class SensorStream {
   std::unordered_set<uint64_t> odometry_sequences_;  // only kept to classify rejections
   Stats stats_;
   absl::Duration answer_timeout_ = absl::Seconds(120);
+  std::function<void()> on_end_;
   bool read_done_ = false;
   bool first_sent_ = false;
   bool finished_ = false;
@@ -125,6 +130,14 @@ class SlamClient {
   absl::StatusOr<v1::Session> CloseSession(const std::string& session_id);
   absl::StatusOr<v1::ListSessionsResponse> ListSessions(const std::string& robot_id = "");
 
+  // Makes the channel try to connect now instead of at the end of gRPC's reconnect backoff, which
+  // after a server restart can hold calls failing for seconds. A robot calls it before reopening
+  // a broken stream. No-op for a client built on a stub.
+  void ResetConnectBackoff();
+  // Waits up to `timeout` for the channel to be connected (trying to connect); true once it is.
+  // Always true for a client built on a stub.
+  bool WaitForConnected(absl::Duration timeout);
+
   // Opens StreamSensorData for `session_id` (the call starts immediately).
   std::unique_ptr<SensorStream> StreamSensorData(const std::string& session_id,
                                                  int window = kDefaultScanWindow,
@@ -132,6 +145,7 @@ class SlamClient {
 
  private:
   std::unique_ptr<v1::SlamService::StubInterface> stub_;
+  std::shared_ptr<grpc::ChannelInterface> channel_;  // null when built on a stub
   SlamClientOptions options_;
 };
 

@@ -90,9 +90,7 @@ class RobotLoop::Impl {
     absl::Status result = absl::OkStatus();
     double backoff = absl::ToDoubleSeconds(options_.reconnect_initial);
     while (!stop.load() && !DurationReached()) {
-      if (!stream_) {
-        OpenStream();
-      }
+      if (!stream_) OpenStream();
       absl::Status step = options_.mode == DriveMode::kActive ? ActiveStep(stop) : PassiveStep();
       if (!step.ok()) {
         result = step;
@@ -104,8 +102,8 @@ class RobotLoop::Impl {
           result = session_gone_;
           break;
         }
-        Event(fmt::format("reconnecting in {:.1f} s", backoff));
-        SleepUnlessStopped(backoff, stop);
+        Event(fmt::format("reconnecting within {:.1f} s", backoff));
+        WaitForServer(backoff, stop);
         backoff = std::min(2 * backoff, absl::ToDoubleSeconds(options_.reconnect_max));
         ++reconnects_;
       } else if (answered_since_open_) {
@@ -157,6 +155,17 @@ class RobotLoop::Impl {
     if (on_event_) on_event_(message);
   }
 
+  // Waits up to `seconds` for the server to accept connections again, returning as soon as it
+  // does: after a restart gRPC would otherwise keep failing calls until its own reconnect backoff
+  // ends (seconds). (A stream opened with wait_for_ready would block the loop's sends instead.)
+  void WaitForServer(double seconds, const std::atomic<bool>& stop) {
+    client_.ResetConnectBackoff();
+    const double end = WallSeconds() + seconds;
+    while (!stop.load() && WallSeconds() < end) {
+      if (client_.WaitForConnected(absl::Seconds(std::min(0.05, end - WallSeconds())))) return;
+    }
+  }
+
   // Every status_period of wall time, also in the middle of a hold.
   void MaybeReportStatus() {
     if (!on_status_ || WallSeconds() < next_status_) return;
@@ -200,6 +209,14 @@ class RobotLoop::Impl {
     auto stream = client_.StreamSensorData(session_id_, window,
                                            [this](const v1::SlamUpdate& u) { OnUpdate(u); });
     stream->set_answer_timeout(options_.answer_timeout);
+    closing_ = false;
+    end_seen_ = false;
+    // The motors stop the moment the stream ends, not at the loop's next send.
+    stream->set_end_callback([this] {
+      if (!closing_.load() && !end_seen_.exchange(true)) {
+        guard_.Halt(StopReason::kStreamBroken).IgnoreError();
+      }
+    });
     std::lock_guard<std::mutex> lock(mutex_);
     stream_ = std::move(stream);
     answered_since_open_ = false;
@@ -223,13 +240,14 @@ class RobotLoop::Impl {
 
   // Ends the current stream: the base stops first, then the stream is cancelled (or, at the end
   // of a good run, half-closed so the server answers what it holds).
-  void FinishStream(bool cancel) {
+  absl::Status FinishStream(bool cancel) {
     std::unique_ptr<client::SensorStream> stream;
     {
       std::lock_guard<std::mutex> lock(mutex_);
       stream = std::move(stream_);
     }
-    if (!stream) return;
+    if (!stream) return absl::OkStatus();
+    closing_ = true;  // our own cancel or half-close is not a break
     if (cancel) stream->Cancel();
     absl::Status finished = stream->Finish();
     std::lock_guard<std::mutex> lock(mutex_);
@@ -238,13 +256,17 @@ class RobotLoop::Impl {
       status_.server_error = finished.ToString();
       if (SessionIsGone(finished)) session_gone_ = finished;
     }
+    return finished;
   }
 
   void StreamBroke(const absl::Status& why) {
-    guard_.Halt(StopReason::kStreamBroken).IgnoreError();
-    Event(fmt::format("server stream broken ({}): base stopped", why.ToString()));
+    // The end callback may have stopped the base already; count the break once.
+    if (!end_seen_.exchange(true)) guard_.Halt(StopReason::kStreamBroken).IgnoreError();
     // A stream the server ended explains itself in Finish(); one that hangs must be cancelled.
-    FinishStream(/*cancel=*/why.code() != absl::StatusCode::kUnavailable);
+    const absl::Status finished =
+        FinishStream(/*cancel=*/why.code() != absl::StatusCode::kUnavailable);
+    Event(fmt::format("server stream broken ({}): base stopped",
+                      finished.ok() ? why.ToString() : finished.ToString()));
   }
 
   // A failed device read: the base stops at once (a robot that cannot see or feel its wheels must
@@ -409,6 +431,8 @@ class RobotLoop::Impl {
   std::string session_id_;
   absl::Status session_gone_;
   std::unique_ptr<client::SensorStream> stream_;  // reset by the loop thread only
+  std::atomic<bool> closing_{false};   // the loop itself is ending the current stream
+  std::atomic<bool> end_seen_{false};  // the current stream's break has stopped the base
   uint64_t reconnects_ = 0;
   uint64_t scans_sent_before_ = 0;  // by streams already finished
   double last_odometry_stamp_ = -1e300;
