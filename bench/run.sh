@@ -35,4 +35,6 @@ if [ -x "$BUILD_DIR/bin/waymark-laser-eval" ]; then
 fi
 echo "== active exploration vs wandering in the simulator (every world x mode x seed)"
 OUT="$OUT/explore" "$(dirname "$0")/explore_eval.sh" "$BUILD_DIR"
+echo "== robot loop: stop and resume latency when the server is killed under a driving robot"
+"$BUILD_DIR/bin/waymark-robot-bench" --trials 20 --json > "$OUT/robot_safety.json"
 echo "results in $OUT"
