@@ -230,6 +230,7 @@ void PioneerBase::HandleSip(const P2osPacket& packet) {
   state_.bumped = sip->front_bumpers != 0 || sip->rear_bumpers != 0;
   state_.stalled = sip->left_stall || sip->right_stall;
   state_.motors_enabled = sip->motors_enabled;
+  state_.battery_volts = sip->battery_volts;
   last_sip_ = absl::Now();
   ++stats_.sips;
 }

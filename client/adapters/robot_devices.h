@@ -31,6 +31,7 @@ struct BaseState {
   bool bumped = false;    // a bumper is pressed / the simulated body touches a wall
   bool stalled = false;   // a wheel is stalled
   bool motors_enabled = true;
+  double battery_volts = 0;  // 0 when the base does not report it
 };
 
 class MobileBase {

@@ -41,6 +41,7 @@ struct RobotArgs {
   std::string name;
   std::string resume;
   bool keep_session = false;
+  double device_grace_s = 10;
 };
 
 std::string DefaultRobotId() {
@@ -66,6 +67,7 @@ std::string StatusLine(const RobotStatus& s, const std::optional<CrossingWatch::
   }
   if (s.reconnects > 0) line += fmt::format(" reconnects={}", s.reconnects);
   line += s.base_error.empty() ? " base=ok" : " base=ERROR";
+  if (s.battery_volts > 0) line += fmt::format(" batt={:.1f}V", s.battery_volts);
   line += s.laser_error.empty() ? " laser=ok" : " laser=ERROR";
   if (crossing && crossing->attempts > 0) line += " crossing=" + crossing->summary;
   return line;
@@ -205,6 +207,7 @@ int RunRobot(CommandContext& context, RobotArgs args) {
   options.duration_s = args.duration_s;
   options.time_scale = devices->time_scale;
   options.close_session = !args.keep_session;
+  options.device_grace = absl::Seconds(args.device_grace_s);
   if (context.globals.timeout_s > 0) {
     options.answer_timeout = absl::Seconds(std::min(context.globals.timeout_s, 5.0));
   }
@@ -297,6 +300,11 @@ void AddRobotCommand(CLI::App& app, CommandRegistry& registry) {
   robot->add_option("--resume", args->resume, "Stream into this open session instead of a new one");
   robot->add_flag("--keep-session", args->keep_session,
                   "Leave the session open at exit (resume it later with --resume)");
+  robot->add_option("--device-grace", args->device_grace_s,
+                    "Seconds a base or laser may stay away (unplugged cable) before the run ends; "
+                    "the robot stands still meanwhile and serial devices reconnect by themselves")
+      ->check(CLI::NonNegativeNumber)
+      ->capture_default_str();
   robot->add_option("--base-baud", args->setup.base_baud, "Pioneer serial rate")
       ->capture_default_str();
   robot->add_option("--laser-baud", args->setup.laser_baud,

@@ -303,6 +303,7 @@ class RobotLoop::Impl {
     }
     std::lock_guard<std::mutex> lock(mutex_);
     status_.base_error.clear();
+    status_.battery_volts = state->battery_volts;
     if (!start_stamp_) start_stamp_ = state->stamp;
     last_base_stamp_ = std::max(last_base_stamp_, state->stamp);
     return *std::move(state);

@@ -74,6 +74,7 @@ struct RobotStatus {
   std::string server_error;  // why the last stream ended
   std::string base_error;    // empty while the base reports
   std::string laser_error;
+  double battery_volts = 0;  // last reported by the base; 0 = not reported
   double linear = 0;  // commanded
   double angular = 0;
   std::string behaviour;  // of the suggestion being driven (active mode)

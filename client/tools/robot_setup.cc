@@ -5,6 +5,7 @@
 #include "absl/strings/match.h"
 #include "client/adapters/lms200_scanner.h"
 #include "client/adapters/pioneer_base.h"
+#include "client/adapters/reconnecting_devices.h"
 #include "client/adapters/sim_realtime.h"
 #include "client/adapters/sim_world.h"
 
@@ -81,16 +82,28 @@ absl::StatusOr<RobotDevices> OpenRobotDevices(const RobotSetupOptions& options) 
   adapters::Lms200Options laser_options;
   laser_options.baud = options.laser_baud;
   laser_options.half_degree = options.half_degree;
-  auto laser = adapters::Lms200Scanner::Connect(laser_spec->argument, laser_options);
+  auto laser = adapters::ReconnectingLaser::Create(
+      [device = laser_spec->argument,
+       laser_options]() -> absl::StatusOr<std::unique_ptr<adapters::LaserScanner>> {
+        auto scanner = adapters::Lms200Scanner::Connect(device, laser_options);
+        if (!scanner.ok()) return scanner.status();
+        return std::unique_ptr<adapters::LaserScanner>(*std::move(scanner));
+      });
   if (!laser.ok()) return laser.status();
   adapters::PioneerOptions base_options;
   base_options.baud = options.base_baud;
-  auto base = adapters::PioneerBase::Connect(base_spec->argument, base_options);
+  auto base = adapters::ReconnectingBase::Create(
+      [device = base_spec->argument,
+       base_options]() -> absl::StatusOr<std::unique_ptr<adapters::MobileBase>> {
+        auto pioneer = adapters::PioneerBase::Connect(device, base_options);
+        if (!pioneer.ok()) return pioneer.status();
+        return std::unique_ptr<adapters::MobileBase>(*std::move(pioneer));
+      });
   if (!base.ok()) return base.status();
-  devices.lms200 = *std::move(laser);
-  devices.pioneer = *std::move(base);
-  devices.base = devices.pioneer.get();
-  devices.laser = devices.lms200.get();
+  devices.serial_laser = *std::move(laser);
+  devices.serial_base = *std::move(base);
+  devices.base = devices.serial_base.get();
+  devices.laser = devices.serial_laser.get();
   devices.description = fmt::format("Pioneer on {}, LMS200 on {} ({} beams)", base_spec->argument,
                                      laser_spec->argument, devices.laser->layout().beam_count);
   return devices;

@@ -13,8 +13,8 @@
 
 namespace waymark::adapters {
 class RealTimeSimulation;
-class PioneerBase;
-class Lms200Scanner;
+class ReconnectingBase;
+class ReconnectingLaser;
 }  // namespace waymark::adapters
 
 namespace waymark::cli {
@@ -45,8 +45,9 @@ struct RobotDevices {
   RobotDevices& operator=(RobotDevices&&) noexcept;
 
   std::unique_ptr<adapters::RealTimeSimulation> sim;
-  std::unique_ptr<adapters::PioneerBase> pioneer;
-  std::unique_ptr<adapters::Lms200Scanner> lms200;
+  // Serial devices reconnect by themselves after an unplugged cable (reconnecting_devices.h).
+  std::unique_ptr<adapters::ReconnectingBase> serial_base;
+  std::unique_ptr<adapters::ReconnectingLaser> serial_laser;
   adapters::MobileBase* base = nullptr;
   adapters::LaserScanner* laser = nullptr;
   double time_scale = 1.0;  // device seconds per wall second

@@ -402,6 +402,29 @@ TEST_F(RobotLoopTest, ALaserThatKeepsFailingEndsTheRunWithTheRobotStopped) {
   EXPECT_TRUE(base.last_is_stop());
 }
 
+TEST_F(RobotLoopTest, ALaserBackWithinTheGraceIsSurvived) {
+  ScriptedBase base;
+  ScriptedLaser laser;
+  RobotLoopOptions options;
+  options.device_grace = absl::Seconds(30);
+  RobotLoop loop(Client(), base, laser, options);
+  std::thread script([&] {
+    WaitFor([&] { return loop.status().scans_answered >= 3; });
+    laser.failing_ = true;  // cable out
+    WaitFor([&] { return !loop.status().laser_error.empty(); });
+    laser.failing_ = false;  // cable back
+    const uint64_t before = loop.status().scans_answered;
+    WaitFor([&] { return loop.status().scans_answered >= before + 3; });
+    stop_ = true;
+  });
+  auto status = loop.Run(stop_);
+  script.join();
+  ASSERT_TRUE(status.ok()) << status.status();
+  EXPECT_GE(status->stops[static_cast<int>(StopReason::kDeviceError)], 1u);
+  EXPECT_TRUE(status->laser_error.empty());
+  EXPECT_GE(status->scans_answered, 6u);
+}
+
 TEST_F(RobotLoopTest, ResumesAnOpenSessionInsteadOfCreatingOne) {
   ScriptedBase base;
   ScriptedLaser laser;
