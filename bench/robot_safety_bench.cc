@@ -9,14 +9,14 @@
 // Per trial: stop latency = kill -> the fake robot has received VEL 0 and RVEL 0 (polled every
 // millisecond); resume latency = restart reported listening -> first answered scan on the resumed
 // session. Reports median, p90 and max of each.
-#include <CLI/CLI.hpp>
 #include <fmt/format.h>
 
+#include <CLI/CLI.hpp>
 #include <algorithm>
-#include <cstdlib>
 #include <atomic>
 #include <chrono>
 #include <csignal>
+#include <cstdlib>
 #include <nlohmann/json.hpp>
 #include <random>
 #include <thread>
@@ -37,30 +37,10 @@ using testing::Eventually;
 using testing::FakeArcosPeer;
 
 double Now() {
-  return std::chrono::duration<double>(std::chrono::steady_clock::now().time_since_epoch())
-      .count();
+  return std::chrono::duration<double>(std::chrono::steady_clock::now().time_since_epoch()).count();
 }
 
-bool Stopped(const FakeArcosPeer& robot) {
-  int vel = 0, rvel = 0;
-  for (const auto& c : robot.commands()) {
-    if (c.name == "VEL") vel = c.arg;
-    if (c.name == "RVEL") rvel = c.arg;
-  }
-  return vel == 0 && rvel == 0;
-}
-
-// The robot in a 5 x 3 m room, as in tests/robot/robot_loop_server_test.cc.
-std::uint16_t RoomRangeMm(int beam, int beam_count) {
-  const double angle = -M_PI / 2 + beam * M_PI / (beam_count - 1);
-  const double c = std::cos(angle), s = std::sin(angle);
-  double range = 8.0;
-  if (c > 1e-9) range = std::min(range, 3.0 / c);
-  if (c < -1e-9) range = std::min(range, -2.0 / c);
-  if (s > 1e-9) range = std::min(range, 1.5 / s);
-  if (s < -1e-9) range = std::min(range, -1.5 / s);
-  return static_cast<std::uint16_t>(std::lround(range * 1000));
-}
+bool Stopped(const FakeArcosPeer& robot) { return robot.last_velocities() == std::make_pair(0, 0); }
 
 struct Trial {
   double stop_ms = -1;
@@ -78,7 +58,8 @@ Trial Failed(std::string error) {
 double Quantile(std::vector<double> v, double q) {
   if (v.empty()) return -1;
   std::sort(v.begin(), v.end());
-  return v[static_cast<size_t>(std::min<double>(v.size() - 1, std::floor(q * (v.size() - 1) + 0.5)))];
+  return v[static_cast<size_t>(
+      std::min<double>(v.size() - 1, std::floor(q * (v.size() - 1) + 0.5)))];
 }
 
 Trial RunTrial(const std::string& db, std::mt19937& rng) {
@@ -90,7 +71,7 @@ Trial RunTrial(const std::string& db, std::mt19937& rng) {
   FakeArcosPeer robot(*std::move(pty));
   testing::FakeLms200Options laser_options;
   laser_options.scan_period = absl::Milliseconds(100);
-  laser_options.range_mm = RoomRangeMm;
+  laser_options.range_mm = testing::RoomRangeMm;
   auto laser = testing::FakeLms200Peer::Start(laser_options);
   if (!laser.ok()) return Failed(laser.status().ToString());
   auto base = adapters::PioneerBase::Connect(robot.device_path());
@@ -184,12 +165,14 @@ int main(int argc, char** argv) {
       {"measured", stop_ms.size()},
       {"robot_not_moving_at_kill", idle},
       {"failed", failed},
-      {"stop_ms", {{"p50", waymark::Quantile(stop_ms, 0.5)},
-                   {"p90", waymark::Quantile(stop_ms, 0.9)},
-                   {"max", waymark::Quantile(stop_ms, 1.0)}}},
-      {"resume_ms", {{"p50", waymark::Quantile(resume_ms, 0.5)},
-                     {"p90", waymark::Quantile(resume_ms, 0.9)},
-                     {"max", waymark::Quantile(resume_ms, 1.0)}}},
+      {"stop_ms",
+       {{"p50", waymark::Quantile(stop_ms, 0.5)},
+        {"p90", waymark::Quantile(stop_ms, 0.9)},
+        {"max", waymark::Quantile(stop_ms, 1.0)}}},
+      {"resume_ms",
+       {{"p50", waymark::Quantile(resume_ms, 0.5)},
+        {"p90", waymark::Quantile(resume_ms, 0.9)},
+        {"max", waymark::Quantile(resume_ms, 1.0)}}},
   };
   if (json) {
     fmt::print("{}\n", out.dump(2));
@@ -199,9 +182,10 @@ int main(int argc, char** argv) {
     fmt::print("  robot stopped after  p50 {:.1f} ms  p90 {:.1f} ms  max {:.1f} ms\n",
                waymark::Quantile(stop_ms, 0.5), waymark::Quantile(stop_ms, 0.9),
                waymark::Quantile(stop_ms, 1.0));
-    fmt::print("  streaming again after p50 {:.0f} ms  p90 {:.0f} ms  max {:.0f} ms of the restart\n",
-               waymark::Quantile(resume_ms, 0.5), waymark::Quantile(resume_ms, 0.9),
-               waymark::Quantile(resume_ms, 1.0));
+    fmt::print(
+        "  streaming again after p50 {:.0f} ms  p90 {:.0f} ms  max {:.0f} ms of the restart\n",
+        waymark::Quantile(resume_ms, 0.5), waymark::Quantile(resume_ms, 0.9),
+        waymark::Quantile(resume_ms, 1.0));
   }
   return failed == 0 ? 0 : 1;
 }

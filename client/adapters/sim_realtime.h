@@ -19,8 +19,8 @@ namespace waymark::adapters {
 
 struct RealTimeSimOptions {
   SimOptions sim;
-  double speed = 1.0;         // simulated seconds per wall-clock second (> 0)
-  double scan_period = 0.1;   // simulated seconds between scans (LMS200 at 38400 baud: ~10 Hz)
+  double speed = 1.0;        // simulated seconds per wall-clock second (> 0)
+  double scan_period = 0.1;  // simulated seconds between scans (LMS200 at 38400 baud: ~10 Hz)
 };
 
 class RealTimeSimulation {

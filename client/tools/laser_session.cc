@@ -2,14 +2,6 @@
 
 namespace waymark::cli {
 
-v1::Pose2D ToProto(const adapters::BasePose& pose) {
-  v1::Pose2D out;
-  out.set_x(pose.x);
-  out.set_y(pose.y);
-  out.set_theta(pose.theta);
-  return out;
-}
-
 v1::CreateSessionRequest LaserSessionRequest(const adapters::LaserLayout& layout,
                                              const std::string& robot_id, const std::string& name,
                                              v1::ExplorationConfig::Mode mode) {

@@ -11,7 +11,15 @@
 
 namespace waymark::cli {
 
-v1::Pose2D ToProto(const adapters::BasePose& pose);
+// Any pose with x, y and theta members (BasePose, CarmenPose) in wire form.
+template <typename Pose>
+v1::Pose2D ToProto(const Pose& pose) {
+  v1::Pose2D out;
+  out.set_x(pose.x);
+  out.set_y(pose.y);
+  out.set_theta(pose.theta);
+  return out;
+}
 
 v1::CreateSessionRequest LaserSessionRequest(const adapters::LaserLayout& layout,
                                              const std::string& robot_id, const std::string& name,

@@ -53,10 +53,10 @@ std::string DefaultRobotId() {
 // One status line: where the robot thinks it is, what it does and how its links are.
 std::string StatusLine(const RobotStatus& s, const std::optional<CrossingWatch::Result>& crossing,
                        DriveMode mode) {
-  std::string line = fmt::format(
-      "t={:7.1f}s pose=({:6.2f},{:6.2f},{:5.0f}deg) segs={:3d} scans={}/{}", s.device_time,
-      s.pose.x(), s.pose.y(), s.pose.theta() * 180 / kPi, s.segments, s.scans_answered,
-      s.scans_sent);
+  std::string line =
+      fmt::format("t={:7.1f}s pose=({:6.2f},{:6.2f},{:5.0f}deg) segs={:3d} scans={}/{}",
+                  s.device_time, s.pose.x(), s.pose.y(), s.pose.theta() * 180 / kPi, s.segments,
+                  s.scans_answered, s.scans_sent);
   if (s.scans_rejected > 0) line += fmt::format(" rejected={}", s.scans_rejected);
   line += fmt::format(" v={:.2f} w={:.2f}", s.linear, s.angular);
   if (mode == DriveMode::kActive && !s.behaviour.empty()) line += " [" + s.behaviour + "]";
@@ -134,13 +134,18 @@ void TeleopKeys(RobotLoop& loop, const VelocityLimits& limits, StopSignals& sign
     }
     if (got == 1) {
       switch (ApplyTeleopKey(key, target, limits)) {
-        case TeleopAction::kQuit: signals.RequestStop(); return;
+        case TeleopAction::kQuit:
+          signals.RequestStop();
+          return;
         case TeleopAction::kRecognize:
           if (watch) watch->Request();
           break;
         case TeleopAction::kStop:
-        case TeleopAction::kDrive: driving = true; break;
-        case TeleopAction::kNone: break;
+        case TeleopAction::kDrive:
+          driving = true;
+          break;
+        case TeleopAction::kNone:
+          break;
       }
     } else if (driving) {
       const RobotStatus s = loop.status();
@@ -162,9 +167,9 @@ int RunRobot(CommandContext& context, RobotArgs args) {
   if (args.mode == "active") mode = DriveMode::kActive;
   if (args.mode == "teleop") mode = DriveMode::kTeleop;
   if (args.camera.empty() != args.crossings.empty()) {
-    return ReportError(context, absl::InvalidArgumentError(
-                                    "--camera and --crossings go together: frames from the "
-                                    "camera are recognized against the crossing database"));
+    return ReportError(
+        context, absl::InvalidArgumentError("--camera and --crossings go together: frames from the "
+                                            "camera are recognized against the crossing database"));
   }
   std::ostream& lines = context.globals.json ? context.err : context.out;
 
@@ -232,8 +237,8 @@ int RunRobot(CommandContext& context, RobotArgs args) {
   std::thread keys;
   if (mode == DriveMode::kTeleop) {
     lines << TeleopHelp() << "\n";
-    keys = std::thread(
-        [&] { TeleopKeys(loop, options.limits, signals, watch.get(), context.err); });
+    keys =
+        std::thread([&] { TeleopKeys(loop, options.limits, signals, watch.get(), context.err); });
   }
   auto result = loop.Run(signals.stop_requested());
   signals.RequestStop();  // ends the key thread
@@ -266,24 +271,29 @@ void AddRobotCommand(CLI::App& app, CommandRegistry& registry) {
       "Run a robot against the server: stream its laser and odometry into a SLAM session, drive "
       "the server's suggestions (--mode active) or the keyboard (--mode teleop), recognize "
       "crossings from its camera. Ctrl-C stops the robot, then exits.");
-  robot->add_option("--base", args->setup.base,
-                    "serial:DEVICE (Pioneer over ARCOS/P2OS, e.g. serial:/dev/ttyS0) or "
-                    "sim:WORLD (simulator: corridor, loop, office or a world file)")
+  robot
+      ->add_option("--base", args->setup.base,
+                   "serial:DEVICE (Pioneer over ARCOS/P2OS, e.g. serial:/dev/ttyS0) or "
+                   "sim:WORLD (simulator: corridor, loop, office or a world file)")
       ->required();
-  robot->add_option("--laser", args->setup.laser,
-                    "serial:DEVICE (SICK LMS200, e.g. serial:/dev/ttyUSB0) or sim")
+  robot
+      ->add_option("--laser", args->setup.laser,
+                   "serial:DEVICE (SICK LMS200, e.g. serial:/dev/ttyUSB0) or sim")
       ->required();
-  robot->add_option("--mode", args->mode, "passive: stream only; active: drive the server's "
-                                          "suggestions; teleop: drive with the keyboard")
+  robot
+      ->add_option("--mode", args->mode,
+                   "passive: stream only; active: drive the server's "
+                   "suggestions; teleop: drive with the keyboard")
       ->check(CLI::IsMember({"passive", "active", "teleop"}))
       ->capture_default_str();
   robot->add_option("--camera", args->camera,
                     "Camera for crossing recognition: device index, video file, stream URL or "
                     "image pattern (needs --crossings)");
   robot->add_option("--crossings", args->crossings, "Crossing database to recognize against");
-  robot->add_option("--recognize-every", args->recognize_every_s,
-                    "Seconds between recognitions (0 = only on request: key c in teleop, "
-                    "SIGUSR1)")
+  robot
+      ->add_option("--recognize-every", args->recognize_every_s,
+                   "Seconds between recognitions (0 = only on request: key c in teleop, "
+                   "SIGUSR1)")
       ->check(CLI::NonNegativeNumber)
       ->capture_default_str();
   robot->add_option("--max-linear", args->max_linear, "Velocity clamp (m/s)")
@@ -300,21 +310,24 @@ void AddRobotCommand(CLI::App& app, CommandRegistry& registry) {
   robot->add_option("--resume", args->resume, "Stream into this open session instead of a new one");
   robot->add_flag("--keep-session", args->keep_session,
                   "Leave the session open at exit (resume it later with --resume)");
-  robot->add_option("--device-grace", args->device_grace_s,
-                    "Seconds a base or laser may stay away (unplugged cable) before the run ends; "
-                    "the robot stands still meanwhile and serial devices reconnect by themselves")
+  robot
+      ->add_option("--device-grace", args->device_grace_s,
+                   "Seconds a base or laser may stay away (unplugged cable) before the run ends; "
+                   "the robot stands still meanwhile and serial devices reconnect by themselves")
       ->check(CLI::NonNegativeNumber)
       ->capture_default_str();
   robot->add_option("--base-baud", args->setup.base_baud, "Pioneer serial rate")
       ->capture_default_str();
-  robot->add_option("--laser-baud", args->setup.laser_baud,
-                    "LMS200 rate to switch to (9600, 19200, 38400, 500000)")
+  robot
+      ->add_option("--laser-baud", args->setup.laser_baud,
+                   "LMS200 rate to switch to (9600, 19200, 38400, 500000)")
       ->check(CLI::IsMember({9600, 19200, 38400, 500000}))
       ->capture_default_str();
   robot->add_flag("--half-degree", args->setup.half_degree,
                   "LMS200 0.5-degree mode (361 beams) instead of 1 degree (181)");
-  robot->add_option("--sim-speed", args->setup.sim_speed,
-                    "Simulator: simulated seconds per wall second")
+  robot
+      ->add_option("--sim-speed", args->setup.sim_speed,
+                   "Simulator: simulated seconds per wall second")
       ->check(CLI::Range(0.01, 1000.0))
       ->capture_default_str();
   robot->add_option("--seed", args->setup.seed, "Simulator seed")->capture_default_str();

@@ -63,9 +63,12 @@ class DeviceHealth {
 
 const char* DriveModeName(DriveMode mode) {
   switch (mode) {
-    case DriveMode::kPassive: return "passive";
-    case DriveMode::kActive: return "active";
-    case DriveMode::kTeleop: return "teleop";
+    case DriveMode::kPassive:
+      return "passive";
+    case DriveMode::kActive:
+      return "active";
+    case DriveMode::kTeleop:
+      return "teleop";
   }
   return "unknown";
 }
@@ -115,7 +118,8 @@ class RobotLoop::Impl {
     FinishStream(/*cancel=*/!result.ok());
     if (result.ok() && options_.close_session) {
       auto closed = client_.CloseSession(session_id_);
-      if (!closed.ok()) Event(fmt::format("could not close the session: {}", closed.status().ToString()));
+      if (!closed.ok())
+        Event(fmt::format("could not close the session: {}", closed.status().ToString()));
     }
     if (!result.ok()) return result;
     return Snapshot();
@@ -385,13 +389,13 @@ class RobotLoop::Impl {
           session_id_));
     }
     // The last hold ends with the run.
-    const double hold = std::min(
-        control.duration() > 0 ? control.duration() : options_.odometry_period,
-        std::max(options_.odometry_period, RemainingDeviceTime()));
+    const double hold =
+        std::min(control.duration() > 0 ? control.duration() : options_.odometry_period,
+                 std::max(options_.odometry_period, RemainingDeviceTime()));
     {
       std::lock_guard<std::mutex> lock(mutex_);
-      status_.behaviour = absl::AsciiStrToLower(
-          v1::SuggestedControl::Behaviour_Name(control.behaviour()));
+      status_.behaviour =
+          absl::AsciiStrToLower(v1::SuggestedControl::Behaviour_Name(control.behaviour()));
       ++suggestions_driven_;
     }
     if (absl::Status s = guard_.Drive(control.linear(), control.angular(), hold); !s.ok()) {
@@ -432,8 +436,8 @@ class RobotLoop::Impl {
   std::string session_id_;
   absl::Status session_gone_;
   std::unique_ptr<client::SensorStream> stream_;  // reset by the loop thread only
-  std::atomic<bool> closing_{false};   // the loop itself is ending the current stream
-  std::atomic<bool> end_seen_{false};  // the current stream's break has stopped the base
+  std::atomic<bool> closing_{false};              // the loop itself is ending the current stream
+  std::atomic<bool> end_seen_{false};             // the current stream's break has stopped the base
   uint64_t reconnects_ = 0;
   uint64_t scans_sent_before_ = 0;  // by streams already finished
   double last_odometry_stamp_ = -1e300;

@@ -54,7 +54,7 @@ struct RobotLoopOptions {
   double teleop_hold = 0.5;      // device s a teleop command stays valid without a repeat
   int passive_window = 8;        // scans in flight in passive/teleop mode
   absl::Duration status_period = absl::Seconds(1);  // wall clock
-  bool close_session = true;     // close the session when the run ends
+  bool close_session = true;                        // close the session when the run ends
 };
 
 // What a status line shows; also the run's summary.
@@ -75,7 +75,7 @@ struct RobotStatus {
   std::string base_error;    // empty while the base reports
   std::string laser_error;
   double battery_volts = 0;  // last reported by the base; 0 = not reported
-  double linear = 0;  // commanded
+  double linear = 0;         // commanded
   double angular = 0;
   std::string behaviour;  // of the suggestion being driven (active mode)
   uint64_t suggestions_driven = 0;

@@ -72,9 +72,8 @@ absl::StatusOr<RobotDevices> OpenRobotDevices(const RobotSetupOptions& options) 
     devices.base = &devices.sim->base();
     devices.laser = &devices.sim->laser();
     devices.time_scale = options.sim_speed;
-    devices.description =
-        fmt::format("simulated Pioneer with LMS200 in world '{}' ({}x real time)", world_name,
-                    options.sim_speed);
+    devices.description = fmt::format("simulated Pioneer with LMS200 in world '{}' ({}x real time)",
+                                      world_name, options.sim_speed);
     return devices;
   }
 
@@ -105,7 +104,7 @@ absl::StatusOr<RobotDevices> OpenRobotDevices(const RobotSetupOptions& options) 
   devices.base = devices.serial_base.get();
   devices.laser = devices.serial_laser.get();
   devices.description = fmt::format("Pioneer on {}, LMS200 on {} ({} beams)", base_spec->argument,
-                                     laser_spec->argument, devices.laser->layout().beam_count);
+                                    laser_spec->argument, devices.laser->layout().beam_count);
   return devices;
 }
 

@@ -30,10 +30,10 @@ absl::StatusOr<DeviceSpec> ParseDeviceSpec(const std::string& text, const std::s
 struct RobotSetupOptions {
   std::string base = "sim:corridor";
   std::string laser = "sim";
-  int base_baud = 9600;     // ARCOS default
-  int laser_baud = 38400;   // the rate the laser is switched to (it powers up at 9600)
-  bool half_degree = false; // 361 beams at 0.5 degree
-  double sim_speed = 1.0;   // simulated seconds per wall second
+  int base_baud = 9600;      // ARCOS default
+  int laser_baud = 38400;    // the rate the laser is switched to (it powers up at 9600)
+  bool half_degree = false;  // 361 beams at 0.5 degree
+  double sim_speed = 1.0;    // simulated seconds per wall second
   uint64_t seed = 1;
 };
 

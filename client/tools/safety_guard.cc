@@ -8,13 +8,20 @@ namespace waymark::cli {
 
 const char* StopReasonName(StopReason reason) {
   switch (reason) {
-    case StopReason::kCommandExpired: return "command expired";
-    case StopReason::kStreamBroken: return "server stream broken";
-    case StopReason::kBumper: return "bumper";
-    case StopReason::kStall: return "wheel stall";
-    case StopReason::kDeviceError: return "device error";
-    case StopReason::kShutdown: return "shutdown";
-    case StopReason::kCount: break;
+    case StopReason::kCommandExpired:
+      return "command expired";
+    case StopReason::kStreamBroken:
+      return "server stream broken";
+    case StopReason::kBumper:
+      return "bumper";
+    case StopReason::kStall:
+      return "wheel stall";
+    case StopReason::kDeviceError:
+      return "device error";
+    case StopReason::kShutdown:
+      return "shutdown";
+    case StopReason::kCount:
+      break;
   }
   return "unknown";
 }

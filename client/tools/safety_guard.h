@@ -24,8 +24,8 @@ enum class StopReason {
   kStreamBroken,    // the server stream ended, broke or stopped answering
   kBumper,
   kStall,
-  kDeviceError,     // the base or the laser stopped reporting
-  kShutdown,        // Ctrl-C, end of the run
+  kDeviceError,  // the base or the laser stopped reporting
+  kShutdown,     // Ctrl-C, end of the run
   kCount,
 };
 const char* StopReasonName(StopReason reason);

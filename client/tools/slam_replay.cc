@@ -13,6 +13,7 @@
 
 #include "absl/strings/str_cat.h"
 #include "client/adapters/carmen_log.h"
+#include "client/tools/laser_session.h"
 #include "client/tools/output.h"
 #include "client/tools/progress_bar.h"
 #include "client/tools/relations_metric.h"
@@ -105,14 +106,6 @@ v1::LaserGeometry GeometryOf(const CarmenLaser& laser) {
   geometry.set_beam_count(static_cast<uint32_t>(laser.ranges.size()));
   geometry.set_no_return_range(laser.no_return_range);
   return geometry;
-}
-
-v1::Pose2D ToProto(const adapters::CarmenPose& p) {
-  v1::Pose2D pose;
-  pose.set_x(p.x);
-  pose.set_y(p.y);
-  pose.set_theta(p.theta);
-  return pose;
 }
 
 double Percentile(std::vector<double> values, double q) {

@@ -17,8 +17,8 @@ struct TeleopTarget {
 };
 
 struct TeleopSteps {
-  double linear = 0.05;   // m/s per key press
-  double angular = 0.1;   // rad/s per key press
+  double linear = 0.05;  // m/s per key press
+  double angular = 0.1;  // rad/s per key press
 };
 
 // Applies one key to `target`. Unknown keys are kNone and leave it unchanged.

@@ -27,8 +27,7 @@ using waymark::testing::FakeSlamServer;
 using waymark::testing::RunWaymark;
 
 double Now() {
-  return std::chrono::duration<double>(std::chrono::steady_clock::now().time_since_epoch())
-      .count();
+  return std::chrono::duration<double>(std::chrono::steady_clock::now().time_since_epoch()).count();
 }
 
 // Polls `condition` for up to `seconds`.
@@ -240,7 +239,8 @@ TEST(RobotSetupTest, ParsesDeviceSpecsAndRefusesMixtures) {
 class RobotLoopTest : public ::testing::Test {
  protected:
   client::SlamClient& Client() {
-    if (!client_) client_ = std::make_unique<client::SlamClient>(client::MakeChannel(server_.address()));
+    if (!client_)
+      client_ = std::make_unique<client::SlamClient>(client::MakeChannel(server_.address()));
     return *client_;
   }
 
@@ -336,7 +336,8 @@ TEST_F(RobotLoopTest, ABrokenStreamStopsTheBaseThenTheLoopReconnectsToTheSameSes
   RobotLoop loop(Client(), base, laser, options);
   std::vector<bool> stopped_at_break;
   loop.set_event_callback([&](const std::string& e) {
-    if (e.find("stream broken") != std::string::npos) stopped_at_break.push_back(base.last_is_stop());
+    if (e.find("stream broken") != std::string::npos)
+      stopped_at_break.push_back(base.last_is_stop());
   });
   std::thread stopper([&] {
     WaitFor([&] { return server_.service().streams_opened() >= 3; }, 20);
@@ -456,7 +457,7 @@ TEST_F(RobotLoopTest, CommandRunsTheSimulatorAndPrintsStatusLinesAndASummary) {
   ASSERT_EQ(r.code, 0) << r.err;
   EXPECT_THAT(r.out, HasSubstr("simulated Pioneer with LMS200 in world 'office'"));
   EXPECT_THAT(r.out, HasSubstr("pose=("));
-  EXPECT_THAT(r.out, HasSubstr("server=ok"));          // a status line every second of 1.5 s
+  EXPECT_THAT(r.out, HasSubstr("server=ok"));  // a status line every second of 1.5 s
   EXPECT_THAT(r.out, HasSubstr("stopped: session"));
   EXPECT_EQ(server_.service().last_create().robot_id(), "cli-robot");
 }

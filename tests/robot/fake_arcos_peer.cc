@@ -288,6 +288,23 @@ int FakeArcosPeer::Count(const std::string& name) const {
                                         [&](const Command& c) { return c.name == name; }));
 }
 
+std::pair<int, int> FakeArcosPeer::last_velocities() const {
+  std::lock_guard<std::mutex> lock(mutex_);
+  int vel = 0, rvel = 0;
+  for (const Command& c : commands_) {
+    if (c.name == "VEL") vel = c.arg;
+    if (c.name == "RVEL") rvel = c.arg;
+  }
+  return {vel, rvel};
+}
+
+bool FakeArcosPeer::ever_moved() const {
+  std::lock_guard<std::mutex> lock(mutex_);
+  return std::any_of(commands_.begin(), commands_.end(), [](const Command& c) {
+    return (c.name == "VEL" || c.name == "RVEL") && c.arg != 0;
+  });
+}
+
 bool FakeArcosPeer::is_open() const {
   std::lock_guard<std::mutex> lock(mutex_);
   return open_;

@@ -61,6 +61,10 @@ class FakeArcosPeer {
   std::vector<std::uint8_t> received_bytes() const;
   std::vector<Command> commands() const;
   int Count(const std::string& name) const;
+  // The arguments of the last VEL and RVEL received (0 before any): (0, 0) = told to stand.
+  std::pair<int, int> last_velocities() const;
+  // Whether any VEL or RVEL ever asked for motion.
+  bool ever_moved() const;
   bool is_open() const;
   bool motors_enabled() const;
   Pose pose() const;

@@ -4,7 +4,9 @@
 #include <poll.h>
 #include <unistd.h>
 
+#include <algorithm>
 #include <cerrno>
+#include <cmath>
 #include <utility>
 
 #include "client/adapters/lms200_telegram.h"
@@ -291,6 +293,17 @@ void FakeLms200Peer::Run() {
       }
     }
   }
+}
+
+std::uint16_t RoomRangeMm(int beam, int beam_count) {
+  const double angle = -M_PI / 2 + beam * M_PI / (beam_count - 1);
+  const double c = std::cos(angle), s = std::sin(angle);
+  double range = 8.0;
+  if (c > 1e-9) range = std::min(range, 3.0 / c);
+  if (c < -1e-9) range = std::min(range, -2.0 / c);
+  if (s > 1e-9) range = std::min(range, 1.5 / s);
+  if (s < -1e-9) range = std::min(range, -1.5 / s);
+  return static_cast<std::uint16_t>(std::lround(range * 1000));
 }
 
 }  // namespace waymark::testing

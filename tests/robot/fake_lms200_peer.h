@@ -42,6 +42,10 @@ struct FakeLms200Options {
   std::function<std::uint16_t(int beam, int beam_count)> range_mm;
 };
 
+// A range_mm for a robot standing in a 5 x 3 m room, 3 m from the wall ahead, 2 m from the one
+// behind, 1.5 m from either side: walls for SLAM to map.
+std::uint16_t RoomRangeMm(int beam, int beam_count);
+
 // A telegram the fake understood.
 struct FakeLms200Heard {
   std::vector<std::uint8_t> telegram;  // byte for byte, STX to CRC

@@ -36,7 +36,6 @@ Lms200Options TestOptions() {
   return options;
 }
 
-
 std::unique_ptr<FakeLms200Peer> StartFake(FakeLms200Options options = {}) {
   auto fake = FakeLms200Peer::Start(std::move(options));
   EXPECT_TRUE(fake.ok()) << fake.status();

@@ -2,10 +2,10 @@
 
 #include "client/adapters/lms200_telegram.h"
 
+#include <gtest/gtest.h>
+
 #include <random>
 #include <vector>
-
-#include <gtest/gtest.h>
 
 namespace waymark::adapters {
 namespace {

@@ -3,10 +3,10 @@
 
 #include "client/adapters/p2os_packet.h"
 
+#include <gtest/gtest.h>
+
 #include <random>
 #include <vector>
-
-#include <gtest/gtest.h>
 
 namespace waymark::adapters {
 namespace {
@@ -42,10 +42,10 @@ TEST(P2osPacketTest, RefusesWhatTheProtocolCannotCarry) {
 }
 
 TEST(P2osParserTest, FindsPacketsInGarbageSplitReadsAndBadChecksums) {
-  Bytes stream = {0x00, 0xFA, 0x17};                      // garbage, a lone header byte
+  Bytes stream = {0x00, 0xFA, 0x17};  // garbage, a lone header byte
   const Bytes vel = *EncodeP2osCommand(p2os::kVel, 200);
   Bytes corrupt = vel;
-  corrupt.back() ^= 0x01;                                  // wrong checksum
+  corrupt.back() ^= 0x01;  // wrong checksum
   stream.insert(stream.end(), corrupt.begin(), corrupt.end());
   stream.insert(stream.end(), vel.begin(), vel.end());
   const Bytes sync2 = EncodeP2osCommand(p2os::kSync2);

@@ -117,7 +117,8 @@ TEST(ParserFuzzTest, RecordedStyleSipStreamComesOutAsItsTrajectory) {
     const long long xi = std::llround(x_mm), yi = std::llround(y_mm);
     sip.x_raw = static_cast<int>(((xi % 32768) + 32768) % 32768);
     sip.y_raw = static_cast<int>(((yi % 32768) + 32768) % 32768);
-    sip.theta_raw = static_cast<int>(std::llround(std::fmod(a, 2 * M_PI) * 4096 / (2 * M_PI))) % 4096;
+    sip.theta_raw =
+        static_cast<int>(std::llround(std::fmod(a, 2 * M_PI) * 4096 / (2 * M_PI))) % 4096;
     sip.motors_enabled = true;
     P2osPacket packet{static_cast<std::uint8_t>(0x33), EncodeStandardSipPayload(sip)};
     auto bytes = EncodeP2osPacket(packet.id, packet.payload);

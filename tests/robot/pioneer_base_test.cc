@@ -79,7 +79,7 @@ TEST(PioneerBaseTest, HandshakeBytesAreExact) {
   ASSERT_TRUE(state.ok()) << state.status();
   EXPECT_TRUE(state->motors_enabled);
   EXPECT_NEAR(state->battery_volts, 12.6, 0.05);  // the fake's battery, in 0.1 V units
-  EXPECT_GT(state->stamp, 1e9);  // host clock, seconds since the epoch
+  EXPECT_GT(state->stamp, 1e9);                   // host clock, seconds since the epoch
 }
 
 TEST(PioneerBaseTest, RobotLeftOpenIsClosedAndResynchronised) {

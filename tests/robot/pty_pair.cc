@@ -46,13 +46,20 @@ int PtyPair::host_baud() const {
   termios tio{};
   if (tcgetattr(slave_fd_ >= 0 ? slave_fd_ : master_fd_, &tio) != 0) return 0;
   switch (cfgetospeed(&tio)) {
-    case B9600: return 9600;
-    case B19200: return 19200;
-    case B38400: return 38400;
-    case B57600: return 57600;
-    case B115200: return 115200;
-    case B500000: return 500000;
-    default: return 0;
+    case B9600:
+      return 9600;
+    case B19200:
+      return 19200;
+    case B38400:
+      return 38400;
+    case B57600:
+      return 57600;
+    case B115200:
+      return 115200;
+    case B500000:
+      return 500000;
+    default:
+      return 0;
   }
 }
 

@@ -17,11 +17,11 @@
 namespace waymark::adapters {
 namespace {
 
-using ::testing::HasSubstr;
 using testing::Eventually;
 using testing::FakeArcosPeer;
 using testing::FakeLms200Options;
 using testing::FakeLms200Peer;
+using ::testing::HasSubstr;
 using testing::PtyPair;
 
 // The device path the factory connects to; a test "replugs" by pointing it at a new fake.

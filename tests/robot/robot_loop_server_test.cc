@@ -9,66 +9,35 @@
 #include <cmath>
 #include <csignal>
 #include <cstdio>
-#include <thread>
-
+#include <filesystem>
+#include <fstream>
 #include <nlohmann/json.hpp>
+#include <opencv2/imgcodecs.hpp>
+#include <sstream>
+#include <thread>
 
 #include "absl/time/clock.h"
 #include "client/adapters/lms200_scanner.h"
 #include "client/adapters/pioneer_base.h"
 #include "client/lib/channel.h"
 #include "client/tools/robot_loop.h"
-#include "tests/robot/fake_arcos_peer.h"
 #include "tests/robot/eventually.h"
+#include "tests/robot/fake_arcos_peer.h"
 #include "tests/robot/fake_lms200_peer.h"
 #include "tests/support/server_process.h"
 #include "tests/support/synthetic_scene.h"
 
-#include <filesystem>
-#include <fstream>
-#include <sstream>
-#include <opencv2/imgcodecs.hpp>
-
 namespace waymark::cli {
 namespace {
 
-using ::testing::HasSubstr;
 using testing::FakeArcosPeer;
 using testing::FakeLms200Options;
 using testing::FakeLms200Peer;
+using ::testing::HasSubstr;
 using testing::PtyPair;
 using testing::ServerProcess;
 
 using testing::Eventually;
-
-// The robot in the middle of a 5 x 3 m room, facing +x: what each LMS200 beam reads (mm).
-std::uint16_t RoomRangeMm(int beam, int beam_count) {
-  const double angle = -M_PI / 2 + beam * M_PI / (beam_count - 1);
-  const double c = std::cos(angle), s = std::sin(angle);
-  double range = 8.0;
-  if (c > 1e-9) range = std::min(range, 3.0 / c);
-  if (c < -1e-9) range = std::min(range, -2.0 / c);
-  if (s > 1e-9) range = std::min(range, 1.5 / s);
-  if (s < -1e-9) range = std::min(range, -1.5 / s);
-  return static_cast<std::uint16_t>(std::lround(range * 1000));
-}
-
-// The last VEL and RVEL arguments the fake robot received.
-std::pair<int, int> LastVelocities(const FakeArcosPeer& robot) {
-  int vel = 0, rvel = 0;
-  for (const auto& c : robot.commands()) {
-    if (c.name == "VEL") vel = c.arg;
-    if (c.name == "RVEL") rvel = c.arg;
-  }
-  return {vel, rvel};
-}
-
-bool EverMoved(const FakeArcosPeer& robot) {
-  for (const auto& c : robot.commands()) {
-    if ((c.name == "VEL" || c.name == "RVEL") && c.arg != 0) return true;
-  }
-  return false;
-}
 
 class RobotLoopServerTest : public ::testing::Test {
  protected:
@@ -83,7 +52,7 @@ class RobotLoopServerTest : public ::testing::Test {
     robot_ = std::make_unique<FakeArcosPeer>(*std::move(pty));
     FakeLms200Options laser_options;
     laser_options.scan_period = absl::Milliseconds(100);
-    laser_options.range_mm = RoomRangeMm;
+    laser_options.range_mm = testing::RoomRangeMm;
     auto laser = FakeLms200Peer::Start(laser_options);
     ASSERT_TRUE(laser.ok()) << laser.status();
     laser_ = *std::move(laser);
@@ -119,8 +88,8 @@ TEST_F(RobotLoopServerTest, PassiveOverSerialMapsTheRoomAndNeverMovesTheRobot) {
   ASSERT_TRUE(status.ok()) << status.status() << "\n" << server_->Log();
   EXPECT_GE(status->scans_answered, 8u);  // 10 Hz for 2 s, minus connect jitter
   EXPECT_EQ(status->scans_rejected, 0u);
-  EXPECT_GE(status->segments, 3);         // the room's walls
-  EXPECT_FALSE(EverMoved(*robot_));
+  EXPECT_GE(status->segments, 3);  // the room's walls
+  EXPECT_FALSE(robot_->ever_moved());
 }
 
 TEST_F(RobotLoopServerTest, AKilledServerStopsTheDrivingRobotAndTheLoopResumesTheSession) {
@@ -141,7 +110,7 @@ TEST_F(RobotLoopServerTest, AKilledServerStopsTheDrivingRobotAndTheLoopResumesTh
   std::thread runner([&] { result = loop.Run(stop_); });
 
   // Driving a suggestion: the robot got a non-zero velocity.
-  const bool moved = Eventually([&] { return EverMoved(*robot_); }, absl::Seconds(20));
+  const bool moved = Eventually([&] { return robot_->ever_moved(); }, absl::Seconds(20));
   EXPECT_TRUE(moved) << server_->Log();
   const uint64_t answered_before = loop.status().scans_answered;
   const std::string session = loop.status().session_id;
@@ -149,18 +118,18 @@ TEST_F(RobotLoopServerTest, AKilledServerStopsTheDrivingRobotAndTheLoopResumesTh
   server_->Stop(SIGKILL);
   // The robot must be told to stop (VEL 0, RVEL 0) and stay stopped while the server is down.
   EXPECT_TRUE(Eventually([&] {
-    return LastVelocities(*robot_) == std::make_pair(0, 0) &&
+    return robot_->last_velocities() == std::make_pair(0, 0) &&
            loop.status().stops[static_cast<int>(StopReason::kStreamBroken)] > 0;
   }));
   absl::SleepFor(absl::Milliseconds(500));
-  EXPECT_EQ(LastVelocities(*robot_), std::make_pair(0, 0));
+  EXPECT_EQ(robot_->last_velocities(), std::make_pair(0, 0));
   EXPECT_FALSE(loop.status().server_connected);
 
   auto restarted = ServerProcess::Start(testing::ServerBinary(), db_, {}, address);
   ASSERT_TRUE(restarted.ok()) << restarted.status();
   server_ = *std::move(restarted);
-  EXPECT_TRUE(Eventually(
-      [&] { return loop.status().scans_answered >= answered_before + 2; }, absl::Seconds(30)))
+  EXPECT_TRUE(Eventually([&] { return loop.status().scans_answered >= answered_before + 2; },
+                         absl::Seconds(30)))
       << server_->Log();
   stop_ = true;
   runner.join();
@@ -170,7 +139,7 @@ TEST_F(RobotLoopServerTest, AKilledServerStopsTheDrivingRobotAndTheLoopResumesTh
   auto sessions = client_->ListSessions("pioneer");
   ASSERT_TRUE(sessions.ok()) << sessions.status();
   EXPECT_EQ(sessions->sessions_size(), 1);
-  EXPECT_EQ(LastVelocities(*robot_), std::make_pair(0, 0));
+  EXPECT_EQ(robot_->last_velocities(), std::make_pair(0, 0));
 }
 
 // Runs the waymark binary of this build; returns (exit code, stdout, stderr).
@@ -181,8 +150,8 @@ struct BinaryRun {
 // `input`: a shell command whose output is piped to waymark's stdin (the teleop keyboard).
 BinaryRun RunWaymarkBinary(const std::string& server, const std::vector<std::string>& args,
                            const std::string& dir, const std::string& input = "") {
-  std::string command = (input.empty() ? "" : "(" + input + ") | ") + std::string(WAYMARK_BINARY_DIR) +
-                        "/bin/waymark --server " + server;
+  std::string command = (input.empty() ? "" : "(" + input + ") | ") +
+                        std::string(WAYMARK_BINARY_DIR) + "/bin/waymark --server " + server;
   for (const auto& a : args) command += " '" + a + "'";
   const std::string out = dir + "/out.txt", err = dir + "/err.txt";
   command += " >" + out + " 2>" + err;
@@ -206,9 +175,9 @@ BinaryRun RunWaymarkBinary(const std::string& server, const std::vector<std::str
 
 TEST_F(RobotLoopServerTest, CommandOnTheSerialFakes) {
   BinaryRun r = RunWaymarkBinary(server_->address(),
-                           {"robot", "--base", "serial:" + robot_->device_path(), "--laser",
-                            "serial:" + laser_->device_path(), "--duration", "1.5", "--json"},
-                           dir_);
+                                 {"robot", "--base", "serial:" + robot_->device_path(), "--laser",
+                                  "serial:" + laser_->device_path(), "--duration", "1.5", "--json"},
+                                 dir_);
   ASSERT_EQ(r.code, 0) << r.err << r.out;
   const nlohmann::json summary = nlohmann::json::parse(r.out);
   EXPECT_EQ(summary["mode"], "passive");
@@ -221,9 +190,9 @@ TEST_F(RobotLoopServerTest, CommandOnTheSerialFakes) {
 
 TEST_F(RobotLoopServerTest, CommandDrivesTheSimulatorThroughTheRealServerWithoutCollisions) {
   BinaryRun r = RunWaymarkBinary(server_->address(),
-                           {"robot", "--base", "sim:office", "--laser", "sim", "--mode", "active",
-                            "--duration", "40", "--sim-speed", "10", "--json"},
-                           dir_);
+                                 {"robot", "--base", "sim:office", "--laser", "sim", "--mode",
+                                  "active", "--duration", "40", "--sim-speed", "10", "--json"},
+                                 dir_);
   ASSERT_EQ(r.code, 0) << r.err << r.out;
   const nlohmann::json summary = nlohmann::json::parse(r.out);
   EXPECT_GE(summary["suggestions_driven"].get<int>(), 5);
@@ -301,16 +270,16 @@ TEST_F(RobotLoopServerTest, CommandRecognizesTheCrossingFromTheCamera) {
                 testing::CropView(panorama, 92));
   }
   ASSERT_EQ(RunWaymarkBinary(server_->address(), {"db", "create", "streets"}, dir_).code, 0);
-  BinaryRun enrolled =
-      RunWaymarkBinary(server_->address(), {"enroll", "streets", (fs::path(dir_) / "enroll").string()}, dir_);
+  BinaryRun enrolled = RunWaymarkBinary(
+      server_->address(), {"enroll", "streets", (fs::path(dir_) / "enroll").string()}, dir_);
   ASSERT_EQ(enrolled.code, 0) << enrolled.err;
 
-  BinaryRun r = RunWaymarkBinary(
-      server_->address(),
-      {"robot", "--base", "sim:office", "--laser", "sim", "--duration", "20", "--sim-speed", "10",
-       "--camera", (camera_dir / "frame%d.png").string(), "--crossings", "streets",
-       "--recognize-every", "0.5"},
-      dir_);
+  BinaryRun r =
+      RunWaymarkBinary(server_->address(),
+                       {"robot", "--base", "sim:office", "--laser", "sim", "--duration", "20",
+                        "--sim-speed", "10", "--camera", (camera_dir / "frame%d.png").string(),
+                        "--crossings", "streets", "--recognize-every", "0.5"},
+                       dir_);
   ASSERT_EQ(r.code, 0) << r.err << r.out;
   EXPECT_THAT(r.out, HasSubstr("crossing: K3 (heading 90 deg"));
   EXPECT_THAT(r.out, HasSubstr("crossing=K3"));
@@ -318,11 +287,11 @@ TEST_F(RobotLoopServerTest, CommandRecognizesTheCrossingFromTheCamera) {
   EXPECT_THAT(r.out, HasSubstr("camera: OUT_OF_RANGE")) << r.out;
   EXPECT_THAT(r.out, HasSubstr("stopped: session"));
 
-  BinaryRun unknown = RunWaymarkBinary(
-      server_->address(),
-      {"robot", "--base", "sim:office", "--laser", "sim", "--camera",
-       (camera_dir / "frame%d.png").string(), "--crossings", "nowhere"},
-      dir_);
+  BinaryRun unknown =
+      RunWaymarkBinary(server_->address(),
+                       {"robot", "--base", "sim:office", "--laser", "sim", "--camera",
+                        (camera_dir / "frame%d.png").string(), "--crossings", "nowhere"},
+                       dir_);
   EXPECT_NE(unknown.code, 0);
   EXPECT_THAT(unknown.err, HasSubstr("crossing database 'nowhere' not found"));
 }
