@@ -108,6 +108,7 @@ class RobotLoop::Impl {
         Event(fmt::format("reconnecting within {:.1f} s", backoff));
         WaitForServer(backoff, stop);
         backoff = std::min(2 * backoff, absl::ToDoubleSeconds(options_.reconnect_max));
+        std::lock_guard<std::mutex> lock(mutex_);
         ++reconnects_;
       } else if (answered_since_open_) {
         backoff = absl::ToDoubleSeconds(options_.reconnect_initial);
@@ -162,7 +163,13 @@ class RobotLoop::Impl {
   // Waits up to `seconds` for the server to accept connections again, returning as soon as it
   // does: after a restart gRPC would otherwise keep failing calls until its own reconnect backoff
   // ends (seconds). (A stream opened with wait_for_ready would block the loop's sends instead.)
+  // A server that is up and refused the stream (another stream still attached, say) gets the
+  // whole backoff: retrying at once would hammer it.
   void WaitForServer(double seconds, const std::atomic<bool>& stop) {
+    if (client_.WaitForConnected(absl::ZeroDuration())) {
+      SleepUnlessStopped(seconds, stop);
+      return;
+    }
     client_.ResetConnectBackoff();
     const double end = WallSeconds() + seconds;
     while (!stop.load() && WallSeconds() < end) {
@@ -438,7 +445,7 @@ class RobotLoop::Impl {
   std::unique_ptr<client::SensorStream> stream_;  // reset by the loop thread only
   std::atomic<bool> closing_{false};              // the loop itself is ending the current stream
   std::atomic<bool> end_seen_{false};             // the current stream's break has stopped the base
-  uint64_t reconnects_ = 0;
+  uint64_t reconnects_ = 0;  // written by the loop under mutex_ (Snapshot reads it)
   uint64_t scans_sent_before_ = 0;  // by streams already finished
   double last_odometry_stamp_ = -1e300;
   double last_scan_stamp_ = -1e300;
