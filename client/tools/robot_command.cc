@@ -8,7 +8,9 @@
 
 #include <atomic>
 #include <cmath>
+#include <functional>
 #include <memory>
+#include <mutex>
 #include <optional>
 #include <string>
 #include <thread>
@@ -117,7 +119,7 @@ class RawTerminal {
 // teleop_hold seconds, so the target is re-sent while it is non-zero). A safety stop zeroes the
 // commanded velocity; the target is then dropped so the robot does not drive on into the wall.
 void TeleopKeys(RobotLoop& loop, const VelocityLimits& limits, StopSignals& signals,
-                CrossingWatch* watch, std::ostream& err) {
+                CrossingWatch* watch, const std::function<void(const std::string&)>& say) {
   RawTerminal terminal;
   TeleopTarget target;
   bool driving = false;
@@ -128,7 +130,7 @@ void TeleopKeys(RobotLoop& loop, const VelocityLimits& limits, StopSignals& sign
     const ssize_t got = ready > 0 ? ::read(STDIN_FILENO, &key, 1) : 0;
     if (ready > 0 && got <= 0) {
       // The terminal went away (EOF, hang-up): nobody is steering any more.
-      err << "teleop: no more keyboard input; stopping\n";
+      say("teleop: no more keyboard input; stopping");
       loop.Teleop(0, 0).IgnoreError();
       return;
     }
@@ -150,13 +152,13 @@ void TeleopKeys(RobotLoop& loop, const VelocityLimits& limits, StopSignals& sign
     } else if (driving) {
       const RobotStatus s = loop.status();
       if (s.linear == 0 && s.angular == 0 && (target.linear != 0 || target.angular != 0)) {
-        err << "teleop: the base was stopped for safety; target reset\n";
+        say("teleop: the base was stopped for safety; target reset");
         target = {};
       }
     }
     if (driving) {
       absl::Status s = loop.Teleop(target.linear, target.angular);
-      if (!s.ok()) err << "teleop: " << s.ToString() << "\n";
+      if (!s.ok()) say("teleop: " + s.ToString());
       driving = target.linear != 0 || target.angular != 0;
     }
   }
@@ -172,6 +174,12 @@ int RunRobot(CommandContext& context, RobotArgs args) {
                                             "camera are recognized against the crossing database"));
   }
   std::ostream& lines = context.globals.json ? context.err : context.out;
+  // Status, events, crossing answers and teleop notes come from four threads: one line at a time.
+  std::mutex lines_mutex;
+  auto say = [&](const std::string& line) {
+    std::lock_guard<std::mutex> lock(lines_mutex);
+    lines << line << "\n" << std::flush;
+  };
 
   // The camera is opened before the robot: a wrong camera must not leave a robot connected.
   std::unique_ptr<client::CrossingClient> crossing_client;
@@ -201,7 +209,7 @@ int RunRobot(CommandContext& context, RobotArgs args) {
 
   auto devices = OpenRobotDevices(args.setup);
   if (!devices.ok()) return ReportError(context, devices.status());
-  lines << "robot: " << devices->description << "\n";
+  say("robot: " + devices->description);
 
   RobotLoopOptions options;
   options.mode = mode;
@@ -223,22 +231,20 @@ int RunRobot(CommandContext& context, RobotArgs args) {
   std::unique_ptr<CrossingWatch> watch;
   if (camera) {
     watch = std::make_unique<CrossingWatch>(*crossing_client, std::move(camera), args.crossings,
-                                            args.recognize_every_s,
-                                            [&](const std::string& e) { lines << e << "\n"; });
+                                            args.recognize_every_s, say);
   }
-  loop.set_event_callback([&](const std::string& e) { lines << e << "\n"; });
+  loop.set_event_callback(say);
   loop.set_status_callback([&](const RobotStatus& s) {
     if (watch && signals.TakeRecognizeRequest()) watch->Request();
     std::optional<CrossingWatch::Result> crossing;
     if (watch) crossing = watch->last();
-    lines << StatusLine(s, crossing, mode) << "\n" << std::flush;
+    say(StatusLine(s, crossing, mode));
   });
 
   std::thread keys;
   if (mode == DriveMode::kTeleop) {
-    lines << TeleopHelp() << "\n";
-    keys =
-        std::thread([&] { TeleopKeys(loop, options.limits, signals, watch.get(), context.err); });
+    say(TeleopHelp());
+    keys = std::thread([&] { TeleopKeys(loop, options.limits, signals, watch.get(), say); });
   }
   auto result = loop.Run(signals.stop_requested());
   signals.RequestStop();  // ends the key thread
