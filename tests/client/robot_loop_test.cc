@@ -7,14 +7,19 @@
 #include <gtest/gtest.h>
 
 #include <chrono>
+#include <mutex>
+#include <opencv2/imgcodecs.hpp>
 #include <thread>
 
+#include "client/adapters/camera_source.h"
 #include "client/adapters/sim_realtime.h"
 #include "client/adapters/sim_world.h"
 #include "client/lib/channel.h"
+#include "client/tools/crossing_watch.h"
 #include "client/tools/robot_setup.h"
 #include "client/tools/safety_guard.h"
 #include "client/tools/teleop_keys.h"
+#include "tests/client/fake_crossing_service.h"
 #include "tests/client/fake_slam_service.h"
 #include "tests/client/test_util.h"
 
@@ -446,6 +451,49 @@ TEST_F(RobotLoopTest, ResumesAnOpenSessionInsteadOfCreatingOne) {
   ASSERT_TRUE(sessions.ok());
   EXPECT_EQ(sessions->sessions_size(), 1);
   EXPECT_GT(status->scans_answered, 0u);
+}
+
+// ---- Crossing recognition from the camera ------------------------------------------------------
+
+TEST(CrossingWatchTest, ReportsFailedCallsAndAnExhaustedCameraAndGoesOn) {
+  waymark::testing::FakeServer server;  // no database "nowhere" on it
+  waymark::testing::ScopedTempDir dir;
+  cv::imwrite((dir.path() / "frame0.png").string(),
+              cv::Mat(240, 320, CV_8UC3, cv::Scalar(0, 90, 200)));
+  auto camera = client::CameraSource::Open((dir.path() / "frame%d.png").string());
+  ASSERT_TRUE(camera.ok()) << camera.status();
+  client::CrossingClient client(client::MakeChannel(server.address()));
+  std::vector<std::string> events;
+  std::mutex events_mutex;
+  CrossingWatch watch(client, *std::move(camera), "nowhere", /*period_s=*/0,
+                      [&](const std::string& e) {
+                        std::lock_guard<std::mutex> lock(events_mutex);
+                        events.push_back(e);
+                      });
+  EXPECT_EQ(watch.last().attempts, 0u);  // period 0: only on request
+  watch.Request();
+  ASSERT_TRUE(WaitFor([&] { return watch.last().attempts == 1; }));
+  EXPECT_THAT(watch.last().summary, HasSubstr("recognition failed: NOT_FOUND"));
+  watch.Request();  // the one-frame sequence is used up
+  ASSERT_TRUE(WaitFor([&] { return watch.last().attempts == 2; }));
+  EXPECT_THAT(watch.last().summary, HasSubstr("camera: OUT_OF_RANGE"));
+  EXPECT_EQ(watch.last().failures, 2u);
+  EXPECT_FALSE(watch.last().recognized);
+  std::lock_guard<std::mutex> lock(events_mutex);
+  ASSERT_EQ(events.size(), 2u);
+  EXPECT_THAT(events[1], HasSubstr("crossing: camera: OUT_OF_RANGE"));
+}
+
+TEST(CrossingWatchTest, DescribesAnswers) {
+  v1::RecognizeResponse yes;
+  yes.set_recognized(true);
+  yes.set_crossing("K3");
+  yes.set_heading_deg(91.6);
+  yes.set_decision(0.812);
+  EXPECT_EQ(DescribeRecognition(yes), "K3 (heading 92 deg, Des 0.81)");
+  v1::RecognizeResponse no;
+  no.set_reason("too few matches");
+  EXPECT_EQ(DescribeRecognition(no), "not recognized (too few matches)");
 }
 
 // ---- The command ------------------------------------------------------------------------------
