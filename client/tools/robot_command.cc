@@ -322,7 +322,10 @@ void AddRobotCommand(CLI::App& app, CommandRegistry& registry) {
                    "the robot stands still meanwhile and serial devices reconnect by themselves")
       ->check(CLI::NonNegativeNumber)
       ->capture_default_str();
-  robot->add_option("--base-baud", args->setup.base_baud, "Pioneer serial rate")
+  robot
+      ->add_option("--base-baud", args->setup.base_baud,
+                   "Pioneer serial rate (ARCOS: 9600; 19200, 38400, 57600, 115200 if configured)")
+      ->check(CLI::IsMember({9600, 19200, 38400, 57600, 115200}))
       ->capture_default_str();
   robot
       ->add_option("--laser-baud", args->setup.laser_baud,
