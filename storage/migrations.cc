@@ -103,6 +103,25 @@ CREATE TABLE slam_trajectory (
 ) WITHOUT ROWID;
 )sql";
 
+// v3: per-robot bearer tokens (issue 6).
+// - Only the SHA-256 of the secret is stored, so a copy of the database file cannot be used to
+//   authenticate. The hash is UNIQUE: Authenticate looks a token up by it through the index.
+// - name is the operator's label (e.g. the robot's name): revoke and list address tokens by it.
+// - revoked_at is set instead of deleting the row, so list still shows what was revoked and when.
+constexpr absl::string_view kV3Tokens = R"sql(
+CREATE TABLE tokens (
+  id INTEGER PRIMARY KEY,
+  name TEXT NOT NULL UNIQUE,
+  robot_id TEXT NOT NULL,
+  role TEXT NOT NULL CHECK (role IN ('robot', 'mapper', 'admin')),
+  secret_hash BLOB NOT NULL UNIQUE,
+  created_at REAL NOT NULL,
+  expires_at REAL,
+  revoked_at REAL,
+  last_used_at REAL
+);
+)sql";
+
 absl::Status TooNewError(sqlite::Connection& connection, int version, int latest) {
   return absl::FailedPreconditionError(absl::StrCat(
       "database \"", connection.path(), "\" has schema version ", version,
@@ -117,6 +136,7 @@ const std::vector<absl::string_view>& SchemaMigrations() {
   static const auto* const kSteps = new std::vector<absl::string_view>{
       kV1CrossingTables,
       kV2SlamTables,
+      kV3Tokens,
   };
   return *kSteps;
 }
