@@ -34,6 +34,7 @@ int RunCli(int argc, const char* const* argv, std::ostream& out, std::ostream& e
   AddSlamCommands(app, registry);
   AddSimCommands(app, registry);
   AddRobotCommand(app, registry);
+  AddHealthCommand(app, registry);
 
   try {
     app.parse(argc, argv);

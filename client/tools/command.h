@@ -67,6 +67,8 @@ void AddSlamCommands(CLI::App& app, CommandRegistry& registry);
 void AddSimCommands(CLI::App& app, CommandRegistry& registry);
 // `robot` (robot_command.cc).
 void AddRobotCommand(CLI::App& app, CommandRegistry& registry);
+// `health` (health_command.cc).
+void AddHealthCommand(CLI::App& app, CommandRegistry& registry);
 
 }  // namespace waymark::cli
 
