@@ -16,13 +16,13 @@
 #include <atomic>
 #include <chrono>
 #include <csignal>
-#include <cstdlib>
 #include <nlohmann/json.hpp>
 #include <random>
 #include <thread>
 
 #include "client/adapters/lms200_scanner.h"
 #include "client/adapters/pioneer_base.h"
+#include "client/adapters/steady_clock.h"
 #include "client/lib/channel.h"
 #include "client/tools/robot_loop.h"
 #include "tests/robot/eventually.h"
@@ -35,10 +35,6 @@ namespace {
 
 using testing::Eventually;
 using testing::FakeArcosPeer;
-
-double Now() {
-  return std::chrono::duration<double>(std::chrono::steady_clock::now().time_since_epoch()).count();
-}
 
 bool Stopped(const FakeArcosPeer& robot) { return robot.last_velocities() == std::make_pair(0, 0); }
 
@@ -86,11 +82,6 @@ Trial RunTrial(const std::string& db, std::mt19937& rng) {
   options.reconnect_initial = absl::Milliseconds(100);
   options.reconnect_max = absl::Milliseconds(500);
   cli::RobotLoop loop(client, **base, **scanner, options);
-  if (std::getenv("WAYMARK_BENCH_EVENTS") != nullptr) {
-    const double t0 = Now();
-    loop.set_event_callback(
-        [t0](const std::string& e) { fmt::print(stderr, "  {:8.3f} s  {}\n", Now() - t0, e); });
-  }
   std::atomic<bool> stop{false};
   absl::StatusOr<cli::RobotStatus> result;
   std::thread runner([&] { result = loop.Run(stop); });
@@ -108,21 +99,21 @@ Trial RunTrial(const std::string& db, std::mt19937& rng) {
       std::chrono::duration<double>(std::uniform_real_distribution<double>(0.05, 3.5)(rng)));
   const bool moving = !Stopped(robot);
   const std::string address = (*server)->address();
-  const double killed = Now();
+  const double killed = adapters::SteadySeconds();
   (*server)->Stop(SIGKILL);
-  while (!Stopped(robot) && Now() - killed < 10) {
+  while (!Stopped(robot) && adapters::SteadySeconds() - killed < 10) {
     std::this_thread::sleep_for(std::chrono::milliseconds(1));
   }
-  trial.stop_ms = moving ? 1000 * (Now() - killed) : 0;  // a hold that had already ended: 0
+  trial.stop_ms =
+      moving ? 1000 * (adapters::SteadySeconds() - killed) : 0;  // a hold that had already ended: 0
   const uint64_t answered = loop.status().scans_answered;
   auto restarted = testing::ServerProcess::Start(testing::ServerBinary(), db, {}, address);
   if (!restarted.ok()) return finish(Failed(restarted.status().ToString()));
-  const double listening = Now();
-  if (std::getenv("WAYMARK_BENCH_EVENTS") != nullptr) fmt::print(stderr, "  server back\n");
+  const double listening = adapters::SteadySeconds();
   if (!Eventually([&] { return loop.status().scans_answered > answered; }, absl::Seconds(30))) {
     return finish(Failed("the loop did not resume"));
   }
-  trial.resume_ms = 1000 * (Now() - listening);
+  trial.resume_ms = 1000 * (adapters::SteadySeconds() - listening);
   trial = finish(trial);
   trial.ok = result.ok() && moving;
   if (!result.ok()) trial.error = result.status().ToString();

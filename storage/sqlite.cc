@@ -148,6 +148,10 @@ absl::Status Statement::BindDouble(int index, double value) {
   return BindResult(sqlite3_bind_double(stmt_, index, value), index);
 }
 
+absl::Status Statement::BindOptionalDouble(int index, const std::optional<double>& value) {
+  return value.has_value() ? BindDouble(index, *value) : BindNull(index);
+}
+
 absl::Status Statement::BindText(int index, absl::string_view text) {
   // A null data pointer would bind NULL; an empty string_view may carry one.
   const char* data = text.data() != nullptr ? text.data() : "";
@@ -205,6 +209,11 @@ int64_t Statement::ColumnInt64(int column) const { return sqlite3_column_int64(s
 int32_t Statement::ColumnInt32(int column) const { return sqlite3_column_int(stmt_, column); }
 
 double Statement::ColumnDouble(int column) const { return sqlite3_column_double(stmt_, column); }
+
+std::optional<double> Statement::ColumnOptionalDouble(int column) const {
+  if (ColumnIsNull(column)) return std::nullopt;
+  return ColumnDouble(column);
+}
 
 std::string Statement::ColumnText(int column) const {
   // text before bytes: sqlite3_column_bytes reports the size of the representation last asked for.

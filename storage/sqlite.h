@@ -13,6 +13,7 @@
 
 #include <cstddef>
 #include <cstdint>
+#include <optional>
 #include <string>
 #include <utility>
 #include <vector>
@@ -88,6 +89,8 @@ class Statement {
   absl::Status BindNull(int index);
   absl::Status BindInt64(int index, int64_t value);
   absl::Status BindDouble(int index, double value);
+  // NULL for nullopt.
+  absl::Status BindOptionalDouble(int index, const std::optional<double>& value);
   absl::Status BindText(int index, absl::string_view text);
   // An empty blob is stored as a zero-length blob, not as NULL.
   absl::Status BindBlob(int index, const void* data, size_t size);
@@ -108,6 +111,8 @@ class Statement {
   int64_t ColumnInt64(int column) const;
   int32_t ColumnInt32(int column) const;
   double ColumnDouble(int column) const;
+  // nullopt for NULL.
+  std::optional<double> ColumnOptionalDouble(int column) const;
   std::string ColumnText(int column) const;
   // Blob bytes; valid until the next Step/Reset/destruction. Empty for NULL.
   absl::string_view ColumnBlobView(int column) const;

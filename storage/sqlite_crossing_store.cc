@@ -19,6 +19,7 @@
 #include "storage/migrations.h"
 #include "storage/sqlite.h"
 #include "storage/status_macros.h"
+#include "storage/store_util.h"
 
 namespace waymark::storage {
 namespace {
@@ -29,18 +30,12 @@ using sqlite::StepResult;
 using sqlite::Transaction;
 using sqlite::UniqueViolation;
 
-double NowSeconds() {
-  return std::chrono::duration<double>(std::chrono::system_clock::now().time_since_epoch()).count();
-}
-
 // Replaces the message of an ALREADY_EXISTS status (SQLite's "UNIQUE constraint failed: ..." means
 // nothing to a robot operator); other statuses pass through.
 absl::Status NameTaken(absl::Status status, const std::string& what) {
   if (absl::IsAlreadyExists(status)) return absl::AlreadyExistsError(what + " already exists");
   return status;
 }
-
-std::string Quoted(const std::string& name) { return absl::StrCat("\"", name, "\""); }
 
 // Checks a view before writing it: the blob sizes must agree with the counts, or a later read
 // would misinterpret the arrays.

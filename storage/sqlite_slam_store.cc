@@ -19,6 +19,7 @@
 #include "storage/migrations.h"
 #include "storage/slam_store.h"
 #include "storage/sqlite.h"
+#include "storage/store_util.h"
 #include "storage/status_macros.h"
 
 namespace waymark::storage {
@@ -36,22 +37,6 @@ using sqlite::Transaction;
 using sqlite::UniqueViolation;
 
 constexpr size_t kCovarianceBytes = 9 * sizeof(double);
-
-double NowSeconds() {
-  return std::chrono::duration<double>(std::chrono::system_clock::now().time_since_epoch()).count();
-}
-
-std::string Quoted(const std::string& id) { return absl::StrCat("\"", id, "\""); }
-
-absl::Status BindOptionalDouble(Statement& stmt, int index, const std::optional<double>& value) {
-  if (!value.has_value()) return stmt.BindNull(index);
-  return stmt.BindDouble(index, *value);
-}
-
-std::optional<double> ColumnOptionalDouble(const Statement& row, int column) {
-  if (row.ColumnIsNull(column)) return std::nullopt;
-  return row.ColumnDouble(column);
-}
 
 // SQLite stores NaN as NULL, which a NOT NULL column rejects with an opaque error: say what is
 // wrong instead.
@@ -105,8 +90,8 @@ absl::StatusOr<SlamSessionRecord> ReadSessionRow(const Statement& row) {
   session.scans_processed = row.ColumnInt64(8);
   session.map_revision = row.ColumnInt64(9);
   session.segments = row.ColumnInt32(10);
-  session.last_scan_stamp = ColumnOptionalDouble(row, 11);
-  session.last_odometry_stamp = ColumnOptionalDouble(row, 12);
+  session.last_scan_stamp = row.ColumnOptionalDouble(11);
+  session.last_odometry_stamp = row.ColumnOptionalDouble(12);
   session.checkpoint_at = row.ColumnIsNull(13) ? 0.0 : row.ColumnDouble(13);
   session.trajectory_length = row.ColumnInt64(14);
   absl::string_view checkpoint = row.ColumnBlobView(15);
@@ -147,8 +132,8 @@ class SqliteSlamStore final : public SlamStore {
     RETURN_IF_ERROR(stmt.BindInt64(9, created.scans_processed));
     RETURN_IF_ERROR(stmt.BindInt64(10, created.map_revision));
     RETURN_IF_ERROR(stmt.BindInt64(11, created.segments));
-    RETURN_IF_ERROR(BindOptionalDouble(stmt, 12, created.last_scan_stamp));
-    RETURN_IF_ERROR(BindOptionalDouble(stmt, 13, created.last_odometry_stamp));
+    RETURN_IF_ERROR(stmt.BindOptionalDouble(12, created.last_scan_stamp));
+    RETURN_IF_ERROR(stmt.BindOptionalDouble(13, created.last_odometry_stamp));
     absl::Status run = stmt.Run(UniqueViolation::kAlreadyExists);
     if (absl::IsAlreadyExists(run)) {
       return absl::AlreadyExistsError(
@@ -301,8 +286,8 @@ class SqliteSlamStore final : public SlamStore {
     RETURN_IF_ERROR(update.BindInt64(4, checkpoint.scans_processed));
     RETURN_IF_ERROR(update.BindInt64(5, checkpoint.map_revision));
     RETURN_IF_ERROR(update.BindInt64(6, checkpoint.segments));
-    RETURN_IF_ERROR(BindOptionalDouble(update, 7, checkpoint.last_scan_stamp));
-    RETURN_IF_ERROR(BindOptionalDouble(update, 8, checkpoint.last_odometry_stamp));
+    RETURN_IF_ERROR(update.BindOptionalDouble(7, checkpoint.last_scan_stamp));
+    RETURN_IF_ERROR(update.BindOptionalDouble(8, checkpoint.last_odometry_stamp));
     RETURN_IF_ERROR(update.BindText(
         9, SlamSessionStateName(close ? SlamSessionState::kClosed : SlamSessionState::kOpen)));
     RETURN_IF_ERROR(update.BindText(10, id));

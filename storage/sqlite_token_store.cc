@@ -21,6 +21,7 @@
 #include "storage/migrations.h"
 #include "storage/sqlite.h"
 #include "storage/status_macros.h"
+#include "storage/store_util.h"
 #include "storage/token_store.h"
 
 namespace waymark::storage {
@@ -58,12 +59,6 @@ constexpr int kSecretBytes = 32;
 // write. A minute's resolution is enough to tell a token in use from a forgotten one.
 constexpr double kLastUsedResolutionSeconds = 60;
 
-double NowSeconds() {
-  return std::chrono::duration<double>(std::chrono::system_clock::now().time_since_epoch()).count();
-}
-
-std::string Quoted(const std::string& text) { return absl::StrCat("\"", text, "\""); }
-
 absl::StatusOr<std::string> NewSecret() {
   unsigned char bytes[kSecretBytes];
   if (RAND_bytes(bytes, kSecretBytes) != 1) {
@@ -84,16 +79,6 @@ absl::StatusOr<std::string> HashSecret(absl::string_view secret) {
   return std::string(reinterpret_cast<const char*>(digest), length);
 }
 
-absl::Status BindOptionalDouble(Statement& stmt, int index, const std::optional<double>& value) {
-  if (!value.has_value()) return stmt.BindNull(index);
-  return stmt.BindDouble(index, *value);
-}
-
-std::optional<double> ColumnOptionalDouble(const Statement& row, int column) {
-  if (row.ColumnIsNull(column)) return std::nullopt;
-  return row.ColumnDouble(column);
-}
-
 // Columns read by ReadTokenRow, in order. Never the hash: it stays inside this file.
 constexpr absl::string_view kSelectToken =
     "SELECT id, name, robot_id, role, created_at, expires_at, revoked_at, last_used_at "
@@ -111,9 +96,9 @@ absl::StatusOr<TokenRecord> ReadTokenRow(const Statement& row) {
   }
   token.role = *role;
   token.created_at = row.ColumnDouble(4);
-  token.expires_at = ColumnOptionalDouble(row, 5);
-  token.revoked_at = ColumnOptionalDouble(row, 6);
-  token.last_used_at = ColumnOptionalDouble(row, 7);
+  token.expires_at = row.ColumnOptionalDouble(5);
+  token.revoked_at = row.ColumnOptionalDouble(6);
+  token.last_used_at = row.ColumnOptionalDouble(7);
   return token;
 }
 
@@ -148,7 +133,7 @@ class SqliteTokenStore final : public TokenStore {
     RETURN_IF_ERROR(stmt.BindText(3, TokenRoleName(role)));
     RETURN_IF_ERROR(stmt.BindBlob(4, hash.data(), hash.size()));
     RETURN_IF_ERROR(stmt.BindDouble(5, created.record.created_at));
-    RETURN_IF_ERROR(BindOptionalDouble(stmt, 6, expires_at));
+    RETURN_IF_ERROR(stmt.BindOptionalDouble(6, expires_at));
     // The only UNIQUE columns are name and the hash of 256 fresh random bits: a violation is the
     // name.
     absl::Status run = stmt.Run(UniqueViolation::kAlreadyExists);

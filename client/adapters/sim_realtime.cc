@@ -4,14 +4,9 @@
 #include <chrono>
 #include <thread>
 
+#include "client/adapters/steady_clock.h"
+
 namespace waymark::adapters {
-namespace {
-
-double SteadySeconds() {
-  return std::chrono::duration<double>(std::chrono::steady_clock::now().time_since_epoch()).count();
-}
-
-}  // namespace
 
 class RealTimeSimulation::Base final : public MobileBase {
  public:

@@ -2,16 +2,9 @@
 
 #include <fmt/format.h>
 
-#include <chrono>
+#include "client/adapters/steady_clock.h"
 
 namespace waymark::cli {
-namespace {
-
-double SteadySeconds() {
-  return std::chrono::duration<double>(std::chrono::steady_clock::now().time_since_epoch()).count();
-}
-
-}  // namespace
 
 std::string DescribeRecognition(const v1::RecognizeResponse& response) {
   if (!response.recognized()) {
@@ -97,7 +90,7 @@ void CrossingWatch::RecognizeOnce() {
     if (!ok) ++last_.failures;
     last_.summary = summary;
     last_.recognized = recognized;
-    last_.wall_time = SteadySeconds();
+    last_.wall_time = adapters::SteadySeconds();
   }
   if (on_event_) on_event_(fmt::format("crossing: {}", summary));
 }

@@ -14,6 +14,7 @@
 #include "client/adapters/camera_source.h"
 #include "client/adapters/sim_realtime.h"
 #include "client/adapters/sim_world.h"
+#include "client/adapters/steady_clock.h"
 #include "client/lib/channel.h"
 #include "client/tools/crossing_watch.h"
 #include "client/tools/robot_setup.h"
@@ -31,15 +32,11 @@ using waymark::testing::CliResult;
 using waymark::testing::FakeSlamServer;
 using waymark::testing::RunWaymark;
 
-double Now() {
-  return std::chrono::duration<double>(std::chrono::steady_clock::now().time_since_epoch()).count();
-}
-
 // Polls `condition` for up to `seconds`.
 template <typename F>
 bool WaitFor(F condition, double seconds = 5) {
-  const double end = Now() + seconds;
-  while (Now() < end) {
+  const double end = adapters::SteadySeconds() + seconds;
+  while (adapters::SteadySeconds() < end) {
     if (condition()) return true;
     std::this_thread::sleep_for(std::chrono::milliseconds(5));
   }
@@ -67,7 +64,7 @@ class ScriptedBase : public adapters::MobileBase {
     std::lock_guard<std::mutex> lock(mutex_);
     if (failing_) return absl::UnavailableError("no SIP for 1 s");
     adapters::BaseState state;
-    state.stamp = Now();
+    state.stamp = adapters::SteadySeconds();
     state.bumped = bumped_;
     state.stalled = stalled_;
     return state;
@@ -116,7 +113,7 @@ class ScriptedLaser : public adapters::LaserScanner {
   absl::StatusOr<adapters::LaserReading> Read() override {
     std::this_thread::sleep_for(std::chrono::milliseconds(20));
     if (failing_.load()) return absl::UnavailableError("LMS200 on /dev/ttyUSB0 hung up");
-    return adapters::LaserReading{Now(), std::vector<float>(181, 3.0f)};
+    return adapters::LaserReading{adapters::SteadySeconds(), std::vector<float>(181, 3.0f)};
   }
   std::atomic<bool> failing_{false};
 };

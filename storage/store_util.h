@@ -1,0 +1,24 @@
+#ifndef WAYMARK_STORAGE_STORE_UTIL_H_
+#define WAYMARK_STORAGE_STORE_UTIL_H_
+
+// Small things every SQLite store needs the same way.
+
+#include <chrono>
+#include <string>
+
+#include "absl/strings/str_cat.h"
+#include "absl/strings/string_view.h"
+
+namespace waymark::storage {
+
+// Wall-clock unix seconds: what created_at / updated_at columns hold.
+inline double NowSeconds() {
+  return std::chrono::duration<double>(std::chrono::system_clock::now().time_since_epoch()).count();
+}
+
+// A name or id in an error message, quoted so an empty or odd one is visible.
+inline std::string Quoted(absl::string_view text) { return absl::StrCat("\"", text, "\""); }
+
+}  // namespace waymark::storage
+
+#endif  // WAYMARK_STORAGE_STORE_UTIL_H_
