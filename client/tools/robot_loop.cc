@@ -11,22 +11,17 @@
 
 #include "absl/strings/ascii.h"
 #include "absl/strings/match.h"
+#include "client/adapters/steady_clock.h"
 #include "client/tools/laser_session.h"
 
 namespace waymark::cli {
 namespace {
 
-using Clock = std::chrono::steady_clock;
-
-double WallSeconds() {
-  return std::chrono::duration<double>(Clock::now().time_since_epoch()).count();
-}
-
 // Sleeps `seconds` of wall time in short slices, returning early once `stop` is set.
 void SleepUnlessStopped(double seconds, const std::atomic<bool>& stop) {
-  const double end = WallSeconds() + seconds;
+  const double end = adapters::SteadySeconds() + seconds;
   while (!stop.load()) {
-    const double left = end - WallSeconds();
+    const double left = end - adapters::SteadySeconds();
     if (left <= 0) return;
     std::this_thread::sleep_for(std::chrono::duration<double>(std::min(left, 0.05)));
   }
@@ -50,8 +45,8 @@ class DeviceHealth {
   void Ok() { failing_since_.reset(); }
   // True when the failure has lasted past the grace.
   bool Fail() {
-    if (!failing_since_) failing_since_ = WallSeconds();
-    return WallSeconds() - *failing_since_ > grace_s_;
+    if (!failing_since_) failing_since_ = adapters::SteadySeconds();
+    return adapters::SteadySeconds() - *failing_since_ > grace_s_;
   }
 
  private:
@@ -139,7 +134,7 @@ class RobotLoop::Impl {
     s.session_id = session_id_;
     s.device_time = start_stamp_ ? last_base_stamp_ - *start_stamp_ : 0;
     s.reconnects = reconnects_;
-    s.server_connected = stream_ != nullptr && answered_since_open_;
+    s.server_connected = stream_ != nullptr && answered_since_open_ && !stream_->ended();
     s.linear = guard_.commanded_linear();
     s.angular = guard_.commanded_angular();
     s.suggestions_driven = suggestions_driven_;
@@ -171,17 +166,18 @@ class RobotLoop::Impl {
       return;
     }
     client_.ResetConnectBackoff();
-    const double end = WallSeconds() + seconds;
-    while (!stop.load() && WallSeconds() < end) {
-      if (client_.WaitForConnected(absl::Seconds(std::min(0.05, end - WallSeconds())))) return;
+    const double end = adapters::SteadySeconds() + seconds;
+    while (!stop.load() && adapters::SteadySeconds() < end) {
+      if (client_.WaitForConnected(absl::Seconds(std::min(0.05, end - adapters::SteadySeconds()))))
+        return;
     }
   }
 
   // Every status_period of wall time, also in the middle of a hold.
   void MaybeReportStatus() {
-    if (!on_status_ || WallSeconds() < next_status_) return;
+    if (!on_status_ || adapters::SteadySeconds() < next_status_) return;
     on_status_(Snapshot());
-    next_status_ = WallSeconds() + absl::ToDoubleSeconds(options_.status_period);
+    next_status_ = adapters::SteadySeconds() + absl::ToDoubleSeconds(options_.status_period);
   }
 
   double RemainingDeviceTime() const {
@@ -419,12 +415,15 @@ class RobotLoop::Impl {
       if (!during) continue;
       now = during->stamp;
       MaybeReportStatus();
-      absl::Status s = SendOdometry(*during);
-      if (s.ok() && stream_->ended()) s = absl::UnavailableError("the server ended the stream");
-      if (!s.ok()) {
+      if (absl::Status s = SendOdometry(*during); !s.ok()) {
         StreamBroke(s);
         return absl::OkStatus();
       }
+    }
+    // A stream that ended mid-hold has stopped the motors from its callback, which ended the hold.
+    if (stream_->ended()) {
+      StreamBroke(absl::UnavailableError("the server ended the stream"));
+      return absl::OkStatus();
     }
     return guard_.Stop();
   }
@@ -445,7 +444,7 @@ class RobotLoop::Impl {
   std::unique_ptr<client::SensorStream> stream_;  // reset by the loop thread only
   std::atomic<bool> closing_{false};              // the loop itself is ending the current stream
   std::atomic<bool> end_seen_{false};             // the current stream's break has stopped the base
-  uint64_t reconnects_ = 0;  // written by the loop under mutex_ (Snapshot reads it)
+  uint64_t reconnects_ = 0;         // written by the loop under mutex_ (Snapshot reads it)
   uint64_t scans_sent_before_ = 0;  // by streams already finished
   double last_odometry_stamp_ = -1e300;
   double last_scan_stamp_ = -1e300;
