@@ -9,6 +9,7 @@ PACKAGES=(
   libopencv-dev libeigen3-dev libabsl-dev libsqlite3-dev
   libgtest-dev libgmock-dev libbenchmark-dev
   libcli11-dev libspdlog-dev libfmt-dev nlohmann-json3-dev
+  prometheus-cpp-dev  # metrics endpoint (server/service/metrics)
   zlib1g-dev libbz2-dev  # compressed CARMEN laser logs (client/adapters/carmen_log)
   blender-data  # real 360-degree photos for the rotation test set (bench/rotation_set.h)
 )
