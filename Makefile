@@ -28,7 +28,7 @@ run: build
 	@echo "  $(BUILD_DIR)/bin/waymark --server $(LISTEN) db create city"
 	@echo "  $(BUILD_DIR)/bin/waymark --server $(LISTEN) enroll city DIR     # DIR/<crossing>/<heading>.jpg"
 	@echo "  $(BUILD_DIR)/bin/waymark --server $(LISTEN) recognize city IMAGE.jpg"
-	$(BUILD_DIR)/bin/waymark-server --listen $(LISTEN) --db $(DB)
+	$(BUILD_DIR)/bin/waymark-server --listen $(LISTEN) --db $(DB) --insecure-dev
 
 test: build
 	cd $(BUILD_DIR) && ctest --output-on-failure -j $(JOBS) $(CTEST_ARGS)

@@ -11,7 +11,7 @@ SEEDS=${SEEDS:-"1 2 3"}
 DURATION=${DURATION:-1200}
 PORT=${PORT:-50091}
 mkdir -p "$OUT"
-"$BUILD_DIR/bin/waymark-server" --listen "127.0.0.1:$PORT" --db "$OUT/explore.db" > "$OUT/server.log" 2>&1 &
+"$BUILD_DIR/bin/waymark-server" --listen "127.0.0.1:$PORT" --db "$OUT/explore.db" --insecure-dev > "$OUT/server.log" 2>&1 &
 SERVER=$!
 trap 'kill $SERVER 2>/dev/null; wait $SERVER 2>/dev/null || true' EXIT
 sleep 1

@@ -7,7 +7,7 @@ DEMO=${DEMO_DIR:-out/demo}
 W="$BUILD_DIR/bin/waymark"
 [ -d "$DEMO/db" ] || "$BUILD_DIR/bin/waymark-demo-data" "$DEMO"
 rm -f "$DEMO/demo.db"*
-"$BUILD_DIR/bin/waymark-server" --listen 127.0.0.1:0 --db "$DEMO/demo.db" > "$DEMO/server.out" 2> "$DEMO/server.log" &
+"$BUILD_DIR/bin/waymark-server" --listen 127.0.0.1:0 --db "$DEMO/demo.db" --insecure-dev > "$DEMO/server.out" 2> "$DEMO/server.log" &
 SERVER=$!
 trap 'kill $SERVER 2>/dev/null; wait $SERVER 2>/dev/null || true' EXIT
 for _ in $(seq 100); do grep -q "listening on" "$DEMO/server.out" && break; sleep 0.1; done

@@ -1,9 +1,14 @@
 // waymark-server: the gRPC service robots talk to.
 //
 //   waymark-server [--listen 127.0.0.1:50051] [--db ./var/waymark.db] [--threads N]
-//                  [--max-message-mb 32] [--slam-queue 64] [--slam-workers N]
-//                  [--slam-checkpoint-seconds 30] [--max-sessions 64]
+//                  [--insecure-dev | --tls-cert F --tls-key F [--tls-client-ca F] | --allow-plaintext]
+//                  [--max-message-mb 32] [--max-streams-per-robot 8] [--slam-queue 64]
+//                  [--slam-workers N] [--slam-checkpoint-seconds 30] [--max-sessions 64]
+//   waymark-server --db FILE token create NAME --role admin|mapper|robot [--robot-id ID]
+//   waymark-server --db FILE token list | token revoke NAME
 //
+// Every call needs a bearer token (server/service/access_policy.h) unless --insecure-dev, which is
+// only accepted on loopback. Plaintext is only served on loopback unless --allow-plaintext.
 // Prints "waymark-server listening on HOST:PORT" once it accepts calls (port 0 picks a free port).
 // SIGINT/SIGTERM: stop accepting, let in-flight calls finish (up to --shutdown-grace seconds),
 // then checkpoint every SLAM session in memory and close the database.
@@ -24,12 +29,20 @@
 #include <spdlog/sinks/stdout_color_sinks.h>
 #include <spdlog/spdlog.h>
 
+#include "server/service/authenticator.h"
+#include "server/service/call_interceptor.h"
 #include "server/service/crossing_registry.h"
 #include "server/service/crossing_service.h"
+#include "server/service/metrics.h"
 #include "server/service/slam_registry.h"
+#include "server/service/server_security.h"
 #include "server/service/slam_service.h"
+#include "server/service/stream_limiter.h"
+#include "server/service/token_service.h"
+#include "server/token_admin.h"
 #include "storage/crossing_store.h"
 #include "storage/slam_store.h"
+#include "storage/token_store.h"
 
 namespace {
 
@@ -40,9 +53,12 @@ void OnSignal(int signal) { g_signal = signal; }
 struct ServerFlags {
   std::string listen = "127.0.0.1:50051";
   std::string db = "./var/waymark.db";
+  std::string metrics_listen;  // "" = no metrics endpoint
   int threads = 0;  // 0: gRPC's default (grows with load)
   int max_message_mb = 32;
   double shutdown_grace_s = 10;
+  int max_streams_per_robot = 8;
+  waymark::service::SecurityOptions security;
   waymark::service::SlamRegistryOptions slam;
 };
 
@@ -64,7 +80,26 @@ void ConfigureChannel(grpc::ServerBuilder* builder, const ServerFlags& flags) {
   }
 }
 
+// With auth on and no live admin token, nobody can manage tokens over the API: say how to start.
+void HintFirstToken(waymark::storage::TokenStore& tokens, const ServerFlags& flags) {
+  auto list = tokens.ListTokens();
+  if (!list.ok()) return;
+  for (const auto& token : *list) {
+    if (token.role == waymark::storage::TokenRole::kAdmin && !token.revoked_at.has_value()) return;
+  }
+  spdlog::warn(
+      "no admin token yet: every call will be UNAUTHENTICATED until you create tokens, e.g. "
+      "`waymark-server --db {} token create admin --role admin` (prints the secret once; then "
+      "`waymark --token SECRET token create ROBOT --role robot`)",
+      flags.db);
+}
+
 int Run(const ServerFlags& flags) {
+  auto credentials = waymark::service::MakeServerCredentials(flags.listen, flags.security);
+  if (!credentials.ok()) {
+    spdlog::error("{}", std::string(credentials.status().message()));
+    return 2;
+  }
   spdlog::info("opening database {}", flags.db);
   auto store = waymark::storage::OpenSqliteCrossingStore(flags.db);
   if (!store.ok()) {
@@ -97,16 +132,49 @@ int Run(const ServerFlags& flags) {
     return 2;
   }
 
-  waymark::service::CrossingServiceImpl crossing_service(registry->get());
-  waymark::service::SlamServiceImpl slam_service(slam_registry->get());
+  // Declared after the registries it reads, so it stops serving before they go away.
+  std::unique_ptr<waymark::service::Metrics> metrics;
+  if (!flags.metrics_listen.empty()) {
+    auto started = waymark::service::StartMetrics(
+        flags.metrics_listen, {registry->get(), slam_registry->get(), flags.db});
+    if (!started.ok()) {
+      spdlog::error("{}", std::string(started.status().message()));
+      return 2;
+    }
+    metrics = std::move(*started);
+  }
+
+  auto token_store = waymark::storage::OpenSqliteTokenStore(flags.db);
+  if (!token_store.ok()) {
+    spdlog::error("cannot open database {}: {}", flags.db, token_store.status().ToString());
+    return 2;
+  }
+  std::shared_ptr<waymark::storage::TokenStore> tokens = std::move(*token_store);
+  std::unique_ptr<waymark::service::Authenticator> auth;
+  if (flags.security.insecure_dev) {
+    spdlog::warn("--insecure-dev: authentication is OFF (loopback only); do not use on a robot fleet");
+    auth = waymark::service::Authenticator::AuthOff();
+  } else {
+    HintFirstToken(*tokens, flags);
+    auth = waymark::service::Authenticator::WithTokens(tokens);
+  }
+  waymark::service::StreamLimiter streams(flags.max_streams_per_robot);
+
+  waymark::service::CrossingServiceImpl crossing_service(registry->get(), auth.get(), &streams);
+  waymark::service::SlamServiceImpl slam_service(slam_registry->get(), auth.get(), &streams);
+  waymark::service::TokenServiceImpl token_service(tokens, auth.get());
   grpc::EnableDefaultHealthCheckService(true);
   grpc::reflection::InitProtoReflectionServerBuilderPlugin();
   grpc::ServerBuilder builder;
   int port = 0;
-  builder.AddListeningPort(flags.listen, grpc::InsecureServerCredentials(), &port);
+  builder.AddListeningPort(flags.listen, *credentials, &port);
   ConfigureChannel(&builder, flags);
   builder.RegisterService(&crossing_service);
   builder.RegisterService(&slam_service);
+  builder.RegisterService(&token_service);
+  std::vector<std::unique_ptr<grpc::experimental::ServerInterceptorFactoryInterface>> interceptors;
+  interceptors.push_back(waymark::service::MakeCallInterceptorFactory(metrics.get()));
+  builder.experimental().SetInterceptorCreators(std::move(interceptors));
   std::unique_ptr<grpc::Server> server = builder.BuildAndStart();
   if (server == nullptr || port == 0) {
     spdlog::error("cannot listen on {} (address in use or invalid?)", flags.listen);
@@ -114,8 +182,11 @@ int Run(const ServerFlags& flags) {
   }
   server->GetHealthCheckService()->SetServingStatus("waymark.v1.CrossingService", true);
   server->GetHealthCheckService()->SetServingStatus("waymark.v1.SlamService", true);
+  server->GetHealthCheckService()->SetServingStatus("waymark.v1.TokenService", true);
   const std::string host = flags.listen.substr(0, flags.listen.rfind(':'));
   std::printf("waymark-server listening on %s:%d\n", host.c_str(), port);
+  spdlog::info("{} on {}:{}; auth {}", flags.security.tls_cert.empty() ? "plaintext" : "TLS", host,
+               port, flags.security.insecure_dev ? "OFF (--insecure-dev)" : "by bearer token");
   std::fflush(stdout);
   spdlog::info("try: waymark --server {}:{} db list   (or grpcurl -plaintext {}:{} list)", host,
                port, host, port);
@@ -146,6 +217,21 @@ int main(int argc, char** argv) {
       ->capture_default_str();
   app.add_option("--db", flags.db, "SQLite database file (created if missing)")
       ->capture_default_str();
+  app.add_flag("--insecure-dev", flags.security.insecure_dev,
+               "development only: no authentication, plaintext; refused unless --listen is loopback");
+  app.add_option("--tls-cert", flags.security.tls_cert, "PEM certificate chain: serve TLS")
+      ->envname("WAYMARK_TLS_CERT");
+  app.add_option("--tls-key", flags.security.tls_key, "PEM private key of --tls-cert")
+      ->envname("WAYMARK_TLS_KEY");
+  app.add_option("--tls-client-ca", flags.security.tls_client_ca,
+                 "PEM CA: require client certificates signed by it (mutual TLS)")
+      ->envname("WAYMARK_TLS_CLIENT_CA");
+  app.add_flag("--allow-plaintext", flags.security.allow_plaintext,
+               "serve plaintext on a non-loopback address (TLS terminated in front of the server)");
+  app.add_option("--max-streams-per-robot", flags.max_streams_per_robot,
+                 "streams one robot may hold open at once; more get RESOURCE_EXHAUSTED (0 = no limit)")
+      ->check(CLI::Range(0, 100000))
+      ->capture_default_str();
   app.add_option("--threads", flags.threads, "max request threads (0 = gRPC default)")
       ->check(CLI::NonNegativeNumber)
       ->capture_default_str();
@@ -172,11 +258,16 @@ int main(int argc, char** argv) {
                  "also checkpoint a SLAM session every N processed scans (0 = off)")
       ->check(CLI::NonNegativeNumber)
       ->capture_default_str();
+  app.add_option("--metrics-listen", flags.metrics_listen,
+                 "serve Prometheus metrics at http://IPV4:PORT/metrics (empty = off; port 0 picks one)");
   app.add_option("--max-sessions", flags.slam.max_sessions,
                  "open SLAM sessions this server holds; CreateSession beyond gets RESOURCE_EXHAUSTED")
       ->check(CLI::Range(1, 100000))
       ->capture_default_str();
+  waymark::server::TokenAdminFlags token_flags;
+  CLI::App* token_group = waymark::server::AddTokenAdminCommands(app, &token_flags);
   CLI11_PARSE(app, argc, argv);
+  if (token_group->parsed()) return waymark::server::RunTokenAdmin(token_group, token_flags, flags.db);
   // glibc gives every thread that allocates its own arena and keeps freed memory in each; with
   // a request thread per call that grows the heap well past what the databases hold. Two arenas
   // are plenty for the request threads of a 2-8 core server.

@@ -7,6 +7,7 @@
 #include <memory>
 #include <string>
 
+#include "absl/status/statusor.h"
 #include "absl/time/time.h"
 
 namespace waymark::client {
@@ -28,9 +29,28 @@ struct ChannelOptions {
   absl::Duration initial_reconnect_backoff = absl::Milliseconds(250);
   // Applies to both directions; camera frames and bulk imports stay well under it.
   int max_message_bytes = 64 * 1024 * 1024;
-  // nullptr means plaintext (grpc::InsecureChannelCredentials()).
+  // nullptr means plaintext (grpc::InsecureChannelCredentials()); TLS: MakeTlsCredentials().
   std::shared_ptr<grpc::ChannelCredentials> credentials;
+  // The name the server's TLS certificate must carry when it differs from the address's host
+  // (e.g. connecting by IP to a certificate issued for "waymark.lab"). Empty = the host.
+  std::string tls_server_name;
+  // Sent as "authorization: Bearer <token>" on every call (what the server's auth checks); empty
+  // sends none. Added by a client interceptor rather than call credentials, which gRPC refuses
+  // to send over plaintext (the loopback development setup).
+  std::string bearer_token;
 };
+
+// PEM files for a TLS channel: `ca` verifies the server (empty = the system's roots); `cert` and
+// `key` are the client's own certificate for servers that require one (both or neither).
+struct TlsFiles {
+  std::string ca;
+  std::string cert;
+  std::string key;
+};
+
+// TLS channel credentials from PEM files; NOT_FOUND / INVALID_ARGUMENT naming an unreadable or
+// non-PEM file, or a certificate without its key.
+absl::StatusOr<std::shared_ptr<grpc::ChannelCredentials>> MakeTlsCredentials(const TlsFiles& files);
 
 // Creates a channel to `address` ("host:port", or any gRPC target URI). Connection happens lazily
 // on the first call, so this never fails; connection errors surface as UNAVAILABLE from calls.

@@ -10,6 +10,7 @@
 #include <utility>
 #include <vector>
 
+#include "client/lib/channel.h"
 #include "client/lib/crossing_client.h"
 #include "client/lib/slam_client.h"
 
@@ -23,6 +24,10 @@ struct GlobalOptions {
   std::string server = "127.0.0.1:50051";
   bool json = false;
   double timeout_s = 30;
+  std::string token;            // bearer token (WAYMARK_TOKEN); empty = none
+  client::TlsFiles tls;         // --tls-ca / --tls-cert / --tls-key; TLS when any is set
+  bool use_tls = false;         // --tls: TLS with the system's CAs
+  std::string tls_server_name;  // --tls-server-name
 };
 
 // What a command needs from its surroundings; streams are injected so tests can capture output.
@@ -31,6 +36,14 @@ struct CommandContext {
   std::ostream& out;
   std::ostream& err;
   bool err_is_tty = false;  // progress bars only when a person is watching
+  // TLS credentials read from the --tls-* files once the command line is parsed; nullptr means
+  // plaintext.
+  std::shared_ptr<grpc::ChannelCredentials> credentials;
+
+  // Channel settings from the global options: credentials, TLS server name, bearer token.
+  client::ChannelOptions Channel() const;
+  // A channel to globals.server with those settings.
+  std::shared_ptr<grpc::Channel> MakeChannel() const;
 
   // A client for globals.server with globals.timeout_s on every unary call.
   std::unique_ptr<client::CrossingClient> Connect() const;
@@ -69,6 +82,8 @@ void AddSimCommands(CLI::App& app, CommandRegistry& registry);
 void AddRobotCommand(CLI::App& app, CommandRegistry& registry);
 // `health` (health_command.cc).
 void AddHealthCommand(CLI::App& app, CommandRegistry& registry);
+// `token create|list|revoke` (token_command.cc).
+void AddTokenCommands(CLI::App& app, CommandRegistry& registry);
 
 }  // namespace waymark::cli
 

@@ -3,7 +3,6 @@
 #include <memory>
 #include <string>
 
-#include "client/lib/channel.h"
 #include "client/lib/health_client.h"
 #include "client/tools/command.h"
 #include "client/tools/output.h"
@@ -14,7 +13,7 @@ namespace {
 int RunHealth(CommandContext& context, const std::string& service) {
   const absl::Duration timeout =
       context.globals.timeout_s > 0 ? absl::Seconds(context.globals.timeout_s) : absl::Seconds(30);
-  auto status = client::CheckHealth(client::MakeChannel(context.globals.server), service, timeout);
+  auto status = client::CheckHealth(context.MakeChannel(), service, timeout);
   if (!status.ok()) {
     return ReportError(context, status.status(),
                        service.empty() ? context.globals.server : service);

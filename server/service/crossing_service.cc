@@ -1,72 +1,83 @@
 #include "server/service/crossing_service.h"
 
 #include "absl/strings/str_cat.h"
-#include "server/service/grpc_status.h"
+#include "server/service/service_call.h"
 
 namespace waymark::service {
-namespace {
 
-// Copies a registry result into the response, or returns its error.
-template <typename T>
-grpc::Status Reply(absl::StatusOr<T> result, T* response) {
-  if (!result.ok()) return ToGrpcStatus(result.status());
-  *response = std::move(*result);
-  return grpc::Status::OK;
+absl::StatusOr<std::unique_ptr<StreamLimiter::Lease>> CrossingServiceImpl::AuthorizeStream(
+    const grpc::ServerContext& context, Action action) {
+  absl::StatusOr<Caller> caller = auth_->Authorize(context, action);
+  if (!caller.ok()) return caller.status();
+  // With auth off there is no robot identity to count streams against.
+  if (caller->auth_off) return std::unique_ptr<StreamLimiter::Lease>();
+  return streams_->Acquire(caller->robot_id);
 }
 
-}  // namespace
-
-grpc::Status CrossingServiceImpl::CreateDatabase(grpc::ServerContext*,
+grpc::Status CrossingServiceImpl::CreateDatabase(grpc::ServerContext* context,
                                                  const v1::CreateDatabaseRequest* request,
                                                  v1::CrossingDatabase* response) {
-  return Reply(registry_->CreateDatabase(*request), response);
+  return ReplyAuthorized(*auth_, *context, Action::kEditCrossings, response,
+                         [&](const Caller&) { return registry_->CreateDatabase(*request); });
 }
 
-grpc::Status CrossingServiceImpl::ListDatabases(grpc::ServerContext*,
+grpc::Status CrossingServiceImpl::ListDatabases(grpc::ServerContext* context,
                                                 const v1::ListDatabasesRequest*,
                                                 v1::ListDatabasesResponse* response) {
-  return Reply(registry_->ListDatabases(), response);
+  return ReplyAuthorized(*auth_, *context, Action::kReadCrossings, response,
+                         [&](const Caller&) { return registry_->ListDatabases(); });
 }
 
-grpc::Status CrossingServiceImpl::DeleteDatabase(grpc::ServerContext*,
+grpc::Status CrossingServiceImpl::DeleteDatabase(grpc::ServerContext* context,
                                                  const v1::DeleteDatabaseRequest* request,
                                                  v1::DeleteDatabaseResponse*) {
+  absl::StatusOr<Caller> caller = auth_->Authorize(*context, Action::kDeleteDatabase);
+  if (!caller.ok()) return ToGrpcStatus(caller.status());
   return ToGrpcStatus(registry_->DeleteDatabase(request->name()));
 }
 
-grpc::Status CrossingServiceImpl::GetDatabaseStats(grpc::ServerContext*,
+grpc::Status CrossingServiceImpl::GetDatabaseStats(grpc::ServerContext* context,
                                                    const v1::GetDatabaseStatsRequest* request,
                                                    v1::DatabaseStats* response) {
-  return Reply(registry_->GetStats(request->name()), response);
+  return ReplyAuthorized(*auth_, *context, Action::kReadCrossings, response,
+                         [&](const Caller&) { return registry_->GetStats(request->name()); });
 }
 
-grpc::Status CrossingServiceImpl::AddCrossing(grpc::ServerContext*,
+grpc::Status CrossingServiceImpl::AddCrossing(grpc::ServerContext* context,
                                               const v1::AddCrossingRequest* request,
                                               v1::Crossing* response) {
-  return Reply(registry_->AddCrossing(*request), response);
+  return ReplyAuthorized(*auth_, *context, Action::kEditCrossings, response,
+                         [&](const Caller&) { return registry_->AddCrossing(*request); });
 }
 
-grpc::Status CrossingServiceImpl::ListCrossings(grpc::ServerContext*,
+grpc::Status CrossingServiceImpl::ListCrossings(grpc::ServerContext* context,
                                                 const v1::ListCrossingsRequest* request,
                                                 v1::ListCrossingsResponse* response) {
-  return Reply(registry_->ListCrossings(request->database()), response);
+  return ReplyAuthorized(
+      *auth_, *context, Action::kReadCrossings, response,
+      [&](const Caller&) { return registry_->ListCrossings(request->database()); });
 }
 
-grpc::Status CrossingServiceImpl::DeleteCrossing(grpc::ServerContext*,
+grpc::Status CrossingServiceImpl::DeleteCrossing(grpc::ServerContext* context,
                                                  const v1::DeleteCrossingRequest* request,
                                                  v1::DeleteCrossingResponse* response) {
-  return Reply(registry_->DeleteCrossing(*request), response);
+  return ReplyAuthorized(*auth_, *context, Action::kEditCrossings, response,
+                         [&](const Caller&) { return registry_->DeleteCrossing(*request); });
 }
 
-grpc::Status CrossingServiceImpl::EnrollView(grpc::ServerContext*,
+grpc::Status CrossingServiceImpl::EnrollView(grpc::ServerContext* context,
                                              const v1::EnrollViewRequest* request,
                                              v1::EnrollViewResponse* response) {
-  return Reply(registry_->EnrollView(*request), response);
+  return ReplyAuthorized(*auth_, *context, Action::kEditCrossings, response,
+                         [&](const Caller&) { return registry_->EnrollView(*request); });
 }
 
 grpc::Status CrossingServiceImpl::BulkEnroll(grpc::ServerContext* context,
                                              grpc::ServerReader<v1::EnrollViewRequest>* reader,
                                              v1::BulkEnrollResponse* response) {
+  absl::StatusOr<std::unique_ptr<StreamLimiter::Lease>> lease =
+      AuthorizeStream(*context, Action::kEditCrossings);
+  if (!lease.ok()) return ToGrpcStatus(lease.status());
   v1::EnrollViewRequest request;
   for (int index = 0; reader->Read(&request); ++index) {
     if (context->IsCancelled()) return grpc::Status(grpc::StatusCode::CANCELLED, "cancelled");
@@ -98,21 +109,26 @@ grpc::Status CrossingServiceImpl::BulkEnroll(grpc::ServerContext* context,
   return grpc::Status::OK;
 }
 
-grpc::Status CrossingServiceImpl::RebuildClusters(grpc::ServerContext*,
+grpc::Status CrossingServiceImpl::RebuildClusters(grpc::ServerContext* context,
                                                   const v1::RebuildClustersRequest* request,
                                                   v1::RebuildClustersResponse* response) {
-  return Reply(registry_->RebuildClusters(*request), response);
+  return ReplyAuthorized(*auth_, *context, Action::kEditCrossings, response,
+                         [&](const Caller&) { return registry_->RebuildClusters(*request); });
 }
 
-grpc::Status CrossingServiceImpl::RecognizeCrossing(grpc::ServerContext*,
+grpc::Status CrossingServiceImpl::RecognizeCrossing(grpc::ServerContext* context,
                                                     const v1::RecognizeRequest* request,
                                                     v1::RecognizeResponse* response) {
-  return Reply(registry_->Recognize(*request), response);
+  return ReplyAuthorized(*auth_, *context, Action::kRecognize, response,
+                         [&](const Caller&) { return registry_->Recognize(*request); });
 }
 
 grpc::Status CrossingServiceImpl::StreamRecognize(
     grpc::ServerContext* context,
     grpc::ServerReaderWriter<v1::RecognizeResponse, v1::RecognizeRequest>* stream) {
+  absl::StatusOr<std::unique_ptr<StreamLimiter::Lease>> lease =
+      AuthorizeStream(*context, Action::kRecognize);
+  if (!lease.ok()) return ToGrpcStatus(lease.status());
   v1::RecognizeRequest request;
   int64_t frame = 0;
   while (stream->Read(&request)) {

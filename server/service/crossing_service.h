@@ -4,14 +4,21 @@
 // waymark.v1.CrossingService: one thin method per RPC (validate, call the registry, translate the
 // status). All the work and all the state live in CrossingRegistry.
 
+#include <memory>
+
+#include "server/service/authenticator.h"
 #include "server/service/crossing_registry.h"
+#include "server/service/stream_limiter.h"
 #include "waymark/v1/crossing.grpc.pb.h"
 
 namespace waymark::service {
 
 class CrossingServiceImpl final : public v1::CrossingService::Service {
  public:
-  explicit CrossingServiceImpl(CrossingRegistry* registry) : registry_(registry) {}
+  // Every RPC first checks the caller's token with `auth` (access_policy.h has the table); streams
+  // count against the caller's robot in `streams`. None is owned.
+  CrossingServiceImpl(CrossingRegistry* registry, Authenticator* auth, StreamLimiter* streams)
+      : registry_(registry), auth_(auth), streams_(streams) {}
 
   grpc::Status CreateDatabase(grpc::ServerContext*, const v1::CreateDatabaseRequest* request,
                               v1::CrossingDatabase* response) override;
@@ -40,7 +47,14 @@ class CrossingServiceImpl final : public v1::CrossingService::Service {
       grpc::ServerReaderWriter<v1::RecognizeResponse, v1::RecognizeRequest>* stream) override;
 
  private:
+  // Authorizes a streaming call and takes a stream slot of the caller's robot (a null lease when
+  // auth is off).
+  absl::StatusOr<std::unique_ptr<StreamLimiter::Lease>> AuthorizeStream(
+      const grpc::ServerContext& context, Action action);
+
   CrossingRegistry* registry_;
+  Authenticator* auth_;
+  StreamLimiter* streams_;
 };
 
 }  // namespace waymark::service

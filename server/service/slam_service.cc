@@ -4,17 +4,10 @@
 #include <memory>
 #include <mutex>
 
-#include "server/service/grpc_status.h"
+#include "server/service/service_call.h"
 
 namespace waymark::service {
 namespace {
-
-template <typename T>
-grpc::Status Reply(absl::StatusOr<T> result, T* response) {
-  if (!result.ok()) return ToGrpcStatus(result.status());
-  *response = std::move(*result);
-  return grpc::Status::OK;
-}
 
 // Serializes the writes of one stream: the registry's worker writes answers while the handler
 // thread writes rejections (gRPC sync streams allow one Write at a time, concurrent with a Read).
@@ -36,14 +29,36 @@ class StreamWriter {
 
 }  // namespace
 
-grpc::Status SlamServiceImpl::CreateSession(grpc::ServerContext*,
+absl::Status SlamServiceImpl::CheckSessionOwner(const Caller& caller,
+                                                const std::string& session_id) {
+  // Admins (and auth off) may use every session: no need to look the owner up.
+  if (SeesAllRobots(caller)) return absl::OkStatus();
+  absl::StatusOr<v1::Session> session = registry_->GetSession(session_id);
+  if (!session.ok()) return session.status();
+  return CheckRobot(caller, session->robot_id());
+}
+
+grpc::Status SlamServiceImpl::CreateSession(grpc::ServerContext* context,
                                             const v1::CreateSessionRequest* request,
                                             v1::Session* response) {
-  return Reply(registry_->CreateSession(*request), response);
+  return ReplyAuthorized(
+      *auth_, *context, Action::kSlam, response,
+      [&](const Caller& caller) -> absl::StatusOr<v1::Session> {
+        if (request->robot_id().empty() && !caller.auth_off) {
+          // A robot's token already says which robot it is.
+          v1::CreateSessionRequest own = *request;
+          own.set_robot_id(caller.robot_id);
+          return registry_->CreateSession(own);
+        }
+        if (absl::Status s = CheckRobot(caller, request->robot_id()); !s.ok()) return s;
+        return registry_->CreateSession(*request);
+      });
 }
 
 grpc::Status SlamServiceImpl::StreamSensorData(
     grpc::ServerContext* context, grpc::ServerReaderWriter<v1::SlamUpdate, v1::SensorData>* stream) {
+  absl::StatusOr<Caller> caller = auth_->Authorize(*context, Action::kSlam);
+  if (!caller.ok()) return ToGrpcStatus(caller.status());
   v1::SensorData data;
   if (!stream->Read(&data)) return grpc::Status::OK;  // the client sent nothing
   if (data.session_id().empty()) {
@@ -51,6 +66,14 @@ grpc::Status SlamServiceImpl::StreamSensorData(
                         "the first SensorData of a stream must carry session_id (from "
                         "CreateSession or ListSessions)");
   }
+  absl::StatusOr<v1::Session> described = registry_->GetSession(data.session_id());
+  if (!described.ok()) return ToGrpcStatus(described.status());
+  if (absl::Status s = CheckRobot(*caller, described->robot_id()); !s.ok()) return ToGrpcStatus(s);
+  // Counted against the session's robot, so an admin streaming for a robot uses its slots.
+  absl::StatusOr<std::unique_ptr<StreamLimiter::Lease>> lease =
+      streams_->Acquire(described->robot_id());
+  if (!lease.ok()) return ToGrpcStatus(lease.status());
+
   auto writer = std::make_shared<StreamWriter>(stream);
   absl::StatusOr<std::unique_ptr<SlamRegistry::Stream>> session = registry_->OpenStream(
       data.session_id(), [writer](const v1::SlamUpdate& update) { writer->Write(update); });
@@ -76,27 +99,51 @@ grpc::Status SlamServiceImpl::StreamSensorData(
   return grpc::Status::OK;
 }
 
-grpc::Status SlamServiceImpl::GetMap(grpc::ServerContext*, const v1::GetMapRequest* request,
+grpc::Status SlamServiceImpl::GetMap(grpc::ServerContext* context, const v1::GetMapRequest* request,
                                      v1::SegmentMap* response) {
-  return Reply(registry_->GetMap(request->session_id()), response);
+  return ReplyAuthorized(*auth_, *context, Action::kSlam, response,
+                         [&](const Caller& caller) -> absl::StatusOr<v1::SegmentMap> {
+                           absl::Status s = CheckSessionOwner(caller, request->session_id());
+                           if (!s.ok()) return s;
+                           return registry_->GetMap(request->session_id());
+                         });
 }
 
-grpc::Status SlamServiceImpl::GetTrajectory(grpc::ServerContext*,
+grpc::Status SlamServiceImpl::GetTrajectory(grpc::ServerContext* context,
                                             const v1::GetTrajectoryRequest* request,
                                             v1::Trajectory* response) {
-  return Reply(registry_->GetTrajectory(request->session_id()), response);
+  return ReplyAuthorized(*auth_, *context, Action::kSlam, response,
+                         [&](const Caller& caller) -> absl::StatusOr<v1::Trajectory> {
+                           absl::Status s = CheckSessionOwner(caller, request->session_id());
+                           if (!s.ok()) return s;
+                           return registry_->GetTrajectory(request->session_id());
+                         });
 }
 
-grpc::Status SlamServiceImpl::CloseSession(grpc::ServerContext*,
+grpc::Status SlamServiceImpl::CloseSession(grpc::ServerContext* context,
                                            const v1::CloseSessionRequest* request,
                                            v1::Session* response) {
-  return Reply(registry_->CloseSession(request->session_id()), response);
+  return ReplyAuthorized(*auth_, *context, Action::kSlam, response,
+                         [&](const Caller& caller) -> absl::StatusOr<v1::Session> {
+                           absl::Status s = CheckSessionOwner(caller, request->session_id());
+                           if (!s.ok()) return s;
+                           return registry_->CloseSession(request->session_id());
+                         });
 }
 
-grpc::Status SlamServiceImpl::ListSessions(grpc::ServerContext*,
+grpc::Status SlamServiceImpl::ListSessions(grpc::ServerContext* context,
                                            const v1::ListSessionsRequest* request,
                                            v1::ListSessionsResponse* response) {
-  return Reply(registry_->ListSessions(request->robot_id()), response);
+  return ReplyAuthorized(
+      *auth_, *context, Action::kSlam, response,
+      [&](const Caller& caller) -> absl::StatusOr<v1::ListSessionsResponse> {
+        // A robot lists its own sessions; "all robots" means all it may see.
+        const std::string robot = request->robot_id().empty() && !SeesAllRobots(caller)
+                                      ? caller.robot_id
+                                      : request->robot_id();
+        if (absl::Status s = CheckRobot(caller, robot); !s.ok()) return s;
+        return registry_->ListSessions(robot);
+      });
 }
 
 }  // namespace waymark::service

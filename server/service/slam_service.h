@@ -4,14 +4,22 @@
 // waymark.v1.SlamService: one thin method per RPC (validate, call the registry, translate the
 // status). Sessions, queues, workers and checkpoints live in SlamRegistry.
 
+#include <string>
+
+#include "server/service/authenticator.h"
 #include "server/service/slam_registry.h"
+#include "server/service/stream_limiter.h"
 #include "waymark/v1/slam.grpc.pb.h"
 
 namespace waymark::service {
 
 class SlamServiceImpl final : public v1::SlamService::Service {
  public:
-  explicit SlamServiceImpl(SlamRegistry* registry) : registry_(registry) {}
+  // Every RPC first checks the caller's token with `auth`; a robot sees and feeds only its own
+  // sessions (another robot's: PERMISSION_DENIED); sensor streams count against the session's
+  // robot in `streams`. None is owned.
+  SlamServiceImpl(SlamRegistry* registry, Authenticator* auth, StreamLimiter* streams)
+      : registry_(registry), auth_(auth), streams_(streams) {}
 
   grpc::Status CreateSession(grpc::ServerContext*, const v1::CreateSessionRequest* request,
                              v1::Session* response) override;
@@ -33,7 +41,12 @@ class SlamServiceImpl final : public v1::SlamService::Service {
                             v1::ListSessionsResponse* response) override;
 
  private:
+  // OK when `caller` may use session `session_id`; NOT_FOUND for an unknown session.
+  absl::Status CheckSessionOwner(const Caller& caller, const std::string& session_id);
+
   SlamRegistry* registry_;
+  Authenticator* auth_;
+  StreamLimiter* streams_;
 };
 
 }  // namespace waymark::service

@@ -1,10 +1,8 @@
 // `waymark health` against the real server binary: what a container HEALTHCHECK runs.
 #include <gmock/gmock.h>
 #include <gtest/gtest.h>
-#include <sys/wait.h>
 
 #include <csignal>
-#include <cstdio>
 #include <string>
 
 #include "tests/support/server_process.h"
@@ -14,23 +12,9 @@ namespace {
 
 using ::testing::HasSubstr;
 
-struct Result {
-  int code = -1;
-  std::string output;  // stdout and stderr
-};
+using Result = testing::CommandResult;
 
-Result RunWaymark(const std::string& args) {
-  const std::string command = std::string(WAYMARK_BINARY_DIR) + "/bin/waymark " + args + " 2>&1";
-  Result r;
-  FILE* pipe = popen(command.c_str(), "r");
-  if (pipe == nullptr) return r;
-  char buffer[4096];
-  size_t n;
-  while ((n = fread(buffer, 1, sizeof(buffer), pipe)) > 0) r.output.append(buffer, n);
-  const int status = pclose(pipe);
-  r.code = WIFEXITED(status) ? WEXITSTATUS(status) : -1;
-  return r;
-}
+Result RunWaymark(const std::string& args) { return testing::RunBinary("waymark", args); }
 
 TEST(HealthCommandTest, ServingServerUnknownServiceAndNoServer) {
   const std::string dir = testing::MakeTempDir("health");

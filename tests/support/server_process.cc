@@ -6,6 +6,7 @@
 #include <unistd.h>
 
 #include <chrono>
+#include <cstdio>
 #include <cstdlib>
 #include <fstream>
 #include <sstream>
@@ -33,6 +34,24 @@ std::string ServerBinary() {
 #endif
 }
 
+CommandResult RunBinary(const std::string& binary, const std::string& args, bool merge_stderr) {
+#ifdef WAYMARK_BINARY_DIR
+  const std::string path = std::string(WAYMARK_BINARY_DIR) + "/bin/" + binary;
+#else
+  const std::string path = binary;
+#endif
+  const std::string command = path + " " + args + (merge_stderr ? " 2>&1" : "");
+  CommandResult result;
+  FILE* pipe = popen(command.c_str(), "r");
+  if (pipe == nullptr) return result;
+  char buffer[4096];
+  size_t n;
+  while ((n = fread(buffer, 1, sizeof(buffer), pipe)) > 0) result.output.append(buffer, n);
+  const int status = pclose(pipe);
+  result.code = WIFEXITED(status) ? WEXITSTATUS(status) : -1;
+  return result;
+}
+
 std::string MakeTempDir(const std::string& prefix) {
   std::string pattern = "/tmp/" + prefix + "-XXXXXX";
   char* dir = mkdtemp(pattern.data());
@@ -40,6 +59,14 @@ std::string MakeTempDir(const std::string& prefix) {
 }
 
 absl::StatusOr<std::unique_ptr<ServerProcess>> ServerProcess::Start(
+    const std::string& binary, const std::string& db_path, const std::vector<std::string>& args,
+    const std::string& listen) {
+  std::vector<std::string> insecure = {"--insecure-dev"};
+  insecure.insert(insecure.end(), args.begin(), args.end());
+  return StartWithAuth(binary, db_path, insecure, listen);
+}
+
+absl::StatusOr<std::unique_ptr<ServerProcess>> ServerProcess::StartWithAuth(
     const std::string& binary, const std::string& db_path, const std::vector<std::string>& args,
     const std::string& listen) {
   std::unique_ptr<ServerProcess> server(new ServerProcess());

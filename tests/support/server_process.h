@@ -16,13 +16,18 @@ namespace waymark::testing {
 
 class ServerProcess {
  public:
-  // Starts `binary --listen 127.0.0.1:0 --db db_path args...` and waits (up to 60 s) for its
-  // "listening on" line.
+  // Starts `binary --listen 127.0.0.1:0 --db db_path --insecure-dev args...` and waits (up to
+  // 60 s) for its "listening on" line. Authentication is off (--insecure-dev): tests of
+  // everything but auth call without tokens.
   // `listen` replaces 127.0.0.1:0, e.g. to restart a server on the port it had.
   static absl::StatusOr<std::unique_ptr<ServerProcess>> Start(const std::string& binary,
                                                               const std::string& db_path,
                                                               const std::vector<std::string>& args = {},
                                                               const std::string& listen = "127.0.0.1:0");
+  // The same with authentication on (no --insecure-dev), as deployed: calls need tokens.
+  static absl::StatusOr<std::unique_ptr<ServerProcess>> StartWithAuth(
+      const std::string& binary, const std::string& db_path,
+      const std::vector<std::string>& args = {}, const std::string& listen = "127.0.0.1:0");
   ~ServerProcess();
 
   const std::string& address() const { return address_; }
@@ -42,6 +47,16 @@ class ServerProcess {
 
 // The waymark-server binary of this build.
 std::string ServerBinary();
+
+// Exit code and output of a command run through the shell.
+struct CommandResult {
+  int code = -1;       // -1 when it did not exit normally
+  std::string output;  // stdout, then stderr if `merge_stderr`
+};
+// Runs `<build>/bin/<binary> <args>` (args as a shell would split them); stderr joins stdout
+// unless `merge_stderr` is false (then it goes to the test's own stderr).
+CommandResult RunBinary(const std::string& binary, const std::string& args,
+                        bool merge_stderr = true);
 // A fresh temporary directory (removed by the caller or left for inspection).
 std::string MakeTempDir(const std::string& prefix);
 

@@ -1,0 +1,56 @@
+#ifndef WAYMARK_SERVER_SERVICE_ACCESS_POLICY_H_
+#define WAYMARK_SERVER_SERVICE_ACCESS_POLICY_H_
+
+// Who may do what (issue 6): the one table from token roles to the service's actions, and the
+// rule that a robot sees only its own SLAM sessions. Plain C++: the gRPC layer (authenticator.h)
+// turns a request's token into a Caller and asks here.
+
+#include <string>
+
+#include "absl/status/status.h"
+#include "storage/token_store.h"
+
+namespace waymark::service {
+
+// What a call does, coarser than the RPCs: every RPC maps to exactly one action.
+enum class Action {
+  kReadCrossings,    // ListDatabases, GetDatabaseStats, ListCrossings
+  kRecognize,        // RecognizeCrossing, StreamRecognize
+  kEditCrossings,    // CreateDatabase, AddCrossing, DeleteCrossing, EnrollView, BulkEnroll,
+                     // RebuildClusters
+  kDeleteDatabase,   // DeleteDatabase: drops every robot's views at once, so admin only
+  kSlam,             // every SlamService RPC (further limited to the caller's own sessions)
+  kManageTokens,     // TokenService
+};
+
+// "recognize", "edit crossing databases", ... for error messages.
+const char* ActionName(Action action);
+
+// The authenticated identity of a call.
+struct Caller {
+  std::string token_name;  // "" when auth is off (--insecure-dev)
+  std::string robot_id;    // the robot the token speaks for; "" when auth is off
+  storage::TokenRole role = storage::TokenRole::kRobot;
+  bool auth_off = false;   // --insecure-dev: everything allowed, any robot id accepted
+
+  // The caller as written in logs and errors: token name and robot.
+  std::string Describe() const;
+};
+
+// The smallest role allowed to do `action`.
+storage::TokenRole MinimumRole(Action action);
+
+// OK when the caller's role allows the action; PERMISSION_DENIED naming the action, the caller's
+// role and the role needed otherwise.
+absl::Status CheckAction(const Caller& caller, Action action);
+
+// Admins and auth off see every robot's sessions; robot and mapper tokens only their own.
+bool SeesAllRobots(const Caller& caller);
+
+// OK when the caller may see or feed data of robot `robot_id` (its own, or any when admin or auth
+// off); PERMISSION_DENIED otherwise, naming both robots.
+absl::Status CheckRobot(const Caller& caller, const std::string& robot_id);
+
+}  // namespace waymark::service
+
+#endif  // WAYMARK_SERVER_SERVICE_ACCESS_POLICY_H_
