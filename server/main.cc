@@ -2,7 +2,8 @@
 //
 //   waymark-server [--listen 127.0.0.1:50051] [--db ./var/waymark.db] [--threads N]
 //                  [--insecure-dev | --tls-cert F --tls-key F [--tls-client-ca F] | --allow-plaintext]
-//                  [--max-message-mb 32] [--max-streams-per-robot 8] [--slam-queue 64]
+//                  [--max-message-mb 32] [--max-streams-per-robot 8] [--stream-idle-seconds 300]
+//                  [--metrics-listen HOST:PORT] [--slam-queue 64]
 //                  [--slam-workers N] [--slam-checkpoint-seconds 30] [--max-sessions 64]
 //   waymark-server --db FILE token create NAME --role admin|mapper|robot [--robot-id ID]
 //   waymark-server --db FILE token list | token revoke NAME
@@ -33,6 +34,7 @@
 #include "server/service/call_interceptor.h"
 #include "server/service/crossing_registry.h"
 #include "server/service/crossing_service.h"
+#include "server/service/idle_stream_reaper.h"
 #include "server/service/metrics.h"
 #include "server/service/slam_registry.h"
 #include "server/service/server_security.h"
@@ -58,6 +60,7 @@ struct ServerFlags {
   int max_message_mb = 32;
   double shutdown_grace_s = 10;
   int max_streams_per_robot = 8;
+  double stream_idle_seconds = 300;
   waymark::service::SecurityOptions security;
   waymark::service::SlamRegistryOptions slam;
 };
@@ -159,9 +162,12 @@ int Run(const ServerFlags& flags) {
     auth = waymark::service::Authenticator::WithTokens(tokens);
   }
   waymark::service::StreamLimiter streams(flags.max_streams_per_robot);
+  waymark::service::IdleStreamReaper idle_streams(flags.stream_idle_seconds);
 
-  waymark::service::CrossingServiceImpl crossing_service(registry->get(), auth.get(), &streams);
-  waymark::service::SlamServiceImpl slam_service(slam_registry->get(), auth.get(), &streams);
+  waymark::service::CrossingServiceImpl crossing_service(registry->get(), auth.get(), &streams,
+                                                        &idle_streams);
+  waymark::service::SlamServiceImpl slam_service(slam_registry->get(), auth.get(), &streams,
+                                                &idle_streams);
   waymark::service::TokenServiceImpl token_service(tokens, auth.get());
   grpc::EnableDefaultHealthCheckService(true);
   grpc::reflection::InitProtoReflectionServerBuilderPlugin();
@@ -231,6 +237,10 @@ int main(int argc, char** argv) {
   app.add_option("--max-streams-per-robot", flags.max_streams_per_robot,
                  "streams one robot may hold open at once; more get RESOURCE_EXHAUSTED (0 = no limit)")
       ->check(CLI::Range(0, 100000))
+      ->capture_default_str();
+  app.add_option("--stream-idle-seconds", flags.stream_idle_seconds,
+                 "end a client stream that sent nothing for this long (0 = never)")
+      ->check(CLI::NonNegativeNumber)
       ->capture_default_str();
   app.add_option("--threads", flags.threads, "max request threads (0 = gRPC default)")
       ->check(CLI::NonNegativeNumber)

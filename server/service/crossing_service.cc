@@ -78,8 +78,10 @@ grpc::Status CrossingServiceImpl::BulkEnroll(grpc::ServerContext* context,
   absl::StatusOr<std::unique_ptr<StreamLimiter::Lease>> lease =
       AuthorizeStream(*context, Action::kEditCrossings);
   if (!lease.ok()) return ToGrpcStatus(lease.status());
+  const auto watch = idle_->WatchStream(context);
   v1::EnrollViewRequest request;
   for (int index = 0; reader->Read(&request); ++index) {
+    watch->Touch();
     if (context->IsCancelled()) return grpc::Status(grpc::StatusCode::CANCELLED, "cancelled");
     bool created = false;
     absl::StatusOr<v1::EnrollViewResponse> enrolled = registry_->EnrollView(request, &created);
@@ -129,9 +131,11 @@ grpc::Status CrossingServiceImpl::StreamRecognize(
   absl::StatusOr<std::unique_ptr<StreamLimiter::Lease>> lease =
       AuthorizeStream(*context, Action::kRecognize);
   if (!lease.ok()) return ToGrpcStatus(lease.status());
+  const auto watch = idle_->WatchStream(context);
   v1::RecognizeRequest request;
   int64_t frame = 0;
   while (stream->Read(&request)) {
+    watch->Touch();
     if (context->IsCancelled()) return grpc::Status(grpc::StatusCode::CANCELLED, "cancelled");
     absl::StatusOr<v1::RecognizeResponse> result = registry_->Recognize(request);
     v1::RecognizeResponse response;

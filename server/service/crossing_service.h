@@ -8,6 +8,7 @@
 
 #include "server/service/authenticator.h"
 #include "server/service/crossing_registry.h"
+#include "server/service/idle_stream_reaper.h"
 #include "server/service/stream_limiter.h"
 #include "waymark/v1/crossing.grpc.pb.h"
 
@@ -16,9 +17,11 @@ namespace waymark::service {
 class CrossingServiceImpl final : public v1::CrossingService::Service {
  public:
   // Every RPC first checks the caller's token with `auth` (access_policy.h has the table); streams
-  // count against the caller's robot in `streams`. None is owned.
-  CrossingServiceImpl(CrossingRegistry* registry, Authenticator* auth, StreamLimiter* streams)
-      : registry_(registry), auth_(auth), streams_(streams) {}
+  // count against the caller's robot in `streams` and end when silent for `idle`'s limit. None is
+  // owned.
+  CrossingServiceImpl(CrossingRegistry* registry, Authenticator* auth, StreamLimiter* streams,
+                      IdleStreamReaper* idle)
+      : registry_(registry), auth_(auth), streams_(streams), idle_(idle) {}
 
   grpc::Status CreateDatabase(grpc::ServerContext*, const v1::CreateDatabaseRequest* request,
                               v1::CrossingDatabase* response) override;
@@ -55,6 +58,7 @@ class CrossingServiceImpl final : public v1::CrossingService::Service {
   CrossingRegistry* registry_;
   Authenticator* auth_;
   StreamLimiter* streams_;
+  IdleStreamReaper* idle_;
 };
 
 }  // namespace waymark::service

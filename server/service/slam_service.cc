@@ -59,6 +59,7 @@ grpc::Status SlamServiceImpl::StreamSensorData(
     grpc::ServerContext* context, grpc::ServerReaderWriter<v1::SlamUpdate, v1::SensorData>* stream) {
   absl::StatusOr<Caller> caller = auth_->Authorize(*context, Action::kSlam);
   if (!caller.ok()) return ToGrpcStatus(caller.status());
+  const auto watch = idle_->WatchStream(context);
   v1::SensorData data;
   if (!stream->Read(&data)) return grpc::Status::OK;  // the client sent nothing
   if (data.session_id().empty()) {
@@ -83,6 +84,7 @@ grpc::Status SlamServiceImpl::StreamSensorData(
   bool have = data.payload_case() != v1::SensorData::PAYLOAD_NOT_SET;
   while (have || stream->Read(&data)) {
     have = false;
+    watch->Touch();
     if (context->IsCancelled()) break;
     absl::Status accepted = (*session)->Submit(data);
     if (!accepted.ok()) {

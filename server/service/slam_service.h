@@ -7,6 +7,7 @@
 #include <string>
 
 #include "server/service/authenticator.h"
+#include "server/service/idle_stream_reaper.h"
 #include "server/service/slam_registry.h"
 #include "server/service/stream_limiter.h"
 #include "waymark/v1/slam.grpc.pb.h"
@@ -17,9 +18,10 @@ class SlamServiceImpl final : public v1::SlamService::Service {
  public:
   // Every RPC first checks the caller's token with `auth`; a robot sees and feeds only its own
   // sessions (another robot's: PERMISSION_DENIED); sensor streams count against the session's
-  // robot in `streams`. None is owned.
-  SlamServiceImpl(SlamRegistry* registry, Authenticator* auth, StreamLimiter* streams)
-      : registry_(registry), auth_(auth), streams_(streams) {}
+  // robot in `streams` and end when silent for `idle`'s limit. None is owned.
+  SlamServiceImpl(SlamRegistry* registry, Authenticator* auth, StreamLimiter* streams,
+                  IdleStreamReaper* idle)
+      : registry_(registry), auth_(auth), streams_(streams), idle_(idle) {}
 
   grpc::Status CreateSession(grpc::ServerContext*, const v1::CreateSessionRequest* request,
                              v1::Session* response) override;
@@ -47,6 +49,7 @@ class SlamServiceImpl final : public v1::SlamService::Service {
   SlamRegistry* registry_;
   Authenticator* auth_;
   StreamLimiter* streams_;
+  IdleStreamReaper* idle_;
 };
 
 }  // namespace waymark::service
