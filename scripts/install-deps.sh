@@ -12,6 +12,7 @@ PACKAGES=(
   prometheus-cpp-dev  # metrics endpoint (server/service/metrics)
   zlib1g-dev libbz2-dev  # compressed CARMEN laser logs (client/adapters/carmen_log)
   blender-data  # real 360-degree photos for the rotation test set (bench/rotation_set.h)
+  openssl  # test certificates (tests/integration/tls_test.cc)
 )
 
 missing=()
