@@ -67,6 +67,14 @@ struct ClusterAssignment {
 struct AddViewResult {
   int64_t view_id = 0;
   int64_t cluster_id = 0;
+  int64_t crossing_id = 0;  // the view's crossing (the new one for AddViewWithNewCrossing)
+};
+
+// A crossing created together with its first view.
+struct NewCrossing {
+  int64_t database_id = 0;
+  std::string name;
+  std::string label;
 };
 
 // Every mutating call is one transaction: it happens entirely or not at all.
@@ -96,6 +104,12 @@ class CrossingStore {
   // Inserts the view and its cluster membership in one transaction.
   virtual absl::StatusOr<AddViewResult> AddView(const ViewRecord& view,
                                                 const ClusterAssignment& assignment) = 0;
+  // The same for a view of a crossing that does not exist yet: creates the crossing, the view and
+  // its membership in one transaction (view.crossing_id is ignored), so a crash or a failed insert
+  // never leaves a crossing behind that its enrollment did not complete. ALREADY_EXISTS when the
+  // name is taken.
+  virtual absl::StatusOr<AddViewResult> AddViewWithNewCrossing(
+      const NewCrossing& crossing, const ViewRecord& view, const ClusterAssignment& assignment) = 0;
   // All views of a database in enrollment (id) order, without image bytes.
   virtual absl::StatusOr<std::vector<ViewRecord>> LoadViews(int64_t database_id) = 0;
   // The same, one view at a time, so a server loading thousands of views never holds all the

@@ -1,9 +1,7 @@
 #include "storage/migrations.h"
 
-#include <filesystem>
-#include <system_error>
-
 #include "absl/strings/str_cat.h"
+#include "storage/store_util.h"
 
 namespace waymark::storage {
 namespace {
@@ -188,17 +186,7 @@ absl::Status MigrateSchema(sqlite::Connection& connection) {
 }
 
 absl::StatusOr<sqlite::Connection> OpenMigratedDatabase(const std::string& path) {
-  if (!path.empty() && path != ":memory:") {
-    const std::filesystem::path parent = std::filesystem::path(path).parent_path();
-    if (!parent.empty()) {
-      std::error_code error;
-      std::filesystem::create_directories(parent, error);
-      if (error) {
-        return absl::InternalError(absl::StrCat("cannot create directory \"", parent.string(),
-                                                "\" for the database: ", error.message()));
-      }
-    }
-  }
+  if (absl::Status s = EnsureParentDirectory(path); !s.ok()) return s;
   absl::StatusOr<sqlite::Connection> connection = sqlite::Connection::Open(path);
   if (!connection.ok()) return connection.status();
   if (absl::Status s = MigrateSchema(*connection); !s.ok()) return s;

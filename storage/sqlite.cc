@@ -38,7 +38,19 @@ absl::Status Error(sqlite3* db, int rc, absl::string_view context, UniqueViolati
   if (unique && on_unique == UniqueViolation::kAlreadyExists) {
     return absl::AlreadyExistsError(text);
   }
-  return absl::InternalError(text);
+  switch (rc & 0xff) {  // the primary code of an extended one
+    case SQLITE_BUSY:
+    case SQLITE_LOCKED:
+      // Another connection (another process, or another store of this server) held the write
+      // lock for the whole busy timeout. Not a bug and nothing was written: the caller may retry.
+      return absl::UnavailableError(
+          absl::StrCat(text, ": another writer held the database for more than ", kBusyTimeoutMs,
+                       " ms; nothing was written, retry later"));
+    case SQLITE_FULL:
+      return absl::ResourceExhaustedError(absl::StrCat(text, ": the disk is full"));
+    default:
+      return absl::InternalError(text);
+  }
 }
 
 // ---------------------------------------------------------------------------------------------

@@ -152,8 +152,10 @@ class Transaction {
   Connection* connection_;  // null once committed or moved from
 };
 
-// A status for a failed SQLite call: INTERNAL (or ALREADY_EXISTS for a unique violation when
-// asked), message "<context>: <sqlite3_errmsg> (<extended code>)".
+// A status for a failed SQLite call, message "<context>: <sqlite3_errmsg> (<extended code>)":
+// ALREADY_EXISTS for a unique violation when asked; UNAVAILABLE when the database stayed locked by
+// another writer for the whole busy timeout (transient, nothing written); RESOURCE_EXHAUSTED when
+// the disk is full; INTERNAL otherwise.
 absl::Status Error(sqlite3* db, int rc, absl::string_view context,
                    UniqueViolation on_unique = UniqueViolation::kInternal);
 

@@ -187,24 +187,9 @@ class SqliteCrossingStore final : public CrossingStore {
 
   absl::StatusOr<CrossingRecord> AddCrossing(int64_t database_id, const std::string& name,
                                              const std::string& label) override {
-    if (name.empty()) return absl::InvalidArgumentError("crossing name is empty");
     std::lock_guard<std::mutex> lock(mutex_);
     ASSIGN_OR_RETURN(Transaction txn, Transaction::Begin(connection_));
-    ASSIGN_OR_RETURN(std::string db_name, DatabaseNameLocked(database_id));
-    ASSIGN_OR_RETURN(Statement insert,
-                     connection_.Prepare("INSERT INTO crossing (db_id, name, label) "
-                                         "VALUES (?, ?, ?)"));
-    RETURN_IF_ERROR(insert.BindInt64(1, database_id));
-    RETURN_IF_ERROR(insert.BindText(2, name));
-    RETURN_IF_ERROR(insert.BindText(3, label));
-    RETURN_IF_ERROR(
-        NameTaken(insert.Run(UniqueViolation::kAlreadyExists),
-                  absl::StrCat("crossing ", Quoted(name), " in database ", Quoted(db_name))));
-    CrossingRecord record;
-    record.id = connection_.LastInsertRowId();
-    record.database_id = database_id;
-    record.name = name;
-    record.label = label;
+    ASSIGN_OR_RETURN(CrossingRecord record, AddCrossingLocked({database_id, name, label}));
     RETURN_IF_ERROR(txn.Commit());
     return record;
   }
@@ -262,43 +247,22 @@ class SqliteCrossingStore final : public CrossingStore {
     std::lock_guard<std::mutex> lock(mutex_);
     ASSIGN_OR_RETURN(Transaction txn, Transaction::Begin(connection_));
     ASSIGN_OR_RETURN(int64_t database_id, CrossingDatabaseLocked(view.crossing_id));
+    ASSIGN_OR_RETURN(AddViewResult result, AddViewLocked(database_id, view, assignment));
+    RETURN_IF_ERROR(txn.Commit());
+    return result;
+  }
 
-    ASSIGN_OR_RETURN(
-        Statement insert,
-        connection_.Prepare(
-            "INSERT INTO view (crossing_id, heading_deg, width, height, keypoint_count, "
-            "keypoints, descriptors, hue_hist, hue_bins, format_version, image, created_at) "
-            "VALUES (?, ?, ?, ?, ?, ?, ?, ?, ?, ?, ?, ?)"));
-    RETURN_IF_ERROR(insert.BindInt64(1, view.crossing_id));
-    RETURN_IF_ERROR(insert.BindDouble(2, view.heading_deg));
-    RETURN_IF_ERROR(insert.BindInt64(3, view.width));
-    RETURN_IF_ERROR(insert.BindInt64(4, view.height));
-    RETURN_IF_ERROR(insert.BindInt64(5, view.keypoint_count));
-    RETURN_IF_ERROR(insert.BindBlob(6, view.keypoints));
-    RETURN_IF_ERROR(insert.BindBlob(7, view.descriptors));
-    RETURN_IF_ERROR(insert.BindBlob(8, view.hue_hist));
-    RETURN_IF_ERROR(insert.BindInt64(9, static_cast<int64_t>(view.hue_hist.size())));
-    RETURN_IF_ERROR(insert.BindInt64(10, view.format_version));
-    // NULL, not an empty blob, marks "image not stored" (LoadViewImage answers NOT_FOUND).
-    RETURN_IF_ERROR(view.image.empty() ? insert.BindNull(11)
-                                       : insert.BindBlob(11, view.image.data(), view.image.size()));
-    RETURN_IF_ERROR(insert.BindDouble(12, NowSeconds()));
-    RETURN_IF_ERROR(insert.Run());
-
-    AddViewResult result;
-    result.view_id = connection_.LastInsertRowId();
-    if (assignment.new_cluster) {
-      ASSIGN_OR_RETURN(result.cluster_id, InsertClusterRowLocked(database_id, result.view_id));
-    } else {
-      ASSIGN_OR_RETURN(int64_t cluster_db, ClusterDatabaseLocked(assignment.cluster_id));
-      if (cluster_db != database_id) {
-        return absl::InvalidArgumentError(
-            absl::StrCat("cluster ", assignment.cluster_id, " belongs to database ", cluster_db,
-                         ", but crossing ", view.crossing_id, " to database ", database_id));
-      }
-      result.cluster_id = assignment.cluster_id;
-    }
-    RETURN_IF_ERROR(InsertMemberLocked(result.cluster_id, result.view_id));
+  absl::StatusOr<AddViewResult> AddViewWithNewCrossing(
+      const NewCrossing& crossing, const ViewRecord& view,
+      const ClusterAssignment& assignment) override {
+    RETURN_IF_ERROR(ValidateView(view));
+    std::lock_guard<std::mutex> lock(mutex_);
+    ASSIGN_OR_RETURN(Transaction txn, Transaction::Begin(connection_));
+    ASSIGN_OR_RETURN(CrossingRecord created, AddCrossingLocked(crossing));
+    ViewRecord with_crossing = view;
+    with_crossing.crossing_id = created.id;
+    ASSIGN_OR_RETURN(AddViewResult result,
+                     AddViewLocked(crossing.database_id, with_crossing, assignment));
     RETURN_IF_ERROR(txn.Commit());
     return result;
   }
@@ -428,6 +392,69 @@ class SqliteCrossingStore final : public CrossingStore {
       return absl::NotFoundError(absl::StrCat("cluster ", cluster_id, " not found"));
     }
     return select.ColumnInt64(0);
+  }
+
+  absl::StatusOr<CrossingRecord> AddCrossingLocked(const NewCrossing& crossing) {
+    if (crossing.name.empty()) return absl::InvalidArgumentError("crossing name is empty");
+    ASSIGN_OR_RETURN(std::string db_name, DatabaseNameLocked(crossing.database_id));
+    ASSIGN_OR_RETURN(Statement insert,
+                     connection_.Prepare("INSERT INTO crossing (db_id, name, label) "
+                                         "VALUES (?, ?, ?)"));
+    RETURN_IF_ERROR(insert.BindInt64(1, crossing.database_id));
+    RETURN_IF_ERROR(insert.BindText(2, crossing.name));
+    RETURN_IF_ERROR(insert.BindText(3, crossing.label));
+    RETURN_IF_ERROR(NameTaken(
+        insert.Run(UniqueViolation::kAlreadyExists),
+        absl::StrCat("crossing ", Quoted(crossing.name), " in database ", Quoted(db_name))));
+    CrossingRecord record;
+    record.id = connection_.LastInsertRowId();
+    record.database_id = crossing.database_id;
+    record.name = crossing.name;
+    record.label = crossing.label;
+    return record;
+  }
+
+  // Inserts a validated view of `database_id` and its cluster membership.
+  absl::StatusOr<AddViewResult> AddViewLocked(int64_t database_id, const ViewRecord& view,
+                                              const ClusterAssignment& assignment) {
+    ASSIGN_OR_RETURN(
+        Statement insert,
+        connection_.Prepare(
+            "INSERT INTO view (crossing_id, heading_deg, width, height, keypoint_count, "
+            "keypoints, descriptors, hue_hist, hue_bins, format_version, image, created_at) "
+            "VALUES (?, ?, ?, ?, ?, ?, ?, ?, ?, ?, ?, ?)"));
+    RETURN_IF_ERROR(insert.BindInt64(1, view.crossing_id));
+    RETURN_IF_ERROR(insert.BindDouble(2, view.heading_deg));
+    RETURN_IF_ERROR(insert.BindInt64(3, view.width));
+    RETURN_IF_ERROR(insert.BindInt64(4, view.height));
+    RETURN_IF_ERROR(insert.BindInt64(5, view.keypoint_count));
+    RETURN_IF_ERROR(insert.BindBlob(6, view.keypoints));
+    RETURN_IF_ERROR(insert.BindBlob(7, view.descriptors));
+    RETURN_IF_ERROR(insert.BindBlob(8, view.hue_hist));
+    RETURN_IF_ERROR(insert.BindInt64(9, static_cast<int64_t>(view.hue_hist.size())));
+    RETURN_IF_ERROR(insert.BindInt64(10, view.format_version));
+    // NULL, not an empty blob, marks "image not stored" (LoadViewImage answers NOT_FOUND).
+    RETURN_IF_ERROR(view.image.empty() ? insert.BindNull(11)
+                                       : insert.BindBlob(11, view.image.data(), view.image.size()));
+    RETURN_IF_ERROR(insert.BindDouble(12, NowSeconds()));
+    RETURN_IF_ERROR(insert.Run());
+
+    AddViewResult result;
+    result.view_id = connection_.LastInsertRowId();
+    result.crossing_id = view.crossing_id;
+    if (assignment.new_cluster) {
+      ASSIGN_OR_RETURN(result.cluster_id, InsertClusterRowLocked(database_id, result.view_id));
+    } else {
+      ASSIGN_OR_RETURN(int64_t cluster_db, ClusterDatabaseLocked(assignment.cluster_id));
+      if (cluster_db != database_id) {
+        return absl::InvalidArgumentError(
+            absl::StrCat("cluster ", assignment.cluster_id, " belongs to database ", cluster_db,
+                         ", but crossing ", view.crossing_id, " to database ", database_id));
+      }
+      result.cluster_id = assignment.cluster_id;
+    }
+    RETURN_IF_ERROR(InsertMemberLocked(result.cluster_id, result.view_id));
+    return result;
   }
 
   absl::Status DeleteClustersLocked(int64_t database_id) {

@@ -6,6 +6,7 @@
 #include <chrono>
 #include <string>
 
+#include "absl/status/status.h"
 #include "absl/strings/str_cat.h"
 #include "absl/strings/string_view.h"
 
@@ -18,6 +19,11 @@ inline double NowSeconds() {
 
 // A name or id in an error message, quoted so an empty or odd one is visible.
 inline std::string Quoted(absl::string_view text) { return absl::StrCat("\"", text, "\""); }
+
+// Creates the directory a database file (or its lock file) goes in, so `--db var/x.db` works on a
+// fresh checkout. Nothing to do for ":memory:" or a bare file name. INTERNAL naming the directory
+// when it cannot be created.
+absl::Status EnsureParentDirectory(const std::string& file_path);
 
 }  // namespace waymark::storage
 

@@ -411,6 +411,39 @@ TEST_F(CrossingStoreTest, FailingAddViewLeavesNothingBehind) {
   ASSERT_OK(store_->AddView(MakeView(crossing, 5, 0), {}));
 }
 
+// Enrolling the first view of a new crossing creates both in one transaction: a view that cannot
+// be stored leaves no empty crossing behind.
+TEST_F(CrossingStoreTest, AddViewWithNewCrossingIsAllOrNothing) {
+  auto [db, crossing] = MakeDatabaseWithCrossing("city");
+  ASSERT_OK_AND_ASSIGN(AddViewResult added,
+                       store_->AddViewWithNewCrossing({db, "new", "label"}, MakeView(0, 3, 1), {}));
+  EXPECT_NE(added.crossing_id, crossing);
+  ASSERT_OK_AND_ASSIGN(std::vector<ViewRecord> views, store_->LoadViews(db));
+  ASSERT_EQ(views.size(), 1u);
+  EXPECT_EQ(views[0].id, added.view_id);
+  EXPECT_EQ(views[0].crossing_id, added.crossing_id);
+  EXPECT_EQ(Count("cluster_member", "view_id = " + std::to_string(added.view_id)), 1);
+  const std::vector<int64_t> before = AllCounts();
+
+  ClusterAssignment unknown;
+  unknown.new_cluster = false;
+  unknown.cluster_id = 9999;
+  EXPECT_EQ(CodeOf(store_->AddViewWithNewCrossing({db, "doomed", ""}, MakeView(0, 3, 2), unknown)),
+            absl::StatusCode::kNotFound);
+  ViewRecord inconsistent = MakeView(0, 3, 2);
+  inconsistent.descriptors.pop_back();
+  EXPECT_EQ(CodeOf(store_->AddViewWithNewCrossing({db, "doomed", ""}, inconsistent, {})),
+            absl::StatusCode::kInvalidArgument);
+  absl::StatusOr<AddViewResult> taken =
+      store_->AddViewWithNewCrossing({db, "c1", ""}, MakeView(0, 3, 2), {});
+  EXPECT_EQ(CodeOf(taken), absl::StatusCode::kAlreadyExists);
+  EXPECT_EQ(taken.status().message(), "crossing \"c1\" in database \"city\" already exists");
+  EXPECT_EQ(CodeOf(store_->AddViewWithNewCrossing({db + 100, "x", ""}, MakeView(0, 3, 2), {})),
+            absl::StatusCode::kNotFound);
+  EXPECT_EQ(AllCounts(), before);
+  EXPECT_EQ(Count("crossing", "name = 'doomed'"), 0);
+}
+
 TEST_F(CrossingStoreTest, ReplaceClustersReassignsIdsAndKeepsTheGivenOrder) {
   auto [db, crossing] = MakeDatabaseWithCrossing("city");
   std::vector<int64_t> v;

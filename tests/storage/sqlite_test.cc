@@ -285,5 +285,24 @@ TEST(WalTest, SecondConnectionSeesCommittedWritesAndReadersDoNotBlockTheWriter) 
   EXPECT_EQ(CountRows(reader, "t"), 3);
 }
 
+// One writer at a time: a second connection waits for the busy timeout, then gets UNAVAILABLE
+// (transient: retry), not INTERNAL, and nothing of its transaction is written.
+TEST(WalTest, WriterLockedOutPastTheBusyTimeoutIsUnavailable) {
+  TempDir dir;
+  ASSERT_OK_AND_ASSIGN(Connection first, Connection::Open(dir.File("shared.db")));
+  ASSERT_OK_AND_ASSIGN(Connection second, Connection::Open(dir.File("shared.db")));
+  ASSERT_OK(first.Exec("CREATE TABLE t (x INTEGER)"));
+  sqlite3_busy_timeout(second.raw(), 50);  // the test need not wait the real 5 s
+  ASSERT_OK_AND_ASSIGN(Transaction holding, Transaction::Begin(first));
+  absl::StatusOr<Transaction> refused = Transaction::Begin(second);
+  EXPECT_EQ(refused.status().code(), absl::StatusCode::kUnavailable) << refused.status();
+  EXPECT_NE(refused.status().message().find("retry"), std::string::npos) << refused.status();
+  EXPECT_EQ(second.Exec("INSERT INTO t VALUES (1)").code(), absl::StatusCode::kUnavailable);
+  ASSERT_OK(holding.Commit());
+  EXPECT_EQ(CountRows(second, "t"), 0);
+  ASSERT_OK(second.Exec("INSERT INTO t VALUES (1)"));  // free again
+  EXPECT_EQ(CountRows(first, "t"), 1);
+}
+
 }  // namespace
 }  // namespace waymark::storage::sqlite
