@@ -3,13 +3,12 @@
 #include <cctype>
 #include <cmath>
 #include <cstring>
-#include <mutex>
 #include <unordered_map>
 
 #include "absl/strings/str_cat.h"
+#include "server/common/stopwatch.h"
 #include "server/crossing/features.h"
 #include "server/crossing/recognizer.h"
-#include "server/common/stopwatch.h"
 
 namespace waymark::service {
 namespace {
@@ -86,7 +85,7 @@ struct CrossingRegistry::Database {
   std::map<int64_t, int> views_per_crossing;
   int64_t keypoints = 0;
   bool deleted = false;  // requests that still hold a pointer get NOT_FOUND
-  mutable std::shared_mutex mutex;
+  mutable absl::Mutex mutex;
 
   absl::Status CheckAlive() const {
     if (deleted) return absl::NotFoundError(absl::StrCat("database \"", record.name, "\" was deleted"));
@@ -191,7 +190,7 @@ absl::StatusOr<std::shared_ptr<CrossingRegistry::Database>> CrossingRegistry::Lo
 
 absl::StatusOr<std::shared_ptr<CrossingRegistry::Database>> CrossingRegistry::Find(
     const std::string& name) {
-  std::shared_lock lock(mutex_);
+  absl::ReaderMutexLock lock(&mutex_);
   auto it = databases_.find(name);
   if (it == databases_.end()) {
     return absl::NotFoundError(absl::StrCat("database \"", name,
@@ -217,7 +216,7 @@ absl::StatusOr<v1::CrossingDatabase> CrossingRegistry::CreateDatabase(
   if (absl::Status s = ValidateDatabaseName(request.name()); !s.ok()) return s;
   absl::StatusOr<v1::DatabaseParams> params = EffectiveDatabaseParams(request.params());
   if (!params.ok()) return params.status();
-  std::unique_lock lock(mutex_);
+  absl::MutexLock lock(&mutex_);
   if (databases_.count(request.name())) {
     return absl::AlreadyExistsError(absl::StrCat("database \"", request.name(), "\" already exists"));
   }
@@ -236,24 +235,24 @@ absl::StatusOr<v1::CrossingDatabase> CrossingRegistry::CreateDatabase(
 absl::StatusOr<v1::ListDatabasesResponse> CrossingRegistry::ListDatabases() {
   std::vector<std::shared_ptr<Database>> all;
   {
-    std::shared_lock lock(mutex_);
+    absl::ReaderMutexLock lock(&mutex_);
     for (const auto& [name, db] : databases_) all.push_back(db);
   }
   v1::ListDatabasesResponse response;
   for (const auto& db : all) {
-    std::shared_lock lock(db->mutex);
+    absl::ReaderMutexLock lock(&db->mutex);
     *response.add_databases() = Describe(*db);
   }
   return response;
 }
 
 absl::Status CrossingRegistry::DeleteDatabase(const std::string& name) {
-  std::unique_lock lock(mutex_);
+  absl::MutexLock lock(&mutex_);
   auto it = databases_.find(name);
   if (it == databases_.end()) {
     return absl::NotFoundError(absl::StrCat("database \"", name, "\" not found"));
   }
-  std::unique_lock db_lock(it->second->mutex);
+  absl::MutexLock db_lock(&it->second->mutex);
   if (absl::Status s = store_->DeleteDatabase(name); !s.ok()) return s;
   it->second->deleted = true;
   databases_.erase(it);
@@ -264,7 +263,7 @@ absl::StatusOr<v1::DatabaseStats> CrossingRegistry::GetStats(const std::string& 
   absl::StatusOr<std::shared_ptr<Database>> found = Find(name);
   if (!found.ok()) return found.status();
   const Database& db = **found;
-  std::shared_lock lock(db.mutex);
+  absl::ReaderMutexLock lock(&db.mutex);
   if (absl::Status s = db.CheckAlive(); !s.ok()) return s;
   v1::DatabaseStats stats;
   *stats.mutable_database() = Describe(db);
@@ -292,7 +291,7 @@ absl::StatusOr<v1::Crossing> CrossingRegistry::AddCrossing(const v1::AddCrossing
   absl::StatusOr<std::shared_ptr<Database>> found = Find(request.database());
   if (!found.ok()) return found.status();
   Database& db = **found;
-  std::unique_lock lock(db.mutex);
+  absl::MutexLock lock(&db.mutex);
   if (absl::Status s = db.CheckAlive(); !s.ok()) return s;
   if (db.crossing_ids.count(request.name())) {
     return absl::AlreadyExistsError(absl::StrCat("crossing \"", request.name(),
@@ -324,7 +323,7 @@ absl::StatusOr<v1::DeleteCrossingResponse> CrossingRegistry::DeleteCrossing(
   absl::StatusOr<std::shared_ptr<Database>> found = Find(request.database());
   if (!found.ok()) return found.status();
   Database& db = **found;
-  std::unique_lock lock(db.mutex);
+  absl::MutexLock lock(&db.mutex);
   if (absl::Status s = db.CheckAlive(); !s.ok()) return s;
   auto id_it = db.crossing_ids.find(request.name());
   if (id_it == db.crossing_ids.end()) {
@@ -384,20 +383,11 @@ absl::StatusOr<v1::EnrollViewResponse> CrossingRegistry::EnrollView(
         " to be recognizable (blank, blurred or textureless image?)"));
   }
 
-  std::unique_lock lock(db.mutex);
+  absl::MutexLock lock(&db.mutex);
   if (absl::Status s = db.CheckAlive(); !s.ok()) return s;
   auto id_it = db.crossing_ids.find(request.crossing());
-  int64_t crossing_id;
-  if (id_it != db.crossing_ids.end()) {
-    crossing_id = id_it->second;
-  } else if (request.create_crossing()) {
-    absl::StatusOr<storage::CrossingRecord> record =
-        store_->AddCrossing(db.record.id, request.crossing(), "");
-    if (!record.ok()) return record.status();
-    db.AddCrossingRecord(*record);
-    crossing_id = record->id;
-    if (crossing_created != nullptr) *crossing_created = true;
-  } else {
+  const bool new_crossing = id_it == db.crossing_ids.end();
+  if (new_crossing && !request.create_crossing()) {
     return absl::NotFoundError(absl::StrCat(
         "crossing \"", request.crossing(), "\" not found in database \"", request.database(),
         "\": add it first or set create_crossing"));
@@ -407,15 +397,26 @@ absl::StatusOr<v1::EnrollViewResponse> CrossingRegistry::EnrollView(
   const crossing::ClusterProposal proposal =
       db.views->ProposeCluster(features->descriptors, db.options.clustering);
   const double matching_ms = MsSince(match_start);
-  storage::ViewRecord record = ToRecord(crossing_id, request.heading_deg(), *features);
+  storage::ViewRecord record =
+      ToRecord(new_crossing ? 0 : id_it->second, request.heading_deg(), *features);
   if (request.store_image()) record.image = request.image().data();
   storage::ClusterAssignment assignment;
   if (proposal.cluster >= 0) {
     assignment.new_cluster = false;
     assignment.cluster_id = db.views->clusters()[proposal.cluster].cluster_id;
   }
-  absl::StatusOr<storage::AddViewResult> added = store_->AddView(record, assignment);
+  // A new crossing is created in the view's transaction: a failed or interrupted enrollment
+  // leaves no empty crossing behind.
+  absl::StatusOr<storage::AddViewResult> added =
+      new_crossing ? store_->AddViewWithNewCrossing({db.record.id, request.crossing(), ""}, record,
+                                                    assignment)
+                   : store_->AddView(record, assignment);
   if (!added.ok()) return added.status();
+  const int64_t crossing_id = added->crossing_id;
+  if (new_crossing) {
+    db.AddCrossingRecord({crossing_id, db.record.id, request.crossing(), ""});
+    if (crossing_created != nullptr) *crossing_created = true;
+  }
 
   const uint32_t slot = db.views->AddView(added->view_id, crossing_id, request.heading_deg(),
                                           features->descriptors, crossing::KeypointPositions(*features),
@@ -449,7 +450,7 @@ absl::StatusOr<v1::RebuildClustersResponse> CrossingRegistry::RebuildClusters(
   absl::StatusOr<std::shared_ptr<Database>> found = Find(request.database());
   if (!found.ok()) return found.status();
   Database& db = **found;
-  std::unique_lock lock(db.mutex);
+  absl::MutexLock lock(&db.mutex);
   if (absl::Status s = db.CheckAlive(); !s.ok()) return s;
   crossing::ClusterOptions options = db.options.clustering;
   v1::DatabaseParams params = db.params;
@@ -493,7 +494,7 @@ absl::StatusOr<v1::RecognizeResponse> CrossingRegistry::Recognize(
       crossing::ExtractFeatures(request.image().data(), db.options.features, &timings);
   if (!features.ok()) return features.status();
 
-  std::shared_lock lock(db.mutex);
+  absl::ReaderMutexLock lock(&db.mutex);
   if (absl::Status s = db.CheckAlive(); !s.ok()) return s;
   absl::StatusOr<crossing::Recognition> result =
       crossing::Recognize(*db.views, *features, *options);

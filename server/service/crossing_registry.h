@@ -5,18 +5,34 @@
 // the store, kept consistent. This is the application layer between the gRPC handlers and the
 // engine + storage; it speaks the API's messages but no gRPC, so it is tested without a server.
 //
-// Concurrency: a reader/writer lock per database. Recognitions share it; enrollments extract
-// features outside the lock, then take it exclusively only to match against the cluster centres,
-// commit one transaction and update memory, so memory never holds what the disk does not and a
-// recognition never sees half a view. The registry-wide lock guards only the name -> database map.
+// Concurrency (many robots on one database; docs/multi-robot.md):
+// - A reader/writer lock per database. Recognitions share it. An enrollment extracts features
+//   outside the lock (the slow part), then takes it exclusively only to pick the view's cluster,
+//   commit one transaction (view, its features, its cluster membership and, for a first view, its
+//   crossing) and update memory. Disk first, then memory, under the same exclusive lock: memory
+//   never holds what the disk does not, and a recognition sees a view completely (features, index
+//   entry, cluster, crossing name) or not at all.
+// - The lock is absl::Mutex, which does not starve writers: with glibc's std::shared_mutex a steady
+//   stream of overlapping recognitions could keep an enrollment waiting indefinitely.
+// - Enrollments of one database are serialised, so view ids (SQLite AUTOINCREMENT, taken inside
+//   the lock) are the order in which views entered memory; the registry-wide lock guards only the
+//   name -> database map.
+//
+// Clustering is incremental and synchronous: each enrolled view is matched against the current
+// cluster centres and joins the best one that reaches the threshold, or becomes the centre of a new
+// cluster (the paper's sequential clustering), in the enrollment's own transaction. There is no
+// background job and no window in which clusters lag behind views. RebuildClusters re-runs the same
+// sequential clustering over all views in id order, so after any interleaving of concurrent
+// enrollments it reproduces the incremental clusters exactly (the integration test checks this);
+// it is needed only after a threshold change, and DeleteCrossing re-clusters the remaining views.
 
 #include <map>
 #include <memory>
-#include <shared_mutex>
 #include <string>
 #include <vector>
 
 #include "absl/status/statusor.h"
+#include "absl/synchronization/mutex.h"
 #include "server/crossing/view_database.h"
 #include "server/service/params.h"
 #include "storage/crossing_store.h"
@@ -61,7 +77,7 @@ class CrossingRegistry {
 
   std::unique_ptr<storage::CrossingStore> store_;
   crossing::IndexOptions index_options_;
-  std::shared_mutex mutex_;  // guards databases_ (the map, not the databases)
+  absl::Mutex mutex_;  // guards databases_ (the map, not the databases)
   std::map<std::string, std::shared_ptr<Database>> databases_;
 };
 
