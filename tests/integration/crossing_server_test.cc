@@ -12,6 +12,7 @@
 #include <gtest/gtest.h>
 #include <opencv2/imgproc.hpp>
 
+#include "tests/support/crossing_test_client.h"
 #include "tests/support/server_process.h"
 #include "tests/support/synthetic_scene.h"
 #include "waymark/v1/crossing.grpc.pb.h"
@@ -20,58 +21,16 @@ namespace waymark {
 namespace {
 
 using testing::CropView;
+using testing::Ctx;
 using testing::EncodeJpeg;
 using testing::EncodePng;
+using testing::EnrollRequest;
 using testing::MakePanorama;
+using testing::RecognizeRequest;
 using testing::ServerProcess;
+using Client = testing::CrossingTestClient;
 
 constexpr int kCrossings = 2;
-
-class Client {
- public:
-  explicit Client(const std::string& address) {
-    grpc::ChannelArguments args;
-    args.SetMaxSendMessageSize(256 << 20);
-    args.SetMaxReceiveMessageSize(256 << 20);
-    channel_ = grpc::CreateCustomChannel(address, grpc::InsecureChannelCredentials(), args);
-    stub_ = v1::CrossingService::NewStub(channel_);
-  }
-  v1::CrossingService::Stub* operator->() { return stub_.get(); }
-  std::shared_ptr<grpc::Channel> channel() { return channel_; }
-
- private:
-  std::shared_ptr<grpc::Channel> channel_;
-  std::unique_ptr<v1::CrossingService::Stub> stub_;
-};
-
-// A context with a deadline, as every robot call should have.
-std::unique_ptr<grpc::ClientContext> Ctx(int seconds = 60) {
-  auto ctx = std::make_unique<grpc::ClientContext>();
-  ctx->set_deadline(std::chrono::system_clock::now() + std::chrono::seconds(seconds));
-  return ctx;
-}
-
-v1::EnrollViewRequest View(const std::string& db, int crossing, double heading,
-                           const cv::Mat& pano) {
-  v1::EnrollViewRequest r;
-  r.set_database(db);
-  r.set_crossing("crossing-" + std::to_string(crossing));
-  r.set_heading_deg(heading);
-  r.set_create_crossing(true);
-  // Alternate PNG and JPEG, and give some views at twice the working size.
-  const cv::Mat view = CropView(pano, heading, 60, heading < 180 ? 320 : 640,
-                                heading < 180 ? 240 : 480);
-  r.mutable_image()->set_data(static_cast<int>(heading) % 60 == 0 ? EncodePng(view)
-                                                                  : EncodeJpeg(view));
-  return r;
-}
-
-v1::RecognizeRequest Query(const std::string& db, const cv::Mat& image) {
-  v1::RecognizeRequest r;
-  r.set_database(db);
-  r.mutable_image()->set_data(EncodeJpeg(image));
-  return r;
-}
 
 class CrossingServerTest : public ::testing::Test {
  protected:
@@ -105,7 +64,7 @@ class CrossingServerTest : public ::testing::Test {
     v1::BulkEnrollResponse summary;
     auto writer = (*client_)->BulkEnroll(ctx.get(), &summary);
     for (int c = 0; c < kCrossings; ++c) {
-      for (int k = 0; k < 12; ++k) ASSERT_TRUE(writer->Write(View(name, c, 30.0 * k, panoramas_[c])));
+      for (int k = 0; k < 12; ++k) ASSERT_TRUE(writer->Write(EnrollRequest(name, c, 30.0 * k, panoramas_[c])));
     }
     writer->WritesDone();
     const grpc::Status status = writer->Finish();
@@ -133,7 +92,7 @@ TEST_F(CrossingServerTest, EnrollRecognizeRestartRecognizeTheSame) {
     for (double heading : {15.0, 100.0, 270.0}) {
       v1::RecognizeResponse r;
       ASSERT_TRUE(
-          (*client_)->RecognizeCrossing(Ctx().get(), Query("restart", CropView(panoramas_[c], heading)), &r).ok());
+          (*client_)->RecognizeCrossing(Ctx().get(), RecognizeRequest("restart", CropView(panoramas_[c], heading)), &r).ok());
       ASSERT_TRUE(r.recognized()) << r.reason();
       EXPECT_EQ(r.crossing(), "crossing-" + std::to_string(c));
       const double error = std::fabs(std::remainder(r.heading_deg() - heading, 360.0));
@@ -162,7 +121,7 @@ TEST_F(CrossingServerTest, EnrollRecognizeRestartRecognizeTheSame) {
     for (double heading : {15.0, 100.0, 270.0}) {
       v1::RecognizeResponse r;
       ASSERT_TRUE(
-          (*client_)->RecognizeCrossing(Ctx().get(), Query("restart", CropView(panoramas_[c], heading)), &r).ok());
+          (*client_)->RecognizeCrossing(Ctx().get(), RecognizeRequest("restart", CropView(panoramas_[c], heading)), &r).ok());
       const v1::RecognizeResponse& b = before[i++];
       EXPECT_EQ(r.recognized(), b.recognized());
       EXPECT_EQ(r.view_id(), b.view_id());
@@ -237,7 +196,7 @@ TEST_F(CrossingServerTest, BadParametersAreInvalidArgument) {
 
   // Per-request overrides are validated too, and the database is left usable.
   EnrollAll("params-ok");
-  v1::RecognizeRequest q = Query("params-ok", CropView(panoramas_[0], 0));
+  v1::RecognizeRequest q = RecognizeRequest("params-ok", CropView(panoramas_[0], 0));
   q.mutable_params()->set_ratio(0.0);
   v1::RecognizeResponse r;
   EXPECT_EQ(Code((*client_)->RecognizeCrossing(Ctx().get(), q, &r)), grpc::StatusCode::INVALID_ARGUMENT);
@@ -286,7 +245,7 @@ TEST_F(CrossingServerTest, BadImagesAndHeadingsAreRejectedAndNothingIsStored) {
     EXPECT_FALSE(s.error_message().empty()) << c.name;
   }
   // Unknown crossing without create_crossing; unknown database.
-  v1::EnrollViewRequest r = View("bad-input", 9, 0, panoramas_[0]);
+  v1::EnrollViewRequest r = EnrollRequest("bad-input", 9, 0, panoramas_[0]);
   r.set_create_crossing(false);
   v1::EnrollViewResponse response;
   EXPECT_EQ(Code((*client_)->EnrollView(Ctx().get(), r, &response)), grpc::StatusCode::NOT_FOUND);
@@ -307,9 +266,9 @@ TEST_F(CrossingServerTest, BadImagesAndHeadingsAreRejectedAndNothingIsStored) {
   q.mutable_image()->set_data("garbage");
   v1::RecognizeResponse rr;
   EXPECT_EQ(Code((*client_)->RecognizeCrossing(Ctx().get(), q, &rr)), grpc::StatusCode::INVALID_ARGUMENT);
-  q = Query("no-such-db", good);
+  q = RecognizeRequest("no-such-db", good);
   EXPECT_EQ(Code((*client_)->RecognizeCrossing(Ctx().get(), q, &rr)), grpc::StatusCode::NOT_FOUND);
-  ASSERT_TRUE((*client_)->RecognizeCrossing(Ctx().get(), Query("bad-input", good), &rr).ok());
+  ASSERT_TRUE((*client_)->RecognizeCrossing(Ctx().get(), RecognizeRequest("bad-input", good), &rr).ok());
   EXPECT_TRUE(rr.recognized());
 }
 
@@ -323,7 +282,7 @@ TEST_F(CrossingServerTest, BulkEnrollSkipsInvalidViewsOnlyWhenAsked) {
     v1::BulkEnrollResponse summary;
     auto writer = (*client_)->BulkEnroll(ctx.get(), &summary);
     for (int k = 0; k < 4; ++k) {
-      v1::EnrollViewRequest r = View("skip", skip ? 0 : 1, 30.0 * k, panoramas_[0]);
+      v1::EnrollViewRequest r = EnrollRequest("skip", skip ? 0 : 1, 30.0 * k, panoramas_[0]);
       if (k == 2) {
         r.mutable_image()->set_data(EncodePng(cv::Mat(240, 320, CV_8UC3, cv::Scalar(9, 9, 200))));
       }
@@ -360,17 +319,17 @@ TEST_F(CrossingServerTest, EmptyDatabaseAndNoTextureQueries) {
   ASSERT_TRUE((*client_)->CreateDatabase(Ctx().get(), create, &db).ok());
   v1::RecognizeResponse r;
   const grpc::Status s =
-      (*client_)->RecognizeCrossing(Ctx().get(), Query("empty", CropView(panoramas_[0], 0)), &r);
+      (*client_)->RecognizeCrossing(Ctx().get(), RecognizeRequest("empty", CropView(panoramas_[0], 0)), &r);
   EXPECT_EQ(Code(s), grpc::StatusCode::FAILED_PRECONDITION);
   EXPECT_NE(s.error_message().find("enroll"), std::string::npos);
 
   EnrollAll("texture");
   const cv::Mat flat(240, 320, CV_8UC3, cv::Scalar(20, 90, 160));
-  ASSERT_TRUE((*client_)->RecognizeCrossing(Ctx().get(), Query("texture", flat), &r).ok());
+  ASSERT_TRUE((*client_)->RecognizeCrossing(Ctx().get(), RecognizeRequest("texture", flat), &r).ok());
   EXPECT_FALSE(r.recognized());
   EXPECT_FALSE(r.reason().empty());
   // An unknown place is a normal "not recognized" answer.
-  ASSERT_TRUE((*client_)->RecognizeCrossing(Ctx().get(), Query("texture", CropView(MakePanorama(4242), 10)), &r).ok());
+  ASSERT_TRUE((*client_)->RecognizeCrossing(Ctx().get(), RecognizeRequest("texture", CropView(MakePanorama(4242), 10)), &r).ok());
   EXPECT_FALSE(r.recognized()) << r.crossing();
 }
 
@@ -380,7 +339,7 @@ TEST_F(CrossingServerTest, HugeImagesAreResizedAndOversizedMessagesRefused) {
   cv::Mat big;
   cv::resize(CropView(panoramas_[1], 200), big, cv::Size(4000, 3000));
   v1::RecognizeResponse r;
-  ASSERT_TRUE((*client_)->RecognizeCrossing(Ctx().get(), Query("sizes", big), &r).ok());
+  ASSERT_TRUE((*client_)->RecognizeCrossing(Ctx().get(), RecognizeRequest("sizes", big), &r).ok());
   EXPECT_TRUE(r.recognized());
   EXPECT_EQ(r.crossing(), "crossing-1");
 
@@ -391,7 +350,7 @@ TEST_F(CrossingServerTest, HugeImagesAreResizedAndOversizedMessagesRefused) {
   q.set_database("sizes");
   q.mutable_image()->set_data(std::string(2 << 20, 'x'));
   EXPECT_EQ(Code((*client_)->RecognizeCrossing(Ctx().get(), q, &r)), grpc::StatusCode::RESOURCE_EXHAUSTED);
-  ASSERT_TRUE((*client_)->RecognizeCrossing(Ctx().get(), Query("sizes", CropView(panoramas_[1], 200)), &r).ok());
+  ASSERT_TRUE((*client_)->RecognizeCrossing(Ctx().get(), RecognizeRequest("sizes", CropView(panoramas_[1], 200)), &r).ok());
   EXPECT_TRUE(r.recognized());
 }
 
@@ -448,10 +407,10 @@ TEST_F(CrossingServerTest, DeleteCrossingReclustersAndRebuildKeepsRecognition) {
   rebuild.set_cluster_threshold(0);
   EXPECT_EQ(Code((*client_)->RebuildClusters(Ctx().get(), rebuild, &rebuilt)), grpc::StatusCode::INVALID_ARGUMENT);
   v1::RecognizeResponse r;
-  ASSERT_TRUE((*client_)->RecognizeCrossing(Ctx().get(), Query("edit", CropView(panoramas_[1], 150)), &r).ok());
+  ASSERT_TRUE((*client_)->RecognizeCrossing(Ctx().get(), RecognizeRequest("edit", CropView(panoramas_[1], 150)), &r).ok());
   EXPECT_TRUE(r.recognized());
   EXPECT_EQ(r.crossing(), "crossing-1");
-  ASSERT_TRUE((*client_)->RecognizeCrossing(Ctx().get(), Query("edit", CropView(panoramas_[0], 150)), &r).ok());
+  ASSERT_TRUE((*client_)->RecognizeCrossing(Ctx().get(), RecognizeRequest("edit", CropView(panoramas_[0], 150)), &r).ok());
   EXPECT_FALSE(r.recognized()) << "deleted crossing still recognized";
   // The new threshold survives a restart.
   server_->Stop(SIGTERM);
@@ -472,10 +431,10 @@ TEST_F(CrossingServerTest, ShutdownLetsAStreamInFlightFinishAndKeepsEveryView) {
   auto ctx = Ctx();
   v1::BulkEnrollResponse summary;
   auto writer = (*client_)->BulkEnroll(ctx.get(), &summary);
-  for (int k = 0; k < 6; ++k) ASSERT_TRUE(writer->Write(View("inflight", 0, 30.0 * k, panoramas_[0])));
+  for (int k = 0; k < 6; ++k) ASSERT_TRUE(writer->Write(EnrollRequest("inflight", 0, 30.0 * k, panoramas_[0])));
   // SIGTERM while the stream is open: the server stops taking new calls but this one goes on.
   kill(server_->pid(), SIGTERM);
-  for (int k = 6; k < 12; ++k) ASSERT_TRUE(writer->Write(View("inflight", 0, 30.0 * k, panoramas_[0])));
+  for (int k = 6; k < 12; ++k) ASSERT_TRUE(writer->Write(EnrollRequest("inflight", 0, 30.0 * k, panoramas_[0])));
   writer->WritesDone();
   const grpc::Status status = writer->Finish();
   ASSERT_TRUE(status.ok()) << status.error_message();

@@ -1,27 +1,17 @@
 #ifndef WAYMARK_TESTS_SUPPORT_SYNTHETIC_SCENE_H_
 #define WAYMARK_TESTS_SUPPORT_SYNTHETIC_SCENE_H_
 
-// Generated test scenes: a 360-degree strip of random coloured shapes stands for what a robot sees
-// turning on the spot at one crossing; a view at heading h is the crop centred on h. Different
-// seeds give different "crossings". Deterministic, so tests can assert exact outcomes.
+// Generated test scenes: the simulated camera's panoramas (client/adapters/sim_scene.h), which
+// `waymark bench load` uses too, under the names the tests know them by.
 
-#include <cstdint>
-
-#include <opencv2/core.hpp>
+#include "client/adapters/sim_scene.h"
 
 namespace waymark::testing {
 
-// A panorama covering 360 degrees horizontally: `width` pixels, `height` rows.
-cv::Mat MakePanorama(uint32_t seed, int width = 3840, int height = 240);
-
-// The 320x240 (by default) crop of `panorama` centred on `heading_deg` (wrapping around), with a
-// horizontal field of view of `fov_deg`, resized to `out_width` x `out_height`.
-cv::Mat CropView(const cv::Mat& panorama, double heading_deg, double fov_deg = 60,
-                 int out_width = 320, int out_height = 240);
-
-// Encodes as JPEG (quality 90) or PNG bytes.
-std::string EncodeJpeg(const cv::Mat& image);
-std::string EncodePng(const cv::Mat& image);
+using adapters::CropView;
+using adapters::EncodeJpeg;
+using adapters::EncodePng;
+using adapters::MakePanorama;
 
 }  // namespace waymark::testing
 

@@ -1,4 +1,4 @@
-#include "tests/support/synthetic_scene.h"
+#include "client/adapters/sim_scene.h"
 
 #include <cmath>
 #include <string>
@@ -7,7 +7,7 @@
 #include <opencv2/imgcodecs.hpp>
 #include <opencv2/imgproc.hpp>
 
-namespace waymark::testing {
+namespace waymark::adapters {
 
 cv::Mat MakePanorama(uint32_t seed, int width, int height) {
   cv::RNG rng(seed);
@@ -67,4 +67,4 @@ std::string EncodePng(const cv::Mat& image) {
   return std::string(bytes.begin(), bytes.end());
 }
 
-}  // namespace waymark::testing
+}  // namespace waymark::adapters
