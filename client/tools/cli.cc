@@ -46,6 +46,7 @@ int RunCli(int argc, const char* const* argv, std::ostream& out, std::ostream& e
   AddSimCommands(app, registry);
   AddRobotCommand(app, registry);
   AddHealthCommand(app, registry);
+  AddBenchLoadCommand(app, registry);
   AddTokenCommands(app, registry);
 
   try {

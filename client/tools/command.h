@@ -82,6 +82,8 @@ void AddSimCommands(CLI::App& app, CommandRegistry& registry);
 void AddRobotCommand(CLI::App& app, CommandRegistry& registry);
 // `health` (health_command.cc).
 void AddHealthCommand(CLI::App& app, CommandRegistry& registry);
+// `bench load` (bench_load_command.cc).
+void AddBenchLoadCommand(CLI::App& app, CommandRegistry& registry);
 // `token create|list|revoke` (token_command.cc).
 void AddTokenCommands(CLI::App& app, CommandRegistry& registry);
 
