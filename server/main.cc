@@ -43,6 +43,7 @@
 #include "server/service/token_service.h"
 #include "server/token_admin.h"
 #include "storage/crossing_store.h"
+#include "storage/database_lock.h"
 #include "storage/slam_store.h"
 #include "storage/token_store.h"
 
@@ -101,6 +102,13 @@ int Run(const ServerFlags& flags) {
   auto credentials = waymark::service::MakeServerCredentials(flags.listen, flags.security);
   if (!credentials.ok()) {
     spdlog::error("{}", std::string(credentials.status().message()));
+    return 2;
+  }
+  // One serving process per database file: two servers would each cache the crossing views and
+  // SLAM sessions and overwrite each other's checkpoints.
+  auto db_lock = waymark::storage::DatabaseLock::Acquire(flags.db);
+  if (!db_lock.ok()) {
+    spdlog::error("{}", std::string(db_lock.status().message()));
     return 2;
   }
   spdlog::info("opening database {}", flags.db);
