@@ -161,12 +161,9 @@ class SqliteTokenStore final : public TokenStore {
     }
     if (!token.last_used_at.has_value() ||
         now - *token.last_used_at >= kLastUsedResolutionSeconds) {
-      ASSIGN_OR_RETURN(Statement update,
-                       connection_.Prepare("UPDATE tokens SET last_used_at = ? WHERE id = ?"));
-      RETURN_IF_ERROR(update.BindDouble(1, now));
-      RETURN_IF_ERROR(update.BindInt64(2, token.id));
-      RETURN_IF_ERROR(update.Run());
-      token.last_used_at = now;
+      // Bookkeeping only: a write that fails (the database busy with a long enrollment, a full
+      // disk) must not turn a valid token away. The next call a minute later tries again.
+      if (TouchLastUsed(token.id, now).ok()) token.last_used_at = now;
     }
     return token;
   }
@@ -201,6 +198,15 @@ class SqliteTokenStore final : public TokenStore {
   }
 
  private:
+  // Caller holds mutex_.
+  absl::Status TouchLastUsed(int64_t id, double now) {
+    ASSIGN_OR_RETURN(Statement update,
+                     connection_.Prepare("UPDATE tokens SET last_used_at = ? WHERE id = ?"));
+    RETURN_IF_ERROR(update.BindDouble(1, now));
+    RETURN_IF_ERROR(update.BindInt64(2, id));
+    return update.Run();
+  }
+
   std::mutex mutex_;
   Connection connection_;
 };
