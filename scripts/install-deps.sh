@@ -1,7 +1,18 @@
 #!/usr/bin/env bash
 # Installs Waymark's build and test dependencies from Debian 12 packages.
 # Idempotent: packages already present are skipped, so a second run does no network work.
+#
+#   scripts/install-deps.sh               everything: build, tests, benchmarks, demo (make run/test)
+#   scripts/install-deps.sh --build-only  only what building the binaries needs (docker/Dockerfile's
+#                                         build stage): no ccache, git, test photos, openssl
 set -euo pipefail
+
+BUILD_ONLY=0
+case "${1:-}" in
+  "") ;;
+  --build-only) BUILD_ONLY=1 ;;
+  *) echo "usage: $0 [--build-only]" >&2; exit 2 ;;
+esac
 
 PACKAGES=(
   build-essential cmake ninja-build ccache pkg-config git
@@ -14,6 +25,16 @@ PACKAGES=(
   blender-data  # real 360-degree photos for the rotation test set (bench/rotation_set.h)
   openssl  # test certificates (tests/integration/tls_test.cc)
 )
+
+# Not needed to build the binaries: the compiler cache, git, test photos and test certificates.
+NOT_FOR_BUILD=" ccache git blender-data openssl "
+if [ "$BUILD_ONLY" -eq 1 ]; then
+  kept=()
+  for p in "${PACKAGES[@]}"; do
+    [[ "$NOT_FOR_BUILD" == *" $p "* ]] || kept+=("$p")
+  done
+  PACKAGES=("${kept[@]}")
+fi
 
 missing=()
 for p in "${PACKAGES[@]}"; do
