@@ -7,9 +7,10 @@
 // - The robots recognize against a database the command creates and enrolls first (generated
 //   images, or --images DIR) and deletes at the end (--keep-database keeps it), or against an
 //   existing --database.
-// - Server memory: VmRSS of the server process, sampled every second (start = after enrollment,
-//   peak, end) and its VmHWM. The process is the one listening on the --server port (found through
-//   /proc; works for a server run by the same user or when run as root), or --server-pid.
+// - The server process: VmRSS sampled every second (start = after enrollment, peak, end), its
+//   VmHWM, and the CPU time it used during the run (as cores kept busy). The process is the one
+//   listening on the --server port (found through /proc; works for a server run by the same user
+//   or when run as root), or --server-pid.
 // - Progress every second on stderr; the report on stdout (a table, or JSON with --json).
 // - Exit 1 when any call failed with anything but RESOURCE_EXHAUSTED (the documented answer of an
 //   overloaded server), so a script can tell "overloaded" from "broken".
@@ -35,7 +36,7 @@
 #include "client/tools/load_stats.h"
 #include "client/tools/output.h"
 #include "client/tools/server_address.h"
-#include "client/tools/server_memory.h"
+#include "client/tools/server_usage.h"
 #include "client/tools/stop_signals.h"
 
 namespace waymark::cli {
@@ -53,39 +54,55 @@ struct BenchLoadArgs {
   bool keep_database = false;
 };
 
-// The server's memory over the run, sampled by the progress thread.
-struct MemoryTrack {
+// The server process over the run: memory sampled every second by the progress thread, CPU time
+// at the start and the end.
+struct ServerUsage {
   std::optional<pid_t> pid;
   std::string note;  // why there is no pid
   std::optional<ProcessMemory> start, end;
   int64_t peak_rss_bytes = 0;
+  std::optional<double> cpu_start_s, cpu_end_s;
 
   void Sample(bool is_start) {
     if (!pid) return;
-    absl::StatusOr<ProcessMemory> memory = ReadProcessMemory(*pid);
-    if (!memory.ok()) return;
-    if (is_start) start = *memory;
-    end = *memory;
-    peak_rss_bytes = std::max(peak_rss_bytes, memory->rss_bytes);
+    if (absl::StatusOr<ProcessMemory> memory = ReadProcessMemory(*pid); memory.ok()) {
+      if (is_start) start = *memory;
+      end = *memory;
+      peak_rss_bytes = std::max(peak_rss_bytes, memory->rss_bytes);
+    }
+    if (absl::StatusOr<double> cpu = ReadProcessCpuSeconds(*pid); cpu.ok()) {
+      if (is_start) cpu_start_s = *cpu;
+      cpu_end_s = *cpu;
+    }
   }
 
-  nlohmann::json Json() const {
+  std::optional<double> CpuSeconds() const {
+    if (!cpu_start_s || !cpu_end_s) return std::nullopt;
+    return *cpu_end_s - *cpu_start_s;
+  }
+
+  nlohmann::json Json(double elapsed_s) const {
     auto mib = [](const std::optional<ProcessMemory>& m, int64_t ProcessMemory::*field) {
       return m ? nlohmann::json((*m).*field / kMiB) : nlohmann::json(nullptr);
     };
+    const std::optional<double> cpu = CpuSeconds();
     nlohmann::json out = {
         {"pid", pid ? nlohmann::json(*pid) : nlohmann::json(nullptr)},
         {"rss_start_mib", mib(start, &ProcessMemory::rss_bytes)},
         {"rss_peak_mib", end ? nlohmann::json(peak_rss_bytes / kMiB) : nlohmann::json(nullptr)},
         {"rss_end_mib", mib(end, &ProcessMemory::rss_bytes)},
-        {"hwm_mib", mib(end, &ProcessMemory::peak_rss_bytes)}};
+        {"hwm_mib", mib(end, &ProcessMemory::peak_rss_bytes)},
+        {"cpu_s", OptionalJson(cpu)},
+        // Cores the server kept busy on average (user + system time over the run's wall time).
+        {"cpu_cores", OptionalJson(cpu && elapsed_s > 0 ? std::optional<double>(*cpu / elapsed_s)
+                                                        : std::nullopt)}};
     if (!note.empty()) out["note"] = note;
     return out;
   }
 };
 
-MemoryTrack FindServer(const CommandContext& context, int server_pid) {
-  MemoryTrack track;
+ServerUsage FindServer(const CommandContext& context, int server_pid) {
+  ServerUsage track;
   if (server_pid > 0) {
     track.pid = server_pid;
     return track;
@@ -107,7 +124,7 @@ MemoryTrack FindServer(const CommandContext& context, int server_pid) {
 // Prints a progress line every second until Stop(), sampling the server's memory as it goes.
 class Progress {
  public:
-  Progress(std::ostream& err, const LoadRecorder& recorder, MemoryTrack& memory, int robots)
+  Progress(std::ostream& err, const LoadRecorder& recorder, ServerUsage& memory, int robots)
       : err_(err), recorder_(recorder), memory_(memory), robots_(robots) {
     thread_ = std::thread([this] { Run(); });
   }
@@ -145,7 +162,7 @@ class Progress {
 
   std::ostream& err_;
   const LoadRecorder& recorder_;
-  MemoryTrack& memory_;
+  ServerUsage& memory_;
   const int robots_;
   std::mutex mutex_;
   std::condition_variable wake_;
@@ -212,9 +229,9 @@ int RunBenchLoad(CommandContext& context, BenchLoadArgs args) {
   const double setup_s =
       std::chrono::duration<double>(std::chrono::steady_clock::now() - setup_start).count();
 
-  MemoryTrack memory = FindServer(context, args.server_pid);
+  ServerUsage memory = FindServer(context, args.server_pid);
   memory.Sample(true);
-  if (!memory.pid) context.err << "server memory not measured: " << memory.note << "\n";
+  if (!memory.pid) context.err << "server memory and CPU not measured: " << memory.note << "\n";
 
   LoadRecorder recorder;
   StopSignals signals;  // Ctrl-C ends the run early; the report covers what ran
@@ -275,7 +292,7 @@ int RunBenchLoad(CommandContext& context, BenchLoadArgs args) {
            {"scans_answered", result->scans_answered},
            {"scans_skipped", result->scans_skipped},
            {"odometry_sent", result->odometry_sent}}},
-         {"server_memory", memory.Json()}});
+         {"server_process", memory.Json(result->elapsed_s)}});
   } else {
     context.out << fmt::format("{} robots for {:.1f} s against {} (database {}, {} query images)\n",
                                load.robots, result->elapsed_s, server, load.database,
@@ -289,13 +306,17 @@ int RunBenchLoad(CommandContext& context, BenchLoadArgs args) {
     context.out << "errors: " << total_errors << "\n";
     if (memory.end) {
       context.out << fmt::format(
-          "server memory (pid {}): RSS {:.1f} MiB at start, {:.1f} peak, {:.1f} at end; "
-          "high-water mark {:.1f} MiB\n",
+          "server (pid {}): RSS {:.1f} MiB at start, {:.1f} peak, {:.1f} at end; high-water mark "
+          "{:.1f} MiB; CPU {} s ({} cores)\n",
           *memory.pid, memory.start ? memory.start->rss_bytes / kMiB : 0.0,
           memory.peak_rss_bytes / kMiB, memory.end->rss_bytes / kMiB,
-          memory.end->peak_rss_bytes / kMiB);
+          memory.end->peak_rss_bytes / kMiB, FormatNumber(memory.CpuSeconds(), 1),
+          FormatNumber(memory.CpuSeconds()
+                           ? std::optional<double>(*memory.CpuSeconds() / result->elapsed_s)
+                           : std::nullopt,
+                       2));
     } else {
-      context.out << "server memory: not measured (" << memory.note << ")\n";
+      context.out << "server memory and CPU: not measured (" << memory.note << ")\n";
     }
   }
   if (unexpected_errors > 0) {

@@ -1,6 +1,6 @@
-// `waymark bench load` without a server: the address checks, finding a listening process and its
-// memory through /proc (a fake tree and the real one), the recorder's summary, and the bounds and
-// loopback refusals of the command line (which come before any connection).
+// `waymark bench load` without a server: the address checks, finding a listening process, its
+// memory and CPU time through /proc (a fake tree and the real one), the recorder's summary, and
+// the bounds and loopback refusals of the command line (which come before any connection).
 
 #include <arpa/inet.h>
 #include <gmock/gmock.h>
@@ -15,7 +15,7 @@
 
 #include "client/tools/load_stats.h"
 #include "client/tools/server_address.h"
-#include "client/tools/server_memory.h"
+#include "client/tools/server_usage.h"
 #include "tests/client/test_util.h"
 
 namespace waymark::cli {
@@ -53,7 +53,7 @@ TEST(ServerAddressTest, OnlyThisMachineIsLoopback) {
 }
 
 // A /proc tree with one listening socket on port 50001 (0xC351) held by process 4321.
-TEST(ServerMemoryTest, FindsTheListeningProcessAndItsMemoryInAFakeProc) {
+TEST(ServerUsageTest, FindsTheListeningProcessAndItsMemoryInAFakeProc) {
   ScopedTempDir proc;
   std::ofstream(proc.Make("net/tcp"))
       << "  sl  local_address rem_address   st tx_queue rx_queue tr tm->when retrnsmt   uid  "
@@ -83,9 +83,18 @@ TEST(ServerMemoryTest, FindsTheListeningProcessAndItsMemoryInAFakeProc) {
   EXPECT_EQ(memory->peak_rss_bytes, 200 * 1024 * 1024);
   EXPECT_EQ(ReadProcessMemory(1234, proc.path().string()).status().code(),
             absl::StatusCode::kNotFound);
+
+  // A command name with spaces and parentheses; utime 250 and stime 50 ticks.
+  std::ofstream(proc.Make("4321/stat"))
+      << "4321 (waymark (x) server) S 1 4321 4321 0 -1 4194560 2000 0 0 0 250 50 0 0 20 0 12 0\n";
+  absl::StatusOr<double> cpu = ReadProcessCpuSeconds(4321, proc.path().string());
+  ASSERT_TRUE(cpu.ok()) << cpu.status();
+  EXPECT_DOUBLE_EQ(*cpu, 300.0 / sysconf(_SC_CLK_TCK));
+  EXPECT_EQ(ReadProcessCpuSeconds(1234, proc.path().string()).status().code(),
+            absl::StatusCode::kNotFound);
 }
 
-TEST(ServerMemoryTest, FindsThisProcessListeningOnARealPort) {
+TEST(ServerUsageTest, FindsThisProcessListeningOnARealPort) {
   const int fd = socket(AF_INET, SOCK_STREAM, 0);
   ASSERT_GE(fd, 0);
   sockaddr_in address{};
@@ -103,6 +112,9 @@ TEST(ServerMemoryTest, FindsThisProcessListeningOnARealPort) {
   ASSERT_TRUE(memory.ok()) << memory.status();
   EXPECT_GT(memory->rss_bytes, 0);
   EXPECT_GE(memory->peak_rss_bytes, memory->rss_bytes);
+  absl::StatusOr<double> cpu = ReadProcessCpuSeconds(getpid());
+  ASSERT_TRUE(cpu.ok()) << cpu.status();
+  EXPECT_GE(*cpu, 0);
 }
 
 TEST(LoadRecorderTest, SummarisesCallsLatenciesAndErrorsPerRpc) {

@@ -1,6 +1,6 @@
 // `waymark bench load` against the real server: a short run of 3 robots completes with calls on
-// every RPC, no errors, every session closed, the server's memory found through its port, and the
-// database it created deleted again.
+// every RPC, no errors, every session closed, the server's memory and CPU found through its port,
+// and the database it created deleted again.
 
 #include <gmock/gmock.h>
 #include <gtest/gtest.h>
@@ -44,8 +44,10 @@ TEST(BenchLoadTest, ThreeRobotsForThreeSecondsWithoutErrors) {
   EXPECT_EQ(report["slam"]["scans_answered"], report["slam"]["scans_sent"]);
   EXPECT_EQ(rpcs["StreamSensorData"]["answered"], report["slam"]["scans_answered"]);
 
-  EXPECT_EQ(report["server_memory"]["pid"], (*server)->pid()) << report["server_memory"].dump();
-  EXPECT_GT(report["server_memory"]["rss_peak_mib"].get<double>(), 0);
+  const nlohmann::json& process = report["server_process"];
+  EXPECT_EQ(process["pid"], (*server)->pid()) << process.dump();
+  EXPECT_GT(process["rss_peak_mib"].get<double>(), 0);
+  EXPECT_GT(process["cpu_s"].get<double>(), 0);
 
   // Progress went to stderr once a second; the created database is gone.
   EXPECT_THAT(run.err, ::testing::HasSubstr("3 robots:"));

@@ -1,9 +1,9 @@
-#ifndef WAYMARK_CLIENT_TOOLS_SERVER_MEMORY_H_
-#define WAYMARK_CLIENT_TOOLS_SERVER_MEMORY_H_
+#ifndef WAYMARK_CLIENT_TOOLS_SERVER_USAGE_H_
+#define WAYMARK_CLIENT_TOOLS_SERVER_USAGE_H_
 
-// The memory of a server process on this machine, for `waymark bench load`: which process listens
-// on the server's port, and its resident set size. Linux /proc only; `proc_root` is injectable so
-// tests can use a fake tree.
+// What a server process on this machine uses, for `waymark bench load`: which process listens on
+// the server's port, its resident set size and its CPU time. Linux /proc only; `proc_root` is
+// injectable so tests can use a fake tree.
 
 #include <sys/types.h>
 
@@ -28,6 +28,10 @@ struct ProcessMemory {
 // From /proc/PID/status. NOT_FOUND once the process is gone.
 absl::StatusOr<ProcessMemory> ReadProcessMemory(pid_t pid, const std::string& proc_root = "/proc");
 
+// CPU seconds the process has used so far, user + system, all threads (/proc/PID/stat).
+// NOT_FOUND once the process is gone.
+absl::StatusOr<double> ReadProcessCpuSeconds(pid_t pid, const std::string& proc_root = "/proc");
+
 }  // namespace waymark::cli
 
-#endif  // WAYMARK_CLIENT_TOOLS_SERVER_MEMORY_H_
+#endif  // WAYMARK_CLIENT_TOOLS_SERVER_USAGE_H_

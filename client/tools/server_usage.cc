@@ -1,4 +1,6 @@
-#include "client/tools/server_memory.h"
+#include "client/tools/server_usage.h"
+
+#include <unistd.h>
 
 #include <filesystem>
 #include <fstream>
@@ -93,6 +95,27 @@ absl::StatusOr<ProcessMemory> ReadProcessMemory(pid_t pid, const std::string& pr
     return absl::NotFoundError(absl::StrCat("no VmRSS in ", path, " (a kernel thread?)"));
   }
   return memory;
+}
+
+absl::StatusOr<double> ReadProcessCpuSeconds(pid_t pid, const std::string& proc_root) {
+  const std::string path = absl::StrCat(proc_root, "/", pid, "/stat");
+  std::ifstream in(path);
+  std::string line;
+  if (!in || !std::getline(in, line)) {
+    return absl::NotFoundError(absl::StrCat("process ", pid, " is gone (", path, ")"));
+  }
+  // "PID (COMM) STATE PPID ...": COMM may hold spaces and parentheses, so count the fields from
+  // the last ')'. utime and stime are fields 14 and 15 of the line, 12 and 13 after COMM.
+  const size_t comm_end = line.rfind(')');
+  const std::vector<absl::string_view> fields = absl::StrSplit(
+      absl::string_view(line).substr(comm_end == std::string::npos ? 0 : comm_end + 1), ' ',
+      absl::SkipWhitespace());
+  int64_t user_ticks = 0, system_ticks = 0;
+  if (comm_end == std::string::npos || fields.size() < 13 ||
+      !absl::SimpleAtoi(fields[11], &user_ticks) || !absl::SimpleAtoi(fields[12], &system_ticks)) {
+    return absl::DataLossError(absl::StrCat("cannot read the CPU times in ", path));
+  }
+  return static_cast<double>(user_ticks + system_ticks) / sysconf(_SC_CLK_TCK);
 }
 
 }  // namespace waymark::cli
