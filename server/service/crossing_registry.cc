@@ -1,8 +1,10 @@
 #include "server/service/crossing_registry.h"
 
+#include <algorithm>
 #include <cctype>
 #include <cmath>
 #include <cstring>
+#include <thread>
 #include <unordered_map>
 
 #include "absl/strings/str_cat.h"
@@ -127,9 +129,39 @@ struct CrossingRegistry::Database {
   }
 };
 
+namespace {
+
+// Waiting extractions allowed per running one: about 1 s of queue at 30 ms per extraction.
+constexpr int kWaitingPerRunning = 32;
+
+int MaxRunning(const ExtractionLimits& limits) {
+  if (limits.max_running > 0) return limits.max_running;
+  return std::max(1, static_cast<int>(std::thread::hardware_concurrency()));
+}
+
+}  // namespace
+
+CrossingRegistry::CrossingRegistry(std::unique_ptr<storage::CrossingStore> store,
+                                   const crossing::IndexOptions& index,
+                                   const ExtractionLimits& limits)
+    : store_(std::move(store)),
+      index_options_(index),
+      extraction_gate_(MaxRunning(limits), limits.max_waiting >= 0
+                                               ? limits.max_waiting
+                                               : kWaitingPerRunning * MaxRunning(limits)) {}
+
+absl::StatusOr<crossing::ImageFeatures> CrossingRegistry::Extract(
+    const std::string& encoded, const crossing::FeatureOptions& options,
+    crossing::ExtractionTimings* timings) {
+  absl::StatusOr<WorkGate::Turn> turn = extraction_gate_.Enter("feature extractions");
+  if (!turn.ok()) return turn.status();
+  return crossing::ExtractFeatures(encoded, options, timings);
+}
+
 absl::StatusOr<std::unique_ptr<CrossingRegistry>> CrossingRegistry::Load(
-    std::unique_ptr<storage::CrossingStore> store, const crossing::IndexOptions& index) {
-  std::unique_ptr<CrossingRegistry> registry(new CrossingRegistry(std::move(store), index));
+    std::unique_ptr<storage::CrossingStore> store, const crossing::IndexOptions& index,
+    const ExtractionLimits& limits) {
+  std::unique_ptr<CrossingRegistry> registry(new CrossingRegistry(std::move(store), index, limits));
   absl::StatusOr<std::vector<storage::DatabaseRecord>> records = registry->store_->ListDatabases();
   if (!records.ok()) return records.status();
   for (const auto& record : *records) {
@@ -374,7 +406,7 @@ absl::StatusOr<v1::EnrollViewResponse> CrossingRegistry::EnrollView(
   // Feature extraction is the slow part and needs no lock (options never change after creation).
   crossing::ExtractionTimings timings;
   absl::StatusOr<crossing::ImageFeatures> features =
-      crossing::ExtractFeatures(request.image().data(), db.options.features, &timings);
+      Extract(request.image().data(), db.options.features, &timings);
   if (!features.ok()) return features.status();
   if (features->descriptors.rows < kMinEnrollKeypoints) {
     return absl::InvalidArgumentError(absl::StrCat(
@@ -491,7 +523,7 @@ absl::StatusOr<v1::RecognizeResponse> CrossingRegistry::Recognize(
 
   crossing::ExtractionTimings timings;
   absl::StatusOr<crossing::ImageFeatures> features =
-      crossing::ExtractFeatures(request.image().data(), db.options.features, &timings);
+      Extract(request.image().data(), db.options.features, &timings);
   if (!features.ok()) return features.status();
 
   absl::ReaderMutexLock lock(&db.mutex);

@@ -14,6 +14,9 @@
 //   entry, cluster, crossing name) or not at all.
 // - The lock is absl::Mutex, which does not starve writers: with glibc's std::shared_mutex a steady
 //   stream of overlapping recognitions could keep an enrollment waiting indefinitely.
+// - Feature extraction, the slow and memory-hungry step of both, runs at most
+//   ExtractionLimits::max_running at a time; beyond max_waiting more, a request is answered
+//   RESOURCE_EXHAUSTED at once (work_gate.h).
 // - Enrollments of one database are serialised, so view ids (SQLite AUTOINCREMENT, taken inside
 //   the lock) are the order in which views entered memory; the registry-wide lock guards only the
 //   name -> database map.
@@ -33,18 +36,28 @@
 
 #include "absl/status/statusor.h"
 #include "absl/synchronization/mutex.h"
+#include "server/crossing/features.h"
 #include "server/crossing/view_database.h"
 #include "server/service/params.h"
+#include "server/service/work_gate.h"
 #include "storage/crossing_store.h"
 #include "waymark/v1/crossing.pb.h"
 
 namespace waymark::service {
 
+// How many feature extractions (recognitions and enrollments) run at once, and how many may wait
+// for a turn before the next request gets RESOURCE_EXHAUSTED (work_gate.h).
+struct ExtractionLimits {
+  int max_running = 0;   // 0 = the machine's hardware threads
+  int max_waiting = -1;  // -1 = 32 per running extraction (about 1 s of waiting at 30 ms each)
+};
+
 class CrossingRegistry {
  public:
   // Loads every database of `store` into memory.
   static absl::StatusOr<std::unique_ptr<CrossingRegistry>> Load(
-      std::unique_ptr<storage::CrossingStore> store, const crossing::IndexOptions& index = {});
+      std::unique_ptr<storage::CrossingStore> store, const crossing::IndexOptions& index = {},
+      const ExtractionLimits& limits = {});
 
   absl::StatusOr<v1::CrossingDatabase> CreateDatabase(const v1::CreateDatabaseRequest& request);
   absl::StatusOr<v1::ListDatabasesResponse> ListDatabases();
@@ -66,9 +79,13 @@ class CrossingRegistry {
  private:
   struct Database;
 
-  explicit CrossingRegistry(std::unique_ptr<storage::CrossingStore> store,
-                            const crossing::IndexOptions& index)
-      : store_(std::move(store)), index_options_(index) {}
+  CrossingRegistry(std::unique_ptr<storage::CrossingStore> store,
+                   const crossing::IndexOptions& index, const ExtractionLimits& limits);
+
+  // crossing::ExtractFeatures behind the extraction gate.
+  absl::StatusOr<crossing::ImageFeatures> Extract(const std::string& encoded,
+                                                  const crossing::FeatureOptions& options,
+                                                  crossing::ExtractionTimings* timings);
 
   absl::StatusOr<std::shared_ptr<Database>> Find(const std::string& name);
   absl::StatusOr<std::shared_ptr<Database>> LoadDatabase(const storage::DatabaseRecord& record);
@@ -77,6 +94,7 @@ class CrossingRegistry {
 
   std::unique_ptr<storage::CrossingStore> store_;
   crossing::IndexOptions index_options_;
+  WorkGate extraction_gate_;
   absl::Mutex mutex_;  // guards databases_ (the map, not the databases)
   std::map<std::string, std::shared_ptr<Database>> databases_;
 };
