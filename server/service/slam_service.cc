@@ -103,34 +103,22 @@ grpc::Status SlamServiceImpl::StreamSensorData(
 
 grpc::Status SlamServiceImpl::GetMap(grpc::ServerContext* context, const v1::GetMapRequest* request,
                                      v1::SegmentMap* response) {
-  return ReplyAuthorized(*auth_, *context, Action::kSlam, response,
-                         [&](const Caller& caller) -> absl::StatusOr<v1::SegmentMap> {
-                           absl::Status s = CheckSessionOwner(caller, request->session_id());
-                           if (!s.ok()) return s;
-                           return registry_->GetMap(request->session_id());
-                         });
+  return ReplyForOwnSession(*context, request->session_id(), response,
+                            [&] { return registry_->GetMap(request->session_id()); });
 }
 
 grpc::Status SlamServiceImpl::GetTrajectory(grpc::ServerContext* context,
                                             const v1::GetTrajectoryRequest* request,
                                             v1::Trajectory* response) {
-  return ReplyAuthorized(*auth_, *context, Action::kSlam, response,
-                         [&](const Caller& caller) -> absl::StatusOr<v1::Trajectory> {
-                           absl::Status s = CheckSessionOwner(caller, request->session_id());
-                           if (!s.ok()) return s;
-                           return registry_->GetTrajectory(request->session_id());
-                         });
+  return ReplyForOwnSession(*context, request->session_id(), response,
+                            [&] { return registry_->GetTrajectory(request->session_id()); });
 }
 
 grpc::Status SlamServiceImpl::CloseSession(grpc::ServerContext* context,
                                            const v1::CloseSessionRequest* request,
                                            v1::Session* response) {
-  return ReplyAuthorized(*auth_, *context, Action::kSlam, response,
-                         [&](const Caller& caller) -> absl::StatusOr<v1::Session> {
-                           absl::Status s = CheckSessionOwner(caller, request->session_id());
-                           if (!s.ok()) return s;
-                           return registry_->CloseSession(request->session_id());
-                         });
+  return ReplyForOwnSession(*context, request->session_id(), response,
+                            [&] { return registry_->CloseSession(request->session_id()); });
 }
 
 grpc::Status SlamServiceImpl::ListSessions(grpc::ServerContext* context,

@@ -8,6 +8,7 @@
 
 #include "server/service/authenticator.h"
 #include "server/service/idle_stream_reaper.h"
+#include "server/service/service_call.h"
 #include "server/service/slam_registry.h"
 #include "server/service/stream_limiter.h"
 #include "waymark/v1/slam.grpc.pb.h"
@@ -45,6 +46,19 @@ class SlamServiceImpl final : public v1::SlamService::Service {
  private:
   // OK when `caller` may use session `session_id`; NOT_FOUND for an unknown session.
   absl::Status CheckSessionOwner(const Caller& caller, const std::string& session_id);
+
+  // The shape of the RPCs that act on one session: authorize, check the session is the caller's,
+  // then run `call()` (returning StatusOr<T>).
+  template <typename T, typename Call>
+  grpc::Status ReplyForOwnSession(const grpc::ServerContext& context,
+                                  const std::string& session_id, T* response, Call&& call) {
+    return ReplyAuthorized(*auth_, context, Action::kSlam, response,
+                           [&](const Caller& caller) -> absl::StatusOr<T> {
+                             absl::Status owner = CheckSessionOwner(caller, session_id);
+                             if (!owner.ok()) return owner;
+                             return call();
+                           });
+  }
 
   SlamRegistry* registry_;
   Authenticator* auth_;

@@ -4,7 +4,6 @@
 
 #include "server/service/metrics.h"
 
-#include <condition_variable>
 #include <cstdio>
 #include <fstream>
 #include <memory>
@@ -17,6 +16,7 @@
 #include "storage/crossing_store.h"
 #include "storage/slam_store.h"
 #include "tests/service/scrape.h"
+#include "tests/service/blocking_gate.h"
 #include "tests/service/slam_test_world.h"
 #include "tests/storage/temp_dir.h"
 #include "tests/support/synthetic_scene.h"
@@ -149,31 +149,7 @@ TEST(MetricsTest, NoSourcesNoStateMetrics) {
   EXPECT_EQ(page.find("waymark_database_bytes"), std::string::npos) << page;
 }
 
-// Blocks the SLAM worker before each message until opened.
-class Gate {
- public:
-  void Enter() {
-    std::unique_lock<std::mutex> lock(mutex_);
-    ++entered_;
-    cv_.notify_all();
-    cv_.wait(lock, [this] { return open_; });
-  }
-  void WaitEntered(int n) {
-    std::unique_lock<std::mutex> lock(mutex_);
-    cv_.wait(lock, [&] { return entered_ >= n; });
-  }
-  void Open() {
-    std::lock_guard<std::mutex> lock(mutex_);
-    open_ = true;
-    cv_.notify_all();
-  }
-
- private:
-  std::mutex mutex_;
-  std::condition_variable cv_;
-  int entered_ = 0;
-  bool open_ = false;
-};
+using Gate = BlockingGate;
 
 TEST(MetricsTest, SlamSessionsAndQueueDepthsAtScrapeTime) {
   TempDir dir;

@@ -5,7 +5,6 @@
 #include "server/service/slam_registry.h"
 
 #include <cmath>
-#include <condition_variable>
 #include <limits>
 #include <memory>
 #include <mutex>
@@ -15,6 +14,7 @@
 
 #include "gtest/gtest.h"
 #include "storage/slam_store.h"
+#include "tests/service/blocking_gate.h"
 #include "tests/service/slam_test_world.h"
 #include "tests/storage/status_testing.h"
 #include "tests/storage/temp_dir.h"
@@ -47,31 +47,7 @@ class Answers {
   std::vector<v1::SlamUpdate> updates_;
 };
 
-// Blocks the worker before each message until opened; counts the messages that reached it.
-class Gate {
- public:
-  void Enter() {
-    std::unique_lock<std::mutex> lock(mutex_);
-    ++entered_;
-    cv_.notify_all();
-    cv_.wait(lock, [this] { return open_; });
-  }
-  void WaitEntered(int n) {
-    std::unique_lock<std::mutex> lock(mutex_);
-    cv_.wait(lock, [&] { return entered_ >= n; });
-  }
-  void Open() {
-    std::lock_guard<std::mutex> lock(mutex_);
-    open_ = true;
-    cv_.notify_all();
-  }
-
- private:
-  std::mutex mutex_;
-  std::condition_variable cv_;
-  int entered_ = 0;
-  bool open_ = false;
-};
+using Gate = BlockingGate;
 
 class SlamRegistryTest : public ::testing::Test {
  protected:
