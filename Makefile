@@ -6,7 +6,7 @@ LISTEN ?= 127.0.0.1:50051
 DB ?= ./var/waymark.db
 CTEST_ARGS ?=
 
-.PHONY: all deps configure build run test bench demo clean
+.PHONY: all deps configure build run test bench demo docker-test clean
 
 all: build
 
@@ -39,6 +39,10 @@ bench: build
 # Enroll and query views cut from real 360-degree photos (Debian's blender-data), end to end.
 demo: build
 	./scripts/demo.sh $(BUILD_DIR)
+
+# Build the Docker image and smoke-test it with its own dockerd (root, Debian 12; docker/README.md).
+docker-test:
+	BUILD_DIR=$(BUILD_DIR) ./scripts/docker-test.sh
 
 clean:
 	rm -rf $(BUILD_DIR)
