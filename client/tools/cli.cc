@@ -6,7 +6,7 @@ namespace waymark::cli {
 
 int RunCli(int argc, const char* const* argv, std::ostream& out, std::ostream& err,
            bool err_is_tty) {
-  CommandContext context{GlobalOptions{}, out, err, err_is_tty};
+  CommandContext context{GlobalOptions{}, out, err, err_is_tty, /*credentials=*/nullptr};
   GlobalOptions& globals = context.globals;
 
   CLI::App app{"waymark: command line for the Waymark localization service"};
