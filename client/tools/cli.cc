@@ -42,6 +42,7 @@ int RunCli(int argc, const char* const* argv, std::ostream& out, std::ostream& e
   AddRecognizeCommand(app, registry);
   AddEvalCommand(app, registry);
   AddEvalRelationsCommand(app, registry);
+  AddEvalAteCommand(app, registry);
   AddSlamCommands(app, registry);
   AddSimCommands(app, registry);
   AddRobotCommand(app, registry);

@@ -75,6 +75,8 @@ void AddRecognizeCommand(CLI::App& app, CommandRegistry& registry);
 void AddEvalCommand(CLI::App& app, CommandRegistry& registry);
 // `eval relations` (relations_command.cc); call after AddEvalCommand.
 void AddEvalRelationsCommand(CLI::App& app, CommandRegistry& registry);
+// `eval ate` (ate_command.cc); call after AddEvalCommand.
+void AddEvalAteCommand(CLI::App& app, CommandRegistry& registry);
 void AddSlamCommands(CLI::App& app, CommandRegistry& registry);
 // `sim explore`, `sim worlds` (sim_commands.cc).
 void AddSimCommands(CLI::App& app, CommandRegistry& registry);
