@@ -1,0 +1,81 @@
+#ifndef WAYMARK_SERVER_VISUAL_SLAM_OPTIONS_H_
+#define WAYMARK_SERVER_VISUAL_SLAM_OPTIONS_H_
+
+// Parameters of the dynamic-scene visual odometry (METHODS.md section 3). The paper leaves every
+// constant unspecified (delta, d, b1, b2, lambda1, lambda2); the defaults below are ours and each
+// comment says where the value comes from.
+
+#include <cstdint>
+
+#include "absl/status/status.h"
+
+namespace waymark::visual_slam {
+
+// Which features are kept out of tracking and mapping.
+enum class DynamicFilter {
+  kNone,       // every feature is used (plain ORB VO: the ORB-SLAM2-like baseline)
+  kBoxesOnly,  // every feature inside a box is dropped, static or not
+  kFull,       // the paper: boxes split (eq 7), motion from features outside boxes (eq 10-15),
+               // static test on all (eq 17), tracking on all static, mapping outside boxes (eq 18)
+};
+
+struct OrbOptions {
+  int features = 1000;          // per frame (ORB-SLAM2's TUM setting)
+  float scale_factor = 1.2f;    // pyramid step (ORB-SLAM2)
+  int levels = 8;               // pyramid levels (ORB-SLAM2)
+  int fast_threshold = 20;      // FAST threshold (ORB-SLAM2's iniThFAST)
+};
+
+struct SamplerOptions {
+  // eq 10: raise the inlier probability eta of pairs in the sample that agree with a best
+  // hypothesis by b1, of pairs in a best hypothesis' inlier set but not in the sample by b2, and
+  // lower it by b1 for sample pairs that no best hypothesis supports.
+  double b1 = 0.1;
+  double b2 = 0.02;
+  // eq 12: diff_k = lambda1 * angle(q_k^-1 q) [rad] + lambda2 * |t_k - t| [m, or unit-norm
+  // translations monocular]. 1 rad ~ 1 m: a 6 degree disagreement weighs like 10 cm.
+  double lambda1 = 1.0;
+  double lambda2 = 1.0;
+  // Hypotheses within this fraction of the best inlier count take part in the eq 12 tie-break
+  // (a hypothesis with far fewer inliers never wins on motion alone).
+  double tie_break_fraction = 0.8;
+  int max_rounds = 8;            // re-rankings (eq 10-11 loop) before giving up on a stable order
+  int hypotheses_per_round = 64;  // samples drawn per round, in eta order
+  uint64_t seed = 1;             // deterministic sampling
+};
+
+struct VisualOdometryOptions {
+  DynamicFilter filter = DynamicFilter::kFull;
+  OrbOptions orb;
+  SamplerOptions sampler;
+  // eq 8: coarse matches need a Hamming distance below delta (of 256 bits). ORB-SLAM2 uses 50 as
+  // its strict and 100 as its loose threshold; 64 sits between.
+  int delta = 64;
+  // Lowe-style ratio between the best and second-best Hamming distance (ORB-SLAM2: 0.7-0.9).
+  double match_ratio = 0.8;
+  // eq 17: a feature is static when its predicted position is within d pixels of its match and
+  // its Hamming distance is below delta / 2.
+  double static_distance_px = 3.0;
+  // Inlier threshold of the motion hypotheses (reprojection or Sampson distance), pixels.
+  double inlier_threshold_px = 2.0;
+  // Depth: metres = value / depth_scale (TUM and Bonn: 5000). Readings outside
+  // [min_depth, max_depth] metres are ignored.
+  double depth_scale = 5000;
+  double min_depth = 0.1;
+  double max_depth = 8.0;
+  // Tracking needs this many static matches; fewer = lost (the pose is predicted).
+  int min_tracked = 15;
+  // A new keyframe when the tracked matches fall below this fraction of the keyframe's points,
+  // or the camera moved this far from it (m, RGB-D) or turned this much (rad).
+  double keyframe_tracked_fraction = 0.6;
+  double keyframe_distance = 0.10;
+  double keyframe_angle = 0.17;  // 10 degrees
+  // Keyframes kept in the local map; tracking falls back to older ones when the newest fails.
+  int local_map_keyframes = 5;
+
+  absl::Status Validate() const;
+};
+
+}  // namespace waymark::visual_slam
+
+#endif  // WAYMARK_SERVER_VISUAL_SLAM_OPTIONS_H_

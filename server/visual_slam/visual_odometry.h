@@ -1,0 +1,64 @@
+#ifndef WAYMARK_SERVER_VISUAL_SLAM_VISUAL_ODOMETRY_H_
+#define WAYMARK_SERVER_VISUAL_SLAM_VISUAL_ODOMETRY_H_
+
+// One visual odometry session (METHODS.md section 3): ORB features per frame, detector boxes split
+// them into potentially dynamic and not (eq 7), coarse Hamming matching to the reference keyframe
+// (eq 8), a motion model from the features outside boxes by sequential sampling with the previous
+// motion as tie-break (eq 10-12), the pose (essential matrix, eq 14-15, monocular; PnP + refinement
+// on the reference's depth, RGB-D), the static test on every match (eq 17), tracking on all static
+// features and mapping on the static ones outside boxes (eq 18). A small local map of recent
+// keyframes lets tracking survive frames where most features sit on people.
+//
+// RGB-D sessions give metric poses. Monocular sessions give scale-free poses: the first motion has
+// unit length and later ones keep the scale by triangulation against the previous keyframe pair.
+//
+// Not thread-safe: one caller (the session's strand) at a time.
+
+#include <memory>
+#include <vector>
+
+#include "absl/status/statusor.h"
+#include "server/visual_slam/object_detector.h"
+#include "server/visual_slam/options.h"
+#include "server/visual_slam/types.h"
+
+namespace waymark::visual_slam {
+
+class VisualOdometry {
+ public:
+  // INVALID_ARGUMENT for bad options or a camera without positive focal lengths and size.
+  // `detector` may be null (no detector: only robot-supplied boxes split features).
+  static absl::StatusOr<std::unique_ptr<VisualOdometry>> Create(
+      const VisualOdometryOptions& options, const CameraModel& camera,
+      std::unique_ptr<ObjectDetector> detector);
+  ~VisualOdometry();
+
+  // Processes the next frame. INVALID_ARGUMENT (and the session is unchanged) for a frame whose
+  // stamp is not after the last one, an image of the wrong size or type, a depth image of the
+  // wrong size or type, non-finite stamps or boxes. A detector failure is reported the same way.
+  absl::StatusOr<FrameResult> ProcessFrame(const FrameInput& frame);
+
+  // Every processed frame's pose, in order.
+  const std::vector<TimedPose>& trajectory() const { return trajectory_; }
+  // Restarts tracking from `pose` (after a server restart the service resumes a session from its
+  // last stored pose: the next frame becomes a keyframe at that pose).
+  void ResetAt(const TimedPose& pose);
+
+  const VisualOdometryOptions& options() const { return options_; }
+  const CameraModel& camera() const { return camera_; }
+
+ private:
+  struct State;
+  VisualOdometry(const VisualOdometryOptions& options, const CameraModel& camera,
+                 std::unique_ptr<ObjectDetector> detector);
+
+  VisualOdometryOptions options_;
+  CameraModel camera_;
+  std::unique_ptr<ObjectDetector> detector_;
+  std::unique_ptr<State> state_;
+  std::vector<TimedPose> trajectory_;
+};
+
+}  // namespace waymark::visual_slam
+
+#endif  // WAYMARK_SERVER_VISUAL_SLAM_VISUAL_ODOMETRY_H_
