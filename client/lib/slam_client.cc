@@ -40,10 +40,15 @@ void SensorStream::ReadLoop() {
     {
       std::lock_guard<std::mutex> lock(mutex_);
       const bool was_scan = outstanding_scans_.erase(update.sequence()) > 0;
+      const bool was_frame = was_scan && outstanding_frames_.erase(update.sequence()) > 0;
       const bool was_odometry = !was_scan && odometry_sequences_.erase(update.sequence()) > 0;
       if (update.has_rejection()) {
         if (update.rejection().code() == kResourceExhausted) ++stats_.queue_full;
-        if (was_scan) ++stats_.scans_rejected;
+        if (was_frame) {
+          ++stats_.frames_rejected;
+        } else if (was_scan) {
+          ++stats_.scans_rejected;
+        }
         if (was_odometry) ++stats_.odometry_rejected;
       } else if (was_scan) {
         ++stats_.updates;
@@ -103,6 +108,17 @@ absl::Status SensorStream::SendScan(const v1::LaserScan& scan) {
   if (finished_) return absl::FailedPreconditionError("the stream is finished");
   v1::SensorData message;
   *message.mutable_scan() = scan;
+  return SendWindowed(message, /*is_frame=*/false);
+}
+
+absl::Status SensorStream::SendFrame(const v1::ImageFrame& frame) {
+  if (finished_) return absl::FailedPreconditionError("the stream is finished");
+  v1::SensorData message;
+  *message.mutable_frame() = frame;
+  return SendWindowed(message, /*is_frame=*/true);
+}
+
+absl::Status SensorStream::SendWindowed(v1::SensorData& message, bool is_frame) {
   {
     std::unique_lock<std::mutex> lock(mutex_);
     const bool ready =
@@ -117,7 +133,12 @@ absl::Status SensorStream::SendScan(const v1::LaserScan& scan) {
     if (read_done_) return absl::UnavailableError("the server ended the stream");
     message.set_sequence(next_sequence_++);
     outstanding_scans_.insert(message.sequence());
-    ++stats_.scans_sent;
+    if (is_frame) {
+      outstanding_frames_.insert(message.sequence());
+      ++stats_.frames_sent;
+    } else {
+      ++stats_.scans_sent;
+    }
     stats_.max_outstanding =
         std::max(stats_.max_outstanding, static_cast<int>(outstanding_scans_.size()));
   }

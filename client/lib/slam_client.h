@@ -36,11 +36,16 @@ struct SlamClientOptions {
 // Scans allowed in flight on one stream by default: well under the server's default session
 // queue (64 messages), with room for the odometry message that precedes each scan.
 inline constexpr int kDefaultScanWindow = 16;
+// Frames allowed in flight on a visual session's stream by default: enough to keep the session's
+// worker busy while the next frame travels, few enough that a slow session does not buffer
+// seconds of camera frames (each is ~0.1-1 MB).
+inline constexpr int kDefaultFrameWindow = 4;
 
 // Client side of SlamService.StreamSensorData with flow control: at most `window` scans are
 // outstanding (sent and not yet answered by a SlamUpdate; a rejection counts as an answer), so a
 // sender faster than the session never overflows the server's bounded session queue. Odometry
 // messages are not answered unless rejected, and are not windowed (each precedes a scan).
+// Visual sessions send image frames instead: each is answered like a scan and shares its window.
 //
 // Updates are read on an internal thread and handed to `on_update` (on that thread). Send* and
 // Finish() belong to one thread.
@@ -51,9 +56,11 @@ class SensorStream {
   struct Stats {
     uint64_t scans_sent = 0;
     uint64_t odometry_sent = 0;
-    uint64_t updates = 0;           // processed scans (no rejection)
+    uint64_t updates = 0;           // processed scans or frames (no rejection)
     uint64_t scans_rejected = 0;    // scan answered with a rejection
     uint64_t odometry_rejected = 0;
+    uint64_t frames_sent = 0;       // image frames (visual sessions)
+    uint64_t frames_rejected = 0;   // frame answered with a rejection
     uint64_t queue_full = 0;        // rejections with RESOURCE_EXHAUSTED (any message)
     int max_outstanding = 0;        // the most scans ever in flight
   };
@@ -68,6 +75,8 @@ class SensorStream {
   absl::Status SendOdometry(const v1::Odometry& odometry);
   // Waits until fewer than `window` scans are outstanding, then sends the scan.
   absl::Status SendScan(const v1::LaserScan& scan);
+  // Visual sessions: waits like SendScan (frames and scans share the window), then sends.
+  absl::Status SendFrame(const v1::ImageFrame& frame);
   // Waits until every scan sent so far is answered (a rejection counts). DEADLINE_EXCEEDED after
   // `timeout`, UNAVAILABLE if the stream ended first. The update callback of the last answer has
   // returned by then.
@@ -92,6 +101,8 @@ class SensorStream {
 
  private:
   absl::Status Send(v1::SensorData& message);
+  // Waits for room in the window, numbers `message` and counts it as outstanding.
+  absl::Status SendWindowed(v1::SensorData& message, bool is_frame);
   void ReadLoop();
 
   const int window_;
@@ -103,7 +114,8 @@ class SensorStream {
 
   mutable std::mutex mutex_;
   std::condition_variable changed_;
-  std::unordered_set<uint64_t> outstanding_scans_;  // sequences
+  std::unordered_set<uint64_t> outstanding_scans_;  // sequences of scans and frames
+  std::unordered_set<uint64_t> outstanding_frames_;  // the frames among them
   std::unordered_set<uint64_t> odometry_sequences_;  // only kept to classify rejections
   Stats stats_;
   absl::Duration answer_timeout_ = absl::Seconds(120);
