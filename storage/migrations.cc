@@ -120,6 +120,61 @@ CREATE TABLE tokens (
 );
 )sql";
 
+// v4: visual odometry sessions (issue 7).
+// - kind may be 'visual' (SQLite cannot alter a CHECK constraint, so slam_session is rebuilt).
+// - Trajectory poses get the rest of a 3-D pose: x, y (the existing columns) with z and the unit
+//   quaternion (qx, qy, qz, qw); NULL for laser rows, whose pose is (x, y, theta).
+// The tables are rebuilt child first so that dropping the old session table cascades into
+// nothing; RENAME then points the new trajectory's foreign key at the renamed session table.
+constexpr absl::string_view kV4VisualSessions = R"sql(
+CREATE TABLE slam_session_v4 (
+  id TEXT PRIMARY KEY,
+  robot_id TEXT NOT NULL,
+  name TEXT NOT NULL DEFAULT '',
+  kind TEXT NOT NULL CHECK (kind IN ('laser', 'visual')),
+  config BLOB NOT NULL,
+  state TEXT NOT NULL CHECK (state IN ('open', 'closed')),
+  created_at REAL NOT NULL,
+  updated_at REAL NOT NULL,
+  scans_processed INTEGER NOT NULL DEFAULT 0,
+  checkpoint BLOB,
+  checkpoint_at REAL,
+  map_revision INTEGER NOT NULL DEFAULT 0,
+  segments INTEGER NOT NULL DEFAULT 0,
+  last_scan_stamp REAL,
+  last_odometry_stamp REAL
+);
+INSERT INTO slam_session_v4 (id, robot_id, name, kind, config, state, created_at, updated_at,
+    scans_processed, checkpoint, checkpoint_at, map_revision, segments, last_scan_stamp,
+    last_odometry_stamp)
+  SELECT id, robot_id, name, kind, config, state, created_at, updated_at, scans_processed,
+    checkpoint, checkpoint_at, map_revision, segments, last_scan_stamp, last_odometry_stamp
+  FROM slam_session;
+CREATE TABLE slam_trajectory_v4 (
+  session_id TEXT NOT NULL REFERENCES slam_session_v4(id) ON DELETE CASCADE,
+  seq INTEGER NOT NULL,
+  stamp REAL NOT NULL,
+  x REAL NOT NULL,
+  y REAL NOT NULL,
+  theta REAL NOT NULL,
+  covariance BLOB NOT NULL,
+  z REAL,
+  qx REAL,
+  qy REAL,
+  qz REAL,
+  qw REAL,
+  PRIMARY KEY (session_id, seq)
+) WITHOUT ROWID;
+INSERT INTO slam_trajectory_v4 (session_id, seq, stamp, x, y, theta, covariance)
+  SELECT session_id, seq, stamp, x, y, theta, covariance FROM slam_trajectory;
+DROP TABLE slam_trajectory;
+DROP TABLE slam_session;
+ALTER TABLE slam_session_v4 RENAME TO slam_session;
+ALTER TABLE slam_trajectory_v4 RENAME TO slam_trajectory;
+CREATE INDEX slam_session_robot_id ON slam_session(robot_id);
+CREATE INDEX slam_session_state ON slam_session(state);
+)sql";
+
 absl::Status TooNewError(sqlite::Connection& connection, int version, int latest) {
   return absl::FailedPreconditionError(absl::StrCat(
       "database \"", connection.path(), "\" has schema version ", version,
@@ -135,6 +190,7 @@ const std::vector<absl::string_view>& SchemaMigrations() {
       kV1CrossingTables,
       kV2SlamTables,
       kV3Tokens,
+      kV4VisualSessions,
   };
   return *kSteps;
 }

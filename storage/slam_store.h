@@ -28,7 +28,7 @@ struct SlamSessionRecord {
   std::string id;  // chosen by the caller (the service: 32 random hex digits)
   std::string robot_id;
   std::string name;
-  std::string kind = "laser";  // the only kind so far
+  std::string kind = "laser";  // "laser" or "visual"
   std::string config;          // opaque (the service stores its serialized config message)
   SlamSessionState state = SlamSessionState::kOpen;
   double created_at = 0;  // unix seconds; CreateSession fills created_at and updated_at
@@ -45,14 +45,22 @@ struct SlamSessionRecord {
   int64_t trajectory_length = 0;  // poses stored (read-only: filled by Get/List)
 };
 
+// The rest of a 3-D pose (visual sessions): with the record's x and y, the position (x, y, z)
+// and the orientation as a unit quaternion.
+struct Pose3Extra {
+  double z = 0;
+  double qx = 0, qy = 0, qz = 0, qw = 1;
+};
+
 // One pose of a session's trajectory. seq numbers the poses 0, 1, 2, ... in order.
 struct TrajectoryPoseRecord {
   int64_t seq = 0;
   double stamp = 0;
   double x = 0;
   double y = 0;
-  double theta = 0;
-  std::array<double, 9> covariance{};  // 3x3 of (x, y, theta), row-major
+  double theta = 0;                    // laser poses; 0 for 3-D poses
+  std::array<double, 9> covariance{};  // 3x3 of (x, y, theta), row-major; zeros for 3-D poses
+  std::optional<Pose3Extra> pose3;     // set for 3-D poses (stored NULL for laser rows)
 };
 
 // Everything a checkpoint writes, in one transaction: the engine state, the counters, and the

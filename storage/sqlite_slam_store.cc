@@ -47,8 +47,13 @@ absl::Status CheckFinite(const SlamCheckpoint& checkpoint) {
     }
   }
   for (const TrajectoryPoseRecord& pose : checkpoint.new_poses) {
+    const bool finite3 =
+        !pose.pose3.has_value() ||
+        (std::isfinite(pose.pose3->z) && std::isfinite(pose.pose3->qx) &&
+         std::isfinite(pose.pose3->qy) && std::isfinite(pose.pose3->qz) &&
+         std::isfinite(pose.pose3->qw));
     if (!std::isfinite(pose.stamp) || !std::isfinite(pose.x) || !std::isfinite(pose.y) ||
-        !std::isfinite(pose.theta)) {
+        !std::isfinite(pose.theta) || !finite3) {
       return absl::InvalidArgumentError(
           absl::StrCat("trajectory pose ", pose.seq, " has a non-finite stamp or pose"));
     }
@@ -105,9 +110,9 @@ class SqliteSlamStore final : public SlamStore {
 
   absl::StatusOr<SlamSessionRecord> CreateSession(const SlamSessionRecord& session) override {
     if (session.id.empty()) return absl::InvalidArgumentError("SLAM session id is empty");
-    if (session.kind != "laser") {
-      return absl::InvalidArgumentError(
-          absl::StrCat("SLAM session kind ", Quoted(session.kind), " is not supported (laser)"));
+    if (session.kind != "laser" && session.kind != "visual") {
+      return absl::InvalidArgumentError(absl::StrCat(
+          "SLAM session kind ", Quoted(session.kind), " is not supported (laser, visual)"));
     }
     std::lock_guard<std::mutex> lock(mutex_);
     SlamSessionRecord created = session;
@@ -188,7 +193,8 @@ class SqliteSlamStore final : public SlamStore {
     std::lock_guard<std::mutex> lock(mutex_);
     ASSIGN_OR_RETURN(SlamSessionRecord session, GetSessionLocked(id, false));
     ASSIGN_OR_RETURN(Statement stmt,
-                     connection_.Prepare("SELECT seq, stamp, x, y, theta, covariance "
+                     connection_.Prepare("SELECT seq, stamp, x, y, theta, covariance, "
+                                         "z, qx, qy, qz, qw "
                                          "FROM slam_trajectory WHERE session_id = ? ORDER BY seq"));
     RETURN_IF_ERROR(stmt.BindText(1, id));
     std::vector<TrajectoryPoseRecord> poses;
@@ -215,6 +221,17 @@ class SqliteSlamStore final : public SlamStore {
                                                 kCovarianceBytes));
       }
       std::memcpy(pose.covariance.data(), covariance.data(), kCovarianceBytes);
+      if (!stmt.ColumnIsNull(6)) {
+        for (int column = 7; column <= 10; ++column) {
+          if (stmt.ColumnIsNull(column)) {
+            return absl::DataLossError(absl::StrCat("SLAM session ", Quoted(id),
+                                                    ": trajectory pose ", pose.seq,
+                                                    " has z but not its whole orientation"));
+          }
+        }
+        pose.pose3 = Pose3Extra{stmt.ColumnDouble(6), stmt.ColumnDouble(7), stmt.ColumnDouble(8),
+                                stmt.ColumnDouble(9), stmt.ColumnDouble(10)};
+      }
       poses.push_back(pose);
     }
     return poses;
@@ -255,8 +272,9 @@ class SqliteSlamStore final : public SlamStore {
     int64_t next_seq = session.trajectory_length;
     ASSIGN_OR_RETURN(Statement insert,
                      connection_.Prepare("INSERT INTO slam_trajectory "
-                                         "(session_id, seq, stamp, x, y, theta, covariance) "
-                                         "VALUES (?, ?, ?, ?, ?, ?, ?)"));
+                                         "(session_id, seq, stamp, x, y, theta, covariance, "
+                                         "z, qx, qy, qz, qw) "
+                                         "VALUES (?, ?, ?, ?, ?, ?, ?, ?, ?, ?, ?, ?)"));
     for (const TrajectoryPoseRecord& pose : checkpoint.new_poses) {
       if (pose.seq != next_seq) {
         return absl::InvalidArgumentError(absl::StrCat(
@@ -271,6 +289,15 @@ class SqliteSlamStore final : public SlamStore {
       RETURN_IF_ERROR(insert.BindDouble(5, pose.y));
       RETURN_IF_ERROR(insert.BindDouble(6, pose.theta));
       RETURN_IF_ERROR(insert.BindBlob(7, pose.covariance.data(), kCovarianceBytes));
+      if (pose.pose3.has_value()) {
+        RETURN_IF_ERROR(insert.BindDouble(8, pose.pose3->z));
+        RETURN_IF_ERROR(insert.BindDouble(9, pose.pose3->qx));
+        RETURN_IF_ERROR(insert.BindDouble(10, pose.pose3->qy));
+        RETURN_IF_ERROR(insert.BindDouble(11, pose.pose3->qz));
+        RETURN_IF_ERROR(insert.BindDouble(12, pose.pose3->qw));
+      } else {
+        for (int index = 8; index <= 12; ++index) RETURN_IF_ERROR(insert.BindNull(index));
+      }
       RETURN_IF_ERROR(insert.Run());
       ++next_seq;
     }

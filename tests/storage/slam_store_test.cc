@@ -99,9 +99,9 @@ TEST(SlamStoreTest, Errors) {
   ASSERT_OK(store->CreateSession(MakeSession("a1", "r")));
   EXPECT_EQ(CodeOf(store->CreateSession(MakeSession("a1", "r"))), absl::StatusCode::kAlreadyExists);
   EXPECT_EQ(CodeOf(store->CreateSession(MakeSession("", "r"))), absl::StatusCode::kInvalidArgument);
-  SlamSessionRecord visual = MakeSession("v", "r");
-  visual.kind = "visual";
-  EXPECT_EQ(CodeOf(store->CreateSession(visual)), absl::StatusCode::kInvalidArgument);
+  SlamSessionRecord unknown = MakeSession("v", "r");
+  unknown.kind = "sonar";  // laser and visual are the kinds
+  EXPECT_EQ(CodeOf(store->CreateSession(unknown)), absl::StatusCode::kInvalidArgument);
   EXPECT_EQ(CodeOf(store->GetSession("nope")), absl::StatusCode::kNotFound);
   EXPECT_EQ(CodeOf(store->LoadTrajectory("nope")), absl::StatusCode::kNotFound);
   EXPECT_EQ(CodeOf(store->WriteCheckpoint("nope", Checkpoint("s", 1, 0, 1))),

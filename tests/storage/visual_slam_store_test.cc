@@ -1,0 +1,148 @@
+// Visual sessions in the SQLite SlamStore (schema v4): the kind is accepted, 3-D trajectory poses
+// round-trip with their z and quaternion while laser rows keep NULL there, and a v3 file (laser
+// sessions only) migrates with its sessions and trajectories intact and its cascade still working.
+
+#include <cmath>
+#include <limits>
+#include <string>
+#include <vector>
+
+#include "gtest/gtest.h"
+#include "storage/migrations.h"
+#include "storage/slam_store.h"
+#include "storage/sqlite.h"
+#include "tests/storage/status_testing.h"
+#include "tests/storage/temp_dir.h"
+
+namespace waymark::storage {
+namespace {
+
+using sqlite::Connection;
+using sqlite::Statement;
+using ::waymark::storage::testing::CodeOf;
+using ::waymark::storage::testing::TempDir;
+
+SlamSessionRecord MakeSession(const std::string& id, const std::string& kind) {
+  SlamSessionRecord session;
+  session.id = id;
+  session.robot_id = "r";
+  session.kind = kind;
+  session.config = "cfg";
+  return session;
+}
+
+TrajectoryPoseRecord Pose3(int64_t seq) {
+  TrajectoryPoseRecord pose;
+  pose.seq = seq;
+  pose.stamp = 10.0 + static_cast<double>(seq);
+  pose.x = 0.1 * static_cast<double>(seq);
+  pose.y = -0.2;
+  pose.pose3 = Pose3Extra{1.5, 0.0, 0.6, 0.0, 0.8};
+  return pose;
+}
+
+TrajectoryPoseRecord Pose2(int64_t seq) {
+  TrajectoryPoseRecord pose;
+  pose.seq = seq;
+  pose.stamp = 20.0 + static_cast<double>(seq);
+  pose.x = 1;
+  pose.y = 2;
+  pose.theta = 0.3;
+  pose.covariance[0] = 0.01;
+  return pose;
+}
+
+int64_t CountNullZ(Connection& connection) {
+  absl::StatusOr<Statement> stmt =
+      connection.Prepare("SELECT COUNT(*) FROM slam_trajectory WHERE z IS NULL AND qw IS NULL");
+  if (!stmt.ok() || !stmt->Step().ok()) return -1;
+  return stmt->ColumnInt64(0);
+}
+
+TEST(VisualSlamStoreTest, ThreeDimensionalPosesRoundTripBesideLaserRows) {
+  TempDir dir;
+  ASSERT_OK_AND_ASSIGN(auto store, OpenSqliteSlamStore(dir.File("v.db")));
+  ASSERT_OK_AND_ASSIGN(SlamSessionRecord visual, store->CreateSession(MakeSession("v", "visual")));
+  EXPECT_EQ(visual.kind, "visual");
+  ASSERT_OK(store->CreateSession(MakeSession("l", "laser")));
+
+  SlamCheckpoint checkpoint;
+  checkpoint.state = "vo";
+  checkpoint.scans_processed = 2;
+  checkpoint.last_scan_stamp = 11.0;
+  checkpoint.new_poses = {Pose3(0), Pose3(1)};
+  ASSERT_OK(store->WriteCheckpoint("v", checkpoint));
+  SlamCheckpoint laser;
+  laser.state = "ekf";
+  laser.scans_processed = 1;
+  laser.new_poses = {Pose2(0)};
+  ASSERT_OK(store->WriteCheckpoint("l", laser));
+
+  ASSERT_OK_AND_ASSIGN(std::vector<TrajectoryPoseRecord> poses, store->LoadTrajectory("v"));
+  ASSERT_EQ(poses.size(), 2u);
+  ASSERT_TRUE(poses[1].pose3.has_value());
+  EXPECT_DOUBLE_EQ(poses[1].x, 0.1);
+  EXPECT_DOUBLE_EQ(poses[1].pose3->z, 1.5);
+  EXPECT_DOUBLE_EQ(poses[1].pose3->qy, 0.6);
+  EXPECT_DOUBLE_EQ(poses[1].pose3->qw, 0.8);
+  ASSERT_OK_AND_ASSIGN(std::vector<TrajectoryPoseRecord> laser_poses, store->LoadTrajectory("l"));
+  ASSERT_EQ(laser_poses.size(), 1u);
+  EXPECT_FALSE(laser_poses[0].pose3.has_value());
+  EXPECT_DOUBLE_EQ(laser_poses[0].theta, 0.3);
+  ASSERT_OK_AND_ASSIGN(SlamSessionRecord got, store->GetSession("v"));
+  EXPECT_EQ(got.kind, "visual");
+  EXPECT_EQ(got.trajectory_length, 2);
+
+  ASSERT_OK_AND_ASSIGN(Connection connection, Connection::Open(dir.File("v.db")));
+  EXPECT_EQ(CountNullZ(connection), 1);  // the laser row only
+
+  SlamCheckpoint nan = checkpoint;
+  nan.new_poses = {Pose3(2)};
+  nan.new_poses[0].pose3->qx = std::numeric_limits<double>::quiet_NaN();
+  EXPECT_EQ(CodeOf(store->WriteCheckpoint("v", nan)), absl::StatusCode::kInvalidArgument);
+}
+
+TEST(VisualSlamStoreTest, VersionThreeFileMigratesWithItsLaserSessions) {
+  TempDir dir;
+  const std::string path = dir.File("old.db");
+  {
+    // The file as a v3 build left it: laser rows in the v2 tables.
+    ASSERT_OK_AND_ASSIGN(Connection connection, Connection::Open(path));
+    std::vector<absl::string_view> v3(SchemaMigrations().begin(), SchemaMigrations().begin() + 3);
+    ASSERT_OK(ApplyMigrations(connection, v3));
+    ASSERT_OK(connection.Exec(
+        "INSERT INTO slam_session (id, robot_id, kind, config, state, created_at, updated_at, "
+        "scans_processed, checkpoint, last_scan_stamp) "
+        "VALUES ('old', 'r', 'laser', x'01', 'open', 1, 2, 7, x'0203', 5.5)"));
+    ASSERT_OK(connection.Exec(
+        "INSERT INTO slam_trajectory VALUES ('old', 0, 5.0, 1.0, 2.0, 0.5, zeroblob(72)), "
+        "('old', 1, 5.5, 1.5, 2.5, 0.6, zeroblob(72))"));
+  }
+  ASSERT_OK_AND_ASSIGN(auto store, OpenSqliteSlamStore(path));
+  ASSERT_OK_AND_ASSIGN(SlamSessionRecord old, store->GetSession("old"));
+  EXPECT_EQ(old.kind, "laser");
+  EXPECT_EQ(old.scans_processed, 7);
+  EXPECT_EQ(old.checkpoint, std::string("\x02\x03"));
+  ASSERT_TRUE(old.last_scan_stamp.has_value());
+  EXPECT_DOUBLE_EQ(*old.last_scan_stamp, 5.5);
+  EXPECT_EQ(old.trajectory_length, 2);
+  ASSERT_OK_AND_ASSIGN(std::vector<TrajectoryPoseRecord> poses, store->LoadTrajectory("old"));
+  ASSERT_EQ(poses.size(), 2u);
+  EXPECT_DOUBLE_EQ(poses[1].theta, 0.6);
+  EXPECT_FALSE(poses[1].pose3.has_value());
+
+  ASSERT_OK(store->CreateSession(MakeSession("new", "visual")));  // the new CHECK allows it
+  // The rebuilt trajectory table still cascades from the (renamed) session table.
+  ASSERT_OK(store->DeleteSession("old"));
+  EXPECT_EQ(CodeOf(store->LoadTrajectory("old")), absl::StatusCode::kNotFound);
+  ASSERT_OK_AND_ASSIGN(Connection connection, Connection::Open(path));
+  absl::StatusOr<Statement> count = connection.Prepare("SELECT COUNT(*) FROM slam_trajectory");
+  ASSERT_OK(count.status());
+  ASSERT_OK(count->Step().status());
+  EXPECT_EQ(count->ColumnInt64(0), 0);
+  ASSERT_OK_AND_ASSIGN(int version, ReadSchemaVersion(connection));
+  EXPECT_EQ(version, CurrentSchemaVersion());
+}
+
+}  // namespace
+}  // namespace waymark::storage
