@@ -1,0 +1,65 @@
+#ifndef WAYMARK_SERVER_VISUAL_SLAM_ESSENTIAL_SOLVER_H_
+#define WAYMARK_SERVER_VISUAL_SLAM_ESSENTIAL_SOLVER_H_
+
+// The monocular motion model (eq 13-15): the essential matrix from the epipolar constraint of
+// normalized pairs (8-point algorithm with Hartley normalization, then projection onto the
+// essential manifold: two equal singular values and a zero one), and its decomposition E = t^ R
+// into the one of four (R, t) that puts most pairs in front of both cameras (cheirality vote).
+// Translations are directions: |t| = 1. Convention: x_c^T E x_r = 0 (see two_view.h).
+
+#include <optional>
+#include <vector>
+
+#include <Eigen/Core>
+
+#include "absl/status/statusor.h"
+#include "server/visual_slam/correspondence.h"
+#include "server/visual_slam/sequential_sampler.h"
+#include "server/visual_slam/types.h"
+
+namespace waymark::visual_slam {
+
+class EssentialSolver : public MotionSolver {
+ public:
+  // Keeps a reference to `correspondences`: it must outlive the solver.
+  EssentialSolver(const std::vector<Correspondence>& correspondences, double focal_px);
+
+  int SampleSize() const override { return 8; }
+  // At most one motion; none for a degenerate sample (points on a line, no translation, ...).
+  std::vector<Motion> Solve(const std::vector<int>& sample) const override;
+  // Sampson distance to the epipolar constraint of `motion`, times focal_px.
+  double ErrorPx(const Motion& motion, int i) const override;
+  bool UnitTranslation() const override { return true; }
+
+ private:
+  const std::vector<Correspondence>& correspondences_;
+  double focal_px_;
+};
+
+// E from >= 8 pairs (least squares over all of them), projected onto the essential manifold
+// (Frobenius norm sqrt(2)); nullopt when the pairs do not determine E (the constraint matrix has
+// more than a one-dimensional null space: fewer than 8 distinct pairs, degenerate structure or
+// no translation) or an index is out of range.
+std::optional<Eigen::Matrix3d> EssentialFromPairs(const std::vector<Correspondence>& c,
+                                                  const std::vector<int>& indices);
+
+// The (R, t), |t| = 1, of E = t^ R that puts most of `indices` in front of both cameras, with that
+// count; nullopt when none is in front.
+struct Decomposition {
+  Motion motion;
+  int in_front = 0;
+};
+std::optional<Decomposition> DecomposeEssential(const Eigen::Matrix3d& E,
+                                                const std::vector<Correspondence>& c,
+                                                const std::vector<int>& indices);
+
+// eq 14-15 over all inliers (least squares, >= 8), decomposition with cheirality over all inliers;
+// |t| = 1. INVALID_ARGUMENT for fewer than 8 inliers or an index out of range;
+// FAILED_PRECONDITION when the inliers do not determine a motion (degenerate E, or fewer than
+// half of them in front of both cameras under every decomposition).
+absl::StatusOr<Motion> EssentialFromInliers(const std::vector<Correspondence>& c,
+                                            const std::vector<int>& inliers);
+
+}  // namespace waymark::visual_slam
+
+#endif  // WAYMARK_SERVER_VISUAL_SLAM_ESSENTIAL_SOLVER_H_
