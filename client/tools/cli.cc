@@ -1,6 +1,7 @@
 #include "client/tools/cli.h"
 
 #include "client/tools/command.h"
+#include "client/tools/vo_command.h"
 
 namespace waymark::cli {
 
@@ -49,6 +50,7 @@ int RunCli(int argc, const char* const* argv, std::ostream& out, std::ostream& e
   AddHealthCommand(app, registry);
   AddBenchLoadCommand(app, registry);
   AddTokenCommands(app, registry);
+  AddVoCommands(app, registry);
 
   try {
     app.parse(argc, argv);
