@@ -3,6 +3,8 @@
 #include <cmath>
 #include <limits>
 
+#include <Eigen/Cholesky>
+#include <Eigen/Geometry>
 #include <Eigen/SVD>
 
 #include "absl/strings/str_cat.h"
@@ -31,6 +33,89 @@ Eigen::Matrix3d Normalizer(const std::vector<Eigen::Vector2d>& points) {
   Eigen::Matrix3d T;
   T << s, 0, -s * mean.x(), 0, s, -s * mean.y(), 0, 0, 1;
   return T;
+}
+
+// Signed Sampson residuals of `indices` under `m`, with a Huber weight at `huber` (normalized).
+double SampsonCost(const Motion& m, const std::vector<Correspondence>& c,
+                   const std::vector<int>& indices, double huber, Eigen::VectorXd* residuals) {
+  const Eigen::Matrix3d E = EssentialOf(m);
+  residuals->resize(indices.size());
+  double total = 0;
+  for (size_t k = 0; k < indices.size(); ++k) {
+    const Eigen::Vector3d xr(c[indices[k]].reference.x(), c[indices[k]].reference.y(), 1);
+    const Eigen::Vector3d xc(c[indices[k]].current.x(), c[indices[k]].current.y(), 1);
+    const Eigen::Vector3d ex = E * xr, etx = E.transpose() * xc;
+    const double den = ex.head<2>().squaredNorm() + etx.head<2>().squaredNorm();
+    const double r = den > 0 ? xc.dot(ex) / std::sqrt(den) : 0;
+    (*residuals)(k) = r;
+    const double a = std::abs(r);
+    total += a <= huber ? 0.5 * r * r : huber * (a - 0.5 * huber);
+  }
+  return total;
+}
+
+// (R, t) moved by `delta`: rotation exp(delta[0..2]) applied on the left, the unit translation
+// tilted along two directions orthogonal to it.
+Motion Perturb(const Motion& m, const Eigen::Matrix<double, 5, 1>& delta) {
+  const Eigen::Vector3d w = delta.head<3>();
+  Motion out;
+  const double angle = w.norm();
+  const Eigen::Matrix3d dR = angle < 1e-15 ? Eigen::Matrix3d::Identity()
+                                           : Eigen::AngleAxisd(angle, w / angle).toRotationMatrix();
+  out.R = dR * m.R;
+  Eigen::Vector3d b1 = m.t.unitOrthogonal();
+  Eigen::Vector3d b2 = m.t.cross(b1).normalized();
+  out.t = dR * (m.t + delta(3) * b1 + delta(4) * b2).normalized();
+  return out;
+}
+
+// Levenberg-Marquardt on the Sampson errors of the inliers (Huber weight at about 1 px of a
+// 500 px focal length): the linear 8-point solution minimizes an algebraic error that weighs the
+// pairs unevenly, which costs degrees of translation direction on small baselines.
+Motion RefineOnSampson(const Motion& start, const std::vector<Correspondence>& c,
+                       const std::vector<int>& indices) {
+  constexpr double kHuber = 1.0 / 500;
+  constexpr double kStep = 1e-7;
+  Motion m = start;
+  Eigen::VectorXd r, r_step;
+  double cost = SampsonCost(m, c, indices, kHuber, &r);
+  double lambda = 1e-3;
+  for (int iteration = 0; iteration < 20; ++iteration) {
+    Eigen::MatrixXd J(indices.size(), 5);
+    for (int p = 0; p < 5; ++p) {
+      Eigen::Matrix<double, 5, 1> d = Eigen::Matrix<double, 5, 1>::Zero();
+      d(p) = kStep;
+      SampsonCost(Perturb(m, d), c, indices, kHuber, &r_step);
+      J.col(p) = (r_step - r) / kStep;
+    }
+    Eigen::VectorXd w(indices.size());
+    for (Eigen::Index k = 0; k < r.size(); ++k)
+      w(k) = std::abs(r(k)) <= kHuber ? 1.0 : kHuber / std::abs(r(k));
+    const Eigen::Matrix<double, 5, 5> H = J.transpose() * w.asDiagonal() * J;
+    const Eigen::Matrix<double, 5, 1> g = J.transpose() * w.asDiagonal() * r;
+    bool improved = false;
+    for (int attempt = 0; attempt < 8 && !improved; ++attempt) {
+      Eigen::Matrix<double, 5, 5> A = H;
+      A.diagonal() *= 1 + lambda;
+      A.diagonal().array() += 1e-12;
+      const Eigen::Matrix<double, 5, 1> step = A.ldlt().solve(-g);
+      if (!step.allFinite()) return m;
+      const Motion next = Perturb(m, step);
+      Eigen::VectorXd r_next;
+      const double next_cost = SampsonCost(next, c, indices, kHuber, &r_next);
+      if (next_cost < cost) {
+        const bool converged = cost - next_cost < 1e-12 * cost;
+        m = next, r = r_next, cost = next_cost;
+        lambda = std::max(1e-9, lambda * 0.1);
+        improved = true;
+        if (converged) return m;
+      } else {
+        lambda *= 10;
+      }
+    }
+    if (!improved) break;
+  }
+  return m;
 }
 
 }  // namespace
@@ -114,6 +199,13 @@ double EssentialSolver::ErrorPx(const Motion& motion, int i) const {
   return SampsonDistance(EssentialOf(motion), c.reference, c.current) * focal_px_;
 }
 
+std::optional<Motion> EssentialSolver::Refine(const Motion& motion,
+                                              const std::vector<int>& inliers) const {
+  absl::StatusOr<Motion> m = EssentialFromInliers(correspondences_, inliers);
+  if (!m.ok()) return std::nullopt;
+  return *m;
+}
+
 absl::StatusOr<Motion> EssentialFromInliers(const std::vector<Correspondence>& c,
                                             const std::vector<int>& inliers) {
   if (inliers.size() < 8) {
@@ -135,7 +227,29 @@ absl::StatusOr<Motion> EssentialFromInliers(const std::vector<Correspondence>& c
         "no decomposition of E puts half of the ", inliers.size(),
         " inliers in front of both cameras (", d ? d->in_front : 0, ")"));
   }
-  return d->motion;
+  // Pairs behind a camera under the voted motion contradict it: outliers that happen to lie near
+  // an epipolar line, or points too far for their parallax to show. Neither helps to pin the
+  // translation down, so the motion is estimated again without them and then polished.
+  std::vector<int> in_front;
+  for (int i : inliers) {
+    const auto depths = PairDepths(d->motion, c[i].reference, c[i].current);
+    if (depths && (*depths)(0) > 0 && (*depths)(1) > 0) in_front.push_back(i);
+  }
+  Motion linear = d->motion;
+  if (in_front.size() >= 8 && in_front.size() < inliers.size()) {
+    const std::optional<Eigen::Matrix3d> E2 = EssentialFromPairs(c, in_front);
+    const std::optional<Decomposition> d2 =
+        E2 ? DecomposeEssential(*E2, c, in_front) : std::nullopt;
+    if (d2 && 2 * d2->in_front >= static_cast<int>(in_front.size())) linear = d2->motion;
+  }
+  const Motion refined = RefineOnSampson(linear, c, in_front.size() >= 8 ? in_front : inliers);
+  // Keep the polish only while it stays the decomposition the cheirality vote picks.
+  const std::optional<Decomposition> check = DecomposeEssential(EssentialOf(refined), c, inliers);
+  if (!refined.R.allFinite() || !refined.t.allFinite() || !check ||
+      (check->motion.t - refined.t).norm() > 1e-6 || (check->motion.R - refined.R).norm() > 1e-6) {
+    return linear;
+  }
+  return refined;
 }
 
 }  // namespace waymark::visual_slam

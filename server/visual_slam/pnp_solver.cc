@@ -82,6 +82,13 @@ double PnpSolver::ErrorPx(const Motion& motion, int i) const {
   return std::isfinite(e) ? e : kInf;
 }
 
+std::optional<Motion> PnpSolver::Refine(const Motion& motion,
+                                        const std::vector<int>& inliers) const {
+  absl::StatusOr<Motion> m = RefinePnp(correspondences_, inliers, motion, focal_px_);
+  if (!m.ok()) return std::nullopt;
+  return *m;
+}
+
 absl::StatusOr<Motion> RefinePnp(const std::vector<Correspondence>& c,
                                  const std::vector<int>& inliers, const Motion& initial,
                                  double focal_px) {

@@ -6,6 +6,7 @@
 // robust Gauss-Newton (Levenberg-Marquardt) refinement on the reprojection error of the inliers.
 // Translations are metric.
 
+#include <optional>
 #include <vector>
 
 #include "absl/status/statusor.h"
@@ -27,6 +28,9 @@ class PnpSolver : public MotionSolver {
   std::vector<Motion> Solve(const std::vector<int>& sample) const override;
   // |project(R X + t) - current| * focal_px; +inf without reference_point or behind the camera.
   double ErrorPx(const Motion& motion, int i) const override;
+  // RefinePnp on the inliers, from `motion`.
+  std::optional<Motion> Refine(const Motion& motion,
+                               const std::vector<int>& inliers) const override;
 
  private:
   const std::vector<Correspondence>& correspondences_;

@@ -82,6 +82,25 @@ std::vector<int> DrawSample(const std::vector<int>& pool, int m, int j, int per_
   return sample;
 }
 
+// The hypothesis of `motion` with its inliers among `candidates`; `msac` (optional) receives the
+// truncated squared error sum_i min(e_i, threshold)^2, which ranks polished motions better than a
+// count (a polish that drops an outlier lowers the count but also the error).
+Hypothesis Score(const MotionSolver& solver, const Motion& motion,
+                 const std::vector<int>& candidates, double threshold_px, double* msac = nullptr) {
+  Hypothesis h{motion, {}};
+  double total = 0;
+  for (int c : candidates) {
+    const double e = c >= 0 ? solver.ErrorPx(motion, c) : std::numeric_limits<double>::infinity();
+    if (e <= threshold_px) h.inliers.push_back(c);
+    const double capped = std::min(e, threshold_px);
+    total += capped * capped;
+  }
+  if (msac) *msac = total;
+  std::sort(h.inliers.begin(), h.inliers.end());
+  h.inliers.erase(std::unique(h.inliers.begin(), h.inliers.end()), h.inliers.end());
+  return h;
+}
+
 }  // namespace
 
 double MotionDifference(const Motion& a, const Motion& b, double lambda1, double lambda2) {
@@ -168,12 +187,25 @@ SamplerResult SequentialSample(const MotionSolver& solver, const std::vector<int
   Rng rng(options.seed);
   const int max_rounds = std::max(1, options.max_rounds);
   for (int round = 0; round < max_rounds; ++round) {
+    bool eta_updated = false;
     std::vector<int> pool;
     for (int p : order)
       if (samplable[p]) pool.push_back(p);
     if (static_cast<int>(pool.size()) < m) break;
+    // The pairs M1 does not explain, in eta order: every other sample of the round comes from
+    // them, so that a competing motion (or the true one, when M1 is wrong) gets pure samples.
+    std::vector<int> residual;
+    if (!result.best.empty()) {
+      const std::vector<int>& m1 = result.best[0].inliers;
+      for (int p : pool)
+        if (!std::binary_search(m1.begin(), m1.end(), candidates[p])) residual.push_back(p);
+    }
+    const bool split = static_cast<int>(residual.size()) >= m && per_round >= 2;
+    const int main_count = split ? (per_round + 1) / 2 : per_round;
     for (int j = 0; j < per_round; ++j) {
-      const std::vector<int> sample_pos = DrawSample(pool, m, j, per_round, &rng);
+      const std::vector<int> sample_pos =
+          split && j % 2 == 1 ? DrawSample(residual, m, j / 2, per_round / 2, &rng)
+                              : DrawSample(pool, m, split ? j / 2 : j, main_count, &rng);
       std::vector<int> sample;
       for (int p : sample_pos) sample.push_back(candidates[p]);
       std::sort(sample.begin(), sample.end());
@@ -182,13 +214,7 @@ SamplerResult SequentialSample(const MotionSolver& solver, const std::vector<int
         if (!motion.R.allFinite() || !motion.t.allFinite()) continue;
         any_model = true;
         ++result.hypotheses;
-        Hypothesis h{motion, {}};
-        for (int c : candidates) {
-          if (c >= 0 && solver.ErrorPx(motion, c) <= inlier_threshold_px) h.inliers.push_back(c);
-        }
-        std::sort(h.inliers.begin(), h.inliers.end());
-        h.inliers.erase(std::unique(h.inliers.begin(), h.inliers.end()), h.inliers.end());
-        KeepHypothesis(std::move(h), &result.best);
+        KeepHypothesis(Score(solver, motion, candidates, inlier_threshold_px), &result.best);
       }
       if (!any_model) continue;
       const int ref = ReferenceHypothesis(result.best, sample);
@@ -196,13 +222,36 @@ SamplerResult SequentialSample(const MotionSolver& solver, const std::vector<int
       std::vector<int> reference;
       for (int c : result.best[ref].inliers) reference.push_back(position[c]);
       UpdateEta(sample_pos, reference, options.b1, options.b2, &result.eta);
+      eta_updated = true;
     }
     ++result.rounds;
     std::vector<int> reranked = Rank(result.eta, order);
-    if (reranked == order) break;
+    // A round in which no sample belonged to a kept hypothesis learned nothing: its unchanged
+    // ranking is not convergence, so sampling goes on (with new random draws).
+    if (eta_updated && reranked == order) break;
     order = std::move(reranked);
   }
   if (result.best.empty()) return result;
+
+  // Polish M1..M3 on their inliers, then rank them again.
+  std::vector<Hypothesis> polished;
+  for (Hypothesis& h : result.best) {
+    double msac = 0;
+    Score(solver, h.motion, candidates, inlier_threshold_px, &msac);
+    for (int pass = 0; pass < 3; ++pass) {
+      const std::optional<Motion> refined = solver.Refine(h.motion, h.inliers);
+      if (!refined || !refined->R.allFinite() || !refined->t.allFinite()) break;
+      double refined_msac = 0;
+      Hypothesis better = Score(solver, *refined, candidates, inlier_threshold_px, &refined_msac);
+      if (!(refined_msac < msac)) break;
+      const bool same_inliers = better.inliers == h.inliers;
+      h = std::move(better);
+      msac = refined_msac;
+      if (same_inliers) break;
+    }
+    KeepHypothesis(std::move(h), &polished);
+  }
+  result.best = std::move(polished);
 
   // eq 12: of the hypotheses with enough support, the one closest to the predicted motion.
   result.chosen = 0;

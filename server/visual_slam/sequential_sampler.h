@@ -12,7 +12,11 @@
 //   the pool's element n_j - 1 plus SampleSize() - 1 distinct random elements of the first
 //   n_j - 1, with the prefix n_j growing linearly from SampleSize() (sample 0 is the top
 //   SampleSize() pairs) to the whole pool at the round's last sample. So every round starts with
-//   the most probable pairs and still reaches all of them. The generator is a SplitMix64 seeded
+//   the most probable pairs and still reaches all of them. Once a hypothesis is kept, every other
+//   sample of a round is drawn the same way from the pairs outside M1's inliers (the residual,
+//   in eta order): the eta ranking favours M1's pairs, and without this a competing motion of
+//   similar support would almost never get a pure sample of 8 and never reach M2 (eq 12 would
+//   have nothing to choose from); when M1 is wrong, the residual holds the true inliers. The generator is a SplitMix64 seeded
 //   with options.seed: the same inputs give the same result on every platform.
 // - "Distinct" hypotheses (KeepHypothesis): two hypotheses are the same motion when their inlier
 //   sets share more than half of the smaller one. A new hypothesis that is the same motion as a
@@ -27,7 +31,14 @@
 //   best): this is what lets eq 10's third rule (-b1 for sample pairs outside I) push the
 //   outliers of contaminated samples down the ranking.
 // - eta is clamped to [0, 1]. Ranking ties keep the previous order (stable sort), so a round
-//   that changes no eta enough to swap two pairs ends the loop.
+//   that changes no eta enough to swap two pairs ends the loop. A round in which no sample
+//   belonged to a kept hypothesis (eta untouched, typically only contaminated samples so far)
+//   does not end it: nothing was learned, and the next round draws new samples.
+// - Before eq 12 each of M1..M3 is polished with MotionSolver::Refine on its inliers and its
+//   inliers found again (three times at most, or until they stop changing); a polish is kept
+//   only when it lowers the truncated squared error sum_i min(e_i, threshold)^2 over all
+//   candidates (MSAC). The three are then re-ranked by the rules above (two that converged to
+//   the same motion merge).
 // - eq 12 only among hypotheses with at least tie_break_fraction of M1's inliers; without a
 //   predicted motion M1 wins. For solvers with unit-norm translations (monocular) both
 //   translations are normalized before comparing (directions only).
@@ -53,6 +64,12 @@ class MotionSolver {
   // Error of correspondence i under `motion`, in pixels (normalized error * focal_px); +inf if
   // undefined (also for an index out of range).
   virtual double ErrorPx(const Motion& motion, int i) const = 0;
+  // Optional polish of a hypothesis on all its inliers (least squares); nullopt = keep it as is.
+  // The sampler polishes M1..M3 before eq 12 (a motion from a minimal sample is noisy enough to
+  // miss a few percent of the true inliers).
+  virtual std::optional<Motion> Refine(const Motion& motion, const std::vector<int>& inliers) const {
+    return std::nullopt;
+  }
   // True when the solver's translations are directions only (|t| = 1, monocular): eq 12 then
   // compares translation directions.
   virtual bool UnitTranslation() const { return false; }

@@ -1,2 +1,3 @@
 # Geometry of the visual odometry (server/visual_slam: box split, sampler, solvers, static test).
 waymark_test(box_split_test SOURCES box_split_test.cc LIBS waymark_visual_slam)
+waymark_test(sequential_sampler_test SOURCES sequential_sampler_test.cc LIBS waymark_visual_slam)
