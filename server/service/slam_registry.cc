@@ -15,20 +15,23 @@
 
 #include "absl/strings/str_cat.h"
 #include "server/common/stopwatch.h"
-#include "server/laser_slam/laser_slam.h"
+#include "server/service/laser_session_engine.h"
+#include "server/service/session_engine.h"
+#include "server/service/visual_params.h"
+#include "server/service/visual_session_engine.h"
 
 namespace waymark::service {
 
 using ::waymark::MsSince;
-namespace ls = laser_slam;
 using Clock = std::chrono::steady_clock;
 
 // One accepted message, converted to engine types at admission.
 struct QueuedMessage {
   uint64_t sequence = 0;
-  bool is_scan = false;
-  ls::OdometryReading odometry;
-  ls::LaserScan scan;
+  bool is_scan = false;  // answered: a scan or a frame
+  double stamp = 0;
+  size_t bytes = 0;
+  std::unique_ptr<EngineInput> input;
   Clock::time_point accepted;
 };
 
@@ -37,14 +40,14 @@ struct SlamRegistry::Session {
   std::string id;
   std::string robot_id;
   std::string name;
-  v1::LaserSlamConfig config;  // effective (every parameter set)
-  LaserSessionOptions options;
+  std::string kind;  // "laser" or "visual"
   double created_at = 0;
 
   // Admission and queue. Lock order: registry mutex_ -> mu; never mu and engine_mu together.
   std::mutex mu;
   std::condition_variable idle_cv;  // queue empty and nothing in flight
   std::deque<QueuedMessage> queue;
+  size_t queued_bytes = 0;  // decoded frames waiting (visual sessions)
   bool scheduled = false;  // on the run queue or being run by a worker
   bool in_flight = false;  // a worker holds a popped message
   bool stream_attached = false;
@@ -58,7 +61,7 @@ struct SlamRegistry::Session {
   // The engine and what goes with it; the strand (one worker at a time) mutates, readers and
   // checkpoints take the lock briefly.
   std::mutex engine_mu;
-  std::unique_ptr<ls::LaserSlam> slam;
+  std::unique_ptr<SessionEngine> engine;  // fixed once the session is built
   int64_t scans_processed = 0;
   uint64_t map_revision = 0;
   int segments = 0;
@@ -119,31 +122,71 @@ v1::Session::State ToProtoState(storage::SlamSessionState state) {
   return state == storage::SlamSessionState::kClosed ? v1::Session::CLOSED : v1::Session::OPEN;
 }
 
-ls::PoseEstimate FromRecord(const storage::TrajectoryPoseRecord& record) {
-  ls::PoseEstimate pose;
-  pose.stamp = record.stamp;
-  pose.pose = ls::Pose2{record.x, record.y, record.theta};
-  for (int i = 0; i < 9; ++i) pose.covariance(i / 3, i % 3) = record.covariance[i];
-  return pose;
-}
-
-storage::TrajectoryPoseRecord ToRecord(int64_t seq, const ls::PoseEstimate& pose) {
-  storage::TrajectoryPoseRecord record;
-  record.seq = seq;
-  record.stamp = pose.stamp;
-  record.x = pose.pose.x;
-  record.y = pose.pose.y;
-  record.theta = pose.pose.theta;
-  for (int i = 0; i < 9; ++i) record.covariance[i] = pose.covariance(i / 3, i % 3);
-  return record;
-}
-
 v1::SlamUpdate Rejection(uint64_t sequence, const absl::Status& status) {
   v1::SlamUpdate update;
   update.set_sequence(sequence);
   update.mutable_rejection()->set_code(static_cast<int32_t>(status.code()));
   update.mutable_rejection()->set_message(std::string(status.message()));
   return update;
+}
+
+absl::Status ResumeError(const absl::Status& status) {
+  return absl::Status(status.code(),
+                      absl::StrCat("cannot resume from its checkpoint: ", status.message()));
+}
+
+// Builds the engine of a session from its stored config: new, or resumed from a checkpoint and the
+// stored trajectory. Errors say what failed, without the session id.
+absl::StatusOr<std::unique_ptr<SessionEngine>> BuildEngine(
+    const std::string& kind, const std::string& config_bytes, const std::string* checkpoint,
+    std::vector<storage::TrajectoryPoseRecord> trajectory) {
+  if (kind == "visual") {
+    v1::VisualSlamConfig config;
+    if (!config.ParseFromString(config_bytes)) {
+      return absl::DataLossError("stored config is unreadable");
+    }
+    if (checkpoint == nullptr) {
+      absl::StatusOr<std::unique_ptr<VisualSessionEngine>> engine =
+          VisualSessionEngine::Create(config);
+      if (!engine.ok()) return engine.status();
+      return std::unique_ptr<SessionEngine>(*std::move(engine));
+    }
+    absl::StatusOr<std::unique_ptr<VisualSessionEngine>> engine =
+        VisualSessionEngine::Resume(config, *checkpoint, std::move(trajectory));
+    if (!engine.ok()) return ResumeError(engine.status());
+    return std::unique_ptr<SessionEngine>(*std::move(engine));
+  }
+  if (kind != "laser") {
+    return absl::DataLossError(absl::StrCat("unknown session kind ", Quoted(kind)));
+  }
+  v1::LaserSlamConfig config;
+  if (!config.ParseFromString(config_bytes)) {
+    return absl::DataLossError("stored config is unreadable");
+  }
+  if (absl::StatusOr<LaserSessionOptions> options = ToLaserSessionOptions(config); !options.ok()) {
+    return absl::DataLossError(
+        absl::StrCat("stored config is invalid: ", options.status().message()));
+  }
+  if (checkpoint == nullptr) {
+    absl::StatusOr<std::unique_ptr<LaserSessionEngine>> engine = LaserSessionEngine::Create(config);
+    if (!engine.ok()) return engine.status();
+    return std::unique_ptr<SessionEngine>(*std::move(engine));
+  }
+  absl::StatusOr<std::unique_ptr<LaserSessionEngine>> engine =
+      LaserSessionEngine::FromCheckpoint(config, *checkpoint, trajectory);
+  if (!engine.ok()) return ResumeError(engine.status());
+  return std::unique_ptr<SessionEngine>(*std::move(engine));
+}
+
+// The config part of a Session for a session that is not in memory.
+void DescribeStoredConfig(const storage::SlamSessionRecord& record, v1::Session* out) {
+  out->set_kind(record.kind);
+  if (record.kind == "visual") {
+    v1::VisualSlamConfig config;
+    if (config.ParseFromString(record.config)) *out->mutable_visual() = EchoVisualConfig(config);
+  } else if (!out->mutable_laser()->ParseFromString(record.config)) {
+    out->clear_laser();
+  }
 }
 
 absl::Status OrderError(const char* sensor, double stamp, double previous) {
@@ -203,6 +246,9 @@ absl::StatusOr<std::unique_ptr<SlamRegistry>> SlamRegistry::Create(
         absl::StrCat("max sessions must be at least 1, got ", options.max_sessions));
   }
   if (options.max_batch < 1) return absl::InvalidArgumentError("max_batch must be at least 1");
+  if (options.max_queued_frame_bytes < 1) {
+    return absl::InvalidArgumentError("max_queued_frame_bytes must be at least 1");
+  }
   return std::unique_ptr<SlamRegistry>(new SlamRegistry(std::move(store), options));
 }
 
@@ -233,10 +279,32 @@ absl::StatusOr<v1::Session> SlamRegistry::CreateSession(const v1::CreateSessionR
     return absl::InvalidArgumentError(absl::StrCat("name is ", request.name().size(),
                                                    " bytes long; at most ", kMaxSessionNameLength));
   }
-  absl::StatusOr<v1::LaserSlamConfig> config = EffectiveLaserConfig(request.laser());
-  if (!config.ok()) return config.status();
-  absl::StatusOr<LaserSessionOptions> options = ToLaserSessionOptions(*config);
-  if (!options.ok()) return options.status();
+  // Exactly one kind. A request with neither is a laser session with the defaults, as it was
+  // before visual sessions existed.
+  if (request.has_laser() && request.has_visual()) {
+    return absl::InvalidArgumentError(
+        "both laser and visual configs are set: a session is either a laser or a visual session");
+  }
+  const bool visual = request.has_visual();
+  std::string config_bytes;
+  std::unique_ptr<SessionEngine> engine;
+  if (visual) {
+    absl::StatusOr<v1::VisualSlamConfig> config = EffectiveVisualConfig(request.visual());
+    if (!config.ok()) return config.status();
+    // The detector is built here, so a bad model is refused before anything is stored.
+    absl::StatusOr<std::unique_ptr<VisualSessionEngine>> built =
+        VisualSessionEngine::Create(*config);
+    if (!built.ok()) return built.status();
+    engine = *std::move(built);
+    config_bytes = config->SerializeAsString();
+  } else {
+    absl::StatusOr<v1::LaserSlamConfig> config = EffectiveLaserConfig(request.laser());
+    if (!config.ok()) return config.status();
+    absl::StatusOr<std::unique_ptr<LaserSessionEngine>> built = LaserSessionEngine::Create(*config);
+    if (!built.ok()) return built.status();
+    engine = *std::move(built);
+    config_bytes = config->SerializeAsString();
+  }
 
   std::lock_guard<std::mutex> load_lock(load_mutex_);
   absl::StatusOr<int64_t> open = store_->CountSessions(storage::SlamSessionState::kOpen);
@@ -249,8 +317,8 @@ absl::StatusOr<v1::Session> SlamRegistry::CreateSession(const v1::CreateSessionR
   storage::SlamSessionRecord record;
   record.robot_id = request.robot_id();
   record.name = request.name();
-  record.kind = "laser";
-  record.config = config->SerializeAsString();
+  record.kind = engine->kind();
+  record.config = std::move(config_bytes);
   absl::StatusOr<storage::SlamSessionRecord> created;
   for (int attempt = 0; attempt < 3; ++attempt) {  // a 128-bit collision is not expected
     record.id = NewSessionId();
@@ -263,11 +331,10 @@ absl::StatusOr<v1::Session> SlamRegistry::CreateSession(const v1::CreateSessionR
   session->id = created->id;
   session->robot_id = created->robot_id;
   session->name = created->name;
-  session->config = *config;
-  session->options = *options;
+  session->kind = created->kind;
   session->created_at = created->created_at;
   session->updated_at = created->updated_at;
-  session->slam = std::make_unique<ls::LaserSlam>(options->slam);
+  session->engine = std::move(engine);
   {
     std::lock_guard<std::mutex> lock(mutex_);
     sessions_[session->id] = session;
@@ -289,42 +356,27 @@ absl::StatusOr<std::shared_ptr<SlamRegistry::Session>> SlamRegistry::LoadSession
   session->id = record.id;
   session->robot_id = record.robot_id;
   session->name = record.name;
-  if (!session->config.ParseFromString(record.config)) {
-    return absl::DataLossError(
-        absl::StrCat("SLAM session ", Quoted(record.id), ": stored config is unreadable"));
-  }
-  absl::StatusOr<LaserSessionOptions> options = ToLaserSessionOptions(session->config);
-  if (!options.ok()) {
-    return absl::DataLossError(absl::StrCat("SLAM session ", Quoted(record.id),
-                                            ": stored config is invalid: ",
-                                            options.status().message()));
-  }
-  session->options = *options;
+  session->kind = record.kind;
   session->created_at = record.created_at;
   session->updated_at = record.updated_at;
   session->checkpoint_at = record.checkpoint_at;
-  if (record.checkpoint.empty()) {
-    // Created but never checkpointed: nothing was processed that the store knows of.
-    session->slam = std::make_unique<ls::LaserSlam>(options->slam);
-  } else {
+  std::vector<storage::TrajectoryPoseRecord> trajectory;
+  if (!record.checkpoint.empty()) {
     absl::StatusOr<std::vector<storage::TrajectoryPoseRecord>> stored =
         store_->LoadTrajectory(record.id);
     if (!stored.ok()) return stored.status();
-    std::vector<ls::PoseEstimate> trajectory;
-    trajectory.reserve(stored->size());
-    for (const storage::TrajectoryPoseRecord& pose : *stored) trajectory.push_back(FromRecord(pose));
-    session->stored_poses = static_cast<int64_t>(trajectory.size());
-    absl::StatusOr<std::unique_ptr<ls::LaserSlam>> slam =
-        ls::LaserSlam::FromCheckpoint(options->slam, record.checkpoint, std::move(trajectory));
-    if (!slam.ok()) {
-      return absl::Status(slam.status().code(),
-                          absl::StrCat("SLAM session ", Quoted(record.id),
-                                       ": cannot resume from its checkpoint: ",
-                                       slam.status().message()));
-    }
-    session->slam = std::move(*slam);
-    session->stored_poses = static_cast<int64_t>(session->slam->Trajectory().size());
+    trajectory = *std::move(stored);
   }
+  // Created but never checkpointed: nothing was processed that the store knows of.
+  absl::StatusOr<std::unique_ptr<SessionEngine>> engine =
+      BuildEngine(record.kind, record.config,
+                  record.checkpoint.empty() ? nullptr : &record.checkpoint, std::move(trajectory));
+  if (!engine.ok()) {
+    return absl::Status(engine.status().code(), absl::StrCat("SLAM session ", Quoted(record.id),
+                                                             ": ", engine.status().message()));
+  }
+  session->engine = *std::move(engine);
+  session->stored_poses = session->engine->trajectory_size();
   session->scans_processed = record.scans_processed;
   session->map_revision = static_cast<uint64_t>(record.map_revision);
   session->segments = record.segments;
@@ -392,28 +444,16 @@ absl::Status SlamRegistry::Submit(const std::shared_ptr<Session>& owner,
         absl::StrCat("message names session ", Quoted(data.session_id()), " but this stream is on ",
                      Quoted(session.id), "; one stream serves one session")));
   }
+  // The engine is fixed once the session is built, and Admit reads only its fixed part: no lock.
+  absl::StatusOr<AdmittedMessage> admitted = session.engine->Admit(data);
+  if (!admitted.ok()) return reject(admitted.status());
   QueuedMessage message;
   message.sequence = data.sequence();
-  double stamp = 0;
-  switch (data.payload_case()) {
-    case v1::SensorData::kOdometry: {
-      absl::StatusOr<ls::OdometryReading> reading = ToOdometryReading(data.odometry());
-      if (!reading.ok()) return reject(reading.status());
-      message.odometry = *reading;
-      stamp = reading->stamp;
-      break;
-    }
-    case v1::SensorData::kScan: {
-      absl::StatusOr<ls::LaserScan> scan = ToLaserScan(data.scan(), session.options.geometry);
-      if (!scan.ok()) return reject(scan.status());
-      message.is_scan = true;
-      stamp = scan->stamp;
-      message.scan = std::move(*scan);
-      break;
-    }
-    default:
-      return reject(absl::InvalidArgumentError("SensorData has no payload: set odometry or scan"));
-  }
+  message.is_scan = admitted->answered;
+  message.stamp = admitted->stamp;
+  message.bytes = admitted->bytes;
+  message.input = std::move(admitted->input);
+  const double stamp = message.stamp;
 
   bool schedule = false;
   {
@@ -427,13 +467,22 @@ absl::Status SlamRegistry::Submit(const std::shared_ptr<Session>& owner,
     } else if (session.closed || !session.stream_attached) {
       refused = absl::FailedPreconditionError("the session is closed");
     } else if (last.has_value() && !(stamp > *last)) {
-      refused = OrderError(message.is_scan ? "scan" : "odometry", stamp, *last);
+      refused = OrderError(admitted->sensor, stamp, *last);
     } else if (static_cast<int>(session.queue.size()) >= options_.queue_capacity) {
       ++session.dropped;
       refused = absl::ResourceExhaustedError(absl::StrCat(
           "session queue is full (", options_.queue_capacity,
           " messages waiting; message dropped): keep at most ", options_.queue_capacity,
           " messages outstanding (sent after the last answered scan) and resend this one"));
+    } else if (message.bytes > 0 && session.queued_bytes > 0 &&
+               session.queued_bytes + message.bytes > options_.max_queued_frame_bytes) {
+      // The first frame of an empty queue always fits, whatever its size.
+      ++session.dropped;
+      refused = absl::ResourceExhaustedError(absl::StrCat(
+          "session queue holds ", session.queue.size(), " decoded frames (",
+          session.queued_bytes / (1024 * 1024), " MiB; limit ",
+          options_.max_queued_frame_bytes / (1024 * 1024),
+          " MiB; frame dropped): send fewer frames ahead of the answers and resend this one"));
     }
     if (!refused.ok()) {
       ++session.rejected;
@@ -441,6 +490,7 @@ absl::Status SlamRegistry::Submit(const std::shared_ptr<Session>& owner,
     }
     last = stamp;
     message.accepted = Clock::now();
+    session.queued_bytes += message.bytes;
     session.queue.push_back(std::move(message));
     if (!session.scheduled) {
       session.scheduled = true;
@@ -487,6 +537,7 @@ void SlamRegistry::RunSession(const std::shared_ptr<Session>& session) {
       }
       message = std::move(session->queue.front());
       session->queue.pop_front();
+      session->queued_bytes -= message.bytes;
       session->in_flight = true;
       sink = session->sink;
     }
@@ -512,32 +563,30 @@ void SlamRegistry::Process(Session& session, QueuedMessage& message, const SlamU
   {
     std::lock_guard<std::mutex> lock(session.engine_mu);
     try {
-      if (message.is_scan) {
-        absl::StatusOr<ls::ScanUpdate> result = session.slam->AddScan(message.scan);
-        if (result.ok()) {
+      absl::StatusOr<std::optional<v1::SlamUpdate>> result =
+          session.engine->Process(*message.input, queue_ms);
+      if (result.ok()) {
+        if (message.is_scan) {
           ++session.scans_processed;
           ++session.scans_since_checkpoint;
-          session.map_revision = result->map_revision;
-          session.segments = result->segments;
-          session.processed_scan_stamp = message.scan.stamp;
-          session.dirty = true;
-          session.updated_at = UnixNow();
-          v1::SlamUpdate update;
-          update.set_sequence(message.sequence);
-          FillSlamUpdate(*result, &update);
-          update.set_scans_processed(static_cast<uint64_t>(session.scans_processed));
-          update.mutable_timings()->set_queue_ms(queue_ms);
-          answer = std::move(update);
+          session.processed_scan_stamp = message.stamp;
         } else {
-          error = result.status();
+          session.processed_odometry_stamp = message.stamp;
+        }
+        session.dirty = true;
+        session.updated_at = UnixNow();
+        if (result->has_value()) {
+          v1::SlamUpdate& update = **result;
+          update.set_sequence(message.sequence);
+          update.set_scans_processed(static_cast<uint64_t>(session.scans_processed));
+          if (message.is_scan) {
+            session.map_revision = update.map_revision();
+            session.segments = static_cast<int>(update.segments());
+          }
+          answer = std::move(update);
         }
       } else {
-        error = session.slam->AddOdometry(message.odometry);
-        if (error.ok()) {
-          session.processed_odometry_stamp = message.odometry.stamp;
-          session.dirty = true;
-          session.updated_at = UnixNow();
-        }
+        error = result.status();
       }
     } catch (const std::exception& e) {
       error = absl::InternalError(absl::StrCat("the SLAM engine failed on this message: ", e.what()));
@@ -579,16 +628,15 @@ absl::Status SlamRegistry::Checkpoint(Session& session, bool close) {
   {
     std::lock_guard<std::mutex> lock(session.engine_mu);
     if (!close && !session.dirty) return absl::OkStatus();
-    checkpoint.state = session.slam->SerializeState();
+    checkpoint.state = session.engine->SerializeState();
     checkpoint.scans_processed = session.scans_processed;
     checkpoint.map_revision = static_cast<int64_t>(session.map_revision);
     checkpoint.segments = session.segments;
     checkpoint.last_scan_stamp = session.processed_scan_stamp;
     checkpoint.last_odometry_stamp = session.processed_odometry_stamp;
-    const std::vector<ls::PoseEstimate>& trajectory = session.slam->Trajectory();
-    trajectory_size = static_cast<int64_t>(trajectory.size());
+    trajectory_size = session.engine->trajectory_size();
     for (int64_t seq = session.stored_poses; seq < trajectory_size; ++seq) {
-      checkpoint.new_poses.push_back(ToRecord(seq, trajectory[static_cast<size_t>(seq)]));
+      checkpoint.new_poses.push_back(session.engine->PoseRecord(seq));
     }
     session.dirty = false;
     session.scans_since_checkpoint = 0;
@@ -698,9 +746,9 @@ v1::Session SlamRegistry::Describe(const storage::SlamSessionRecord& record, Ses
   out.set_name(record.name);
   out.set_state(ToProtoState(record.state));
   if (resident != nullptr) {
-    *out.mutable_laser() = resident->config;
-  } else if (!out.mutable_laser()->ParseFromString(record.config)) {
-    out.clear_laser();
+    resident->engine->DescribeConfig(&out);  // fixed since creation: no lock
+  } else {
+    DescribeStoredConfig(record, &out);
   }
   out.set_scans_processed(static_cast<uint64_t>(record.scans_processed));
   out.set_segments(static_cast<uint32_t>(std::max(0, record.segments)));
@@ -757,6 +805,7 @@ absl::StatusOr<v1::SegmentMap> SlamRegistry::GetMap(const std::string& session_i
     // checkpoint to read its map, without making the session resident.
     absl::StatusOr<storage::SlamSessionRecord> record = store_->GetSession(session_id);
     if (!record.ok()) return record.status();
+    if (record->kind == "visual") return NoSegmentMapError();  // without building a detector
     absl::StatusOr<std::shared_ptr<Session>> loaded = LoadSession(*record);
     if (!loaded.ok()) return loaded.status();
     session = *loaded;
@@ -765,9 +814,7 @@ absl::StatusOr<v1::SegmentMap> SlamRegistry::GetMap(const std::string& session_i
   map.set_session_id(session_id);
   std::lock_guard<std::mutex> lock(session->engine_mu);
   map.set_map_revision(session->map_revision);
-  for (const ls::MapSegment& segment : session->slam->Map()) {
-    *map.add_segments() = ToProtoSegment(segment);
-  }
+  if (absl::Status s = session->engine->FillMap(&map); !s.ok()) return s;
   return map;
 }
 
@@ -777,16 +824,14 @@ absl::StatusOr<v1::Trajectory> SlamRegistry::GetTrajectory(const std::string& se
   out.set_session_id(session_id);
   if (auto resident = FindResident(session_id); resident.ok()) {
     std::lock_guard<std::mutex> lock((*resident)->engine_mu);
-    for (const ls::PoseEstimate& pose : (*resident)->slam->Trajectory()) {
-      *out.add_poses() = ToProtoTrajectoryPose(pose);
-    }
+    (*resident)->engine->AppendTrajectory(&out);
     return out;
   }
   absl::StatusOr<std::vector<storage::TrajectoryPoseRecord>> poses =
       store_->LoadTrajectory(session_id);
   if (!poses.ok()) return poses.status();
   for (const storage::TrajectoryPoseRecord& pose : *poses) {
-    *out.add_poses() = ToProtoTrajectoryPose(FromRecord(pose));
+    *out.add_poses() = TrajectoryPoseFromRecord(pose);
   }
   return out;
 }

@@ -1,10 +1,12 @@
 #ifndef WAYMARK_SERVER_SERVICE_SLAM_REGISTRY_H_
 #define WAYMARK_SERVER_SERVICE_SLAM_REGISTRY_H_
 
-// The laser SLAM sessions a server holds: each one in memory (the engine, its input queue) and in
-// the store (config, counters, checkpoints, trajectory). Application layer between the gRPC
-// handlers and the engine + storage: it speaks the API's messages but no gRPC, so it is tested
-// without a server.
+// The SLAM sessions a server holds, laser (METHODS.md section 2) and visual (section 3): each one
+// in memory (its engine, its input queue) and in the store (config, counters, checkpoints,
+// trajectory). Application layer between the gRPC handlers and the engines + storage: it speaks
+// the API's messages but no gRPC, so it is tested without a server. What differs per kind lives
+// behind SessionEngine (session_engine.h); queues, strands, time order, counters, checkpoints and
+// limits below are the same for both.
 //
 // Threading. Every session has a bounded FIFO of accepted messages and is processed in order on
 // its own strand: at most one worker runs a session at a time, and a worker takes at most
@@ -15,27 +17,39 @@
 //
 // Admission (checked by Submit on the caller's thread, before a message is queued, so a bad message
 // is answered at once and never reaches the engine):
-//   - the payload converts (finite stamps and poses, a valid beam geometry, the range count equal
-//     to the geometry's beam_count, at most kMaxScanBeams beams): else INVALID_ARGUMENT;
-//   - per-sensor time order: an odometry (scan) stamp must be greater than the last accepted
-//     odometry (scan) stamp, including the stamps restored from the checkpoint after a restart:
+//   - the payload suits the session's kind and converts. Laser: finite stamps and poses, a valid
+//     beam geometry, the range count equal to the geometry's beam_count, at most kMaxScanBeams
+//     beams. Visual: a finite stamp, a JPEG/PNG image of the camera's size, an optional 16-bit
+//     single-channel PNG depth of the same size, finite boxes (visual_frame_decoder.h; frames are
+//     decoded here, on the stream's thread, which paces a robot that sends faster than it can be
+//     decoded without holding up other sessions). Else INVALID_ARGUMENT;
+//   - per-sensor time order: an odometry (scan or frame) stamp must be greater than the last
+//     accepted odometry (scan or frame) stamp, including the stamps restored from the checkpoint after a restart:
 //     else INVALID_ARGUMENT, and the session's state is unchanged;
 //   - queue policy: when `queue_capacity` messages are already waiting, the message is rejected
 //     with RESOURCE_EXHAUSTED and counted in messages_dropped. Nothing is ever dropped silently
 //     and nothing already accepted is discarded: the client sees exactly which messages were not
 //     taken (by sequence) and may resend them. A client that keeps at most `queue_capacity`
 //     messages outstanding (sent after the last answered scan) never sees RESOURCE_EXHAUSTED.
+//     Visual sessions also bound the decoded frames waiting to `max_queued_frame_bytes` (a frame
+//     that finds the queue empty is always taken), answered the same way.
 // NaN, infinite, negative and zero ranges are passed through; the engine treats them as
 // no-returns. An error the engine returns for one message is answered as a rejection for that
 // message; the session goes on.
 //
-// Checkpoints (engine state + counters + the trajectory poses not yet stored, one transaction):
+// Checkpoints (engine state + counters + the trajectory poses not yet stored, one transaction;
+// visual sessions store 3-D poses and resume tracking at the last one, visual_session_engine.h):
 // after every `checkpoint_scans` processed scans, when `checkpoint_seconds` have passed since the
 // last checkpoint of a session with unsaved work (checked after each scan and by a timer for idle
 // sessions), on CloseSession and on Shutdown. After a restart, OpenStream on an open session that
 // is not in memory loads it from its checkpoint and the stored trajectory; messages accepted
 // after the last checkpoint are lost with the process, and the client may resend them (their
 // stamps are newer than the restored ones).
+//
+// CreateSession takes exactly one of a laser and a visual config (neither: a laser session with
+// the defaults); a visual session's detector is built there, so a bad model is INVALID_ARGUMENT
+// and nothing is stored. GetMap on a visual session is FAILED_PRECONDITION (no segment map);
+// GetTrajectory returns its poses in pose3d.
 //
 // Limits: `max_sessions` open sessions per server (CreateSession: RESOURCE_EXHAUSTED beyond it;
 // only open sessions are held in memory, so this also bounds memory together with the queue
@@ -70,6 +84,8 @@ struct SlamRegistryOptions {
   int checkpoint_scans = 500;     // 0 = no count-based checkpoints
   int max_sessions = 64;          // open sessions per server
   int max_batch = 8;              // messages of one session per turn of a worker
+  // Decoded frames waiting per visual session (640x480 RGB-D: 1.5 MB a frame).
+  size_t max_queued_frame_bytes = size_t{64} << 20;
   // Test hook: runs on the worker thread before each message of `session_id` is processed.
   std::function<void(const std::string& session_id)> before_process;
 };
