@@ -4,6 +4,7 @@
 #include <limits>
 
 #include <Eigen/Cholesky>
+#include <Eigen/Eigenvalues>
 #include <Eigen/Geometry>
 #include <Eigen/SVD>
 
@@ -80,7 +81,7 @@ Motion RefineOnSampson(const Motion& start, const std::vector<Correspondence>& c
   Eigen::VectorXd r, r_step;
   double cost = SampsonCost(m, c, indices, kHuber, &r);
   double lambda = 1e-3;
-  for (int iteration = 0; iteration < 20; ++iteration) {
+  for (int iteration = 0; iteration < 10; ++iteration) {
     Eigen::MatrixXd J(indices.size(), 5);
     for (int p = 0; p < 5; ++p) {
       Eigen::Matrix<double, 5, 1> d = Eigen::Matrix<double, 5, 1>::Zero();
@@ -130,20 +131,27 @@ std::optional<Eigen::Matrix3d> EssentialFromPairs(const std::vector<Corresponden
     cur.push_back(c[i].current);
   }
   const Eigen::Matrix3d Tr = Normalizer(ref), Tc = Normalizer(cur);
-  Eigen::MatrixXd A(indices.size(), 9);
+  // Normal equations A^T A (9x9) of the rows a_k with a_k . f = x_c^T F x_r = sum_ij xc_i F_ij
+  // xr_j (F row-major): their cost does not grow with the pairs beyond forming the sum, and
+  // Hartley normalization keeps them well conditioned.
+  Eigen::Matrix<double, 9, 9> AtA = Eigen::Matrix<double, 9, 9>::Zero();
   for (size_t k = 0; k < indices.size(); ++k) {
     const Eigen::Vector3d xr = Tr * Eigen::Vector3d(ref[k].x(), ref[k].y(), 1);
     const Eigen::Vector3d xc = Tc * Eigen::Vector3d(cur[k].x(), cur[k].y(), 1);
-    // x_c^T F x_r = sum_ij xc_i F_ij xr_j, F row-major.
+    Eigen::Matrix<double, 9, 1> a;
     for (int i = 0; i < 3; ++i)
-      for (int j = 0; j < 3; ++j) A(k, 3 * i + j) = xc(i) * xr(j);
+      for (int j = 0; j < 3; ++j) a(3 * i + j) = xc(i) * xr(j);
+    AtA.selfadjointView<Eigen::Lower>().rankUpdate(a);
   }
-  Eigen::JacobiSVD<Eigen::MatrixXd> svd(A, Eigen::ComputeFullV);
-  const Eigen::VectorXd& sigma = svd.singularValues();
-  // sigma(7) is the smallest singular value besides the solution's: near zero means a null space of
-  // two or more dimensions (degenerate structure, pure rotation, repeated pairs).
-  if (sigma.size() < 8 || !(sigma(7) > 1e-9 * sigma(0))) return std::nullopt;
-  const Eigen::VectorXd f = svd.matrixV().col(8);
+  AtA = AtA.selfadjointView<Eigen::Lower>();
+  Eigen::SelfAdjointEigenSolver<Eigen::Matrix<double, 9, 9>> eig(AtA);
+  if (eig.info() != Eigen::Success) return std::nullopt;
+  const Eigen::Matrix<double, 9, 1>& lambda = eig.eigenvalues();  // ascending
+  // lambda(1) is the smallest eigenvalue besides the solution's: near zero (relative to the
+  // largest; 1e-14 is sigma ratio 1e-7, well above rounding) means a null space of two or more
+  // dimensions: degenerate structure, pure rotation, repeated pairs.
+  if (!(lambda(1) > 1e-14 * lambda(8))) return std::nullopt;
+  const Eigen::Matrix<double, 9, 1> f = eig.eigenvectors().col(0);
   Eigen::Matrix3d F;
   F << f(0), f(1), f(2), f(3), f(4), f(5), f(6), f(7), f(8);
   Eigen::Matrix3d E = Tc.transpose() * F * Tr;
@@ -204,6 +212,20 @@ std::optional<Motion> EssentialSolver::Refine(const Motion& motion,
   absl::StatusOr<Motion> m = EssentialFromInliers(correspondences_, inliers);
   if (!m.ok()) return std::nullopt;
   return *m;
+}
+
+void EssentialSolver::ErrorsPx(const Motion& motion, const std::vector<int>& indices,
+                               std::vector<double>* errors) const {
+  const Eigen::Matrix3d E = EssentialOf(motion);
+  errors->resize(indices.size());
+  for (size_t k = 0; k < indices.size(); ++k) {
+    const int i = indices[k];
+    (*errors)[k] = i < 0 || i >= static_cast<int>(correspondences_.size())
+                       ? kInf
+                       : SampsonDistance(E, correspondences_[i].reference,
+                                         correspondences_[i].current) *
+                             focal_px_;
+  }
 }
 
 absl::StatusOr<Motion> EssentialFromInliers(const std::vector<Correspondence>& c,

@@ -29,6 +29,8 @@ class EssentialSolver : public MotionSolver {
   std::vector<Motion> Solve(const std::vector<int>& sample) const override;
   // Sampson distance to the epipolar constraint of `motion`, times focal_px.
   double ErrorPx(const Motion& motion, int i) const override;
+  void ErrorsPx(const Motion& motion, const std::vector<int>& indices,
+                std::vector<double>* errors) const override;
   bool UnitTranslation() const override { return true; }
   // EssentialFromInliers on the inliers.
   std::optional<Motion> Refine(const Motion& motion,

@@ -89,8 +89,11 @@ Hypothesis Score(const MotionSolver& solver, const Motion& motion,
                  const std::vector<int>& candidates, double threshold_px, double* msac = nullptr) {
   Hypothesis h{motion, {}};
   double total = 0;
-  for (int c : candidates) {
-    const double e = c >= 0 ? solver.ErrorPx(motion, c) : std::numeric_limits<double>::infinity();
+  std::vector<double> errors;
+  solver.ErrorsPx(motion, candidates, &errors);
+  for (size_t k = 0; k < candidates.size(); ++k) {
+    const int c = candidates[k];
+    const double e = c >= 0 ? errors[k] : std::numeric_limits<double>::infinity();
     if (e <= threshold_px) h.inliers.push_back(c);
     const double capped = std::min(e, threshold_px);
     total += capped * capped;

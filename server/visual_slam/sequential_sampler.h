@@ -64,6 +64,13 @@ class MotionSolver {
   // Error of correspondence i under `motion`, in pixels (normalized error * focal_px); +inf if
   // undefined (also for an index out of range).
   virtual double ErrorPx(const Motion& motion, int i) const = 0;
+  // ErrorPx of each of `indices` (same order) into `errors`; solvers override it to set up a
+  // motion once for all pairs (the sampler scores every hypothesis on every candidate).
+  virtual void ErrorsPx(const Motion& motion, const std::vector<int>& indices,
+                        std::vector<double>* errors) const {
+    errors->resize(indices.size());
+    for (size_t k = 0; k < indices.size(); ++k) (*errors)[k] = ErrorPx(motion, indices[k]);
+  }
   // Optional polish of a hypothesis on all its inliers (least squares); nullopt = keep it as is.
   // The sampler polishes M1..M3 before eq 12 (a motion from a minimal sample is noisy enough to
   // miss a few percent of the true inliers).
