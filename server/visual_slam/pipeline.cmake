@@ -2,4 +2,9 @@
 target_sources(waymark_visual_slam PRIVATE
   types.cc
   options.cc
+  frame_features.cc
+  frame_validation.cc
+  coarse_matching.cc
+  frame_tracking.cc
+  visual_odometry.cc
 )

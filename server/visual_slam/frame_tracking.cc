@@ -1,0 +1,149 @@
+#include "server/visual_slam/frame_tracking.h"
+
+#include <algorithm>
+
+#include "absl/strings/str_cat.h"
+#include "server/common/stopwatch.h"
+#include "server/visual_slam/essential_solver.h"
+#include "server/visual_slam/pnp_solver.h"
+#include "server/visual_slam/sequential_sampler.h"
+#include "server/visual_slam/static_test.h"
+
+namespace waymark::visual_slam {
+namespace {
+
+// Whether the pair of match k may shape the motion model: the paper samples only pairs outside
+// every box (eq 9); the plain baseline samples all.
+bool OutsideBoxes(const TrackingInputs& in, const DescriptorMatch& match) {
+  return !(*in.current_in_box)[match.query];
+}
+
+// Whether a static pair may take part in tracking under the filter: the full method tracks on
+// every static feature (parked cars included), the boxes-only filter never uses a boxed one.
+bool Trackable(const VisualOdometryOptions& options, bool in_box) {
+  return options.filter != DynamicFilter::kBoxesOnly || !in_box;
+}
+
+// Matches the frames and builds the correspondences; `with_points` attaches the reference's 3-D
+// points (RGB-D).
+void MatchFrames(const TrackingInputs& in, const VisualOdometryOptions& options, bool with_points,
+                 TrackingOutcome& out) {
+  const Clock::time_point start = Clock::now();
+  out.matches = CoarseMatch(in.current->descriptors, in.reference->descriptors, options.delta,
+                            options.match_ratio);
+  out.correspondences.reserve(out.matches.size());
+  for (const DescriptorMatch& m : out.matches) {
+    Correspondence c;
+    c.reference = in.reference->normalized[m.train];
+    c.current = in.current->normalized[m.query];
+    if (with_points) c.reference_point = in.reference->Point(m.train);
+    c.hamming = m.distance;
+    out.correspondences.push_back(c);
+  }
+  out.matching_ms = MsSince(start);
+}
+
+// Runs the sampler over the pairs allowed to shape the model; returns the chosen hypothesis.
+std::optional<Hypothesis> SampleMotion(const MotionSolver& solver, const TrackingInputs& in,
+                                       const VisualOdometryOptions& options,
+                                       TrackingOutcome& out) {
+  const Clock::time_point start = Clock::now();
+  std::vector<int> candidates;
+  std::vector<double> eta;
+  for (size_t k = 0; k < out.matches.size(); ++k) {
+    if (options.filter != DynamicFilter::kNone && !OutsideBoxes(in, out.matches[k])) continue;
+    if (!solver.Samplable(static_cast<int>(k))) continue;
+    candidates.push_back(static_cast<int>(k));
+    // Prior inlier probability from the descriptor distance: a close match is likelier right.
+    eta.push_back(std::clamp(1.0 - out.matches[k].distance / static_cast<double>(options.delta),
+                             0.05, 1.0));
+  }
+  SamplerResult result = SequentialSample(solver, candidates, eta, in.predicted,
+                                          options.inlier_threshold_px, options.sampler);
+  out.hypotheses = result.hypotheses;
+  out.sampling_ms = MsSince(start);
+  if (result.chosen < 0) {
+    out.failure = absl::StrCat("no motion hypothesis from ", candidates.size(), " pairs");
+    return std::nullopt;
+  }
+  return result.best[result.chosen];
+}
+
+// eq 17 on every pair, then the set the final pose uses.
+void ClassifyPairs(const TrackingInputs& in, const VisualOdometryOptions& options,
+                   TrackingOutcome& out) {
+  StaticTestOptions test;
+  test.distance_px = options.static_distance_px;
+  test.max_hamming = options.delta / 2;
+  test.focal_px = in.focal_px;
+  out.is_static = StaticTest(out.correspondences, out.motion, test);
+  out.tested.assign(out.matches.size(), true);
+  out.tracking_set.clear();
+  for (size_t k = 0; k < out.matches.size(); ++k) {
+    const bool in_box = !OutsideBoxes(in, out.matches[k]);
+    if (options.filter == DynamicFilter::kBoxesOnly && in_box) out.tested[k] = false;
+    if (out.tested[k] && out.is_static[k] && Trackable(options, in_box)) {
+      out.tracking_set.push_back(static_cast<int>(k));
+    }
+  }
+}
+
+}  // namespace
+
+TrackingOutcome TrackWithDepth(const TrackingInputs& in, const VisualOdometryOptions& options) {
+  TrackingOutcome out;
+  MatchFrames(in, options, /*with_points=*/true, out);
+  PnpSolver solver(out.correspondences, in.focal_px);
+  std::optional<Hypothesis> chosen = SampleMotion(solver, in, options, out);
+  if (!chosen) return out;
+
+  const Clock::time_point start = Clock::now();
+  absl::StatusOr<Motion> refined =
+      RefinePnp(out.correspondences, chosen->inliers, chosen->motion, in.focal_px);
+  out.motion = refined.ok() ? *refined : chosen->motion;
+  ClassifyPairs(in, options, out);
+  // The final pose uses every static pair with a 3-D point (in boxes too, for the full method).
+  std::vector<int> with_points;
+  for (int k : out.tracking_set) {
+    if (out.correspondences[k].reference_point) with_points.push_back(k);
+  }
+  out.tracking_set = with_points;
+  if (static_cast<int>(out.tracking_set.size()) < options.min_tracked) {
+    out.failure = absl::StrCat("only ", out.tracking_set.size(), " static pairs with depth (need ",
+                               options.min_tracked, ")");
+    out.pose_ms = MsSince(start);
+    return out;
+  }
+  absl::StatusOr<Motion> final_motion =
+      RefinePnp(out.correspondences, out.tracking_set, out.motion, in.focal_px);
+  if (final_motion.ok()) out.motion = *final_motion;
+  out.pose_ms = MsSince(start);
+  out.ok = true;
+  return out;
+}
+
+TrackingOutcome TrackMonocular(const TrackingInputs& in, const VisualOdometryOptions& options) {
+  TrackingOutcome out;
+  MatchFrames(in, options, /*with_points=*/false, out);
+  EssentialSolver solver(out.correspondences, in.focal_px);
+  std::optional<Hypothesis> chosen = SampleMotion(solver, in, options, out);
+  if (!chosen) return out;
+
+  const Clock::time_point start = Clock::now();
+  absl::StatusOr<Motion> essential = EssentialFromInliers(out.correspondences, chosen->inliers);
+  out.motion = essential.ok() ? *essential : chosen->motion;
+  ClassifyPairs(in, options, out);
+  if (static_cast<int>(out.tracking_set.size()) < options.min_tracked) {
+    out.failure = absl::StrCat("only ", out.tracking_set.size(), " static pairs (need ",
+                               options.min_tracked, ")");
+    out.pose_ms = MsSince(start);
+    return out;
+  }
+  absl::StatusOr<Motion> final_motion = EssentialFromInliers(out.correspondences, out.tracking_set);
+  if (final_motion.ok()) out.motion = *final_motion;
+  out.pose_ms = MsSince(start);
+  out.ok = true;
+  return out;
+}
+
+}  // namespace waymark::visual_slam

@@ -1,0 +1,51 @@
+#ifndef WAYMARK_SERVER_VISUAL_SLAM_FRAME_TRACKING_H_
+#define WAYMARK_SERVER_VISUAL_SLAM_FRAME_TRACKING_H_
+
+// Tracks the current frame against one reference (a keyframe, RGB-D; the previous frame,
+// monocular): coarse matching (eq 8), the motion model by sequential sampling over the pairs
+// outside boxes (eq 10-12), the pose (PnP + refinement on the reference's 3-D points, or the
+// essential matrix, eq 14-15), the static test on every pair (eq 17) and the final pose from every
+// static pair the filter allows.
+
+#include <optional>
+#include <string>
+#include <vector>
+
+#include "server/visual_slam/coarse_matching.h"
+#include "server/visual_slam/correspondence.h"
+#include "server/visual_slam/frame_features.h"
+#include "server/visual_slam/options.h"
+#include "server/visual_slam/types.h"
+
+namespace waymark::visual_slam {
+
+struct TrackingOutcome {
+  bool ok = false;
+  std::string failure;  // why not ok (for logs and tests)
+  Motion motion;        // reference -> current; unit translation when monocular
+  std::vector<DescriptorMatch> matches;
+  std::vector<Correspondence> correspondences;  // one per match
+  std::vector<bool> tested;     // per match: the static test ran on it
+  std::vector<bool> is_static;  // per match: passed eq 17 (only meaningful when tested)
+  std::vector<int> tracking_set;  // matches the final pose was computed from
+  int hypotheses = 0;
+  double matching_ms = 0, sampling_ms = 0, pose_ms = 0;
+};
+
+struct TrackingInputs {
+  const FrameFeatures* reference = nullptr;
+  const FrameFeatures* current = nullptr;
+  const std::vector<bool>* current_in_box = nullptr;  // eq 7, per current feature
+  std::optional<Motion> predicted;  // reference -> current, from the previous motion
+  double focal_px = 500;
+};
+
+// RGB-D: the reference's features must carry depth; the motion is metric.
+TrackingOutcome TrackWithDepth(const TrackingInputs& in, const VisualOdometryOptions& options);
+
+// Monocular: the motion's translation has unit length (scale is the caller's business).
+TrackingOutcome TrackMonocular(const TrackingInputs& in, const VisualOdometryOptions& options);
+
+}  // namespace waymark::visual_slam
+
+#endif  // WAYMARK_SERVER_VISUAL_SLAM_FRAME_TRACKING_H_

@@ -1,0 +1,274 @@
+#include "server/visual_slam/visual_odometry.h"
+
+#include <algorithm>
+#include <cmath>
+#include <deque>
+#include <utility>
+
+#include <opencv2/imgproc.hpp>
+
+#include "absl/strings/str_cat.h"
+#include "server/common/stopwatch.h"
+#include "server/visual_slam/box_split.h"
+#include "server/visual_slam/frame_features.h"
+#include "server/visual_slam/frame_tracking.h"
+#include "server/visual_slam/frame_validation.h"
+#include "server/visual_slam/pose_algebra.h"
+#include "server/visual_slam/two_view.h"
+
+namespace waymark::visual_slam {
+
+// A reference the current frame is tracked against. RGB-D: a keyframe holding only its map points
+// (static features outside boxes with depth, eq 18). Monocular: the last tracked frame, with the
+// depth of its features triangulated at the session's scale (for the next frame's scale).
+struct Reference {
+  double stamp = 0;
+  Pose pose;
+  FrameFeatures features;
+  // Static pairs of the first frame tracked against this keyframe: the yardstick of the
+  // "tracking got weak" keyframe rule (most map points are never matched at all, so the map size
+  // is not).
+  int first_tracked = 0;
+};
+
+struct VisualOdometry::State {
+  explicit State(const VisualOdometryOptions& options, const CameraModel& camera)
+      : extractor(options.orb, camera) {}
+  OrbExtractor extractor;
+  std::optional<bool> with_depth;  // fixed by the first frame
+  std::optional<double> last_stamp;
+  std::deque<Reference> keyframes;  // newest first (RGB-D local map); monocular: one entry
+  std::optional<Pose> last_pose;
+  std::optional<Pose> previous_pose;  // the frame before last_pose (constant-velocity model)
+  double mono_speed = 1.0;            // monocular: length of the last frame-to-frame translation
+};
+
+namespace {
+
+double Percentile50(std::vector<double> values) {
+  if (values.empty()) return 0;
+  std::nth_element(values.begin(), values.begin() + values.size() / 2, values.end());
+  return values[values.size() / 2];
+}
+
+// The subset of `features` selected by `keep`.
+FrameFeatures Subset(const FrameFeatures& features, const std::vector<bool>& keep) {
+  FrameFeatures out;
+  for (int i = 0; i < features.size(); ++i) {
+    if (!keep[i]) continue;
+    out.pixels.push_back(features.pixels[i]);
+    out.normalized.push_back(features.normalized[i]);
+    out.depth.push_back(features.depth[i]);
+    out.descriptors.push_back(features.descriptors.row(i));
+  }
+  return out;
+}
+
+}  // namespace
+
+VisualOdometry::VisualOdometry(const VisualOdometryOptions& options, const CameraModel& camera,
+                               std::unique_ptr<ObjectDetector> detector)
+    : options_(options),
+      camera_(camera),
+      detector_(std::move(detector)),
+      state_(std::make_unique<State>(options, camera)) {}
+
+VisualOdometry::~VisualOdometry() = default;
+
+absl::StatusOr<std::unique_ptr<VisualOdometry>> VisualOdometry::Create(
+    const VisualOdometryOptions& options, const CameraModel& camera,
+    std::unique_ptr<ObjectDetector> detector) {
+  if (absl::Status status = options.Validate(); !status.ok()) return status;
+  if (absl::Status status = ValidateCamera(camera); !status.ok()) return status;
+  return std::unique_ptr<VisualOdometry>(
+      new VisualOdometry(options, camera, std::move(detector)));
+}
+
+void VisualOdometry::ResetAt(const TimedPose& pose) {
+  State& s = *state_;
+  s.keyframes.clear();
+  s.last_pose = pose.pose;
+  s.previous_pose.reset();
+  s.last_stamp = pose.stamp;
+}
+
+absl::StatusOr<FrameResult> VisualOdometry::ProcessFrame(const FrameInput& frame) {
+  State& s = *state_;
+  const Clock::time_point start = Clock::now();
+  if (absl::Status status = ValidateFrame(frame, camera_, s.last_stamp, s.with_depth);
+      !status.ok()) {
+    return status;
+  }
+  FrameResult result;
+  result.stamp = frame.stamp;
+
+  // Boxes first: a detector failure must leave the session unchanged.
+  Clock::time_point stage = Clock::now();
+  if (frame.boxes) {
+    result.boxes = *frame.boxes;
+  } else if (detector_ != nullptr) {
+    absl::StatusOr<std::vector<Box>> boxes = detector_->Detect(frame.image);
+    if (!boxes.ok()) {
+      return absl::Status(boxes.status().code(),
+                          absl::StrCat("detector ", detector_->name(), ": ",
+                                       boxes.status().message()));
+    }
+    result.boxes = *std::move(boxes);
+  }
+  result.timings.detector_ms = MsSince(stage);
+
+  stage = Clock::now();
+  cv::Mat gray = frame.image;
+  if (gray.channels() == 3) cv::cvtColor(frame.image, gray, cv::COLOR_BGR2GRAY);
+  FrameFeatures features = s.extractor.Extract(gray, frame.depth, options_.depth_scale,
+                                               options_.min_depth, options_.max_depth);
+  result.timings.orb_ms = MsSince(stage);
+
+  const std::vector<bool> in_box = InsideAnyBox(features.pixels, result.boxes);
+  const bool use_boxes = options_.filter != DynamicFilter::kNone;
+  result.keypoints = features.pixels;
+  result.labels.assign(features.size(), FeatureLabel::kUnmatched);
+  result.counts.total = features.size();
+  for (int i = 0; i < features.size(); ++i) {
+    if (in_box[i]) {
+      ++result.counts.potentially_dynamic;
+      if (use_boxes) result.labels[i] = FeatureLabel::kPotentiallyDynamic;
+    }
+  }
+
+  if (!s.with_depth) s.with_depth = !frame.depth.empty();
+  const bool rgbd = *s.with_depth;
+  const double focal = 0.5 * (camera_.fx + camera_.fy);
+
+  // Constant-velocity prediction of this frame's pose.
+  std::optional<Pose> predicted_pose;
+  if (s.last_pose && s.previous_pose) {
+    predicted_pose = PoseAfter(*s.last_pose, MotionBetween(*s.previous_pose, *s.last_pose));
+  } else if (s.last_pose) {
+    predicted_pose = s.last_pose;
+  }
+
+  // Track against the local map, newest reference first.
+  TrackingOutcome outcome;
+  Reference* reference = nullptr;
+  for (Reference& candidate : s.keyframes) {
+    TrackingInputs in;
+    in.reference = &candidate.features;
+    in.current = &features;
+    in.current_in_box = &in_box;
+    in.focal_px = focal;
+    if (predicted_pose) {
+      Motion predicted = MotionBetween(candidate.pose, *predicted_pose);
+      if (!rgbd && predicted.t.norm() > 1e-9) predicted.t.normalize();
+      in.predicted = predicted;
+    }
+    TrackingOutcome attempt = rgbd ? TrackWithDepth(in, options_) : TrackMonocular(in, options_);
+    result.timings.matching_ms += attempt.matching_ms;
+    result.timings.sampling_ms += attempt.sampling_ms;
+    result.timings.pose_ms += attempt.pose_ms;
+    const bool ok = attempt.ok;
+    outcome = std::move(attempt);
+    if (ok) {
+      reference = &candidate;
+      break;
+    }
+    if (!rgbd) break;  // monocular keeps one reference
+  }
+
+  // Label the current features from the pairs.
+  std::vector<bool> dynamic(features.size(), false);
+  for (size_t k = 0; k < outcome.matches.size(); ++k) {
+    const int q = outcome.matches[k].query;
+    if (k < outcome.tested.size() && outcome.tested[k]) {
+      if (!outcome.is_static[k]) {
+        result.labels[q] = FeatureLabel::kDynamic;
+        dynamic[q] = true;
+        ++result.counts.dynamic;
+      } else {
+        result.labels[q] =
+            (in_box[q] && use_boxes) ? FeatureLabel::kStaticInBox : FeatureLabel::kStatic;
+      }
+    }
+  }
+  result.counts.matched = static_cast<int>(outcome.matches.size());
+
+  stage = Clock::now();
+  Pose pose = predicted_pose.value_or(Pose{});
+  std::vector<std::optional<double>> mono_depth(features.size());
+  bool make_keyframe = false;
+  if (s.keyframes.empty()) {
+    result.state = TrackingState::kInitializing;
+    make_keyframe = true;
+  } else if (reference == nullptr) {
+    result.state = TrackingState::kLost;
+    // RGB-D: start a new local map here at the predicted pose so the next frames can track again.
+    make_keyframe = true;
+  } else {
+    result.state = TrackingState::kTracking;
+    result.counts.tracked = static_cast<int>(outcome.tracking_set.size());
+    Motion motion = outcome.motion;
+    if (!rgbd) {
+      // Scale of the unit translation: the reference's features carry depths at the session's
+      // scale; the same pairs triangulated with the unit motion give their depths at scale 1.
+      std::vector<double> ratios;
+      std::vector<std::optional<Eigen::Vector3d>> points(outcome.matches.size());
+      for (int k : outcome.tracking_set) {
+        const Correspondence& c = outcome.correspondences[k];
+        points[k] = Triangulate(motion, c.reference, c.current);
+        const std::optional<double>& known = reference->features.depth[outcome.matches[k].train];
+        if (points[k] && known) ratios.push_back(*known / points[k]->z());
+      }
+      const double scale = ratios.size() >= 8 ? Percentile50(ratios) : s.mono_speed;
+      if (std::isfinite(scale) && scale > 0) {
+        motion.t *= scale;
+        s.mono_speed = scale;
+      }
+      for (int k : outcome.tracking_set) {
+        if (!points[k]) continue;
+        const Eigen::Vector3d in_current = motion.R * (*points[k] * s.mono_speed) + motion.t;
+        if (in_current.z() > 0) mono_depth[outcome.matches[k].query] = in_current.z();
+      }
+    }
+    pose = PoseAfter(reference->pose, motion);
+    if (reference->first_tracked == 0) reference->first_tracked = result.counts.tracked;
+    if (rgbd) {
+      const Motion from_keyframe = MotionBetween(s.keyframes.front().pose, pose);
+      const bool weak =
+          result.counts.tracked < options_.keyframe_tracked_fraction * reference->first_tracked;
+      make_keyframe = reference != &s.keyframes.front() || weak ||
+                      from_keyframe.t.norm() > options_.keyframe_distance ||
+                      RotationAngle(from_keyframe.R) > options_.keyframe_angle;
+    } else {
+      make_keyframe = true;  // monocular tracks frame to frame
+    }
+  }
+  if (make_keyframe) {
+    // eq 18: the map takes static features outside boxes (with depth, RGB-D).
+    std::vector<bool> keep(features.size(), false);
+    for (int i = 0; i < features.size(); ++i) {
+      if (dynamic[i] || (use_boxes && in_box[i])) continue;
+      if (rgbd ? features.depth[i].has_value() : true) keep[i] = true;
+    }
+    Reference keyframe;
+    keyframe.stamp = frame.stamp;
+    keyframe.pose = pose;
+    if (!rgbd) features.depth = mono_depth;
+    keyframe.features = Subset(features, keep);
+    result.counts.mapped = keyframe.features.size();
+    result.keyframe = true;
+    s.keyframes.push_front(std::move(keyframe));
+    const size_t keep_count = rgbd ? static_cast<size_t>(options_.local_map_keyframes) : 1;
+    while (s.keyframes.size() > keep_count) s.keyframes.pop_back();
+  }
+  result.timings.mapping_ms = MsSince(stage);
+
+  result.pose = pose;
+  s.previous_pose = s.last_pose;
+  s.last_pose = pose;
+  s.last_stamp = frame.stamp;
+  trajectory_.push_back({frame.stamp, pose});
+  result.timings.total_ms = MsSince(start);
+  return result;
+}
+
+}  // namespace waymark::visual_slam
