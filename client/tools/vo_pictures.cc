@@ -77,12 +77,17 @@ absl::StatusOr<cv::Mat> DrawFeatureFrame(const cv::Mat& image,
                FeatureColor(f->label), cv::FILLED, cv::LINE_8);
   }
   if (!caption.empty()) {
+    // Shrunk to the image width rather than cut off.
     int baseline = 0;
-    const cv::Size size =
-        cv::getTextSize(caption, cv::FONT_HERSHEY_SIMPLEX, kFontScale, 1, &baseline);
+    double scale = kFontScale;
+    cv::Size size = cv::getTextSize(caption, cv::FONT_HERSHEY_SIMPLEX, scale, 1, &baseline);
+    if (size.width > out.cols - 8 && size.width > 0) {
+      scale *= static_cast<double>(out.cols - 8) / size.width;
+      size = cv::getTextSize(caption, cv::FONT_HERSHEY_SIMPLEX, scale, 1, &baseline);
+    }
     cv::rectangle(out, cv::Rect(0, 0, std::min(out.cols, size.width + 8), size.height + baseline + 8),
                   cv::Scalar(0, 0, 0), cv::FILLED);
-    cv::putText(out, caption, cv::Point(4, size.height + 4), cv::FONT_HERSHEY_SIMPLEX, kFontScale,
+    cv::putText(out, caption, cv::Point(4, size.height + 4), cv::FONT_HERSHEY_SIMPLEX, scale,
                 cv::Scalar(255, 255, 255), 1, cv::LINE_AA);
   }
   // Legend along the bottom edge.

@@ -265,8 +265,9 @@ int RunVo(CommandContext& context, const VoArgs& args) {
                                                         evaluation->alignment.scale)
                                           : "")
                  : fmt::format("{}: {} frames", SequenceName(args.sequence), poses.size());
-  if (absl::Status s = WriteTrajectorySvg(TrajectoryScene(poses, evaluation, title),
-                                          out_dir / "trajectory.svg");
+  // SVG for documents, PNG for a quick look (one layout, map_render.h).
+  if (absl::Status s = WriteMapPictures(TrajectoryScene(poses, evaluation, title),
+                                        out_dir / "trajectory.svg", out_dir / "trajectory.png");
       !s.ok()) {
     return ReportError(context, s);
   }
@@ -320,7 +321,7 @@ int RunVo(CommandContext& context, const VoArgs& args) {
         evaluation->ate.rmse, evaluation->matches.size(), with_scale ? "Sim(3)" : "SE(3)",
         evaluation->rpe_translation.rmse, evaluation->rpe_rotation_deg.rmse);
   }
-  context.out << fmt::format("wrote {}/trajectory.txt, trajectory.svg, summary.json, {} frame "
+  context.out << fmt::format("wrote {}/trajectory.txt, trajectory.svg, trajectory.png, summary.json, {} frame "
                              "pictures in frames/\n",
                              out_dir.string(), pictures.size());
   return kExitOk;
