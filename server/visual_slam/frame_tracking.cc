@@ -1,6 +1,7 @@
 #include "server/visual_slam/frame_tracking.h"
 
 #include <algorithm>
+#include <cmath>
 
 #include "absl/strings/str_cat.h"
 #include "server/common/stopwatch.h"
@@ -130,8 +131,11 @@ TrackingOutcome TrackMonocular(const TrackingInputs& in, const VisualOdometryOpt
   if (!chosen) return out;
 
   const Clock::time_point start = Clock::now();
-  absl::StatusOr<Motion> essential = EssentialFromInliers(out.correspondences, chosen->inliers);
-  out.motion = essential.ok() ? *essential : chosen->motion;
+  // The sampler already polished its hypotheses on their inliers; a least-squares refit over
+  // more pairs is kept only when it explains them better (truncated squared Sampson error): on
+  // KITTI 06 the plain refit sometimes slid from the right motion to a sideways one with a few
+  // degrees of rotation, which far points with no parallax support almost as well.
+  out.motion = chosen->motion;
   ClassifyPairs(in, options, out);
   if (static_cast<int>(out.tracking_set.size()) < options.min_tracked) {
     out.failure = absl::StrCat("only ", out.tracking_set.size(), " static pairs (need ",
@@ -139,8 +143,18 @@ TrackingOutcome TrackMonocular(const TrackingInputs& in, const VisualOdometryOpt
     out.pose_ms = MsSince(start);
     return out;
   }
-  absl::StatusOr<Motion> final_motion = EssentialFromInliers(out.correspondences, out.tracking_set);
-  if (final_motion.ok()) out.motion = *final_motion;
+  std::vector<int> fit_set = chosen->inliers;
+  fit_set.insert(fit_set.end(), out.tracking_set.begin(), out.tracking_set.end());
+  std::sort(fit_set.begin(), fit_set.end());
+  fit_set.erase(std::unique(fit_set.begin(), fit_set.end()), fit_set.end());
+  const double cap = options.inlier_threshold_px;
+  auto cost = [&](const Motion& motion) {
+    double sum = 0;
+    for (int k : fit_set) sum += std::pow(std::min(solver.ErrorPx(motion, k), cap), 2);
+    return sum;
+  };
+  absl::StatusOr<Motion> refit = EssentialFromInliers(out.correspondences, fit_set);
+  if (refit.ok() && cost(*refit) < cost(out.motion)) out.motion = *refit;
   out.pose_ms = MsSince(start);
   out.ok = true;
   return out;

@@ -257,7 +257,7 @@ TEST_F(RealSequenceTest, BonnCrowdWindowRgbd) {
               full.dynamic);
   EXPECT_EQ(full.frames, 140);
   EXPECT_GT(full.potentially_dynamic, 1000);  // people are in most frames
-  EXPECT_LT(full.ate_rmse, 0.5);
+  EXPECT_LT(full.ate_rmse, 0.10);  // measured 0.051 m; plain ORB 0.242 m
 }
 
 TEST_F(RealSequenceTest, KittiMonocular) {
@@ -268,7 +268,7 @@ TEST_F(RealSequenceTest, KittiMonocular) {
   std::printf("kitti mono: frames %d lost %d ate %.4f m (Sim3)\n", summary.frames, summary.lost,
               summary.ate_rmse);
   EXPECT_EQ(summary.frames, 51);
-  EXPECT_LT(summary.ate_rmse, 5.0);
+  EXPECT_LT(summary.ate_rmse, 4.0);  // measured 2.69 m over the 60 m drive (Sim(3) aligned)
 }
 
 }  // namespace
