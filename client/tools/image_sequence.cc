@@ -32,7 +32,11 @@ const NamedCamera kPresets[] = {
     // Bonn RGB-D Dynamic dataset page (https://www.ipb.uni-bonn.de/data/rgbd-dynamic-dataset/),
     // also ../shared/data/vslam/SOURCES.md; the images are not undistorted.
     {"bonn",
-     {542.822841, 542.576870, 315.593520, 237.756098, {0.039903, -0.099343, -0.000730, -0.000144, 0.0},
+     {542.822841,
+      542.576870,
+      315.593520,
+      237.756098,
+      {0.039903, -0.099343, -0.000730, -0.000144, 0.0},
       5000}},
     // TUM RGB-D benchmark, "File Formats: intrinsic camera calibration" table
     // (https://cvg.cit.tum.de/data/datasets/rgbd-dataset/file_formats), freiburg1, 2 and 3.
@@ -66,8 +70,8 @@ absl::StatusOr<fs::path> ListedFile(const fs::path& dir, const fs::path& list, i
   fs::path path = fs::path(name).is_absolute() ? fs::path(name) : dir / name;
   std::error_code ec;
   if (!fs::is_regular_file(path, ec)) {
-    return absl::NotFoundError(absl::StrCat(list.string(), " line ", line, ": no file '",
-                                            path.string(), "'"));
+    return absl::NotFoundError(
+        absl::StrCat(list.string(), " line ", line, ": no file '", path.string(), "'"));
   }
   return path;
 }
@@ -81,17 +85,18 @@ struct StampedFile {
 absl::Status CheckIncreasing(const fs::path& list, const std::vector<StampedFile>& files) {
   for (size_t i = 1; i < files.size(); ++i) {
     if (!(files[i].stamp > files[i - 1].stamp)) {
-      return ListError(list, files[i].line,
-                       absl::StrCat("stamp ", files[i].stamp, " does not increase (line ",
-                                    files[i - 1].line, " has ", files[i - 1].stamp,
-                                    "); frames must be in time order"));
+      return ListError(
+          list, files[i].line,
+          absl::StrCat("stamp ", files[i].stamp, " does not increase (line ", files[i - 1].line,
+                       " has ", files[i - 1].stamp, "); frames must be in time order"));
     }
   }
   return absl::OkStatus();
 }
 
 // rgb.txt / depth.txt: `stamp path` per line.
-absl::StatusOr<std::vector<StampedFile>> ReadStampedList(const fs::path& dir, const fs::path& list) {
+absl::StatusOr<std::vector<StampedFile>> ReadStampedList(const fs::path& dir,
+                                                         const fs::path& list) {
   absl::StatusOr<std::string> text = ReadFileBytes(list);
   if (!text.ok()) return text.status();
   std::vector<StampedFile> files;
@@ -133,9 +138,9 @@ absl::Status ReadAssociations(const fs::path& list, ImageSequence* sequence) {
     const std::vector<std::string> fields = Fields(line);
     if (fields.empty()) continue;
     if (fields.size() != 4) {
-      return ListError(list, line_number,
-                       absl::StrCat(fields.size(),
-                                    " fields; expected 4: t_rgb rgb/x.png t_depth depth/x.png"));
+      return ListError(
+          list, line_number,
+          absl::StrCat(fields.size(), " fields; expected 4: t_rgb rgb/x.png t_depth depth/x.png"));
     }
     double t_rgb = 0;
     double t_depth = 0;
@@ -261,14 +266,14 @@ absl::StatusOr<std::vector<double>> KittiStamps(const fs::path& dir, size_t coun
     absl::StatusOr<std::vector<double>> read = ReadStampListFile(times);
     if (!read.ok()) return read.status();
     if (read->size() < count) {
-      return absl::InvalidArgumentError(absl::StrCat(times.string(), ": ", read->size(),
-                                                     " stamps for ", count, " images"));
+      return absl::InvalidArgumentError(
+          absl::StrCat(times.string(), ": ", read->size(), " stamps for ", count, " images"));
     }
     stamps.assign(read->begin(), read->begin() + count);
     for (size_t i = 1; i < stamps.size(); ++i) {
       if (!(stamps[i] > stamps[i - 1])) {
-        return absl::InvalidArgumentError(absl::StrCat(
-            times.string(), ": stamp ", i + 1, " (", stamps[i], ") does not increase"));
+        return absl::InvalidArgumentError(absl::StrCat(times.string(), ": stamp ", i + 1, " (",
+                                                       stamps[i], ") does not increase"));
       }
     }
     return stamps;
@@ -365,8 +370,8 @@ absl::StatusOr<ImageSequence> ReadImageSequence(const fs::path& dir) {
 
 absl::StatusOr<std::vector<StampedPose3>> ReadSequenceGroundTruth(const ImageSequence& sequence) {
   if (!sequence.groundtruth) {
-    return absl::NotFoundError(absl::StrCat("'", sequence.dir.string(),
-                                            "' has no groundtruth.txt or poses.txt"));
+    return absl::NotFoundError(
+        absl::StrCat("'", sequence.dir.string(), "' has no groundtruth.txt or poses.txt"));
   }
   PoseFileOptions options;
   if (sequence.layout == SequenceLayout::kKitti) {

@@ -49,18 +49,18 @@ enum class SequenceLayout { kTum, kKitti };
 const char* SequenceLayoutName(SequenceLayout layout);
 
 struct SequenceFrame {
-  double stamp = 0;                          // s
-  std::filesystem::path image;               // colour (TUM) or gray (KITTI) image
+  double stamp = 0;                            // s
+  std::filesystem::path image;                 // colour (TUM) or gray (KITTI) image
   std::optional<std::filesystem::path> depth;  // 16-bit depth image (TUM layouts only)
 };
 
 struct ImageSequence {
   std::filesystem::path dir;
   SequenceLayout layout = SequenceLayout::kTum;
-  std::vector<SequenceFrame> frames;             // in time order
-  std::optional<CameraIntrinsics> intrinsics;    // from calib.txt (KITTI)
+  std::vector<SequenceFrame> frames;                 // in time order
+  std::optional<CameraIntrinsics> intrinsics;        // from calib.txt (KITTI)
   std::optional<std::filesystem::path> groundtruth;  // groundtruth.txt (TUM) or poses.txt (KITTI)
-  bool has_depth_list = false;  // associations.txt or depth.txt was read
+  bool has_depth_list = false;                       // associations.txt or depth.txt was read
   int frames_without_depth = 0;  // colour frames with no depth frame within the pairing window
 };
 

@@ -46,9 +46,9 @@ void AddVoCommands(CLI::App& app, CommandRegistry& registry) {
                   "Movable classes, comma-separated (default: the server's person,car,bus,truck,"
                   "bicycle,motorbike)");
   run->add_flag("--depth", args->depth, "Send the depth frames too (RGB-D: metric poses)");
-  run->add_option("--camera", args->camera,
-                  "Camera preset: " + CameraPresetNames() +
-                      " (TUM-layout folders have no calibration file)");
+  run->add_option(
+      "--camera", args->camera,
+      "Camera preset: " + CameraPresetNames() + " (TUM-layout folders have no calibration file)");
   AddNumber(run, "--fx", &args->fx, "Focal length x (pixels)");
   AddNumber(run, "--fy", &args->fy, "Focal length y (pixels)");
   AddNumber(run, "--cx", &args->cx, "Principal point x (pixels)");

@@ -40,8 +40,8 @@ struct VoBox {
 };
 
 // Stages of the engine, in the order of VisualTimings (per-stage medians in the summary).
-inline constexpr std::array<const char*, 8> kVoStages = {
-    "decode", "orb", "detector", "matching", "sampling", "pose", "mapping", "total"};
+inline constexpr std::array<const char*, 8> kVoStages = {"decode",   "orb",  "detector", "matching",
+                                                         "sampling", "pose", "mapping",  "total"};
 
 struct VoFrameRecord {
   size_t index = 0;  // in the sequence as sent (0-based)

@@ -16,6 +16,8 @@ namespace {
 
 constexpr int kFeatureRadius = 3;
 constexpr double kFontScale = 0.45;
+// Height of the caption band at the top (box labels stay below it).
+constexpr int kCaptionBand = 22;
 
 // Text with a dark outline so it reads on any background.
 void PutLabel(cv::Mat& image, const std::string& text, cv::Point at, const cv::Scalar& color) {
@@ -63,7 +65,11 @@ absl::StatusOr<cv::Mat> DrawFeatureFrame(const cv::Mat& image,
     cv::rectangle(out, rect, BoxColor(), 2, cv::LINE_8);
     std::string text = box.label.empty() ? "box" : box.label;
     if (box.confidence > 0) text += fmt::format(" {:.2f}", box.confidence);
-    PutLabel(out, text, cv::Point(rect.x + 2, std::max(12, rect.y - 4)), BoxColor());
+    // Above the box, or inside it below the caption band when the box starts at the top edge
+    // (people close to the camera are cut by it).
+    const int label_y =
+        rect.y - 4 >= kCaptionBand + 12 ? rect.y - 4 : std::max(rect.y, kCaptionBand) + 14;
+    PutLabel(out, text, cv::Point(std::max(0, rect.x) + 2, label_y), BoxColor());
   }
   // Grey first, so the informative colours are on top where features overlap.
   std::vector<const VoFeature*> order;
@@ -73,8 +79,8 @@ absl::StatusOr<cv::Mat> DrawFeatureFrame(const cv::Mat& image,
   });
   for (const VoFeature* f : order) {
     // No anti-aliasing: the disc's centre has exactly the label's colour.
-    cv::circle(out, cv::Point(cvRound(f->x), cvRound(f->y)), kFeatureRadius,
-               FeatureColor(f->label), cv::FILLED, cv::LINE_8);
+    cv::circle(out, cv::Point(cvRound(f->x), cvRound(f->y)), kFeatureRadius, FeatureColor(f->label),
+               cv::FILLED, cv::LINE_8);
   }
   if (!caption.empty()) {
     // Shrunk to the image width rather than cut off.
@@ -85,7 +91,8 @@ absl::StatusOr<cv::Mat> DrawFeatureFrame(const cv::Mat& image,
       scale *= static_cast<double>(out.cols - 8) / size.width;
       size = cv::getTextSize(caption, cv::FONT_HERSHEY_SIMPLEX, scale, 1, &baseline);
     }
-    cv::rectangle(out, cv::Rect(0, 0, std::min(out.cols, size.width + 8), size.height + baseline + 8),
+    cv::rectangle(out,
+                  cv::Rect(0, 0, std::min(out.cols, size.width + 8), size.height + baseline + 8),
                   cv::Scalar(0, 0, 0), cv::FILLED);
     cv::putText(out, caption, cv::Point(4, size.height + 4), cv::FONT_HERSHEY_SIMPLEX, scale,
                 cv::Scalar(255, 255, 255), 1, cv::LINE_AA);
@@ -106,9 +113,8 @@ absl::StatusOr<cv::Mat> DrawFeatureFrame(const cv::Mat& image,
   return out;
 }
 
-absl::Status WriteFeatureFrame(const std::filesystem::path& image_path,
-                               const VoFrameRecord& record, const std::string& caption,
-                               const std::filesystem::path& out_path) {
+absl::Status WriteFeatureFrame(const std::filesystem::path& image_path, const VoFrameRecord& record,
+                               const std::string& caption, const std::filesystem::path& out_path) {
   try {
     const cv::Mat image = cv::imread(image_path.string(), cv::IMREAD_UNCHANGED);
     if (image.empty()) {
@@ -118,7 +124,8 @@ absl::Status WriteFeatureFrame(const std::filesystem::path& image_path,
     cv::Mat image8 = image;
     if (image.depth() != CV_8U) image.convertTo(image8, CV_8U, 1.0 / 256);
     if (image8.channels() == 4) cv::cvtColor(image8, image8, cv::COLOR_BGRA2BGR);
-    absl::StatusOr<cv::Mat> drawn = DrawFeatureFrame(image8, record.features, record.boxes, caption);
+    absl::StatusOr<cv::Mat> drawn =
+        DrawFeatureFrame(image8, record.features, record.boxes, caption);
     if (!drawn.ok()) {
       return absl::Status(drawn.status().code(),
                           absl::StrCat(image_path.string(), ": ", drawn.status().message()));

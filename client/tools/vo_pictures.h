@@ -9,11 +9,10 @@
 //   the ground truth brought into that frame by the ATE alignment when there is one.
 
 #include <filesystem>
+#include <opencv2/core.hpp>
 #include <optional>
 #include <string>
 #include <vector>
-
-#include <opencv2/core.hpp>
 
 #include "absl/status/status.h"
 #include "client/tools/map_render.h"
@@ -29,14 +28,14 @@ cv::Scalar BoxColor();
 
 // The image (gray or colour, 8-bit) as colour, with boxes, features (filled discs of radius 3)
 // and `caption` in a band at the top-left. INVALID_ARGUMENT for an empty or non-8-bit image.
-absl::StatusOr<cv::Mat> DrawFeatureFrame(const cv::Mat& image, const std::vector<VoFeature>& features,
+absl::StatusOr<cv::Mat> DrawFeatureFrame(const cv::Mat& image,
+                                         const std::vector<VoFeature>& features,
                                          const std::vector<VoBox>& boxes,
                                          const std::string& caption);
 
 // Reads `image_path`, draws the frame and writes it as PNG to `out_path`.
-absl::Status WriteFeatureFrame(const std::filesystem::path& image_path,
-                               const VoFrameRecord& record, const std::string& caption,
-                               const std::filesystem::path& out_path);
+absl::Status WriteFeatureFrame(const std::filesystem::path& image_path, const VoFrameRecord& record,
+                               const std::string& caption, const std::filesystem::path& out_path);
 
 // The top-view scene: the estimate's x-z path and, with an evaluation, the matched ground-truth
 // positions mapped into the estimate's frame by the inverse of the alignment.

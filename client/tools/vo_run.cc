@@ -110,9 +110,9 @@ int RunVo(CommandContext& context, const VoArgs& args) {
   std::error_code ec;
   fs::create_directories(out_dir / "frames", ec);
   if (ec) {
-    return ReportError(context, absl::PermissionDeniedError(absl::StrCat(
-                                    "cannot create '", (out_dir / "frames").string(), "': ",
-                                    ec.message())));
+    return ReportError(context,
+                       absl::PermissionDeniedError(absl::StrCat(
+                           "cannot create '", (out_dir / "frames").string(), "': ", ec.message())));
   }
 
   std::unique_ptr<client::SlamClient> client = context.ConnectSlam();
@@ -227,9 +227,14 @@ int RunVo(CommandContext& context, const VoArgs& args) {
       {"depth", args.depth},
       {"frames_in_sequence", sequence->frames.size()},
       {"frames_skipped_no_depth", skipped_no_depth},
-      {"camera", {{"fx", camera->fx}, {"fy", camera->fy}, {"cx", camera->cx}, {"cy", camera->cy},
-                  {"width", size->width}, {"height", size->height},
-                  {"distortion", camera->distortion}}},
+      {"camera",
+       {{"fx", camera->fx},
+        {"fy", camera->fy},
+        {"cx", camera->cx},
+        {"cy", camera->cy},
+        {"width", size->width},
+        {"height", size->height},
+        {"distortion", camera->distortion}}},
       {"processing_s", processing_s},
       {"fps", processing_s > 0 ? static_cast<double>(poses.size()) / processing_s : 0.0},
       {"window", args.window},
@@ -259,12 +264,13 @@ int RunVo(CommandContext& context, const VoArgs& args) {
   }
 
   const std::string title =
-      evaluation ? fmt::format("{}: {} frames, ATE RMSE {:.4f} m{}", SequenceName(args.sequence),
-                               poses.size(), evaluation->ate.rmse,
-                               with_scale ? fmt::format(" (Sim(3), scale {:.3f})",
-                                                        evaluation->alignment.scale)
-                                          : "")
-                 : fmt::format("{}: {} frames", SequenceName(args.sequence), poses.size());
+      evaluation
+          ? fmt::format("{}: {} frames, ATE RMSE {:.4f} m{}", SequenceName(args.sequence),
+                        poses.size(), evaluation->ate.rmse,
+                        with_scale
+                            ? fmt::format(" (Sim(3), scale {:.3f})", evaluation->alignment.scale)
+                            : "")
+          : fmt::format("{}: {} frames", SequenceName(args.sequence), poses.size());
   // SVG for documents, PNG for a quick look (one layout, map_render.h).
   if (absl::Status s = WriteMapPictures(TrajectoryScene(poses, evaluation, title),
                                         out_dir / "trajectory.svg", out_dir / "trajectory.png");
@@ -279,10 +285,10 @@ int RunVo(CommandContext& context, const VoArgs& args) {
     if (i >= records.size() || !records[i].answered || records[i].rejected) continue;
     const VoFrameRecord& r = records[i];
     const fs::path path = out_dir / "frames" / fmt::format("{:06d}.png", r.index);
-    const std::string caption = fmt::format(
-        "frame {} {}: {} features, {} in boxes, {} dynamic, {} tracked, {} mapped{}", r.index,
-        r.state, r.total, r.potentially_dynamic, r.dynamic, r.tracked, r.mapped,
-        static_cast<long>(i) == state.best_dynamic ? " (most dynamic)" : "");
+    const std::string caption =
+        fmt::format("frame {} {}: {} features, {} in boxes, {} dynamic, {} tracked, {} mapped{}",
+                    r.index, r.state, r.total, r.potentially_dynamic, r.dynamic, r.tracked,
+                    r.mapped, static_cast<long>(i) == state.best_dynamic ? " (most dynamic)" : "");
     if (absl::Status s = WriteFeatureFrame(sequence->frames[r.index].image, r, caption, path);
         !s.ok()) {
       context.err << "warning: " << s.message() << "\n";
@@ -321,9 +327,10 @@ int RunVo(CommandContext& context, const VoArgs& args) {
         evaluation->ate.rmse, evaluation->matches.size(), with_scale ? "Sim(3)" : "SE(3)",
         evaluation->rpe_translation.rmse, evaluation->rpe_rotation_deg.rmse);
   }
-  context.out << fmt::format("wrote {}/trajectory.txt, trajectory.svg, trajectory.png, summary.json, {} frame "
-                             "pictures in frames/\n",
-                             out_dir.string(), pictures.size());
+  context.out << fmt::format(
+      "wrote {}/trajectory.txt, trajectory.svg, trajectory.png, summary.json, {} frame "
+      "pictures in frames/\n",
+      out_dir.string(), pictures.size());
   return kExitOk;
 }
 

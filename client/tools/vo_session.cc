@@ -18,7 +18,8 @@ namespace {
 // A model file's bytes; the server never opens client paths, so they travel in the request.
 absl::StatusOr<std::string> ReadModel(const std::string& path, const char* role) {
   if (path.empty()) {
-    return absl::InvalidArgumentError(absl::StrCat("--detector: the ", role, " file name is empty"));
+    return absl::InvalidArgumentError(
+        absl::StrCat("--detector: the ", role, " file name is empty"));
   }
   absl::StatusOr<std::string> bytes = ReadFileBytes(path);
   if (!bytes.ok()) {
@@ -26,8 +27,8 @@ absl::StatusOr<std::string> ReadModel(const std::string& path, const char* role)
                         absl::StrCat("--detector: ", role, " file: ", bytes.status().message()));
   }
   if (bytes->empty()) {
-    return absl::InvalidArgumentError(absl::StrCat("--detector: ", role, " file '", path,
-                                                   "' is empty"));
+    return absl::InvalidArgumentError(
+        absl::StrCat("--detector: ", role, " file '", path, "' is empty"));
   }
   return bytes;
 }
@@ -50,9 +51,9 @@ absl::StatusOr<CameraIntrinsics> ResolveIntrinsics(const VoArgs& args,
     if (!args.cy) missing.push_back("--cy");
     if (!missing.empty()) {
       return absl::InvalidArgumentError(absl::StrCat(
-          "'", sequence.dir.string(), "' has no camera calibration (", SequenceLayoutName(sequence.layout),
-          " layout): give --camera PRESET (", CameraPresetNames(),
-          ") or --fx --fy --cx --cy; missing ", absl::StrJoin(missing, " ")));
+          "'", sequence.dir.string(), "' has no camera calibration (",
+          SequenceLayoutName(sequence.layout), " layout): give --camera PRESET (",
+          CameraPresetNames(), ") or --fx --fy --cx --cy; missing ", absl::StrJoin(missing, " ")));
     }
     base = CameraIntrinsics{};
   }
@@ -120,8 +121,8 @@ absl::StatusOr<v1::VisualSlamConfig::DynamicFilter> FilterFromName(const std::st
 }
 
 absl::StatusOr<v1::CreateSessionRequest> VoSessionRequest(const VoArgs& args,
-                                                          const CameraIntrinsics& camera,
-                                                          int width, int height) {
+                                                          const CameraIntrinsics& camera, int width,
+                                                          int height) {
   absl::StatusOr<v1::VisualSlamConfig::DynamicFilter> filter = FilterFromName(args.filter);
   if (!filter.ok()) return filter.status();
   absl::StatusOr<v1::DetectorConfig> detector = DetectorFromSpec(args.detector, args.movable);
@@ -129,9 +130,10 @@ absl::StatusOr<v1::CreateSessionRequest> VoSessionRequest(const VoArgs& args,
 
   v1::CreateSessionRequest request;
   request.set_robot_id(args.robot_id);
-  request.set_name(args.name.empty()
-                       ? absl::StrCat("vo run ", std::filesystem::path(args.sequence).filename().string())
-                       : args.name);
+  request.set_name(
+      args.name.empty()
+          ? absl::StrCat("vo run ", std::filesystem::path(args.sequence).filename().string())
+          : args.name);
   v1::VisualSlamConfig* config = request.mutable_visual();
   v1::CameraIntrinsics* c = config->mutable_camera();
   c->set_fx(camera.fx);

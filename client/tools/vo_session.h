@@ -26,7 +26,7 @@ struct VoArgs {
   std::optional<double> fx, fy, cx, cy;
   std::string distortion;  // "k1,k2,p1,p2[,k3]"
   std::optional<double> depth_scale;
-  int max_frames = 0;  // 0 = all
+  int max_frames = 0;   // 0 = all
   std::string out_dir;  // default ./out/vo-<sequence folder name>
   std::string robot_id = "vo";
   std::string name;
@@ -49,8 +49,8 @@ absl::StatusOr<v1::VisualSlamConfig::DynamicFilter> FilterFromName(const std::st
 
 // The whole CreateSessionRequest; width and height are the frames' size.
 absl::StatusOr<v1::CreateSessionRequest> VoSessionRequest(const VoArgs& args,
-                                                          const CameraIntrinsics& camera,
-                                                          int width, int height);
+                                                          const CameraIntrinsics& camera, int width,
+                                                          int height);
 
 int RunVo(CommandContext& context, const VoArgs& args);
 

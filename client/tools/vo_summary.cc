@@ -77,18 +77,12 @@ nlohmann::json FrameSummary(const std::vector<VoFrameRecord>& records) {
     for (size_t s = 0; s < kVoStages.size(); ++s) stage_ms[s].push_back(r.stage_ms[s]);
   }
   nlohmann::json json = {
-      {"frames", records.size()},
-      {"processed", processed},
-      {"rejected", rejected},
-      {"frames_unanswered", unanswered},
-      {"lost_frames", lost},
-      {"keyframes", keyframes},
-      {"features_total", total},
-      {"features_potentially_dynamic", potentially_dynamic},
-      {"features_matched", matched},
-      {"features_dynamic", dynamic},
-      {"features_tracked", tracked},
-      {"features_mapped", mapped},
+      {"frames", records.size()},    {"processed", processed},
+      {"rejected", rejected},        {"frames_unanswered", unanswered},
+      {"lost_frames", lost},         {"keyframes", keyframes},
+      {"features_total", total},     {"features_potentially_dynamic", potentially_dynamic},
+      {"features_matched", matched}, {"features_dynamic", dynamic},
+      {"features_tracked", tracked}, {"features_mapped", mapped},
   };
   for (size_t s = 0; s < kVoStages.size(); ++s) {
     json[fmt::format("{}_ms_median", kVoStages[s])] = Quantile(stage_ms[s], 0.5);

@@ -26,12 +26,14 @@ void WriteText(const fs::path& path, const std::string& text) {
 }
 
 // Empty files stand in for images: the reader checks that they exist, not what they hold.
-void Touch(const ScopedTempDir& dir, const std::string& relative) { WriteText(dir.Make(relative), ""); }
+void Touch(const ScopedTempDir& dir, const std::string& relative) {
+  WriteText(dir.Make(relative), "");
+}
 
 TEST(ImageSequenceTest, TumRgbListPairsDepthByStamp) {
   ScopedTempDir dir;
-  for (const char* f : {"rgb/1.000.png", "rgb/1.033.png", "rgb/1.066.png", "depth/1.001.png",
-                        "depth/1.070.png"}) {
+  for (const char* f :
+       {"rgb/1.000.png", "rgb/1.033.png", "rgb/1.066.png", "depth/1.001.png", "depth/1.070.png"}) {
     Touch(dir, f);
   }
   WriteText(dir.path() / "rgb.txt",
@@ -150,7 +152,8 @@ TEST(ImageSequenceTest, KittiUnlabelledCalibAndDefaultStamps) {
   Touch(dir, "image_0/000000.png");
   Touch(dir, "image_0/000001.png");
   // The shared copy's calib.txt: no `P0:` labels, no final newline.
-  WriteText(dir.path() / "calib.txt", "707 0 601 0 0 707 183 0 0 0 1 0\n707 0 601 -379 0 707 183 0 0 0 1 0");
+  WriteText(dir.path() / "calib.txt",
+            "707 0 601 0 0 707 183 0 0 0 1 0\n707 0 601 -379 0 707 183 0 0 0 1 0");
   absl::StatusOr<ImageSequence> seq = ReadImageSequence(dir.path());
   ASSERT_TRUE(seq.ok()) << seq.status();
   EXPECT_DOUBLE_EQ(seq->frames[0].stamp, 0.0);
@@ -219,8 +222,7 @@ TEST(ImageSequenceTest, KittiGroundTruthGetsFrameStamps) {
   Touch(dir, "image_0/000000.png");
   Touch(dir, "image_0/000001.png");
   WriteText(dir.path() / "calib.txt", "P0: 700 0 600 0 0 710 180 0 0 0 1 0\n");
-  WriteText(dir.path() / "poses.txt",
-            "1 0 0 0 0 1 0 0 0 0 1 0\n1 0 0 0.5 0 1 0 0 0 0 1 1.5\n");
+  WriteText(dir.path() / "poses.txt", "1 0 0 0 0 1 0 0 0 0 1 0\n1 0 0 0.5 0 1 0 0 0 0 1 1.5\n");
   absl::StatusOr<ImageSequence> seq = ReadImageSequence(dir.path());
   ASSERT_TRUE(seq.ok()) << seq.status();
   absl::StatusOr<std::vector<StampedPose3>> gt = ReadSequenceGroundTruth(*seq);

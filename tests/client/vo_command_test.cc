@@ -140,7 +140,8 @@ TEST(VoSessionTest, RequestCarriesCameraDetectorAndFilter) {
   WriteText(dir.path() / "m.weights", "WEIGHTS");
   VoArgs args;
   args.sequence = "/data/bonn_crowd/";
-  args.detector = "yolo:" + (dir.path() / "m.cfg").string() + "," + (dir.path() / "m.weights").string();
+  args.detector =
+      "yolo:" + (dir.path() / "m.cfg").string() + "," + (dir.path() / "m.weights").string();
   args.movable = "person, car";
   args.filter = "boxes";
   args.depth = true;

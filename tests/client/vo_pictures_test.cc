@@ -1,6 +1,8 @@
 // Pictures and results of `waymark vo run` on synthetic input: the feature frame (size, colours
 // at feature and box pixels), the trajectory scene with aligned ground truth, the TUM writer read
 // back by pose_file, summary fields, and records made from SlamUpdates.
+#include "client/tools/vo_pictures.h"
+
 #include <gmock/gmock.h>
 #include <gtest/gtest.h>
 
@@ -12,7 +14,6 @@
 
 #include "client/tools/pose_file.h"
 #include "client/tools/vo_frames.h"
-#include "client/tools/vo_pictures.h"
 #include "client/tools/vo_summary.h"
 #include "tests/client/test_util.h"
 
@@ -41,8 +42,8 @@ TEST(VoPicturesTest, FeaturesAndBoxesInTheirColours) {
   ASSERT_TRUE(drawn.ok()) << drawn.status();
   EXPECT_EQ(drawn->size(), gray.size());
   EXPECT_EQ(drawn->type(), CV_8UC3);
-  EXPECT_EQ(At(*drawn, 50, 60), cv::Vec3b(0, 200, 0));  // static: green
-  EXPECT_EQ(At(*drawn, 52, 61), cv::Vec3b(0, 200, 0));  // inside the disc of radius 3
+  EXPECT_EQ(At(*drawn, 50, 60), cv::Vec3b(0, 200, 0));   // static: green
+  EXPECT_EQ(At(*drawn, 52, 61), cv::Vec3b(0, 200, 0));   // inside the disc of radius 3
   EXPECT_EQ(At(*drawn, 100, 60), cv::Vec3b(0, 0, 255));  // dynamic: red
   EXPECT_EQ(At(*drawn, 120, 60), Bgr(FeatureColor(VoFeatureLabel::kStaticInBox)));
   EXPECT_GT(At(*drawn, 120, 60)[0], 200);  // blue dominates

@@ -43,7 +43,7 @@ TEST(VoRunTest, BonnFirstThirtyFramesRgbd) {
   const double ate = summary["ate_rmse"].get<double>();
   EXPECT_TRUE(std::isfinite(ate));
   EXPECT_GE(ate, 0);
-  EXPECT_EQ(summary["poses_matched"], 30);  // ground truth at 30 Hz covers every frame
+  EXPECT_EQ(summary["poses_matched"], 30);   // ground truth at 30 Hz covers every frame
   EXPECT_EQ(summary["alignment"], "SE(3)");  // RGB-D: metric, no scale
 
   // summary.json on disk is what --json printed.
