@@ -2,6 +2,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <exception>
 #include <utility>
 #include <vector>
 
@@ -75,6 +76,8 @@ class HogPeopleDetector : public ObjectDetector {
       return boxes;
     } catch (const cv::Exception& e) {
       return absl::InternalError(absl::StrCat("hog: OpenCV failed: ", e.what()));
+    } catch (const std::exception& e) {  // std::bad_alloc on a huge frame
+      return absl::InternalError(absl::StrCat("hog: ", e.what()));
     }
   }
 

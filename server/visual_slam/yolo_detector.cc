@@ -133,6 +133,8 @@ class YoloDetector : public ObjectDetector {
       return Decode(outputs, placement, image.size());
     } catch (const cv::Exception& e) {
       return absl::InternalError(absl::StrCat("yolo: OpenCV failed: ", Message(e)));
+    } catch (const std::exception& e) {  // std::bad_alloc on a huge frame
+      return absl::InternalError(absl::StrCat("yolo: ", Message(e)));
     }
   }
 
