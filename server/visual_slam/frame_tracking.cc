@@ -30,8 +30,10 @@ bool Trackable(const VisualOdometryOptions& options, bool in_box) {
 void MatchFrames(const TrackingInputs& in, const VisualOdometryOptions& options, bool with_points,
                  TrackingOutcome& out) {
   const Clock::time_point start = Clock::now();
-  out.matches = CoarseMatch(in.current->descriptors, in.reference->descriptors, options.delta,
-                            options.match_ratio);
+  out.matches = in.matches != nullptr
+                    ? *in.matches
+                    : CoarseMatch(in.current->descriptors, in.reference->descriptors,
+                                  options.delta, options.match_ratio);
   out.correspondences.reserve(out.matches.size());
   for (const DescriptorMatch& m : out.matches) {
     Correspondence c;

@@ -36,6 +36,9 @@ struct TrackingInputs {
   const FrameFeatures* reference = nullptr;
   const FrameFeatures* current = nullptr;
   const std::vector<bool>* current_in_box = nullptr;  // eq 7, per current feature
+  // The coarse matches of current to reference when already computed (the pipeline matches the
+  // newest keyframe while the detector runs); null = match here.
+  const std::vector<DescriptorMatch>* matches = nullptr;
   std::optional<Motion> predicted;  // reference -> current, from the previous motion
   double focal_px = 500;
 };

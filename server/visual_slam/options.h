@@ -39,8 +39,11 @@ struct SamplerOptions {
   // Hypotheses within this fraction of the best inlier count take part in the eq 12 tie-break
   // (a hypothesis with far fewer inliers never wins on motion alone).
   double tie_break_fraction = 0.8;
-  int max_rounds = 8;            // re-rankings (eq 10-11 loop) before giving up on a stable order
-  int hypotheses_per_round = 64;  // samples drawn per round, in eta order
+  // Re-rankings (eq 10-11 loop) before giving up on a stable order, and samples per round in eta
+  // order. Measured on the Bonn crowd window (waymark-vo-bench, 5 seeds): 4 x 32 gives the same
+  // ATE as 8 x 64 (full method median 0.035 vs 0.034 m) for 3.5 instead of 11.6 ms per frame.
+  int max_rounds = 4;
+  int hypotheses_per_round = 32;
   uint64_t seed = 1;             // deterministic sampling
 };
 

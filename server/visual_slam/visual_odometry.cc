@@ -3,6 +3,7 @@
 #include <algorithm>
 #include <cmath>
 #include <deque>
+#include <future>
 #include <utility>
 
 #include <opencv2/imgproc.hpp>
@@ -102,12 +103,37 @@ absl::StatusOr<FrameResult> VisualOdometry::ProcessFrame(const FrameInput& frame
   FrameResult result;
   result.stamp = frame.stamp;
 
-  // Boxes first: a detector failure must leave the session unchanged.
+  // The detector runs on its own thread while this one extracts ORB features and matches them
+  // to the newest keyframe: the two are independent until the box split, and on a 2-core robot
+  // server the detector is the longest stage. A detector failure leaves the session unchanged
+  // (nothing below changes state before the boxes are in).
+  std::future<absl::StatusOr<std::vector<Box>>> detection;
+  Clock::time_point detector_start = Clock::now();
+  if (!frame.boxes && detector_ != nullptr) {
+    detection = std::async(std::launch::async, [this, &frame] {
+      return detector_->Detect(frame.image);
+    });
+  }
+
   Clock::time_point stage = Clock::now();
+  cv::Mat gray = frame.image;
+  if (gray.channels() == 3) cv::cvtColor(frame.image, gray, cv::COLOR_BGR2GRAY);
+  FrameFeatures features = s.extractor.Extract(gray, frame.depth, options_.depth_scale,
+                                               options_.min_depth, options_.max_depth);
+  result.timings.orb_ms = MsSince(stage);
+  stage = Clock::now();
+  std::vector<DescriptorMatch> newest_matches;
+  if (!s.keyframes.empty()) {
+    newest_matches = CoarseMatch(features.descriptors, s.keyframes.front().features.descriptors,
+                                 options_.delta, options_.match_ratio);
+  }
+  const double newest_matching_ms = MsSince(stage);
+
   if (frame.boxes) {
     result.boxes = *frame.boxes;
-  } else if (detector_ != nullptr) {
-    absl::StatusOr<std::vector<Box>> boxes = detector_->Detect(frame.image);
+  } else if (detection.valid()) {
+    absl::StatusOr<std::vector<Box>> boxes = detection.get();
+    result.timings.detector_ms = MsSince(detector_start);
     if (!boxes.ok()) {
       return absl::Status(boxes.status().code(),
                           absl::StrCat("detector ", detector_->name(), ": ",
@@ -115,14 +141,6 @@ absl::StatusOr<FrameResult> VisualOdometry::ProcessFrame(const FrameInput& frame
     }
     result.boxes = *std::move(boxes);
   }
-  result.timings.detector_ms = MsSince(stage);
-
-  stage = Clock::now();
-  cv::Mat gray = frame.image;
-  if (gray.channels() == 3) cv::cvtColor(frame.image, gray, cv::COLOR_BGR2GRAY);
-  FrameFeatures features = s.extractor.Extract(gray, frame.depth, options_.depth_scale,
-                                               options_.min_depth, options_.max_depth);
-  result.timings.orb_ms = MsSince(stage);
 
   const std::vector<bool> in_box = InsideAnyBox(features.pixels, result.boxes);
   const bool use_boxes = options_.filter != DynamicFilter::kNone;
@@ -157,6 +175,10 @@ absl::StatusOr<FrameResult> VisualOdometry::ProcessFrame(const FrameInput& frame
     in.current = &features;
     in.current_in_box = &in_box;
     in.focal_px = focal;
+    if (&candidate == &s.keyframes.front()) {
+      in.matches = &newest_matches;
+      result.timings.matching_ms += newest_matching_ms;
+    }
     if (predicted_pose) {
       Motion predicted = MotionBetween(candidate.pose, *predicted_pose);
       if (!rgbd && predicted.t.norm() > 1e-9) predicted.t.normalize();

@@ -1,0 +1,252 @@
+// waymark-vo-bench: the visual odometry engine (METHODS.md section 3) on a real sequence, without
+// the server: accuracy (ATE/RPE against the sequence's ground truth) and milliseconds per frame by
+// stage, for several filter/detector configurations in one run (same frames, same machine, so the
+// rows compare).
+//
+//   waymark-vo-bench SEQ_DIR [--camera bonn|tum1|tum2|tum3|kitti] [--no-depth]
+//       [--configs none,boxes:yolo,full:yolo] [--models ../shared/models/yolo-fastest-1.1-coco]
+//       [--frames N] [--threads N] [--hypotheses N] [--rounds N] [--features N]
+//
+// A configuration is FILTER[:DETECTOR]: FILTER none (plain ORB VO, every feature used), boxes
+// (every feature in a box dropped), full (the paper's method); DETECTOR none, yolo or hog.
+// Frames are decoded before timing. Monocular runs (KITTI, or --no-depth) are scale-free and
+// aligned with scale (Sim(3)); RGB-D runs rigidly (SE(3)). The load average is printed: on a
+// shared machine it says how much to trust the times. No asserts.
+
+#include <stdlib.h>
+#include <time.h>
+
+#include <algorithm>
+#include <cstdio>
+#include <filesystem>
+#include <fstream>
+#include <iterator>
+#include <string>
+#include <vector>
+
+#include <CLI/CLI.hpp>
+#include <opencv2/core.hpp>
+#include <opencv2/imgcodecs.hpp>
+
+#include "absl/strings/str_split.h"
+#include "client/tools/image_sequence.h"
+#include "client/tools/trajectory_metrics.h"
+#include "server/visual_slam/detector_factory.h"
+#include "server/visual_slam/visual_odometry.h"
+
+namespace waymark::bench {
+namespace {
+
+namespace fs = std::filesystem;
+namespace vs = visual_slam;
+
+std::string ReadFile(const fs::path& path) {
+  std::ifstream in(path, std::ios::binary);
+  return std::string(std::istreambuf_iterator<char>(in), std::istreambuf_iterator<char>());
+}
+
+double ProcessCpuMs() {
+  timespec t{};
+  clock_gettime(CLOCK_PROCESS_CPUTIME_ID, &t);
+  return t.tv_sec * 1e3 + t.tv_nsec / 1e6;
+}
+
+double Percentile(std::vector<double> values, double q) {
+  if (values.empty()) return 0;
+  std::sort(values.begin(), values.end());
+  const size_t i = static_cast<size_t>(q * (values.size() - 1) + 0.5);
+  return values[std::min(i, values.size() - 1)];
+}
+
+double LoadAverage() {
+  double load[1] = {0};
+  return getloadavg(load, 1) == 1 ? load[0] : -1;
+}
+
+struct Config {
+  std::string name;
+  vs::DynamicFilter filter = vs::DynamicFilter::kFull;
+  vs::DetectorChoice::Kind detector = vs::DetectorChoice::kNone;
+};
+
+bool ParseConfig(const std::string& text, Config& out) {
+  std::vector<std::string> parts = absl::StrSplit(text, ':');
+  out.name = text;
+  if (parts[0] == "none") out.filter = vs::DynamicFilter::kNone;
+  else if (parts[0] == "boxes") out.filter = vs::DynamicFilter::kBoxesOnly;
+  else if (parts[0] == "full") out.filter = vs::DynamicFilter::kFull;
+  else return false;
+  const std::string detector = parts.size() > 1 ? parts[1] : "none";
+  if (detector == "none") out.detector = vs::DetectorChoice::kNone;
+  else if (detector == "yolo") out.detector = vs::DetectorChoice::kYolo;
+  else if (detector == "hog") out.detector = vs::DetectorChoice::kHog;
+  else return false;
+  return parts.size() <= 2;
+}
+
+struct Decoded {
+  double stamp;
+  cv::Mat image, depth;
+};
+
+int Run(int argc, char** argv) {
+  CLI::App app{"Visual odometry engine: accuracy and ms per stage on a real sequence"};
+  std::string dir, camera_name, configs_text = "none,boxes:yolo,full:yolo";
+  std::string models = std::string(WAYMARK_SOURCE_DIR) + "/../shared/models/yolo-fastest-1.1-coco";
+  bool no_depth = false;
+  int max_frames = 0, threads = -1;
+  visual_slam::VisualOdometryOptions base;
+  app.add_option("SEQ_DIR", dir, "TUM/Bonn or KITTI layout")->required();
+  app.add_option("--camera", camera_name, "intrinsics preset (KITTI reads calib.txt)");
+  app.add_flag("--no-depth", no_depth, "monocular even when depth is listed");
+  app.add_option("--configs", configs_text, "comma-separated FILTER[:DETECTOR]");
+  app.add_option("--models", models, "folder with yolo-fastest-1.1-xl.cfg/.weights");
+  app.add_option("--frames", max_frames, "at most N frames (0 = all)");
+  app.add_option("--threads", threads, "cv::setNumThreads (-1 = OpenCV's default)");
+  app.add_option("--hypotheses", base.sampler.hypotheses_per_round, "sampler hypotheses per round")
+      ->capture_default_str();
+  app.add_option("--rounds", base.sampler.max_rounds, "sampler rounds")->capture_default_str();
+  app.add_option("--features", base.orb.features, "ORB features per frame")->capture_default_str();
+  int seeds = 1;
+  app.add_option("--seeds", seeds, "runs per config with sampler seeds 1..N; ATE/RPE/lost are "
+                 "the median over runs, ATE's min-max is printed")->capture_default_str();
+  CLI11_PARSE(app, argc, argv);
+  if (threads >= 0) cv::setNumThreads(threads);
+
+  absl::StatusOr<cli::ImageSequence> sequence = cli::ReadImageSequence(dir);
+  if (!sequence.ok()) {
+    std::fprintf(stderr, "%s\n", sequence.status().ToString().c_str());
+    return 1;
+  }
+  std::optional<cli::CameraIntrinsics> intrinsics = sequence->intrinsics;
+  if (!camera_name.empty()) {
+    absl::StatusOr<cli::CameraIntrinsics> preset = cli::CameraPreset(camera_name);
+    if (!preset.ok()) {
+      std::fprintf(stderr, "%s\n", preset.status().ToString().c_str());
+      return 1;
+    }
+    intrinsics = *preset;
+  }
+  if (!intrinsics) {
+    std::fprintf(stderr, "no intrinsics: give --camera %s\n", cli::CameraPresetNames().c_str());
+    return 1;
+  }
+  std::vector<Decoded> frames;
+  for (const cli::SequenceFrame& f : sequence->frames) {
+    if (max_frames > 0 && static_cast<int>(frames.size()) >= max_frames) break;
+    Decoded d{f.stamp, cv::imread(f.image.string(), cv::IMREAD_COLOR), cv::Mat()};
+    if (f.depth && !no_depth) d.depth = cv::imread(f.depth->string(), cv::IMREAD_UNCHANGED);
+    frames.push_back(std::move(d));
+  }
+  if (frames.empty()) return 1;
+  const bool rgbd = !frames[0].depth.empty();
+  vs::CameraModel camera;
+  camera.fx = intrinsics->fx;
+  camera.fy = intrinsics->fy;
+  camera.cx = intrinsics->cx;
+  camera.cy = intrinsics->cy;
+  camera.distortion = intrinsics->distortion;
+  camera.width = frames[0].image.cols;
+  camera.height = frames[0].image.rows;
+  absl::StatusOr<std::vector<cli::StampedPose3>> groundtruth =
+      cli::ReadSequenceGroundTruth(*sequence);
+
+  std::printf("%s: %zu frames %dx%d, %s, load average %.2f\n", dir.c_str(), frames.size(),
+              camera.width, camera.height, rgbd ? "RGB-D" : "monocular", LoadAverage());
+  std::printf("%-12s %8s %8s %8s %5s | median ms: %6s %6s %6s %6s %6s %6s %6s | p90 total  cpu\n",
+              "config", "ATE m", "RPEt m", "RPEr deg", "lost", "orb", "detect", "match", "sample",
+              "pose", "map", "total");
+  for (const std::string& text : std::vector<std::string>(absl::StrSplit(configs_text, ','))) {
+    Config config;
+    if (!ParseConfig(text, config)) {
+      std::fprintf(stderr, "bad config '%s' (FILTER[:DETECTOR], none|boxes|full, none|yolo|hog)\n",
+                   text.c_str());
+      return 1;
+    }
+    std::vector<double> orb, det, match, sample, pose, map, total, ates, rpes_t, rpes_r, losts;
+    double cpu_ms = 0;
+    int frames_run = 0;
+    for (int seed = 1; seed <= seeds; ++seed) {
+      vs::DetectorChoice choice;
+      choice.kind = config.detector;
+      if (config.detector == vs::DetectorChoice::kYolo) {
+        choice.yolo.cfg = ReadFile(fs::path(models) / "yolo-fastest-1.1-xl.cfg");
+        choice.yolo.weights = ReadFile(fs::path(models) / "yolo-fastest-1.1-xl.weights");
+      }
+      absl::StatusOr<std::unique_ptr<vs::ObjectDetector>> detector = vs::MakeDetector(choice);
+      if (!detector.ok()) {
+        std::fprintf(stderr, "%s: %s\n", text.c_str(), detector.status().ToString().c_str());
+        return 1;
+      }
+      vs::VisualOdometryOptions options = base;
+      options.filter = config.filter;
+      options.sampler.seed = seed;
+      options.depth_scale = intrinsics->depth_scale > 0 ? intrinsics->depth_scale : 5000;
+      absl::StatusOr<std::unique_ptr<vs::VisualOdometry>> odometry =
+          vs::VisualOdometry::Create(options, camera, *std::move(detector));
+      if (!odometry.ok()) {
+        std::fprintf(stderr, "%s\n", odometry.status().ToString().c_str());
+        return 1;
+      }
+      int lost = 0;
+      const double cpu_start = ProcessCpuMs();
+      for (const Decoded& f : frames) {
+        vs::FrameInput input{f.stamp, f.image, f.depth, std::nullopt};
+        absl::StatusOr<vs::FrameResult> r = (*odometry)->ProcessFrame(input);
+        if (!r.ok()) {
+          std::fprintf(stderr, "frame %.6f: %s\n", f.stamp, r.status().ToString().c_str());
+          continue;
+        }
+        ++frames_run;
+        lost += r->state == vs::TrackingState::kLost;
+        orb.push_back(r->timings.orb_ms);
+        det.push_back(r->timings.detector_ms);
+        match.push_back(r->timings.matching_ms);
+        sample.push_back(r->timings.sampling_ms);
+        pose.push_back(r->timings.pose_ms);
+        map.push_back(r->timings.mapping_ms);
+        total.push_back(r->timings.total_ms);
+      }
+      cpu_ms += ProcessCpuMs() - cpu_start;
+      losts.push_back(lost);
+      if (groundtruth.ok()) {
+        std::vector<cli::StampedPose3> estimate;
+        for (const vs::TimedPose& p : (*odometry)->trajectory()) {
+          estimate.push_back({p.stamp, p.pose.R, p.pose.t});
+        }
+        cli::TrajectoryOptions evaluation_options;
+        evaluation_options.with_scale = !rgbd;
+        absl::StatusOr<cli::TrajectoryEvaluation> e =
+            cli::EvaluateTrajectory(estimate, *groundtruth, evaluation_options);
+        if (e.ok()) {
+          ates.push_back(e->ate.rmse);
+          rpes_t.push_back(e->rpe_translation.rmse);
+          rpes_r.push_back(e->rpe_rotation_deg.rmse);
+        }
+      }
+    }
+    const double cpu_per_frame = frames_run > 0 ? cpu_ms / frames_run : 0;
+    const double ate = ates.empty() ? -1 : Percentile(ates, 0.5);
+    const double rpe_t = rpes_t.empty() ? -1 : Percentile(rpes_t, 0.5);
+    const double rpe_r = rpes_r.empty() ? -1 : Percentile(rpes_r, 0.5);
+    const int lost = static_cast<int>(Percentile(losts, 0.5));
+    std::printf("%-12s %8.4f %8.4f %8.3f %5d | %17.1f %6.1f %6.1f %6.1f %6.1f %6.1f %6.1f | %9.1f %5.1f\n",
+                text.c_str(), ate, rpe_t, rpe_r, lost, Percentile(orb, 0.5), Percentile(det, 0.5),
+                Percentile(match, 0.5), Percentile(sample, 0.5), Percentile(pose, 0.5),
+                Percentile(map, 0.5), Percentile(total, 0.5), Percentile(total, 0.9),
+                cpu_per_frame);
+    if (ates.size() > 1) {
+      std::printf("%-12s ATE over %zu seeds: min %.4f max %.4f\n", "", ates.size(),
+                  *std::min_element(ates.begin(), ates.end()),
+                  *std::max_element(ates.begin(), ates.end()));
+    }
+    std::fflush(stdout);
+  }
+  std::printf("load average after: %.2f\n", LoadAverage());
+  return 0;
+}
+
+}  // namespace
+}  // namespace waymark::bench
+
+int main(int argc, char** argv) { return waymark::bench::Run(argc, argv); }
