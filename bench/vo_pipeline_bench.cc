@@ -31,6 +31,7 @@
 #include "absl/strings/str_split.h"
 #include "client/tools/image_sequence.h"
 #include "client/tools/trajectory_metrics.h"
+#include "bench/bench_timing.h"
 #include "server/visual_slam/detector_factory.h"
 #include "server/visual_slam/visual_odometry.h"
 
@@ -39,29 +40,6 @@ namespace {
 
 namespace fs = std::filesystem;
 namespace vs = visual_slam;
-
-std::string ReadFile(const fs::path& path) {
-  std::ifstream in(path, std::ios::binary);
-  return std::string(std::istreambuf_iterator<char>(in), std::istreambuf_iterator<char>());
-}
-
-double ProcessCpuMs() {
-  timespec t{};
-  clock_gettime(CLOCK_PROCESS_CPUTIME_ID, &t);
-  return t.tv_sec * 1e3 + t.tv_nsec / 1e6;
-}
-
-double Percentile(std::vector<double> values, double q) {
-  if (values.empty()) return 0;
-  std::sort(values.begin(), values.end());
-  const size_t i = static_cast<size_t>(q * (values.size() - 1) + 0.5);
-  return values[std::min(i, values.size() - 1)];
-}
-
-double LoadAverage() {
-  double load[1] = {0};
-  return getloadavg(load, 1) == 1 ? load[0] : -1;
-}
 
 struct Config {
   std::string name;
@@ -151,8 +129,8 @@ int Run(int argc, char** argv) {
   absl::StatusOr<std::vector<cli::StampedPose3>> groundtruth =
       cli::ReadSequenceGroundTruth(*sequence);
 
-  std::printf("%s: %zu frames %dx%d, %s, load average %.2f\n", dir.c_str(), frames.size(),
-              camera.width, camera.height, rgbd ? "RGB-D" : "monocular", LoadAverage());
+  std::printf("%s: %zu frames %dx%d, %s, load average %s\n", dir.c_str(), frames.size(),
+              camera.width, camera.height, rgbd ? "RGB-D" : "monocular", LoadAverageText().c_str());
   std::printf("%-12s %8s %8s %8s %5s | median ms: %6s %6s %6s %6s %6s %6s %6s | p90 total  cpu\n",
               "config", "ATE m", "RPEt m", "RPEr deg", "lost", "orb", "detect", "match", "sample",
               "pose", "map", "total");
@@ -170,8 +148,8 @@ int Run(int argc, char** argv) {
       vs::DetectorChoice choice;
       choice.kind = config.detector;
       if (config.detector == vs::DetectorChoice::kYolo) {
-        choice.yolo.cfg = ReadFile(fs::path(models) / "yolo-fastest-1.1-xl.cfg");
-        choice.yolo.weights = ReadFile(fs::path(models) / "yolo-fastest-1.1-xl.weights");
+        choice.yolo.cfg = ReadFileBytes(fs::path(models) / "yolo-fastest-1.1-xl.cfg");
+        choice.yolo.weights = ReadFileBytes(fs::path(models) / "yolo-fastest-1.1-xl.weights");
       }
       absl::StatusOr<std::unique_ptr<vs::ObjectDetector>> detector = vs::MakeDetector(choice);
       if (!detector.ok()) {
@@ -242,7 +220,7 @@ int Run(int argc, char** argv) {
     }
     std::fflush(stdout);
   }
-  std::printf("load average after: %.2f\n", LoadAverage());
+  std::printf("load average after: %s\n", LoadAverageText().c_str());
   return 0;
 }
 

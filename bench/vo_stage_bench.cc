@@ -30,6 +30,7 @@
 #include <opencv2/core.hpp>
 #include <opencv2/imgcodecs.hpp>
 
+#include "bench/bench_timing.h"
 #include "server/visual_slam/detector_factory.h"
 
 namespace waymark::bench {
@@ -39,33 +40,6 @@ namespace fs = std::filesystem;
 using visual_slam::DetectorChoice;
 
 constexpr int kWarmup = 3;
-
-std::string ReadFile(const fs::path& path) {
-  std::ifstream in(path, std::ios::binary);
-  return std::string(std::istreambuf_iterator<char>(in), std::istreambuf_iterator<char>());
-}
-
-// CPU seconds of the whole process (every OpenCV worker thread included).
-double ProcessCpuMs() {
-  timespec t{};
-  clock_gettime(CLOCK_PROCESS_CPUTIME_ID, &t);
-  return t.tv_sec * 1e3 + t.tv_nsec / 1e6;
-}
-
-double Percentile(std::vector<double> values, double q) {
-  if (values.empty()) return 0;
-  std::sort(values.begin(), values.end());
-  const size_t i = static_cast<size_t>(q * (values.size() - 1) + 0.5);
-  return values[std::min(i, values.size() - 1)];
-}
-
-std::string LoadAverage() {
-  double load[3] = {0, 0, 0};
-  if (getloadavg(load, 3) != 3) return "unknown";
-  char text[64];
-  std::snprintf(text, sizeof text, "%.2f %.2f %.2f", load[0], load[1], load[2]);
-  return text;
-}
 
 struct Row {
   std::string detector;
@@ -108,8 +82,8 @@ int Main(int argc, char** argv) {
 
   DetectorChoice yolo;
   yolo.kind = DetectorChoice::kYolo;
-  yolo.yolo.cfg = ReadFile(model_dir / "yolo-fastest-1.1-xl.cfg");
-  yolo.yolo.weights = ReadFile(model_dir / "yolo-fastest-1.1-xl.weights");
+  yolo.yolo.cfg = ReadFileBytes(model_dir / "yolo-fastest-1.1-xl.cfg");
+  yolo.yolo.weights = ReadFileBytes(model_dir / "yolo-fastest-1.1-xl.weights");
   // The cfg's [net] width (what input_size 0 means); 320 gets its own row only if it differs.
   int cfg_width = 0;
   if (const size_t at = yolo.yolo.cfg.find("\nwidth="); at != std::string::npos) {
@@ -132,7 +106,7 @@ int Main(int argc, char** argv) {
   std::printf("frames: %zu of %s (%dx%d), %d warm-up frames untimed\n", frames.size(),
               frames_dir.c_str(), frames[0].cols, frames[0].rows, kWarmup);
   std::printf("OpenCV default threads: %d; hardware threads: %u; load average before: %s\n\n",
-              default_threads, std::thread::hardware_concurrency(), LoadAverage().c_str());
+              default_threads, std::thread::hardware_concurrency(), LoadAverageText().c_str());
   std::printf("%-8s %-10s %-8s %10s %10s %12s %12s\n", "detector", "input", "threads", "median ms",
               "p90 ms", "median cpu", "boxes/frame");
   for (const Row& row : rows) {
@@ -169,7 +143,7 @@ int Main(int argc, char** argv) {
     }
   }
   cv::setNumThreads(default_threads);
-  std::printf("\nload average after: %s\n", LoadAverage().c_str());
+  std::printf("\nload average after: %s\n", LoadAverageText().c_str());
   return 0;
 }
 
