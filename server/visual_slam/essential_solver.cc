@@ -1,5 +1,6 @@
 #include "server/visual_slam/essential_solver.h"
 
+#include <algorithm>
 #include <cmath>
 #include <limits>
 
@@ -7,6 +8,9 @@
 #include <Eigen/Eigenvalues>
 #include <Eigen/Geometry>
 #include <Eigen/SVD>
+
+#include <opencv2/calib3d.hpp>
+#include <opencv2/core.hpp>
 
 #include "absl/strings/str_cat.h"
 #include "server/visual_slam/two_view.h"
@@ -121,6 +125,38 @@ Motion RefineOnSampson(const Motion& start, const std::vector<Correspondence>& c
 
 }  // namespace
 
+std::vector<Motion> FivePoint(const std::vector<Correspondence>& c,
+                              const std::vector<int>& sample) {
+  if (sample.size() != 5 || !InRange(c, sample)) return {};
+  std::vector<cv::Point2d> ref, cur;
+  for (int i : sample) {
+    if (!c[i].reference.allFinite() || !c[i].current.allFinite()) return {};
+    ref.emplace_back(c[i].reference.x(), c[i].reference.y());
+    cur.emplace_back(c[i].current.x(), c[i].current.y());
+  }
+  // With exactly 5 points OpenCV's RANSAC runs the minimal solver once and returns all its
+  // solutions stacked (3k x 3); normalized coordinates, so the camera matrix is the identity.
+  cv::Mat stacked;
+  try {
+    stacked = cv::findEssentialMat(ref, cur, cv::Mat::eye(3, 3, CV_64F),
+                                   cv::RANSAC, 0.999, 1.0);
+  } catch (const cv::Exception&) {
+    return {};
+  }
+  std::vector<Motion> out;
+  if (stacked.empty() || stacked.cols != 3 || stacked.rows % 3 != 0) return out;
+  stacked.convertTo(stacked, CV_64F);
+  for (int k = 0; k < stacked.rows / 3; ++k) {
+    Eigen::Matrix3d E;
+    for (int r = 0; r < 3; ++r)
+      for (int col = 0; col < 3; ++col) E(r, col) = stacked.at<double>(3 * k + r, col);
+    if (!E.allFinite() || E.norm() < 1e-12) continue;
+    const std::optional<Decomposition> d = DecomposeEssential(E, c, sample);
+    if (d) out.push_back(d->motion);
+  }
+  return out;
+}
+
 std::optional<Eigen::Matrix3d> EssentialFromPairs(const std::vector<Correspondence>& c,
                                                   const std::vector<int>& indices) {
   if (indices.size() < 8 || !InRange(c, indices)) return std::nullopt;
@@ -194,6 +230,31 @@ EssentialSolver::EssentialSolver(const std::vector<Correspondence>& corresponden
     : correspondences_(correspondences), focal_px_(focal_px) {}
 
 std::vector<Motion> EssentialSolver::Solve(const std::vector<int>& sample) const {
+  if (sample.size() == 5) {
+    // A sample that one rotation explains (pure rotation, or only far points) carries no
+    // translation: every t fits it, yet the five-point solver would still return motions. The
+    // 8-point path rejects such samples by its null space; here the best rotation between the
+    // bearings (Kabsch) must leave at least one pair kMinParallaxPx away.
+    constexpr double kMinParallaxPx = 0.5;
+    if (!InRange(correspondences_, sample)) return {};
+    std::vector<Eigen::Vector3d> br, bc;
+    Eigen::Matrix3d H = Eigen::Matrix3d::Zero();
+    for (int i : sample) {
+      const Correspondence& c = correspondences_[i];
+      br.push_back(Eigen::Vector3d(c.reference.x(), c.reference.y(), 1).normalized());
+      bc.push_back(Eigen::Vector3d(c.current.x(), c.current.y(), 1).normalized());
+      H += bc.back() * br.back().transpose();
+    }
+    if (!H.allFinite()) return {};
+    Eigen::JacobiSVD<Eigen::Matrix3d> svd(H, Eigen::ComputeFullU | Eigen::ComputeFullV);
+    const double det = (svd.matrixU() * svd.matrixV().transpose()).determinant();
+    const Eigen::Matrix3d R = svd.matrixU() * Eigen::Vector3d(1, 1, det > 0 ? 1 : -1).asDiagonal() *
+                              svd.matrixV().transpose();
+    double most = 0;
+    for (size_t k = 0; k < br.size(); ++k) most = std::max(most, (R * br[k] - bc[k]).norm());
+    if (!(most * focal_px_ >= kMinParallaxPx)) return {};
+    return FivePoint(correspondences_, sample);
+  }
   const std::optional<Eigen::Matrix3d> E = EssentialFromPairs(correspondences_, sample);
   if (!E) return {};
   const std::optional<Decomposition> d = DecomposeEssential(*E, correspondences_, sample);

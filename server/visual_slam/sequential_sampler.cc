@@ -40,6 +40,12 @@ size_t SharedCount(const std::vector<int>& a, const std::vector<int>& b) {  // b
   return shared;
 }
 
+// Whether a ranks above b: lower MSAC cost when both are scored, else more inliers.
+bool Better(const Hypothesis& a, const Hypothesis& b) {
+  if (std::isfinite(a.cost) && std::isfinite(b.cost)) return a.cost < b.cost;
+  return a.inliers.size() > b.inliers.size();
+}
+
 bool SameMotion(const Hypothesis& a, const Hypothesis& b) {
   const size_t smaller = std::min(a.inliers.size(), b.inliers.size());
   return 2 * SharedCount(a.inliers, b.inliers) > smaller;
@@ -98,6 +104,7 @@ Hypothesis Score(const MotionSolver& solver, const Motion& motion,
     const double capped = std::min(e, threshold_px);
     total += capped * capped;
   }
+  h.cost = total;
   if (msac) *msac = total;
   std::sort(h.inliers.begin(), h.inliers.end());
   h.inliers.erase(std::unique(h.inliers.begin(), h.inliers.end()), h.inliers.end());
@@ -114,12 +121,12 @@ bool KeepHypothesis(Hypothesis h, std::vector<Hypothesis>* best) {
   if (h.inliers.empty()) return false;
   for (size_t k = 0; k < best->size(); ++k) {
     if (!SameMotion((*best)[k], h)) continue;
-    if (h.inliers.size() <= (*best)[k].inliers.size()) return false;
+    if (!Better(h, (*best)[k])) return false;
     best->erase(best->begin() + k);  // replaced by the better version of the same motion
     break;
   }
   size_t pos = 0;
-  while (pos < best->size() && (*best)[pos].inliers.size() >= h.inliers.size()) ++pos;
+  while (pos < best->size() && !Better(h, (*best)[pos])) ++pos;
   if (pos >= 3) return false;
   best->insert(best->begin() + pos, std::move(h));
   if (best->size() > 3) best->resize(3);

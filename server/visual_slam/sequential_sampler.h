@@ -18,10 +18,18 @@
 //   similar support would almost never get a pure sample of 8 and never reach M2 (eq 12 would
 //   have nothing to choose from); when M1 is wrong, the residual holds the true inliers. The generator is a SplitMix64 seeded
 //   with options.seed: the same inputs give the same result on every platform.
+// - Ranking (MSAC, not the paper's count): a hypothesis is better than another when its
+//   truncated squared error sum_i min(e_i, threshold)^2 over all candidates is lower (when
+//   either is unscored, cost +inf, the larger inlier count wins). Why: on KITTI 06 (car driving
+//   straight) far points with no parallax fit almost any small motion within 2 px, so a wrong
+//   motion (4-6 deg rotation, sideways t) had ~300 of ~320 pairs as inliers, as many as the
+//   right one; the count preferred it and, being the "same motion" by inlier overlap, it also
+//   hid the right one from M1..M3. The right motion puts the near points' errors well below
+//   the threshold, which the truncated squared error sees and the count does not.
 // - "Distinct" hypotheses (KeepHypothesis): two hypotheses are the same motion when their inlier
 //   sets share more than half of the smaller one. A new hypothesis that is the same motion as a
-//   kept one replaces it only if it has more inliers. Otherwise it enters at the position of its
-//   inlier count, the ones below shift down and the fourth is dropped. Without this the three
+//   kept one replaces it only if it is better (above). Otherwise it enters at its rank, the ones
+//   below shift down and the fourth is dropped. Without this the three
 //   best would be three copies of the dominant motion and eq 12 would have nothing to choose
 //   from (a person walking across the whole frame is a second motion of similar support).
 // - Which I of eq 10 ("I = I_k if I_k in I*"; ReferenceHypothesis): after each sample I*, the kept
@@ -44,6 +52,7 @@
 //   translations are normalized before comparing (directions only).
 
 #include <cstdint>
+#include <limits>
 #include <optional>
 #include <vector>
 
@@ -85,10 +94,13 @@ class MotionSolver {
 struct Hypothesis {
   Motion motion;
   std::vector<int> inliers;  // correspondence indices, sorted ascending
+  // MSAC score: sum over all candidates of min(error, threshold)^2 [px^2]; lower is better.
+  // +inf = not scored (then the inlier count ranks, see KeepHypothesis).
+  double cost = std::numeric_limits<double>::infinity();
 };
 
 struct SamplerResult {
-  std::vector<Hypothesis> best;  // up to 3 (M1..M3), most inliers first
+  std::vector<Hypothesis> best;  // up to 3 (M1..M3), best (lowest MSAC cost) first
   int chosen = -1;               // index into best after the eq 12 tie-break; -1 = none found
   int rounds = 0;                // eq 10-11 re-rankings done
   int hypotheses = 0;            // models evaluated
@@ -112,8 +124,8 @@ double MotionDifference(const Motion& a, const Motion& b, double lambda1, double
 
 // The steps of SequentialSample, exposed for tests.
 
-// Offers `h` to the kept list `best` (most inliers first, at most 3, distinct motions as described
-// above). Returns whether it entered.
+// Offers `h` to the kept list `best` (best first: lowest cost, or most inliers when unscored; at
+// most 3, distinct motions as described above). Returns whether it entered.
 bool KeepHypothesis(Hypothesis h, std::vector<Hypothesis>* best);
 
 // The index into `best` of the hypothesis a sample (correspondence indices) belongs to, or -1.

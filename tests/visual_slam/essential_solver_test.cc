@@ -29,7 +29,7 @@ TEST(EssentialSolver, MinimalSampleWithoutNoiseGivesTheMotion) {
   SceneMaker maker(1);
   const Scene s = maker.Make(20, 0.0, 0.0, kTruth);
   EssentialSolver solver(s.c, kFocal);
-  EXPECT_EQ(solver.SampleSize(), 8);
+  EXPECT_EQ(solver.SampleSize(), 5);
   EXPECT_TRUE(solver.UnitTranslation());
   const std::vector<Motion> motions = solver.Solve({0, 1, 2, 3, 4, 5, 6, 7});
   ASSERT_EQ(motions.size(), 1u);
