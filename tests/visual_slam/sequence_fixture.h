@@ -2,11 +2,15 @@
 #define WAYMARK_TESTS_VISUAL_SLAM_SEQUENCE_FIXTURE_H_
 
 // Test helpers for the visual odometry engine: synthetic textured frames with a known camera
-// motion, and running the engine over a real sequence in ../shared with its ATE.
+// motion, and running the engine over a real sequence in ../shared with its ATE (the sequence
+// reader and the ATE are the client's, client/tools/image_sequence and trajectory_metrics).
 
+#include <memory>
+#include <optional>
 #include <string>
-#include <vector>
 
+#include "client/tools/image_sequence.h"
+#include "server/visual_slam/object_detector.h"
 #include "server/visual_slam/types.h"
 #include "server/visual_slam/visual_odometry.h"
 
@@ -18,37 +22,27 @@ cv::Mat RandomTexture(int width, int height, unsigned seed);
 // The camera of the synthetic frames: 640x480, f = 500, no distortion.
 CameraModel SyntheticCamera();
 
-struct RealFrame {
-  double stamp = 0;
-  std::string image_path;
-  std::string depth_path;  // empty for monocular sequences
-};
+// The Bonn crowd window and the KITTI 06 frames of ../shared/data/vslam; nullopt when absent.
+std::optional<cli::ImageSequence> BonnSequence();
+std::optional<cli::ImageSequence> KittiSequence();
+// The engine camera for a sequence's frames: the preset's (Bonn) or calib.txt's (KITTI)
+// intrinsics and the size of its first image.
+CameraModel SequenceCamera(const cli::ImageSequence& sequence, const std::string& preset);
 
-// Bonn crowd window (../shared/data/vslam/bonn_rgbd_crowd_frames270-409) frames from its
-// associations.txt, and its published intrinsics. Empty when ../shared is absent.
-std::vector<RealFrame> BonnFrames();
-CameraModel BonnCamera();
-// KITTI 06 frames 0-50 (image_0, 10 Hz stamps) and the calib.txt P0 camera.
-std::vector<RealFrame> KittiFrames();
-CameraModel KittiCamera();
+// The YOLO-Fastest detector from ../shared/models (null when absent).
+std::unique_ptr<ObjectDetector> SharedYolo();
 
-// Runs `odometry` over the first `count` frames; returns the trajectory ATE RMSE (m) against the
-// sequence's ground truth, SE(3)-aligned, or Sim(3) when `with_scale`. Counts lost frames.
 struct RunSummary {
-  double ate_rmse = 0;
+  double ate_rmse = 0;  // m, SE(3)-aligned, or Sim(3) when `with_scale`
   int frames = 0;
   int lost = 0;
   int dynamic = 0;
   int potentially_dynamic = 0;
 };
-RunSummary RunAndEvaluate(VisualOdometry& odometry, const std::vector<RealFrame>& frames,
-                          int count, const std::string& groundtruth_path, bool kitti,
-                          bool with_scale);
-
-std::string BonnGroundTruth();
-// The YOLO-Fastest detector from ../shared/models (null when absent).
-std::unique_ptr<ObjectDetector> SharedYolo();
-std::string KittiGroundTruth();
+// Runs `odometry` over the sequence's frames (depth when `with_depth`) and scores its trajectory
+// against the sequence's ground truth. WAYMARK_VO_DEBUG=1 prints one line per frame.
+RunSummary RunAndEvaluate(VisualOdometry& odometry, const cli::ImageSequence& sequence,
+                          bool with_depth, bool with_scale);
 
 }  // namespace waymark::visual_slam::testing
 
