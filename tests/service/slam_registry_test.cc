@@ -7,7 +7,6 @@
 #include <cmath>
 #include <limits>
 #include <memory>
-#include <mutex>
 #include <string>
 #include <thread>
 #include <vector>
@@ -15,6 +14,7 @@
 #include "gtest/gtest.h"
 #include "storage/slam_store.h"
 #include "tests/service/blocking_gate.h"
+#include "tests/service/slam_answers.h"
 #include "tests/service/slam_test_world.h"
 #include "tests/storage/status_testing.h"
 #include "tests/storage/temp_dir.h"
@@ -27,25 +27,6 @@ using ::waymark::storage::testing::TempDir;
 using ::waymark::testing::Odom;
 using ::waymark::testing::RoomScan;
 using ::waymark::testing::TestSessionRequest;
-
-// Collects a stream's answers (called on a worker thread).
-class Answers {
- public:
-  SlamUpdateSink Sink() {
-    return [this](const v1::SlamUpdate& update) {
-      std::lock_guard<std::mutex> lock(mutex_);
-      updates_.push_back(update);
-    };
-  }
-  std::vector<v1::SlamUpdate> Get() {
-    std::lock_guard<std::mutex> lock(mutex_);
-    return updates_;
-  }
-
- private:
-  std::mutex mutex_;
-  std::vector<v1::SlamUpdate> updates_;
-};
 
 using Gate = BlockingGate;
 

@@ -9,7 +9,6 @@
 #include <fstream>
 #include <iterator>
 #include <memory>
-#include <mutex>
 #include <sstream>
 #include <string>
 #include <vector>
@@ -20,6 +19,7 @@
 #include "gtest/gtest.h"
 #include "server/service/slam_registry.h"
 #include "storage/slam_store.h"
+#include "tests/service/slam_answers.h"
 #include "tests/service/slam_test_world.h"
 #include "tests/storage/status_testing.h"
 #include "tests/storage/temp_dir.h"
@@ -35,24 +35,6 @@ using ::waymark::testing::TestSessionRequest;
 
 constexpr int kWidth = 320;
 constexpr int kHeight = 240;
-
-class Answers {
- public:
-  SlamUpdateSink Sink() {
-    return [this](const v1::SlamUpdate& update) {
-      std::lock_guard<std::mutex> lock(mutex_);
-      updates_.push_back(update);
-    };
-  }
-  std::vector<v1::SlamUpdate> Get() {
-    std::lock_guard<std::mutex> lock(mutex_);
-    return updates_;
-  }
-
- private:
-  std::mutex mutex_;
-  std::vector<v1::SlamUpdate> updates_;
-};
 
 v1::CreateSessionRequest VisualRequest(const std::string& robot) {
   v1::CreateSessionRequest request;
