@@ -104,7 +104,8 @@ Hypothesis Score(const MotionSolver& solver, const Motion& motion,
     const double capped = std::min(e, threshold_px);
     total += capped * capped;
   }
-  h.cost = total;
+  // MSAC ranking only for directions-only (monocular) solvers; see the header.
+  if (solver.UnitTranslation()) h.cost = total;
   if (msac) *msac = total;
   std::sort(h.inliers.begin(), h.inliers.end());
   h.inliers.erase(std::unique(h.inliers.begin(), h.inliers.end()), h.inliers.end());
