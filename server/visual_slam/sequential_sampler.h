@@ -25,7 +25,9 @@
 //   motion (4-6 deg rotation, sideways t) had ~300 of ~320 pairs as inliers, as many as the
 //   right one; the count preferred it and, being the "same motion" by inlier overlap, it also
 //   hid the right one from M1..M3. The right motion puts the near points' errors well below
-//   the threshold, which the truncated squared error sees and the count does not. Only for
+//   the threshold, which the truncated squared error sees and the count does not. Measured on
+//   KITTI 06 frames 0-50 with 5-pair samples (waymark-vo-bench, 5 seeds, ATE median): count
+//   4.09 m (none) / 6.69 m (full:yolo), MSAC 2.81 / 4.92 m. Only for
 //   solvers with unit translations (monocular): with depth (PnP) the far-point ambiguity does
 //   not arise, and MSAC ranking there cost accuracy on the Bonn crowd window (full:yolo ATE
 //   median 0.035 -> 0.037 m, max 0.044 -> 0.052 m, 5 seeds), so PnP keeps the paper's count.
