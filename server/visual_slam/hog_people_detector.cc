@@ -2,7 +2,6 @@
 
 #include <algorithm>
 #include <cmath>
-#include <exception>
 #include <utility>
 #include <vector>
 
@@ -11,6 +10,7 @@
 
 #include "absl/status/status.h"
 #include "absl/strings/str_cat.h"
+#include "server/visual_slam/detector_input.h"
 
 namespace waymark::visual_slam {
 namespace {
@@ -28,60 +28,50 @@ class HogPeopleDetector : public ObjectDetector {
   std::string name() const override { return "hog"; }
 
   absl::StatusOr<std::vector<Box>> Detect(const cv::Mat& image) override {
-    if (image.empty()) return absl::InvalidArgumentError("hog: empty image");
-    if (image.depth() != CV_8U || (image.channels() != 1 && image.channels() != 3)) {
-      return absl::InvalidArgumentError("hog: the image must be 8-bit gray or BGR");
-    }
-    try {
-      cv::Mat gray;
-      if (image.channels() == 3) {
-        cv::cvtColor(image, gray, cv::COLOR_BGR2GRAY);
-      } else {
-        gray = image;
-      }
-      double shrink = 1;  // original pixels per working pixel
-      if (options_.max_width > 0 && gray.cols > options_.max_width) {
-        shrink = static_cast<double>(gray.cols) / options_.max_width;
-        cv::Mat small;
-        cv::resize(
-            gray, small,
-            cv::Size(options_.max_width, std::max(1, static_cast<int>(gray.rows / shrink + 0.5))),
-            0, 0, cv::INTER_AREA);
-        gray = small;
-      }
-      std::vector<Box> boxes;
-      // Smaller than one window: nothing can be found (and OpenCV would assert).
-      if (gray.cols < kWindowWidth || gray.rows < kWindowHeight) return boxes;
-      std::vector<cv::Rect> found;
-      std::vector<double> weights;
-      hog_.detectMultiScale(gray, found, weights, options_.hit_threshold,
-                            cv::Size(options_.win_stride, options_.win_stride), cv::Size(0, 0),
-                            options_.scale, options_.group_threshold);
-      const cv::Rect2d frame(0, 0, image.cols, image.rows);
-      for (size_t i = 0; i < found.size(); ++i) {
-        const cv::Rect2d r(found[i].x * shrink, found[i].y * shrink, found[i].width * shrink,
-                           found[i].height * shrink);
-        const cv::Rect2d clipped = r & frame;
-        if (clipped.width <= 0 || clipped.height <= 0) continue;
-        Box box;
-        box.x = static_cast<float>(clipped.x);
-        box.y = static_cast<float>(clipped.y);
-        box.w = static_cast<float>(clipped.width);
-        box.h = static_cast<float>(clipped.height);
-        box.label = "person";
-        // The SVM margin of the grouped window (not a probability; larger = surer).
-        box.confidence = i < weights.size() ? static_cast<float>(weights[i]) : 1.0f;
-        boxes.push_back(std::move(box));
-      }
-      return boxes;
-    } catch (const cv::Exception& e) {
-      return absl::InternalError(absl::StrCat("hog: OpenCV failed: ", e.what()));
-    } catch (const std::exception& e) {  // std::bad_alloc on a huge frame
-      return absl::InternalError(absl::StrCat("hog: ", e.what()));
-    }
+    return DetectGuarded("hog", image, 1,
+                         [&](const cv::Mat& converted) { return DetectGray(converted); });
   }
 
  private:
+  // The detection proper on the checked gray image (DetectGuarded).
+  absl::StatusOr<std::vector<Box>> DetectGray(cv::Mat gray) {
+    const cv::Rect2d frame(0, 0, gray.cols, gray.rows);  // boxes are clipped to the input
+    double shrink = 1;                                   // original pixels per working pixel
+    if (options_.max_width > 0 && gray.cols > options_.max_width) {
+      shrink = static_cast<double>(gray.cols) / options_.max_width;
+      cv::Mat small;
+      cv::resize(
+          gray, small,
+          cv::Size(options_.max_width, std::max(1, static_cast<int>(gray.rows / shrink + 0.5))), 0,
+          0, cv::INTER_AREA);
+      gray = small;
+    }
+    std::vector<Box> boxes;
+    // Smaller than one window: nothing can be found (and OpenCV would assert).
+    if (gray.cols < kWindowWidth || gray.rows < kWindowHeight) return boxes;
+    std::vector<cv::Rect> found;
+    std::vector<double> weights;
+    hog_.detectMultiScale(gray, found, weights, options_.hit_threshold,
+                          cv::Size(options_.win_stride, options_.win_stride), cv::Size(0, 0),
+                          options_.scale, options_.group_threshold);
+    for (size_t i = 0; i < found.size(); ++i) {
+      const cv::Rect2d r(found[i].x * shrink, found[i].y * shrink, found[i].width * shrink,
+                         found[i].height * shrink);
+      const cv::Rect2d clipped = r & frame;
+      if (clipped.width <= 0 || clipped.height <= 0) continue;
+      Box box;
+      box.x = static_cast<float>(clipped.x);
+      box.y = static_cast<float>(clipped.y);
+      box.w = static_cast<float>(clipped.width);
+      box.h = static_cast<float>(clipped.height);
+      box.label = "person";
+      // The SVM margin of the grouped window (not a probability; larger = surer).
+      box.confidence = i < weights.size() ? static_cast<float>(weights[i]) : 1.0f;
+      boxes.push_back(std::move(box));
+    }
+    return boxes;
+  }
+
   HogOptions options_;
   cv::HOGDescriptor hog_;  // default: 64x128 window, 8x8 cells, 9 bins
 };

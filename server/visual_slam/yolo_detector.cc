@@ -17,6 +17,7 @@
 #include "absl/strings/numbers.h"
 #include "absl/strings/str_cat.h"
 #include "absl/strings/str_join.h"
+#include "server/visual_slam/detector_input.h"
 
 namespace waymark::visual_slam {
 namespace {
@@ -34,18 +35,27 @@ struct NetSection {
   bool letter_box = false;
 };
 
+// The next line of a darknet cfg with its comment (from '#' or ';') cut and surrounding
+// whitespace trimmed, skipping lines left empty; false at the end.
+bool NextCfgLine(std::istream& in, std::string* trimmed) {
+  std::string line;
+  while (std::getline(in, line)) {
+    const size_t comment = line.find_first_of("#;");
+    if (comment != std::string::npos) line.resize(comment);
+    *trimmed = std::string(absl::StripAsciiWhitespace(line));
+    if (!trimmed->empty()) return true;
+  }
+  return false;
+}
+
 // Reads width, height and letter_box from the cfg's first section, which darknet requires to be
 // [net] (or [network]). OpenCV parses the rest; we need these before it runs.
 absl::StatusOr<NetSection> ParseNetSection(const std::string& cfg) {
   std::istringstream in(cfg);
-  std::string line;
+  std::string trimmed;
   bool in_net = false;
   NetSection net;
-  while (std::getline(in, line)) {
-    const size_t comment = line.find_first_of("#;");
-    if (comment != std::string::npos) line.resize(comment);
-    const std::string trimmed(absl::StripAsciiWhitespace(line));
-    if (trimmed.empty()) continue;
+  while (NextCfgLine(in, &trimmed)) {
     if (trimmed.front() == '[') {
       if (in_net) break;  // the [net] section ended
       if (trimmed != "[net]" && trimmed != "[network]") {
@@ -94,11 +104,6 @@ struct Placement {
   float pad_x = 0, pad_y = 0;
 };
 
-// OpenCV's messages end with a newline.
-std::string Message(const std::exception& e) {
-  return std::string(absl::StripTrailingAsciiWhitespace(e.what()));
-}
-
 class YoloDetector : public ObjectDetector {
  public:
   YoloDetector(cv::dnn::Net net, Format format, cv::Size input, bool letterbox,
@@ -117,25 +122,12 @@ class YoloDetector : public ObjectDetector {
   std::string name() const override { return "yolo"; }
 
   absl::StatusOr<std::vector<Box>> Detect(const cv::Mat& image) override {
-    if (image.empty()) return absl::InvalidArgumentError("yolo: empty image");
-    if (image.depth() != CV_8U || (image.channels() != 1 && image.channels() != 3)) {
-      return absl::InvalidArgumentError("yolo: the image must be 8-bit gray or BGR");
-    }
-    try {
-      cv::Mat bgr;
-      if (image.channels() == 1) {
-        cv::cvtColor(image, bgr, cv::COLOR_GRAY2BGR);
-      } else {
-        bgr = image;
-      }
-      Placement placement;
-      const std::vector<cv::Mat> outputs = Forward(bgr, &placement);
-      return Decode(outputs, placement, image.size());
-    } catch (const cv::Exception& e) {
-      return absl::InternalError(absl::StrCat("yolo: OpenCV failed: ", Message(e)));
-    } catch (const std::exception& e) {  // std::bad_alloc on a huge frame
-      return absl::InternalError(absl::StrCat("yolo: ", Message(e)));
-    }
+    return DetectGuarded("yolo", image, 3,
+                         [&](const cv::Mat& bgr) -> absl::StatusOr<std::vector<Box>> {
+                           Placement placement;
+                           const std::vector<cv::Mat> outputs = Forward(bgr, &placement);
+                           return Decode(outputs, placement, image.size());
+                         });
   }
 
   // Runs the network on a black frame: a model whose layers do not fit together fails here, at
@@ -155,10 +147,10 @@ class YoloDetector : public ObjectDetector {
       }
     } catch (const cv::Exception& e) {
       return absl::InvalidArgumentError(
-          absl::StrCat("yolo: the model does not run in OpenCV dnn: ", Message(e)));
+          absl::StrCat("yolo: the model does not run in OpenCV dnn: ", ExceptionMessage(e)));
     } catch (const std::exception& e) {
       return absl::InvalidArgumentError(
-          absl::StrCat("yolo: the model does not run in OpenCV dnn: ", Message(e)));
+          absl::StrCat("yolo: the model does not run in OpenCV dnn: ", ExceptionMessage(e)));
     }
     return absl::OkStatus();
   }
@@ -305,7 +297,7 @@ absl::Status CheckWeightsSize(cv::dnn::Net& net, const std::string& weights) {
 // least size x size weights and a bias, so the sum bounds the weights from below.
 absl::Status CheckFiltersFitWeights(const std::string& cfg, size_t weights_bytes) {
   std::istringstream in(cfg);
-  std::string line;
+  std::string trimmed;
   bool in_conv = false;
   double filters = 1, size = 1, needed = 0;
   auto close_section = [&] {
@@ -314,11 +306,7 @@ absl::Status CheckFiltersFitWeights(const std::string& cfg, size_t weights_bytes
     filters = 1;
     size = 1;
   };
-  while (std::getline(in, line)) {
-    const size_t comment = line.find_first_of("#;");
-    if (comment != std::string::npos) line.resize(comment);
-    const std::string trimmed(absl::StripAsciiWhitespace(line));
-    if (trimmed.empty()) continue;
+  while (NextCfgLine(in, &trimmed)) {
     if (trimmed.front() == '[') {
       close_section();
       in_conv = trimmed == "[convolutional]" || trimmed == "[conv]";
@@ -357,11 +345,13 @@ absl::StatusOr<cv::dnn::Net> LoadNet(const YoloOptions& options, Format format) 
       net = cv::dnn::readNetFromONNX(options.onnx.data(), options.onnx.size());
     }
   } catch (const cv::Exception& e) {
-    return absl::InvalidArgumentError(absl::StrCat(
-        "yolo: OpenCV cannot load the ",
-        format == Format::kDarknet ? "darknet cfg/weights" : "onnx model", ": ", Message(e)));
+    return absl::InvalidArgumentError(
+        absl::StrCat("yolo: OpenCV cannot load the ",
+                     format == Format::kDarknet ? "darknet cfg/weights" : "onnx model", ": ",
+                     ExceptionMessage(e)));
   } catch (const std::exception& e) {
-    return absl::InvalidArgumentError(absl::StrCat("yolo: cannot load the model: ", Message(e)));
+    return absl::InvalidArgumentError(
+        absl::StrCat("yolo: cannot load the model: ", ExceptionMessage(e)));
   }
   if (net.empty()) return absl::InvalidArgumentError("yolo: the model has no layers");
   if (format == Format::kDarknet) {

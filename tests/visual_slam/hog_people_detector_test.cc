@@ -14,8 +14,13 @@
 #include <opencv2/imgcodecs.hpp>
 #include <opencv2/imgproc.hpp>
 
+#include "tests/visual_slam/detector_testing.h"
+
 namespace waymark::visual_slam {
 namespace {
+
+using ::waymark::visual_slam::testing::DetectOrDie;
+using ::waymark::visual_slam::testing::DetectorOrDie;
 
 const std::string kVslam = WAYMARK_SHARED_DIR "/data/vslam/";
 // Bonn crowd frame 380: a man seen from behind, upright and whole, 365 px tall.
@@ -24,22 +29,8 @@ const std::string kBonn380 = kVslam + "bonn_rgbd_crowd_frames270-409/rgb/1548339
 const std::string kTumNobody = kVslam + "tum_fr3_walking_xyz_3frames/rgb/1341846325.417931.png";
 const cv::Rect2d kBonn380Man(175, 45, 110, 365);  // by eye
 
-#define SKIP_WITHOUT(path)                                                     \
-  if (!std::filesystem::exists(path)) {                                        \
-    GTEST_SKIP() << "no " << (path) << " (../shared absent): nothing to test"; \
-  }
-
 std::unique_ptr<ObjectDetector> MakeOrDie(const HogOptions& options) {
-  auto detector = MakeHogPeopleDetector(options);
-  EXPECT_TRUE(detector.ok()) << detector.status();
-  return detector.ok() ? *std::move(detector) : nullptr;
-}
-
-std::vector<Box> DetectOrDie(ObjectDetector& detector, const cv::Mat& image) {
-  EXPECT_FALSE(image.empty());
-  auto boxes = detector.Detect(image);
-  EXPECT_TRUE(boxes.ok()) << boxes.status();
-  return boxes.ok() ? *boxes : std::vector<Box>{};
+  return DetectorOrDie(MakeHogPeopleDetector(options));
 }
 
 double IoU(const cv::Rect2d& a, const cv::Rect2d& b) {

@@ -22,11 +22,14 @@
 #include <opencv2/imgproc.hpp>
 
 #include "server/visual_slam/coco_classes.h"
+#include "tests/visual_slam/detector_testing.h"
 
 namespace waymark::visual_slam {
 namespace {
 
 using ::testing::HasSubstr;
+using ::waymark::visual_slam::testing::DetectOrDie;
+using ::waymark::visual_slam::testing::DetectorOrDie;
 
 const std::string kModelDir = WAYMARK_SHARED_DIR "/models/yolo-fastest-1.1-coco/";
 const std::string kVslam = WAYMARK_SHARED_DIR "/data/vslam/";
@@ -47,11 +50,6 @@ std::string ReadFile(const std::string& path) {
   return std::string(std::istreambuf_iterator<char>(in), std::istreambuf_iterator<char>());
 }
 
-#define SKIP_WITHOUT(path)                                                     \
-  if (!std::filesystem::exists(path)) {                                        \
-    GTEST_SKIP() << "no " << (path) << " (../shared absent): nothing to test"; \
-  }
-
 YoloOptions ModelOptions() {
   YoloOptions options;
   options.cfg = ReadFile(kModelDir + "yolo-fastest-1.1-xl.cfg");
@@ -60,16 +58,7 @@ YoloOptions ModelOptions() {
 }
 
 std::unique_ptr<ObjectDetector> MakeOrDie(const YoloOptions& options) {
-  auto detector = MakeYoloDetector(options);
-  EXPECT_TRUE(detector.ok()) << detector.status();
-  return detector.ok() ? *std::move(detector) : nullptr;
-}
-
-std::vector<Box> DetectOrDie(ObjectDetector& detector, const cv::Mat& image) {
-  EXPECT_FALSE(image.empty());
-  auto boxes = detector.Detect(image);
-  EXPECT_TRUE(boxes.ok()) << boxes.status();
-  return boxes.ok() ? *boxes : std::vector<Box>{};
+  return DetectorOrDie(MakeYoloDetector(options));
 }
 
 double IoU(const Box& box, const cv::Rect2d& truth) {
