@@ -1,7 +1,6 @@
 #include "server/visual_slam/pnp_solver.h"
 
 #include <limits>
-#include <numeric>
 #include <vector>
 
 #include <gtest/gtest.h>
@@ -11,18 +10,13 @@
 namespace waymark::visual_slam {
 namespace {
 
+using testing::AllIndices;
 using testing::kFocal;
 using testing::MakeMotion;
 using testing::Scene;
 using testing::SceneMaker;
 
 constexpr double kInf = std::numeric_limits<double>::infinity();
-
-std::vector<int> AllIndices(int n) {
-  std::vector<int> v(n);
-  std::iota(v.begin(), v.end(), 0);
-  return v;
-}
 
 const Motion kTruth = MakeMotion(-2, 4, 1, Eigen::Vector3d(0.15, -0.05, 0.2));
 

@@ -9,6 +9,7 @@
 #include <algorithm>
 #include <cmath>
 #include <cstdint>
+#include <numeric>
 #include <random>
 #include <vector>
 
@@ -53,6 +54,13 @@ inline double RotationErrorDeg(const Eigen::Matrix3d& a, const Eigen::Matrix3d& 
 inline double DirectionErrorDeg(const Eigen::Vector3d& a, const Eigen::Vector3d& b) {
   const double c = a.normalized().dot(b.normalized());
   return Deg(std::acos(std::min(1.0, std::max(-1.0, c))));
+}
+
+// 0, 1, ..., n - 1: every correspondence of a scene, for the solvers' Refine and Score.
+inline std::vector<int> AllIndices(int n) {
+  std::vector<int> v(n);
+  std::iota(v.begin(), v.end(), 0);
+  return v;
 }
 
 struct Scene {
