@@ -4,6 +4,8 @@
 #include <cerrno>
 #include <cmath>
 #include <cstdlib>
+#include <functional>
+#include <string>
 #include <system_error>
 
 #include "absl/status/status.h"
@@ -94,73 +96,78 @@ absl::Status CheckIncreasing(const fs::path& list, const std::vector<StampedFile
   return absl::OkStatus();
 }
 
-// rgb.txt / depth.txt: `stamp path` per line.
-absl::StatusOr<std::vector<StampedFile>> ReadStampedList(const fs::path& dir,
-                                                         const fs::path& list) {
+// Calls `frame` with each line of a frame list that is not blank or a comment, in order, after
+// checking it has `field_count` fields (`usage` names them in the error). Stops at the first
+// error; INVALID_ARGUMENT for a list without any frame.
+absl::Status ForEachListedFrame(
+    const fs::path& list, size_t field_count, absl::string_view usage,
+    const std::function<absl::Status(int line, const std::vector<std::string>& fields)>& frame) {
   absl::StatusOr<std::string> text = ReadFileBytes(list);
   if (!text.ok()) return text.status();
-  std::vector<StampedFile> files;
   int line_number = 0;
+  int frames = 0;
   for (absl::string_view line : absl::StrSplit(*text, '\n')) {
     ++line_number;
     const std::vector<std::string> fields = Fields(line);
     if (fields.empty()) continue;
-    if (fields.size() != 2) {
+    if (fields.size() != field_count) {
       return ListError(list, line_number,
-                       absl::StrCat(fields.size(), " fields; expected 2: stamp path"));
+                       absl::StrCat(fields.size(), " fields; expected ", field_count, ": ", usage));
     }
-    StampedFile file;
-    file.line = line_number;
-    if (!ParseFinite(fields[0], &file.stamp)) {
-      return ListError(list, line_number, absl::StrCat("'", fields[0], "' is not a time stamp"));
-    }
-    absl::StatusOr<fs::path> path = ListedFile(dir, list, line_number, fields[1]);
-    if (!path.ok()) return path.status();
-    file.path = *std::move(path);
-    files.push_back(std::move(file));
+    if (absl::Status s = frame(line_number, fields); !s.ok()) return s;
+    ++frames;
   }
-  if (files.empty()) {
+  if (frames == 0) {
     return absl::InvalidArgumentError(
         absl::StrCat(list.string(), ": no frames (only blank lines and '#' comments)"));
   }
+  return absl::OkStatus();
+}
+
+absl::Status ParseStamp(const fs::path& list, int line, const std::string& field, double* stamp) {
+  if (ParseFinite(field, stamp)) return absl::OkStatus();
+  return ListError(list, line, absl::StrCat("'", field, "' is not a time stamp"));
+}
+
+// rgb.txt / depth.txt: `stamp path` per line.
+absl::StatusOr<std::vector<StampedFile>> ReadStampedList(const fs::path& dir,
+                                                         const fs::path& list) {
+  std::vector<StampedFile> files;
+  absl::Status read = ForEachListedFrame(
+      list, 2, "stamp path", [&](int line, const std::vector<std::string>& fields) {
+        StampedFile file;
+        file.line = line;
+        if (absl::Status s = ParseStamp(list, line, fields[0], &file.stamp); !s.ok()) return s;
+        absl::StatusOr<fs::path> path = ListedFile(dir, list, line, fields[1]);
+        if (!path.ok()) return path.status();
+        file.path = *std::move(path);
+        files.push_back(std::move(file));
+        return absl::OkStatus();
+      });
+  if (!read.ok()) return read;
   if (absl::Status s = CheckIncreasing(list, files); !s.ok()) return s;
   return files;
 }
 
 // associations.txt: `t_rgb rgb t_depth depth` per line.
 absl::Status ReadAssociations(const fs::path& list, ImageSequence* sequence) {
-  absl::StatusOr<std::string> text = ReadFileBytes(list);
-  if (!text.ok()) return text.status();
   std::vector<StampedFile> rgb;
-  int line_number = 0;
-  for (absl::string_view line : absl::StrSplit(*text, '\n')) {
-    ++line_number;
-    const std::vector<std::string> fields = Fields(line);
-    if (fields.empty()) continue;
-    if (fields.size() != 4) {
-      return ListError(
-          list, line_number,
-          absl::StrCat(fields.size(), " fields; expected 4: t_rgb rgb/x.png t_depth depth/x.png"));
-    }
-    double t_rgb = 0;
-    double t_depth = 0;
-    if (!ParseFinite(fields[0], &t_rgb)) {
-      return ListError(list, line_number, absl::StrCat("'", fields[0], "' is not a time stamp"));
-    }
-    if (!ParseFinite(fields[2], &t_depth)) {
-      return ListError(list, line_number, absl::StrCat("'", fields[2], "' is not a time stamp"));
-    }
-    absl::StatusOr<fs::path> image = ListedFile(sequence->dir, list, line_number, fields[1]);
-    if (!image.ok()) return image.status();
-    absl::StatusOr<fs::path> depth = ListedFile(sequence->dir, list, line_number, fields[3]);
-    if (!depth.ok()) return depth.status();
-    rgb.push_back({t_rgb, *image, line_number});
-    sequence->frames.push_back({t_rgb, *std::move(image), *std::move(depth)});
-  }
-  if (rgb.empty()) {
-    return absl::InvalidArgumentError(
-        absl::StrCat(list.string(), ": no frames (only blank lines and '#' comments)"));
-  }
+  absl::Status read = ForEachListedFrame(
+      list, 4, "t_rgb rgb/x.png t_depth depth/x.png",
+      [&](int line, const std::vector<std::string>& fields) {
+        double t_rgb = 0;
+        double t_depth = 0;
+        if (absl::Status s = ParseStamp(list, line, fields[0], &t_rgb); !s.ok()) return s;
+        if (absl::Status s = ParseStamp(list, line, fields[2], &t_depth); !s.ok()) return s;
+        absl::StatusOr<fs::path> image = ListedFile(sequence->dir, list, line, fields[1]);
+        if (!image.ok()) return image.status();
+        absl::StatusOr<fs::path> depth = ListedFile(sequence->dir, list, line, fields[3]);
+        if (!depth.ok()) return depth.status();
+        rgb.push_back({t_rgb, *image, line});
+        sequence->frames.push_back({t_rgb, *std::move(image), *std::move(depth)});
+        return absl::OkStatus();
+      });
+  if (!read.ok()) return read;
   sequence->has_depth_list = true;
   return CheckIncreasing(list, rgb);
 }
