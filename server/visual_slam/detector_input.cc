@@ -1,5 +1,7 @@
 #include "server/visual_slam/detector_input.h"
 
+#include <utility>
+
 #include <opencv2/imgproc.hpp>
 
 #include "absl/status/status.h"
@@ -33,6 +35,20 @@ absl::StatusOr<std::vector<Box>> DetectGuarded(
   } catch (const std::exception& e) {  // std::bad_alloc on a huge frame
     return absl::InternalError(absl::StrCat(detector, ": ", ExceptionMessage(e)));
   }
+}
+
+std::optional<Box> ClippedBox(const cv::Rect2d& rect, const cv::Rect2d& frame, std::string label,
+                              float confidence) {
+  const cv::Rect2d clipped = rect & frame;
+  if (clipped.width <= 0 || clipped.height <= 0) return std::nullopt;
+  Box box;
+  box.x = static_cast<float>(clipped.x);
+  box.y = static_cast<float>(clipped.y);
+  box.w = static_cast<float>(clipped.width);
+  box.h = static_cast<float>(clipped.height);
+  box.label = std::move(label);
+  box.confidence = confidence;
+  return box;
 }
 
 }  // namespace waymark::visual_slam

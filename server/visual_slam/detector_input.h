@@ -8,6 +8,7 @@
 
 #include <exception>
 #include <functional>
+#include <optional>
 #include <string>
 #include <vector>
 
@@ -28,6 +29,10 @@ std::string ExceptionMessage(const std::exception& e);
 absl::StatusOr<std::vector<Box>> DetectGuarded(
     absl::string_view detector, const cv::Mat& image, int channels,
     const std::function<absl::StatusOr<std::vector<Box>>(const cv::Mat& converted)>& detect);
+
+// `rect` clipped to `frame` (the image) as a Box; nullopt when no part of it is inside.
+std::optional<Box> ClippedBox(const cv::Rect2d& rect, const cv::Rect2d& frame, std::string label,
+                              float confidence);
 
 }  // namespace waymark::visual_slam
 

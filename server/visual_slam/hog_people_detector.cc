@@ -2,6 +2,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <optional>
 #include <utility>
 #include <vector>
 
@@ -57,17 +58,11 @@ class HogPeopleDetector : public ObjectDetector {
     for (size_t i = 0; i < found.size(); ++i) {
       const cv::Rect2d r(found[i].x * shrink, found[i].y * shrink, found[i].width * shrink,
                          found[i].height * shrink);
-      const cv::Rect2d clipped = r & frame;
-      if (clipped.width <= 0 || clipped.height <= 0) continue;
-      Box box;
-      box.x = static_cast<float>(clipped.x);
-      box.y = static_cast<float>(clipped.y);
-      box.w = static_cast<float>(clipped.width);
-      box.h = static_cast<float>(clipped.height);
-      box.label = "person";
       // The SVM margin of the grouped window (not a probability; larger = surer).
-      box.confidence = i < weights.size() ? static_cast<float>(weights[i]) : 1.0f;
-      boxes.push_back(std::move(box));
+      const float margin = i < weights.size() ? static_cast<float>(weights[i]) : 1.0f;
+      if (std::optional<Box> box = ClippedBox(r, frame, "person", margin)) {
+        boxes.push_back(*std::move(box));
+      }
     }
     return boxes;
   }

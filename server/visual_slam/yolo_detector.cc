@@ -6,6 +6,7 @@
 #include <cstring>
 #include <exception>
 #include <map>
+#include <optional>
 #include <sstream>
 #include <utility>
 
@@ -233,16 +234,10 @@ class YoloDetector : public ObjectDetector {
       std::vector<int> kept;
       cv::dnn::NMSBoxes(rects, confidences, confidence_, nms_, kept);
       for (int i : kept) {
-        const cv::Rect2d clipped = rects[i] & frame;
-        if (clipped.width <= 0 || clipped.height <= 0) continue;
-        Box box;
-        box.x = static_cast<float>(clipped.x);
-        box.y = static_cast<float>(clipped.y);
-        box.w = static_cast<float>(clipped.width);
-        box.h = static_cast<float>(clipped.height);
-        box.label = class_names_[class_index];
-        box.confidence = confidences[i];
-        boxes.push_back(std::move(box));
+        if (std::optional<Box> box =
+                ClippedBox(rects[i], frame, class_names_[class_index], confidences[i])) {
+          boxes.push_back(*std::move(box));
+        }
       }
     }
     std::sort(boxes.begin(), boxes.end(),
