@@ -37,4 +37,14 @@ echo "== active exploration vs wandering in the simulator (every world x mode x 
 OUT="$OUT/explore" "$(dirname "$0")/explore_eval.sh" "$BUILD_DIR"
 echo "== robot loop: stop and resume latency when the server is killed under a driving robot"
 "$BUILD_DIR/bin/waymark-robot-bench" --trials 20 --json > "$OUT/robot_safety.json"
+echo "== visual odometry: ATE/RPE and ms per stage, plain vs boxes vs full method (5 seeds)"
+VSLAM="$SHARED/data/vslam"
+"$BUILD_DIR/bin/waymark-vo-bench" "$VSLAM/bonn_rgbd_crowd_frames270-409" --camera bonn \
+  --models "$SHARED/models/yolo-fastest-1.1-coco" --configs none,boxes:yolo,full:yolo,full:hog \
+  --seeds 5 | tee "$OUT/vo_bonn.txt"
+"$BUILD_DIR/bin/waymark-vo-bench" "$VSLAM/kitti_odom06_frames000-050" \
+  --models "$SHARED/models/yolo-fastest-1.1-coco" --configs none,boxes:yolo,full:yolo \
+  --seeds 5 | tee "$OUT/vo_kitti.txt"
+echo "== visual odometry detectors: ms per frame"
+"$BUILD_DIR/bin/waymark-vo-detector-bench" --shared "$SHARED" | tee "$OUT/vo_detectors.txt"
 echo "results in $OUT"

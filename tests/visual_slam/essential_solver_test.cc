@@ -13,15 +13,10 @@ namespace waymark::visual_slam {
 namespace {
 
 using testing::kFocal;
+using testing::AllIndices;
 using testing::MakeMotion;
 using testing::Scene;
 using testing::SceneMaker;
-
-std::vector<int> AllIndices(int n) {
-  std::vector<int> v(n);
-  std::iota(v.begin(), v.end(), 0);
-  return v;
-}
 
 const Motion kTruth = MakeMotion(3, -2, 1, Eigen::Vector3d(0.25, -0.05, 0.12));
 

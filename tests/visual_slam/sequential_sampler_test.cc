@@ -15,15 +15,10 @@ namespace waymark::visual_slam {
 namespace {
 
 using testing::kFocal;
+using testing::AllIndices;
 using testing::MakeMotion;
 using testing::Scene;
 using testing::SceneMaker;
-
-std::vector<int> AllIndices(int n) {
-  std::vector<int> v(n);
-  std::iota(v.begin(), v.end(), 0);
-  return v;
-}
 
 struct InlierQuality {
   int true_found = 0;   // true inliers in the found set
