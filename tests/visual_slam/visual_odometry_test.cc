@@ -256,6 +256,26 @@ TEST(RealSequenceTest, BonnCrowdWindowRgbd) {
   EXPECT_GT(plain.ate_rmse, 2 * full.ate_rmse);
 }
 
+// Intrinsics that are valid but wrong (a focal length 30 % too long, distortion ignored: a robot
+// configured with another camera's calibration) must not break the session: every frame is
+// answered, and the error shows up as accuracy, not as a crash or a rejection.
+TEST(RealSequenceTest, WrongIntrinsicsStillAnswerEveryFrame) {
+  const std::optional<cli::ImageSequence> bonn = testing::BonnSequence();
+  if (!bonn) GTEST_SKIP() << "../shared/data/vslam not present";
+  CameraModel wrong = testing::SequenceCamera(*bonn, "bonn");
+  wrong.fx *= 1.3;
+  wrong.fy *= 1.3;
+  wrong.distortion = {};
+  std::unique_ptr<VisualOdometry> odometry = Make({}, wrong);
+  ASSERT_NE(odometry, nullptr);
+  const testing::RunSummary summary =
+      testing::RunAndEvaluate(*odometry, *bonn, /*with_depth=*/true, /*with_scale=*/false);
+  std::printf("bonn with wrong intrinsics (no detector): ate %.4f m, lost %d\n", summary.ate_rmse,
+              summary.lost);
+  EXPECT_EQ(summary.frames, 140);
+  EXPECT_EQ(odometry->trajectory().size(), 140u);
+}
+
 TEST(RealSequenceTest, KittiMonocular) {
   const std::optional<cli::ImageSequence> kitti = testing::KittiSequence();
   if (!kitti) GTEST_SKIP() << "../shared/data/vslam not present";
