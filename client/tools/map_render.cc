@@ -131,9 +131,8 @@ Drawing LayoutScene(const MapScene& scene, const RenderOptions& options) {
     }
   }
   if (bounds.empty()) bounds = Bounds{-1, -1, 1, 1};
-  // At least 1 m each way, so a straight corridor or a single pose still has an area.
-  const double extent_x = std::max(bounds.max_x - bounds.min_x, 1.0);
-  const double extent_y = std::max(bounds.max_y - bounds.min_y, 1.0);
+  const double extent_x = std::max(bounds.max_x - bounds.min_x, options.min_extent_m);
+  const double extent_y = std::max(bounds.max_y - bounds.min_y, options.min_extent_m);
   const double centre_x = 0.5 * (bounds.min_x + bounds.max_x);
   const double centre_y = 0.5 * (bounds.min_y + bounds.max_y);
   const double scale = options.max_size_px / std::max(extent_x, extent_y);
@@ -141,7 +140,7 @@ Drawing LayoutScene(const MapScene& scene, const RenderOptions& options) {
   const int title_band = scene.title.empty() ? 0 : 24;
 
   // Legend rows: three segment classes and the labelled polylines.
-  int legend_rows = 3;
+  int legend_rows = options.segment_legend ? 3 : 0;
   for (const auto* list : {&scene.polylines, &scene.references}) {
     for (const ScenePolyline& line : *list) legend_rows += line.label.empty() ? 0 : 1;
   }
@@ -207,6 +206,7 @@ Drawing LayoutScene(const MapScene& scene, const RenderOptions& options) {
       {SegmentClass::kBothVirtual, "segment, both endpoints virtual"},
   };
   for (const auto& [c, label] : classes) {
+    if (!options.segment_legend) break;
     const Rgb color = ColorOf(c);
     drawing.items.push_back(
         Line({{sample_x0, row_y}, {sample_x1, row_y}}, color, kSegmentWidth, "legend"));
@@ -215,9 +215,11 @@ Drawing LayoutScene(const MapScene& scene, const RenderOptions& options) {
     drawing.items.push_back(Text({label_x, row_y + 4}, label));
     row_y += kLegendRow;
   }
-  drawing.items.push_back(
-      Text({label_x + 230, title_band + map_h + 2 * margin + 12},
-           "filled marker = real endpoint, hollow = virtual", 11));
+  if (options.segment_legend) {
+    drawing.items.push_back(
+        Text({label_x + 230, title_band + map_h + 2 * margin + 12},
+             "filled marker = real endpoint, hollow = virtual", 11));
+  }
   for (const auto* list : {&scene.polylines, &scene.references}) {
     for (const ScenePolyline& line : *list) {
       if (line.label.empty()) continue;

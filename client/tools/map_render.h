@@ -55,6 +55,11 @@ struct RenderOptions {
   int max_size_px = 1600;  // the longer side of the map area
   int margin_px = 40;
   int min_width_px = 480;  // room for the legend
+  // Smallest extent of the view each way (m), so a straight corridor or a single pose still has
+  // an area. A hand-held camera's few centimetres want less than a building's map.
+  double min_extent_m = 1.0;
+  // Legend rows for the segment classes; off for scenes without segments (visual odometry).
+  bool segment_legend = true;
 };
 
 // Endpoint-type classes and their colours (also the legend).

@@ -163,13 +163,11 @@ MapScene TrajectoryScene(const std::vector<StampedPose3>& estimate,
   return scene;
 }
 
-absl::Status WriteTrajectorySvg(const MapScene& scene, const std::filesystem::path& path) {
-  std::ofstream out(path);
-  if (!out) return absl::PermissionDeniedError(absl::StrCat("cannot write '", path.string(), "'"));
-  out << RenderSvg(scene);
-  out.close();
-  if (!out) return absl::DataLossError(absl::StrCat("writing '", path.string(), "' failed"));
-  return absl::OkStatus();
+RenderOptions TrajectoryRenderOptions() {
+  RenderOptions options;
+  options.min_extent_m = 0.05;
+  options.segment_legend = false;
+  return options;
 }
 
 }  // namespace waymark::cli

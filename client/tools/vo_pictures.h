@@ -43,8 +43,9 @@ MapScene TrajectoryScene(const std::vector<StampedPose3>& estimate,
                          const std::optional<TrajectoryEvaluation>& evaluation,
                          const std::string& title);
 
-// Writes the scene as SVG (PermissionDenied / DataLoss on a write failure).
-absl::Status WriteTrajectorySvg(const MapScene& scene, const std::filesystem::path& path);
+// How the trajectory is drawn: no segment legend (a camera has no segment map) and a view down
+// to 5 cm each way (a hand-held camera moves centimetres, a building map needs metres).
+RenderOptions TrajectoryRenderOptions();
 
 }  // namespace waymark::cli
 

@@ -273,7 +273,8 @@ int RunVo(CommandContext& context, const VoArgs& args) {
           : fmt::format("{}: {} frames", SequenceName(args.sequence), poses.size());
   // SVG for documents, PNG for a quick look (one layout, map_render.h).
   if (absl::Status s = WriteMapPictures(TrajectoryScene(poses, evaluation, title),
-                                        out_dir / "trajectory.svg", out_dir / "trajectory.png");
+                                        out_dir / "trajectory.svg", out_dir / "trajectory.png",
+                                        TrajectoryRenderOptions());
       !s.ok()) {
     return ReportError(context, s);
   }

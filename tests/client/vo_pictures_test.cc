@@ -21,6 +21,7 @@ namespace waymark::cli {
 namespace {
 
 using ::testing::HasSubstr;
+using ::testing::Not;
 using waymark::testing::ReadAll;
 using waymark::testing::ScopedTempDir;
 
@@ -115,8 +116,13 @@ TEST(VoPicturesTest, TrajectorySceneMapsGroundTruthIntoTheEstimateFrame) {
   EXPECT_TRUE(TrajectoryScene(estimate, std::nullopt, "").references.empty());
 
   ScopedTempDir dir;
-  ASSERT_TRUE(WriteTrajectorySvg(scene, dir.path() / "t.svg").ok());
-  EXPECT_THAT(ReadAll(dir.path() / "t.svg"), HasSubstr("<svg"));
+  ASSERT_TRUE(WriteMapPictures(scene, dir.path() / "t.svg", dir.path() / "t.png",
+                               TrajectoryRenderOptions())
+                  .ok());
+  const std::string svg = ReadAll(dir.path() / "t.svg");
+  EXPECT_THAT(svg, HasSubstr("<svg"));
+  EXPECT_THAT(svg, HasSubstr("ground truth (aligned)"));
+  EXPECT_THAT(svg, Not(HasSubstr("segment, both endpoints real")));  // no segment legend
 }
 
 TEST(VoSummaryTest, TumPosesReadBackByPoseFile) {
