@@ -18,6 +18,7 @@
 #include "client/tools/output.h"
 #include "client/tools/pose_file.h"
 #include "client/tools/trajectory_metrics.h"
+#include "client/tools/vo_summary.h"
 
 namespace waymark::cli {
 namespace {
@@ -135,30 +136,16 @@ int RunAte(CommandContext& context, const AteArgs& args) {
   }
 
   if (context.globals.json) {
-    nlohmann::json json;
+    // The evaluation's fields are the ones `vo run` writes in summary.json (one list).
+    nlohmann::json json = EvaluationSummary(*result, args.scale);
     json["trajectory"] = args.trajectory;
     json["groundtruth"] = args.groundtruth;
     json["trajectory_format"] = PoseFormatName(estimate->format);
     json["groundtruth_format"] = PoseFormatName(groundtruth->format);
     json["poses_estimated"] = result->poses_estimated;
-    json["poses_groundtruth"] = result->poses_groundtruth;
-    json["poses_matched"] = result->matches.size();
     json["max_dt"] = args.max_dt;
     json["delta"] = args.delta;
     json["scale_estimated"] = args.scale;
-    json["scale"] = result->alignment.scale;
-    json["ate_rmse"] = result->ate.rmse;
-    json["ate_mean"] = result->ate.mean;
-    json["ate_median"] = result->ate.median;
-    json["ate_std"] = result->ate.std;
-    json["ate_max"] = result->ate.max;
-    json["rpe_pairs"] = result->rpe_translation.count;
-    json["rpe_trans_rmse"] = result->rpe_translation.rmse;
-    json["rpe_trans_mean"] = result->rpe_translation.mean;
-    json["rpe_trans_std"] = result->rpe_translation.std;
-    json["rpe_rot_rmse_deg"] = result->rpe_rotation_deg.rmse;
-    json["rpe_rot_mean_deg"] = result->rpe_rotation_deg.mean;
-    json["rpe_rot_std_deg"] = result->rpe_rotation_deg.std;
     if (!args.plot.empty()) json["plot"] = args.plot;
     PrintJson(context.out, json);
     return kExitOk;
