@@ -6,7 +6,7 @@
 //
 // All laser lines (FLASER / ROBOTLASER1) are read first, stable-sorted by stamp (the Intel log has
 // lines out of order) and lines with a stamp equal to the previous one are dropped and counted.
-// Then, as `waymark slam replay` sends them (client/tools/slam_replay.h): per line, AddOdometry
+// Then, as `waymark slam replay` sends them (client/sessions/slam_replay.h): per line, AddOdometry
 // with the odometry pose embedded in the line at the line's stamp, then AddScan with the line's
 // own beam geometry; the laser's mounting comes from the first line (cli::LaserMount). Only the
 // two engine calls are timed (steady clock), never the reading.
@@ -47,11 +47,11 @@
 #include <vector>
 
 #include "absl/strings/str_format.h"
-#include "client/adapters/carmen_log.h"
-#include "client/tools/map_render.h"
-#include "client/tools/relations_metric.h"
-#include "client/tools/slam_replay.h"
-#include "client/tools/tum_trajectory.h"
+#include "client/datasets/carmen_log.h"
+#include "client/render/map_render.h"
+#include "client/eval/relations_metric.h"
+#include "client/sessions/slam_replay.h"
+#include "client/datasets/tum_trajectory.h"
 #include "server/laser_slam/laser_slam.h"
 #include "server/laser_slam/options.h"
 

@@ -20,11 +20,11 @@
 #include <random>
 #include <thread>
 
-#include "client/adapters/lms200_scanner.h"
-#include "client/adapters/pioneer_base.h"
-#include "client/adapters/steady_clock.h"
+#include "client/devices/lms200_scanner.h"
+#include "client/devices/pioneer_base.h"
+#include "client/common/steady_clock.h"
 #include "client/lib/channel.h"
-#include "client/tools/robot_loop.h"
+#include "client/robot/robot_loop.h"
 #include "tests/robot/eventually.h"
 #include "tests/robot/fake_arcos_peer.h"
 #include "tests/robot/fake_lms200_peer.h"

@@ -29,8 +29,8 @@
 #include <opencv2/imgcodecs.hpp>
 
 #include "absl/strings/str_split.h"
-#include "client/tools/image_sequence.h"
-#include "client/tools/trajectory_metrics.h"
+#include "client/datasets/image_sequence.h"
+#include "client/eval/trajectory_metrics.h"
 #include "bench/bench_timing.h"
 #include "server/visual_slam/detector_factory.h"
 #include "server/visual_slam/visual_odometry.h"

@@ -12,8 +12,8 @@
 #include <string>
 #include <vector>
 
-#include "client/tools/pose_file.h"
-#include "client/tools/trajectory_metrics.h"
+#include "client/datasets/pose_file.h"
+#include "client/eval/trajectory_metrics.h"
 #include "tests/client/test_util.h"
 
 namespace waymark::cli {

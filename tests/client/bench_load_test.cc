@@ -13,9 +13,9 @@
 #include <fstream>
 #include <string>
 
-#include "client/tools/load_stats.h"
-#include "client/tools/server_address.h"
-#include "client/tools/server_usage.h"
+#include "client/load/load_stats.h"
+#include "client/cli/server_address.h"
+#include "client/load/server_usage.h"
 #include "tests/client/test_util.h"
 
 namespace waymark::cli {

@@ -1,4 +1,4 @@
-#include "client/adapters/camera_source.h"
+#include "client/devices/camera_source.h"
 
 #include <gmock/gmock.h>
 #include <gtest/gtest.h>

@@ -1,6 +1,6 @@
 // The CARMEN log reader on generated plain / gzip / bzip2 logs and on the first lines of the real
 // ACES and Intel logs (skipped when ../shared is absent).
-#include "client/adapters/carmen_log.h"
+#include "client/datasets/carmen_log.h"
 
 #include <bzlib.h>
 #include <gtest/gtest.h>

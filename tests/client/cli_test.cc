@@ -1,6 +1,6 @@
 // The `waymark` command line against the in-memory fake service: arguments reach the API, results
 // reach stdout (tables or one JSON document), errors reach stderr with code and message.
-#include "client/tools/cli.h"
+#include "client/cli/cli.h"
 
 #include <gmock/gmock.h>
 #include <gtest/gtest.h>

@@ -1,4 +1,4 @@
-#include "client/tools/eval_metrics.h"
+#include "client/eval/eval_metrics.h"
 
 #include <gmock/gmock.h>
 #include <gtest/gtest.h>

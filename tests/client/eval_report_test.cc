@@ -1,4 +1,4 @@
-#include "client/tools/eval_report.h"
+#include "client/eval/eval_report.h"
 
 #include <gmock/gmock.h>
 #include <gtest/gtest.h>

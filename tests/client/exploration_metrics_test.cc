@@ -1,13 +1,13 @@
 // Exploration metrics: map completeness against the true walls and the frames that put the SLAM
 // map and the odometry into the world.
-#include "client/tools/exploration_metrics.h"
+#include "client/eval/exploration_metrics.h"
 
 #include <gtest/gtest.h>
 
 #include <cmath>
 #include <limits>
 
-#include "client/tools/relations_metric.h"  // Inverse
+#include "client/eval/relations_metric.h"  // Inverse
 
 namespace waymark::cli {
 namespace {

@@ -1,4 +1,4 @@
-#include "client/tools/image_folder.h"
+#include "client/datasets/image_folder.h"
 
 #include <gmock/gmock.h>
 #include <gtest/gtest.h>

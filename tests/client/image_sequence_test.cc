@@ -1,7 +1,7 @@
 // Image sequence readers for `waymark vo run` (image_sequence.h): TUM and KITTI layouts on small
 // temporary folders, their errors, camera presets, and the two real layouts in
 // ../shared/data/vslam (skipped when absent).
-#include "client/tools/image_sequence.h"
+#include "client/datasets/image_sequence.h"
 
 #include <gmock/gmock.h>
 #include <gtest/gtest.h>

@@ -1,11 +1,11 @@
 // Map pictures: the SVG holds one element per segment and the PNG decodes, from one layout.
-#include "client/tools/map_render.h"
+#include "client/render/map_render.h"
 
 #include <gtest/gtest.h>
 
 #include <opencv2/imgcodecs.hpp>
 
-#include "client/tools/slam_output.h"
+#include "client/render/slam_output.h"
 #include "tests/client/test_util.h"
 
 namespace waymark::cli {

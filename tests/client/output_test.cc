@@ -1,4 +1,4 @@
-#include "client/tools/output.h"
+#include "client/common/output.h"
 
 #include <gtest/gtest.h>
 

@@ -1,4 +1,4 @@
-#include "client/tools/progress_bar.h"
+#include "client/common/progress_bar.h"
 
 #include <gtest/gtest.h>
 

@@ -1,4 +1,4 @@
-#include "client/tools/proto_json.h"
+#include "client/common/proto_json.h"
 
 #include <gtest/gtest.h>
 

@@ -1,4 +1,4 @@
-#include "client/tools/recognition_flags.h"
+#include "client/cli/recognition_flags.h"
 
 #include <gtest/gtest.h>
 

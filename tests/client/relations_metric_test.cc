@@ -1,12 +1,12 @@
 // The relations metric (Kummerle et al. 2009) on constructed cases, and the TUM reader/writer.
-#include "client/tools/relations_metric.h"
+#include "client/eval/relations_metric.h"
 
 #include <gtest/gtest.h>
 
 #include <cmath>
 #include <sstream>
 
-#include "client/tools/tum_trajectory.h"
+#include "client/datasets/tum_trajectory.h"
 
 namespace waymark::cli {
 namespace {

@@ -1,7 +1,7 @@
 // The robot loop (`waymark robot`) and its safety pieces against the fake SlamService: scripted
 // devices to check each stop rule, the simulator in fast real time for the whole loop, a stream
 // the fake breaks on purpose for the stop-reconnect-resume path.
-#include "client/tools/robot_loop.h"
+#include "client/robot/robot_loop.h"
 
 #include <gmock/gmock.h>
 #include <gtest/gtest.h>
@@ -11,15 +11,15 @@
 #include <opencv2/imgcodecs.hpp>
 #include <thread>
 
-#include "client/adapters/camera_source.h"
-#include "client/adapters/sim_realtime.h"
-#include "client/adapters/sim_world.h"
-#include "client/adapters/steady_clock.h"
+#include "client/devices/camera_source.h"
+#include "client/sim/sim_realtime.h"
+#include "client/sim/sim_world.h"
+#include "client/common/steady_clock.h"
 #include "client/lib/channel.h"
-#include "client/tools/crossing_watch.h"
-#include "client/tools/robot_setup.h"
-#include "client/tools/safety_guard.h"
-#include "client/tools/teleop_keys.h"
+#include "client/robot/crossing_watch.h"
+#include "client/robot/robot_setup.h"
+#include "client/robot/safety_guard.h"
+#include "client/robot/teleop_keys.h"
 #include "tests/client/fake_crossing_service.h"
 #include "tests/client/fake_slam_service.h"
 #include "tests/client/test_util.h"

@@ -1,7 +1,7 @@
 // The exploration loop (sim_explore.h) and `waymark sim ...` against the fake SlamService
 // answering every scan with a fixed suggestion: the go-stop protocol's messages and stamps, the
 // scan count for a duration, the outputs, and the errors.
-#include "client/tools/sim_explore.h"
+#include "client/sessions/sim_explore.h"
 
 #include <gmock/gmock.h>
 #include <gtest/gtest.h>
@@ -12,7 +12,7 @@
 #include <sstream>
 
 #include "client/lib/channel.h"
-#include "client/tools/cli.h"
+#include "client/cli/cli.h"
 #include "tests/client/fake_slam_service.h"
 #include "tests/client/test_util.h"
 

@@ -10,9 +10,9 @@
 
 #include "client/lib/channel.h"
 #include "client/lib/slam_client.h"
-#include "client/tools/cli.h"
-#include "client/tools/slam_replay.h"
-#include "client/tools/tum_trajectory.h"
+#include "client/cli/cli.h"
+#include "client/sessions/slam_replay.h"
+#include "client/datasets/tum_trajectory.h"
 #include "tests/client/fake_slam_service.h"
 #include "tests/client/test_util.h"
 

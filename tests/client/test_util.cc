@@ -8,7 +8,7 @@
 #include <sstream>
 #include <stdexcept>
 
-#include "client/tools/cli.h"
+#include "client/cli/cli.h"
 
 namespace waymark::testing {
 

@@ -1,5 +1,5 @@
 // Timeline plots: stacked panels with axes, ticks, legend; SVG and PNG from one layout.
-#include "client/tools/timeline_plot.h"
+#include "client/render/timeline_plot.h"
 
 #include <gtest/gtest.h>
 

@@ -1,6 +1,6 @@
 // ATE / RPE math on constructed trajectories with known answers: alignment recovery (rigid and
 // similarity), known noise, constant per-step drift, and timestamp association.
-#include "client/tools/trajectory_metrics.h"
+#include "client/eval/trajectory_metrics.h"
 
 #include <gmock/gmock.h>
 #include <gtest/gtest.h>

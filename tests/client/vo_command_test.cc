@@ -8,8 +8,8 @@
 #include <string>
 #include <vector>
 
-#include "client/tools/image_sequence.h"
-#include "client/tools/vo_session.h"
+#include "client/datasets/image_sequence.h"
+#include "client/sessions/vo_session.h"
 #include "tests/client/test_util.h"
 
 namespace waymark::cli {

@@ -1,7 +1,7 @@
 // Pictures and results of `waymark vo run` on synthetic input: the feature frame (size, colours
 // at feature and box pixels), the trajectory scene with aligned ground truth, the TUM writer read
 // back by pose_file, summary fields, and records made from SlamUpdates.
-#include "client/tools/vo_pictures.h"
+#include "client/sessions/vo_pictures.h"
 
 #include <gmock/gmock.h>
 #include <gtest/gtest.h>
@@ -12,9 +12,9 @@
 #include <opencv2/imgcodecs.hpp>
 #include <sstream>
 
-#include "client/tools/pose_file.h"
-#include "client/tools/vo_frames.h"
-#include "client/tools/vo_summary.h"
+#include "client/datasets/pose_file.h"
+#include "client/render/vo_frames.h"
+#include "client/eval/vo_summary.h"
 #include "tests/client/test_util.h"
 
 namespace waymark::cli {

@@ -1,5 +1,5 @@
 // Active exploration over the wire: the real waymark-server and the simulator in a closed go-stop
-// loop (client/tools/sim_explore.h). Suggestions respect the limits, the robot never touches a
+// loop (client/sessions/sim_explore.h). Suggestions respect the limits, the robot never touches a
 // wall, and a short run maps most of a small world; bad exploration configs are refused.
 
 #include <signal.h>
@@ -12,10 +12,10 @@
 #include <grpcpp/grpcpp.h>
 #include <gtest/gtest.h>
 
-#include "client/adapters/sim_robot.h"
-#include "client/adapters/sim_world.h"
+#include "client/sim/sim_robot.h"
+#include "client/sim/sim_world.h"
 #include "client/lib/slam_client.h"
-#include "client/tools/sim_explore.h"
+#include "client/sessions/sim_explore.h"
 #include "tests/support/server_process.h"
 
 namespace waymark {

@@ -12,7 +12,7 @@
 #include <opencv2/imgcodecs.hpp>
 #include <string>
 
-#include "client/tools/pose_file.h"
+#include "client/datasets/pose_file.h"
 #include "tests/client/test_util.h"
 #include "tests/support/server_process.h"
 

@@ -8,8 +8,8 @@
 #include <cmath>
 #include <utility>
 
-#include "client/adapters/p2os_packet.h"
-#include "client/adapters/p2os_sip.h"
+#include "client/devices/p2os_packet.h"
+#include "client/devices/p2os_sip.h"
 
 namespace waymark::testing {
 namespace {

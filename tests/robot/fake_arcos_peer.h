@@ -2,7 +2,7 @@
 #define WAYMARK_TESTS_ROBOT_FAKE_ARCOS_PEER_H_
 
 // A fake Pioneer ARCOS controller on the master side of a pseudo-terminal, for testing the base
-// driver (client/adapters/pioneer_base.h) without a robot.
+// driver (client/devices/pioneer_base.h) without a robot.
 //
 // Closed, it answers SYNC0, SYNC1 and SYNC2 in order (SYNC2 with name, class and subclass); after
 // OPEN it streams standard SIPs every `sip_period`, integrating the commanded VEL / RVEL (or VEL2)

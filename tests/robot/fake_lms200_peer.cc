@@ -9,7 +9,7 @@
 #include <cmath>
 #include <utility>
 
-#include "client/adapters/lms200_telegram.h"
+#include "client/devices/lms200_telegram.h"
 
 namespace waymark::testing {
 namespace {

@@ -2,7 +2,7 @@
 #define WAYMARK_TESTS_ROBOT_FAKE_LMS200_PEER_H_
 
 // A SICK LMS200 on the master side of a pseudo-terminal, for testing the serial driver
-// (client/adapters/lms200_scanner.h) without the hardware.
+// (client/devices/lms200_scanner.h) without the hardware.
 //
 // It behaves like the sensor as far as the driver can tell:
 //   - it runs at one baud rate (9600 at power-up) and only understands the host while the host's

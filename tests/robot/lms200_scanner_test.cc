@@ -1,4 +1,4 @@
-#include "client/adapters/lms200_scanner.h"
+#include "client/devices/lms200_scanner.h"
 
 #include <gmock/gmock.h>
 #include <gtest/gtest.h>

@@ -1,6 +1,6 @@
 // SICK LMS200 telegram framing and CRC against the golden byte vectors of issue 5.
 
-#include "client/adapters/lms200_telegram.h"
+#include "client/devices/lms200_telegram.h"
 
 #include <gtest/gtest.h>
 

@@ -1,7 +1,7 @@
 // ARCOS / P2OS framing against the golden byte vectors of issue 5, round trips through the
 // parser, and random bytes that must never crash it.
 
-#include "client/adapters/p2os_packet.h"
+#include "client/devices/p2os_packet.h"
 
 #include <gtest/gtest.h>
 

@@ -1,6 +1,6 @@
 // Standard SIP decoding and odometry unwrapping on hand-built packets.
 
-#include "client/adapters/p2os_sip.h"
+#include "client/devices/p2os_sip.h"
 
 #include <gtest/gtest.h>
 

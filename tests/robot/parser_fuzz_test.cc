@@ -8,9 +8,9 @@
 #include <random>
 #include <vector>
 
-#include "client/adapters/lms200_telegram.h"
-#include "client/adapters/p2os_packet.h"
-#include "client/adapters/p2os_sip.h"
+#include "client/devices/lms200_telegram.h"
+#include "client/devices/p2os_packet.h"
+#include "client/devices/p2os_sip.h"
 
 namespace waymark::adapters {
 namespace {

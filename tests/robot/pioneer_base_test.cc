@@ -1,7 +1,7 @@
 // The Pioneer base driver against a fake ARCOS controller on a pseudo-terminal: handshake bytes,
 // a robot left open, odometry, clamps, the watchdog, bad bytes, flags, and a dying link.
 
-#include "client/adapters/pioneer_base.h"
+#include "client/devices/pioneer_base.h"
 
 #include <gtest/gtest.h>
 
@@ -9,8 +9,8 @@
 #include <functional>
 #include <memory>
 
-#include "client/adapters/p2os_packet.h"
-#include "client/adapters/serial_port.h"
+#include "client/devices/p2os_packet.h"
+#include "client/devices/serial_port.h"
 #include "tests/robot/eventually.h"
 #include "tests/robot/fake_arcos_peer.h"
 

@@ -1,15 +1,15 @@
 // Unplugging and replugging a cable: the reconnecting wrappers drop a device whose link failed,
 // report UNAVAILABLE while it is away, and reconnect through the real drivers once a (new) fake
 // peer answers on the device path the factory names.
-#include "client/adapters/reconnecting_devices.h"
+#include "client/devices/reconnecting_devices.h"
 
 #include <gmock/gmock.h>
 #include <gtest/gtest.h>
 
 #include <mutex>
 
-#include "client/adapters/lms200_scanner.h"
-#include "client/adapters/pioneer_base.h"
+#include "client/devices/lms200_scanner.h"
+#include "client/devices/pioneer_base.h"
 #include "tests/robot/eventually.h"
 #include "tests/robot/fake_arcos_peer.h"
 #include "tests/robot/fake_lms200_peer.h"

@@ -17,10 +17,10 @@
 #include <thread>
 
 #include "absl/time/clock.h"
-#include "client/adapters/lms200_scanner.h"
-#include "client/adapters/pioneer_base.h"
+#include "client/devices/lms200_scanner.h"
+#include "client/devices/pioneer_base.h"
 #include "client/lib/channel.h"
-#include "client/tools/robot_loop.h"
+#include "client/robot/robot_loop.h"
 #include "tests/robot/eventually.h"
 #include "tests/robot/fake_arcos_peer.h"
 #include "tests/robot/fake_lms200_peer.h"

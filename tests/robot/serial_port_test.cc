@@ -1,4 +1,4 @@
-#include "client/adapters/serial_port.h"
+#include "client/devices/serial_port.h"
 
 #include <gtest/gtest.h>
 

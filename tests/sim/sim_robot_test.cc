@@ -1,4 +1,4 @@
-#include "client/adapters/sim_robot.h"
+#include "client/sim/sim_robot.h"
 
 #include <gtest/gtest.h>
 

@@ -1,4 +1,4 @@
-#include "client/adapters/sim_world.h"
+#include "client/sim/sim_world.h"
 
 #include <gmock/gmock.h>
 #include <gtest/gtest.h>
@@ -12,7 +12,7 @@
 #include <vector>
 
 #include "absl/status/status.h"
-#include "client/adapters/sim_geometry.h"
+#include "client/sim/sim_geometry.h"
 
 namespace waymark::adapters {
 namespace {

@@ -1,10 +1,10 @@
 #ifndef WAYMARK_TESTS_SUPPORT_SYNTHETIC_SCENE_H_
 #define WAYMARK_TESTS_SUPPORT_SYNTHETIC_SCENE_H_
 
-// Generated test scenes: the simulated camera's panoramas (client/adapters/sim_scene.h), which
+// Generated test scenes: the simulated camera's panoramas (client/sim/sim_scene.h), which
 // `waymark bench load` uses too, under the names the tests know them by.
 
-#include "client/adapters/sim_scene.h"
+#include "client/sim/sim_scene.h"
 
 namespace waymark::testing {
 

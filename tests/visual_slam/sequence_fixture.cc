@@ -8,8 +8,8 @@
 #include <opencv2/imgcodecs.hpp>
 #include <opencv2/imgproc.hpp>
 
-#include "client/tools/read_file.h"
-#include "client/tools/trajectory_metrics.h"
+#include "client/common/read_file.h"
+#include "client/eval/trajectory_metrics.h"
 #include "server/visual_slam/detector_factory.h"
 
 namespace waymark::visual_slam::testing {

@@ -9,7 +9,7 @@
 #include <optional>
 #include <string>
 
-#include "client/tools/image_sequence.h"
+#include "client/datasets/image_sequence.h"
 #include "server/visual_slam/object_detector.h"
 #include "server/visual_slam/types.h"
 #include "server/visual_slam/visual_odometry.h"

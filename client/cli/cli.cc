@@ -1,0 +1,71 @@
+#include "client/cli/cli.h"
+
+#include "client/cli/command.h"
+#include "client/cli/vo_command.h"
+
+namespace waymark::cli {
+
+int RunCli(int argc, const char* const* argv, std::ostream& out, std::ostream& err,
+           bool err_is_tty) {
+  CommandContext context{GlobalOptions{}, out, err, err_is_tty, /*credentials=*/nullptr};
+  GlobalOptions& globals = context.globals;
+
+  CLI::App app{"waymark: command line for the Waymark localization service"};
+  app.name("waymark");
+  // Inherited by the subcommands created below, so `waymark db list --json` works as well as
+  // `waymark --json db list`.
+  app.fallthrough();
+  app.require_subcommand(1);
+  app.add_option("--server", globals.server, "Server address host:port")
+      ->envname("WAYMARK_SERVER")
+      ->capture_default_str();
+  app.add_flag("--json", globals.json, "Print one JSON document on stdout instead of tables");
+  app.add_option("--timeout", globals.timeout_s,
+                 "Deadline of each request in seconds, retries included (0 = none)")
+      ->check(CLI::NonNegativeNumber)
+      ->capture_default_str();
+  app.add_option("--token", globals.token, "Bearer token for the server (from `waymark token create`)")
+      ->envname("WAYMARK_TOKEN");
+  app.add_flag("--tls", globals.use_tls, "Connect with TLS, trusting the system's CAs");
+  app.add_option("--tls-ca", globals.tls.ca, "Connect with TLS, trusting this PEM CA")
+      ->envname("WAYMARK_TLS_CA");
+  app.add_option("--tls-cert", globals.tls.cert, "PEM client certificate (servers with mutual TLS)")
+      ->envname("WAYMARK_CLIENT_CERT");
+  app.add_option("--tls-key", globals.tls.key, "PEM key of --tls-cert")->envname("WAYMARK_CLIENT_KEY");
+  app.add_option("--tls-server-name", globals.tls_server_name,
+                 "Name the server's certificate carries, when not the address's host")
+      ->envname("WAYMARK_TLS_SERVER_NAME");
+
+  CommandRegistry registry;
+  AddDbCommands(app, registry);
+  AddCrossingCommands(app, registry);
+  AddEnrollCommand(app, registry);
+  AddRecognizeCommand(app, registry);
+  AddEvalCommand(app, registry);
+  AddEvalRelationsCommand(app, registry);
+  AddEvalAteCommand(app, registry);
+  AddSlamCommands(app, registry);
+  AddSimCommands(app, registry);
+  AddRobotCommand(app, registry);
+  AddHealthCommand(app, registry);
+  AddBenchLoadCommand(app, registry);
+  AddTokenCommands(app, registry);
+  AddVoCommands(app, registry);
+
+  try {
+    app.parse(argc, argv);
+  } catch (const CLI::ParseError& e) {
+    return app.exit(e, out, err);
+  }
+  if (globals.use_tls || !globals.tls.ca.empty() || !globals.tls.cert.empty()) {
+    auto credentials = client::MakeTlsCredentials(globals.tls);
+    if (!credentials.ok()) {
+      err << "error: " << credentials.status().message() << "\n";
+      return kExitFailure;
+    }
+    context.credentials = *credentials;
+  }
+  return registry.RunParsed(context).value_or(kExitFailure);
+}
+
+}  // namespace waymark::cli

@@ -1,0 +1,65 @@
+#include "client/cli/recognition_flags.h"
+
+namespace waymark::cli {
+namespace {
+
+bool Given(const CLI::Option* option) { return option != nullptr && option->count() > 0; }
+
+}  // namespace
+
+CLI::Option* AddModeOption(CLI::App* command, std::string* mode) {
+  return command
+      ->add_option("--mode", *mode,
+                   "paper: the paper's method exactly; verified: geometric verification and a "
+                   "calibrated rejection rule")
+      ->transform(CLI::IsMember({"paper", "verified"}, CLI::ignore_case));
+}
+
+v1::RecognitionMode ModeFromName(const std::string& name) {
+  if (name == "paper") return v1::RECOGNITION_MODE_PAPER;
+  if (name == "verified") return v1::RECOGNITION_MODE_VERIFIED;
+  return v1::RECOGNITION_MODE_UNSPECIFIED;
+}
+
+void RecognitionFlags::Register(CLI::App* command) {
+  const std::string group = "Recognition overrides (default: the database's values)";
+  mode_option_ = AddModeOption(command, &mode_)->group(group);
+  ratio_option_ = command->add_option("--ratio", ratio_, "Lowe ratio lambda, in (0, 1]")
+                      ->check(CLI::Range(0.0, 1.0))
+                      ->group(group);
+  n0_option_ = command->add_option("--n0", n0_, "Min matches for a cluster centre to qualify")
+                   ->check(CLI::NonNegativeNumber)
+                   ->group(group);
+  n1_option_ =
+      command->add_option("--n1", n1_, "Min matches for a cluster member to enter the list")
+          ->check(CLI::NonNegativeNumber)
+          ->group(group);
+  n2_option_ = command->add_option("--n2", n2_, "Views kept for the hue histogram step")
+                   ->check(CLI::PositiveNumber)
+                   ->group(group);
+  alpha_option_ = command->add_option("--alpha", alpha_, "Weight of matches in the decision")
+                      ->check(CLI::Range(0.0, 1.0))
+                      ->group(group);
+  beta_option_ = command->add_option("--beta", beta_, "Weight of hue similarity in the decision")
+                     ->check(CLI::Range(0.0, 1.0))
+                     ->group(group);
+  min_inliers_option_ =
+      command->add_option("--min-inliers", min_inliers_, "Verified mode: inliers to accept")
+          ->check(CLI::NonNegativeNumber)
+          ->group(group);
+}
+
+v1::RecognitionParams RecognitionFlags::ToParams() const {
+  v1::RecognitionParams params;
+  if (Given(mode_option_)) params.set_mode(ModeFromName(mode_));
+  if (Given(ratio_option_)) params.set_ratio(ratio_);
+  if (Given(n0_option_)) params.set_n0(n0_);
+  if (Given(n1_option_)) params.set_n1(n1_);
+  if (Given(n2_option_)) params.set_n2(n2_);
+  if (Given(alpha_option_)) params.set_alpha(alpha_);
+  if (Given(beta_option_)) params.set_beta(beta_);
+  if (Given(min_inliers_option_)) params.set_min_inliers(min_inliers_);
+  return params;
+}
+
+}  // namespace waymark::cli

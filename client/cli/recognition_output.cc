@@ -1,0 +1,56 @@
+#include "client/cli/recognition_output.h"
+
+#include <fmt/format.h>
+
+#include "client/common/output.h"
+#include "client/common/proto_json.h"
+
+namespace waymark::cli {
+
+std::string RecognitionSummary(const v1::RecognizeResponse& response) {
+  if (!response.recognized()) {
+    return response.reason().empty() ? "not recognized"
+                                     : fmt::format("not recognized: {}", response.reason());
+  }
+  return fmt::format("recognized {}, heading {:.1f} deg, decision {:.3f} (view {})",
+                     response.crossing(), response.heading_deg(), response.decision(),
+                     response.view_id());
+}
+
+std::string RecognitionDetails(const v1::RecognizeResponse& response) {
+  const v1::StageTimings& t = response.timings();
+  return fmt::format(
+      "{} mode, keypoints {}, qualifying clusters {}, server {:.1f} ms (decode {:.1f}, extraction "
+      "{:.1f}, matching {:.1f}, histogram {:.1f}, verification {:.1f})",
+      ModeName(response.mode()), response.keypoints(), response.qualifying_clusters(), t.total_ms(),
+      t.decode_ms(), t.extraction_ms(), t.matching_ms(), t.histogram_ms(), t.verification_ms());
+}
+
+void PrintCandidateTable(std::ostream& out, const v1::RecognizeResponse& response) {
+  if (response.candidates().empty()) {
+    out << "  (no candidates)\n";
+    return;
+  }
+  const bool verified = response.mode() == v1::RECOGNITION_MODE_VERIFIED;
+  Table table({{"view", true},
+               {"crossing"},
+               {"heading", true},
+               {"cluster", true},
+               {"centre"},
+               {verified ? "inliers" : "matches", true},
+               {"tentative", true},
+               {"similarity", true},
+               {"decision", true},
+               {"best"}});
+  for (const v1::Candidate& c : response.candidates()) {
+    const bool best = response.recognized() && c.view_id() == response.view_id();
+    table.AddRow({std::to_string(c.view_id()), c.crossing(), fmt::format("{:.1f}", c.heading_deg()),
+                  std::to_string(c.cluster_id()), c.is_center() ? "yes" : "",
+                  std::to_string(c.matches()), verified ? std::to_string(c.tentative()) : "-",
+                  c.kept() ? fmt::format("{:.3f}", c.similarity()) : "-",
+                  c.kept() ? fmt::format("{:.3f}", c.decision()) : "-", best ? "<=" : ""});
+  }
+  table.Print(out);
+}
+
+}  // namespace waymark::cli

@@ -1,0 +1,346 @@
+// `waymark robot`: a robot (Pioneer + LMS200 on serial ports, or the simulator) streaming into a
+// SLAM session, driving the server's suggestions in active mode or the keyboard's in teleop
+// mode, recognizing crossings from its camera, with a status line every second.
+#include <fmt/format.h>
+#include <poll.h>
+#include <termios.h>
+#include <unistd.h>
+
+#include <atomic>
+#include <cmath>
+#include <functional>
+#include <memory>
+#include <mutex>
+#include <optional>
+#include <string>
+#include <thread>
+
+#include "client/devices/camera_source.h"
+#include "client/sim/sim_realtime.h"
+#include "client/cli/command.h"
+#include "client/robot/crossing_watch.h"
+#include "client/common/output.h"
+#include "client/robot/robot_loop.h"
+#include "client/robot/robot_setup.h"
+#include "client/common/stop_signals.h"
+#include "client/robot/teleop_keys.h"
+
+namespace waymark::cli {
+namespace {
+
+constexpr double kPi = 3.14159265358979323846;
+
+struct RobotArgs {
+  RobotSetupOptions setup;
+  std::string mode = "passive";
+  std::string camera;
+  std::string crossings;
+  double recognize_every_s = 10;
+  double max_linear = 0.3;
+  double max_angular = 0.5;
+  double duration_s = 0;
+  std::string robot_id;
+  std::string name;
+  std::string resume;
+  bool keep_session = false;
+  double device_grace_s = 10;
+};
+
+std::string DefaultRobotId() {
+  char host[256] = {0};
+  if (gethostname(host, sizeof(host) - 1) == 0 && host[0] != '\0') return host;
+  return "robot";
+}
+
+// One status line: where the robot thinks it is, what it does and how its links are.
+std::string StatusLine(const RobotStatus& s, const std::optional<CrossingWatch::Result>& crossing,
+                       DriveMode mode) {
+  std::string line =
+      fmt::format("t={:7.1f}s pose=({:6.2f},{:6.2f},{:5.0f}deg) segs={:3d} scans={}/{}",
+                  s.device_time, s.pose.x(), s.pose.y(), s.pose.theta() * 180 / kPi, s.segments,
+                  s.scans_answered, s.scans_sent);
+  if (s.scans_rejected > 0) line += fmt::format(" rejected={}", s.scans_rejected);
+  line += fmt::format(" v={:.2f} w={:.2f}", s.linear, s.angular);
+  if (mode == DriveMode::kActive && !s.behaviour.empty()) line += " [" + s.behaviour + "]";
+  if (s.server_connected) {
+    line += " server=ok";
+  } else {
+    line += s.reconnects > 0 || !s.server_error.empty() ? " server=DOWN" : " server=connecting";
+  }
+  if (s.reconnects > 0) line += fmt::format(" reconnects={}", s.reconnects);
+  line += s.base_error.empty() ? " base=ok" : " base=ERROR";
+  if (s.battery_volts > 0) line += fmt::format(" batt={:.1f}V", s.battery_volts);
+  line += s.laser_error.empty() ? " laser=ok" : " laser=ERROR";
+  if (crossing && crossing->attempts > 0) line += " crossing=" + crossing->summary;
+  return line;
+}
+
+nlohmann::json SummaryJson(const RobotStatus& s, DriveMode mode, const std::string& devices) {
+  nlohmann::json stops = nlohmann::json::object();
+  for (int i = 0; i < static_cast<int>(StopReason::kCount); ++i) {
+    stops[StopReasonName(static_cast<StopReason>(i))] = s.stops[i];
+  }
+  return {{"session_id", s.session_id},
+          {"mode", DriveModeName(mode)},
+          {"devices", devices},
+          {"device_time_s", s.device_time},
+          {"pose", {{"x", s.pose.x()}, {"y", s.pose.y()}, {"theta", s.pose.theta()}}},
+          {"segments", s.segments},
+          {"scans_sent", s.scans_sent},
+          {"scans_answered", s.scans_answered},
+          {"scans_rejected", s.scans_rejected},
+          {"suggestions_driven", s.suggestions_driven},
+          {"reconnects", s.reconnects},
+          {"safety_stops", stops},
+          {"last_server_error", s.server_error}};
+}
+
+// Raw keys from a terminal (no echo, no line buffering) for teleop; restores it on exit.
+class RawTerminal {
+ public:
+  RawTerminal() {
+    if (!isatty(STDIN_FILENO) || tcgetattr(STDIN_FILENO, &saved_) != 0) return;
+    termios raw = saved_;
+    raw.c_lflag &= ~(ICANON | ECHO);
+    raw.c_cc[VMIN] = 0;
+    raw.c_cc[VTIME] = 0;
+    active_ = tcsetattr(STDIN_FILENO, TCSANOW, &raw) == 0;
+  }
+  ~RawTerminal() {
+    if (active_) tcsetattr(STDIN_FILENO, TCSANOW, &saved_);
+  }
+
+ private:
+  termios saved_{};
+  bool active_ = false;
+};
+
+// Reads keys until `stop`; drives through the loop (whose guard lets each command live for
+// teleop_hold seconds, so the target is re-sent while it is non-zero). A safety stop zeroes the
+// commanded velocity; the target is then dropped so the robot does not drive on into the wall.
+void TeleopKeys(RobotLoop& loop, const VelocityLimits& limits, StopSignals& signals,
+                CrossingWatch* watch, const std::function<void(const std::string&)>& say) {
+  RawTerminal terminal;
+  TeleopTarget target;
+  bool driving = false;
+  while (!signals.stop_requested().load()) {
+    pollfd p{STDIN_FILENO, POLLIN, 0};
+    char key = 0;
+    const int ready = ::poll(&p, 1, 150);
+    const ssize_t got = ready > 0 ? ::read(STDIN_FILENO, &key, 1) : 0;
+    if (ready > 0 && got <= 0) {
+      // The terminal went away (EOF, hang-up): nobody is steering any more.
+      say("teleop: no more keyboard input; stopping");
+      loop.Teleop(0, 0).IgnoreError();
+      return;
+    }
+    if (got == 1) {
+      switch (ApplyTeleopKey(key, target, limits)) {
+        case TeleopAction::kQuit:
+          signals.RequestStop();
+          return;
+        case TeleopAction::kRecognize:
+          if (watch) watch->Request();
+          break;
+        case TeleopAction::kStop:
+        case TeleopAction::kDrive:
+          driving = true;
+          break;
+        case TeleopAction::kNone:
+          break;
+      }
+    } else if (driving) {
+      const RobotStatus s = loop.status();
+      if (s.linear == 0 && s.angular == 0 && (target.linear != 0 || target.angular != 0)) {
+        say("teleop: the base was stopped for safety; target reset");
+        target = {};
+      }
+    }
+    if (driving) {
+      absl::Status s = loop.Teleop(target.linear, target.angular);
+      if (!s.ok()) say("teleop: " + s.ToString());
+      driving = target.linear != 0 || target.angular != 0;
+    }
+  }
+}
+
+int RunRobot(CommandContext& context, RobotArgs args) {
+  DriveMode mode = DriveMode::kPassive;
+  if (args.mode == "active") mode = DriveMode::kActive;
+  if (args.mode == "teleop") mode = DriveMode::kTeleop;
+  if (args.camera.empty() != args.crossings.empty()) {
+    return ReportError(
+        context, absl::InvalidArgumentError("--camera and --crossings go together: frames from the "
+                                            "camera are recognized against the crossing database"));
+  }
+  std::ostream& lines = context.globals.json ? context.err : context.out;
+  // Status, events, crossing answers and teleop notes come from four threads: one line at a time.
+  std::mutex lines_mutex;
+  auto say = [&](const std::string& line) {
+    std::lock_guard<std::mutex> lock(lines_mutex);
+    lines << line << "\n" << std::flush;
+  };
+
+  // The camera is opened before the robot: a wrong camera must not leave a robot connected.
+  std::unique_ptr<client::CrossingClient> crossing_client;
+  std::unique_ptr<client::CameraSource> camera;
+  if (!args.camera.empty()) {
+    crossing_client = context.Connect();
+    client::CameraSourceOptions camera_options;
+    // Send no more pixels than the database works at.
+    auto databases = crossing_client->ListDatabases();
+    if (!databases.ok()) return ReportError(context, databases.status(), "--crossings");
+    bool found = false;
+    for (const v1::CrossingDatabase& db : databases->databases()) {
+      if (db.name() != args.crossings) continue;
+      found = true;
+      if (db.params().has_work_width()) camera_options.width = db.params().work_width();
+      if (db.params().has_work_height()) camera_options.height = db.params().work_height();
+    }
+    if (!found) {
+      return ReportError(context,
+                         absl::NotFoundError(fmt::format("crossing database '{}' not found on {}",
+                                                         args.crossings, context.globals.server)));
+    }
+    auto opened = client::CameraSource::Open(args.camera, camera_options);
+    if (!opened.ok()) return ReportError(context, opened.status(), args.camera);
+    camera = *std::move(opened);
+  }
+
+  auto devices = OpenRobotDevices(args.setup);
+  if (!devices.ok()) return ReportError(context, devices.status());
+  say("robot: " + devices->description);
+
+  RobotLoopOptions options;
+  options.mode = mode;
+  options.robot_id = args.robot_id.empty() ? DefaultRobotId() : args.robot_id;
+  options.session_name = args.name;
+  options.resume_session_id = args.resume;
+  options.limits = {args.max_linear, args.max_angular};
+  options.duration_s = args.duration_s;
+  options.time_scale = devices->time_scale;
+  options.close_session = !args.keep_session;
+  options.device_grace = absl::Seconds(args.device_grace_s);
+  if (context.globals.timeout_s > 0) {
+    options.answer_timeout = absl::Seconds(std::min(context.globals.timeout_s, 5.0));
+  }
+
+  auto slam = context.ConnectSlam();
+  RobotLoop loop(*slam, *devices->base, *devices->laser, options);
+  StopSignals signals;
+  std::unique_ptr<CrossingWatch> watch;
+  if (camera) {
+    watch = std::make_unique<CrossingWatch>(*crossing_client, std::move(camera), args.crossings,
+                                            args.recognize_every_s, say);
+  }
+  loop.set_event_callback(say);
+  loop.set_status_callback([&](const RobotStatus& s) {
+    if (watch && signals.TakeRecognizeRequest()) watch->Request();
+    std::optional<CrossingWatch::Result> crossing;
+    if (watch) crossing = watch->last();
+    say(StatusLine(s, crossing, mode));
+  });
+
+  std::thread keys;
+  if (mode == DriveMode::kTeleop) {
+    say(TeleopHelp());
+    keys = std::thread([&] { TeleopKeys(loop, options.limits, signals, watch.get(), say); });
+  }
+  auto result = loop.Run(signals.stop_requested());
+  signals.RequestStop();  // ends the key thread
+  if (keys.joinable()) keys.join();
+  watch.reset();
+  if (!result.ok()) return ReportError(context, result.status(), "robot");
+  nlohmann::json summary = SummaryJson(*result, mode, devices->description);
+  if (devices->sim) {
+    const adapters::BasePose truth = devices->sim->true_pose();
+    summary["sim"] = {{"collisions", devices->sim->collisions()},
+                      {"distance_m", devices->sim->distance_travelled()},
+                      {"true_pose", {{"x", truth.x}, {"y", truth.y}, {"theta", truth.theta}}}};
+  }
+  if (context.globals.json) {
+    PrintJson(context.out, summary);
+  } else {
+    lines << fmt::format("stopped: session {} ({}), {} scans answered, {} reconnects\n",
+                         result->session_id, args.keep_session ? "left open" : "closed",
+                         result->scans_answered, result->reconnects);
+  }
+  return kExitOk;
+}
+
+}  // namespace
+
+void AddRobotCommand(CLI::App& app, CommandRegistry& registry) {
+  auto args = std::make_shared<RobotArgs>();
+  CLI::App* robot = app.add_subcommand(
+      "robot",
+      "Run a robot against the server: stream its laser and odometry into a SLAM session, drive "
+      "the server's suggestions (--mode active) or the keyboard (--mode teleop), recognize "
+      "crossings from its camera. Ctrl-C stops the robot, then exits.");
+  robot
+      ->add_option("--base", args->setup.base,
+                   "serial:DEVICE (Pioneer over ARCOS/P2OS, e.g. serial:/dev/ttyS0) or "
+                   "sim:WORLD (simulator: corridor, loop, office or a world file)")
+      ->required();
+  robot
+      ->add_option("--laser", args->setup.laser,
+                   "serial:DEVICE (SICK LMS200, e.g. serial:/dev/ttyUSB0) or sim")
+      ->required();
+  robot
+      ->add_option("--mode", args->mode,
+                   "passive: stream only; active: drive the server's "
+                   "suggestions; teleop: drive with the keyboard")
+      ->check(CLI::IsMember({"passive", "active", "teleop"}))
+      ->capture_default_str();
+  robot->add_option("--camera", args->camera,
+                    "Camera for crossing recognition: device index, video file, stream URL or "
+                    "image pattern (needs --crossings)");
+  robot->add_option("--crossings", args->crossings, "Crossing database to recognize against");
+  robot
+      ->add_option("--recognize-every", args->recognize_every_s,
+                   "Seconds between recognitions (0 = only on request: key c in teleop, "
+                   "SIGUSR1)")
+      ->check(CLI::NonNegativeNumber)
+      ->capture_default_str();
+  robot->add_option("--max-linear", args->max_linear, "Velocity clamp (m/s)")
+      ->check(CLI::Range(0.0, 2.0))
+      ->capture_default_str();
+  robot->add_option("--max-angular", args->max_angular, "Turn rate clamp (rad/s)")
+      ->check(CLI::Range(0.0, 4.0))
+      ->capture_default_str();
+  robot->add_option("--duration", args->duration_s, "Stop after this many seconds (0 = Ctrl-C)")
+      ->check(CLI::NonNegativeNumber)
+      ->capture_default_str();
+  robot->add_option("--robot-id", args->robot_id, "Robot id for the session (default: hostname)");
+  robot->add_option("--name", args->name, "Session name");
+  robot->add_option("--resume", args->resume, "Stream into this open session instead of a new one");
+  robot->add_flag("--keep-session", args->keep_session,
+                  "Leave the session open at exit (resume it later with --resume)");
+  robot
+      ->add_option("--device-grace", args->device_grace_s,
+                   "Seconds a base or laser may stay away (unplugged cable) before the run ends; "
+                   "the robot stands still meanwhile and serial devices reconnect by themselves")
+      ->check(CLI::NonNegativeNumber)
+      ->capture_default_str();
+  robot
+      ->add_option("--base-baud", args->setup.base_baud,
+                   "Pioneer serial rate (ARCOS: 9600; 19200, 38400, 57600, 115200 if configured)")
+      ->check(CLI::IsMember({9600, 19200, 38400, 57600, 115200}))
+      ->capture_default_str();
+  robot
+      ->add_option("--laser-baud", args->setup.laser_baud,
+                   "LMS200 rate to switch to (9600, 19200, 38400, 500000)")
+      ->check(CLI::IsMember({9600, 19200, 38400, 500000}))
+      ->capture_default_str();
+  robot->add_flag("--half-degree", args->setup.half_degree,
+                  "LMS200 0.5-degree mode (361 beams) instead of 1 degree (181)");
+  robot
+      ->add_option("--sim-speed", args->setup.sim_speed,
+                   "Simulator: simulated seconds per wall second")
+      ->check(CLI::Range(0.01, 1000.0))
+      ->capture_default_str();
+  robot->add_option("--seed", args->setup.seed, "Simulator seed")->capture_default_str();
+  registry.Add(robot, [args](CommandContext& context) { return RunRobot(context, *args); });
+}
+
+}  // namespace waymark::cli

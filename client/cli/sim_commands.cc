@@ -1,0 +1,289 @@
+// `waymark sim ...`: the robot simulator against a SLAM server. `sim explore` runs the closed
+// exploration loop (sim_explore.h) and writes its outputs here; `sim worlds` lists the built-in
+// worlds.
+#include <fmt/format.h>
+
+#include <cmath>
+#include <filesystem>
+#include <fstream>
+#include <memory>
+#include <string>
+#include <system_error>
+
+#include "client/sim/sim_world.h"
+#include "client/cli/command.h"
+#include "client/render/map_render.h"
+#include "client/common/output.h"
+#include "client/common/progress_bar.h"
+#include "client/sessions/sim_explore.h"
+#include "client/render/timeline_plot.h"
+#include "client/datasets/tum_trajectory.h"
+
+namespace waymark::cli {
+namespace {
+
+namespace fs = std::filesystem;
+
+struct ExploreArgs {
+  std::string world;
+  std::string mode = "active";
+  double duration_s = 300;
+  uint64_t seed = 1;
+  bool half_degree = false;
+  double odometry_error = 1.0;
+  std::string out_dir;  // default ./out/sim-<world>-<mode>-s<seed>
+};
+
+// A file-loaded world without a `name` line is called after its file.
+std::string WorldName(const adapters::World& world, const std::string& argument) {
+  if (!world.name.empty()) return world.name;
+  const std::string stem = fs::path(argument).stem().string();
+  return stem.empty() ? "world" : stem;
+}
+
+std::vector<StampedPose> Track(const ExploreResult& result, Pose2 ScanRecord::*pose) {
+  std::vector<StampedPose> track;
+  for (const ScanRecord& r : result.scans) track.push_back({r.time, r.*pose});
+  return track;
+}
+
+ScenePolyline Path(const ExploreResult& result, Pose2 ScanRecord::*pose, Rgb color,
+                   const std::string& label) {
+  ScenePolyline line;
+  line.color = color;
+  line.width_px = 1.5;
+  line.label = label;
+  for (const ScanRecord& r : result.scans) line.points.push_back({(r.*pose).x, (r.*pose).y});
+  return line;
+}
+
+// Everything in the world frame: the true walls underneath in light grey, the mapped segments,
+// and the true, estimated and odometry-only paths.
+MapScene ExploreScene(const ExploreResult& result, const adapters::World& world) {
+  MapScene scene;
+  scene.title = fmt::format("{} ({}, seed {}): {:.0f} s, completeness {:.0f}%", result.world,
+                            result.mode, result.seed, result.sim_time_s,
+                            result.scans.empty() ? 0.0 : 100 * result.scans.back().completeness);
+  for (const adapters::Wall& wall : world.walls) {
+    ScenePolyline line;
+    line.points = {{wall.x1, wall.y1}, {wall.x2, wall.y2}};
+    line.color = {200, 200, 200};
+    line.width_px = 5;
+    line.label = scene.references.empty() ? "true walls" : "";  // one legend row for all walls
+    scene.references.push_back(std::move(line));
+  }
+  scene.references.push_back(
+      Path(result, &ScanRecord::odometry_world, {150, 150, 150}, "odometry only"));
+  scene.segments = result.final_map_world;
+  // The estimate wide underneath, the truth thin on top: where they agree both stay visible.
+  ScenePolyline estimate =
+      Path(result, &ScanRecord::estimate_world, {230, 80, 80}, "estimated trajectory");
+  estimate.width_px = 3;
+  scene.polylines.push_back(std::move(estimate));
+  scene.polylines.push_back(Path(result, &ScanRecord::true_pose, {0, 0, 0}, "true trajectory"));
+  return scene;
+}
+
+TimelinePlot ExploreTimeline(const ExploreResult& result) {
+  auto series = [&](const std::string& label, Rgb color, double ScanRecord::*value) {
+    PlotSeries s{label, color, {}};
+    for (const ScanRecord& r : result.scans) s.points.push_back({r.time, r.*value});
+    return s;
+  };
+  TimelinePlot plot;
+  plot.title = fmt::format("{} ({}, seed {})", result.world, result.mode, result.seed);
+  plot.x_label = "simulated time (s)";
+  plot.panels.push_back({"localisation error (m)",
+                         {series("SLAM estimate", {220, 30, 30}, &ScanRecord::loc_error_m),
+                          series("odometry only", {150, 150, 150}, &ScanRecord::odometry_error_m)},
+                         std::nullopt,
+                         std::nullopt});
+  plot.panels.push_back(
+      {"mean covariance trace",
+       {series("robot and active segments", {20, 70, 190}, &ScanRecord::cov_trace_mean)},
+       std::nullopt,
+       std::nullopt});
+  plot.panels.push_back(
+      {"map completeness (share of true wall length)",
+       {series("within 0.1 m of a segment", {30, 150, 60}, &ScanRecord::completeness)},
+       0.0,
+       1.0});
+  return plot;
+}
+
+absl::Status WriteTimelineCsv(const fs::path& path, const ExploreResult& result) {
+  std::ofstream out(path);
+  out << "t_s,true_x,true_y,true_theta,est_x,est_y,est_theta,odom_x,odom_y,odom_theta,"
+         "loc_error_m,odometry_error_m,robot_cov_trace,cov_trace_mean,segments,completeness,"
+         "behaviour,linear,angular,duration,j,j1,j21,j22,planning_ms\n";
+  for (const ScanRecord& r : result.scans) {
+    const v1::SuggestedControl& c = r.suggestion;
+    out << fmt::format(
+        "{:.3f},{:.4f},{:.4f},{:.5f},{:.4f},{:.4f},{:.5f},{:.4f},{:.4f},{:.5f},{:.4f},{:.4f},{:.6g}"
+        ","
+        "{:.6g},{},{:.4f},{},{:.4f},{:.4f},{:.3f},{:.6g},{:.6g},{:.6g},{:.6g},{:.3f}\n",
+        r.time, r.true_pose.x, r.true_pose.y, r.true_pose.theta, r.estimate_world.x,
+        r.estimate_world.y, r.estimate_world.theta, r.odometry_world.x, r.odometry_world.y,
+        r.odometry_world.theta, r.loc_error_m, r.odometry_error_m, r.robot_cov_trace,
+        r.cov_trace_mean, r.segments, r.completeness, BehaviourName(c.behaviour()), c.linear(),
+        c.angular(), c.duration(), c.j(), c.j1(), c.j21(), c.j22(), c.planning_ms());
+  }
+  out.close();
+  if (!out) return absl::PermissionDeniedError("cannot write '" + path.string() + "'");
+  return absl::OkStatus();
+}
+
+absl::Status WriteExploreFiles(const fs::path& dir, const ExploreResult& result,
+                               const adapters::World& world, const nlohmann::json& summary) {
+  std::error_code ec;
+  fs::create_directories(dir, ec);
+  if (ec)
+    return absl::PermissionDeniedError("cannot create '" + dir.string() + "': " + ec.message());
+  const std::pair<const char*, Pose2 ScanRecord::*> tracks[] = {
+      {"trajectory_true.txt", &ScanRecord::true_pose},
+      {"trajectory_estimated.txt", &ScanRecord::estimate_world},
+      {"trajectory_odometry.txt", &ScanRecord::odometry_world},
+  };
+  for (const auto& [name, pose] : tracks) {
+    if (absl::Status s = WriteTumFile(dir / name, Track(result, pose)); !s.ok()) return s;
+  }
+  if (absl::Status s =
+          WriteMapPictures(ExploreScene(result, world), dir / "map.svg", dir / "map.png");
+      !s.ok()) {
+    return s;
+  }
+  if (absl::Status s = WriteTimelineCsv(dir / "timeline.csv", result); !s.ok()) return s;
+  if (absl::Status s = WriteTimelinePictures(ExploreTimeline(result), dir / "timeline.svg",
+                                             dir / "timeline.png");
+      !s.ok()) {
+    return s;
+  }
+  std::ofstream out(dir / "summary.json");
+  out << summary.dump(2) << "\n";
+  out.close();
+  if (!out) return absl::PermissionDeniedError("cannot write summary.json in " + dir.string());
+  return absl::OkStatus();
+}
+
+void PrintSummary(std::ostream& out, const nlohmann::json& s) {
+  auto number = [&](const char* key, int decimals) {
+    return FormatNumber(s[key].get<double>(), decimals);
+  };
+  Table table({{"metric"}, {"value", true}});
+  table.AddRow({"world / mode / seed",
+                fmt::format("{} / {} / {}", s["world"].get<std::string>(),
+                            s["mode"].get<std::string>(), s["seed"].get<uint64_t>())});
+  table.AddRow({"simulated time (s)", number("sim_time_s", 1)});
+  table.AddRow({"scans", std::to_string(s["scans"].get<int>())});
+  table.AddRow({"distance (m)", number("distance_m", 2)});
+  table.AddRow({"segments", std::to_string(s["segments"].get<int>())});
+  table.AddRow({"completeness", FormatPercent(s["completeness"].get<double>())});
+  table.AddRow({"localisation error mean (m)", number("loc_error_mean_m", 3)});
+  table.AddRow({"localisation error final (m)", number("loc_error_final_m", 3)});
+  table.AddRow({"odometry-only error final (m)", number("odometry_error_final_m", 3)});
+  table.AddRow(
+      {"mean covariance trace (run mean)", FormatNumber(s["cov_trace_mean"].get<double>(), 5)});
+  table.AddRow({"collisions", std::to_string(s["collisions"].get<int>())});
+  table.AddRow({"wall following share", FormatPercent(s["wall_following_share"].get<double>())});
+  table.AddRow({"planning p50 (ms)", number("planning_ms_p50", 2)});
+  table.Print(out);
+  out << "wrote " << s["out_dir"].get<std::string>()
+      << "/trajectory_{true,estimated,odometry}.txt, map.svg, map.png, timeline.csv, "
+         "timeline.svg, timeline.png, summary.json\n";
+}
+
+int RunExplore(CommandContext& context, const ExploreArgs& args) {
+  auto world = adapters::LoadWorld(args.world);
+  if (!world.ok()) return ReportError(context, world.status(), args.world);
+  world->name = WorldName(*world, args.world);
+  ExploreOptions options;
+  options.mode =
+      args.mode == "wander" ? v1::ExplorationConfig::WANDER : v1::ExplorationConfig::ACTIVE;
+  options.duration_s = args.duration_s;
+  options.seed = args.seed;
+  options.half_degree = args.half_degree;
+  options.odometry_error = args.odometry_error;
+  // Per scan: the server's processing and planning, bounded like any request (--timeout).
+  options.answer_timeout =
+      context.globals.timeout_s > 0 ? absl::Seconds(context.globals.timeout_s) : absl::Hours(24);
+  const fs::path out_dir =
+      args.out_dir.empty()
+          ? fs::path("out") / fmt::format("sim-{}-{}-s{}", world->name, args.mode, args.seed)
+          : fs::path(args.out_dir);
+
+  ProgressBar progress(context.err, static_cast<int>(std::ceil(args.duration_s)), "s simulated",
+                       context.err_is_tty);
+  auto result = RunExploration(*context.ConnectSlam(), *world, options, [&](const ScanRecord& r) {
+    progress.Update(static_cast<int>(r.time));
+  });
+  progress.Finish();
+  if (!result.ok()) return ReportError(context, result.status(), "sim explore " + world->name);
+
+  nlohmann::json summary = ExploreSummary(*result);
+  summary["out_dir"] = out_dir.string();
+  if (absl::Status s = WriteExploreFiles(out_dir, *result, *world, summary); !s.ok()) {
+    return ReportError(context, s, out_dir.string());
+  }
+  if (context.globals.json) {
+    PrintJson(context.out, summary);
+  } else {
+    PrintSummary(context.out, summary);
+  }
+  return kExitOk;
+}
+
+int RunWorlds(CommandContext& context) {
+  nlohmann::json list = nlohmann::json::array();
+  Table table({{"world"}, {"walls", true}, {"wall length (m)", true}});
+  for (const std::string& name : adapters::BuiltinWorldNames()) {
+    auto world = adapters::LoadWorld(name);
+    if (!world.ok()) return ReportError(context, world.status(), name);
+    list.push_back(
+        {{"name", name}, {"walls", world->walls.size()}, {"wall_length_m", world->WallLength()}});
+    table.AddRow({name, std::to_string(world->walls.size()), FormatNumber(world->WallLength(), 1)});
+  }
+  if (context.globals.json) {
+    PrintJson(context.out, {{"worlds", list}});
+  } else {
+    table.Print(context.out);
+  }
+  return kExitOk;
+}
+
+}  // namespace
+
+void AddSimCommands(CLI::App& app, CommandRegistry& registry) {
+  CLI::App* sim = app.add_subcommand("sim", "Simulated Pioneer 3-DX + SICK LMS200 robot");
+  sim->require_subcommand(1);
+
+  auto args = std::make_shared<ExploreArgs>();
+  CLI::App* explore = sim->add_subcommand(
+      "explore",
+      "Closed loop: the server steers a simulated robot (active or wander session); write true, "
+      "estimated and odometry trajectories, map and timeline pictures, timeline.csv and "
+      "summary.json");
+  explore->add_option("--world", args->world, "Built-in world name (see `sim worlds`) or a file")
+      ->required();
+  explore->add_option("--mode", args->mode, "Exploration mode")
+      ->check(CLI::IsMember({"active", "wander"}))
+      ->capture_default_str();
+  explore->add_option("--duration", args->duration_s, "Simulated seconds")
+      ->check(CLI::PositiveNumber)
+      ->required();
+  explore->add_option("--seed", args->seed, "Simulator seed")->capture_default_str();
+  explore->add_flag("--half-degree", args->half_degree,
+                    "LMS200 0.5-degree mode (361 beams) instead of 1 degree (181)");
+  explore->add_option("--odometry-error", args->odometry_error,
+                      "Scale of the simulated odometry error (0 = perfect, 1 = default: 1 % "
+                      "distance and 0.5 % turn scale error, 0.005 rad/m drift, 2 % random)")
+      ->check(CLI::Range(0.0, 100.0))
+      ->capture_default_str();
+  explore->add_option("--out", args->out_dir,
+                      "Output folder (default ./out/sim-<world>-<mode>-s<seed>)");
+  registry.Add(explore, [args](CommandContext& context) { return RunExplore(context, *args); });
+
+  CLI::App* worlds = sim->add_subcommand("worlds", "List the built-in worlds");
+  registry.Add(worlds, [](CommandContext& context) { return RunWorlds(context); });
+}
+
+}  // namespace waymark::cli

@@ -1,0 +1,74 @@
+#include "client/cli/vo_command.h"
+
+#include <memory>
+#include <optional>
+#include <string>
+
+#include "client/datasets/image_sequence.h"
+#include "client/sessions/vo_session.h"
+
+namespace waymark::cli {
+namespace {
+
+void AddNumber(CLI::App* command, const std::string& name, std::optional<double>* target,
+               const std::string& help) {
+  command
+      ->add_option_function<double>(
+          name, [target](const double& value) { *target = value; }, help)
+      ->check(CLI::PositiveNumber);
+}
+
+}  // namespace
+
+void AddVoCommands(CLI::App& app, CommandRegistry& registry) {
+  CLI::App* vo = app.add_subcommand("vo", "Visual odometry sessions (camera frames)");
+  vo->require_subcommand(1);
+
+  auto args = std::make_shared<VoArgs>();
+  CLI::App* run = vo->add_subcommand(
+      "run",
+      "Stream an image sequence (TUM layout: rgb.txt / associations.txt; KITTI layout: image_0/ + "
+      "calib.txt) into a new visual session; write trajectory.txt (TUM), trajectory.svg, "
+      "frames/NNNNNN.png (features: static green, static in a box blue, dynamic red, potentially "
+      "dynamic yellow, unmatched grey) and summary.json (with ATE/RPE when the folder has "
+      "groundtruth.txt or poses.txt)");
+  run->add_option("SEQ_DIR", args->sequence, "Sequence folder")->required();
+  run->add_option("--detector", args->detector,
+                  "Movable-object detector: none, hog (OpenCV people detector), "
+                  "yolo:CFG,WEIGHTS (darknet) or yolo:MODEL.onnx; model files are uploaded")
+      ->capture_default_str();
+  run->add_option("--filter", args->filter,
+                  "Dynamic-point filter: full (boxes + static test), boxes (drop features in "
+                  "boxes) or none (plain ORB VO)")
+      ->check(CLI::IsMember({"full", "boxes", "none"}))
+      ->capture_default_str();
+  run->add_option("--movable", args->movable,
+                  "Movable classes, comma-separated (default: the server's person,car,bus,truck,"
+                  "bicycle,motorbike)");
+  run->add_flag("--depth", args->depth, "Send the depth frames too (RGB-D: metric poses)");
+  run->add_option(
+      "--camera", args->camera,
+      "Camera preset: " + CameraPresetNames() + " (TUM-layout folders have no calibration file)");
+  AddNumber(run, "--fx", &args->fx, "Focal length x (pixels)");
+  AddNumber(run, "--fy", &args->fy, "Focal length y (pixels)");
+  AddNumber(run, "--cx", &args->cx, "Principal point x (pixels)");
+  AddNumber(run, "--cy", &args->cy, "Principal point y (pixels)");
+  run->add_option("--distortion", args->distortion, "k1,k2,p1,p2[,k3] (OpenCV order)");
+  AddNumber(run, "--depth-scale", &args->depth_scale,
+            "Depth image units per metre (TUM, Bonn: 5000)");
+  run->add_option("--max-frames", args->max_frames, "Send at most N frames (0 = all)")
+      ->check(CLI::NonNegativeNumber);
+  run->add_option("--out", args->out_dir, "Output folder (default ./out/vo-<sequence name>)");
+  run->add_option("--robot", args->robot_id, "Robot id of the session")->capture_default_str();
+  run->add_option("--name", args->name, "Session name (default 'vo run <sequence name>')");
+  run->add_option("--window", args->window, "Frames in flight at most")
+      ->check(CLI::Range(1, 64))
+      ->capture_default_str();
+  run->add_option("--sample-every", args->sample_every,
+                  "Feature picture of every N-th frame sent (0 = only the most dynamic frame)")
+      ->check(CLI::NonNegativeNumber)
+      ->capture_default_str();
+  registry.Add(run, [args](CommandContext& c) { return RunVo(c, *args); });
+}
+
+}  // namespace waymark::cli

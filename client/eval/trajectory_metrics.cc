@@ -1,0 +1,227 @@
+#include "client/eval/trajectory_metrics.h"
+
+#include <fmt/format.h>
+
+#include <Eigen/LU>
+#include <Eigen/SVD>
+#include <algorithm>
+#include <cmath>
+#include <numeric>
+#include <tuple>
+
+#include "absl/status/status.h"
+
+namespace waymark::cli {
+namespace {
+
+constexpr double kRadToDeg = 57.295779513082320876798;
+
+std::string StampRange(const std::vector<StampedPose3>& poses) {
+  if (poses.empty()) return "no poses";
+  double lo = poses.front().stamp;
+  double hi = lo;
+  for (const StampedPose3& p : poses) {
+    lo = std::min(lo, p.stamp);
+    hi = std::max(hi, p.stamp);
+  }
+  return fmt::format("{} poses, stamps {:.6f} .. {:.6f}", poses.size(), lo, hi);
+}
+
+}  // namespace
+
+std::vector<PoseMatch> AssociateByStamp(const std::vector<double>& estimate_stamps,
+                                        const std::vector<double>& groundtruth_stamps,
+                                        double max_dt) {
+  // Ground truth sorted by stamp, so each estimate's candidates are one window.
+  std::vector<size_t> gt_order(groundtruth_stamps.size());
+  std::iota(gt_order.begin(), gt_order.end(), 0);
+  std::stable_sort(gt_order.begin(), gt_order.end(), [&](size_t a, size_t b) {
+    return groundtruth_stamps[a] < groundtruth_stamps[b];
+  });
+  std::vector<double> gt_sorted;
+  gt_sorted.reserve(gt_order.size());
+  for (size_t i : gt_order) gt_sorted.push_back(groundtruth_stamps[i]);
+
+  std::vector<std::tuple<double, size_t, size_t>> candidates;  // (|dt|, estimate, groundtruth)
+  for (size_t e = 0; e < estimate_stamps.size(); ++e) {
+    const double t = estimate_stamps[e];
+    auto it = std::lower_bound(gt_sorted.begin(), gt_sorted.end(), t - max_dt);
+    for (; it != gt_sorted.end() && *it <= t + max_dt; ++it) {
+      const double dt = std::abs(*it - t);
+      if (dt <= max_dt) {
+        candidates.emplace_back(dt, e, gt_order[static_cast<size_t>(it - gt_sorted.begin())]);
+      }
+    }
+  }
+  std::sort(candidates.begin(), candidates.end());
+  std::vector<bool> estimate_used(estimate_stamps.size(), false);
+  std::vector<bool> gt_used(groundtruth_stamps.size(), false);
+  std::vector<PoseMatch> matches;
+  for (const auto& [dt, e, g] : candidates) {
+    if (estimate_used[e] || gt_used[g]) continue;
+    estimate_used[e] = true;
+    gt_used[g] = true;
+    matches.push_back({e, g});
+  }
+  std::sort(matches.begin(), matches.end(), [&](const PoseMatch& a, const PoseMatch& b) {
+    if (estimate_stamps[a.estimate] != estimate_stamps[b.estimate]) {
+      return estimate_stamps[a.estimate] < estimate_stamps[b.estimate];
+    }
+    return a.estimate < b.estimate;
+  });
+  return matches;
+}
+
+absl::StatusOr<Similarity3> AlignUmeyama(const std::vector<Eigen::Vector3d>& source,
+                                         const std::vector<Eigen::Vector3d>& target,
+                                         bool with_scale) {
+  if (source.size() != target.size()) {
+    return absl::InvalidArgumentError(
+        fmt::format("alignment needs point pairs: {} source and {} target points", source.size(),
+                    target.size()));
+  }
+  const size_t n = source.size();
+  if (n < 3) {
+    return absl::FailedPreconditionError(
+        fmt::format("alignment needs at least 3 point pairs, got {}", n));
+  }
+  Eigen::Vector3d mean_source = Eigen::Vector3d::Zero();
+  Eigen::Vector3d mean_target = Eigen::Vector3d::Zero();
+  for (size_t i = 0; i < n; ++i) {
+    mean_source += source[i];
+    mean_target += target[i];
+  }
+  mean_source /= static_cast<double>(n);
+  mean_target /= static_cast<double>(n);
+
+  // Cross-covariance Sigma = 1/n sum (y - mu_y)(x - mu_x)^T and the source variance.
+  Eigen::Matrix3d sigma = Eigen::Matrix3d::Zero();
+  double variance_source = 0;
+  for (size_t i = 0; i < n; ++i) {
+    const Eigen::Vector3d x = source[i] - mean_source;
+    const Eigen::Vector3d y = target[i] - mean_target;
+    sigma += y * x.transpose();
+    variance_source += x.squaredNorm();
+  }
+  sigma /= static_cast<double>(n);
+  variance_source /= static_cast<double>(n);
+
+  Eigen::JacobiSVD<Eigen::Matrix3d> svd(sigma, Eigen::ComputeFullU | Eigen::ComputeFullV);
+  Eigen::Matrix3d s = Eigen::Matrix3d::Identity();
+  if (svd.matrixU().determinant() * svd.matrixV().determinant() < 0) s(2, 2) = -1;  // no mirror
+
+  Similarity3 result;
+  result.rotation = svd.matrixU() * s * svd.matrixV().transpose();
+  if (with_scale) {
+    if (!(variance_source > 1e-24)) {
+      return absl::FailedPreconditionError(
+          "scale alignment needs estimated positions that are not all the same point");
+    }
+    result.scale = (svd.singularValues().asDiagonal() * s).trace() / variance_source;
+  }
+  result.translation = mean_target - result.scale * result.rotation * mean_source;
+  return result;
+}
+
+ErrorStats ComputeErrorStats(std::vector<double> errors) {
+  ErrorStats stats;
+  stats.count = errors.size();
+  if (errors.empty()) return stats;
+  double sum = 0;
+  double sum_sq = 0;
+  for (double e : errors) {
+    sum += e;
+    sum_sq += e * e;
+    stats.max = std::max(stats.max, e);
+  }
+  const double n = static_cast<double>(errors.size());
+  stats.mean = sum / n;
+  stats.rmse = std::sqrt(sum_sq / n);
+  double var = 0;
+  for (double e : errors) var += (e - stats.mean) * (e - stats.mean);
+  stats.std = std::sqrt(var / n);
+  std::sort(errors.begin(), errors.end());
+  const size_t mid = errors.size() / 2;
+  stats.median = errors.size() % 2 == 1 ? errors[mid] : 0.5 * (errors[mid - 1] + errors[mid]);
+  return stats;
+}
+
+double RotationAngle(const Eigen::Matrix3d& rotation) {
+  // atan2(sin, cos) keeps small angles precise, where acos of the trace loses half the digits.
+  const Eigen::Vector3d axis(rotation(2, 1) - rotation(1, 2), rotation(0, 2) - rotation(2, 0),
+                             rotation(1, 0) - rotation(0, 1));
+  return std::atan2(0.5 * axis.norm(), 0.5 * (rotation.trace() - 1.0));
+}
+
+absl::StatusOr<TrajectoryEvaluation> EvaluateTrajectory(
+    const std::vector<StampedPose3>& estimate, const std::vector<StampedPose3>& groundtruth,
+    const TrajectoryOptions& options) {
+  if (!(options.max_dt >= 0) || !std::isfinite(options.max_dt)) {
+    return absl::InvalidArgumentError("max_dt must be a finite number >= 0");
+  }
+  if (options.delta < 1) return absl::InvalidArgumentError("delta must be at least 1");
+
+  TrajectoryEvaluation result;
+  result.poses_estimated = estimate.size();
+  result.poses_groundtruth = groundtruth.size();
+  std::vector<double> est_stamps;
+  std::vector<double> gt_stamps;
+  for (const StampedPose3& p : estimate) est_stamps.push_back(p.stamp);
+  for (const StampedPose3& p : groundtruth) gt_stamps.push_back(p.stamp);
+  result.matches = AssociateByStamp(est_stamps, gt_stamps, options.max_dt);
+  if (result.matches.size() < 3) {
+    return absl::FailedPreconditionError(fmt::format(
+        "only {} poses matched within {} s (at least 3 needed): estimate has {}, ground truth has "
+        "{}",
+        result.matches.size(), options.max_dt, StampRange(estimate), StampRange(groundtruth)));
+  }
+
+  std::vector<Eigen::Vector3d> source;
+  std::vector<Eigen::Vector3d> target;
+  for (const PoseMatch& m : result.matches) {
+    source.push_back(estimate[m.estimate].translation);
+    target.push_back(groundtruth[m.groundtruth].translation);
+  }
+  absl::StatusOr<Similarity3> alignment = AlignUmeyama(source, target, options.with_scale);
+  if (!alignment.ok()) return alignment.status();
+  result.alignment = *alignment;
+
+  // ATE: translation error of every aligned position.
+  std::vector<double> ate;
+  std::vector<StampedPose3> aligned;  // matched estimates in the ground-truth frame
+  for (size_t k = 0; k < source.size(); ++k) {
+    const Eigen::Vector3d p = alignment->Apply(source[k]);
+    result.aligned_positions.push_back(p);
+    result.groundtruth_positions.push_back(target[k]);
+    ate.push_back((p - target[k]).norm());
+    StampedPose3 a = estimate[result.matches[k].estimate];
+    a.rotation = alignment->rotation * a.rotation;
+    a.translation = p;
+    aligned.push_back(a);
+  }
+  result.ate = ComputeErrorStats(std::move(ate));
+
+  // RPE: E = (G_i^-1 G_j)^-1 (A_i^-1 A_j) for j = i + delta over the matched poses.
+  std::vector<double> rpe_t;
+  std::vector<double> rpe_r;
+  const size_t delta = static_cast<size_t>(options.delta);
+  for (size_t i = 0; i + delta < aligned.size(); ++i) {
+    const size_t j = i + delta;
+    const StampedPose3& gi = groundtruth[result.matches[i].groundtruth];
+    const StampedPose3& gj = groundtruth[result.matches[j].groundtruth];
+    const Eigen::Matrix3d gt_r = gi.rotation.transpose() * gj.rotation;
+    const Eigen::Vector3d gt_t = gi.rotation.transpose() * (gj.translation - gi.translation);
+    const Eigen::Matrix3d est_r = aligned[i].rotation.transpose() * aligned[j].rotation;
+    const Eigen::Vector3d est_t =
+        aligned[i].rotation.transpose() * (aligned[j].translation - aligned[i].translation);
+    const Eigen::Matrix3d err_r = gt_r.transpose() * est_r;
+    const Eigen::Vector3d err_t = gt_r.transpose() * (est_t - gt_t);
+    rpe_t.push_back(err_t.norm());
+    rpe_r.push_back(RotationAngle(err_r) * kRadToDeg);
+  }
+  result.rpe_translation = ComputeErrorStats(std::move(rpe_t));
+  result.rpe_rotation_deg = ComputeErrorStats(std::move(rpe_r));
+  return result;
+}
+
+}  // namespace waymark::cli

@@ -1,0 +1,363 @@
+#include "client/render/map_render.h"
+
+#include <fmt/format.h>
+
+#include <algorithm>
+#include <cmath>
+#include <fstream>
+#include <limits>
+#include <opencv2/imgcodecs.hpp>
+#include <opencv2/imgproc.hpp>
+
+namespace waymark::cli {
+namespace {
+
+constexpr Rgb kBlack{0, 0, 0};
+constexpr Rgb kWhite{255, 255, 255};
+constexpr double kMarkerRadius = 2.5;
+constexpr double kSegmentWidth = 2.0;
+constexpr int kLegendRow = 18;
+
+struct Bounds {
+  double min_x = std::numeric_limits<double>::infinity();
+  double min_y = std::numeric_limits<double>::infinity();
+  double max_x = -std::numeric_limits<double>::infinity();
+  double max_y = -std::numeric_limits<double>::infinity();
+  void Add(const Vec2& p) {
+    if (!std::isfinite(p.x) || !std::isfinite(p.y)) return;
+    min_x = std::min(min_x, p.x);
+    min_y = std::min(min_y, p.y);
+    max_x = std::max(max_x, p.x);
+    max_y = std::max(max_y, p.y);
+  }
+  bool empty() const { return !(min_x <= max_x); }
+};
+
+DrawItem Line(std::vector<Vec2> points, Rgb color, double width, std::string css = {}) {
+  DrawItem item;
+  item.kind = DrawItem::Kind::kPolyline;
+  item.points = std::move(points);
+  item.stroke = color;
+  item.width_px = width;
+  item.css_class = std::move(css);
+  return item;
+}
+
+DrawItem Marker(Vec2 at, Rgb color, bool real) {
+  DrawItem item;
+  item.kind = DrawItem::Kind::kCircle;
+  item.points = {at};
+  item.stroke = color;
+  item.width_px = 1.0;
+  item.filled = real;
+  item.fill = real ? color : kWhite;
+  item.radius_px = kMarkerRadius;
+  item.css_class = real ? "endpoint real" : "endpoint virtual";
+  return item;
+}
+
+DrawItem Text(Vec2 at, std::string text, double font_px = 12) {
+  return TextItem(at, std::move(text), font_px);
+}
+
+std::string Hex(Rgb c) { return fmt::format("#{:02x}{:02x}{:02x}", c.r, c.g, c.b); }
+
+std::string EscapeXml(const std::string& text) {
+  std::string out;
+  for (char c : text) {
+    switch (c) {
+      case '<': out += "&lt;"; break;
+      case '>': out += "&gt;"; break;
+      case '&': out += "&amp;"; break;
+      case '"': out += "&quot;"; break;
+      default: out += c;
+    }
+  }
+  return out;
+}
+
+cv::Scalar Bgr(Rgb c) { return cv::Scalar(c.b, c.g, c.r); }
+
+// OpenCV draws with sub-pixel precision through fixed-point coordinates.
+constexpr int kShift = 4;
+cv::Point Fixed(const Vec2& p) {
+  return cv::Point(static_cast<int>(std::lround(p.x * (1 << kShift))),
+                   static_cast<int>(std::lround(p.y * (1 << kShift))));
+}
+
+}  // namespace
+
+SegmentClass ClassOf(const SceneSegment& s) {
+  if (s.a_real && s.b_real) return SegmentClass::kBothReal;
+  if (s.a_real || s.b_real) return SegmentClass::kOneReal;
+  return SegmentClass::kBothVirtual;
+}
+
+Rgb ColorOf(SegmentClass c) {
+  switch (c) {
+    case SegmentClass::kBothReal: return {20, 70, 190};      // blue
+    case SegmentClass::kOneReal: return {230, 130, 0};       // orange
+    case SegmentClass::kBothVirtual: return {190, 30, 120};  // magenta
+  }
+  return kBlack;
+}
+
+const char* CssClassOf(SegmentClass c) {
+  switch (c) {
+    case SegmentClass::kBothReal: return "both-real";
+    case SegmentClass::kOneReal: return "one-real";
+    case SegmentClass::kBothVirtual: return "both-virtual";
+  }
+  return "";
+}
+
+double NiceLength(double target_m) {
+  if (!(target_m > 0) || !std::isfinite(target_m)) return 1.0;
+  const double power = std::pow(10.0, std::floor(std::log10(target_m)));
+  const double mantissa = target_m / power;
+  const double nice = mantissa < 1.5 ? 1 : mantissa < 3.5 ? 2 : mantissa < 7.5 ? 5 : 10;
+  return nice * power;
+}
+
+Drawing LayoutScene(const MapScene& scene, const RenderOptions& options) {
+  Bounds bounds;
+  for (const SceneSegment& s : scene.segments) {
+    bounds.Add(s.a);
+    bounds.Add(s.b);
+  }
+  for (const auto* list : {&scene.polylines, &scene.references}) {
+    for (const ScenePolyline& line : *list) {
+      for (const Vec2& p : line.points) bounds.Add(p);
+    }
+  }
+  if (bounds.empty()) bounds = Bounds{-1, -1, 1, 1};
+  const double extent_x = std::max(bounds.max_x - bounds.min_x, options.min_extent_m);
+  const double extent_y = std::max(bounds.max_y - bounds.min_y, options.min_extent_m);
+  const double centre_x = 0.5 * (bounds.min_x + bounds.max_x);
+  const double centre_y = 0.5 * (bounds.min_y + bounds.max_y);
+  const double scale = options.max_size_px / std::max(extent_x, extent_y);
+  const int margin = options.margin_px;
+  const int title_band = scene.title.empty() ? 0 : 24;
+
+  // Legend rows: three segment classes and the labelled polylines.
+  int legend_rows = options.segment_legend ? 3 : 0;
+  for (const auto* list : {&scene.polylines, &scene.references}) {
+    for (const ScenePolyline& line : *list) legend_rows += line.label.empty() ? 0 : 1;
+  }
+  const int legend_band = 16 + kLegendRow * legend_rows;
+
+  Drawing drawing;
+  drawing.pixels_per_metre = scale;
+  const double map_w = extent_x * scale;
+  const double map_h = extent_y * scale;
+  drawing.width = std::max(options.min_width_px, static_cast<int>(std::ceil(map_w)) + 2 * margin);
+  drawing.height = title_band + static_cast<int>(std::ceil(map_h)) + 2 * margin + legend_band;
+  const double origin_x = 0.5 * drawing.width;
+  const double origin_y = title_band + margin + 0.5 * map_h;
+  auto to_px = [&](const Vec2& p) {
+    return Vec2{origin_x + (p.x - centre_x) * scale, origin_y - (p.y - centre_y) * scale};
+  };
+  auto polyline_px = [&](const ScenePolyline& line) {
+    std::vector<Vec2> points;
+    points.reserve(line.points.size());
+    for (const Vec2& p : line.points) points.push_back(to_px(p));
+    return points;
+  };
+
+  if (!scene.title.empty()) drawing.items.push_back(Text({10, 17}, scene.title, 14));
+  for (const ScenePolyline& line : scene.references) {
+    if (line.points.size() >= 2) {
+      drawing.items.push_back(Line(polyline_px(line), line.color, line.width_px, "reference"));
+    }
+  }
+  for (const SceneSegment& s : scene.segments) {
+    const SegmentClass c = ClassOf(s);
+    drawing.items.push_back(Line({to_px(s.a), to_px(s.b)}, ColorOf(c), kSegmentWidth,
+                                 std::string("segment ") + CssClassOf(c)));
+  }
+  for (const SceneSegment& s : scene.segments) {
+    const Rgb color = ColorOf(ClassOf(s));
+    drawing.items.push_back(Marker(to_px(s.a), color, s.a_real));
+    drawing.items.push_back(Marker(to_px(s.b), color, s.b_real));
+  }
+  for (const ScenePolyline& line : scene.polylines) {
+    if (line.points.size() >= 2) {
+      drawing.items.push_back(Line(polyline_px(line), line.color, line.width_px, "trajectory"));
+    }
+  }
+
+  // Scale bar, bottom left of the map area: about a fifth of the map's width.
+  const double bar_m = NiceLength(0.2 * std::max(extent_x, extent_y));
+  const double bar_px = bar_m * scale;
+  const double bar_y = title_band + map_h + margin + 0.5 * margin;
+  const double bar_x = margin;
+  drawing.items.push_back(Line({{bar_x, bar_y}, {bar_x + bar_px, bar_y}}, kBlack, 2, "scale-bar"));
+  drawing.items.push_back(Line({{bar_x, bar_y - 5}, {bar_x, bar_y + 5}}, kBlack, 1, "scale-bar"));
+  drawing.items.push_back(
+      Line({{bar_x + bar_px, bar_y - 5}, {bar_x + bar_px, bar_y + 5}}, kBlack, 1, "scale-bar"));
+  drawing.items.push_back(Text({bar_x + bar_px + 8, bar_y + 4}, fmt::format("{:g} m", bar_m)));
+
+  // Legend under the scale bar: one row per entry, a sample and its label.
+  double row_y = title_band + map_h + 2 * margin + 8;
+  const double sample_x0 = margin, sample_x1 = margin + 36, label_x = margin + 46;
+  const std::pair<SegmentClass, const char*> classes[] = {
+      {SegmentClass::kBothReal, "segment, both endpoints real"},
+      {SegmentClass::kOneReal, "segment, one endpoint real"},
+      {SegmentClass::kBothVirtual, "segment, both endpoints virtual"},
+  };
+  for (const auto& [c, label] : classes) {
+    if (!options.segment_legend) break;
+    const Rgb color = ColorOf(c);
+    drawing.items.push_back(
+        Line({{sample_x0, row_y}, {sample_x1, row_y}}, color, kSegmentWidth, "legend"));
+    drawing.items.push_back(Marker({sample_x0, row_y}, color, c != SegmentClass::kBothVirtual));
+    drawing.items.push_back(Marker({sample_x1, row_y}, color, c == SegmentClass::kBothReal));
+    drawing.items.push_back(Text({label_x, row_y + 4}, label));
+    row_y += kLegendRow;
+  }
+  if (options.segment_legend) {
+    drawing.items.push_back(
+        Text({label_x + 230, title_band + map_h + 2 * margin + 12},
+             "filled marker = real endpoint, hollow = virtual", 11));
+  }
+  for (const auto* list : {&scene.polylines, &scene.references}) {
+    for (const ScenePolyline& line : *list) {
+      if (line.label.empty()) continue;
+      drawing.items.push_back(
+          Line({{sample_x0, row_y}, {sample_x1, row_y}}, line.color, line.width_px, "legend"));
+      drawing.items.push_back(Text({label_x, row_y + 4}, line.label));
+      row_y += kLegendRow;
+    }
+  }
+  return drawing;
+}
+
+std::string DrawingToSvg(const Drawing& d) {
+  std::string svg = fmt::format(
+      "<?xml version=\"1.0\" encoding=\"UTF-8\"?>\n"
+      "<svg xmlns=\"http://www.w3.org/2000/svg\" width=\"{0}\" height=\"{1}\" "
+      "viewBox=\"0 0 {0} {1}\">\n"
+      "<rect width=\"100%\" height=\"100%\" fill=\"#ffffff\"/>\n",
+      d.width, d.height);
+  for (const DrawItem& item : d.items) {
+    const std::string css =
+        item.css_class.empty() ? "" : fmt::format(" class=\"{}\"", item.css_class);
+    switch (item.kind) {
+      case DrawItem::Kind::kPolyline: {
+        if (item.points.size() == 2) {
+          svg += fmt::format(
+              "<line{} x1=\"{:.2f}\" y1=\"{:.2f}\" x2=\"{:.2f}\" y2=\"{:.2f}\" stroke=\"{}\" "
+              "stroke-width=\"{:g}\" stroke-linecap=\"round\"/>\n",
+              css, item.points[0].x, item.points[0].y, item.points[1].x, item.points[1].y,
+              Hex(item.stroke), item.width_px);
+        } else {
+          svg += fmt::format("<polyline{} fill=\"none\" stroke=\"{}\" stroke-width=\"{:g}\" "
+                             "stroke-linejoin=\"round\" points=\"",
+                             css, Hex(item.stroke), item.width_px);
+          for (size_t i = 0; i < item.points.size(); ++i) {
+            svg += fmt::format("{}{:.2f},{:.2f}", i ? " " : "", item.points[i].x,
+                               item.points[i].y);
+          }
+          svg += "\"/>\n";
+        }
+        break;
+      }
+      case DrawItem::Kind::kCircle:
+        svg += fmt::format(
+            "<circle{} cx=\"{:.2f}\" cy=\"{:.2f}\" r=\"{:g}\" fill=\"{}\" stroke=\"{}\" "
+            "stroke-width=\"{:g}\"/>\n",
+            css, item.points[0].x, item.points[0].y, item.radius_px, Hex(item.fill),
+            Hex(item.stroke), item.width_px);
+        break;
+      case DrawItem::Kind::kText:
+        svg += fmt::format(
+            "<text{} x=\"{:.1f}\" y=\"{:.1f}\" font-family=\"sans-serif\" font-size=\"{:g}\" "
+            "fill=\"{}\">{}</text>\n",
+            css, item.points[0].x, item.points[0].y, item.font_px, Hex(item.stroke),
+            EscapeXml(item.text));
+        break;
+    }
+  }
+  svg += "</svg>\n";
+  return svg;
+}
+
+cv::Mat DrawingToImage(const Drawing& d) {
+  cv::Mat image(std::max(1, d.height), std::max(1, d.width), CV_8UC3, cv::Scalar(255, 255, 255));
+  for (const DrawItem& item : d.items) {
+    const int thickness = std::max(1, static_cast<int>(std::lround(item.width_px)));
+    switch (item.kind) {
+      case DrawItem::Kind::kPolyline: {
+        std::vector<cv::Point> points;
+        points.reserve(item.points.size());
+        for (const Vec2& p : item.points) points.push_back(Fixed(p));
+        cv::polylines(image, std::vector<std::vector<cv::Point>>{points}, false, Bgr(item.stroke),
+                      thickness, cv::LINE_AA, kShift);
+        break;
+      }
+      case DrawItem::Kind::kCircle: {
+        const int radius = static_cast<int>(std::lround(item.radius_px * (1 << kShift)));
+        cv::circle(image, Fixed(item.points[0]), radius, Bgr(item.fill), cv::FILLED, cv::LINE_AA,
+                   kShift);
+        cv::circle(image, Fixed(item.points[0]), radius, Bgr(item.stroke), thickness, cv::LINE_AA,
+                   kShift);
+        break;
+      }
+      case DrawItem::Kind::kText: {
+        // Hershey simplex: scale 1 is about 22 px tall for capitals+descenders.
+        const double font_scale = item.font_px / 28.0;
+        cv::putText(image, item.text,
+                    cv::Point(static_cast<int>(std::lround(item.points[0].x)),
+                              static_cast<int>(std::lround(item.points[0].y))),
+                    cv::FONT_HERSHEY_SIMPLEX, font_scale, Bgr(item.stroke), 1, cv::LINE_AA);
+        break;
+      }
+    }
+  }
+  return image;
+}
+
+std::string RenderSvg(const MapScene& scene, const RenderOptions& options) {
+  return DrawingToSvg(LayoutScene(scene, options));
+}
+
+cv::Mat RenderImage(const MapScene& scene, const RenderOptions& options) {
+  return DrawingToImage(LayoutScene(scene, options));
+}
+
+absl::Status WriteDrawing(const Drawing& drawing, const std::filesystem::path& svg_path,
+                          const std::filesystem::path& png_path) {
+  {
+    std::ofstream out(svg_path);
+    if (!out) return absl::PermissionDeniedError("cannot write '" + svg_path.string() + "'");
+    out << DrawingToSvg(drawing);
+    out.close();
+    if (!out) return absl::DataLossError("writing '" + svg_path.string() + "' failed");
+  }
+  try {
+    if (!cv::imwrite(png_path.string(), DrawingToImage(drawing))) {
+      return absl::PermissionDeniedError("cannot write '" + png_path.string() + "'");
+    }
+  } catch (const cv::Exception& e) {
+    return absl::InternalError("writing '" + png_path.string() + "': " + e.what());
+  }
+  return absl::OkStatus();
+}
+
+absl::Status WriteMapPictures(const MapScene& scene, const std::filesystem::path& svg_path,
+                              const std::filesystem::path& png_path, const RenderOptions& options) {
+  return WriteDrawing(LayoutScene(scene, options), svg_path, png_path);
+}
+
+DrawItem TextItem(Vec2 at, std::string text, double font_px, std::string css_class) {
+  DrawItem item;
+  item.kind = DrawItem::Kind::kText;
+  item.points = {at};
+  item.stroke = kBlack;
+  item.text = std::move(text);
+  item.font_px = font_px;
+  item.css_class = std::move(css_class);
+  return item;
+}
+
+}  // namespace waymark::cli

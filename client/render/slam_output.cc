@@ -1,0 +1,70 @@
+#include "client/render/slam_output.h"
+
+#include <cmath>
+#include <system_error>
+
+namespace waymark::cli {
+
+SceneSegment SegmentEndpoints(const v1::MapSegment& segment) {
+  const double c = std::cos(segment.frame().theta()), s = std::sin(segment.frame().theta());
+  const double x = segment.frame().x(), y = segment.frame().y();
+  SceneSegment out;
+  out.a = {x + c * segment.left(), y + s * segment.left()};
+  out.b = {x + c * segment.right(), y + s * segment.right()};
+  out.a_real = segment.left_type() == v1::MapSegment::REAL;
+  out.b_real = segment.right_type() == v1::MapSegment::REAL;
+  return out;
+}
+
+std::vector<StampedPose> PosesOf(const v1::Trajectory& trajectory) {
+  std::vector<StampedPose> poses;
+  poses.reserve(trajectory.poses_size());
+  for (const v1::TrajectoryPose& p : trajectory.poses()) {
+    poses.push_back({p.stamp(), {p.pose().x(), p.pose().y(), p.pose().theta()}});
+  }
+  return poses;
+}
+
+MapScene SlamScene(const v1::SegmentMap& map, const v1::Trajectory& trajectory,
+                   const std::string& title, const std::vector<Vec2>& reference,
+                   const std::string& reference_label) {
+  MapScene scene;
+  scene.title = title;
+  for (const v1::MapSegment& segment : map.segments()) {
+    scene.segments.push_back(SegmentEndpoints(segment));
+  }
+  ScenePolyline path;
+  path.color = {30, 150, 60};
+  path.width_px = 1.0;
+  path.label = "trajectory";
+  for (const v1::TrajectoryPose& p : trajectory.poses()) {
+    path.points.push_back({p.pose().x(), p.pose().y()});
+  }
+  scene.polylines.push_back(std::move(path));
+  if (!reference.empty()) {
+    ScenePolyline ref;
+    ref.color = {170, 170, 170};
+    ref.width_px = 1.0;
+    ref.label = reference_label;
+    ref.points = reference;
+    scene.references.push_back(std::move(ref));
+  }
+  return scene;
+}
+
+absl::Status WriteSlamFiles(const std::filesystem::path& dir, const v1::SegmentMap& map,
+                            const v1::Trajectory& trajectory, const std::string& title,
+                            const std::vector<Vec2>& reference) {
+  std::error_code ec;
+  std::filesystem::create_directories(dir, ec);
+  if (ec) {
+    return absl::PermissionDeniedError("cannot create '" + dir.string() + "': " + ec.message());
+  }
+  if (absl::Status s = WriteTumFile(dir / "trajectory.txt", PosesOf(trajectory)); !s.ok()) {
+    return s;
+  }
+  return WriteMapPictures(SlamScene(map, trajectory, title, reference), dir / "map.svg",
+                          dir / "map.png");
+}
+
+}  // namespace waymark::cli

@@ -1,0 +1,35 @@
+#ifndef WAYMARK_CLIENT_RENDER_SLAM_OUTPUT_H_
+#define WAYMARK_CLIENT_RENDER_SLAM_OUTPUT_H_
+
+// What the slam commands write: the map pictures from a SegmentMap and a Trajectory, and the
+// trajectory in TUM format.
+
+#include <filesystem>
+#include <string>
+#include <vector>
+
+#include "absl/status/status.h"
+#include "client/render/map_render.h"
+#include "client/datasets/tum_trajectory.h"
+#include "waymark/v1/slam.pb.h"
+
+namespace waymark::cli {
+
+// Segment endpoints: frame origin + left/right along the frame's x axis.
+SceneSegment SegmentEndpoints(const v1::MapSegment& segment);
+std::vector<StampedPose> PosesOf(const v1::Trajectory& trajectory);
+
+// Segments coloured by endpoint type, the trajectory as a thin line, and (when not empty) a
+// reference path such as the raw odometry in grey.
+MapScene SlamScene(const v1::SegmentMap& map, const v1::Trajectory& trajectory,
+                   const std::string& title, const std::vector<Vec2>& reference = {},
+                   const std::string& reference_label = "raw odometry");
+
+// DIR/trajectory.txt, DIR/map.svg, DIR/map.png (DIR is created).
+absl::Status WriteSlamFiles(const std::filesystem::path& dir, const v1::SegmentMap& map,
+                            const v1::Trajectory& trajectory, const std::string& title,
+                            const std::vector<Vec2>& reference = {});
+
+}  // namespace waymark::cli
+
+#endif  // WAYMARK_CLIENT_RENDER_SLAM_OUTPUT_H_
