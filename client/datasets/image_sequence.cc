@@ -1,5 +1,7 @@
 #include "client/datasets/image_sequence.h"
 
+#include "client/datasets/stamp_association.h"
+
 #include <algorithm>
 #include <cerrno>
 #include <cmath>

@@ -12,6 +12,7 @@
 #include <vector>
 
 #include "absl/status/statusor.h"
+#include "client/datasets/stamp_association.h"
 #include "client/datasets/stamped_pose3.h"
 
 namespace waymark::cli {
@@ -26,20 +27,6 @@ struct Similarity3 {
     return scale * rotation * x + translation;
   }
 };
-
-// One estimated pose matched to one ground-truth pose (indices into the two inputs).
-struct PoseMatch {
-  size_t estimate = 0;
-  size_t groundtruth = 0;
-};
-
-// Matches stamps like the TUM benchmark's associate.py: every pair closer than `max_dt` (and at
-// most max_dt apart) is a candidate, candidates are taken greedily from the smallest time
-// difference, each pose of either side used at most once. The result is ordered by estimated stamp.
-// Inputs need not be sorted.
-std::vector<PoseMatch> AssociateByStamp(const std::vector<double>& estimate_stamps,
-                                        const std::vector<double>& groundtruth_stamps,
-                                        double max_dt);
 
 // The transform that best maps `source` onto `target` in the least-squares sense (Umeyama 1991,
 // the closed form of Horn's method): SVD of the cross-covariance, with the determinant fix so the
