@@ -33,11 +33,14 @@ run: build
 test: build
 	cd $(BUILD_DIR) && ctest --output-on-failure -j $(JOBS) $(CTEST_ARGS)
 
+# The bench programs are not in the default build (make test does not need them).
 bench: build
+	cmake --build $(BUILD_DIR) -j $(JOBS) --target bench_programs
 	./bench/run.sh $(BUILD_DIR)
 
 # Enroll and query views cut from real 360-degree photos (Debian's blender-data), end to end.
 demo: build
+	cmake --build $(BUILD_DIR) -j $(JOBS) --target waymark-demo-data
 	./scripts/demo.sh $(BUILD_DIR)
 
 # Build the Docker image and smoke-test it with its own dockerd (root, Debian 12; docker/README.md).
