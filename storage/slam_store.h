@@ -100,8 +100,10 @@ class SlamStore {
   // The stored trajectory in seq order.
   virtual absl::StatusOr<std::vector<TrajectoryPoseRecord>> LoadTrajectory(
       const std::string& id) = 0;
-  // Deletes the session and its trajectory.
-  virtual absl::Status DeleteSession(const std::string& id) = 0;
+  // Deletes the session (its row holds the checkpoint) and its trajectory, in one transaction,
+  // whatever its state (the service decides whether an open session may go). Returns the session
+  // as it was, without checkpoint bytes; its trajectory_length is the number of poses deleted.
+  virtual absl::StatusOr<SlamSessionRecord> DeleteSession(const std::string& id) = 0;
 };
 
 // Opens (creating if needed) a SQLite file and migrates it to the current schema. The parent

@@ -237,13 +237,17 @@ class SqliteSlamStore final : public SlamStore {
     return poses;
   }
 
-  absl::Status DeleteSession(const std::string& id) override {
+  absl::StatusOr<SlamSessionRecord> DeleteSession(const std::string& id) override {
     std::lock_guard<std::mutex> lock(mutex_);
+    // The read and the delete in one transaction, so the record returned is exactly what went.
+    ASSIGN_OR_RETURN(Transaction txn, Transaction::Begin(connection_));
+    ASSIGN_OR_RETURN(SlamSessionRecord session, GetSessionLocked(id, /*with_checkpoint=*/false));
+    // ON DELETE CASCADE removes the trajectory rows within this statement.
     ASSIGN_OR_RETURN(Statement stmt, connection_.Prepare("DELETE FROM slam_session WHERE id = ?"));
     RETURN_IF_ERROR(stmt.BindText(1, id));
     RETURN_IF_ERROR(stmt.Run());
-    if (connection_.Changes() == 0) return NotFound(id);
-    return absl::OkStatus();
+    RETURN_IF_ERROR(txn.Commit());
+    return session;
   }
 
  private:

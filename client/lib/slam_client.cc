@@ -249,6 +249,18 @@ absl::StatusOr<v1::Session> SlamClient::CloseSession(const std::string& session_
                                 });
 }
 
+absl::StatusOr<v1::DeleteSessionResponse> SlamClient::DeleteSession(const std::string& session_id,
+                                                                     bool force) {
+  v1::DeleteSessionRequest request;
+  request.set_session_id(session_id);
+  request.set_force(force);
+  return CallUnary<v1::DeleteSessionResponse>(options_.timeout, options_.retry, Idempotency::kWrite,
+                                              [&](auto* context, auto* response) {
+                                                return stub_->DeleteSession(context, request,
+                                                                            response);
+                                              });
+}
+
 absl::StatusOr<v1::ListSessionsResponse> SlamClient::ListSessions(const std::string& robot_id) {
   v1::ListSessionsRequest request;
   request.set_robot_id(robot_id);

@@ -28,8 +28,8 @@ struct SlamClientOptions {
   absl::Duration timeout = absl::Seconds(30);
   // Deadline of a whole StreamSensorData stream; a robot streams for as long as it drives.
   absl::Duration stream_timeout = absl::InfiniteDuration();
-  // Applied to GetMap, GetTrajectory and ListSessions only (reads). CreateSession and
-  // CloseSession are never retried.
+  // Applied to GetMap, GetTrajectory and ListSessions only (reads). CreateSession, CloseSession
+  // and DeleteSession are never retried.
   RetryOptions retry;
 };
 
@@ -141,6 +141,9 @@ class SlamClient {
   absl::StatusOr<v1::Trajectory> GetTrajectory(const std::string& session_id);
   absl::StatusOr<v1::Session> CloseSession(const std::string& session_id);
   absl::StatusOr<v1::ListSessionsResponse> ListSessions(const std::string& robot_id = "");
+  // Deletes a session and its stored data; `force` closes an open session first (see the proto).
+  absl::StatusOr<v1::DeleteSessionResponse> DeleteSession(const std::string& session_id,
+                                                          bool force = false);
 
   // Makes the channel try to connect now instead of at the end of gRPC's reconnect backoff, which
   // after a server restart can hold calls failing for seconds. A robot calls it before reopening

@@ -325,15 +325,16 @@ cv::Mat RenderImage(const MapScene& scene, const RenderOptions& options) {
   return DrawingToImage(LayoutScene(scene, options));
 }
 
-absl::Status WriteDrawing(const Drawing& drawing, const std::filesystem::path& svg_path,
-                          const std::filesystem::path& png_path) {
-  {
-    std::ofstream out(svg_path);
-    if (!out) return absl::PermissionDeniedError("cannot write '" + svg_path.string() + "'");
-    out << DrawingToSvg(drawing);
-    out.close();
-    if (!out) return absl::DataLossError("writing '" + svg_path.string() + "' failed");
-  }
+absl::Status WriteDrawingSvg(const Drawing& drawing, const std::filesystem::path& svg_path) {
+  std::ofstream out(svg_path);
+  if (!out) return absl::PermissionDeniedError("cannot write '" + svg_path.string() + "'");
+  out << DrawingToSvg(drawing);
+  out.close();
+  if (!out) return absl::DataLossError("writing '" + svg_path.string() + "' failed");
+  return absl::OkStatus();
+}
+
+absl::Status WriteDrawingPng(const Drawing& drawing, const std::filesystem::path& png_path) {
   try {
     if (!cv::imwrite(png_path.string(), DrawingToImage(drawing))) {
       return absl::PermissionDeniedError("cannot write '" + png_path.string() + "'");
@@ -342,6 +343,12 @@ absl::Status WriteDrawing(const Drawing& drawing, const std::filesystem::path& s
     return absl::InternalError("writing '" + png_path.string() + "': " + e.what());
   }
   return absl::OkStatus();
+}
+
+absl::Status WriteDrawing(const Drawing& drawing, const std::filesystem::path& svg_path,
+                          const std::filesystem::path& png_path) {
+  if (absl::Status s = WriteDrawingSvg(drawing, svg_path); !s.ok()) return s;
+  return WriteDrawingPng(drawing, png_path);
 }
 
 absl::Status WriteMapPictures(const MapScene& scene, const std::filesystem::path& svg_path,

@@ -108,6 +108,9 @@ cv::Mat RenderImage(const MapScene& scene, const RenderOptions& options = {});
 // cannot be opened or written, DataLoss if writing the SVG fails, Internal on an OpenCV error.
 absl::Status WriteDrawing(const Drawing& drawing, const std::filesystem::path& svg_path,
                           const std::filesystem::path& png_path);
+// One of the two, with the same errors.
+absl::Status WriteDrawingSvg(const Drawing& drawing, const std::filesystem::path& svg_path);
+absl::Status WriteDrawingPng(const Drawing& drawing, const std::filesystem::path& png_path);
 
 // Writes both pictures from one layout.
 absl::Status WriteMapPictures(const MapScene& scene, const std::filesystem::path& svg_path,

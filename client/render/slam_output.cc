@@ -1,5 +1,6 @@
 #include "client/render/slam_output.h"
 
+#include <cctype>
 #include <cmath>
 #include <system_error>
 
@@ -52,14 +53,70 @@ MapScene SlamScene(const v1::SegmentMap& map, const v1::Trajectory& trajectory,
   return scene;
 }
 
-absl::Status WriteSlamFiles(const std::filesystem::path& dir, const v1::SegmentMap& map,
-                            const v1::Trajectory& trajectory, const std::string& title,
-                            const std::vector<Vec2>& reference) {
+namespace {
+
+absl::Status CreateFolder(const std::filesystem::path& dir) {
+  if (dir.empty()) return absl::OkStatus();
   std::error_code ec;
   std::filesystem::create_directories(dir, ec);
   if (ec) {
     return absl::PermissionDeniedError("cannot create '" + dir.string() + "': " + ec.message());
   }
+  return absl::OkStatus();
+}
+
+std::string Lowercase(std::string text) {
+  for (char& c : text) c = static_cast<char>(std::tolower(static_cast<unsigned char>(c)));
+  return text;
+}
+
+}  // namespace
+
+SlamOutTarget SlamOutTargetOf(const std::filesystem::path& out) {
+  const std::string extension = Lowercase(out.extension().string());
+  SlamOutTarget target;
+  target.path = out;
+  if (extension == ".svg") target.kind = SlamOutTarget::Kind::kSvg;
+  if (extension == ".png") target.kind = SlamOutTarget::Kind::kPng;
+  return target;
+}
+
+absl::StatusOr<std::vector<std::filesystem::path>> WriteSlamOutputs(
+    const SlamOutTarget& target, const v1::SegmentMap& map, const v1::Trajectory& trajectory,
+    const std::string& title, const std::vector<Vec2>& reference) {
+  if (target.is_folder()) {
+    if (absl::Status s = WriteSlamFiles(target.path, map, trajectory, title, reference); !s.ok()) {
+      return s;
+    }
+    return std::vector<std::filesystem::path>{target.path / "trajectory.txt",
+                                              target.path / "map.svg", target.path / "map.png"};
+  }
+  if (absl::Status s = CreateFolder(target.path.parent_path()); !s.ok()) return s;
+  const Drawing drawing = LayoutScene(SlamScene(map, trajectory, title, reference));
+  const absl::Status written = target.kind == SlamOutTarget::Kind::kSvg
+                                   ? WriteDrawingSvg(drawing, target.path)
+                                   : WriteDrawingPng(drawing, target.path);
+  if (!written.ok()) return written;
+  return std::vector<std::filesystem::path>{target.path};
+}
+
+std::string DescribeWritten(const std::vector<std::filesystem::path>& files) {
+  std::string text;
+  for (size_t i = 0; i < files.size(); ++i) {
+    if (i == 0) {
+      text = files[i].string();
+    } else {
+      const bool same_folder = files[i].parent_path() == files[0].parent_path();
+      text += ", " + (same_folder ? files[i].filename().string() : files[i].string());
+    }
+  }
+  return text;
+}
+
+absl::Status WriteSlamFiles(const std::filesystem::path& dir, const v1::SegmentMap& map,
+                            const v1::Trajectory& trajectory, const std::string& title,
+                            const std::vector<Vec2>& reference) {
+  if (absl::Status s = CreateFolder(dir); !s.ok()) return s;
   if (absl::Status s = WriteTumFile(dir / "trajectory.txt", PosesOf(trajectory)); !s.ok()) {
     return s;
   }

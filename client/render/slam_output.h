@@ -9,6 +9,7 @@
 #include <vector>
 
 #include "absl/status/status.h"
+#include "absl/status/statusor.h"
 #include "client/render/map_render.h"
 #include "client/datasets/tum_trajectory.h"
 #include "waymark/v1/slam.pb.h"
@@ -29,6 +30,28 @@ MapScene SlamScene(const v1::SegmentMap& map, const v1::Trajectory& trajectory,
 absl::Status WriteSlamFiles(const std::filesystem::path& dir, const v1::SegmentMap& map,
                             const v1::Trajectory& trajectory, const std::string& title,
                             const std::vector<Vec2>& reference = {});
+
+// Where the --out of a slam command points. A path ending in .svg or .png (any case) is that one
+// picture of the map, so `--out map.svg` writes map.svg rather than a folder named map.svg;
+// anything else is a folder that gets every output.
+struct SlamOutTarget {
+  enum class Kind { kFolder, kSvg, kPng };
+  Kind kind = Kind::kFolder;
+  std::filesystem::path path;
+
+  bool is_folder() const { return kind == Kind::kFolder; }
+};
+SlamOutTarget SlamOutTargetOf(const std::filesystem::path& out);
+
+// A folder gets WriteSlamFiles' three files; a picture only itself (its folder is created).
+// Returns the files written, in the order written.
+absl::StatusOr<std::vector<std::filesystem::path>> WriteSlamOutputs(
+    const SlamOutTarget& target, const v1::SegmentMap& map, const v1::Trajectory& trajectory,
+    const std::string& title, const std::vector<Vec2>& reference = {});
+
+// "out/aces/trajectory.txt, map.svg, map.png": the first path in full, the next ones by name when
+// they share its folder.
+std::string DescribeWritten(const std::vector<std::filesystem::path>& files);
 
 }  // namespace waymark::cli
 

@@ -1,6 +1,7 @@
 #include "client/sessions/slam_replay.h"
 
 #include <fmt/format.h>
+#include <fmt/ranges.h>
 
 #include <algorithm>
 #include <chrono>
@@ -12,18 +13,21 @@
 #include <vector>
 
 #include "absl/strings/str_cat.h"
-#include "client/datasets/carmen_log.h"
-#include "client/robot/laser_session.h"
 #include "client/common/output.h"
 #include "client/common/progress_bar.h"
-#include "client/eval/relations_metric.h"
-#include "client/render/slam_output.h"
+#include "client/datasets/carmen_log.h"
 #include "client/datasets/tum_trajectory.h"
+#include "client/eval/eval_metrics.h"      // Percentile
+#include "client/eval/relations_metric.h"  // Compose, Inverse
+#include "client/render/slam_output.h"
+#include "client/robot/laser_session.h"
+#include "client/sessions/replay_report.h"
 
 namespace waymark::cli {
 namespace {
 
 using adapters::CarmenLaser;
+using adapters::CarmenLaserFeed;
 using adapters::CarmenLogReader;
 using adapters::CarmenRecord;
 using Clock = std::chrono::steady_clock;
@@ -32,72 +36,9 @@ double SecondsSince(Clock::time_point start) {
   return std::chrono::duration<double>(Clock::now() - start).count();
 }
 
-// The laser lines of a log in stamp order. Lines are reordered within a lookahead of
-// kReorderWindow laser lines (see slam_replay.h: the Intel log has FLASER lines up to 14 lines
-// out of place, none duplicated); a line whose stamp is still not above the last one emitted (a
-// duplicate, or later than the lookahead) is skipped and counted.
-class LaserFeed {
- public:
-  static constexpr size_t kReorderWindow = 64;
-
-  explicit LaserFeed(std::unique_ptr<CarmenLogReader> reader) : reader_(std::move(reader)) {}
-
-  // The next usable laser record; false at the end of the log.
-  absl::StatusOr<bool> Next(CarmenRecord* record) {
-    while (true) {
-      while (!eof_ && pending_.size() <= kReorderWindow) {
-        CarmenRecord next;
-        auto more = reader_->Next(&next);
-        if (!more.ok()) return more.status();
-        if (!*more) {
-          eof_ = true;
-          break;
-        }
-        if (next.type == CarmenRecord::Type::kOdometry) {
-          ++odometry_lines_;
-          continue;
-        }
-        if (have_read_ && next.laser.stamp < max_read_) ++out_of_order_;
-        max_read_ = have_read_ ? std::max(max_read_, next.laser.stamp) : next.laser.stamp;
-        have_read_ = true;
-        pending_.push_back(std::move(next));
-        std::push_heap(pending_.begin(), pending_.end(), Later);
-      }
-      if (pending_.empty()) return false;
-      std::pop_heap(pending_.begin(), pending_.end(), Later);
-      *record = std::move(pending_.back());
-      pending_.pop_back();
-      if (have_last_ && !(record->laser.stamp > last_stamp_)) {
-        ++skipped_stamps_;
-        continue;
-      }
-      have_last_ = true;
-      last_stamp_ = record->laser.stamp;
-      return true;
-    }
-  }
-
-  CarmenLogReader& reader() { return *reader_; }
-  int64_t odometry_lines() const { return odometry_lines_; }
-  int64_t skipped_stamps() const { return skipped_stamps_; }
-  int64_t out_of_order() const { return out_of_order_; }
-
- private:
-  static bool Later(const CarmenRecord& a, const CarmenRecord& b) {
-    return a.laser.stamp > b.laser.stamp || (a.laser.stamp == b.laser.stamp && a.line > b.line);
-  }
-
-  std::unique_ptr<CarmenLogReader> reader_;
-  std::vector<CarmenRecord> pending_;  // min-heap by stamp (then line)
-  bool eof_ = false;
-  bool have_read_ = false;
-  double max_read_ = 0;
-  bool have_last_ = false;
-  double last_stamp_ = 0;
-  int64_t odometry_lines_ = 0;
-  int64_t skipped_stamps_ = 0;
-  int64_t out_of_order_ = 0;
-};
+std::string StatusText(const absl::Status& status) {
+  return absl::StrCat(absl::StatusCodeToString(status.code()), ": ", status.message());
+}
 
 v1::LaserGeometry GeometryOf(const CarmenLaser& laser) {
   v1::LaserGeometry geometry;
@@ -108,18 +49,172 @@ v1::LaserGeometry GeometryOf(const CarmenLaser& laser) {
   return geometry;
 }
 
-double Percentile(std::vector<double> values, double q) {
-  if (values.empty()) return 0;
-  std::sort(values.begin(), values.end());
-  const size_t index = std::min(values.size() - 1, static_cast<size_t>(q * (values.size() - 1) + 0.5));
-  return values[index];
-}
-
 void PrintReadProblems(CommandContext& context, CarmenLogReader& reader) {
   if (reader.malformed_lines() == 0) return;
   context.err << "warning: skipped " << reader.malformed_lines() << " malformed line(s)";
   for (const std::string& error : reader.first_errors()) context.err << "\n  " << error;
   context.err << "\n";
+}
+
+absl::StatusOr<std::unique_ptr<CarmenLaserFeed>> OpenFeed(const std::string& log, bool restamp,
+                                                          double rate_hz) {
+  auto reader = CarmenLogReader::Open(log);
+  if (!reader.ok()) return reader.status();
+  adapters::LaserFeedOptions options;
+  if (restamp) options.restamp_rate_hz = rate_hz;
+  return std::make_unique<CarmenLaserFeed>(*std::move(reader), options);
+}
+
+// The loud warning when most laser lines were skipped for their stamps (how many, why, what to
+// do); empty when the stamps were usable.
+std::string BrokenStampsWarning(const CarmenLaserFeed& feed) {
+  if (!feed.StampsBroken()) return "";
+  const int64_t skipped = feed.skipped_stamps();
+  const int64_t earlier = skipped - feed.repeated_stamps();
+  std::vector<std::string> why;
+  if (feed.repeated_stamps() > 0) {
+    why.push_back(fmt::format("{} repeat the stamp {:.10g} of a line before them",
+                              feed.repeated_stamps(), feed.last_repeated_stamp()));
+  }
+  if (earlier > 0) {
+    why.push_back(fmt::format("{} are earlier than a line more than {} laser lines before them",
+                              earlier, CarmenLaserFeed::kReorderWindow));
+  }
+  return fmt::format(
+      "WARNING: {} of {} laser lines ({:.1f}%) were skipped because their stamps do not increase "
+      "({}): this log's stamps are broken, and only {} scans were used.\n"
+      "WARNING: run it again with --restamp to stamp the scans from their order in the log (at "
+      "{:g} Hz, or --rate HZ).\n",
+      skipped, feed.laser_lines(), 100.0 * static_cast<double>(skipped) / feed.laser_lines(),
+      fmt::join(why, "; "), feed.laser_lines() - skipped, adapters::kDefaultRestampRateHz);
+}
+
+v1::CreateSessionRequest SessionRequest(const ReplayArgs& args, const CarmenLaser& first) {
+  v1::CreateSessionRequest create;
+  create.set_robot_id(args.robot_id);
+  create.set_name(args.name.empty() ? "replay of " + LogName(args.log) : args.name);
+  v1::LaserSlamConfig* config = create.mutable_laser();
+  *config->mutable_laser() = GeometryOf(first);
+  const Pose2 mount = LaserMount(first);
+  config->mutable_laser_pose()->set_x(mount.x);
+  config->mutable_laser_pose()->set_y(mount.y);
+  config->mutable_laser_pose()->set_theta(mount.theta);
+  v1::LaserSlamParams* params = config->mutable_params();
+  if (args.max_range) params->set_max_range(*args.max_range);
+  if (args.odom_xy_per_m) params->set_odom_xy_per_m(*args.odom_xy_per_m);
+  if (args.odom_theta_per_rad) params->set_odom_theta_per_rad(*args.odom_theta_per_rad);
+  if (args.odom_theta_per_m) params->set_odom_theta_per_m(*args.odom_theta_per_m);
+  if (args.match_chi2) params->set_match_chi2(*args.match_chi2);
+  return create;
+}
+
+// What the stream's answers say, gathered on its reader thread; read once the stream finished.
+class Answers {
+ public:
+  void Add(const v1::SlamUpdate& update) {
+    std::lock_guard<std::mutex> lock(mutex_);
+    if (update.has_rejection()) {
+      if (rejections_.size() < 5) {
+        rejections_.push_back(fmt::format("message {}: code {}: {}", update.sequence(),
+                                          update.rejection().code(),
+                                          update.rejection().message()));
+      }
+      return;
+    }
+    if (update.skipped()) ++skipped_motion_;
+    server_ms_.push_back(update.timings().total_ms());
+    // The trajectory as the answers tell it, for when the server cannot be asked afterwards.
+    v1::TrajectoryPose* pose = trajectory_.add_poses();
+    pose->set_stamp(update.stamp());
+    *pose->mutable_pose() = update.pose();
+  }
+
+  std::vector<std::string> rejections() const { return Locked(rejections_); }
+  std::vector<double> server_ms() const { return Locked(server_ms_); }
+  uint64_t skipped_motion() const { return Locked(skipped_motion_); }
+  v1::Trajectory trajectory() const { return Locked(trajectory_); }
+
+ private:
+  template <typename T>
+  T Locked(const T& value) const {
+    std::lock_guard<std::mutex> lock(mutex_);
+    return value;
+  }
+
+  mutable std::mutex mutex_;
+  std::vector<std::string> rejections_;
+  std::vector<double> server_ms_;
+  uint64_t skipped_motion_ = 0;
+  v1::Trajectory trajectory_;
+};
+
+// Sleeps until `due`, waking every 100 ms to see whether a stop was requested.
+void SleepUntil(Clock::time_point due, const StopRequested& stop) {
+  constexpr auto kSlice = std::chrono::milliseconds(100);
+  while (Clock::now() < due && !(stop && stop())) {
+    std::this_thread::sleep_until(std::min(due, Clock::now() + kSlice));
+  }
+}
+
+// The session's results after the stream: closed, then read back; whatever the server cannot give
+// any more comes from the stream's answers (trajectory) or is left out (map) and said so.
+struct SessionResults {
+  v1::Trajectory trajectory;
+  v1::SegmentMap map;
+};
+
+SessionResults CloseAndCollect(client::SlamClient& client, const std::string& session_id,
+                               const Answers& answers, ReplayReport& report) {
+  auto closed = client.CloseSession(session_id);
+  report.session_closed = closed.ok();
+  if (!closed.ok()) report.close_error = StatusText(closed.status());
+  SessionResults results;
+  auto trajectory = client.GetTrajectory(session_id);
+  if (trajectory.ok()) {
+    results.trajectory = *std::move(trajectory);
+  } else {
+    results.trajectory = answers.trajectory();
+    results.trajectory.set_session_id(session_id);
+    report.trajectory_source = "stream answers (GetTrajectory: " +
+                               StatusText(trajectory.status()) + ")";
+  }
+  auto map = client.GetMap(session_id);
+  if (map.ok()) {
+    results.map = *std::move(map);
+  } else {
+    results.map.set_session_id(session_id);
+    report.map_problem = "GetMap: " + StatusText(map.status());
+  }
+  return results;
+}
+
+// The pictures (and trajectory) to `target`, then summary.json into a folder target. Failures go
+// to report.write_error.
+void WriteOutputs(const SlamOutTarget& target, const SessionResults& results,
+                  const std::vector<Vec2>& odometry_path, ReplayReport& report) {
+  report.out = target.path;
+  report.out_is_folder = target.is_folder();
+  report.segments = results.map.segments_size();
+  report.map_revision = results.map.map_revision();
+  report.trajectory_poses = results.trajectory.poses_size();
+  std::string title = fmt::format("{}: {} scans, {} segments", LogName(report.log),
+                                  report.scans_answered, report.segments);
+  if (report.partial()) title += fmt::format(" (partial: {})", ReplayEndName(report.end));
+  auto written = WriteSlamOutputs(target, results.map, results.trajectory, title, odometry_path);
+  if (!written.ok()) {
+    report.write_error = StatusText(written.status());
+    return;
+  }
+  report.files = *std::move(written);
+  if (!target.is_folder()) return;
+  const std::filesystem::path summary_path = target.path / "summary.json";
+  report.files.push_back(summary_path);  // before writing, so the file lists itself
+  std::ofstream out(summary_path);
+  out << ReplayJson(report).dump(2) << "\n";
+  if (!out) {
+    report.files.pop_back();
+    report.write_error = "cannot write '" + summary_path.string() + "'";
+  }
 }
 
 }  // namespace
@@ -146,13 +241,13 @@ std::string LogName(const std::string& path) {
   return name.empty() ? "log" : name.string();
 }
 
-int RunSlamReplay(CommandContext& context, const ReplayArgs& args) {
-  auto reader = CarmenLogReader::Open(args.log);
-  if (!reader.ok()) return ReportError(context, reader.status());
-  LaserFeed feed(*std::move(reader));
-  const std::filesystem::path out_dir =
+int RunSlamReplay(CommandContext& context, const ReplayArgs& args, const StopRequested& stop) {
+  auto opened = OpenFeed(args.log, args.restamp, args.rate_hz);
+  if (!opened.ok()) return ReportError(context, opened.status());
+  CarmenLaserFeed& feed = **opened;
+  const SlamOutTarget target = SlamOutTargetOf(
       args.out_dir.empty() ? std::filesystem::path("out") / LogName(args.log)
-                           : std::filesystem::path(args.out_dir);
+                           : std::filesystem::path(args.out_dir));
 
   CarmenRecord record;
   auto first = feed.Next(&record);
@@ -165,44 +260,17 @@ int RunSlamReplay(CommandContext& context, const ReplayArgs& args) {
   }
 
   std::unique_ptr<client::SlamClient> client = context.ConnectSlam();
-  v1::CreateSessionRequest create;
-  create.set_robot_id(args.robot_id);
-  create.set_name(args.name.empty() ? "replay of " + LogName(args.log) : args.name);
-  v1::LaserSlamConfig* config = create.mutable_laser();
-  *config->mutable_laser() = GeometryOf(record.laser);
-  const Pose2 mount = LaserMount(record.laser);
-  config->mutable_laser_pose()->set_x(mount.x);
-  config->mutable_laser_pose()->set_y(mount.y);
-  config->mutable_laser_pose()->set_theta(mount.theta);
-  v1::LaserSlamParams* params = config->mutable_params();
-  if (args.max_range) params->set_max_range(*args.max_range);
-  if (args.odom_xy_per_m) params->set_odom_xy_per_m(*args.odom_xy_per_m);
-  if (args.odom_theta_per_rad) params->set_odom_theta_per_rad(*args.odom_theta_per_rad);
-  if (args.odom_theta_per_m) params->set_odom_theta_per_m(*args.odom_theta_per_m);
-  if (args.match_chi2) params->set_match_chi2(*args.match_chi2);
-  auto session = client->CreateSession(create);
+  auto session = client->CreateSession(SessionRequest(args, record.laser));
   if (!session.ok()) return ReportError(context, session.status(), "CreateSession");
-  const std::string session_id = session->session_id();
+  ReplayReport report;
+  report.log = args.log;
+  report.session_id = session->session_id();
+  report.realtime = args.realtime;
+  if (args.restamp) report.restamp_rate_hz = args.rate_hz;
 
-  // Answers arrive on the stream's reader thread.
-  std::mutex updates_mutex;
-  std::vector<double> server_ms;
-  uint64_t skipped_motion = 0;
-  std::vector<std::string> rejections;
-  auto on_update = [&](const v1::SlamUpdate& update) {
-    std::lock_guard<std::mutex> lock(updates_mutex);
-    if (update.has_rejection()) {
-      if (rejections.size() < 5) {
-        rejections.push_back(fmt::format("message {}: code {}: {}", update.sequence(),
-                                         update.rejection().code(), update.rejection().message()));
-      }
-      return;
-    }
-    if (update.skipped()) ++skipped_motion;
-    server_ms.push_back(update.timings().total_ms());
-  };
-  std::unique_ptr<client::SensorStream> stream =
-      client->StreamSensorData(session_id, args.window, on_update);
+  Answers answers;
+  std::unique_ptr<client::SensorStream> stream = client->StreamSensorData(
+      report.session_id, args.window, [&answers](const v1::SlamUpdate& u) { answers.Add(u); });
 
   const bool by_scans = args.max_scans > 0;
   const int64_t kib_total = std::max<int64_t>(1, feed.reader().file_size() / 1024);
@@ -210,16 +278,19 @@ int RunSlamReplay(CommandContext& context, const ReplayArgs& args) {
                        by_scans ? args.max_scans : static_cast<int>(kib_total),
                        by_scans ? "scans" : "KiB of log", context.err_is_tty);
   const double first_stamp = record.laser.stamp;
-  double last_stamp = first_stamp;
-  int64_t scans_sent = 0;
   std::vector<Vec2> odometry_path;
   const Clock::time_point start = Clock::now();
   absl::Status failure;
+  report.end = ReplayEnd::kEndOfLog;
   for (bool more = true; more;) {
     if (args.realtime) {
-      const auto due = start + std::chrono::duration_cast<Clock::duration>(
-                                   std::chrono::duration<double>(record.laser.stamp - first_stamp));
-      std::this_thread::sleep_until(due);
+      SleepUntil(start + std::chrono::duration_cast<Clock::duration>(
+                             std::chrono::duration<double>(record.laser.stamp - first_stamp)),
+                 stop);
+    }
+    if (stop && stop()) {
+      report.end = ReplayEnd::kInterrupted;
+      break;
     }
     v1::Odometry odometry;
     odometry.set_stamp(record.laser.stamp);
@@ -229,103 +300,88 @@ int RunSlamReplay(CommandContext& context, const ReplayArgs& args) {
     *scan.mutable_geometry() = GeometryOf(record.laser);
     scan.mutable_ranges()->Assign(record.laser.ranges.begin(), record.laser.ranges.end());
     if (failure = stream->SendOdometry(odometry); failure.ok()) failure = stream->SendScan(scan);
-    if (!failure.ok()) break;
-    ++scans_sent;
-    last_stamp = record.laser.stamp;
+    if (!failure.ok()) {
+      report.end = ReplayEnd::kFailed;
+      break;
+    }
+    report.span.Add(record.laser.stamp);
     if (args.show_odometry) {
       odometry_path.push_back({record.laser.odom_pose.x, record.laser.odom_pose.y});
     }
-    if (scans_sent % 16 == 0) {
-      progress.Update(by_scans ? static_cast<int>(scans_sent)
+    const int64_t sent = report.span.scans();
+    if (sent % 16 == 0) {
+      progress.Update(by_scans ? static_cast<int>(sent)
                                : static_cast<int>(feed.reader().bytes_consumed() / 1024));
     }
-    if (by_scans && scans_sent >= args.max_scans) break;
+    if (by_scans && sent >= args.max_scans) {
+      report.end = ReplayEnd::kMaxScans;
+      break;
+    }
     auto next = feed.Next(&record);
     if (!next.ok()) {
-      failure = next.status();
+      failure = absl::Status(next.status().code(),
+                             absl::StrCat(next.status().message(), " (", args.log, ")"));
+      report.end = ReplayEnd::kFailed;
       break;
     }
     more = *next;
   }
+  // Half-closes and waits for the answers to everything sent, also after Ctrl-C.
   const absl::Status finished = stream->Finish();
-  const double processing_s = SecondsSince(start);
-  progress.Update(by_scans ? static_cast<int>(scans_sent) : static_cast<int>(kib_total));
+  report.processing_s = SecondsSince(start);
+  // A send fails when the stream broke; Finish says why.
+  if (!finished.ok() && (failure.ok() || failure.code() == absl::StatusCode::kUnavailable)) {
+    failure = absl::Status(finished.code(),
+                           absl::StrCat(finished.message(), " (stream of session ",
+                                        report.session_id, ")"));
+    report.end = ReplayEnd::kFailed;
+  }
+  if (!failure.ok()) report.error = StatusText(failure);
+  progress.Update(by_scans ? static_cast<int>(report.span.scans()) : static_cast<int>(kib_total));
   progress.Finish();
-  const client::SensorStream::Stats stats = stream->stats();
   PrintReadProblems(context, feed.reader());
-  if (!failure.ok() && failure.code() != absl::StatusCode::kUnavailable) {
-    return ReportError(context, failure, args.log);
-  }
-  if (!finished.ok()) {
-    return ReportError(context, finished, "stream of session " + session_id);
-  }
-  for (const std::string& r : rejections) context.err << "warning: rejected " << r << "\n";
+  for (const std::string& r : answers.rejections()) context.err << "warning: rejected " << r << "\n";
 
-  auto closed = client->CloseSession(session_id);
-  if (!closed.ok()) return ReportError(context, closed.status(), "CloseSession " + session_id);
-  auto trajectory = client->GetTrajectory(session_id);
-  if (!trajectory.ok()) return ReportError(context, trajectory.status(), "GetTrajectory");
-  auto map = client->GetMap(session_id);
-  if (!map.ok()) return ReportError(context, map.status(), "GetMap");
-  if (absl::Status s = WriteSlamFiles(out_dir, *map, *trajectory,
-                                      fmt::format("{}: {} scans, {} segments", LogName(args.log),
-                                                  stats.updates, map->segments_size()),
-                                      odometry_path);
-      !s.ok()) {
-    return ReportError(context, s, out_dir.string());
-  }
+  const client::SensorStream::Stats stats = stream->stats();
+  report.scans_sent = stats.scans_sent;
+  report.scans_answered = stats.updates;
+  report.rejected = stats.scans_rejected + stats.odometry_rejected;
+  report.queue_full = stats.queue_full;
+  report.window = stream->window();
+  report.max_outstanding = stats.max_outstanding;
+  report.skipped_motion = answers.skipped_motion();
+  const std::vector<double> server_ms = answers.server_ms();
+  report.server_ms_p50 = Percentile(server_ms, 50);
+  report.server_ms_p99 = Percentile(server_ms, 99);
+  report.laser_lines = feed.laser_lines();
+  report.skipped_stamps = feed.skipped_stamps();
+  report.stamps_broken = feed.StampsBroken();
+  report.reordered_lines = feed.reordered_lines();
+  report.malformed_lines = feed.reader().malformed_lines();
+  report.odometry_lines = feed.odometry_lines();
 
-  const double log_duration_s = last_stamp - first_stamp;
-  nlohmann::json summary = {
-      {"log", args.log},
-      {"session_id", session_id},
-      {"scans", stats.updates},
-      {"scans_sent", stats.scans_sent},
-      {"scans_skipped_motion", skipped_motion},
-      {"rejected", stats.scans_rejected + stats.odometry_rejected},
-      {"queue_full", stats.queue_full},
-      {"skipped_stamps", feed.skipped_stamps()},
-      {"reordered_lines", feed.out_of_order()},
-      {"malformed_lines", feed.reader().malformed_lines()},
-      {"odometry_lines_not_sent", feed.odometry_lines()},
-      {"segments", map->segments_size()},
-      {"map_revision", map->map_revision()},
-      {"trajectory_poses", trajectory->poses_size()},
-      {"processing_s", processing_s},
-      {"log_duration_s", log_duration_s},
-      {"realtime_factor", processing_s > 0 ? log_duration_s / processing_s : 0.0},
-      {"window", stream->window()},
-      {"max_outstanding", stats.max_outstanding},
-      {"server_ms_p50", Percentile(server_ms, 0.5)},
-      {"server_ms_p99", Percentile(server_ms, 0.99)},
-      {"realtime", args.realtime},
-      {"out_dir", out_dir.string()},
-  };
-  {
-    std::ofstream out(out_dir / "summary.json");
-    out << summary.dump(2) << "\n";
-    if (!out) return ReportError(context, absl::DataLossError("cannot write summary.json"));
-  }
+  const SessionResults results = CloseAndCollect(*client, report.session_id, answers, report);
+  WriteOutputs(target, results, odometry_path, report);
+
   if (context.globals.json) {
-    PrintJson(context.out, summary);
+    PrintJson(context.out, ReplayJson(report));
   } else {
-    context.out << fmt::format(
-        "session {}: {} scans processed ({} sent, {} rejected, {} skipped stamps), {} segments\n"
-        "log {:.1f} s replayed in {:.2f} s: real-time factor {:.1f}x; server p50 {:.2f} ms, "
-        "p99 {:.2f} ms per scan\n"
-        "wrote {}/trajectory.txt, map.svg, map.png, summary.json\n",
-        session_id, stats.updates, stats.scans_sent, stats.scans_rejected + stats.odometry_rejected,
-        feed.skipped_stamps(), map->segments_size(), log_duration_s, processing_s,
-        processing_s > 0 ? log_duration_s / processing_s : 0.0, Percentile(server_ms, 0.5),
-        Percentile(server_ms, 0.99), out_dir.string());
+    context.out << ReplayText(report);
   }
-  return kExitOk;
+  const std::string stamps_warning = BrokenStampsWarning(feed);
+  context.err << stamps_warning;
+  if (report.end == ReplayEnd::kFailed) return ReportError(context, failure, "replay");
+  if (!report.write_error.empty()) {
+    return ReportError(context, absl::DataLossError(report.write_error), target.path.string());
+  }
+  if (report.end == ReplayEnd::kInterrupted) return kExitInterrupted;
+  return stamps_warning.empty() ? kExitOk : kExitFailure;
 }
 
 int RunSlamOdometry(CommandContext& context, const OdometryArgs& args) {
-  auto reader = CarmenLogReader::Open(args.log);
-  if (!reader.ok()) return ReportError(context, reader.status());
-  LaserFeed feed(*std::move(reader));
+  auto opened = OpenFeed(args.log, args.restamp, args.rate_hz);
+  if (!opened.ok()) return ReportError(context, opened.status());
+  CarmenLaserFeed& feed = **opened;
   std::vector<StampedPose> poses;
   CarmenRecord record;
   while (args.max_scans <= 0 || static_cast<int>(poses.size()) < args.max_scans) {
@@ -342,14 +398,26 @@ int RunSlamOdometry(CommandContext& context, const OdometryArgs& args) {
                             {"out", args.out},
                             {"poses", poses.size()},
                             {"skipped_stamps", feed.skipped_stamps()},
-                            {"reordered_lines", feed.out_of_order()},
+                            {"stamps_broken", feed.StampsBroken()},
+                            {"stamps", feed.restamped() ? "synthesized" : "log"},
+                            {"restamp_rate_hz", feed.restamped()
+                                                    ? nlohmann::json(feed.restamp_rate_hz())
+                                                    : nlohmann::json(nullptr)},
+                            {"reordered_lines", feed.reordered_lines()},
                             {"malformed_lines", feed.reader().malformed_lines()}});
   } else {
-    context.out << "wrote " << poses.size() << " odometry poses to " << args.out << " ("
-                << feed.out_of_order() << " laser lines reordered by stamp, "
-                << feed.skipped_stamps() << " with a repeated stamp skipped)\n";
+    context.out << "wrote " << poses.size() << " odometry poses to " << args.out;
+    if (feed.restamped()) {
+      context.out << fmt::format(" (stamps synthesized from the line order at {:g} Hz)\n",
+                                 feed.restamp_rate_hz());
+    } else {
+      context.out << " (" << feed.reordered_lines() << " laser lines reordered by stamp, "
+                  << feed.skipped_stamps() << " with a repeated or out-of-order stamp skipped)\n";
+    }
   }
-  return kExitOk;
+  const std::string stamps_warning = BrokenStampsWarning(feed);
+  context.err << stamps_warning;
+  return stamps_warning.empty() ? kExitOk : kExitFailure;
 }
 
 }  // namespace waymark::cli

@@ -3,38 +3,48 @@
 
 // `waymark slam replay LOG` and `waymark slam odometry LOG`: CARMEN logs into a SLAM session.
 //
-// What is sent, per laser line (FLASER or ROBOTLASER1), in file order:
+// What is sent, per laser line (FLASER or ROBOTLASER1) in stamp order (CarmenLaserFeed: reordered
+// within a lookahead, lines whose stamp does not increase skipped; or, with --restamp, in file
+// order with stamps synthesized from the line number and a rate):
 //   1. an Odometry message with the odometry pose embedded in the laser line (FLASER odom_x/y/theta,
 //      ROBOTLASER1 robot_x/y/theta) at the laser line's stamp, then
 //   2. the scan, with its own beam geometry.
 // ODOM lines are read but not sent: every laser line carries the odometry at its own instant, which
 // is exactly what the EKF's prediction needs, and the raw logs' ODOM lines add nothing between two
-// scans that the next scan's pose does not. Laser lines are sent in stamp order: the reader looks
-// 64 laser lines ahead and reorders (in the Intel log 631 FLASER lines carry a smaller stamp than
-// the line before them, none is repeated, none is more than 14 lines out of place;
-// reordered_lines counts the lines whose stamp is below one read earlier: 1612 there). A line whose stamp still does not increase (a duplicate,
-// or out of order by more than the lookahead) is skipped and counted (skipped_stamps), since the
-// server would reject it. Malformed lines are skipped and counted (the first few are printed).
+// scans that the next scan's pose does not. Malformed lines are skipped and counted (the first few
+// are printed).
+//
+// When most laser lines were skipped for their stamps, the replay still writes what it got but
+// warns and exits 1, pointing at --restamp. Ctrl-C (a stop request) or an error mid-log ends the
+// replay early: it says what was sent and answered, closes the session (or names it as left open
+// and how to close it), and writes the outputs it can, marked partial in summary.json; the
+// trajectory then comes from the stream's answers and the pictures have no map if the server
+// cannot be asked. Exit codes: 0 done, 1 error or broken stamps, 130 interrupted.
 //
 // The session's laser pose on the robot is inv(odom pose) (+) laser pose of the first laser line
 // when that offset is plausible (under 1 m and 0.1 rad); otherwise (e.g. GMapping-corrected logs,
 // whose laser pose is the corrected pose) the laser is assumed at the robot's origin.
 
+#include <functional>
 #include <optional>
 #include <string>
 
 #include "client/common/command_context.h"
+#include "client/datasets/carmen_laser_feed.h"
 #include "client/datasets/tum_trajectory.h"
-
-namespace waymark::adapters {
-struct CarmenLaser;
-}  // namespace waymark::adapters
 
 namespace waymark::cli {
 
+inline constexpr int kExitInterrupted = 130;  // as a shell reports a process ended by SIGINT
+
+// Asked before each scan is sent: true ends the replay early (Ctrl-C). Empty: never.
+using StopRequested = std::function<bool()>;
+
 struct ReplayArgs {
   std::string log;
-  std::string out_dir;  // default ./out/<log name>
+  std::string out_dir;  // default ./out/<log name>; a .svg or .png path: only that picture
+  bool restamp = false;  // stamps from the line order at rate_hz
+  double rate_hz = adapters::kDefaultRestampRateHz;
   std::string robot_id = "replay";
   std::string name;
   bool realtime = false;
@@ -49,12 +59,15 @@ struct ReplayArgs {
   std::optional<double> match_chi2;
 };
 
-int RunSlamReplay(CommandContext& context, const ReplayArgs& args);
+int RunSlamReplay(CommandContext& context, const ReplayArgs& args,
+                  const StopRequested& stop = {});
 
 struct OdometryArgs {
   std::string log;
   std::string out;  // TUM file
   int max_scans = 0;
+  bool restamp = false;
+  double rate_hz = adapters::kDefaultRestampRateHz;
 };
 
 int RunSlamOdometry(CommandContext& context, const OdometryArgs& args);

@@ -19,7 +19,8 @@ enum class Action {
   kEditCrossings,    // CreateDatabase, AddCrossing, DeleteCrossing, EnrollView, BulkEnroll,
                      // RebuildClusters
   kDeleteDatabase,   // DeleteDatabase: drops every robot's views at once, so admin only
-  kSlam,             // every SlamService RPC (further limited to the caller's own sessions)
+  kSlam,             // every SlamService RPC, DeleteSession included (further limited to the
+                     // caller's own sessions, like CloseSession)
   kManageTokens,     // TokenService
 };
 

@@ -696,6 +696,41 @@ void SlamRegistry::WaitIdle(Session& session) {
 absl::StatusOr<v1::Session> SlamRegistry::CloseSession(const std::string& session_id) {
   if (absl::Status s = CheckId(session_id); !s.ok()) return s;
   std::lock_guard<std::mutex> load_lock(load_mutex_);
+  if (absl::Status s = CloseLocked(session_id); !s.ok()) return s;
+  absl::StatusOr<storage::SlamSessionRecord> closed = store_->GetSession(session_id);
+  if (!closed.ok()) return closed.status();
+  return Describe(*closed, nullptr);
+}
+
+absl::StatusOr<v1::DeleteSessionResponse> SlamRegistry::DeleteSession(
+    const std::string& session_id, bool force) {
+  if (absl::Status s = CheckId(session_id); !s.ok()) return s;
+  // Held throughout: no stream can load or attach to the session between the close and the delete.
+  std::lock_guard<std::mutex> load_lock(load_mutex_);
+  absl::StatusOr<storage::SlamSessionRecord> record = store_->GetSession(session_id);
+  if (!record.ok()) return record.status();
+  v1::DeleteSessionResponse response;
+  if (record->state == storage::SlamSessionState::kOpen) {
+    if (!force) {
+      return absl::FailedPreconditionError(absl::StrCat(
+          "SLAM session ", Quoted(session_id), " is open (", record->scans_processed,
+          " scans at its last checkpoint): close it first (CloseSession), or delete it with "
+          "force, which closes it and then deletes it"));
+    }
+    if (absl::Status s = CloseLocked(session_id); !s.ok()) return s;
+    response.set_closed_first(true);
+  }
+  absl::StatusOr<storage::SlamSessionRecord> deleted = store_->DeleteSession(session_id);
+  if (!deleted.ok()) return deleted.status();
+  *response.mutable_session() = Describe(*deleted, nullptr);
+  response.set_trajectory_poses(static_cast<uint64_t>(deleted->trajectory_length));
+  spdlog::info("SLAM session {} deleted ({} scans, {} trajectory poses{})", session_id,
+               deleted->scans_processed, deleted->trajectory_length,
+               response.closed_first() ? ", closed first" : "");
+  return response;
+}
+
+absl::Status SlamRegistry::CloseLocked(const std::string& session_id) {
   absl::StatusOr<std::shared_ptr<Session>> resident = FindResident(session_id);
   if (resident.ok()) {
     Session& session = **resident;
@@ -734,9 +769,7 @@ absl::StatusOr<v1::Session> SlamRegistry::CloseSession(const std::string& sessio
     checkpoint.last_odometry_stamp = record->last_odometry_stamp;
     if (absl::Status s = store_->CloseSession(session_id, checkpoint); !s.ok()) return s;
   }
-  absl::StatusOr<storage::SlamSessionRecord> closed = store_->GetSession(session_id);
-  if (!closed.ok()) return closed.status();
-  return Describe(*closed, nullptr);
+  return absl::OkStatus();
 }
 
 v1::Session SlamRegistry::Describe(const storage::SlamSessionRecord& record, Session* resident) {

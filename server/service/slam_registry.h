@@ -140,6 +140,11 @@ class SlamRegistry {
                                                      SlamUpdateSink sink);
   // Final checkpoint, then CLOSED. FAILED_PRECONDITION when a stream is attached or it is closed.
   absl::StatusOr<v1::Session> CloseSession(const std::string& session_id);
+  // Removes a session from memory and the store (checkpoint and trajectory, one transaction).
+  // NOT_FOUND (unknown id); FAILED_PRECONDITION for an open session unless `force`, which closes
+  // it first as CloseSession does (and so still refuses a session with a stream attached).
+  absl::StatusOr<v1::DeleteSessionResponse> DeleteSession(const std::string& session_id,
+                                                          bool force);
   absl::StatusOr<v1::Session> GetSession(const std::string& session_id);
   absl::StatusOr<v1::SegmentMap> GetMap(const std::string& session_id);
   absl::StatusOr<v1::Trajectory> GetTrajectory(const std::string& session_id);
@@ -160,6 +165,8 @@ class SlamRegistry {
   // Builds a session (engine from the checkpoint + stored trajectory) from its stored record.
   absl::StatusOr<std::shared_ptr<Session>> LoadSession(const storage::SlamSessionRecord& record);
   absl::StatusOr<std::shared_ptr<Session>> ResidentOrLoad(const std::string& id);
+  // CloseSession's work, with load_mutex_ held.
+  absl::Status CloseLocked(const std::string& session_id);
 
   absl::Status Submit(const std::shared_ptr<Session>& session, const v1::SensorData& data);
   void Schedule(std::shared_ptr<Session> session);

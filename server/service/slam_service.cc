@@ -121,6 +121,14 @@ grpc::Status SlamServiceImpl::CloseSession(grpc::ServerContext* context,
                             [&] { return registry_->CloseSession(request->session_id()); });
 }
 
+grpc::Status SlamServiceImpl::DeleteSession(grpc::ServerContext* context,
+                                            const v1::DeleteSessionRequest* request,
+                                            v1::DeleteSessionResponse* response) {
+  return ReplyForOwnSession(*context, request->session_id(), response, [&] {
+    return registry_->DeleteSession(request->session_id(), request->force());
+  });
+}
+
 grpc::Status SlamServiceImpl::ListSessions(grpc::ServerContext* context,
                                            const v1::ListSessionsRequest* request,
                                            v1::ListSessionsResponse* response) {

@@ -42,6 +42,9 @@ class SlamServiceImpl final : public v1::SlamService::Service {
                             v1::Session* response) override;
   grpc::Status ListSessions(grpc::ServerContext*, const v1::ListSessionsRequest* request,
                             v1::ListSessionsResponse* response) override;
+  // Like CloseSession: the caller's own sessions only (an admin's: any).
+  grpc::Status DeleteSession(grpc::ServerContext*, const v1::DeleteSessionRequest* request,
+                             v1::DeleteSessionResponse* response) override;
 
  private:
   // OK when `caller` may use session `session_id`; NOT_FOUND for an unknown session.

@@ -234,6 +234,9 @@ grpc::Status FakeSlamService::StreamSensorData(
 grpc::Status FakeSlamService::GetMap(grpc::ServerContext*, const v1::GetMapRequest* request,
                                      v1::SegmentMap* response) {
   std::lock_guard<std::mutex> lock(mutex_);
+  if (session_calls_fail_ != grpc::StatusCode::OK) {
+    return grpc::Status(session_calls_fail_, "fake: session calls fail on purpose");
+  }
   auto it = sessions_.find(request->session_id());
   if (it == sessions_.end()) return NoSession(request->session_id());
   *response = it->second.map;
@@ -244,6 +247,9 @@ grpc::Status FakeSlamService::GetTrajectory(grpc::ServerContext*,
                                             const v1::GetTrajectoryRequest* request,
                                             v1::Trajectory* response) {
   std::lock_guard<std::mutex> lock(mutex_);
+  if (session_calls_fail_ != grpc::StatusCode::OK) {
+    return grpc::Status(session_calls_fail_, "fake: session calls fail on purpose");
+  }
   auto it = sessions_.find(request->session_id());
   if (it == sessions_.end()) return NoSession(request->session_id());
   *response = it->second.trajectory;
@@ -254,10 +260,38 @@ grpc::Status FakeSlamService::CloseSession(grpc::ServerContext*,
                                            const v1::CloseSessionRequest* request,
                                            v1::Session* response) {
   std::lock_guard<std::mutex> lock(mutex_);
+  if (session_calls_fail_ != grpc::StatusCode::OK) {
+    return grpc::Status(session_calls_fail_, "fake: session calls fail on purpose");
+  }
   auto it = sessions_.find(request->session_id());
   if (it == sessions_.end()) return NoSession(request->session_id());
+  if (it->second.info.state() == v1::Session::CLOSED) {
+    return grpc::Status(grpc::StatusCode::FAILED_PRECONDITION,
+                        "SLAM session \"" + request->session_id() + "\" is already closed");
+  }
   it->second.info.set_state(v1::Session::CLOSED);
+  it->second.info.set_resident(false);
   *response = it->second.info;
+  return grpc::Status::OK;
+}
+
+grpc::Status FakeSlamService::DeleteSession(grpc::ServerContext*,
+                                            const v1::DeleteSessionRequest* request,
+                                            v1::DeleteSessionResponse* response) {
+  std::lock_guard<std::mutex> lock(mutex_);
+  auto it = sessions_.find(request->session_id());
+  if (it == sessions_.end()) return NoSession(request->session_id());
+  if (it->second.info.state() == v1::Session::OPEN) {
+    if (!request->force()) {
+      return grpc::Status(grpc::StatusCode::FAILED_PRECONDITION,
+                          "fake: session '" + request->session_id() + "' is open");
+    }
+    it->second.info.set_state(v1::Session::CLOSED);
+    response->set_closed_first(true);
+  }
+  *response->mutable_session() = it->second.info;
+  response->set_trajectory_poses(static_cast<uint64_t>(it->second.trajectory.poses_size()));
+  sessions_.erase(it);
   return grpc::Status::OK;
 }
 

@@ -20,6 +20,7 @@ namespace waymark::testing {
 // (the pose of a scan is the last odometry pose) and one segment per `scans_per_segment` scans.
 // It records the most scans it ever held received-but-unanswered, so tests can check a client's
 // flow control, and rejects per-sensor stamps that do not increase (INVALID_ARGUMENT).
+// Closing a closed session is FAILED_PRECONDITION "... is already closed", as on the real server.
 // For exploration clients it can answer every scan with a fixed suggested control (set_suggestion)
 // and a covariance_trace_mean growing with the scan count, and it keeps the stamps it received.
 class FakeSlamService final : public v1::SlamService::Service {
@@ -34,6 +35,12 @@ class FakeSlamService final : public v1::SlamService::Service {
   void set_break_streams_after(int scans) {
     std::lock_guard<std::mutex> lock(mutex_);
     break_streams_after_ = scans;
+  }
+  // CloseSession, GetMap and GetTrajectory answer `code` (OK: normally): a server that went away
+  // with a stream.
+  void set_session_calls_fail(grpc::StatusCode code) {
+    std::lock_guard<std::mutex> lock(mutex_);
+    session_calls_fail_ = code;
   }
   int streams_opened() const {
     std::lock_guard<std::mutex> lock(mutex_);
@@ -61,6 +68,9 @@ class FakeSlamService final : public v1::SlamService::Service {
                             v1::Session* response) override;
   grpc::Status ListSessions(grpc::ServerContext*, const v1::ListSessionsRequest* request,
                             v1::ListSessionsResponse* response) override;
+  // As the real server: NOT_FOUND, FAILED_PRECONDITION for an open session without force.
+  grpc::Status DeleteSession(grpc::ServerContext*, const v1::DeleteSessionRequest* request,
+                             v1::DeleteSessionResponse* response) override;
 
  private:
   struct SessionData {
@@ -84,6 +94,7 @@ class FakeSlamService final : public v1::SlamService::Service {
   int rejected_ = 0;
   int break_streams_after_ = 0;
   int streams_opened_ = 0;
+  grpc::StatusCode session_calls_fail_ = grpc::StatusCode::OK;
   v1::CreateSessionRequest last_create_;
   v1::SuggestedControl suggestion_;
   std::vector<double> odometry_stamps_;

@@ -13,6 +13,7 @@
 #include "client/cli/cli.h"
 #include "client/sessions/slam_replay.h"
 #include "client/datasets/tum_trajectory.h"
+#include "tests/client/carmen_test_log.h"
 #include "tests/client/fake_slam_service.h"
 #include "tests/client/test_util.h"
 
@@ -22,6 +23,7 @@ namespace {
 using ::testing::HasSubstr;
 using waymark::testing::CliResult;
 using waymark::testing::FakeSlamServer;
+using waymark::testing::MakeLog;
 using waymark::testing::ReadAll;
 using waymark::testing::RunWaymark;
 using waymark::testing::ScopedTempDir;
@@ -37,28 +39,6 @@ int PoseLines(const std::filesystem::path& path) {
   int n = 0;
   for (std::string line; std::getline(in, line);) n += !line.empty() && line[0] != '#';
   return n;
-}
-
-// A CARMEN log of `scans` FLASER lines driving along x, with ODOM lines between them, one
-// duplicated stamp and one malformed line.
-std::string MakeLog(int scans) {
-  std::ostringstream log;
-  log << "# generated\nPARAM robot_frontlaser_offset 0.0 nohost 0\n";
-  for (int i = 0; i < scans; ++i) {
-    const double t = 1000.0 + 0.2 * i;
-    const double x = 0.1 * i;
-    log << "ODOM " << x << " 0 0 0.5 0 0 " << t - 0.1 << " nohost 0\n";
-    log << "FLASER 180";
-    for (int b = 0; b < 180; ++b) log << " " << 2.0 + 0.01 * b;
-    log << " " << x << " 0 0 " << x << " 0 0 " << std::fixed << t << " nohost 0\n";
-    if (i == 10) {  // the same stamp again: skipped
-      log << "FLASER 180";
-      for (int b = 0; b < 180; ++b) log << " 1.0";
-      log << " 0 0 0 0 0 0 " << t << " nohost 0\n";
-    }
-    if (i == 20) log << "FLASER 180 1 2 3 nohost 0\n";
-  }
-  return log.str();
 }
 
 class SlamCliTest : public ::testing::Test {
@@ -170,10 +150,77 @@ TEST_F(SlamCliTest, SessionCommands) {
   EXPECT_EQ(Count(ReadAll(map_dir / "map.svg"), "class=\"segment "), 2);
   EXPECT_FALSE(cv::imread((map_dir / "map.png").string()).empty());
 
-  EXPECT_THAT(Run({"slam", "close", "s1"}).out, HasSubstr("closed session s1"));
   CliResult unknown = Run({"slam", "close", "nope"});
   EXPECT_EQ(unknown.code, 1);
   EXPECT_THAT(unknown.err, HasSubstr("NOT_FOUND"));
+}
+
+TEST_F(SlamCliTest, ClosingASessionTheReplayClosedIsAQuietSuccess) {
+  ASSERT_EQ(Run({"slam", "replay", WriteLog(20), "--out", (dir_.path() / "a").string()}).code, 0);
+  // The server refuses a second close (FAILED_PRECONDITION); the command says what is true.
+  CliResult again = Run({"slam", "close", "s1"});
+  EXPECT_EQ(again.code, 0) << again.err;
+  EXPECT_THAT(again.out, HasSubstr("session s1 is already closed: 20 scans"));
+  CliResult json = Run({"--json", "slam", "close", "s1"});
+  ASSERT_EQ(json.code, 0) << json.err;
+  EXPECT_EQ(json.Json()["already_closed"], true);
+  EXPECT_EQ(json.Json()["state"], "closed");
+}
+
+TEST_F(SlamCliTest, CloseClosesAnOpenSession) {
+  client::SlamClient client(client::MakeChannel(server_.address()));
+  v1::CreateSessionRequest create;
+  create.mutable_laser()->mutable_laser()->set_beam_count(3);
+  ASSERT_TRUE(client.CreateSession(create).ok());
+  CliResult r = Run({"--json", "slam", "close", "s1"});
+  ASSERT_EQ(r.code, 0) << r.err;
+  EXPECT_EQ(r.Json()["already_closed"], false);
+  EXPECT_THAT(Run({"slam", "close", "s1"}).out, HasSubstr("already closed"));
+}
+
+TEST_F(SlamCliTest, DeleteNeedsForceForAnOpenSessionAndSaysWhatWent) {
+  client::SlamClient client(client::MakeChannel(server_.address()));
+  v1::CreateSessionRequest create;
+  create.mutable_laser()->mutable_laser()->set_beam_count(3);
+  create.set_robot_id("r7");
+  ASSERT_TRUE(client.CreateSession(create).ok());  // s1, open
+  ASSERT_EQ(Run({"slam", "replay", WriteLog(20), "--out", (dir_.path() / "a").string()}).code, 0);
+
+  CliResult open = Run({"slam", "delete", "s1"});
+  EXPECT_EQ(open.code, 1);
+  EXPECT_THAT(open.err, HasSubstr("FAILED_PRECONDITION"));
+  EXPECT_THAT(open.err, HasSubstr("waymark slam delete s1 --force"));
+  CliResult forced = Run({"slam", "delete", "s1", "--force"});
+  ASSERT_EQ(forced.code, 0) << forced.err;
+  EXPECT_THAT(forced.out, HasSubstr("deleted session s1 (robot r7)"));
+  EXPECT_THAT(forced.out, HasSubstr("it was open and was closed first"));
+
+  CliResult replayed = Run({"--json", "slam", "delete", "s2"});
+  ASSERT_EQ(replayed.code, 0) << replayed.err;
+  EXPECT_EQ(replayed.Json()["trajectory_poses"], 20);
+  EXPECT_EQ(replayed.Json()["session"]["session_id"], "s2");
+  EXPECT_THAT(Run({"slam", "list"}).out, HasSubstr("no sessions"));
+  CliResult unknown = Run({"slam", "delete", "s2"});
+  EXPECT_EQ(unknown.code, 1);
+  EXPECT_THAT(unknown.err, HasSubstr("NOT_FOUND"));
+}
+
+TEST_F(SlamCliTest, MapOutNamingAPictureWritesOnlyThatPicture) {
+  ASSERT_EQ(Run({"slam", "replay", WriteLog(20), "--out", (dir_.path() / "a").string()}).code, 0);
+  const auto folder = dir_.path() / "pictures";
+  CliResult svg = Run({"slam", "map", "s1", "--out", (folder / "map.svg").string()});
+  ASSERT_EQ(svg.code, 0) << svg.err;
+  EXPECT_TRUE(std::filesystem::is_regular_file(folder / "map.svg"));
+  EXPECT_EQ(Count(ReadAll(folder / "map.svg"), "class=\"segment "), 2);
+  CliResult png = Run({"--json", "slam", "map", "s1", "--out", (folder / "map.png").string()});
+  ASSERT_EQ(png.code, 0) << png.err;
+  EXPECT_FALSE(cv::imread((folder / "map.png").string()).empty());
+  EXPECT_EQ(png.Json()["files"].size(), 1u);
+  EXPECT_EQ(png.Json()["out"], (folder / "map.png").string());
+  // Only the two pictures: no trajectory.txt, no folder named map.svg.
+  EXPECT_EQ(std::distance(std::filesystem::directory_iterator(folder),
+                          std::filesystem::directory_iterator()),
+            2);
 }
 
 TEST_F(SlamCliTest, OdometryThenEvalRelations) {

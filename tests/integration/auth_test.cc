@@ -110,6 +110,8 @@ std::vector<RpcCase> AllRpcs() {
        Unary<v1::CloseSessionRequest, v1::Session, SS>(&SS::CloseSession)},
       {"ListSessions", TokenRole::kRobot,
        Unary<v1::ListSessionsRequest, v1::ListSessionsResponse, SS>(&SS::ListSessions)},
+      {"DeleteSession", TokenRole::kRobot,
+       Unary<v1::DeleteSessionRequest, v1::DeleteSessionResponse, SS>(&SS::DeleteSession)},
       {"StreamSensorData", TokenRole::kRobot,
        [](const std::shared_ptr<grpc::Channel>& channel) {
          SS stub(channel);
@@ -319,6 +321,15 @@ TEST_F(AuthTest, RobotsOnlySeeAndFeedTheirOwnSessions) {
   EXPECT_EQ(robot2.CloseSession(Ctx().get(), close, &closed).error_code(),
             grpc::StatusCode::PERMISSION_DENIED);
   EXPECT_TRUE(robot1.CloseSession(Ctx().get(), close, &closed).ok());
+
+  // Deleting follows the same rule as closing: not another robot's session.
+  v1::DeleteSessionRequest remove;
+  remove.set_session_id(id);
+  v1::DeleteSessionResponse deleted;
+  EXPECT_EQ(robot2.DeleteSession(Ctx().get(), remove, &deleted).error_code(),
+            grpc::StatusCode::PERMISSION_DENIED);
+  EXPECT_TRUE(robot1.DeleteSession(Ctx().get(), remove, &deleted).ok());
+  EXPECT_EQ(deleted.session().session_id(), id);
 }
 
 TEST_F(AuthTest, StreamsPerRobotAreCapped) {

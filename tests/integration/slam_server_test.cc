@@ -386,5 +386,50 @@ TEST_F(SlamServerTest, AfterACrashTheSessionResumesFromItsLastPeriodicCheckpoint
   EXPECT_EQ(trajectory.poses_size(), 9);
 }
 
+TEST_F(SlamServerTest, DeleteSessionRefusesOpenSessionsUnlessForcedAndForgetsTheDeleted) {
+  const std::string open_id = CreateSession("robot-1");
+  const std::string closed_id = CreateSession("robot-1");
+  ASSERT_TRUE(RunStream(stub_.get(), closed_id, Drive(0, 3, 1.0)).status.ok());
+  v1::CloseSessionRequest close;
+  close.set_session_id(closed_id);
+  v1::Session closed;
+  ASSERT_TRUE(stub_->CloseSession(Ctx().get(), close, &closed).ok());
+
+  v1::DeleteSessionRequest request;
+  v1::DeleteSessionResponse response;
+  request.set_session_id("0123456789abcdef0123456789abcdef");
+  EXPECT_EQ(stub_->DeleteSession(Ctx().get(), request, &response).error_code(),
+            grpc::StatusCode::NOT_FOUND);
+  request.set_session_id(open_id);
+  const grpc::Status refused = stub_->DeleteSession(Ctx().get(), request, &response);
+  EXPECT_EQ(refused.error_code(), grpc::StatusCode::FAILED_PRECONDITION);
+  EXPECT_NE(refused.error_message().find("force"), std::string::npos) << refused.error_message();
+
+  request.set_session_id(closed_id);
+  ASSERT_TRUE(stub_->DeleteSession(Ctx().get(), request, &response).ok());
+  EXPECT_EQ(response.session().session_id(), closed_id);
+  EXPECT_EQ(response.session().scans_processed(), 3u);
+  EXPECT_EQ(response.trajectory_poses(), 3u);
+  EXPECT_FALSE(response.closed_first());
+
+  request.set_session_id(open_id);
+  request.set_force(true);
+  ASSERT_TRUE(stub_->DeleteSession(Ctx().get(), request, &response).ok());
+  EXPECT_TRUE(response.closed_first());
+
+  // Both are gone, from the list and from every call, also after a restart.
+  Restart();
+  v1::ListSessionsResponse list;
+  ASSERT_TRUE(stub_->ListSessions(Ctx().get(), v1::ListSessionsRequest(), &list).ok());
+  EXPECT_EQ(list.sessions_size(), 0);
+  v1::GetTrajectoryRequest trajectory_request;
+  trajectory_request.set_session_id(closed_id);
+  v1::Trajectory trajectory;
+  EXPECT_EQ(stub_->GetTrajectory(Ctx().get(), trajectory_request, &trajectory).error_code(),
+            grpc::StatusCode::NOT_FOUND);
+  EXPECT_EQ(RunStream(stub_.get(), open_id, Drive(0, 1, 1.0)).status.error_code(),
+            grpc::StatusCode::NOT_FOUND);
+}
+
 }  // namespace
 }  // namespace waymark

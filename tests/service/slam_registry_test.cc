@@ -227,6 +227,72 @@ TEST_F(SlamRegistryTest, OneStreamPerSessionAndClosedSessionsStayReadable) {
             absl::StatusCode::kNotFound);
 }
 
+TEST_F(SlamRegistryTest, DeleteTakesClosedSessionsAndRefusesOpenOnesWithoutForce) {
+  auto registry = MakeRegistry();
+  ASSERT_OK_AND_ASSIGN(v1::Session session, registry->CreateSession(TestSessionRequest("r1")));
+  const std::string id = session.session_id();
+  EXPECT_EQ(CodeOf(registry->DeleteSession("0123456789abcdef0123456789abcdef", false)),
+            absl::StatusCode::kNotFound);
+  EXPECT_EQ(CodeOf(registry->DeleteSession("", true)), absl::StatusCode::kInvalidArgument);
+  Answers answers;
+  {
+    ASSERT_OK_AND_ASSIGN(auto stream, registry->OpenStream(id, answers.Sink()));
+    Drive(*stream, 0, 4, 1.0);
+    // Streaming: refused even with force (the stream holds the session).
+    absl::StatusOr<v1::DeleteSessionResponse> streaming = registry->DeleteSession(id, true);
+    ASSERT_EQ(CodeOf(streaming), absl::StatusCode::kFailedPrecondition);
+    EXPECT_NE(streaming.status().message().find("open stream"), std::string::npos)
+        << streaming.status();
+  }
+  absl::StatusOr<v1::DeleteSessionResponse> open = registry->DeleteSession(id, false);
+  ASSERT_EQ(CodeOf(open), absl::StatusCode::kFailedPrecondition);
+  EXPECT_NE(open.status().message().find("is open"), std::string::npos) << open.status();
+  EXPECT_NE(open.status().message().find("force"), std::string::npos) << open.status();
+  ASSERT_OK(registry->GetSession(id));  // refused means untouched
+
+  ASSERT_OK(registry->CloseSession(id));
+  ASSERT_OK_AND_ASSIGN(v1::DeleteSessionResponse deleted, registry->DeleteSession(id, false));
+  EXPECT_FALSE(deleted.closed_first());
+  EXPECT_EQ(deleted.session().session_id(), id);
+  EXPECT_EQ(deleted.session().state(), v1::Session::CLOSED);
+  EXPECT_EQ(deleted.session().scans_processed(), 4u);
+  EXPECT_EQ(deleted.trajectory_poses(), 4u);
+  EXPECT_EQ(CodeOf(registry->GetSession(id)), absl::StatusCode::kNotFound);
+  EXPECT_EQ(CodeOf(registry->GetTrajectory(id)), absl::StatusCode::kNotFound);
+  EXPECT_EQ(CodeOf(registry->GetMap(id)), absl::StatusCode::kNotFound);
+  EXPECT_EQ(CodeOf(registry->DeleteSession(id, true)), absl::StatusCode::kNotFound);
+  ASSERT_OK_AND_ASSIGN(v1::ListSessionsResponse list, registry->ListSessions(""));
+  EXPECT_EQ(list.sessions_size(), 0);
+}
+
+TEST_F(SlamRegistryTest, ForcedDeleteClosesAnOpenSessionFirstInMemoryOrAfterARestart) {
+  std::string resident_id, stored_id;
+  {
+    auto registry = MakeRegistry();
+    ASSERT_OK(registry->CreateSession(TestSessionRequest("r1")));  // never touched below
+    ASSERT_OK_AND_ASSIGN(v1::Session b, registry->CreateSession(TestSessionRequest("r1")));
+    stored_id = b.session_id();
+    Answers answers;
+    ASSERT_OK_AND_ASSIGN(auto stream, registry->OpenStream(stored_id, answers.Sink()));
+    Drive(*stream, 0, 3, 1.0);
+    stream->Close();
+    ASSERT_OK(registry->Shutdown());  // checkpoints b; both stay open in the store
+  }
+  auto registry = MakeRegistry();  // a restarted server: nothing resident
+  ASSERT_OK_AND_ASSIGN(v1::Session c, registry->CreateSession(TestSessionRequest("r1")));
+  resident_id = c.session_id();
+  for (const std::string& id : {resident_id, stored_id}) {
+    SCOPED_TRACE(id);
+    ASSERT_OK_AND_ASSIGN(v1::DeleteSessionResponse deleted, registry->DeleteSession(id, true));
+    EXPECT_TRUE(deleted.closed_first());
+    EXPECT_EQ(deleted.session().state(), v1::Session::CLOSED);
+    EXPECT_EQ(deleted.trajectory_poses(), id == stored_id ? 3u : 0u);
+    EXPECT_EQ(CodeOf(registry->GetSession(id)), absl::StatusCode::kNotFound);
+  }
+  ASSERT_OK_AND_ASSIGN(v1::ListSessionsResponse list, registry->ListSessions(""));
+  EXPECT_EQ(list.sessions_size(), 1);  // the untouched one
+}
+
 TEST_F(SlamRegistryTest, CheckpointAndResumeAfterARestart) {
   std::string id;
   std::vector<v1::TrajectoryPose> before;

@@ -192,13 +192,37 @@ TEST(SlamStoreTest, DeleteCascadesToTheTrajectory) {
   ASSERT_OK(store->CreateSession(MakeSession("t", "r")));
   ASSERT_OK(store->WriteCheckpoint("s", Checkpoint("one", 3, 0, 3)));
   ASSERT_OK(store->WriteCheckpoint("t", Checkpoint("one", 2, 0, 2)));
-  ASSERT_OK(store->DeleteSession("s"));
+  ASSERT_OK_AND_ASSIGN(SlamSessionRecord deleted, store->DeleteSession("s"));
+  EXPECT_EQ(deleted.id, "s");
+  EXPECT_EQ(deleted.name, "run s");
+  EXPECT_EQ(deleted.scans_processed, 3);
+  EXPECT_EQ(deleted.trajectory_length, 3);  // the poses that went with it
+  EXPECT_EQ(CodeOf(store->GetSession("s")), absl::StatusCode::kNotFound);
+  EXPECT_EQ(CodeOf(store->LoadTrajectory("s")), absl::StatusCode::kNotFound);
+  EXPECT_EQ(CodeOf(store->DeleteSession("s")), absl::StatusCode::kNotFound);
   ASSERT_OK_AND_ASSIGN(sqlite::Connection raw, sqlite::Connection::Open(path));
   ASSERT_OK_AND_ASSIGN(sqlite::Statement count,
                        raw.Prepare("SELECT COUNT(*) FROM slam_trajectory"));
   ASSERT_OK_AND_ASSIGN(sqlite::StepResult step, count.Step());
   ASSERT_EQ(step, sqlite::StepResult::kRow);
   EXPECT_EQ(count.ColumnInt64(0), 2);  // only t's poses remain
+}
+
+TEST(SlamStoreTest, DeleteTakesClosedSessionsAndLeavesTheOthers) {
+  TempDir dir;
+  ASSERT_OK_AND_ASSIGN(auto store, OpenSqliteSlamStore(dir.File("w.db")));
+  ASSERT_OK(store->CreateSession(MakeSession("c", "r")));
+  ASSERT_OK(store->CreateSession(MakeSession("keep", "r")));
+  ASSERT_OK(store->CloseSession("c", Checkpoint("final", 4, 0, 4)));
+  ASSERT_OK_AND_ASSIGN(SlamSessionRecord deleted, store->DeleteSession("c"));
+  EXPECT_EQ(deleted.state, SlamSessionState::kClosed);
+  EXPECT_EQ(deleted.trajectory_length, 4);
+  EXPECT_TRUE(deleted.checkpoint.empty());  // rows and counters, not the engine's bytes
+  ASSERT_OK_AND_ASSIGN(std::vector<SlamSessionRecord> left, store->ListSessions(""));
+  ASSERT_EQ(left.size(), 1u);
+  EXPECT_EQ(left[0].id, "keep");
+  ASSERT_OK_AND_ASSIGN(int64_t closed, store->CountSessions(SlamSessionState::kClosed));
+  EXPECT_EQ(closed, 0);
 }
 
 TEST(SlamStoreTest, TheTrajectoryForeignKeyCascades) {

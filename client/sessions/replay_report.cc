@@ -1,0 +1,167 @@
+#include "client/sessions/replay_report.h"
+
+#include <fmt/format.h>
+
+#include <algorithm>
+
+#include "client/common/output.h"
+#include "client/render/slam_output.h"
+
+namespace waymark::cli {
+
+const char* ReplayEndName(ReplayEnd end) {
+  switch (end) {
+    case ReplayEnd::kEndOfLog: return "end of log";
+    case ReplayEnd::kMaxScans: return "max scans";
+    case ReplayEnd::kInterrupted: return "interrupted";
+    case ReplayEnd::kFailed: return "error";
+  }
+  return "error";
+}
+
+void StampSpan::Add(double stamp) {
+  if (scans_ == 0) {
+    first_ = stamp;
+  } else {
+    max_gap_ = std::max(max_gap_, stamp - last_);
+  }
+  last_ = stamp;
+  ++scans_;
+}
+
+std::optional<std::string> SpanProblem(const StampSpan& span, bool stamps_broken) {
+  if (stamps_broken) return "most stamps were skipped";
+  if (span.scans() < 2) return "fewer than two scans";
+  if (!(span.duration_s() > 0)) return "the stamps do not advance";
+  if (span.max_gap_s() > kMaxPlausibleScanGapS) {
+    return fmt::format("{:.0f} s between two consecutive scans, more than {:.0f} s", span.max_gap_s(),
+                       kMaxPlausibleScanGapS);
+  }
+  return std::nullopt;
+}
+
+namespace {
+
+// The real-time factor, or why there is none.
+struct RealtimeFactor {
+  std::optional<double> value;
+  std::string problem;
+};
+
+RealtimeFactor FactorOf(const ReplayReport& report) {
+  if (auto problem = SpanProblem(report.span, report.stamps_broken)) {
+    return {std::nullopt, "the log's time span is not meaningful: " + *problem};
+  }
+  if (!(report.processing_s > 0)) return {std::nullopt, "no processing time was measured"};
+  return {report.span.duration_s() / report.processing_s, ""};
+}
+
+}  // namespace
+
+std::string LeftOpenAdvice(const std::string& session_id) {
+  return fmt::format(
+      "session {0} was left open: close it with `waymark slam close {0}` (its map and trajectory "
+      "stay readable), or delete it with `waymark slam delete {0} --force`",
+      session_id);
+}
+
+nlohmann::json ReplayJson(const ReplayReport& report) {
+  const RealtimeFactor factor = FactorOf(report);
+  nlohmann::json files = nlohmann::json::array();
+  for (const auto& file : report.files) files.push_back(file.string());
+  nlohmann::json json = {
+      {"log", report.log},
+      {"session_id", report.session_id},
+      {"partial", report.partial()},
+      {"stopped", ReplayEndName(report.end)},
+      {"error", report.error.empty() ? nlohmann::json(nullptr) : nlohmann::json(report.error)},
+      {"session_closed", report.session_closed},
+      {"scans", report.scans_answered},
+      {"scans_sent", report.scans_sent},
+      {"scans_skipped_motion", report.skipped_motion},
+      {"rejected", report.rejected},
+      {"queue_full", report.queue_full},
+      {"laser_lines", report.laser_lines},
+      {"skipped_stamps", report.skipped_stamps},
+      {"stamps_broken", report.stamps_broken},
+      {"stamps", report.restamp_rate_hz ? "synthesized" : "log"},
+      {"restamp_rate_hz", OptionalJson(report.restamp_rate_hz)},
+      {"reordered_lines", report.reordered_lines},
+      {"malformed_lines", report.malformed_lines},
+      {"odometry_lines_not_sent", report.odometry_lines},
+      {"segments", report.segments},
+      {"map_revision", report.map_revision},
+      {"trajectory_poses", report.trajectory_poses},
+      {"trajectory_source", report.trajectory_source},
+      {"processing_s", report.processing_s},
+      {"log_duration_s", report.span.duration_s()},
+      {"realtime_factor", OptionalJson(factor.value)},
+      {"window", report.window},
+      {"max_outstanding", report.max_outstanding},
+      {"server_ms_p50", OptionalJson(report.server_ms_p50)},
+      {"server_ms_p99", OptionalJson(report.server_ms_p99)},
+      {"realtime", report.realtime},
+      {report.out_is_folder ? "out_dir" : "out", report.out.string()},
+      {"files", files},
+  };
+  if (!factor.value) json["realtime_factor_note"] = factor.problem;
+  if (!report.map_problem.empty()) json["map_problem"] = report.map_problem;
+  if (!report.close_error.empty()) json["close_error"] = report.close_error;
+  if (!report.write_error.empty()) json["write_error"] = report.write_error;
+  return json;
+}
+
+std::string ReplayText(const ReplayReport& report) {
+  std::string text;
+  if (report.end == ReplayEnd::kInterrupted) {
+    text += fmt::format("interrupted after {} scans sent, {} answered: the outputs are partial\n",
+                        report.scans_sent, report.scans_answered);
+  } else if (report.end == ReplayEnd::kFailed) {
+    text += fmt::format("stopped by an error after {} scans sent, {} answered: {}; the outputs "
+                        "are partial\n",
+                        report.scans_sent, report.scans_answered, report.error);
+  }
+  text += fmt::format(
+      "session {}: {} scans processed ({} sent, {} rejected, {} skipped stamps), {} segments\n",
+      report.session_id, report.scans_answered, report.scans_sent, report.rejected,
+      report.skipped_stamps, report.segments);
+  const std::string server_ms =
+      fmt::format("server p50 {} ms, p99 {} ms per scan", FormatNumber(report.server_ms_p50, 2),
+                  FormatNumber(report.server_ms_p99, 2));
+  const RealtimeFactor factor = FactorOf(report);
+  if (report.restamp_rate_hz) {
+    text += fmt::format("stamps synthesized from the log's line order at {:g} Hz (--restamp): "
+                        "the log's own stamps were not used\n",
+                        *report.restamp_rate_hz);
+  }
+  if (factor.value) {
+    text += fmt::format("log {:.1f} s{} replayed in {:.2f} s: real-time factor {:.1f}x; {}\n",
+                        report.span.duration_s(), report.restamp_rate_hz ? " (synthesized)" : "",
+                        report.processing_s, *factor.value, server_ms);
+  } else {
+    text += fmt::format("replayed in {:.2f} s, no real-time factor ({}); {}\n", report.processing_s,
+                        factor.problem, server_ms);
+  }
+  if (!report.map_problem.empty()) {
+    text += "the map pictures show no segments: " + report.map_problem + "\n";
+  }
+  if (report.trajectory_source != "server") {
+    text += fmt::format("trajectory: the {} poses of the {}\n", report.trajectory_poses,
+                        report.trajectory_source);
+  }
+  if (!report.write_error.empty()) {
+    text += "could not write the outputs: " + report.write_error + "\n";
+  } else {
+    text += "wrote " + DescribeWritten(report.files) + "\n";
+  }
+  if (!report.session_closed) {
+    text += LeftOpenAdvice(report.session_id);
+    if (!report.close_error.empty()) text += " (closing it failed: " + report.close_error + ")";
+    text += "\n";
+  } else if (report.partial()) {
+    text += "session " + report.session_id + " closed\n";
+  }
+  return text;
+}
+
+}  // namespace waymark::cli

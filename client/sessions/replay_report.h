@@ -1,0 +1,107 @@
+#ifndef WAYMARK_CLIENT_SESSIONS_REPLAY_REPORT_H_
+#define WAYMARK_CLIENT_SESSIONS_REPLAY_REPORT_H_
+
+// What `waymark slam replay` says when it ends: summary.json, the --json document and the lines
+// for people, all from one ReplayReport, whether the replay ran to the end of the log or was cut
+// short (Ctrl-C, a broken stream, an unreadable log).
+
+#include <cstdint>
+#include <filesystem>
+#include <nlohmann/json.hpp>
+#include <optional>
+#include <string>
+#include <vector>
+
+namespace waymark::cli {
+
+// Why the replay stopped sending.
+enum class ReplayEnd {
+  kEndOfLog,
+  kMaxScans,     // --max-scans reached
+  kInterrupted,  // Ctrl-C (or SIGTERM)
+  kFailed,       // the stream broke or the log could not be read on
+};
+
+// "end of log", "max scans", "interrupted", "error".
+const char* ReplayEndName(ReplayEnd end);
+
+// A log laser scanner keeps scanning; a gap this long between two consecutive scans means the
+// stamps are not a recording's clock (e.g. 4294967295 after -0.4 in infinite-corridor).
+inline constexpr double kMaxPlausibleScanGapS = 600;
+
+// The stamps of the scans sent, in order.
+class StampSpan {
+ public:
+  void Add(double stamp);
+  int64_t scans() const { return scans_; }
+  double duration_s() const { return scans_ > 0 ? last_ - first_ : 0.0; }
+  double max_gap_s() const { return max_gap_; }
+
+ private:
+  int64_t scans_ = 0;
+  double first_ = 0;
+  double last_ = 0;
+  double max_gap_ = 0;
+};
+
+// Why the span cannot give a real-time factor (a phrase for "... not meaningful (PHRASE)"), or
+// nullopt when it can.
+std::optional<std::string> SpanProblem(const StampSpan& span, bool stamps_broken);
+
+struct ReplayReport {
+  std::string log;
+  std::string session_id;
+  ReplayEnd end = ReplayEnd::kEndOfLog;
+  std::string error;            // kFailed: what went wrong
+  bool session_closed = false;  // by this replay (else it is left open: the summary says how to)
+  std::string close_error;      // why closing failed
+
+  // The stream.
+  uint64_t scans_sent = 0;
+  uint64_t scans_answered = 0;  // processed (a rejection is not counted)
+  uint64_t rejected = 0;
+  uint64_t queue_full = 0;
+  uint64_t skipped_motion = 0;
+  int window = 0;
+  int max_outstanding = 0;
+  std::optional<double> server_ms_p50;
+  std::optional<double> server_ms_p99;
+  bool realtime = false;
+
+  // The log.
+  int64_t laser_lines = 0;  // read from the log
+  int64_t skipped_stamps = 0;
+  int64_t reordered_lines = 0;
+  int64_t malformed_lines = 0;
+  int64_t odometry_lines = 0;
+  bool stamps_broken = false;
+  std::optional<double> restamp_rate_hz;  // set: stamps synthesized from the line order
+  StampSpan span;
+  double processing_s = 0;
+
+  // The results and where they went.
+  int segments = 0;
+  uint64_t map_revision = 0;
+  int trajectory_poses = 0;
+  std::string trajectory_source = "server";  // or "stream answers" when the server could not say
+  std::string map_problem;                   // why the pictures have no map (empty: they have it)
+  std::filesystem::path out;
+  bool out_is_folder = true;
+  std::vector<std::filesystem::path> files;  // written, summary.json included
+  std::string write_error;                   // why the outputs could not be written
+
+  bool partial() const { return end == ReplayEnd::kInterrupted || end == ReplayEnd::kFailed; }
+};
+
+// The summary.json / --json document.
+nlohmann::json ReplayJson(const ReplayReport& report);
+
+// The lines for people on stdout.
+std::string ReplayText(const ReplayReport& report);
+
+// The sentence naming a session left open and how to close (or delete) it.
+std::string LeftOpenAdvice(const std::string& session_id);
+
+}  // namespace waymark::cli
+
+#endif  // WAYMARK_CLIENT_SESSIONS_REPLAY_REPORT_H_
