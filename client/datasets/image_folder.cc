@@ -82,7 +82,10 @@ absl::StatusOr<FolderWalk> WalkFolder(const fs::path& dir) {
     return absl::PermissionDeniedError(
         absl::StrCat("cannot read '", dir.string(), "': ", e.what()));
   }
+  // Sorted, so that messages list files in the same order on every run and file system.
   std::sort(walk.top.begin(), walk.top.end());
+  std::sort(walk.images.begin(), walk.images.end(),
+            [](const FoundImage& a, const FoundImage& b) { return a.path < b.path; });
   return walk;
 }
 

@@ -102,6 +102,9 @@ TEST(ScanEnrollFolderTest, EveryBadFileNameIsReportedAtOnceWithTheExpectedLayout
   EXPECT_THAT(message, HasSubstr((dir.path() / "B/400.jpg").string()));
   EXPECT_THAT(message, HasSubstr((dir.path() / "C/0000110.jpg").string()));
   EXPECT_THAT(message, HasSubstr("DIR/<crossing>/<heading_deg>.jpg"));
+  // In path order, whatever order the file system lists them in.
+  EXPECT_LT(message.find("front.png"), message.find("400.jpg"));
+  EXPECT_LT(message.find("400.jpg"), message.find("0000110.jpg"));
 }
 
 TEST(ScanEnrollFolderTest, ANumberedFrameFolderIsNotTakenForHeadings) {
@@ -113,8 +116,9 @@ TEST(ScanEnrollFolderTest, ANumberedFrameFolderIsNotTakenForHeadings) {
   }
   auto images = ScanEnrollFolder(dir.path());
   ASSERT_FALSE(images.ok());
-  EXPECT_THAT(images.status().message(), HasSubstr("0000110.jpg"));
+  EXPECT_THAT(images.status().message(), HasSubstr("0000100.jpg"));
   EXPECT_THAT(images.status().message(), HasSubstr("frame number"));
+  EXPECT_THAT(images.status().message(), HasSubstr("... and 2 more"));  // 10 listed of 12
 }
 
 TEST(ScanEnrollFolderTest, ANestedLayoutSaysWhereTheImagesAreAndWhatIsExpected) {
