@@ -484,8 +484,8 @@ check "health needs no token" run_waymark -- health
 check "db create smoke (mapper)" as_mapper -- db create smoke
 expect_error PERMISSION_DENIED "robot token cannot enroll" as_robot -- enroll smoke /images/enroll
 out=$(as_mapper -- enroll smoke /images/enroll 2>&1) || { echo "$out" >&2; fail "enroll"; }
-grep -q "enrolled 10 views of 5 crossings" <<<"$out" || { echo "$out" >&2; fail "enroll: expected 10 views of 5 crossings"; }
-info "ok: $(grep enrolled <<<"$out")"
+grep -q "10 views of 5 crossings into smoke: 10 stored" <<<"$out" || { echo "$out" >&2; fail "enroll: expected 10 views of 5 crossings, 10 stored"; }
+info "ok: $(grep "views of" <<<"$out")"
 expect_recognized as_robot "/images/enroll/$QUERY_PLACE/$QUERY" "$QUERY_PLACE" 180.0
 expect_rejected as_robot "/images/unknown/$STRANGER"
 

@@ -49,6 +49,10 @@ struct ViewRecord {
   std::vector<float> hue_hist;       // normalised, any bin count
   int32_t format_version = kFeatureFormatVersion;
   std::string image;  // encoded image bytes; empty when not stored (LoadViews never fills it)
+  // SHA-256 (32 bytes, sha256.h) of the encoded image the features came from, whether or not the
+  // image is stored: no two views of a database hold the same one. Empty = unknown (views enrolled
+  // before schema version 5), which never counts as a duplicate.
+  std::string content_sha256;
 };
 
 // A cluster as the clustering produced it: centre first, then the other members.
@@ -77,6 +81,24 @@ struct NewCrossing {
   std::string label;
 };
 
+// A view that takes the place of others (an enrollment with `replace`), all in one transaction.
+struct ViewReplacement {
+  int64_t database_id = 0;
+  std::vector<int64_t> replaced_view_ids;  // deleted; each must belong to the database
+  // The database's clusters after the deletion, computed by the caller over the remaining views
+  // (without the new one); they replace all of its clusters, as in DeleteCrossing.
+  std::vector<ClusterRecord> clusters;
+  ViewRecord view;                     // the new view
+  int join_cluster = -1;               // index into `clusters` the view joins; -1 = a new cluster
+  bool create_crossing = false;        // create view's crossing (then view.crossing_id is ignored)
+  std::string crossing_name;           // when create_crossing
+};
+
+struct ViewReplacementResult {
+  AddViewResult added;
+  std::vector<ClusterRecord> clusters;  // `clusters` as stored (new ids), in the given order
+};
+
 // Every mutating call is one transaction: it happens entirely or not at all.
 // Errors: NOT_FOUND (unknown id/name), ALREADY_EXISTS (duplicate name), INVALID_ARGUMENT (blob sizes
 // inconsistent with counts), INTERNAL (SQLite failure, message carries SQLite's text).
@@ -101,7 +123,10 @@ class CrossingStore {
   virtual absl::StatusOr<int> DeleteCrossing(int64_t database_id, int64_t crossing_id,
                                              const std::vector<ClusterRecord>& clusters) = 0;
 
-  // Inserts the view and its cluster membership in one transaction.
+  // Inserts the view and its cluster membership in one transaction. ALREADY_EXISTS, with nothing
+  // stored, when another view of the database has the same content_sha256: the check and the
+  // insert are one write transaction, so two enrollments of the same image store it once even
+  // from two connections.
   virtual absl::StatusOr<AddViewResult> AddView(const ViewRecord& view,
                                                 const ClusterAssignment& assignment) = 0;
   // The same for a view of a crossing that does not exist yet: creates the crossing, the view and
@@ -110,6 +135,9 @@ class CrossingStore {
   // name is taken.
   virtual absl::StatusOr<AddViewResult> AddViewWithNewCrossing(
       const NewCrossing& crossing, const ViewRecord& view, const ClusterAssignment& assignment) = 0;
+  // Deletes views and adds the one that replaces them (ViewReplacement), with the new clusters.
+  // NOT_FOUND when a replaced view is not in the database; ALREADY_EXISTS as AddView.
+  virtual absl::StatusOr<ViewReplacementResult> ReplaceViews(const ViewReplacement& replacement) = 0;
   // All views of a database in enrollment (id) order, without image bytes.
   virtual absl::StatusOr<std::vector<ViewRecord>> LoadViews(int64_t database_id) = 0;
   // The same, one view at a time, so a server loading thousands of views never holds all the

@@ -175,6 +175,17 @@ CREATE INDEX slam_session_robot_id ON slam_session(robot_id);
 CREATE INDEX slam_session_state ON slam_session(state);
 )sql";
 
+// v5: the SHA-256 of each crossing view's encoded image (issue 15), so that enrolling the same
+// file again is recognised and skipped. NULL for views enrolled before: their image bytes are not
+// known (stored images are optional), so they are "unknown", never a duplicate. Uniqueness is per
+// database, which a column of `view` cannot express as a UNIQUE index (the database is one join
+// away): the store checks it inside the insert's write transaction; the index makes that check a
+// lookup.
+constexpr absl::string_view kV5ViewContentHash = R"sql(
+ALTER TABLE view ADD COLUMN content_sha256 BLOB;
+CREATE INDEX view_content_sha256 ON view(content_sha256) WHERE content_sha256 IS NOT NULL;
+)sql";
+
 absl::Status TooNewError(sqlite::Connection& connection, int version, int latest) {
   return absl::FailedPreconditionError(absl::StrCat(
       "database \"", connection.path(), "\" has schema version ", version,
@@ -191,6 +202,7 @@ const std::vector<absl::string_view>& SchemaMigrations() {
       kV2SlamTables,
       kV3Tokens,
       kV4VisualSessions,
+      kV5ViewContentHash,
   };
   return *kSteps;
 }

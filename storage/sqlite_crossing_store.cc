@@ -17,6 +17,7 @@
 #include "absl/strings/str_cat.h"
 #include "storage/crossing_store.h"
 #include "storage/migrations.h"
+#include "storage/sha256.h"
 #include "storage/sqlite.h"
 #include "storage/status_macros.h"
 #include "storage/store_util.h"
@@ -64,6 +65,11 @@ absl::Status ValidateView(const ViewRecord& view) {
   if (!std::isfinite(view.heading_deg)) {
     return absl::InvalidArgumentError("view heading_deg is not a finite number");
   }
+  if (!view.content_sha256.empty() && view.content_sha256.size() != kSha256Bytes) {
+    return absl::InvalidArgumentError(
+        absl::StrCat("view content_sha256 has ", view.content_sha256.size(), " bytes; expected ",
+                     kSha256Bytes, " (a SHA-256 digest) or none"));
+  }
   return absl::OkStatus();
 }
 
@@ -79,10 +85,10 @@ absl::Status CheckBlobSize(const Statement& row, int column, int64_t expected, i
   return absl::OkStatus();
 }
 
-// Columns of kSelectViewColumns, in order.
+// Columns read by ReadViewRow, in order.
 constexpr char kSelectViews[] =
     "SELECT v.id, v.crossing_id, v.heading_deg, v.width, v.height, v.keypoint_count, "
-    "v.keypoints, v.descriptors, v.hue_hist, v.hue_bins, v.format_version "
+    "v.keypoints, v.descriptors, v.hue_hist, v.hue_bins, v.format_version, v.content_sha256 "
     "FROM view v JOIN crossing c ON c.id = v.crossing_id WHERE c.db_id = ? ORDER BY v.id";
 
 absl::StatusOr<ViewRecord> ReadViewRow(const Statement& row) {
@@ -105,6 +111,7 @@ absl::StatusOr<ViewRecord> ReadViewRow(const Statement& row) {
   ASSIGN_OR_RETURN(view.keypoints, row.ColumnFloatBlob(6));
   view.descriptors = row.ColumnBlob(7);
   ASSIGN_OR_RETURN(view.hue_hist, row.ColumnFloatBlob(8));
+  if (!row.ColumnIsNull(11)) view.content_sha256 = std::string(row.ColumnBlobView(11));
   return view;
 }
 
@@ -267,6 +274,46 @@ class SqliteCrossingStore final : public CrossingStore {
     return result;
   }
 
+  absl::StatusOr<ViewReplacementResult> ReplaceViews(const ViewReplacement& replacement) override {
+    RETURN_IF_ERROR(ValidateView(replacement.view));
+    if (replacement.join_cluster >= static_cast<int>(replacement.clusters.size())) {
+      return absl::InvalidArgumentError(absl::StrCat("join_cluster ", replacement.join_cluster,
+                                                     " is not one of the ",
+                                                     replacement.clusters.size(), " clusters"));
+    }
+    const int64_t database_id = replacement.database_id;
+    std::lock_guard<std::mutex> lock(mutex_);
+    ASSIGN_OR_RETURN(Transaction txn, Transaction::Begin(connection_));
+    ASSIGN_OR_RETURN(std::string db_name, DatabaseNameLocked(database_id));
+    // Clusters first (a deleted centre would take its cluster row along by cascade anyway).
+    RETURN_IF_ERROR(DeleteClustersLocked(database_id));
+    for (int64_t view_id : replacement.replaced_view_ids) {
+      RETURN_IF_ERROR(DeleteViewLocked(database_id, db_name, view_id));
+    }
+    ViewReplacementResult result;
+    ASSIGN_OR_RETURN(result.clusters, InsertClustersLocked(database_id, replacement.clusters));
+    ViewRecord view = replacement.view;
+    if (replacement.create_crossing) {
+      ASSIGN_OR_RETURN(CrossingRecord created,
+                       AddCrossingLocked({database_id, replacement.crossing_name, ""}));
+      view.crossing_id = created.id;
+    } else {
+      ASSIGN_OR_RETURN(int64_t crossing_db, CrossingDatabaseLocked(view.crossing_id));
+      if (crossing_db != database_id) {
+        return absl::NotFoundError(absl::StrCat("crossing ", view.crossing_id,
+                                                " not found in database ", Quoted(db_name)));
+      }
+    }
+    ClusterAssignment assignment;
+    if (replacement.join_cluster >= 0) {
+      assignment.new_cluster = false;
+      assignment.cluster_id = result.clusters[replacement.join_cluster].id;
+    }
+    ASSIGN_OR_RETURN(result.added, AddViewLocked(database_id, view, assignment));
+    RETURN_IF_ERROR(txn.Commit());
+    return result;
+  }
+
   absl::StatusOr<std::vector<ViewRecord>> LoadViews(int64_t database_id) override {
     std::vector<ViewRecord> views;
     RETURN_IF_ERROR(ForEachView(database_id, [&views](ViewRecord&& view) {
@@ -414,15 +461,48 @@ class SqliteCrossingStore final : public CrossingStore {
     return record;
   }
 
-  // Inserts a validated view of `database_id` and its cluster membership.
+  // Deletes a view of the database (its memberships go by cascade).
+  absl::Status DeleteViewLocked(int64_t database_id, const std::string& db_name, int64_t view_id) {
+    ASSIGN_OR_RETURN(Statement remove,
+                     connection_.Prepare("DELETE FROM view WHERE id = ? AND crossing_id IN "
+                                         "(SELECT id FROM crossing WHERE db_id = ?)"));
+    RETURN_IF_ERROR(remove.BindInt64(1, view_id));
+    RETURN_IF_ERROR(remove.BindInt64(2, database_id));
+    RETURN_IF_ERROR(remove.Run());
+    if (connection_.Changes() == 0) {
+      return absl::NotFoundError(
+          absl::StrCat("view ", view_id, " not found in database ", Quoted(db_name)));
+    }
+    return absl::OkStatus();
+  }
+
+  // ALREADY_EXISTS naming the view of the database that already holds `content_sha256`.
+  absl::Status CheckNewContentLocked(int64_t database_id, const std::string& content_sha256) {
+    if (content_sha256.empty()) return absl::OkStatus();  // unknown content: nothing to compare
+    ASSIGN_OR_RETURN(Statement select,
+                     connection_.Prepare("SELECT v.id FROM view v JOIN crossing c "
+                                         "ON c.id = v.crossing_id "
+                                         "WHERE c.db_id = ? AND v.content_sha256 = ? LIMIT 1"));
+    RETURN_IF_ERROR(select.BindInt64(1, database_id));
+    RETURN_IF_ERROR(select.BindBlob(2, content_sha256.data(), content_sha256.size()));
+    ASSIGN_OR_RETURN(StepResult step, select.Step());
+    if (step == StepResult::kDone) return absl::OkStatus();
+    return absl::AlreadyExistsError(absl::StrCat("view ", select.ColumnInt64(0),
+                                                 " already holds this image (SHA-256 ",
+                                                 HexString(content_sha256), ")"));
+  }
+
+  // Inserts a validated view of `database_id` and its cluster membership, unless another view of
+  // the database holds the same image (ALREADY_EXISTS).
   absl::StatusOr<AddViewResult> AddViewLocked(int64_t database_id, const ViewRecord& view,
                                               const ClusterAssignment& assignment) {
+    RETURN_IF_ERROR(CheckNewContentLocked(database_id, view.content_sha256));
     ASSIGN_OR_RETURN(
         Statement insert,
         connection_.Prepare(
             "INSERT INTO view (crossing_id, heading_deg, width, height, keypoint_count, "
-            "keypoints, descriptors, hue_hist, hue_bins, format_version, image, created_at) "
-            "VALUES (?, ?, ?, ?, ?, ?, ?, ?, ?, ?, ?, ?)"));
+            "keypoints, descriptors, hue_hist, hue_bins, format_version, image, created_at, "
+            "content_sha256) VALUES (?, ?, ?, ?, ?, ?, ?, ?, ?, ?, ?, ?, ?)"));
     RETURN_IF_ERROR(insert.BindInt64(1, view.crossing_id));
     RETURN_IF_ERROR(insert.BindDouble(2, view.heading_deg));
     RETURN_IF_ERROR(insert.BindInt64(3, view.width));
@@ -437,6 +517,10 @@ class SqliteCrossingStore final : public CrossingStore {
     RETURN_IF_ERROR(view.image.empty() ? insert.BindNull(11)
                                        : insert.BindBlob(11, view.image.data(), view.image.size()));
     RETURN_IF_ERROR(insert.BindDouble(12, NowSeconds()));
+    RETURN_IF_ERROR(view.content_sha256.empty()
+                        ? insert.BindNull(13)
+                        : insert.BindBlob(13, view.content_sha256.data(),
+                                          view.content_sha256.size()));
     RETURN_IF_ERROR(insert.Run());
 
     AddViewResult result;

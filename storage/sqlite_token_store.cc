@@ -1,6 +1,5 @@
 // TokenStore on SQLite: one connection behind a mutex; secrets hashed with OpenSSL's SHA-256.
 
-#include <openssl/evp.h>
 #include <openssl/rand.h>
 
 #include <chrono>
@@ -19,6 +18,7 @@
 #include "absl/strings/str_cat.h"
 #include "absl/strings/string_view.h"
 #include "storage/migrations.h"
+#include "storage/sha256.h"
 #include "storage/sqlite.h"
 #include "storage/status_macros.h"
 #include "storage/store_util.h"
@@ -70,14 +70,7 @@ absl::StatusOr<std::string> NewSecret() {
 
 // The secrets are 256 random bits, so a plain (unsalted, fast) hash is enough: there is nothing to
 // guess, and it lets Authenticate find the row by an index lookup on the hash.
-absl::StatusOr<std::string> HashSecret(absl::string_view secret) {
-  unsigned char digest[EVP_MAX_MD_SIZE];
-  unsigned int length = 0;
-  if (EVP_Digest(secret.data(), secret.size(), digest, &length, EVP_sha256(), nullptr) != 1) {
-    return absl::InternalError("OpenSSL SHA-256 failed");
-  }
-  return std::string(reinterpret_cast<const char*>(digest), length);
-}
+absl::StatusOr<std::string> HashSecret(absl::string_view secret) { return Sha256(secret); }
 
 // Columns read by ReadTokenRow, in order. Never the hash: it stays inside this file.
 constexpr absl::string_view kSelectToken =

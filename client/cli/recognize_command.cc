@@ -1,15 +1,18 @@
-// `waymark recognize NAME IMAGE...` (one RecognizeCrossing per file) and
+// `waymark recognize NAME IMAGE...` (one RecognizeCrossing per file; a folder stands for its
+// images) and
 // `waymark recognize NAME --camera SOURCE` (camera frames through StreamRecognize).
 #include <fmt/format.h>
 
 #include <chrono>
+#include <filesystem>
 #include <memory>
 #include <string>
 #include <vector>
 
 #include "absl/status/status.h"
-#include "client/devices/camera_source.h"
 #include "client/cli/command.h"
+#include "client/datasets/image_folder.h"
+#include "client/devices/camera_source.h"
 #include "client/common/output.h"
 #include "client/common/proto_json.h"
 #include "client/common/read_file.h"
@@ -53,11 +56,30 @@ void PrintVerbose(std::ostream& out, const v1::RecognizeResponse& response) {
   PrintCandidateTable(out, response);
 }
 
+// The IMAGE arguments with every folder replaced by its images, sorted by name (ListFolderImages
+// says why a folder has none).
+absl::StatusOr<std::vector<std::string>> ExpandFolders(const std::vector<std::string>& arguments) {
+  std::vector<std::string> images;
+  for (const std::string& argument : arguments) {
+    std::error_code ec;
+    if (!std::filesystem::is_directory(argument, ec)) {
+      images.push_back(argument);
+      continue;
+    }
+    absl::StatusOr<std::vector<std::filesystem::path>> found = ListFolderImages(argument);
+    if (!found.ok()) return found.status();
+    for (const std::filesystem::path& path : *found) images.push_back(path.string());
+  }
+  return images;
+}
+
 int RunImages(CommandContext& context, const RecognizeArgs& args) {
+  absl::StatusOr<std::vector<std::string>> images = ExpandFolders(args.images);
+  if (!images.ok()) return ReportError(context, images.status());
   std::unique_ptr<client::CrossingClient> client = context.Connect();
   nlohmann::json results = nlohmann::json::array();
   int failures = 0;
-  for (const std::string& image : args.images) {
+  for (const std::string& image : *images) {
     auto bytes = ReadFileBytes(image);
     const auto start = std::chrono::steady_clock::now();
     auto response = bytes.ok() ? client->RecognizeCrossing(MakeRequest(args, *std::move(bytes), 0))
@@ -169,7 +191,10 @@ void AddRecognizeCommand(CLI::App& app, CommandRegistry& registry) {
   CLI::App* recognize = app.add_subcommand(
       "recognize", "Recognize the crossing and heading in image files or camera frames");
   recognize->add_option("NAME", args->database, "Database name")->required();
-  CLI::Option* images = recognize->add_option("IMAGE", args->images, "Image files (JPEG or PNG)");
+  CLI::Option* images = recognize->add_option(
+      "IMAGE", args->images,
+      "Image files (JPEG or PNG), or folders: each stands for the images directly in it, sorted "
+      "by name");
   CLI::Option* camera = recognize->add_option(
       "--camera", args->camera,
       "Stream frames instead: a device index (0), a video file, a stream URL, or an image "

@@ -18,6 +18,8 @@ namespace waymark::cli {
 
 inline constexpr int kExitOk = 0;
 inline constexpr int kExitFailure = 1;
+// Stopped by SIGINT/SIGTERM before the work was done (128 + SIGINT, as shells report it).
+inline constexpr int kExitInterrupted = 130;
 
 // Options every command accepts, before or after the command name.
 struct GlobalOptions {

@@ -3,48 +3,78 @@
 #include <algorithm>
 #include <cctype>
 #include <charconv>
-#include <cmath>
+#include <set>
 #include <system_error>
 #include <tuple>
 
 #include "absl/status/status.h"
 #include "absl/strings/str_cat.h"
+#include "absl/strings/str_join.h"
 
 namespace waymark::cli {
 namespace {
 
 namespace fs = std::filesystem;
 
+// Headings have at most this many digits before the decimal point: 0 to 359.
+constexpr size_t kMaxHeadingDigits = 3;
+// Layout problems listed in one error; the rest are counted.
+constexpr size_t kMaxProblemsListed = 10;
+
 bool IsHidden(const fs::path& path) { return path.filename().string().rfind('.', 0) == 0; }
 
-// An image found under a scanned folder: its first-level folder name and path.
+bool IsVisibleImage(const fs::directory_entry& entry) {
+  return !IsHidden(entry.path()) && entry.is_regular_file() && IsImageFile(entry.path());
+}
+
+// A folder in messages: "DIR/a/b/".
+std::string FolderName(const fs::path& folder) { return folder.string() + "/"; }
+
+// An image found in a first-level folder of a scanned folder.
 struct FoundImage {
   std::string folder;
   fs::path path;
 };
 
-// Walks dir/<folder>/<file>, one level deep, collecting image files.
-absl::StatusOr<std::vector<FoundImage>> FindImages(const fs::path& dir) {
+// Where a scan found images: directly in DIR, in DIR/<folder>/ (where the layouts want them), and
+// the folders below DIR/<folder>/ that hold images (too deep).
+struct FolderWalk {
+  std::vector<fs::path> top;
+  std::vector<FoundImage> images;
+  std::set<fs::path> too_deep;
+};
+
+// The folders under `folder` (at any depth) that hold images.
+void CollectImageFolders(const fs::path& folder, std::set<fs::path>* out) {
+  for (auto it = fs::recursive_directory_iterator(folder); it != fs::recursive_directory_iterator();
+       ++it) {
+    if (IsHidden(it->path())) {
+      if (it->is_directory()) it.disable_recursion_pending();
+      continue;
+    }
+    if (IsVisibleImage(*it)) out->insert(it->path().parent_path());
+  }
+}
+
+absl::StatusOr<FolderWalk> WalkFolder(const fs::path& dir) {
   std::error_code ec;
   if (!fs::is_directory(dir, ec)) {
     return absl::NotFoundError(absl::StrCat("'", dir.string(), "' is not a directory"));
   }
-  std::vector<FoundImage> found;
+  FolderWalk walk;
   try {
     for (const fs::directory_entry& entry : fs::directory_iterator(dir)) {
       if (IsHidden(entry.path())) continue;
       if (!entry.is_directory()) {
-        if (IsImageFile(entry.path())) {
-          return absl::InvalidArgumentError(
-              absl::StrCat("image '", entry.path().string(),
-                           "' is not inside a folder; expected DIR/<crossing>/<file>"));
-        }
+        if (IsVisibleImage(entry)) walk.top.push_back(entry.path());
         continue;
       }
       const std::string folder = entry.path().filename().string();
       for (const fs::directory_entry& file : fs::directory_iterator(entry.path())) {
-        if (!IsHidden(file.path()) && file.is_regular_file() && IsImageFile(file.path())) {
-          found.push_back({folder, file.path()});
+        if (IsVisibleImage(file)) {
+          walk.images.push_back({folder, file.path()});
+        } else if (file.is_directory() && !IsHidden(file.path())) {
+          CollectImageFolders(file.path(), &walk.too_deep);
         }
       }
     }
@@ -52,12 +82,50 @@ absl::StatusOr<std::vector<FoundImage>> FindImages(const fs::path& dir) {
     return absl::PermissionDeniedError(
         absl::StrCat("cannot read '", dir.string(), "': ", e.what()));
   }
-  if (found.empty()) {
-    return absl::InvalidArgumentError(
-        absl::StrCat("no .jpg/.jpeg/.png images found in '", dir.string(), "/<folder>/'"));
-  }
-  return found;
+  // Sorted, so that messages list files in the same order on every run and file system.
+  std::sort(walk.top.begin(), walk.top.end());
+  std::sort(walk.images.begin(), walk.images.end(),
+            [](const FoundImage& a, const FoundImage& b) { return a.path < b.path; });
+  return walk;
 }
+
+// The problems of a walk that no layout of DIR/<folder>/<file> accepts.
+std::vector<std::string> DepthProblems(const fs::path& dir, const FolderWalk& walk) {
+  std::vector<std::string> problems;
+  if (!walk.top.empty()) {
+    problems.push_back(absl::StrCat(
+        "found ", walk.top.size(), " image(s) directly in ", FolderName(dir), " (e.g. ",
+        walk.top.front().string(), "): one level too shallow? each crossing's images go in a "
+        "folder of their own, ", FolderName(dir / "<crossing>")));
+  }
+  for (const fs::path& folder : walk.too_deep) {
+    problems.push_back(absl::StrCat("found images in ", FolderName(folder),
+                                    ": one level too deep? crossing folders go directly in ",
+                                    FolderName(dir)));
+  }
+  return problems;
+}
+
+// INVALID_ARGUMENT listing `problems` (the first kMaxProblemsListed) under what was expected.
+absl::Status LayoutError(const fs::path& dir, const std::string& expected,
+                         const std::vector<std::string>& problems) {
+  std::string message = absl::StrCat("'", dir.string(), "' is not laid out as ", expected, ":");
+  for (size_t i = 0; i < problems.size() && i < kMaxProblemsListed; ++i) {
+    absl::StrAppend(&message, "\n  ", problems[i]);
+  }
+  if (problems.size() > kMaxProblemsListed) {
+    absl::StrAppend(&message, "\n  ... and ", problems.size() - kMaxProblemsListed, " more");
+  }
+  return absl::InvalidArgumentError(message);
+}
+
+absl::Status NoImagesError(const fs::path& dir, const std::string& expected) {
+  return absl::InvalidArgumentError(absl::StrCat("no .jpg/.jpeg/.png images found in ",
+                                                 FolderName(dir / "<folder>"), "; expected ",
+                                                 expected));
+}
+
+bool IsDigit(char c) { return std::isdigit(static_cast<unsigned char>(c)) != 0; }
 
 }  // namespace
 
@@ -70,43 +138,85 @@ bool IsImageFile(const fs::path& path) {
 
 absl::StatusOr<double> ParseHeading(const fs::path& file) {
   const std::string stem = file.stem().string();
-  double value = 0;
-  // from_chars, unlike strtod, accepts no leading spaces, '+', hex or "inf"-style words.
-  const auto [end, ec] = std::from_chars(stem.data(), stem.data() + stem.size(), value);
-  if (stem.empty() || ec != std::errc() || end != stem.data() + stem.size() ||
-      !std::isfinite(value)) {
-    return absl::InvalidArgumentError(
-        absl::StrCat("cannot read a heading from '", file.string(),
-                     "': the file name must be the heading in degrees, e.g. 030.jpg or 30.5.png"));
+  // digits ['.' digits]: checked by hand, because strtod and from_chars accept more (signs,
+  // exponents, "inf") than a heading file name may hold.
+  size_t end = 0;
+  while (end < stem.size() && IsDigit(stem[end])) ++end;
+  const size_t integer_digits = end;
+  bool is_number = integer_digits > 0;
+  if (end < stem.size() && stem[end] == '.') {
+    const size_t fraction_start = ++end;
+    while (end < stem.size() && IsDigit(stem[end])) ++end;
+    is_number = is_number && end > fraction_start;
   }
-  value = std::fmod(value, 360.0);
-  if (value < 0) value += 360.0;
+  is_number = is_number && end == stem.size();
+  if (!is_number) {
+    return absl::InvalidArgumentError(absl::StrCat(
+        "'", file.string(), "': '", stem, "' is not a heading; name each view by its compass "
+        "heading in degrees, e.g. 030.jpg or 30.5.png"));
+  }
+  if (integer_digits > kMaxHeadingDigits) {
+    return absl::InvalidArgumentError(absl::StrCat(
+        "'", file.string(), "': '", stem, "' has ", integer_digits, " digits before the decimal "
+        "point, a heading at most ", kMaxHeadingDigits, " (a frame number? headings are degrees "
+        "in [0, 360), e.g. 030.jpg)"));
+  }
+  double value = 0;
+  std::from_chars(stem.data(), stem.data() + stem.size(), value);
+  if (value >= 360) {
+    return absl::InvalidArgumentError(absl::StrCat(
+        "'", file.string(), "': heading ", stem, " is outside [0, 360); headings are not wrapped "
+        "(400 is not 40 degrees)"));
+  }
   return value;
 }
 
 absl::StatusOr<std::vector<EnrollImage>> ScanEnrollFolder(const fs::path& dir) {
-  absl::StatusOr<std::vector<FoundImage>> found = FindImages(dir);
-  if (!found.ok()) return found.status();
+  absl::StatusOr<FolderWalk> walk = WalkFolder(dir);
+  if (!walk.ok()) return walk.status();
+  std::vector<std::string> problems = DepthProblems(dir, *walk);
   std::vector<EnrollImage> images;
-  images.reserve(found->size());
-  for (FoundImage& image : *found) {
+  images.reserve(walk->images.size());
+  for (FoundImage& image : walk->images) {
     absl::StatusOr<double> heading = ParseHeading(image.path);
-    if (!heading.ok()) return heading.status();
+    if (!heading.ok()) {
+      problems.emplace_back(heading.status().message());
+      continue;
+    }
     images.push_back({std::move(image.folder), *heading, std::move(image.path)});
   }
   std::sort(images.begin(), images.end(), [](const EnrollImage& a, const EnrollImage& b) {
     return std::tie(a.crossing, a.heading_deg, a.path) <
            std::tie(b.crossing, b.heading_deg, b.path);
   });
+  // One image per heading: a second one is a stray copy (030.jpg beside 30.png), and `enroll
+  // --replace` would let the later replace the earlier.
+  for (size_t i = 1; i < images.size(); ++i) {
+    if (images[i].crossing == images[i - 1].crossing &&
+        images[i].heading_deg == images[i - 1].heading_deg) {
+      problems.push_back(absl::StrCat("'", images[i - 1].path.string(), "' and '",
+                                      images[i].path.string(), "' both have heading ",
+                                      images[i].heading_deg, ": keep one image per heading"));
+    }
+  }
+  if (!problems.empty()) return LayoutError(dir, kEnrollLayout, problems);
+  if (images.empty()) return NoImagesError(dir, kEnrollLayout);
   return images;
 }
 
 absl::StatusOr<std::vector<QueryImage>> ScanQueryFolder(const fs::path& dir) {
-  absl::StatusOr<std::vector<FoundImage>> found = FindImages(dir);
-  if (!found.ok()) return found.status();
+  static const std::string kQueryLayout = absl::StrCat(
+      "DIR/<crossing>/<file>.jpg (or .jpeg, .png), one folder per crossing plus DIR/",
+      kUnknownFolder, "/ for places not in the database");
+  absl::StatusOr<FolderWalk> walk = WalkFolder(dir);
+  if (!walk.ok()) return walk.status();
+  if (std::vector<std::string> problems = DepthProblems(dir, *walk); !problems.empty()) {
+    return LayoutError(dir, kQueryLayout, problems);
+  }
+  if (walk->images.empty()) return NoImagesError(dir, kQueryLayout);
   std::vector<QueryImage> queries;
-  queries.reserve(found->size());
-  for (FoundImage& image : *found) {
+  queries.reserve(walk->images.size());
+  for (FoundImage& image : walk->images) {
     absl::StatusOr<double> heading = ParseHeading(image.path);
     queries.push_back({std::move(image.folder), std::move(image.path),
                        heading.ok() ? std::optional<double>(*heading) : std::nullopt});
@@ -115,6 +225,28 @@ absl::StatusOr<std::vector<QueryImage>> ScanQueryFolder(const fs::path& dir) {
     return std::tie(a.folder, a.path) < std::tie(b.folder, b.path);
   });
   return queries;
+}
+
+absl::StatusOr<std::vector<fs::path>> ListFolderImages(const fs::path& dir) {
+  absl::StatusOr<FolderWalk> walk = WalkFolder(dir);
+  if (!walk.ok()) return walk.status();
+  if (!walk->top.empty()) return walk->top;
+  std::set<fs::path> folders = walk->too_deep;
+  for (const FoundImage& image : walk->images) folders.insert(image.path.parent_path());
+  if (folders.empty()) {
+    return absl::InvalidArgumentError(
+        absl::StrCat("no .jpg/.jpeg/.png images found in ", FolderName(dir)));
+  }
+  std::vector<std::string> names;
+  for (const fs::path& folder : folders) {
+    if (names.size() == 3) break;
+    names.push_back(FolderName(folder));
+  }
+  return absl::InvalidArgumentError(absl::StrCat(
+      "no .jpg/.jpeg/.png images directly in ", FolderName(dir), "; found images in ",
+      absl::StrJoin(names, ", "), folders.size() > names.size() ? " and more" : "",
+      ": give one of those folders, or use `waymark eval NAME DIR` for a folder of crossing "
+      "folders"));
 }
 
 }  // namespace waymark::cli

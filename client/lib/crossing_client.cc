@@ -107,8 +107,16 @@ std::unique_ptr<BulkEnrollWriter> CrossingClient::BulkEnroll() {
   return std::make_unique<BulkEnrollWriter>(stub_.get(), DeadlineAfter(options_.stream_timeout));
 }
 
+std::unique_ptr<EnrollStream> CrossingClient::StreamEnroll() {
+  return std::make_unique<EnrollStream>(
+      [this](grpc::ClientContext* context) { return stub_->StreamEnroll(context); },
+      DeadlineAfter(options_.stream_timeout));
+}
+
 std::unique_ptr<RecognizeStream> CrossingClient::StreamRecognize() {
-  return std::make_unique<RecognizeStream>(stub_.get(), DeadlineAfter(options_.stream_timeout));
+  return std::make_unique<RecognizeStream>(
+      [this](grpc::ClientContext* context) { return stub_->StreamRecognize(context); },
+      DeadlineAfter(options_.stream_timeout));
 }
 
 }  // namespace waymark::client

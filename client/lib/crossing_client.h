@@ -16,8 +16,9 @@ namespace waymark::client {
 struct CrossingClientOptions {
   // Deadline of every unary call, retries and backoff included. InfiniteDuration() disables it.
   absl::Duration timeout = absl::Seconds(30);
-  // Deadline of a whole BulkEnroll / StreamRecognize stream. Streams last as long as the import or
-  // the robot's drive, so by default they have none; keepalive still detects a dead link.
+  // Deadline of a whole BulkEnroll / StreamEnroll / StreamRecognize stream. Streams last as long
+  // as the import or the robot's drive, so by default they have none; keepalive still detects a
+  // dead link.
   absl::Duration stream_timeout = absl::InfiniteDuration();
   // Applied to ListDatabases, GetDatabaseStats, ListCrossings and RecognizeCrossing only.
   RetryOptions retry;
@@ -53,8 +54,9 @@ class CrossingClient {
 
   absl::StatusOr<v1::RecognizeResponse> RecognizeCrossing(const v1::RecognizeRequest& request);
 
-  // Opens a client stream; the call starts immediately.
+  // Opens a stream; the call starts immediately.
   std::unique_ptr<BulkEnrollWriter> BulkEnroll();
+  std::unique_ptr<EnrollStream> StreamEnroll();
   std::unique_ptr<RecognizeStream> StreamRecognize();
 
  private:

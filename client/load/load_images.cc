@@ -38,11 +38,7 @@ LoadImages GeneratedLoadImages() {
 
 absl::StatusOr<LoadImages> FolderLoadImages(const std::filesystem::path& dir) {
   absl::StatusOr<std::vector<EnrollImage>> found = ScanEnrollFolder(dir);
-  if (!found.ok()) return found.status();
-  if (found->empty()) {
-    return absl::InvalidArgumentError(
-        absl::StrCat(dir.string(), " holds no images (expected DIR/<crossing>/<heading>.jpg)"));
-  }
+  if (!found.ok()) return found.status();  // an empty folder included
   LoadImages images;
   for (const EnrollImage& image : *found) {
     absl::StatusOr<std::string> bytes = ReadFileBytes(image.path);

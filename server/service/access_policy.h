@@ -17,7 +17,7 @@ enum class Action {
   kReadCrossings,    // ListDatabases, GetDatabaseStats, ListCrossings
   kRecognize,        // RecognizeCrossing, StreamRecognize
   kEditCrossings,    // CreateDatabase, AddCrossing, DeleteCrossing, EnrollView, BulkEnroll,
-                     // RebuildClusters
+                     // StreamEnroll, RebuildClusters
   kDeleteDatabase,   // DeleteDatabase: drops every robot's views at once, so admin only
   kSlam,             // every SlamService RPC, DeleteSession included (further limited to the
                      // caller's own sessions, like CloseSession)

@@ -11,14 +11,12 @@
 #include "server/common/stopwatch.h"
 #include "server/crossing/features.h"
 #include "server/crossing/recognizer.h"
+#include "server/service/crossing_database.h"
 
 namespace waymark::service {
 namespace {
 
 using crossing::ViewDatabase;
-
-// A view with fewer keypoints could never reach N1 = 10 matches: refuse it at enrollment.
-constexpr int kMinEnrollKeypoints = 10;
 
 absl::Status ValidateDatabaseName(const std::string& name) {
   if (name.empty() || name.size() > 64) {
@@ -33,103 +31,6 @@ absl::Status ValidateDatabaseName(const std::string& name) {
   }
   return absl::OkStatus();
 }
-
-absl::Status ValidateCrossingName(const std::string& name) {
-  if (name.empty() || name.size() > 128) {
-    return absl::InvalidArgumentError(
-        absl::StrCat("crossing name \"", name, "\" must be 1-128 characters long"));
-  }
-  for (char c : name) {
-    if (static_cast<unsigned char>(c) < 0x20 || c == '/') {
-      return absl::InvalidArgumentError(absl::StrCat(
-          "crossing name \"", name, "\" may not contain '/' or control characters"));
-    }
-  }
-  return absl::OkStatus();
-}
-
-absl::Status ValidateHeading(double heading) {
-  if (!std::isfinite(heading) || heading < 0 || heading >= 360) {
-    return absl::InvalidArgumentError(
-        absl::StrCat("heading_deg = ", heading, " is outside [0, 360): give the view's compass "
-                     "heading in degrees, clockwise"));
-  }
-  return absl::OkStatus();
-}
-
-storage::ViewRecord ToRecord(int64_t crossing_id, double heading,
-                             const crossing::ImageFeatures& f) {
-  storage::ViewRecord r;
-  r.crossing_id = crossing_id;
-  r.heading_deg = heading;
-  r.width = f.width;
-  r.height = f.height;
-  r.keypoint_count = static_cast<int32_t>(f.keypoints.size());
-  r.keypoints.reserve(f.keypoints.size() * storage::kKeypointFloats);
-  for (const cv::KeyPoint& kp : f.keypoints) {
-    r.keypoints.insert(r.keypoints.end(), {kp.pt.x, kp.pt.y, kp.size, kp.angle, kp.response,
-                                           static_cast<float>(kp.octave)});
-  }
-  r.descriptors.assign(f.descriptors.datastart, f.descriptors.dataend);
-  r.hue_hist = f.hue_hist;
-  return r;
-}
-
-}  // namespace
-
-struct CrossingRegistry::Database {
-  storage::DatabaseRecord record;
-  v1::DatabaseParams params;  // effective values
-  DatabaseOptions options;
-  std::unique_ptr<ViewDatabase> views;
-  std::map<int64_t, storage::CrossingRecord> crossings;  // by id
-  std::map<std::string, int64_t> crossing_ids;           // by name
-  std::map<int64_t, int> views_per_crossing;
-  int64_t keypoints = 0;
-  bool deleted = false;  // requests that still hold a pointer get NOT_FOUND
-  mutable absl::Mutex mutex;
-
-  absl::Status CheckAlive() const {
-    if (deleted) return absl::NotFoundError(absl::StrCat("database \"", record.name, "\" was deleted"));
-    return absl::OkStatus();
-  }
-  void AddCrossingRecord(const storage::CrossingRecord& c) {
-    crossings[c.id] = c;
-    crossing_ids[c.name] = c.id;
-  }
-  // Installs clusters given as storage records (view ids) into `target`.
-  static void InstallClusters(const std::vector<storage::ClusterRecord>& records,
-                              ViewDatabase* target) {
-    std::unordered_map<int64_t, uint32_t> slot_of;
-    for (uint32_t s = 0; s < target->views().size(); ++s) slot_of[target->views()[s].view_id] = s;
-    std::vector<crossing::ClusterEntry> clusters;
-    for (const auto& r : records) {
-      crossing::ClusterEntry c;
-      c.cluster_id = r.id;
-      c.center = slot_of.at(r.center_view_id);
-      c.members.push_back(c.center);
-      for (int64_t v : r.member_view_ids) {
-        if (v != r.center_view_id) c.members.push_back(slot_of.at(v));
-      }
-      clusters.push_back(std::move(c));
-    }
-    target->SetClusters(std::move(clusters));
-  }
-  // Clusters of `source` (slots) as storage records (view ids).
-  static std::vector<storage::ClusterRecord> ToRecords(
-      const ViewDatabase& source, const std::vector<crossing::ClusterEntry>& clusters) {
-    std::vector<storage::ClusterRecord> records;
-    for (const auto& c : clusters) {
-      storage::ClusterRecord r;
-      r.center_view_id = source.views()[c.center].view_id;
-      for (uint32_t s : c.members) r.member_view_ids.push_back(source.views()[s].view_id);
-      records.push_back(std::move(r));
-    }
-    return records;
-  }
-};
-
-namespace {
 
 // Waiting extractions allowed per running one: about 1 s of queue at 30 ms per extraction.
 constexpr int kWaitingPerRunning = 32;
@@ -209,6 +110,7 @@ absl::StatusOr<std::shared_ptr<CrossingRegistry::Database>> CrossingRegistry::Lo
     db->views->AddView(v.id, v.crossing_id, v.heading_deg, descriptors, std::move(points),
                        std::move(v.hue_hist), /*defer_indexing=*/true);
     db->views_per_crossing[v.crossing_id]++;
+    db->contents.Add(v.id, v.content_sha256);
     db->keypoints += v.keypoint_count;
     return absl::OkStatus();
   });
@@ -366,113 +268,24 @@ absl::StatusOr<v1::DeleteCrossingResponse> CrossingRegistry::DeleteCrossing(
   const int64_t crossing_id = id_it->second;
   // The remaining views, re-clustered in enrollment order, become the new memory and disk state
   // in one transaction.
-  auto remaining = std::make_unique<ViewDatabase>(index_options_);
-  int64_t keypoints = 0;
-  for (uint32_t s = 0; s < db.views->views().size(); ++s) {
-    const crossing::ViewEntry& v = db.views->views()[s];
-    if (v.crossing_id == crossing_id) continue;
-    remaining->AddView(v.view_id, v.crossing_id, v.heading_deg, db.views->Descriptors(s), v.points,
-                       v.hue_hist, /*defer_indexing=*/true);
-    keypoints += v.span.count;
-  }
-  remaining->FinishLoading();
-  const auto clusters = remaining->ComputeClusters(db.options.clustering);
+  RemainingViews remaining = CopyViewsExcept(
+      *db.views, [&](const crossing::ViewEntry& v) { return v.crossing_id == crossing_id; },
+      index_options_);
+  const auto clusters = remaining.views->ComputeClusters(db.options.clustering);
   absl::StatusOr<int> deleted = store_->DeleteCrossing(
-      db.record.id, crossing_id, Database::ToRecords(*remaining, clusters));
+      db.record.id, crossing_id, Database::ToRecords(*remaining.views, clusters));
   if (!deleted.ok()) return deleted.status();
   absl::StatusOr<std::vector<storage::ClusterRecord>> stored = store_->LoadClusters(db.record.id);
   if (!stored.ok()) return stored.status();
-  Database::InstallClusters(*stored, remaining.get());
-  db.views = std::move(remaining);
-  db.keypoints = keypoints;
+  Database::InstallClusters(*stored, remaining.views.get());
+  db.views = std::move(remaining.views);
+  db.keypoints = remaining.keypoints;
+  for (int64_t view_id : remaining.dropped_view_ids) db.contents.Remove(view_id);
   db.crossings.erase(crossing_id);
   db.crossing_ids.erase(id_it);
   db.views_per_crossing.erase(crossing_id);
   v1::DeleteCrossingResponse response;
   response.set_views_deleted(*deleted);
-  return response;
-}
-
-absl::StatusOr<v1::EnrollViewResponse> CrossingRegistry::EnrollView(
-    const v1::EnrollViewRequest& request, bool* crossing_created) {
-  const auto start = Clock::now();
-  if (crossing_created != nullptr) *crossing_created = false;
-  if (absl::Status s = ValidateCrossingName(request.crossing()); !s.ok()) return s;
-  if (absl::Status s = ValidateHeading(request.heading_deg()); !s.ok()) return s;
-  absl::StatusOr<std::shared_ptr<Database>> found = Find(request.database());
-  if (!found.ok()) return found.status();
-  Database& db = **found;
-
-  // Feature extraction is the slow part and needs no lock (options never change after creation).
-  crossing::ExtractionTimings timings;
-  absl::StatusOr<crossing::ImageFeatures> features =
-      Extract(request.image().data(), db.options.features, &timings);
-  if (!features.ok()) return features.status();
-  if (features->descriptors.rows < kMinEnrollKeypoints) {
-    return absl::InvalidArgumentError(absl::StrCat(
-        "the image has ", features->descriptors.rows, " SIFT keypoints at ",
-        features->width, "x", features->height, "; a view needs at least ", kMinEnrollKeypoints,
-        " to be recognizable (blank, blurred or textureless image?)"));
-  }
-
-  absl::MutexLock lock(&db.mutex);
-  if (absl::Status s = db.CheckAlive(); !s.ok()) return s;
-  auto id_it = db.crossing_ids.find(request.crossing());
-  const bool new_crossing = id_it == db.crossing_ids.end();
-  if (new_crossing && !request.create_crossing()) {
-    return absl::NotFoundError(absl::StrCat(
-        "crossing \"", request.crossing(), "\" not found in database \"", request.database(),
-        "\": add it first or set create_crossing"));
-  }
-
-  const auto match_start = Clock::now();
-  const crossing::ClusterProposal proposal =
-      db.views->ProposeCluster(features->descriptors, db.options.clustering);
-  const double matching_ms = MsSince(match_start);
-  storage::ViewRecord record =
-      ToRecord(new_crossing ? 0 : id_it->second, request.heading_deg(), *features);
-  if (request.store_image()) record.image = request.image().data();
-  storage::ClusterAssignment assignment;
-  if (proposal.cluster >= 0) {
-    assignment.new_cluster = false;
-    assignment.cluster_id = db.views->clusters()[proposal.cluster].cluster_id;
-  }
-  // A new crossing is created in the view's transaction: a failed or interrupted enrollment
-  // leaves no empty crossing behind.
-  absl::StatusOr<storage::AddViewResult> added =
-      new_crossing ? store_->AddViewWithNewCrossing({db.record.id, request.crossing(), ""}, record,
-                                                    assignment)
-                   : store_->AddView(record, assignment);
-  if (!added.ok()) return added.status();
-  const int64_t crossing_id = added->crossing_id;
-  if (new_crossing) {
-    db.AddCrossingRecord({crossing_id, db.record.id, request.crossing(), ""});
-    if (crossing_created != nullptr) *crossing_created = true;
-  }
-
-  const uint32_t slot = db.views->AddView(added->view_id, crossing_id, request.heading_deg(),
-                                          features->descriptors, crossing::KeypointPositions(*features),
-                                          features->hue_hist);
-  if (proposal.cluster >= 0) {
-    db.views->AddToCluster(proposal.cluster, slot);
-  } else {
-    db.views->NewCluster(added->cluster_id, slot);
-  }
-  db.views_per_crossing[crossing_id]++;
-  db.keypoints += features->descriptors.rows;
-
-  v1::EnrollViewResponse response;
-  response.set_view_id(added->view_id);
-  response.set_crossing_id(crossing_id);
-  response.set_keypoints(features->descriptors.rows);
-  response.set_cluster_id(added->cluster_id);
-  response.set_new_cluster(proposal.cluster < 0);
-  v1::StageTimings* t = response.mutable_timings();
-  t->set_decode_ms(timings.decode_ms);
-  t->set_extraction_ms(timings.extraction_ms);
-  t->set_histogram_ms(timings.histogram_ms);
-  t->set_matching_ms(matching_ms);
-  t->set_total_ms(MsSince(start));
   return response;
 }
 
@@ -534,15 +347,11 @@ absl::StatusOr<v1::RecognizeResponse> CrossingRegistry::Recognize(
 
   v1::RecognizeResponse response;
   const auto& views = db.views->views();
-  auto crossing_name = [&](int64_t id) {
-    auto it = db.crossings.find(id);
-    return it == db.crossings.end() ? std::string() : it->second.name;
-  };
   response.set_recognized(result->recognized);
   if (result->recognized) {
     const crossing::ViewEntry& best = views[result->best_slot];
     response.set_crossing_id(best.crossing_id);
-    response.set_crossing(crossing_name(best.crossing_id));
+    response.set_crossing(db.CrossingName(best.crossing_id));
     response.set_view_id(best.view_id);
     response.set_heading_deg(best.heading_deg);
   }
@@ -552,7 +361,7 @@ absl::StatusOr<v1::RecognizeResponse> CrossingRegistry::Recognize(
     v1::Candidate* out = response.add_candidates();
     out->set_view_id(v.view_id);
     out->set_crossing_id(v.crossing_id);
-    out->set_crossing(crossing_name(v.crossing_id));
+    out->set_crossing(db.CrossingName(v.crossing_id));
     out->set_heading_deg(v.heading_deg);
     if (v.cluster >= 0) out->set_cluster_id(db.views->clusters()[v.cluster].cluster_id);
     out->set_is_center(c.is_center);

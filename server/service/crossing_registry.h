@@ -29,6 +29,7 @@
 // enrollments it reproduces the incremental clusters exactly (the integration test checks this);
 // it is needed only after a threshold change, and DeleteCrossing re-clusters the remaining views.
 
+#include <functional>
 #include <map>
 #include <memory>
 #include <string>
@@ -38,6 +39,7 @@
 #include "absl/synchronization/mutex.h"
 #include "server/crossing/features.h"
 #include "server/crossing/view_database.h"
+#include "server/service/crossing_database.h"
 #include "server/service/params.h"
 #include "server/service/work_gate.h"
 #include "storage/crossing_store.h"
@@ -68,6 +70,11 @@ class CrossingRegistry {
   absl::StatusOr<v1::ListCrossingsResponse> ListCrossings(const std::string& database);
   absl::StatusOr<v1::DeleteCrossingResponse> DeleteCrossing(const v1::DeleteCrossingRequest& r);
 
+  // Stores a view (outcome STORED), or answers DUPLICATE naming the view that already holds the
+  // same image (SHA-256 of the encoded bytes). The check is made before extraction (a re-run over
+  // a folder already enrolled costs a hash per view) and again under the exclusive lock, in the
+  // same critical section as the commit, so concurrent enrollments of one image store it once.
+  // With request.replace(), see crossing.proto. Implemented in crossing_enrollment.cc.
   // `crossing_created`, if given, is set when the request created its crossing.
   absl::StatusOr<v1::EnrollViewResponse> EnrollView(const v1::EnrollViewRequest& request,
                                                     bool* crossing_created = nullptr);
@@ -77,7 +84,9 @@ class CrossingRegistry {
   absl::StatusOr<v1::RecognizeResponse> Recognize(const v1::RecognizeRequest& request);
 
  private:
-  struct Database;
+  using Database = ResidentDatabase;
+  // What a commit of a new view did, for the answer (crossing_enrollment.cc).
+  struct CommittedView;
 
   CrossingRegistry(std::unique_ptr<storage::CrossingStore> store,
                    const crossing::IndexOptions& index, const ExtractionLimits& limits);
@@ -86,6 +95,17 @@ class CrossingRegistry {
   absl::StatusOr<crossing::ImageFeatures> Extract(const std::string& encoded,
                                                   const crossing::FeatureOptions& options,
                                                   crossing::ExtractionTimings* timings);
+
+  // The two ways an enrollment commits, both with db.mutex held exclusively: a plain insert, and
+  // one that replaces the views for which `replaced` is true (re-clustering the rest).
+  absl::StatusOr<CommittedView> CommitView(Database& db, const v1::EnrollViewRequest& request,
+                                           const storage::ViewRecord& record,
+                                           const crossing::ImageFeatures& features,
+                                           bool new_crossing);
+  absl::StatusOr<CommittedView> CommitReplacingViews(
+      Database& db, const v1::EnrollViewRequest& request, const storage::ViewRecord& record,
+      const crossing::ImageFeatures& features, bool new_crossing,
+      const std::function<bool(const crossing::ViewEntry&)>& replaced);
 
   absl::StatusOr<std::shared_ptr<Database>> Find(const std::string& name);
   absl::StatusOr<std::shared_ptr<Database>> LoadDatabase(const storage::DatabaseRecord& record);

@@ -84,31 +84,79 @@ grpc::Status CrossingServiceImpl::BulkEnroll(grpc::ServerContext* context,
     watch->Touch();
     if (context->IsCancelled()) return grpc::Status(grpc::StatusCode::CANCELLED, "cancelled");
     bool created = false;
-    absl::StatusOr<v1::EnrollViewResponse> enrolled = registry_->EnrollView(request, &created);
+    absl::StatusOr<v1::EnrollViewResponse> answer = EnrollStreamedView(request, &created);
     response->set_crossings_created(response->crossings_created() + (created ? 1 : 0));
-    if (!enrolled.ok() && request.skip_invalid() &&
-        enrolled.status().code() == absl::StatusCode::kInvalidArgument) {
-      v1::SkippedView* skipped = response->add_skipped();
-      skipped->set_crossing(request.crossing());
-      skipped->set_heading_deg(request.heading_deg());
-      skipped->set_index(index);
-      skipped->set_reason(std::string(enrolled.status().message()));
-      continue;
+    if (!answer.ok()) return EndEnrollStream(answer.status(), request, index, response->views());
+    switch (answer->outcome()) {
+      case v1::ENROLL_OUTCOME_INVALID: {
+        v1::SkippedView* skipped = response->add_skipped();
+        skipped->set_crossing(request.crossing());
+        skipped->set_heading_deg(request.heading_deg());
+        skipped->set_index(index);
+        skipped->set_reason(answer->error_message());
+        break;
+      }
+      case v1::ENROLL_OUTCOME_DUPLICATE:
+        response->set_duplicates(response->duplicates() + 1);
+        break;
+      default:
+        response->set_views(response->views() + 1);
+        response->set_clusters_created(response->clusters_created() +
+                                       (answer->new_cluster() ? 1 : 0));
+        response->set_keypoints(response->keypoints() + answer->keypoints());
+        response->set_views_replaced(response->views_replaced() +
+                                     answer->replaced_view_ids_size());
+        break;
     }
-    if (!enrolled.ok()) {
-      // Views before this one are committed; say which one failed and how many made it.
-      return grpc::Status(
-          static_cast<grpc::StatusCode>(enrolled.status().code()),
-          absl::StrCat("view ", index + 1, " (crossing \"", request.crossing(), "\", heading ",
-                       request.heading_deg(), "): ", enrolled.status().message(), " [",
-                       response->views(), " views before it were enrolled]"));
-    }
-    response->set_views(response->views() + 1);
-    response->set_clusters_created(response->clusters_created() +
-                                   (enrolled->new_cluster() ? 1 : 0));
-    response->set_keypoints(response->keypoints() + enrolled->keypoints());
   }
   return grpc::Status::OK;
+}
+
+grpc::Status CrossingServiceImpl::StreamEnroll(
+    grpc::ServerContext* context,
+    grpc::ServerReaderWriter<v1::EnrollViewResponse, v1::EnrollViewRequest>* stream) {
+  absl::StatusOr<std::unique_ptr<StreamLimiter::Lease>> lease =
+      AuthorizeStream(*context, Action::kEditCrossings);
+  if (!lease.ok()) return ToGrpcStatus(lease.status());
+  const auto watch = idle_->WatchStream(context);
+  v1::EnrollViewRequest request;
+  int stored = 0;
+  for (int index = 0; stream->Read(&request); ++index) {
+    watch->Touch();
+    if (context->IsCancelled()) return grpc::Status(grpc::StatusCode::CANCELLED, "cancelled");
+    absl::StatusOr<v1::EnrollViewResponse> answer = EnrollStreamedView(request, nullptr);
+    if (!answer.ok()) return EndEnrollStream(answer.status(), request, index, stored);
+    if (answer->outcome() == v1::ENROLL_OUTCOME_STORED) ++stored;
+    answer->set_index(index);
+    if (!stream->Write(*answer)) break;  // the client went away; its views so far are stored
+  }
+  return grpc::Status::OK;
+}
+
+absl::StatusOr<v1::EnrollViewResponse> CrossingServiceImpl::EnrollStreamedView(
+    const v1::EnrollViewRequest& request, bool* crossing_created) {
+  absl::StatusOr<v1::EnrollViewResponse> enrolled = registry_->EnrollView(request, crossing_created);
+  if (enrolled.ok() || !request.skip_invalid() ||
+      enrolled.status().code() != absl::StatusCode::kInvalidArgument) {
+    return enrolled;
+  }
+  v1::EnrollViewResponse invalid;
+  invalid.set_outcome(v1::ENROLL_OUTCOME_INVALID);
+  invalid.set_crossing(request.crossing());
+  invalid.set_heading_deg(request.heading_deg());
+  invalid.set_error_code(static_cast<int32_t>(enrolled.status().code()));
+  invalid.set_error_message(std::string(enrolled.status().message()));
+  return invalid;
+}
+
+grpc::Status CrossingServiceImpl::EndEnrollStream(const absl::Status& error,
+                                                  const v1::EnrollViewRequest& request, int index,
+                                                  int stored) {
+  // Views before this one are committed; say which one failed and how many made it.
+  return grpc::Status(static_cast<grpc::StatusCode>(error.code()),
+                      absl::StrCat("view ", index + 1, " (crossing \"", request.crossing(),
+                                   "\", heading ", request.heading_deg(), "): ", error.message(),
+                                   " [", stored, " views before it were stored]"));
 }
 
 grpc::Status CrossingServiceImpl::RebuildClusters(grpc::ServerContext* context,

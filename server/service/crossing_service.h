@@ -41,6 +41,9 @@ class CrossingServiceImpl final : public v1::CrossingService::Service {
                           v1::EnrollViewResponse* response) override;
   grpc::Status BulkEnroll(grpc::ServerContext*, grpc::ServerReader<v1::EnrollViewRequest>* reader,
                           v1::BulkEnrollResponse* response) override;
+  grpc::Status StreamEnroll(
+      grpc::ServerContext* context,
+      grpc::ServerReaderWriter<v1::EnrollViewResponse, v1::EnrollViewRequest>* stream) override;
   grpc::Status RebuildClusters(grpc::ServerContext*, const v1::RebuildClustersRequest* request,
                                v1::RebuildClustersResponse* response) override;
   grpc::Status RecognizeCrossing(grpc::ServerContext*, const v1::RecognizeRequest* request,
@@ -54,6 +57,13 @@ class CrossingServiceImpl final : public v1::CrossingService::Service {
   // auth is off).
   absl::StatusOr<std::unique_ptr<StreamLimiter::Lease>> AuthorizeStream(
       const grpc::ServerContext& context, Action action);
+  // One view of a BulkEnroll or StreamEnroll stream: the registry's answer, or an INVALID answer
+  // for a view rejected as INVALID_ARGUMENT when the request sets skip_invalid. Other errors end
+  // the stream (EndEnrollStream says which view and how many were stored before it).
+  absl::StatusOr<v1::EnrollViewResponse> EnrollStreamedView(const v1::EnrollViewRequest& request,
+                                                            bool* crossing_created);
+  static grpc::Status EndEnrollStream(const absl::Status& error,
+                                      const v1::EnrollViewRequest& request, int index, int stored);
 
   CrossingRegistry* registry_;
   Authenticator* auth_;

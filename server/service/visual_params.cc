@@ -1,7 +1,5 @@
 #include "server/service/visual_params.h"
 
-#include <openssl/evp.h>
-
 #include <algorithm>
 #include <cmath>
 #include <cstdint>
@@ -9,6 +7,7 @@
 #include <utility>
 
 #include "absl/strings/str_cat.h"
+#include "storage/sha256.h"
 
 namespace waymark::service {
 
@@ -22,20 +21,10 @@ int ClampToInt(uint64_t value) {
   return static_cast<int>(std::min<uint64_t>(value, std::numeric_limits<int>::max()));
 }
 
+// Only a summary for people: an unavailable digest is not an error.
 std::string Sha256Hex(const std::string& bytes) {
-  unsigned char digest[EVP_MAX_MD_SIZE];
-  unsigned int length = 0;
-  if (EVP_Digest(bytes.data(), bytes.size(), digest, &length, EVP_sha256(), nullptr) != 1) {
-    return "";  // only a summary for people: an unavailable digest is not an error
-  }
-  static const char kHex[] = "0123456789abcdef";
-  std::string hex;
-  hex.reserve(2 * length);
-  for (unsigned int i = 0; i < length; ++i) {
-    hex.push_back(kHex[digest[i] >> 4]);
-    hex.push_back(kHex[digest[i] & 15]);
-  }
-  return hex;
+  absl::StatusOr<std::string> digest = storage::Sha256(bytes);
+  return digest.ok() ? storage::HexString(*digest) : "";
 }
 
 absl::Status CheckCamera(const v1::CameraIntrinsics& camera) {

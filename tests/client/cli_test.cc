@@ -5,6 +5,9 @@
 #include <gmock/gmock.h>
 #include <gtest/gtest.h>
 
+#include <algorithm>
+#include <atomic>
+#include <csignal>
 #include <fstream>
 #include <nlohmann/json.hpp>
 
@@ -155,7 +158,7 @@ TEST_F(CliTest, EnrollHumanOutputAndErrors) {
   ASSERT_EQ(Run({"db", "create", "campus"}).code, 0);
   CliResult r = Run({"enroll", "campus", (dir.path() / "views").string()});
   ASSERT_EQ(r.code, 0) << r.err;
-  EXPECT_THAT(r.out, HasSubstr("enrolled 4 views of 2 crossings into campus"));
+  EXPECT_THAT(r.out, HasSubstr("4 views of 2 crossings into campus: 4 stored, 0 skipped"));
   EXPECT_EQ(r.err, "");  // no progress bar when stderr is not a terminal
 
   CliResult missing_db = Run({"enroll", "nowhere", (dir.path() / "views").string()});
@@ -166,6 +169,148 @@ TEST_F(CliTest, EnrollHumanOutputAndErrors) {
   CliResult bad_name = Run({"enroll", "campus", (dir.path() / "views").string()});
   EXPECT_NE(bad_name.code, 0);
   EXPECT_THAT(bad_name.err, HasSubstr("left.png"));
+}
+
+TEST_F(CliTest, EnrollAgainSkipsTheStoredViewsAndTheFinalLineCountsEachOutcome) {
+  ScopedTempDir dir;
+  MakeViews(dir);
+  std::ofstream(dir.Make("views/B/180.png"));  // empty: the fake's invalid view
+  ASSERT_EQ(Run({"db", "create", "campus"}).code, 0);
+  const std::string views = (dir.path() / "views").string();
+
+  CliResult first = Run({"enroll", "campus", views});
+  ASSERT_EQ(first.code, 0) << first.err;
+  EXPECT_THAT(first.out, HasSubstr("5 views of 2 crossings into campus: 4 stored, 0 skipped as "
+                                   "duplicates, 1 skipped as invalid"));
+  // The warning names the file, not only crossing and heading.
+  EXPECT_THAT(first.err, HasSubstr("skipped " + (dir.path() / "views/B/180.png").string() +
+                                   ": the image is empty"));
+
+  CliResult again = Run({"enroll", "campus", views, "--json"});
+  ASSERT_EQ(again.code, 0) << again.err;
+  const nlohmann::json json = again.Json();
+  EXPECT_EQ(json["views"], 0);
+  EXPECT_EQ(json["duplicates"], 4);
+  EXPECT_EQ(json["invalid"], 1);
+  EXPECT_EQ(json["views_sent"], 5);
+  EXPECT_EQ(json["complete"], true);
+  EXPECT_EQ(server_.service().views("campus").size(), 4u);
+  EXPECT_THAT(Run({"enroll", "campus", views}).out,
+              HasSubstr("0 stored, 4 skipped as duplicates, 1 skipped as invalid"));
+}
+
+TEST_F(CliTest, EnrollReplaceStoresAChangedImageAndFlagsOneFiledTwice) {
+  ScopedTempDir dir;
+  MakeViews(dir);
+  ASSERT_EQ(Run({"db", "create", "campus"}).code, 0);
+  const std::string views = (dir.path() / "views").string();
+  ASSERT_EQ(Run({"enroll", "campus", views}).code, 0);
+
+  Copy(dir, "views/B/090.png", "views/C/045.png");  // the same image filed twice
+  CliResult plain = Run({"enroll", "campus", views});
+  ASSERT_EQ(plain.code, 0) << plain.err;
+  EXPECT_THAT(plain.out, HasSubstr("0 stored, 5 skipped as duplicates"));
+  EXPECT_THAT(plain.err, HasSubstr("skipped " + (dir.path() / "views/C/045.png").string() +
+                                   ": the same image is already stored as view"));
+  EXPECT_THAT(plain.err, HasSubstr("(B/90); use --replace"));
+
+  WriteImage(dir.path() / "views/A/000.png", 40, 30, cv::Scalar(7, 7, 7));  // re-shot
+  CliResult replace = Run({"enroll", "campus", views, "--replace"});
+  ASSERT_EQ(replace.code, 0) << replace.err;
+  EXPECT_THAT(replace.out, HasSubstr("2 stored (replacing 2 older views), 3 skipped"));
+  std::vector<std::string> places;
+  for (const auto& view : server_.service().views("campus")) {
+    places.push_back(view.crossing + "/" + std::to_string(static_cast<int>(view.heading_deg)));
+  }
+  std::sort(places.begin(), places.end());
+  EXPECT_EQ(places, (std::vector<std::string>{"A/0", "A/90", "B/0", "C/45"}));
+}
+
+TEST_F(CliTest, EnrollInterruptedByCtrlCSaysWhatWasStoredAndExitsNonZero) {
+  ScopedTempDir dir;
+  // More views than the client keeps in flight, so that some are never sent.
+  constexpr int kViews = 12;
+  for (int k = 0; k < kViews; ++k) {
+    WriteImage(dir.Make("views/A/" + std::to_string(100 + 10 * k) + ".png"), 40, 30,
+               cv::Scalar(20 * k, 0, 0));
+  }
+  ASSERT_EQ(Run({"db", "create", "campus"}).code, 0);
+  std::atomic<bool> raised{false};
+  // SIGINT while the server works on the second view, as a person pressing Ctrl-C.
+  server_.service().set_on_enroll([&](int index) {
+    if (index == 1 && !raised.exchange(true)) std::raise(SIGINT);
+  });
+  CliResult r = Run({"enroll", "campus", (dir.path() / "views").string(), "--json"});
+  server_.service().set_on_enroll(nullptr);
+  EXPECT_EQ(r.code, 130) << r.err;
+  EXPECT_THAT(r.err, HasSubstr("interrupted after"));
+  EXPECT_THAT(r.err, HasSubstr("running the same command again enrolls the rest"));
+  const nlohmann::json json = r.Json();
+  EXPECT_EQ(json["complete"], false);
+  const int stored = json["views"];
+  EXPECT_EQ(stored + json["duplicates"].get<int>() + json["invalid"].get<int>() +
+                json["remaining"].get<int>(),
+            kViews);
+  EXPECT_GE(stored, 2);  // the view in the server's hands when the signal came is finished
+  EXPECT_GT(json["remaining"].get<int>(), 0);
+  EXPECT_EQ(static_cast<int>(server_.service().views("campus").size()), stored);
+}
+
+TEST_F(CliTest, EnrollErrorSaysWhatWasDoneAndExitsNonZero) {
+  ScopedTempDir dir;
+  MakeViews(dir);
+  std::ofstream(dir.Make("views/A/045.png"));  // empty, second in order
+  ASSERT_EQ(Run({"db", "create", "campus"}).code, 0);
+  CliResult r = Run({"enroll", "campus", (dir.path() / "views").string(), "--strict"});
+  EXPECT_EQ(r.code, 1);
+  EXPECT_THAT(r.err, HasSubstr("INVALID_ARGUMENT"));
+  EXPECT_THAT(r.err, HasSubstr("stopped after 1 of 5 views: 1 stored, 0 skipped as duplicates, "
+                               "0 skipped as invalid, 4 not enrolled"));
+  EXPECT_EQ(server_.service().views("campus").size(), 1u);
+}
+
+TEST_F(CliTest, EnrollRefusesABadLayoutBeforeSendingAnything) {
+  ScopedTempDir dir;
+  WriteImage(dir.Make("views/a/b/000.png"), 40, 30, cv::Scalar(1, 2, 3));
+  ASSERT_EQ(Run({"db", "create", "campus"}).code, 0);
+  CliResult r = Run({"enroll", "campus", (dir.path() / "views").string()});
+  EXPECT_NE(r.code, 0);
+  EXPECT_THAT(r.err, HasSubstr("one level too deep?"));
+  EXPECT_EQ(server_.service().calls("StreamEnroll"), 0);
+}
+
+TEST_F(CliTest, HelpListsTheNewFlags) {
+  EXPECT_THAT(Run({"enroll", "--help"}).out, HasSubstr("--replace"));
+  EXPECT_THAT(Run({"recognize", "--help"}).out, HasSubstr("folders"));
+}
+
+TEST_F(CliTest, RecognizeAFolderRecognizesEachImageInItByName) {
+  ScopedTempDir dir;
+  MakeViews(dir);
+  ASSERT_EQ(Run({"db", "create", "campus"}).code, 0);
+  ASSERT_EQ(Run({"enroll", "campus", (dir.path() / "views").string()}).code, 0);
+  const std::string folder = (dir.path() / "views/B").string();
+
+  CliResult r = Run({"recognize", "campus", folder, "--json"});
+  ASSERT_EQ(r.code, 0) << r.err;
+  const nlohmann::json results = r.Json()["results"];
+  ASSERT_EQ(results.size(), 2u);
+  EXPECT_EQ(results[0]["image"], (dir.path() / "views/B/000.png").string());
+  EXPECT_EQ(results[1]["image"], (dir.path() / "views/B/090.png").string());
+  EXPECT_EQ(results[1]["crossing"], "B");
+  EXPECT_DOUBLE_EQ(results[1]["heading_deg"].get<double>(), 90);
+
+  CliResult human = Run({"recognize", "campus", folder});
+  ASSERT_EQ(human.code, 0) << human.err;
+  EXPECT_THAT(human.out, HasSubstr((dir.path() / "views/B/000.png").string() + ": recognized B"));
+  EXPECT_THAT(human.out, HasSubstr((dir.path() / "views/B/090.png").string() + ": recognized B"));
+
+  // A folder of crossing folders has no images of its own: say where they are.
+  CliResult nested = Run({"recognize", "campus", (dir.path() / "views").string()});
+  EXPECT_NE(nested.code, 0);
+  EXPECT_THAT(nested.err, HasSubstr((dir.path() / "views/A").string() + "/"));
+  EXPECT_THAT(nested.err, HasSubstr("waymark eval"));
+  EXPECT_THAT(nested.err, Not(HasSubstr("no file")));
 }
 
 TEST_F(CliTest, RecognizeImagesWithOverrides) {

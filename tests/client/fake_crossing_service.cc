@@ -3,6 +3,7 @@
 #include <grpcpp/security/server_credentials.h>
 #include <grpcpp/server_builder.h>
 
+#include <algorithm>
 #include <opencv2/imgcodecs.hpp>
 #include <thread>
 
@@ -24,6 +25,11 @@ int FakeCrossingService::calls(const std::string& method) const {
   std::lock_guard<std::mutex> lock(mutex_);
   auto it = calls_.find(method);
   return it == calls_.end() ? 0 : it->second;
+}
+
+void FakeCrossingService::set_on_enroll(std::function<void(int index)> hook) {
+  std::lock_guard<std::mutex> lock(mutex_);
+  on_enroll_ = std::move(hook);
 }
 
 std::vector<FakeCrossingService::View> FakeCrossingService::views(
@@ -189,31 +195,109 @@ grpc::Status FakeCrossingService::DeleteCrossing(grpc::ServerContext*,
   return grpc::Status::OK;
 }
 
+grpc::Status FakeCrossingService::EnrollOne(const v1::EnrollViewRequest& request,
+                                            v1::EnrollViewResponse* answer) {
+  std::lock_guard<std::mutex> lock(mutex_);
+  Database* db = Find(request.database());
+  if (db == nullptr) return NoDatabase(request.database());
+  const std::string& bytes = request.image().data();
+  auto same_place = [&](const View& v) {
+    return v.crossing == request.crossing() && v.heading_deg == request.heading_deg();
+  };
+  for (const View& view : db->views) {
+    if (view.bytes != bytes || (request.replace() && !same_place(view))) continue;
+    answer->set_outcome(v1::ENROLL_OUTCOME_DUPLICATE);
+    answer->set_view_id(view.id);
+    answer->set_crossing(view.crossing);
+    answer->set_heading_deg(view.heading_deg);
+    return grpc::Status::OK;
+  }
+  if (bytes.empty()) {
+    if (!request.skip_invalid()) {
+      return grpc::Status(grpc::StatusCode::INVALID_ARGUMENT, "the image is empty");
+    }
+    answer->set_outcome(v1::ENROLL_OUTCOME_INVALID);
+    answer->set_error_code(grpc::StatusCode::INVALID_ARGUMENT);
+    answer->set_error_message("the image is empty");
+    return grpc::Status::OK;
+  }
+  auto crossing = db->crossings.find(request.crossing());
+  if (crossing == db->crossings.end()) {
+    if (!request.create_crossing()) {
+      return grpc::Status(grpc::StatusCode::NOT_FOUND, "no crossing " + request.crossing());
+    }
+    crossing = db->crossings.emplace(request.crossing(), v1::Crossing()).first;
+    crossing->second.set_id(next_id_++);
+    crossing->second.set_name(request.crossing());
+    answer->set_crossing_created(true);
+    answer->set_new_cluster(true);
+  }
+  if (request.replace()) {
+    auto replaced = [&](const View& v) { return same_place(v) || v.bytes == bytes; };
+    for (const View& view : db->views) {
+      if (!replaced(view)) continue;
+      answer->add_replaced_view_ids(view.id);
+      v1::Crossing& owner = db->crossings[view.crossing];
+      owner.set_views(owner.views() - 1);
+    }
+    db->views.erase(std::remove_if(db->views.begin(), db->views.end(), replaced),
+                    db->views.end());
+  }
+  crossing->second.set_views(crossing->second.views() + 1);
+  const int64_t id = next_id_++;
+  db->views.push_back({request.crossing(), request.heading_deg(), bytes, request.store_image(), id});
+  answer->set_outcome(v1::ENROLL_OUTCOME_STORED);
+  answer->set_view_id(id);
+  answer->set_crossing_id(crossing->second.id());
+  answer->set_crossing(request.crossing());
+  answer->set_heading_deg(request.heading_deg());
+  answer->set_keypoints(kKeypointsPerView);
+  return grpc::Status::OK;
+}
+
 grpc::Status FakeCrossingService::BulkEnroll(grpc::ServerContext*,
                                              grpc::ServerReader<v1::EnrollViewRequest>* reader,
                                              v1::BulkEnrollResponse* response) {
   if (auto s = Enter("BulkEnroll"); !s.ok()) return s;
   v1::EnrollViewRequest request;
   while (reader->Read(&request)) {
-    std::lock_guard<std::mutex> lock(mutex_);
-    Database* db = Find(request.database());
-    if (db == nullptr) return NoDatabase(request.database());
-    auto crossing = db->crossings.find(request.crossing());
-    if (crossing == db->crossings.end()) {
-      if (!request.create_crossing()) {
-        return grpc::Status(grpc::StatusCode::NOT_FOUND, "no crossing " + request.crossing());
-      }
-      crossing = db->crossings.emplace(request.crossing(), v1::Crossing()).first;
-      crossing->second.set_id(next_id_++);
-      crossing->second.set_name(request.crossing());
-      response->set_crossings_created(response->crossings_created() + 1);
-      response->set_clusters_created(response->clusters_created() + 1);
+    v1::EnrollViewResponse answer;
+    if (grpc::Status s = EnrollOne(request, &answer); !s.ok()) return s;
+    response->set_crossings_created(response->crossings_created() +
+                                    (answer.crossing_created() ? 1 : 0));
+    response->set_clusters_created(response->clusters_created() + (answer.new_cluster() ? 1 : 0));
+    switch (answer.outcome()) {
+      case v1::ENROLL_OUTCOME_DUPLICATE:
+        response->set_duplicates(response->duplicates() + 1);
+        break;
+      case v1::ENROLL_OUTCOME_INVALID:
+        response->add_skipped()->set_reason(answer.error_message());
+        break;
+      default:
+        response->set_views(response->views() + 1);
+        response->set_keypoints(response->keypoints() + answer.keypoints());
+        break;
     }
-    crossing->second.set_views(crossing->second.views() + 1);
-    db->views.push_back(
-        {request.crossing(), request.heading_deg(), request.image().data(), request.store_image()});
-    response->set_views(response->views() + 1);
-    response->set_keypoints(response->keypoints() + kKeypointsPerView);
+  }
+  return grpc::Status::OK;
+}
+
+grpc::Status FakeCrossingService::StreamEnroll(
+    grpc::ServerContext*,
+    grpc::ServerReaderWriter<v1::EnrollViewResponse, v1::EnrollViewRequest>* stream) {
+  if (auto s = Enter("StreamEnroll"); !s.ok()) return s;
+  std::function<void(int)> hook;
+  {
+    std::lock_guard<std::mutex> lock(mutex_);
+    hook = on_enroll_;
+  }
+  v1::EnrollViewRequest request;
+  for (int index = 0; stream->Read(&request); ++index) {
+    if (hook) hook(index);
+    v1::EnrollViewResponse answer;
+    if (grpc::Status s = EnrollOne(request, &answer); !s.ok()) return s;
+    answer.set_index(index);
+    if (!stream->Write(answer)) break;
   }
   return grpc::Status::OK;
 }
@@ -234,7 +318,7 @@ grpc::Status FakeCrossingService::RecognizeCrossing(grpc::ServerContext*,
     if (view.bytes != request->image().data()) continue;
     response->set_recognized(true);
     response->set_crossing(view.crossing);
-    response->set_view_id(static_cast<int64_t>(i) + 1);
+    response->set_view_id(view.id);
     response->set_heading_deg(view.heading_deg);
     response->set_decision(0.9);
     v1::Candidate* candidate = response->add_candidates();

@@ -3,6 +3,7 @@
 
 #include <grpcpp/server.h>
 
+#include <functional>
 #include <map>
 #include <memory>
 #include <mutex>
@@ -16,7 +17,9 @@ namespace waymark::testing {
 
 // An in-memory stand-in for CrossingService, so the client and the CLI can be tested without the
 // real server. Recognition is by identity: a query whose bytes equal an enrolled view's bytes is
-// recognized as that view; anything else is not. Streamed frames (re-encoded by the camera, so
+// recognized as that view; anything else is not. Enrollment compares bytes as the server compares
+// hashes (the same bytes again are a DUPLICATE, `replace` as in crossing.proto), and an empty image
+// is the one invalid view. Streamed frames (re-encoded by the camera, so
 // never identical) must decode as images and are recognized from frame `stream_recognize_from`.
 class FakeCrossingService final : public v1::CrossingService::Service {
  public:
@@ -25,12 +28,15 @@ class FakeCrossingService final : public v1::CrossingService::Service {
     double heading_deg = 0;
     std::string bytes;
     bool store_image = false;
+    int64_t id = 0;
   };
 
   // Test hooks; set before calls, read after.
   void FailNextWithUnavailable(const std::string& method, int times);
   void set_delay(absl::Duration delay) { delay_ = delay; }
   void set_stream_recognize_from(int frame) { stream_recognize_from_ = frame; }
+  // Called by StreamEnroll before it enrolls the view at `index` (on the server's thread).
+  void set_on_enroll(std::function<void(int index)> hook);
   int calls(const std::string& method) const;
   std::vector<View> views(const std::string& database) const;
   v1::CreateDatabaseRequest last_create() const;
@@ -53,6 +59,9 @@ class FakeCrossingService final : public v1::CrossingService::Service {
                               v1::DeleteCrossingResponse* response) override;
   grpc::Status BulkEnroll(grpc::ServerContext*, grpc::ServerReader<v1::EnrollViewRequest>* reader,
                           v1::BulkEnrollResponse* response) override;
+  grpc::Status StreamEnroll(
+      grpc::ServerContext*,
+      grpc::ServerReaderWriter<v1::EnrollViewResponse, v1::EnrollViewRequest>* stream) override;
   grpc::Status RecognizeCrossing(grpc::ServerContext*, const v1::RecognizeRequest* request,
                                  v1::RecognizeResponse* response) override;
   grpc::Status StreamRecognize(
@@ -68,6 +77,8 @@ class FakeCrossingService final : public v1::CrossingService::Service {
     std::vector<View> views;
   };
 
+  // Enrolls one view of BulkEnroll or StreamEnroll; an error ends the stream.
+  grpc::Status EnrollOne(const v1::EnrollViewRequest& request, v1::EnrollViewResponse* answer);
   // Counts the call, sleeps the configured delay and consumes an injected failure.
   grpc::Status Enter(const std::string& method);
   // Requires mutex_.
@@ -80,6 +91,7 @@ class FakeCrossingService final : public v1::CrossingService::Service {
   std::map<std::string, int> failures_;
   absl::Duration delay_ = absl::ZeroDuration();
   int stream_recognize_from_ = 0;
+  std::function<void(int)> on_enroll_;
   int64_t next_id_ = 1;
   v1::CreateDatabaseRequest last_create_;
   v1::RecognitionParams last_params_;

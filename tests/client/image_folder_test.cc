@@ -11,6 +11,7 @@ namespace waymark::cli {
 namespace {
 
 using ::testing::HasSubstr;
+using ::testing::Not;
 using waymark::testing::ScopedTempDir;
 using waymark::testing::WriteImage;
 
@@ -23,17 +24,31 @@ TEST(ParseHeadingTest, ReadsDecimalStems) {
   EXPECT_DOUBLE_EQ(*ParseHeading("359.9.jpg"), 359.9);
 }
 
-TEST(ParseHeadingTest, NormalisesIntoOneTurn) {
-  EXPECT_DOUBLE_EQ(*ParseHeading("360.jpg"), 0.0);
-  EXPECT_DOUBLE_EQ(*ParseHeading("390.jpg"), 30.0);
-  EXPECT_DOUBLE_EQ(*ParseHeading("-30.jpg"), 330.0);
+TEST(ParseHeadingTest, RefusesHeadingsOutsideOneTurnInsteadOfWrappingThem) {
+  for (const char* name : {"360.jpg", "400.jpg", "999.9.png"}) {
+    auto heading = ParseHeading(std::string("dir/A/") + name);
+    ASSERT_FALSE(heading.ok()) << name << " read as " << *heading;
+    EXPECT_EQ(heading.status().code(), absl::StatusCode::kInvalidArgument);
+    EXPECT_THAT(heading.status().message(), HasSubstr(name));
+    EXPECT_THAT(heading.status().message(), HasSubstr("outside [0, 360)"));
+  }
 }
 
-TEST(ParseHeadingTest, RejectsNonNumericStemsNamingTheFile) {
-  for (const char* name :
-       {"north.jpg", "30deg.jpg", " 30.jpg", "nan.jpg", "inf.png", ".jpg", "0x1e.png", "+30.jpg"}) {
+TEST(ParseHeadingTest, RefusesFrameNumbersWithMoreThanThreeDigits) {
+  for (const char* name : {"0000110.jpg", "0030.jpg", "1234.5.png"}) {
     auto heading = ParseHeading(std::string("dir/A/") + name);
-    ASSERT_FALSE(heading.ok()) << name;
+    ASSERT_FALSE(heading.ok()) << name << " read as " << *heading;
+    EXPECT_THAT(heading.status().message(), HasSubstr(name));
+    EXPECT_THAT(heading.status().message(), HasSubstr("a heading at most 3"));
+  }
+}
+
+TEST(ParseHeadingTest, RejectsStemsThatAreNotHeadingsNamingTheFile) {
+  for (const char* name : {"north.jpg", "30deg.jpg", " 30.jpg", "nan.jpg", "inf.png", ".jpg",
+                           "0x1e.png", "+30.jpg", "-30.jpg", "1e2.jpg", "30..jpg", ".5.jpg",
+                           "30.5.5.png"}) {
+    auto heading = ParseHeading(std::string("dir/A/") + name);
+    ASSERT_FALSE(heading.ok()) << name << " read as " << *heading;
     EXPECT_EQ(heading.status().code(), absl::StatusCode::kInvalidArgument);
     EXPECT_THAT(heading.status().message(), HasSubstr(name));
   }
@@ -73,14 +88,73 @@ TEST(ScanEnrollFolderTest, SortsByCrossingThenHeadingAndSkipsOtherFiles) {
   EXPECT_EQ((*images)[0].path, dir.path() / "A/30.5.png");
 }
 
-TEST(ScanEnrollFolderTest, NonNumericStemIsAnErrorNamingTheFile) {
+TEST(ScanEnrollFolderTest, EveryBadFileNameIsReportedAtOnceWithTheExpectedLayout) {
   ScopedTempDir dir;
   WriteImage(dir.Make("A/000.png"), 8, 6, kGrey);
   WriteImage(dir.Make("A/front.png"), 8, 6, kGrey);
+  WriteImage(dir.Make("B/400.jpg"), 8, 6, kGrey);
+  WriteImage(dir.Make("C/0000110.jpg"), 8, 6, kGrey);
   auto images = ScanEnrollFolder(dir.path());
   ASSERT_FALSE(images.ok());
   EXPECT_EQ(images.status().code(), absl::StatusCode::kInvalidArgument);
-  EXPECT_THAT(images.status().message(), HasSubstr("front.png"));
+  const std::string message(images.status().message());
+  EXPECT_THAT(message, HasSubstr((dir.path() / "A/front.png").string()));
+  EXPECT_THAT(message, HasSubstr((dir.path() / "B/400.jpg").string()));
+  EXPECT_THAT(message, HasSubstr((dir.path() / "C/0000110.jpg").string()));
+  EXPECT_THAT(message, HasSubstr("DIR/<crossing>/<heading_deg>.jpg"));
+  // In path order, whatever order the file system lists them in.
+  EXPECT_LT(message.find("front.png"), message.find("400.jpg"));
+  EXPECT_LT(message.find("400.jpg"), message.find("0000110.jpg"));
+}
+
+TEST(ScanEnrollFolderTest, ANumberedFrameFolderIsNotTakenForHeadings) {
+  ScopedTempDir dir;
+  for (int frame = 100; frame < 112; ++frame) {
+    WriteImage(dir.Make("walk/" + std::string(7 - std::to_string(frame).size(), '0') +
+                        std::to_string(frame) + ".jpg"),
+               8, 6, kGrey);
+  }
+  auto images = ScanEnrollFolder(dir.path());
+  ASSERT_FALSE(images.ok());
+  EXPECT_THAT(images.status().message(), HasSubstr("0000100.jpg"));
+  EXPECT_THAT(images.status().message(), HasSubstr("frame number"));
+  EXPECT_THAT(images.status().message(), HasSubstr("... and 2 more"));  // 10 listed of 12
+}
+
+TEST(ScanEnrollFolderTest, ANestedLayoutSaysWhereTheImagesAreAndWhatIsExpected) {
+  ScopedTempDir dir;
+  WriteImage(dir.Make("a/b/000.jpg"), 8, 6, kGrey);
+  WriteImage(dir.Make("a/b/090.jpg"), 8, 6, kGrey);
+  WriteImage(dir.Make("a/c/d/000.jpg"), 8, 6, kGrey);
+  auto images = ScanEnrollFolder(dir.path());
+  ASSERT_FALSE(images.ok());
+  EXPECT_EQ(images.status().code(), absl::StatusCode::kInvalidArgument);
+  const std::string message(images.status().message());
+  EXPECT_THAT(message, HasSubstr("found images in " + (dir.path() / "a/b").string() +
+                                 "/: one level too deep?"));
+  EXPECT_THAT(message, HasSubstr((dir.path() / "a/c/d").string() + "/"));
+  EXPECT_THAT(message, HasSubstr("DIR/<crossing>/<heading_deg>.jpg"));
+  EXPECT_THAT(message, Not(HasSubstr("no .jpg/.jpeg/.png images found")));
+}
+
+TEST(ScanEnrollFolderTest, ImagesBesideGoodOnesButTooDeepAreStillAnError) {
+  ScopedTempDir dir;
+  WriteImage(dir.Make("A/000.png"), 8, 6, kGrey);
+  WriteImage(dir.Make("A/raw/000.png"), 8, 6, kGrey);
+  auto images = ScanEnrollFolder(dir.path());
+  ASSERT_FALSE(images.ok());
+  EXPECT_THAT(images.status().message(), HasSubstr((dir.path() / "A/raw").string()));
+}
+
+TEST(ScanEnrollFolderTest, TwoFilesWithOneHeadingAreAnError) {
+  ScopedTempDir dir;
+  WriteImage(dir.Make("A/030.jpg"), 8, 6, kGrey);
+  WriteImage(dir.Make("A/30.png"), 8, 6, kGrey);
+  WriteImage(dir.Make("B/030.jpg"), 8, 6, kGrey);  // another crossing: fine
+  auto images = ScanEnrollFolder(dir.path());
+  ASSERT_FALSE(images.ok());
+  EXPECT_THAT(images.status().message(), HasSubstr("both have heading 30"));
+  EXPECT_THAT(images.status().message(), HasSubstr("30.png"));
 }
 
 TEST(ScanEnrollFolderTest, ImageOutsideACrossingFolderIsAnError) {
@@ -91,13 +165,17 @@ TEST(ScanEnrollFolderTest, ImageOutsideACrossingFolderIsAnError) {
   ASSERT_FALSE(images.ok());
   EXPECT_EQ(images.status().code(), absl::StatusCode::kInvalidArgument);
   EXPECT_THAT(images.status().message(), HasSubstr("090.png"));
+  EXPECT_THAT(images.status().message(), HasSubstr("one level too shallow?"));
 }
 
 TEST(ScanEnrollFolderTest, MissingOrEmptyFolderIsAnError) {
   ScopedTempDir dir;
   EXPECT_EQ(ScanEnrollFolder(dir.path() / "nope").status().code(), absl::StatusCode::kNotFound);
   std::filesystem::create_directories(dir.path() / "A");
-  EXPECT_EQ(ScanEnrollFolder(dir.path()).status().code(), absl::StatusCode::kInvalidArgument);
+  auto empty = ScanEnrollFolder(dir.path());
+  EXPECT_EQ(empty.status().code(), absl::StatusCode::kInvalidArgument);
+  EXPECT_THAT(empty.status().message(), HasSubstr("no .jpg/.jpeg/.png images found"));
+  EXPECT_THAT(empty.status().message(), HasSubstr("DIR/<crossing>/<heading_deg>.jpg"));
 }
 
 TEST(ScanQueryFolderTest, KeepsAnyStemAndMarksUnknown) {
@@ -118,6 +196,42 @@ TEST(ScanQueryFolderTest, KeepsAnyStemAndMarksUnknown) {
   EXPECT_FALSE((*queries)[0].heading_deg.has_value());
   EXPECT_FALSE((*queries)[0].unknown());
   EXPECT_TRUE((*queries)[3].unknown());
+}
+
+TEST(ScanQueryFolderTest, ANestedLayoutIsAnErrorNamingTheFolder) {
+  ScopedTempDir dir;
+  WriteImage(dir.Make("A/x/q1.png"), 8, 6, kGrey);
+  auto queries = ScanQueryFolder(dir.path());
+  ASSERT_FALSE(queries.ok());
+  EXPECT_THAT(queries.status().message(), HasSubstr((dir.path() / "A/x").string() + "/"));
+  EXPECT_THAT(queries.status().message(), HasSubstr("one level too deep?"));
+}
+
+TEST(ListFolderImagesTest, ListsTheImagesDirectlyInTheFolderByName) {
+  ScopedTempDir dir;
+  WriteImage(dir.Make("b.png"), 8, 6, kGrey);
+  WriteImage(dir.Make("a.jpg"), 8, 6, kGrey);
+  WriteImage(dir.Make(".hidden.png"), 8, 6, kGrey);
+  WriteImage(dir.Make("sub/c.png"), 8, 6, kGrey);  // not this folder's
+  std::ofstream(dir.Make("notes.txt")) << "text";
+  auto images = ListFolderImages(dir.path());
+  ASSERT_TRUE(images.ok()) << images.status();
+  EXPECT_THAT(*images, ::testing::ElementsAre(dir.path() / "a.jpg", dir.path() / "b.png"));
+}
+
+TEST(ListFolderImagesTest, SaysWhereImagesAreWhenNoneAreDirectlyInTheFolder) {
+  ScopedTempDir dir;
+  WriteImage(dir.Make("A/000.png"), 8, 6, kGrey);
+  auto images = ListFolderImages(dir.path());
+  ASSERT_FALSE(images.ok());
+  EXPECT_EQ(images.status().code(), absl::StatusCode::kInvalidArgument);
+  EXPECT_THAT(images.status().message(), HasSubstr((dir.path() / "A").string() + "/"));
+  EXPECT_THAT(images.status().message(), HasSubstr("waymark eval"));
+
+  ScopedTempDir empty;
+  EXPECT_THAT(ListFolderImages(empty.path()).status().message(),
+              HasSubstr("no .jpg/.jpeg/.png images found"));
+  EXPECT_EQ(ListFolderImages(empty.path() / "nope").status().code(), absl::StatusCode::kNotFound);
 }
 
 }  // namespace

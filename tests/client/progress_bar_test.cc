@@ -35,5 +35,20 @@ TEST(ProgressBarTest, RedrawsInPlaceAndEndsTheLine) {
             "\r" + FormatProgress(1, 2, "views") + "\r" + FormatProgress(2, 2, "views") + "\n");
 }
 
+TEST(FormatProgressTest, AppendsTheDetail) {
+  EXPECT_EQ(FormatProgress(3, 4, "views", 4, "2 stored, 1 duplicate"),
+            "[### ] 3/4 views: 2 stored, 1 duplicate");
+}
+
+TEST(ProgressBarTest, PadsAShorterLineOverTheLongerOne) {
+  std::ostringstream out;
+  ProgressBar bar(out, 2, "views", /*enabled=*/true);
+  bar.Update(1, "12345");
+  bar.Update(2, "1");
+  const std::string first = FormatProgress(1, 2, "views", 30, "12345");
+  const std::string second = FormatProgress(2, 2, "views", 30, "1");
+  EXPECT_EQ(out.str(), "\r" + first + "\r" + second + std::string(first.size() - second.size(), ' '));
+}
+
 }  // namespace
 }  // namespace waymark::cli

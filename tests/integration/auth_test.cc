@@ -90,6 +90,17 @@ std::vector<RpcCase> AllRpcs() {
          writer->WritesDone();
          return writer->Finish();
        }},
+      {"StreamEnroll", TokenRole::kMapper,
+       [](const std::shared_ptr<grpc::Channel>& channel) {
+         CS stub(channel);
+         auto ctx = Ctx();
+         auto stream = stub.StreamEnroll(ctx.get());
+         stream->WritesDone();
+         v1::EnrollViewResponse response;
+         while (stream->Read(&response)) {
+         }
+         return stream->Finish();
+       }},
       {"StreamRecognize", TokenRole::kRobot,
        [](const std::shared_ptr<grpc::Channel>& channel) {
          CS stub(channel);

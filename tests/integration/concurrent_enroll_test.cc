@@ -1,5 +1,5 @@
 // Many robots on one crossing database, through the real server: some enroll new views (unary and
-// bulk) while others recognize continuously. Afterwards every enrolled view is there exactly once,
+// bulk) while others recognize continuously, or several enroll the same images at once. Afterwards every enrolled view is there exactly once,
 // no recognition saw half a view (every view it names has its crossing and its cluster), the
 // incremental clusters equal a from-scratch rebuild, and a server killed with SIGKILL comes back
 // with exactly the same database.
@@ -267,6 +267,76 @@ TEST_F(ConcurrentEnrollTest, EnrollWhileRecognizingKeepsEveryViewOnceAndAnswersC
   ASSERT_TRUE((*client_)->RecognizeCrossing(Ctx().get(), queries.back(), &response).ok());
   EXPECT_TRUE(response.recognized()) << response.reason();
   EXPECT_EQ(response.crossing(), CrossingName(kBulkCrossing));
+}
+
+// Issue 15: several clients enroll the same images at once (unary, BulkEnroll and StreamEnroll):
+// each image is stored once, every other enrollment of it is answered DUPLICATE, and the clusters
+// are what a rebuild gives.
+TEST_F(ConcurrentEnrollTest, ConcurrentEnrollmentsOfTheSameImagesStoreEachOnce) {
+  v1::CreateDatabaseRequest create;
+  create.set_name(kDatabase);
+  v1::CrossingDatabase created;
+  ASSERT_TRUE((*client_)->CreateDatabase(Ctx().get(), create, &created).ok());
+  std::vector<v1::EnrollViewRequest> views;
+  for (int k = 0; k < kViewsPerCrossing; ++k) {
+    views.push_back(EnrollRequest(kDatabase, 0, Heading(k), panoramas_[0]));
+  }
+
+  std::mutex mutex;
+  int stored = 0;
+  int duplicates = 0;
+  std::set<int64_t> stored_ids;
+  auto count = [&](const v1::EnrollViewResponse& answer) {
+    std::lock_guard<std::mutex> lock(mutex);
+    if (answer.outcome() == v1::ENROLL_OUTCOME_STORED) {
+      ++stored;
+      EXPECT_TRUE(stored_ids.insert(answer.view_id()).second);
+    } else {
+      EXPECT_EQ(answer.outcome(), v1::ENROLL_OUTCOME_DUPLICATE);
+      ++duplicates;
+    }
+  };
+  std::vector<std::thread> clients;
+  for (int streamer = 0; streamer < 2; ++streamer) {
+    clients.emplace_back([&] {
+      auto ctx = Ctx(300);
+      auto stream = (*client_)->StreamEnroll(ctx.get());
+      for (const v1::EnrollViewRequest& view : views) ASSERT_TRUE(stream->Write(view));
+      stream->WritesDone();
+      for (v1::EnrollViewResponse answer; stream->Read(&answer);) count(answer);
+      const grpc::Status status = stream->Finish();
+      ASSERT_TRUE(status.ok()) << status.error_message();
+    });
+  }
+  clients.emplace_back([&] {
+    for (const v1::EnrollViewRequest& view : views) {
+      v1::EnrollViewResponse answer;
+      const grpc::Status status = (*client_)->EnrollView(Ctx().get(), view, &answer);
+      ASSERT_TRUE(status.ok()) << status.error_message();
+      count(answer);
+    }
+  });
+  v1::BulkEnrollResponse summary;
+  clients.emplace_back([&] {
+    auto ctx = Ctx(300);
+    auto writer = (*client_)->BulkEnroll(ctx.get(), &summary);
+    for (const v1::EnrollViewRequest& view : views) ASSERT_TRUE(writer->Write(view));
+    writer->WritesDone();
+    const grpc::Status status = writer->Finish();
+    ASSERT_TRUE(status.ok()) << status.error_message();
+  });
+  for (std::thread& t : clients) t.join();
+
+  EXPECT_EQ(stored + summary.views(), kViewsPerCrossing);
+  EXPECT_EQ(duplicates + summary.duplicates(), 3 * kViewsPerCrossing);
+  const Snapshot after = Stats();
+  EXPECT_EQ(after.views, kViewsPerCrossing);
+  EXPECT_EQ(after.views_per_crossing.at(CrossingName(0)), kViewsPerCrossing);
+  v1::RebuildClustersRequest rebuild;
+  rebuild.set_database(kDatabase);
+  v1::RebuildClustersResponse rebuilt;
+  ASSERT_TRUE((*client_)->RebuildClusters(Ctx().get(), rebuild, &rebuilt).ok());
+  EXPECT_EQ(Stats().clusters, after.clusters);
 }
 
 }  // namespace

@@ -6,6 +6,8 @@
 #include <cmath>
 #include <filesystem>
 #include <limits>
+#include <map>
+#include <set>
 
 #include <grpcpp/generic/generic_stub.h>
 #include <grpcpp/grpcpp.h>
@@ -282,7 +284,9 @@ TEST_F(CrossingServerTest, BulkEnrollSkipsInvalidViewsOnlyWhenAsked) {
     v1::BulkEnrollResponse summary;
     auto writer = (*client_)->BulkEnroll(ctx.get(), &summary);
     for (int k = 0; k < 4; ++k) {
-      v1::EnrollViewRequest r = EnrollRequest("skip", skip ? 0 : 1, 30.0 * k, panoramas_[0]);
+      // Each stream its own images: the same image twice would be a duplicate, not a new view.
+      v1::EnrollViewRequest r =
+          EnrollRequest("skip", skip ? 0 : 1, 30.0 * k, panoramas_[skip ? 0 : 1]);
       if (k == 2) {
         r.mutable_image()->set_data(EncodePng(cv::Mat(240, 320, CV_8UC3, cv::Scalar(9, 9, 200))));
       }
@@ -310,6 +314,159 @@ TEST_F(CrossingServerTest, BulkEnrollSkipsInvalidViewsOnlyWhenAsked) {
   v1::DatabaseStats stats;
   ASSERT_TRUE((*client_)->GetDatabaseStats(Ctx().get(), stats_request, &stats).ok());
   EXPECT_EQ(stats.database().views(), 5);
+}
+
+// Issue 15: enrolling the same images again (a re-run of `waymark enroll`) stores nothing, over
+// every enrollment RPC, and still after a restart (the hashes are stored with the views).
+TEST_F(CrossingServerTest, TheSameImagesAgainAreDuplicatesOverEveryEnrollRpc) {
+  EnrollAll("again");
+  {
+    auto ctx = Ctx(300);
+    v1::BulkEnrollResponse summary;
+    auto writer = (*client_)->BulkEnroll(ctx.get(), &summary);
+    for (int c = 0; c < kCrossings; ++c) {
+      for (int k = 0; k < 12; ++k) {
+        ASSERT_TRUE(writer->Write(EnrollRequest("again", c, 30.0 * k, panoramas_[c])));
+      }
+    }
+    writer->WritesDone();
+    const grpc::Status status = writer->Finish();
+    ASSERT_TRUE(status.ok()) << status.error_message();
+    EXPECT_EQ(summary.views(), 0);
+    EXPECT_EQ(summary.duplicates(), 12 * kCrossings);
+    EXPECT_EQ(summary.crossings_created(), 0);
+  }
+
+  // StreamEnroll answers each view: two stored already, one new, one invalid (skipped).
+  std::vector<v1::EnrollViewRequest> requests = {
+      EnrollRequest("again", 0, 0, panoramas_[0]), EnrollRequest("again", 0, 30, panoramas_[0]),
+      EnrollRequest("again", 0, 15, panoramas_[0]),
+      EnrollRequest("again", 0, 45, panoramas_[0])};
+  requests[3].mutable_image()->set_data("not an image");
+  std::vector<v1::EnrollViewResponse> answers;
+  {
+    auto ctx = Ctx(300);
+    auto stream = (*client_)->StreamEnroll(ctx.get());
+    for (v1::EnrollViewRequest& request : requests) {
+      request.set_skip_invalid(true);
+      ASSERT_TRUE(stream->Write(request));
+    }
+    stream->WritesDone();
+    for (v1::EnrollViewResponse answer; stream->Read(&answer);) answers.push_back(answer);
+    const grpc::Status status = stream->Finish();
+    ASSERT_TRUE(status.ok()) << status.error_message();
+  }
+  ASSERT_EQ(answers.size(), 4u);
+  for (int i = 0; i < 4; ++i) EXPECT_EQ(answers[i].index(), i);
+  EXPECT_EQ(answers[0].outcome(), v1::ENROLL_OUTCOME_DUPLICATE);
+  EXPECT_EQ(answers[0].crossing(), "crossing-0");
+  EXPECT_DOUBLE_EQ(answers[0].heading_deg(), 0);
+  EXPECT_GT(answers[0].view_id(), 0);
+  EXPECT_EQ(answers[1].outcome(), v1::ENROLL_OUTCOME_DUPLICATE);
+  EXPECT_EQ(answers[2].outcome(), v1::ENROLL_OUTCOME_STORED);
+  EXPECT_FALSE(answers[2].crossing_created());
+  EXPECT_GT(answers[2].keypoints(), 100);
+  EXPECT_EQ(answers[3].outcome(), v1::ENROLL_OUTCOME_INVALID);
+  EXPECT_EQ(answers[3].error_code(), static_cast<int>(grpc::StatusCode::INVALID_ARGUMENT));
+  EXPECT_FALSE(answers[3].error_message().empty());
+
+  // The same image under another crossing name is the same image: a duplicate naming where it is.
+  v1::EnrollViewRequest elsewhere = requests[2];
+  elsewhere.set_crossing("somewhere-else");
+  v1::EnrollViewResponse answer;
+  ASSERT_TRUE((*client_)->EnrollView(Ctx().get(), elsewhere, &answer).ok());
+  EXPECT_EQ(answer.outcome(), v1::ENROLL_OUTCOME_DUPLICATE);
+  EXPECT_EQ(answer.view_id(), answers[2].view_id());
+  EXPECT_EQ(answer.crossing(), "crossing-0");
+  EXPECT_DOUBLE_EQ(answer.heading_deg(), 15);
+
+  server_->Stop(SIGTERM);
+  StartServer();
+  ASSERT_TRUE((*client_)->EnrollView(Ctx().get(), requests[0], &answer).ok());
+  EXPECT_EQ(answer.outcome(), v1::ENROLL_OUTCOME_DUPLICATE) << "hashes survive a restart";
+  v1::GetDatabaseStatsRequest stats_request;
+  stats_request.set_name("again");
+  v1::DatabaseStats stats;
+  ASSERT_TRUE((*client_)->GetDatabaseStats(Ctx().get(), stats_request, &stats).ok());
+  EXPECT_EQ(stats.database().views(), 12 * kCrossings + 1);
+  EXPECT_EQ(stats.database().crossings(), kCrossings);
+}
+
+// `replace`: a new image takes the place of the view at its crossing and heading, an image filed
+// under another crossing moves, and the clusters stay what a rebuild gives.
+TEST_F(CrossingServerTest, ReplaceSwapsViewsAndKeepsTheClustersOfARebuild) {
+  EnrollAll("replace");
+  auto stats = [&] {
+    v1::GetDatabaseStatsRequest request;
+    request.set_name("replace");
+    v1::DatabaseStats out;
+    EXPECT_TRUE((*client_)->GetDatabaseStats(Ctx().get(), request, &out).ok());
+    return out;
+  };
+  // A re-shot view of crossing-0 at 30 degrees (taken 5 degrees further round).
+  v1::EnrollViewRequest reshot = EnrollRequest("replace", 0, 30, panoramas_[0]);
+  reshot.mutable_image()->set_data(EncodeJpeg(CropView(panoramas_[0], 35)));
+  reshot.set_replace(true);
+  v1::EnrollViewResponse answer;
+  ASSERT_TRUE((*client_)->EnrollView(Ctx().get(), reshot, &answer).ok());
+  EXPECT_EQ(answer.outcome(), v1::ENROLL_OUTCOME_STORED);
+  ASSERT_EQ(answer.replaced_view_ids_size(), 1);
+  const int64_t reshot_id = answer.view_id();
+  // Again: it is already there, nothing to replace.
+  ASSERT_TRUE((*client_)->EnrollView(Ctx().get(), reshot, &answer).ok());
+  EXPECT_EQ(answer.outcome(), v1::ENROLL_OUTCOME_DUPLICATE);
+  EXPECT_EQ(answer.view_id(), reshot_id);
+
+  // crossing-1's view at 60 degrees filed under a new crossing: it moves there.
+  v1::EnrollViewRequest moved = EnrollRequest("replace", 1, 60, panoramas_[1]);
+  moved.set_crossing("crossing-1-bis");
+  moved.set_replace(true);
+  ASSERT_TRUE((*client_)->EnrollView(Ctx().get(), moved, &answer).ok());
+  EXPECT_EQ(answer.outcome(), v1::ENROLL_OUTCOME_STORED);
+  EXPECT_TRUE(answer.crossing_created());
+  EXPECT_EQ(answer.replaced_view_ids_size(), 1);
+
+  const v1::DatabaseStats after = stats();
+  EXPECT_EQ(after.database().views(), 12 * kCrossings);
+  std::map<std::string, int> views_per_crossing;
+  for (const v1::Crossing& c : after.crossing_list()) views_per_crossing[c.name()] = c.views();
+  EXPECT_EQ(views_per_crossing["crossing-0"], 12);
+  EXPECT_EQ(views_per_crossing["crossing-1"], 11);
+  EXPECT_EQ(views_per_crossing["crossing-1-bis"], 1);
+  int64_t keypoints = 0;
+  std::set<std::pair<int64_t, int>> clusters;
+  for (const v1::ClusterInfo& c : after.clusters()) clusters.insert({c.center_view_id(), c.members()});
+  keypoints = after.keypoints();
+  int members = 0;
+  for (const auto& [centre, count] : clusters) members += count;
+  EXPECT_EQ(members, after.database().views());
+
+  v1::RebuildClustersRequest rebuild;
+  rebuild.set_database("replace");
+  v1::RebuildClustersResponse rebuilt;
+  ASSERT_TRUE((*client_)->RebuildClusters(Ctx().get(), rebuild, &rebuilt).ok());
+  std::set<std::pair<int64_t, int>> rebuilt_clusters;
+  const v1::DatabaseStats after_rebuild = stats();
+  for (const v1::ClusterInfo& c : after_rebuild.clusters()) {
+    rebuilt_clusters.insert({c.center_view_id(), c.members()});
+  }
+  EXPECT_EQ(rebuilt_clusters, clusters);
+  EXPECT_EQ(after_rebuild.keypoints(), keypoints);
+
+  v1::RecognizeResponse r;
+  ASSERT_TRUE((*client_)
+                  ->RecognizeCrossing(Ctx().get(),
+                                      RecognizeRequest("replace", CropView(panoramas_[0], 36)), &r)
+                  .ok());
+  EXPECT_TRUE(r.recognized()) << r.reason();
+  EXPECT_EQ(r.view_id(), reshot_id);
+
+  // The same after a restart: memory and disk agreed.
+  server_->Stop(SIGTERM);
+  StartServer();
+  const v1::DatabaseStats restarted = stats();
+  EXPECT_EQ(restarted.database().views(), after.database().views());
+  EXPECT_EQ(restarted.keypoints(), keypoints);
 }
 
 TEST_F(CrossingServerTest, EmptyDatabaseAndNoTextureQueries) {

@@ -20,30 +20,14 @@
 #include "storage/sqlite.h"
 #include "tests/storage/status_testing.h"
 #include "tests/storage/temp_dir.h"
+#include "tests/storage/view_records.h"
 
 namespace waymark::storage {
 namespace {
 
 using ::waymark::storage::testing::CodeOf;
+using ::waymark::storage::testing::MakeView;
 using ::waymark::storage::testing::TempDir;
-
-// A view with `keypoints` features whose values depend on `seed`, so views differ.
-ViewRecord MakeView(int64_t crossing_id, int keypoints, int seed, double heading_deg = 90.0) {
-  ViewRecord view;
-  view.crossing_id = crossing_id;
-  view.heading_deg = heading_deg;
-  view.width = 640;
-  view.height = 480;
-  view.keypoint_count = keypoints;
-  for (int i = 0; i < keypoints * kKeypointFloats; ++i) {
-    view.keypoints.push_back(static_cast<float>(seed) + 0.1f * static_cast<float>(i));
-  }
-  for (int i = 0; i < keypoints * kDescriptorBytes; ++i) {
-    view.descriptors.push_back(static_cast<uint8_t>((i * 7 + seed) & 0xff));
-  }
-  view.hue_hist = {0.25f, 0.5f, 0.125f, 0.125f + static_cast<float>(seed) * 1e-3f};
-  return view;
-}
 
 bool SameFloats(const std::vector<float>& a, const std::vector<float>& b) {
   return a.size() == b.size() &&

@@ -1,0 +1,240 @@
+// CrossingRegistry::EnrollView: duplicate detection by image hash, feature extraction, the
+// cluster proposal and the commit, plain or replacing views (crossing_registry.h, crossing.proto).
+
+#include <algorithm>
+#include <optional>
+#include <utility>
+
+#include "absl/strings/str_cat.h"
+#include "server/common/stopwatch.h"
+#include "server/service/crossing_registry.h"
+#include "storage/sha256.h"
+
+namespace waymark::service {
+
+struct CrossingRegistry::CommittedView {
+  storage::AddViewResult added;
+  bool new_cluster = false;
+  double matching_ms = 0;
+  std::vector<int64_t> replaced_view_ids;
+};
+
+namespace {
+
+// A view with fewer keypoints could never reach N1 = 10 matches: refuse it at enrollment.
+constexpr int kMinEnrollKeypoints = 10;
+
+// The stored view that makes `request` a duplicate: the one holding the same image. With
+// `replace`, only when it sits at the requested crossing and heading already; elsewhere it is one
+// of the views the request replaces (the image moves here).
+const crossing::ViewEntry* DuplicateOf(const ResidentDatabase& db,
+                                       const v1::EnrollViewRequest& request,
+                                       const std::string& content) {
+  const std::optional<int64_t> holder = db.contents.Find(content);
+  if (!holder.has_value()) return nullptr;
+  // Never null while the contents and the views change together (under the exclusive lock).
+  const crossing::ViewEntry* view = db.FindView(*holder);
+  if (view == nullptr || !request.replace()) return view;
+  const bool same_place = db.CrossingName(view->crossing_id) == request.crossing() &&
+                          SameHeading(view->heading_deg, request.heading_deg());
+  return same_place ? view : nullptr;
+}
+
+// NOT_FOUND for a crossing that does not exist and may not be created: a bad request, whatever
+// its image.
+absl::Status CheckCrossing(const ResidentDatabase& db, const v1::EnrollViewRequest& request) {
+  if (request.create_crossing() || db.crossing_ids.count(request.crossing()) > 0) {
+    return absl::OkStatus();
+  }
+  return absl::NotFoundError(absl::StrCat("crossing \"", request.crossing(),
+                                          "\" not found in database \"", request.database(),
+                                          "\": add it first or set create_crossing"));
+}
+
+v1::EnrollViewResponse DuplicateAnswer(const ResidentDatabase& db, const crossing::ViewEntry& view,
+                                       Clock::time_point start) {
+  v1::EnrollViewResponse response;
+  response.set_outcome(v1::ENROLL_OUTCOME_DUPLICATE);
+  response.set_view_id(view.view_id);
+  response.set_crossing_id(view.crossing_id);
+  response.set_crossing(db.CrossingName(view.crossing_id));
+  response.set_heading_deg(view.heading_deg);
+  response.mutable_timings()->set_total_ms(MsSince(start));
+  return response;
+}
+
+// Puts a committed view into memory: its crossing if new, its slot, cluster and counters.
+void InstallView(ResidentDatabase& db, const storage::AddViewResult& added, int join_cluster,
+                 const v1::EnrollViewRequest& request, const crossing::ImageFeatures& features,
+                 bool new_crossing, const std::string& content) {
+  if (new_crossing) db.AddCrossingRecord({added.crossing_id, db.record.id, request.crossing(), ""});
+  const uint32_t slot = db.views->AddView(added.view_id, added.crossing_id, request.heading_deg(),
+                                          features.descriptors,
+                                          crossing::KeypointPositions(features), features.hue_hist);
+  if (join_cluster >= 0) {
+    db.views->AddToCluster(join_cluster, slot);
+  } else {
+    db.views->NewCluster(added.cluster_id, slot);
+  }
+  db.views_per_crossing[added.crossing_id]++;
+  db.keypoints += features.descriptors.rows;
+  db.contents.Add(added.view_id, content);
+}
+
+}  // namespace
+
+absl::StatusOr<v1::EnrollViewResponse> CrossingRegistry::EnrollView(
+    const v1::EnrollViewRequest& request, bool* crossing_created) {
+  const auto start = Clock::now();
+  if (crossing_created != nullptr) *crossing_created = false;
+  if (absl::Status s = ValidateCrossingName(request.crossing()); !s.ok()) return s;
+  if (absl::Status s = ValidateHeading(request.heading_deg()); !s.ok()) return s;
+  absl::StatusOr<std::shared_ptr<Database>> found = Find(request.database());
+  if (!found.ok()) return found.status();
+  Database& db = **found;
+  absl::StatusOr<std::string> content = storage::Sha256(request.image().data());
+  if (!content.ok()) return content.status();
+
+  // A duplicate needs no features: answer it before the slow part.
+  {
+    absl::ReaderMutexLock lock(&db.mutex);
+    if (absl::Status s = db.CheckAlive(); !s.ok()) return s;
+    if (absl::Status s = CheckCrossing(db, request); !s.ok()) return s;
+    if (const crossing::ViewEntry* held = DuplicateOf(db, request, *content)) {
+      return DuplicateAnswer(db, *held, start);
+    }
+  }
+
+  // Feature extraction is the slow part and needs no lock (options never change after creation).
+  crossing::ExtractionTimings timings;
+  absl::StatusOr<crossing::ImageFeatures> features =
+      Extract(request.image().data(), db.options.features, &timings);
+  if (!features.ok()) return features.status();
+  if (features->descriptors.rows < kMinEnrollKeypoints) {
+    return absl::InvalidArgumentError(absl::StrCat(
+        "the image has ", features->descriptors.rows, " SIFT keypoints at ", features->width, "x",
+        features->height, "; a view needs at least ", kMinEnrollKeypoints,
+        " to be recognizable (blank, blurred or textureless image?)"));
+  }
+
+  absl::MutexLock lock(&db.mutex);
+  if (absl::Status s = db.CheckAlive(); !s.ok()) return s;
+  // Again, in the critical section of the commit: the crossing may have been deleted, and an
+  // enrollment of the same image may have committed while this one was extracting.
+  if (absl::Status s = CheckCrossing(db, request); !s.ok()) return s;
+  if (const crossing::ViewEntry* held = DuplicateOf(db, request, *content)) {
+    return DuplicateAnswer(db, *held, start);
+  }
+  auto id_it = db.crossing_ids.find(request.crossing());
+  const bool new_crossing = id_it == db.crossing_ids.end();
+  const int64_t crossing_id = new_crossing ? 0 : id_it->second;
+  storage::ViewRecord record = ToViewRecord(crossing_id, request.heading_deg(), *features);
+  record.content_sha256 = *content;
+  if (request.store_image()) record.image = request.image().data();
+
+  // What `replace` deletes: the crossing's views at this heading and the view holding this image
+  // elsewhere (DuplicateOf returned null for it).
+  const std::optional<int64_t> holder = db.contents.Find(*content);
+  const auto replaced = [&](const crossing::ViewEntry& v) {
+    return (!new_crossing && v.crossing_id == crossing_id &&
+            SameHeading(v.heading_deg, request.heading_deg())) ||
+           (holder.has_value() && v.view_id == *holder);
+  };
+  const bool replaces = request.replace() &&
+                        std::any_of(db.views->views().begin(), db.views->views().end(), replaced);
+  absl::StatusOr<CommittedView> committed =
+      replaces ? CommitReplacingViews(db, request, record, *features, new_crossing, replaced)
+               : CommitView(db, request, record, *features, new_crossing);
+  if (!committed.ok()) return committed.status();
+  if (new_crossing && crossing_created != nullptr) *crossing_created = true;
+
+  v1::EnrollViewResponse response;
+  response.set_outcome(v1::ENROLL_OUTCOME_STORED);
+  response.set_view_id(committed->added.view_id);
+  response.set_crossing_id(committed->added.crossing_id);
+  response.set_crossing(request.crossing());
+  response.set_heading_deg(request.heading_deg());
+  response.set_crossing_created(new_crossing);
+  response.set_keypoints(features->descriptors.rows);
+  response.set_cluster_id(committed->added.cluster_id);
+  response.set_new_cluster(committed->new_cluster);
+  for (int64_t id : committed->replaced_view_ids) response.add_replaced_view_ids(id);
+  v1::StageTimings* t = response.mutable_timings();
+  t->set_decode_ms(timings.decode_ms);
+  t->set_extraction_ms(timings.extraction_ms);
+  t->set_histogram_ms(timings.histogram_ms);
+  t->set_matching_ms(committed->matching_ms);
+  t->set_total_ms(MsSince(start));
+  return response;
+}
+
+absl::StatusOr<CrossingRegistry::CommittedView> CrossingRegistry::CommitView(
+    Database& db, const v1::EnrollViewRequest& request, const storage::ViewRecord& record,
+    const crossing::ImageFeatures& features, bool new_crossing) {
+  CommittedView committed;
+  const auto match_start = Clock::now();
+  const crossing::ClusterProposal proposal =
+      db.views->ProposeCluster(features.descriptors, db.options.clustering);
+  committed.matching_ms = MsSince(match_start);
+  storage::ClusterAssignment assignment;
+  if (proposal.cluster >= 0) {
+    assignment.new_cluster = false;
+    assignment.cluster_id = db.views->clusters()[proposal.cluster].cluster_id;
+  }
+  // A new crossing is created in the view's transaction: a failed or interrupted enrollment
+  // leaves no empty crossing behind.
+  absl::StatusOr<storage::AddViewResult> added =
+      new_crossing ? store_->AddViewWithNewCrossing({db.record.id, request.crossing(), ""}, record,
+                                                    assignment)
+                   : store_->AddView(record, assignment);
+  if (!added.ok()) return added.status();
+  committed.added = *added;
+  committed.new_cluster = proposal.cluster < 0;
+  InstallView(db, *added, proposal.cluster, request, features, new_crossing, record.content_sha256);
+  return committed;
+}
+
+absl::StatusOr<CrossingRegistry::CommittedView> CrossingRegistry::CommitReplacingViews(
+    Database& db, const v1::EnrollViewRequest& request, const storage::ViewRecord& record,
+    const crossing::ImageFeatures& features, bool new_crossing,
+    const std::function<bool(const crossing::ViewEntry&)>& replaced) {
+  CommittedView committed;
+  // The rest re-clustered in enrollment order, then the new view proposed against that: exactly
+  // what RebuildClusters gives for the database after the commit.
+  RemainingViews remaining = CopyViewsExcept(*db.views, replaced, index_options_);
+  const auto match_start = Clock::now();
+  const std::vector<crossing::ClusterEntry> clusters =
+      remaining.views->ComputeClusters(db.options.clustering);
+  remaining.views->SetClusters(clusters);
+  const crossing::ClusterProposal proposal =
+      remaining.views->ProposeCluster(features.descriptors, db.options.clustering);
+  committed.matching_ms = MsSince(match_start);
+
+  storage::ViewReplacement replacement;
+  replacement.database_id = db.record.id;
+  replacement.replaced_view_ids = remaining.dropped_view_ids;
+  replacement.clusters = Database::ToRecords(*remaining.views, clusters);
+  replacement.view = record;
+  replacement.join_cluster = proposal.cluster;
+  replacement.create_crossing = new_crossing;
+  replacement.crossing_name = request.crossing();
+  absl::StatusOr<storage::ViewReplacementResult> stored = store_->ReplaceViews(replacement);
+  if (!stored.ok()) return stored.status();
+
+  // Memory follows the disk: the remaining views with the stored cluster ids, then the new view.
+  Database::InstallClusters(stored->clusters, remaining.views.get());
+  db.views = std::move(remaining.views);
+  db.keypoints = remaining.keypoints;
+  for (int64_t view_id : remaining.dropped_view_ids) db.contents.Remove(view_id);
+  for (const auto& [crossing_id, count] : remaining.dropped_per_crossing) {
+    db.views_per_crossing[crossing_id] -= count;
+  }
+  committed.added = stored->added;
+  committed.new_cluster = proposal.cluster < 0;
+  committed.replaced_view_ids = remaining.dropped_view_ids;
+  InstallView(db, stored->added, proposal.cluster, request, features, new_crossing,
+              record.content_sha256);
+  return committed;
+}
+
+}  // namespace waymark::service
