@@ -35,7 +35,6 @@
 
 namespace waymark::cli {
 
-inline constexpr int kExitInterrupted = 130;  // as a shell reports a process ended by SIGINT
 
 // Asked before each scan is sent: true ends the replay early (Ctrl-C). Empty: never.
 using StopRequested = std::function<bool()>;
