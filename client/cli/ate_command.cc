@@ -129,6 +129,9 @@ int RunAte(CommandContext& context, const AteArgs& args) {
     return ReportError(context, result.status(),
                        fmt::format("{} against {}", args.trajectory, args.groundtruth));
   }
+  if (const std::optional<std::string> warning = FewMatchesWarning(*result)) {
+    context.err << "warning: " << *warning << "\n";
+  }
   if (!args.plot.empty()) {
     if (absl::Status status = WritePlot(args.plot, *result); !status.ok()) {
       return ReportError(context, status);
@@ -188,7 +191,8 @@ void AddEvalAteCommand(CLI::App& app, CommandRegistry& registry) {
       ->check(CLI::IsMember({"auto", "tum", "kitti"}))
       ->capture_default_str();
   ate->add_option("--times", args->times,
-                  "KITTI times.txt: stamps of the KITTI pose files (default: pose i at i s)");
+                  "KITTI times.txt: stamps of the KITTI pose files (default: pose i at 0.1 * i "
+                  "s, KITTI's 10 Hz, as `vo run` stamps a KITTI sequence without times.txt)");
   ate->add_option("--max-dt", args->max_dt, "Largest stamp difference (s) between matched poses")
       ->check(CLI::NonNegativeNumber)
       ->capture_default_str();
