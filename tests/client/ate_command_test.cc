@@ -342,6 +342,10 @@ TEST(EvalAteCommand, PlotWritesSvgAndPng) {
   ASSERT_EQ(r.code, 0) << r.err;
   EXPECT_THAT(ReadAll(svg), HasSubstr("<svg"));
   EXPECT_THAT(ReadAll(svg), HasSubstr("ground truth"));
+  // Both paths marked where they start and end; no legend for map segments it does not have.
+  EXPECT_THAT(ReadAll(svg), HasSubstr("class=\"start\""));
+  EXPECT_THAT(ReadAll(svg), HasSubstr("<polygon class=\"end\""));
+  EXPECT_THAT(ReadAll(svg), ::testing::Not(HasSubstr("both endpoints real")));
   const std::string png = (dir.path() / "top.png").string();
   r = Ate({(dir.path() / "est.txt").string(), (dir.path() / "gt.txt").string(), "--plot", png});
   ASSERT_EQ(r.code, 0) << r.err;
