@@ -5,9 +5,7 @@
 
 #include <algorithm>
 #include <array>
-#include <fstream>
 #include <memory>
-#include <opencv2/imgcodecs.hpp>
 #include <string>
 #include <vector>
 
@@ -15,6 +13,7 @@
 #include "absl/strings/ascii.h"
 #include "client/cli/command.h"
 #include "client/render/map_render.h"
+#include "client/sessions/vo_pictures.h"
 #include "client/common/output.h"
 #include "client/datasets/pose_file.h"
 #include "client/eval/trajectory_metrics.h"
@@ -34,8 +33,9 @@ struct AteArgs {
   std::string plot;
 };
 
-// Top view of the ground truth and the aligned estimate, in the plane of the two axes along which
-// the ground truth extends most (x-z for a forward-moving camera, x-y for a robot).
+// Top view of the ground truth and the aligned estimate (each with start and end markers), in the
+// plane of the two axes along which the ground truth extends most (x-z for a forward-moving
+// camera, x-y for a robot).
 absl::Status WritePlot(const std::string& path, const TrajectoryEvaluation& result) {
   const std::vector<Eigen::Vector3d>& gt = result.groundtruth_positions;
   Eigen::Vector3d lo = gt.front();
@@ -56,37 +56,16 @@ absl::Status WritePlot(const std::string& path, const TrajectoryEvaluation& resu
       "ATE RMSE {:.4f} m over {} poses ({}-{} plane{})", result.ate.rmse, result.matches.size(),
       kAxis[u], kAxis[v],
       result.alignment.scale != 1.0 ? fmt::format(", scale {:.4f}", result.alignment.scale) : "");
-  ScenePolyline truth{{}, Rgb{40, 40, 40}, 2.0, "ground truth"};
-  ScenePolyline estimate{{}, Rgb{220, 40, 40}, 1.5, "estimate (aligned)"};
+  ScenePolyline truth{{}, Rgb{40, 40, 40}, 2.0, "ground truth", /*mark_ends=*/true};
+  ScenePolyline estimate{{}, Rgb{220, 40, 40}, 1.5, "estimate (aligned)", /*mark_ends=*/true};
   for (const Eigen::Vector3d& p : gt) truth.points.push_back({p[u], p[v]});
   for (const Eigen::Vector3d& p : result.aligned_positions) {
     estimate.points.push_back({p[u], p[v]});
   }
   scene.references.push_back(std::move(truth));
   scene.polylines.push_back(std::move(estimate));
-  const Drawing drawing = LayoutScene(scene);
-
-  std::string ext = std::filesystem::path(path).extension().string();
-  ext = absl::AsciiStrToLower(ext);
-  if (ext == ".svg") {
-    std::ofstream out(path);
-    if (!out) return absl::PermissionDeniedError("cannot write '" + path + "'");
-    out << DrawingToSvg(drawing);
-    out.close();
-    if (!out) return absl::DataLossError("writing '" + path + "' failed");
-    return absl::OkStatus();
-  }
-  if (ext == ".png") {
-    try {
-      if (!cv::imwrite(path, DrawingToImage(drawing))) {
-        return absl::PermissionDeniedError("cannot write '" + path + "'");
-      }
-    } catch (const cv::Exception& e) {
-      return absl::InternalError("writing '" + path + "': " + e.what());
-    }
-    return absl::OkStatus();
-  }
-  return absl::InvalidArgumentError("--plot needs a .svg or .png file name, got '" + path + "'");
+  // Drawn like `vo run`'s trajectory: no segment legend, centimetre motions still visible.
+  return WriteDrawingFile(LayoutScene(scene, TrajectoryRenderOptions()), path);
 }
 
 int RunAte(CommandContext& context, const AteArgs& args) {
@@ -128,6 +107,9 @@ int RunAte(CommandContext& context, const AteArgs& args) {
   if (!result.ok()) {
     return ReportError(context, result.status(),
                        fmt::format("{} against {}", args.trajectory, args.groundtruth));
+  }
+  if (const std::optional<std::string> warning = FewMatchesWarning(*result)) {
+    context.err << "warning: " << *warning << "\n";
   }
   if (!args.plot.empty()) {
     if (absl::Status status = WritePlot(args.plot, *result); !status.ok()) {
@@ -188,7 +170,8 @@ void AddEvalAteCommand(CLI::App& app, CommandRegistry& registry) {
       ->check(CLI::IsMember({"auto", "tum", "kitti"}))
       ->capture_default_str();
   ate->add_option("--times", args->times,
-                  "KITTI times.txt: stamps of the KITTI pose files (default: pose i at i s)");
+                  "KITTI times.txt: stamps of the KITTI pose files (default: pose i at 0.1 * i "
+                  "s, KITTI's 10 Hz, as `vo run` stamps a KITTI sequence without times.txt)");
   ate->add_option("--max-dt", args->max_dt, "Largest stamp difference (s) between matched poses")
       ->check(CLI::NonNegativeNumber)
       ->capture_default_str();

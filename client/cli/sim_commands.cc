@@ -53,12 +53,14 @@ ScenePolyline Path(const ExploreResult& result, Pose2 ScanRecord::*pose, Rgb col
   line.color = color;
   line.width_px = 1.5;
   line.label = label;
+  line.mark_ends = true;
   for (const ScanRecord& r : result.scans) line.points.push_back({(r.*pose).x, (r.*pose).y});
   return line;
 }
 
 // Everything in the world frame: the true walls underneath in light grey, the mapped segments,
-// and the true, estimated and odometry-only paths.
+// the true, estimated and odometry-only paths (each with start and end markers), and the robot's
+// last estimated pose as the current pose.
 MapScene ExploreScene(const ExploreResult& result, const adapters::World& world) {
   MapScene scene;
   scene.title = fmt::format("{} ({}, seed {}): {:.0f} s, completeness {:.0f}%", result.world,
@@ -79,6 +81,11 @@ MapScene ExploreScene(const ExploreResult& result, const adapters::World& world)
   ScenePolyline estimate =
       Path(result, &ScanRecord::estimate_world, {230, 80, 80}, "estimated trajectory");
   estimate.width_px = 3;
+  if (!result.scans.empty()) {
+    const Pose2& last = result.scans.back().estimate_world;
+    scene.current_pose =
+        ScenePose{{last.x, last.y}, last.theta, estimate.color, "current pose (estimate)"};
+  }
   scene.polylines.push_back(std::move(estimate));
   scene.polylines.push_back(Path(result, &ScanRecord::true_pose, {0, 0, 0}, "true trajectory"));
   return scene;

@@ -28,7 +28,8 @@ void AddVoCommands(CLI::App& app, CommandRegistry& registry) {
   CLI::App* run = vo->add_subcommand(
       "run",
       "Stream an image sequence (TUM layout: rgb.txt / associations.txt; KITTI layout: image_0/ + "
-      "calib.txt) into a new visual session; write trajectory.txt (TUM), trajectory.svg, "
+      "calib.txt) into a new visual session; write trajectory.txt (TUM), trajectory.svg and "
+      "trajectory.png (the path from above, with the aligned ground truth when there is one), "
       "frames/NNNNNN.png (features: static green, static in a box blue, dynamic red, potentially "
       "dynamic yellow, unmatched grey) and summary.json (with ATE/RPE when the folder has "
       "groundtruth.txt or poses.txt)");

@@ -17,6 +17,7 @@
 #include "absl/strings/str_join.h"
 #include "absl/strings/str_split.h"
 #include "absl/strings/strip.h"
+#include "client/datasets/kitti_stamps.h"
 #include "client/datasets/pose_file.h"
 #include "client/common/read_file.h"
 
@@ -266,7 +267,7 @@ bool IsImageName(const fs::path& path) {
   return ext == ".png" || ext == ".jpg" || ext == ".jpeg";
 }
 
-// Stamps of KITTI frames 0..count-1: times.txt when present, else 0.1 s steps.
+// Stamps of KITTI frames 0..count-1: times.txt when present, else KITTI's 10 Hz (kitti_stamps.h).
 absl::StatusOr<std::vector<double>> KittiStamps(const fs::path& dir, size_t count) {
   const fs::path times = dir / "times.txt";
   std::error_code ec;
@@ -287,8 +288,7 @@ absl::StatusOr<std::vector<double>> KittiStamps(const fs::path& dir, size_t coun
     }
     return stamps;
   }
-  for (size_t i = 0; i < count; ++i) stamps.push_back(kKittiFramePeriod * static_cast<double>(i));
-  return stamps;
+  return DefaultKittiStamps(count);
 }
 
 absl::Status ReadKitti(ImageSequence* sequence) {

@@ -9,7 +9,8 @@
 //   line or a camera preset (CameraPreset below).
 // - KITTI odometry: image_0/*.png in name order, calib.txt (its first line, P0, gives fx fy cx cy;
 //   with or without the `P0:` prefix), times.txt (one stamp per image) if present, else the
-//   sensor's 10 Hz: image i at 0.1 * i s. poses.txt beside them is the ground truth.
+//   sensor's 10 Hz: image i at 0.1 * i s (kitti_stamps.h, the rule `eval ate` also gives poses.txt).
+//   poses.txt beside them is the ground truth.
 // Lists may carry '#' comments and blank lines; paths in them are relative to the sequence folder.
 // Stamps must increase (the SLAM service rejects frames out of time order), and every listed file
 // must exist: a sequence that would fail halfway through a run is refused before it starts.
@@ -76,8 +77,6 @@ absl::StatusOr<std::vector<StampedPose3>> ReadSequenceGroundTruth(const ImageSeq
 // Largest stamp difference between a colour frame and its depth frame when pairing rgb.txt with
 // depth.txt (TUM's associate.py default).
 inline constexpr double kDepthPairingMaxDt = 0.02;
-// KITTI frame period when there is no times.txt.
-inline constexpr double kKittiFramePeriod = 0.1;
 
 }  // namespace waymark::cli
 

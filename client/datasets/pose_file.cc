@@ -9,6 +9,7 @@
 #include "absl/strings/str_split.h"
 #include "absl/strings/strip.h"
 #include "client/common/numeric_table.h"
+#include "client/datasets/kitti_stamps.h"
 
 namespace waymark::cli {
 namespace {
@@ -73,7 +74,7 @@ absl::StatusOr<std::vector<StampedPose3>> ParseKittiPoses(
     }
     Eigen::JacobiSVD<Eigen::Matrix3d> svd(r, Eigen::ComputeFullU | Eigen::ComputeFullV);
     StampedPose3 pose;
-    pose.stamp = stamps.has_value() ? (*stamps)[i] : static_cast<double>(i);
+    pose.stamp = stamps.has_value() ? (*stamps)[i] : DefaultKittiStamp(i);
     pose.rotation = svd.matrixU() * svd.matrixV().transpose();
     pose.translation = Eigen::Vector3d(v[3], v[7], v[11]);
     poses.push_back(pose);

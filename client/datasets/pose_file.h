@@ -6,7 +6,8 @@
 // - TUM RGB-D: `t tx ty tz qx qy qz qw` per line, '#' comments. Quaternions are normalised; a zero
 //   one, or one whose norm is far from 1 (columns in the wrong order?), is refused.
 // - KITTI odometry poses: 12 numbers per line, the 3x4 row-major [R|t]; no stamps: pose i gets
-//   stamp i, or the i-th line of a KITTI times.txt. R must be a rotation (it is
+//   the i-th line of a KITTI times.txt, or else i * 0.1 s (KITTI's 10 Hz, kitti_stamps.h: the
+//   stamps `vo run` gives the frames of a KITTI sequence). R must be a rotation (it is
 //   re-orthonormalised).
 // The format is detected from the column count of the first pose line, or forced.
 
@@ -33,7 +34,7 @@ absl::StatusOr<PoseFormat> DetectPoseFormat(const std::string& text);
 
 struct PoseFileOptions {
   PoseFormat format = PoseFormat::kAuto;
-  // KITTI stamps, one per pose; unset = 0, 1, 2, ... Not used for TUM.
+  // KITTI stamps, one per pose; unset = 0, 0.1, 0.2, ... (DefaultKittiStamp). Not used for TUM.
   std::optional<std::vector<double>> kitti_stamps;
 };
 

@@ -16,18 +16,37 @@ namespace {
 
 constexpr double kRadToDeg = 57.295779513082320876798;
 
-std::string StampRange(const std::vector<StampedPose3>& poses) {
-  if (poses.empty()) return "no poses";
-  double lo = poses.front().stamp;
-  double hi = lo;
+}  // namespace
+
+StampSpan SpanOf(const std::vector<StampedPose3>& poses) {
+  StampSpan span;
+  span.poses = poses.size();
+  if (poses.empty()) return span;
+  span.first = span.last = poses.front().stamp;
   for (const StampedPose3& p : poses) {
-    lo = std::min(lo, p.stamp);
-    hi = std::max(hi, p.stamp);
+    span.first = std::min(span.first, p.stamp);
+    span.last = std::max(span.last, p.stamp);
   }
-  return fmt::format("{} poses, stamps {:.6f} .. {:.6f}", poses.size(), lo, hi);
+  return span;
 }
 
-}  // namespace
+std::string FormatStampSpan(const StampSpan& span) {
+  if (span.poses == 0) return "no poses";
+  return fmt::format("{} poses, stamps {:.6f} .. {:.6f}", span.poses, span.first, span.last);
+}
+
+std::optional<std::string> FewMatchesWarning(const TrajectoryEvaluation& e) {
+  const size_t shorter = std::min(e.poses_estimated, e.poses_groundtruth);
+  if (static_cast<double>(e.matches.size()) >= kFewMatchesShare * static_cast<double>(shorter)) {
+    return std::nullopt;
+  }
+  return fmt::format(
+      "only {} of {} poses matched by stamp (fewer than half of the shorter trajectory), so the "
+      "errors describe a few poses, not the run: estimate has {}, ground truth has {}; check that "
+      "both use the same time base (KITTI poses without a times.txt are at 0.1 * i s)",
+      e.matches.size(), shorter, FormatStampSpan(e.estimate_span),
+      FormatStampSpan(e.groundtruth_span));
+}
 
 absl::StatusOr<Similarity3> AlignUmeyama(const std::vector<Eigen::Vector3d>& source,
                                          const std::vector<Eigen::Vector3d>& target,
@@ -121,6 +140,8 @@ absl::StatusOr<TrajectoryEvaluation> EvaluateTrajectory(
   TrajectoryEvaluation result;
   result.poses_estimated = estimate.size();
   result.poses_groundtruth = groundtruth.size();
+  result.estimate_span = SpanOf(estimate);
+  result.groundtruth_span = SpanOf(groundtruth);
   std::vector<double> est_stamps;
   std::vector<double> gt_stamps;
   for (const StampedPose3& p : estimate) est_stamps.push_back(p.stamp);
@@ -130,7 +151,8 @@ absl::StatusOr<TrajectoryEvaluation> EvaluateTrajectory(
     return absl::FailedPreconditionError(fmt::format(
         "only {} poses matched within {} s (at least 3 needed): estimate has {}, ground truth has "
         "{}",
-        result.matches.size(), options.max_dt, StampRange(estimate), StampRange(groundtruth)));
+        result.matches.size(), options.max_dt, FormatStampSpan(result.estimate_span),
+        FormatStampSpan(result.groundtruth_span)));
   }
 
   std::vector<Eigen::Vector3d> source;

@@ -9,6 +9,7 @@
 #include <Eigen/Core>
 #include <cstddef>
 #include <optional>
+#include <string>
 #include <vector>
 
 #include "absl/status/statusor.h"
@@ -57,9 +58,21 @@ struct TrajectoryOptions {
   int delta = 1;            // RPE: pose pairs (k, k + delta) over the matched poses
 };
 
+// The stamps a trajectory spans (for messages that say why poses did not match).
+struct StampSpan {
+  size_t poses = 0;
+  double first = 0;  // s; smallest stamp
+  double last = 0;   // s; largest stamp
+};
+StampSpan SpanOf(const std::vector<StampedPose3>& poses);
+// "51 poses, stamps 0.000000 .. 5.000000" ("no poses" for an empty span).
+std::string FormatStampSpan(const StampSpan& span);
+
 struct TrajectoryEvaluation {
   size_t poses_estimated = 0;
   size_t poses_groundtruth = 0;
+  StampSpan estimate_span;
+  StampSpan groundtruth_span;
   std::vector<PoseMatch> matches;  // ordered by estimated stamp
   Similarity3 alignment;           // estimate -> ground-truth frame
   ErrorStats ate;                  // m, translation error of the aligned estimate
@@ -75,6 +88,16 @@ struct TrajectoryEvaluation {
 absl::StatusOr<TrajectoryEvaluation> EvaluateTrajectory(
     const std::vector<StampedPose3>& estimate, const std::vector<StampedPose3>& groundtruth,
     const TrajectoryOptions& options = {});
+
+// Below this share of the shorter trajectory's poses matched, an evaluation is suspect: the two
+// files most likely use different time bases (a KITTI file read with another rule than the one
+// its partner was stamped with, a ground truth of another part of the sequence), and the ATE
+// describes a few poses, not the run.
+inline constexpr double kFewMatchesShare = 0.5;
+
+// A warning naming the match count and both stamp spans when fewer than kFewMatchesShare of the
+// shorter trajectory's poses matched; nullopt otherwise.
+std::optional<std::string> FewMatchesWarning(const TrajectoryEvaluation& evaluation);
 
 }  // namespace waymark::cli
 

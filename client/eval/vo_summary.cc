@@ -92,7 +92,9 @@ nlohmann::json FrameSummary(const std::vector<VoFrameRecord>& records) {
 }
 
 nlohmann::json EvaluationSummary(const TrajectoryEvaluation& e, bool with_scale) {
+  const std::optional<std::string> warning = FewMatchesWarning(e);
   return {
+      {"match_warning", warning ? nlohmann::json(*warning) : nlohmann::json(nullptr)},
       {"alignment", with_scale ? "Sim(3)" : "SE(3)"},
       {"scale", e.alignment.scale},
       {"poses_matched", e.matches.size()},

@@ -35,7 +35,7 @@ std::vector<StampedPose3> ProcessedPoses(const std::vector<VoFrameRecord>& recor
 nlohmann::json FrameSummary(const std::vector<VoFrameRecord>& records);
 
 // The ATE/RPE fields, named as `waymark eval ate --json` names them (ate_rmse, ..., poses_matched,
-// scale).
+// scale), and match_warning: FewMatchesWarning's text, or null when enough poses matched.
 nlohmann::json EvaluationSummary(const TrajectoryEvaluation& evaluation, bool with_scale);
 
 }  // namespace waymark::cli

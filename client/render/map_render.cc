@@ -9,6 +9,9 @@
 #include <opencv2/imgcodecs.hpp>
 #include <opencv2/imgproc.hpp>
 
+#include "absl/strings/ascii.h"
+#include "client/render/text_fit.h"
+
 namespace waymark::cli {
 namespace {
 
@@ -17,6 +20,17 @@ constexpr Rgb kWhite{255, 255, 255};
 constexpr double kMarkerRadius = 2.5;
 constexpr double kSegmentWidth = 2.0;
 constexpr int kLegendRow = 18;
+// Trajectory ends and the current pose: big enough to find on a 1600-pixel map.
+constexpr double kStartRadius = 6.0;
+constexpr double kEndHalfSide = 5.5;
+constexpr double kArrowLength = 22.0;  // tip to the back of the arrow head
+constexpr double kArrowHalfWidth = 8.0;
+constexpr Rgb kLegendGrey{60, 60, 60};
+// Smallest title font before a title is wrapped instead (text_fit.h).
+constexpr double kMinTitleFontPx = 11;
+constexpr double kTitleMarginPx = 10;  // left and right of the title
+constexpr const char* kEndpointNote = "filled marker = real endpoint, hollow = virtual";
+constexpr double kNoteFontPx = 11;
 
 struct Bounds {
   double min_x = std::numeric_limits<double>::infinity();
@@ -58,6 +72,64 @@ DrawItem Marker(Vec2 at, Rgb color, bool real) {
 
 DrawItem Text(Vec2 at, std::string text, double font_px = 12) {
   return TextItem(at, std::move(text), font_px);
+}
+
+DrawItem Polygon(std::vector<Vec2> points, Rgb color, std::string css) {
+  DrawItem item;
+  item.kind = DrawItem::Kind::kPolygon;
+  item.points = std::move(points);
+  item.stroke = color;
+  item.fill = color;
+  item.filled = true;
+  item.width_px = 1.0;
+  item.css_class = std::move(css);
+  return item;
+}
+
+// Where a trajectory starts: a hollow circle in its colour.
+DrawItem StartMarker(Vec2 at, Rgb color) {
+  DrawItem item;
+  item.kind = DrawItem::Kind::kCircle;
+  item.points = {at};
+  item.stroke = color;
+  item.width_px = 2.0;
+  item.fill = kWhite;
+  item.radius_px = kStartRadius;
+  item.css_class = "start";
+  return item;
+}
+
+// Where it ends: a filled square.
+DrawItem EndMarker(Vec2 at, Rgb color) {
+  const double h = kEndHalfSide;
+  return Polygon({{at.x - h, at.y - h}, {at.x + h, at.y - h}, {at.x + h, at.y + h},
+                  {at.x - h, at.y + h}},
+                 color, "end");
+}
+
+// An arrow head with its tip `kArrowLength` ahead of `at` along `heading` (world radians; the
+// image's y axis points down, so a world angle turns the other way on screen).
+DrawItem PoseArrow(Vec2 at, double heading, Rgb color) {
+  const Vec2 ahead{std::cos(heading), -std::sin(heading)};
+  const Vec2 side{-ahead.y, ahead.x};
+  const double back = 0.35 * kArrowLength;  // the pose sits inside the head, towards its back
+  const Vec2 tip{at.x + ahead.x * (kArrowLength - back), at.y + ahead.y * (kArrowLength - back)};
+  const Vec2 base{at.x - ahead.x * back, at.y - ahead.y * back};
+  const Vec2 notch{at.x, at.y};
+  return Polygon({tip,
+                  {base.x + side.x * kArrowHalfWidth, base.y + side.y * kArrowHalfWidth},
+                  notch,
+                  {base.x - side.x * kArrowHalfWidth, base.y - side.y * kArrowHalfWidth}},
+                 color, "current-pose");
+}
+
+bool HasMarkedEnds(const MapScene& scene) {
+  for (const auto* list : {&scene.polylines, &scene.references}) {
+    for (const ScenePolyline& line : *list) {
+      if (line.mark_ends && !line.points.empty()) return true;
+    }
+  }
+  return false;
 }
 
 std::string Hex(Rgb c) { return fmt::format("#{:02x}{:02x}{:02x}", c.r, c.g, c.b); }
@@ -137,20 +209,29 @@ Drawing LayoutScene(const MapScene& scene, const RenderOptions& options) {
   const double centre_y = 0.5 * (bounds.min_y + bounds.max_y);
   const double scale = options.max_size_px / std::max(extent_x, extent_y);
   const int margin = options.margin_px;
-  const int title_band = scene.title.empty() ? 0 : 24;
-
-  // Legend rows: three segment classes and the labelled polylines.
-  int legend_rows = options.segment_legend ? 3 : 0;
-  for (const auto* list : {&scene.polylines, &scene.references}) {
-    for (const ScenePolyline& line : *list) legend_rows += line.label.empty() ? 0 : 1;
-  }
-  const int legend_band = 16 + kLegendRow * legend_rows;
 
   Drawing drawing;
   drawing.pixels_per_metre = scale;
   const double map_w = extent_x * scale;
   const double map_h = extent_y * scale;
   drawing.width = std::max(options.min_width_px, static_cast<int>(std::ceil(map_w)) + 2 * margin);
+
+  // Legend rows: three segment classes (and their note, beside them when it fits), the labelled
+  // polylines, the end markers, the pose.
+  const double label_x = margin + 46;
+  const double note_x = label_x + 230;
+  const bool note_beside =
+      note_x + TextWidthPx(kEndpointNote, kNoteFontPx) <= drawing.width - kTitleMarginPx;
+  const bool marked_ends = HasMarkedEnds(scene);
+  int legend_rows = options.segment_legend ? (note_beside ? 3 : 4) : 0;
+  for (const auto* list : {&scene.polylines, &scene.references}) {
+    for (const ScenePolyline& line : *list) legend_rows += line.label.empty() ? 0 : 1;
+  }
+  legend_rows += marked_ends ? 2 : 0;
+  legend_rows += scene.current_pose && !scene.current_pose->label.empty() ? 1 : 0;
+  const int legend_band = 16 + kLegendRow * legend_rows;
+  const int title_band =
+      LayoutTitle(scene.title, drawing.width, kTitleFontPx, "title", drawing.items);
   drawing.height = title_band + static_cast<int>(std::ceil(map_h)) + 2 * margin + legend_band;
   const double origin_x = 0.5 * drawing.width;
   const double origin_y = title_band + margin + 0.5 * map_h;
@@ -164,7 +245,6 @@ Drawing LayoutScene(const MapScene& scene, const RenderOptions& options) {
     return points;
   };
 
-  if (!scene.title.empty()) drawing.items.push_back(Text({10, 17}, scene.title, 14));
   for (const ScenePolyline& line : scene.references) {
     if (line.points.size() >= 2) {
       drawing.items.push_back(Line(polyline_px(line), line.color, line.width_px, "reference"));
@@ -185,6 +265,18 @@ Drawing LayoutScene(const MapScene& scene, const RenderOptions& options) {
       drawing.items.push_back(Line(polyline_px(line), line.color, line.width_px, "trajectory"));
     }
   }
+  // Ends over all lines, so another path does not hide them.
+  for (const auto* list : {&scene.references, &scene.polylines}) {
+    for (const ScenePolyline& line : *list) {
+      if (!line.mark_ends || line.points.empty()) continue;
+      drawing.items.push_back(StartMarker(to_px(line.points.front()), line.color));
+      drawing.items.push_back(EndMarker(to_px(line.points.back()), line.color));
+    }
+  }
+  if (scene.current_pose) {
+    drawing.items.push_back(PoseArrow(to_px(scene.current_pose->position),
+                                      scene.current_pose->heading, scene.current_pose->color));
+  }
 
   // Scale bar, bottom left of the map area: about a fifth of the map's width.
   const double bar_m = NiceLength(0.2 * std::max(extent_x, extent_y));
@@ -199,7 +291,7 @@ Drawing LayoutScene(const MapScene& scene, const RenderOptions& options) {
 
   // Legend under the scale bar: one row per entry, a sample and its label.
   double row_y = title_band + map_h + 2 * margin + 8;
-  const double sample_x0 = margin, sample_x1 = margin + 36, label_x = margin + 46;
+  const double sample_x0 = margin, sample_x1 = margin + 36;
   const std::pair<SegmentClass, const char*> classes[] = {
       {SegmentClass::kBothReal, "segment, both endpoints real"},
       {SegmentClass::kOneReal, "segment, one endpoint real"},
@@ -215,10 +307,12 @@ Drawing LayoutScene(const MapScene& scene, const RenderOptions& options) {
     drawing.items.push_back(Text({label_x, row_y + 4}, label));
     row_y += kLegendRow;
   }
-  if (options.segment_legend) {
+  if (options.segment_legend && note_beside) {
     drawing.items.push_back(
-        Text({label_x + 230, title_band + map_h + 2 * margin + 12},
-             "filled marker = real endpoint, hollow = virtual", 11));
+        Text({note_x, title_band + map_h + 2 * margin + 12}, kEndpointNote, kNoteFontPx));
+  } else if (options.segment_legend) {  // a narrow picture: on a row of its own
+    drawing.items.push_back(Text({sample_x0, row_y + 4}, kEndpointNote, kNoteFontPx));
+    row_y += kLegendRow;
   }
   for (const auto* list : {&scene.polylines, &scene.references}) {
     for (const ScenePolyline& line : *list) {
@@ -229,7 +323,40 @@ Drawing LayoutScene(const MapScene& scene, const RenderOptions& options) {
       row_y += kLegendRow;
     }
   }
+  const double sample_mid = 0.5 * (sample_x0 + sample_x1);
+  if (marked_ends) {
+    DrawItem start = StartMarker({sample_mid, row_y}, kLegendGrey);
+    start.css_class = "legend start";
+    drawing.items.push_back(start);
+    drawing.items.push_back(Text({label_x, row_y + 4}, "start of a path"));
+    row_y += kLegendRow;
+    DrawItem end = EndMarker({sample_mid, row_y}, kLegendGrey);
+    end.css_class = "legend end";
+    drawing.items.push_back(end);
+    drawing.items.push_back(Text({label_x, row_y + 4}, "end of a path"));
+    row_y += kLegendRow;
+  }
+  if (scene.current_pose && !scene.current_pose->label.empty()) {
+    DrawItem arrow = PoseArrow({sample_mid, row_y}, 0, scene.current_pose->color);
+    arrow.css_class = "legend current-pose";
+    drawing.items.push_back(arrow);
+    drawing.items.push_back(Text({label_x, row_y + 4}, scene.current_pose->label));
+    row_y += kLegendRow;
+  }
   return drawing;
+}
+
+int LayoutTitle(const std::string& title, int width, double font_px, const std::string& css_class,
+                std::vector<DrawItem>& items) {
+  if (title.empty()) return 0;
+  constexpr double kLeft = kTitleMarginPx;
+  const FittedText fitted = FitText(title, width - 2 * kLeft, font_px, kMinTitleFontPx);
+  const double line_height = std::round(1.35 * fitted.font_px);
+  for (size_t i = 0; i < fitted.lines.size(); ++i) {
+    items.push_back(TextItem({kLeft, 3 + fitted.font_px + static_cast<double>(i) * line_height},
+                             fitted.lines[i], fitted.font_px, css_class));
+  }
+  return static_cast<int>(std::ceil(5 + line_height * static_cast<double>(fitted.lines.size())));
 }
 
 std::string DrawingToSvg(const Drawing& d) {
@@ -276,6 +403,16 @@ std::string DrawingToSvg(const Drawing& d) {
             css, item.points[0].x, item.points[0].y, item.font_px, Hex(item.stroke),
             EscapeXml(item.text));
         break;
+      case DrawItem::Kind::kPolygon: {
+        svg += fmt::format("<polygon{} fill=\"{}\" stroke=\"{}\" stroke-width=\"{:g}\" "
+                           "stroke-linejoin=\"round\" points=\"",
+                           css, Hex(item.fill), Hex(item.stroke), item.width_px);
+        for (size_t i = 0; i < item.points.size(); ++i) {
+          svg += fmt::format("{}{:.2f},{:.2f}", i ? " " : "", item.points[i].x, item.points[i].y);
+        }
+        svg += "\"/>\n";
+        break;
+      }
     }
   }
   svg += "</svg>\n";
@@ -312,6 +449,15 @@ cv::Mat DrawingToImage(const Drawing& d) {
                     cv::FONT_HERSHEY_SIMPLEX, font_scale, Bgr(item.stroke), 1, cv::LINE_AA);
         break;
       }
+      case DrawItem::Kind::kPolygon: {
+        std::vector<cv::Point> points;
+        points.reserve(item.points.size());
+        for (const Vec2& p : item.points) points.push_back(Fixed(p));
+        const std::vector<std::vector<cv::Point>> contours{points};
+        cv::fillPoly(image, contours, Bgr(item.fill), cv::LINE_AA, kShift);
+        cv::polylines(image, contours, true, Bgr(item.stroke), thickness, cv::LINE_AA, kShift);
+        break;
+      }
     }
   }
   return image;
@@ -325,30 +471,42 @@ cv::Mat RenderImage(const MapScene& scene, const RenderOptions& options) {
   return DrawingToImage(LayoutScene(scene, options));
 }
 
-absl::Status WriteDrawingSvg(const Drawing& drawing, const std::filesystem::path& svg_path) {
-  std::ofstream out(svg_path);
-  if (!out) return absl::PermissionDeniedError("cannot write '" + svg_path.string() + "'");
+namespace {
+
+absl::Status WriteSvgFile(const Drawing& drawing, const std::filesystem::path& path) {
+  std::ofstream out(path);
+  if (!out) return absl::PermissionDeniedError("cannot write '" + path.string() + "'");
   out << DrawingToSvg(drawing);
   out.close();
-  if (!out) return absl::DataLossError("writing '" + svg_path.string() + "' failed");
+  if (!out) return absl::DataLossError("writing '" + path.string() + "' failed");
   return absl::OkStatus();
 }
 
-absl::Status WriteDrawingPng(const Drawing& drawing, const std::filesystem::path& png_path) {
+absl::Status WritePngFile(const Drawing& drawing, const std::filesystem::path& path) {
   try {
-    if (!cv::imwrite(png_path.string(), DrawingToImage(drawing))) {
-      return absl::PermissionDeniedError("cannot write '" + png_path.string() + "'");
+    if (!cv::imwrite(path.string(), DrawingToImage(drawing))) {
+      return absl::PermissionDeniedError("cannot write '" + path.string() + "'");
     }
   } catch (const cv::Exception& e) {
-    return absl::InternalError("writing '" + png_path.string() + "': " + e.what());
+    return absl::InternalError("writing '" + path.string() + "': " + e.what());
   }
   return absl::OkStatus();
 }
 
+}  // namespace
+
 absl::Status WriteDrawing(const Drawing& drawing, const std::filesystem::path& svg_path,
                           const std::filesystem::path& png_path) {
-  if (absl::Status s = WriteDrawingSvg(drawing, svg_path); !s.ok()) return s;
-  return WriteDrawingPng(drawing, png_path);
+  if (absl::Status s = WriteSvgFile(drawing, svg_path); !s.ok()) return s;
+  return WritePngFile(drawing, png_path);
+}
+
+absl::Status WriteDrawingFile(const Drawing& drawing, const std::filesystem::path& path) {
+  const std::string ext = absl::AsciiStrToLower(path.extension().string());
+  if (ext == ".svg") return WriteSvgFile(drawing, path);
+  if (ext == ".png") return WritePngFile(drawing, path);
+  return absl::InvalidArgumentError("a picture needs a .svg or .png file name, got '" +
+                                    path.string() + "'");
 }
 
 absl::Status WriteMapPictures(const MapScene& scene, const std::filesystem::path& svg_path,

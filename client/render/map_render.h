@@ -2,12 +2,15 @@
 #define WAYMARK_CLIENT_RENDER_MAP_RENDER_H_
 
 // Pictures of segment maps. One scene description (segments with endpoint types, polylines such as
-// the trajectory, optional reference polylines) is laid out once into a drawing in pixel
-// coordinates (world y up, image y down; scale bar and legend placed there); the SVG and PNG back
-// ends only serialise that drawing, so both pictures show the same geometry.
+// the trajectory, optional reference polylines, the current pose) is laid out once into a drawing
+// in pixel coordinates (world y up, image y down; title, scale bar and legend placed there); the
+// SVG and PNG back ends only serialise that drawing, so both pictures show the same geometry.
+// Trajectories carry start and end markers, so a picture says which way the robot went; the title
+// is shrunk or wrapped to the picture's width (text_fit.h).
 
 #include <cstdint>
 #include <filesystem>
+#include <optional>
 #include <string>
 #include <vector>
 
@@ -42,6 +45,17 @@ struct ScenePolyline {
   Rgb color;
   double width_px = 1.0;
   std::string label;  // legend entry; empty = none
+  // A trajectory: a hollow circle at its first point (start) and a filled square at its last
+  // (end), in its colour. Walls and other non-paths have none.
+  bool mark_ends = false;
+};
+
+// A pose drawn as an arrow pointing along the heading (the robot's current pose on a map).
+struct ScenePose {
+  Vec2 position;       // world metres
+  double heading = 0;  // radians, counter-clockwise from the world x axis
+  Rgb color;
+  std::string label;  // legend entry; empty = none
 };
 
 struct MapScene {
@@ -49,6 +63,7 @@ struct MapScene {
   std::vector<SceneSegment> segments;
   std::vector<ScenePolyline> polylines;   // drawn over the segments (e.g. the trajectory)
   std::vector<ScenePolyline> references;  // drawn under everything (e.g. a reference path)
+  std::optional<ScenePose> current_pose;  // drawn over everything
 };
 
 struct RenderOptions {
@@ -70,9 +85,11 @@ const char* CssClassOf(SegmentClass segment_class);  // "both-real", "one-real",
 
 // The drawing: primitives in pixel coordinates (origin top left, y down).
 struct DrawItem {
-  enum class Kind { kPolyline, kCircle, kText };
+  enum class Kind { kPolyline, kCircle, kText, kPolygon };
   Kind kind = Kind::kPolyline;
-  std::vector<Vec2> points;  // polyline vertices; circle centre / text anchor = points[0]
+  // Polyline and polygon vertices (a polygon is closed and filled with `fill`); circle centre /
+  // text anchor = points[0].
+  std::vector<Vec2> points;
   Rgb stroke;
   double width_px = 1.0;
   bool filled = false;  // circle: filled with `fill`, else hollow (white inside)
@@ -93,6 +110,15 @@ struct Drawing {
 // A black text item anchored at its left end (the SVG and PNG back ends draw it alike).
 DrawItem TextItem(Vec2 at, std::string text, double font_px, std::string css_class = "");
 
+// A title in the band at the top of a drawing `width` pixels wide: at `font_px`, shrunk or
+// wrapped to fit (text_fit.h), one text item per line with class `css_class`. Returns the band's
+// height; the items go to `items`.
+int LayoutTitle(const std::string& title, int width, double font_px, const std::string& css_class,
+                std::vector<DrawItem>& items);
+
+// Title band and font of map pictures (and the plots that share their look).
+inline constexpr double kTitleFontPx = 14;
+
 Drawing LayoutScene(const MapScene& scene, const RenderOptions& options = {});
 
 // A "nice" scale bar length (1, 2 or 5 times a power of ten) close to `target_m`.
@@ -108,9 +134,8 @@ cv::Mat RenderImage(const MapScene& scene, const RenderOptions& options = {});
 // cannot be opened or written, DataLoss if writing the SVG fails, Internal on an OpenCV error.
 absl::Status WriteDrawing(const Drawing& drawing, const std::filesystem::path& svg_path,
                           const std::filesystem::path& png_path);
-// One of the two, with the same errors.
-absl::Status WriteDrawingSvg(const Drawing& drawing, const std::filesystem::path& svg_path);
-absl::Status WriteDrawingPng(const Drawing& drawing, const std::filesystem::path& png_path);
+// One of the two, chosen by the extension (.svg or .png, any case); INVALID_ARGUMENT for another.
+absl::Status WriteDrawingFile(const Drawing& drawing, const std::filesystem::path& path);
 
 // Writes both pictures from one layout.
 absl::Status WriteMapPictures(const MapScene& scene, const std::filesystem::path& svg_path,

@@ -38,8 +38,13 @@ MapScene SlamScene(const v1::SegmentMap& map, const v1::Trajectory& trajectory,
   path.color = {30, 150, 60};
   path.width_px = 1.0;
   path.label = "trajectory";
+  path.mark_ends = true;
   for (const v1::TrajectoryPose& p : trajectory.poses()) {
     path.points.push_back({p.pose().x(), p.pose().y()});
+  }
+  if (trajectory.poses_size() > 0) {
+    const v1::Pose2D& last = trajectory.poses(trajectory.poses_size() - 1).pose();
+    scene.current_pose = ScenePose{{last.x(), last.y()}, last.theta(), path.color, "current pose"};
   }
   scene.polylines.push_back(std::move(path));
   if (!reference.empty()) {
@@ -48,6 +53,7 @@ MapScene SlamScene(const v1::SegmentMap& map, const v1::Trajectory& trajectory,
     ref.width_px = 1.0;
     ref.label = reference_label;
     ref.points = reference;
+    ref.mark_ends = true;
     scene.references.push_back(std::move(ref));
   }
   return scene;
@@ -93,10 +99,7 @@ absl::StatusOr<std::vector<std::filesystem::path>> WriteSlamOutputs(
   }
   if (absl::Status s = CreateFolder(target.path.parent_path()); !s.ok()) return s;
   const Drawing drawing = LayoutScene(SlamScene(map, trajectory, title, reference));
-  const absl::Status written = target.kind == SlamOutTarget::Kind::kSvg
-                                   ? WriteDrawingSvg(drawing, target.path)
-                                   : WriteDrawingPng(drawing, target.path);
-  if (!written.ok()) return written;
+  if (absl::Status s = WriteDrawingFile(drawing, target.path); !s.ok()) return s;
   return std::vector<std::filesystem::path>{target.path};
 }
 

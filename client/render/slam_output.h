@@ -20,8 +20,9 @@ namespace waymark::cli {
 SceneSegment SegmentEndpoints(const v1::MapSegment& segment);
 std::vector<StampedPose> PosesOf(const v1::Trajectory& trajectory);
 
-// Segments coloured by endpoint type, the trajectory as a thin line, and (when not empty) a
-// reference path such as the raw odometry in grey.
+// Segments coloured by endpoint type, the trajectory as a thin line with start and end markers
+// and its last pose as the current pose (an arrow along its heading), and (when not empty) a
+// reference path such as the raw odometry in grey, with its own start and end markers.
 MapScene SlamScene(const v1::SegmentMap& map, const v1::Trajectory& trajectory,
                    const std::string& title, const std::vector<Vec2>& reference = {},
                    const std::string& reference_label = "raw odometry");

@@ -6,6 +6,8 @@
 #include <cmath>
 #include <limits>
 
+#include "client/render/text_fit.h"
+
 namespace waymark::cli {
 namespace {
 
@@ -13,7 +15,7 @@ constexpr Rgb kBlack{0, 0, 0};
 constexpr Rgb kGrid{225, 225, 225};
 constexpr int kLeft = 70;  // room for the y tick labels
 constexpr int kRight = 20;
-constexpr int kTitleBand = 30;  // the plot's title
+constexpr int kTitleGap = 6;    // between the plot's title and the first panel's title
 constexpr int kPanelGap = 46;   // x tick labels of one panel + title of the next
 constexpr int kBottom = 50;     // x tick labels + x label of the last panel
 constexpr double kTickFont = 10;
@@ -32,9 +34,8 @@ DrawItem Text(Vec2 at, std::string text, double font_px, std::string css) {
   return TextItem(at, std::move(text), font_px, std::move(css));
 }
 
-// Text items are anchored at their left end; sans-serif digits are about 0.6 em wide, which is
-// close enough to right-align tick labels and centre them under ticks.
-double TextWidth(const std::string& text, double font_px) { return 0.6 * font_px * text.size(); }
+// Text items are anchored at their left end: right-aligned and centred labels need their width.
+double TextWidth(const std::string& text, double font_px) { return TextWidthPx(text, font_px); }
 
 std::string TickLabel(double value) {
   if (std::abs(value) < 1e-12) value = 0;  // no "-0"
@@ -93,16 +94,20 @@ Drawing LayoutTimeline(const TimelinePlot& plot, const TimelineOptions& options)
   if (x.empty()) x = {0, 1};
   if (!(x.hi > x.lo)) x.hi = x.lo + 1;
 
-  const int title_band = plot.title.empty() ? 10 : kTitleBand;
   const int panels = static_cast<int>(plot.panels.size());
   const double plot_w = std::max(100, options.width_px - kLeft - kRight);
   const double panel_h = std::max(40, options.panel_height_px);
   Drawing drawing;
   drawing.width = std::max(options.width_px, kLeft + kRight + 100);
+  // The title shrunk or wrapped to the width (map_render.h), not cut off.
+  const int title_band =
+      plot.title.empty()
+          ? 10
+          : LayoutTitle(plot.title, drawing.width, kTitleFontPx, "title", drawing.items) +
+                kTitleGap;
   drawing.height = static_cast<int>(title_band + kPanelGap / 2 + panels * panel_h +
                                     std::max(0, panels - 1) * kPanelGap + kBottom);
   drawing.pixels_per_metre = 1;  // not a map: no metric scale
-  if (!plot.title.empty()) drawing.items.push_back(Text({10, 20}, plot.title, 14, "title"));
 
   const double x0 = kLeft, x1 = kLeft + plot_w;
   auto px_x = [&](double t) { return x0 + (t - x.lo) / (x.hi - x.lo) * plot_w; };

@@ -405,7 +405,11 @@ class RobotLoop::Impl {
       Event(fmt::format("suggestion refused: {}", s.ToString()));
       return absl::OkStatus();
     }
-    const double start = state->stamp;
+    // The hold starts with the drive, not at the scan: waiting for the answer (at rest) is no part
+    // of it, or a slow server, or a simulator running faster than real time, would shorten it.
+    double start = state->stamp;
+    if (std::optional<adapters::BaseState> began = ReadBase(fatal)) start = began->stamp;
+    if (!fatal.ok()) return fatal;
     double now = start;
     while (!stop.load() && guard_.moving() && now < start + hold - 1e-9) {
       SleepUnlessStopped(

@@ -148,16 +148,23 @@ MapScene TrajectoryScene(const std::vector<StampedPose3>& estimate,
     // alignment maps estimate -> ground truth: p_gt = s R p + t, so p = R^T (p_gt - t) / s.
     const Similarity3& a = evaluation->alignment;
     const double scale = a.scale != 0 ? a.scale : 1.0;
-    ScenePolyline truth{{}, Rgb{40, 40, 40}, 2.0, "ground truth (aligned)"};
+    ScenePolyline truth{{}, Rgb{40, 40, 40}, 2.0, "ground truth (aligned)", /*mark_ends=*/true};
     for (const Eigen::Vector3d& p : evaluation->groundtruth_positions) {
       const Eigen::Vector3d q = a.rotation.transpose() * (p - a.translation) / scale;
       truth.points.push_back({q.x(), q.z()});
     }
     scene.references.push_back(std::move(truth));
   }
-  ScenePolyline path{{}, Rgb{220, 40, 40}, 1.5, "estimate (x right, z forward)"};
+  ScenePolyline path{{}, Rgb{220, 40, 40}, 1.5, "estimate (x right, z forward)",
+                     /*mark_ends=*/true};
   for (const StampedPose3& pose : estimate) {
     path.points.push_back({pose.translation.x(), pose.translation.z()});
+  }
+  if (!estimate.empty()) {
+    // Where the camera looks (its z axis), seen from above.
+    const Eigen::Vector3d forward = estimate.back().rotation.col(2);
+    scene.current_pose = ScenePose{path.points.back(), std::atan2(forward.z(), forward.x()),
+                                   path.color, "current pose (camera heading)"};
   }
   scene.polylines.push_back(std::move(path));
   return scene;

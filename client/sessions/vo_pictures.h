@@ -37,8 +37,10 @@ absl::StatusOr<cv::Mat> DrawFeatureFrame(const cv::Mat& image,
 absl::Status WriteFeatureFrame(const std::filesystem::path& image_path, const VoFrameRecord& record,
                                const std::string& caption, const std::filesystem::path& out_path);
 
-// The top-view scene: the estimate's x-z path and, with an evaluation, the matched ground-truth
-// positions mapped into the estimate's frame by the inverse of the alignment.
+// The top-view scene: the estimate's x-z path with start and end markers and the camera's last
+// pose as an arrow along its viewing direction, and, with an evaluation, the matched ground-truth
+// positions mapped into the estimate's frame by the inverse of the alignment (with their own
+// start and end markers).
 MapScene TrajectoryScene(const std::vector<StampedPose3>& estimate,
                          const std::optional<TrajectoryEvaluation>& evaluation,
                          const std::string& title);

@@ -255,6 +255,9 @@ int RunVo(CommandContext& context, const VoArgs& args) {
                    : absl::StatusOr<TrajectoryEvaluation>(truth.status());
     if (evaluated.ok()) {
       evaluation = *std::move(evaluated);
+      if (const std::optional<std::string> warning = FewMatchesWarning(*evaluation)) {
+        context.err << "warning: " << *warning << "\n";
+      }
       summary["groundtruth"] = sequence->groundtruth->string();
       summary.update(EvaluationSummary(*evaluation, with_scale));
     } else {

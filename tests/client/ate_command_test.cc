@@ -129,14 +129,15 @@ TEST(PoseFile, TumMalformedLinesNameTheLine) {
   EXPECT_EQ(status("# nothing\n\n").code(), absl::StatusCode::kInvalidArgument);
 }
 
-TEST(PoseFile, KittiStampsAreIndicesOrFromTimes) {
+// Without times.txt, pose i is at 0.1 * i s: KITTI's 10 Hz, the stamps `vo run` gives the frames.
+TEST(PoseFile, KittiStampsAreTenHertzOrFromTimes) {
   const auto path = Path(4);
   auto file = ParsePoseText(KittiText(path));
   ASSERT_TRUE(file.ok()) << file.status();
   EXPECT_EQ(file->format, PoseFormat::kKitti);
   ASSERT_EQ(file->poses.size(), 4u);
   for (int i = 0; i < 4; ++i) {
-    EXPECT_DOUBLE_EQ(file->poses[i].stamp, i);
+    EXPECT_DOUBLE_EQ(file->poses[i].stamp, 0.1 * i);
     EXPECT_TRUE(file->poses[i].translation.isApprox(path[i].translation, 1e-8));
     EXPECT_TRUE(file->poses[i].rotation.isApprox(path[i].rotation, 1e-8));
   }
@@ -256,6 +257,49 @@ TEST(EvalAteCommand, ScaleFlagAndKittiWithTimes) {
   EXPECT_THAT(r.err, HasSubstr("expected 8 fields"));
 }
 
+// What `vo run` writes for a KITTI sequence without times.txt (a TUM file, frames 0.1 s apart)
+// against the sequence's poses.txt: every pose matches, and no warning.
+TEST(EvalAteCommand, VoTrajectoryOfAKittiSequenceMatchesItsPosesWithoutTimes) {
+  ScopedTempDir dir;
+  const auto gt = Path(51, 0.0, 0.1);
+  WriteText(dir.Make("poses.txt"), KittiText(gt));
+  WriteText(dir.Make("trajectory.txt"), TumText(Moved(gt)));
+  CliResult r = Ate({(dir.path() / "trajectory.txt").string(), (dir.path() / "poses.txt").string(),
+                     "--json"});
+  ASSERT_EQ(r.code, 0) << r.err;
+  EXPECT_EQ(r.Json()["poses_matched"], 51);
+  EXPECT_TRUE(r.Json()["match_warning"].is_null());
+  EXPECT_LT(r.Json()["ate_rmse"].get<double>(), 1e-6);
+  EXPECT_THAT(r.err, ::testing::Not(HasSubstr("warning")));
+}
+
+// Trajectories on different clocks: the few poses that happen to match give an ATE, with a
+// warning on stderr and in --json that names both stamp spans.
+TEST(EvalAteCommand, FewMatchedPosesWarnOnStderrAndInJson) {
+  ScopedTempDir dir;
+  const auto gt = Path(51, 0.0, 0.1);
+  auto est = Moved(gt);
+  for (size_t i = 0; i < est.size(); ++i) est[i].stamp = static_cast<double>(i);  // 1 s apart
+  WriteText(dir.Make("gt.txt"), TumText(gt));
+  WriteText(dir.Make("est.txt"), TumText(est));
+  const std::string e = (dir.path() / "est.txt").string();
+  const std::string g = (dir.path() / "gt.txt").string();
+
+  CliResult r = Ate({e, g});
+  ASSERT_EQ(r.code, 0) << r.err;
+  EXPECT_THAT(r.out, HasSubstr("6 poses matched"));
+  EXPECT_THAT(r.err, HasSubstr("warning: only 6 of 51 poses matched"));
+  EXPECT_THAT(r.err, HasSubstr("estimate has 51 poses, stamps 0.000000 .. 50.000000"));
+  EXPECT_THAT(r.err, HasSubstr("ground truth has 51 poses, stamps 0.000000 .. 5.000000"));
+
+  r = Ate({e, g, "--json"});
+  ASSERT_EQ(r.code, 0) << r.err;
+  EXPECT_EQ(r.Json()["poses_matched"], 6);
+  ASSERT_TRUE(r.Json()["match_warning"].is_string());
+  EXPECT_THAT(r.Json()["match_warning"].get<std::string>(), HasSubstr("only 6 of 51"));
+  EXPECT_THAT(r.err, HasSubstr("warning: only 6 of 51"));
+}
+
 TEST(EvalAteCommand, ErrorsNameFileAndLineOrTheMatchCount) {
   ScopedTempDir dir;
   const auto gt = Path(30);
@@ -298,6 +342,10 @@ TEST(EvalAteCommand, PlotWritesSvgAndPng) {
   ASSERT_EQ(r.code, 0) << r.err;
   EXPECT_THAT(ReadAll(svg), HasSubstr("<svg"));
   EXPECT_THAT(ReadAll(svg), HasSubstr("ground truth"));
+  // Both paths marked where they start and end; no legend for map segments it does not have.
+  EXPECT_THAT(ReadAll(svg), HasSubstr("class=\"start\""));
+  EXPECT_THAT(ReadAll(svg), HasSubstr("<polygon class=\"end\""));
+  EXPECT_THAT(ReadAll(svg), ::testing::Not(HasSubstr("both endpoints real")));
   const std::string png = (dir.path() / "top.png").string();
   r = Ate({(dir.path() / "est.txt").string(), (dir.path() / "gt.txt").string(), "--plot", png});
   ASSERT_EQ(r.code, 0) << r.err;

@@ -115,9 +115,9 @@ TEST_F(CrossingClientTest, EveryUnaryCallHasADeadline) {
   options.timeout = absl::Milliseconds(100);
   CrossingClient impatient(MakeChannel(server_.address()), options);
   server_.service().set_delay(absl::Milliseconds(600));
-  const absl::Time start = absl::Now();
+  // DEADLINE_EXCEEDED (not the answer the server gives after 600 ms) is the proof: how long the
+  // call took is not asserted, a loaded machine may take longer to notice the deadline.
   EXPECT_EQ(impatient.ListDatabases().status().code(), absl::StatusCode::kDeadlineExceeded);
-  EXPECT_LT(absl::Now() - start, absl::Milliseconds(500));
   server_.service().set_delay(absl::ZeroDuration());
 }
 

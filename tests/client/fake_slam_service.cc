@@ -82,11 +82,12 @@ grpc::Status FakeSlamService::CreateSession(grpc::ServerContext*,
 
 grpc::Status FakeSlamService::StreamSensorData(
     grpc::ServerContext*, grpc::ServerReaderWriter<v1::SlamUpdate, v1::SensorData>* stream) {
-  std::mutex queue_mutex;  // guards queue, done, outstanding
+  std::mutex queue_mutex;  // guards queue, done, outstanding, received
   std::condition_variable queue_changed;
   std::deque<v1::SensorData> queue;
   bool done = false;
   int outstanding = 0;
+  int received = 0;  // messages read from the stream
   std::mutex write_mutex;  // one Write at a time
   auto write = [&](const v1::SlamUpdate& update) {
     std::lock_guard<std::mutex> lock(write_mutex);
@@ -97,11 +98,13 @@ grpc::Status FakeSlamService::StreamSensorData(
   if (!stream->Read(&first)) return grpc::Status::OK;
   const std::string session_id = first.session_id();
   int break_after = 0;
+  int hold_until = 0;
   {
     std::lock_guard<std::mutex> lock(mutex_);
     if (sessions_.count(session_id) == 0) return NoSession(session_id);
     ++streams_opened_;
     break_after = break_streams_after_;
+    hold_until = hold_until_received_;
   }
   int scans_in_stream = 0;
   bool broken = false;
@@ -111,7 +114,7 @@ grpc::Status FakeSlamService::StreamSensorData(
       v1::SensorData message;
       {
         std::unique_lock<std::mutex> lock(queue_mutex);
-        queue_changed.wait(lock, [&] { return done || !queue.empty(); });
+        queue_changed.wait(lock, [&] { return done || (!queue.empty() && received >= hold_until); });
         if (queue.empty()) return;
         message = std::move(queue.front());
         queue.pop_front();
@@ -190,6 +193,7 @@ grpc::Status FakeSlamService::StreamSensorData(
       break;
     }
     std::unique_lock<std::mutex> lock(queue_mutex);
+    if (++received == hold_until) queue_changed.notify_all();  // the worker may start
     if (message.has_scan() || message.has_odometry()) {
       std::lock_guard<std::mutex> stats_lock(mutex_);
       if (message.has_scan()) {

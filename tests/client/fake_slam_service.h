@@ -27,6 +27,13 @@ class FakeSlamService final : public v1::SlamService::Service {
  public:
   void set_scan_delay(absl::Duration delay) { scan_delay_ = delay; }
   void set_queue_capacity(int capacity) { queue_capacity_ = capacity; }
+  // The worker of a stream starts only once the stream has received `messages` messages (or
+  // ended): the client's messages then pile up as on a busy server, however fast or slow this
+  // machine runs the client and the worker. 0 = start at once.
+  void set_hold_until_received(int messages) {
+    std::lock_guard<std::mutex> lock(mutex_);
+    hold_until_received_ = messages;
+  }
   // Attached to every scan's update; the default (BEHAVIOUR_UNSPECIFIED) attaches none, as a
   // passive session does.
   void set_suggestion(const v1::SuggestedControl& suggestion);
@@ -93,6 +100,7 @@ class FakeSlamService final : public v1::SlamService::Service {
   int odometry_received_ = 0;
   int rejected_ = 0;
   int break_streams_after_ = 0;
+  int hold_until_received_ = 0;
   int streams_opened_ = 0;
   grpc::StatusCode session_calls_fail_ = grpc::StatusCode::OK;
   v1::CreateSessionRequest last_create_;

@@ -3,6 +3,7 @@
 // ../shared/data/vslam (skipped when absent).
 #include "client/datasets/image_sequence.h"
 
+#include <fmt/format.h>
 #include <gmock/gmock.h>
 #include <gtest/gtest.h>
 
@@ -10,6 +11,8 @@
 #include <fstream>
 #include <string>
 
+#include "client/datasets/kitti_stamps.h"
+#include "client/datasets/pose_file.h"
 #include "tests/client/test_util.h"
 
 namespace waymark::cli {
@@ -230,6 +233,30 @@ TEST(ImageSequenceTest, KittiGroundTruthGetsFrameStamps) {
   ASSERT_EQ(gt->size(), 2u);
   EXPECT_DOUBLE_EQ((*gt)[1].stamp, 0.1);
   EXPECT_DOUBLE_EQ((*gt)[1].translation.z(), 1.5);
+}
+
+// `vo run` stamps the frames with ReadImageSequence's stamps; `eval ate` reads poses.txt with
+// ReadPoseFile. Without times.txt both must follow the same rule, or the run's trajectory does
+// not match its own ground truth.
+TEST(ImageSequenceTest, KittiFramesAndPoseFileShareTheStampRule) {
+  ScopedTempDir dir;
+  std::string poses;
+  for (int i = 0; i < 12; ++i) {
+    Touch(dir, fmt::format("image_0/{:06d}.png", i));
+    poses += fmt::format("1 0 0 0 0 1 0 0 0 0 1 {}\n", 0.5 * i);
+  }
+  WriteText(dir.path() / "calib.txt", "P0: 700 0 600 0 0 710 180 0 0 0 1 0\n");
+  WriteText(dir.path() / "poses.txt", poses);
+  absl::StatusOr<ImageSequence> seq = ReadImageSequence(dir.path());
+  ASSERT_TRUE(seq.ok()) << seq.status();
+  absl::StatusOr<PoseFile> file = ReadPoseFile(dir.path() / "poses.txt");
+  ASSERT_TRUE(file.ok()) << file.status();
+  ASSERT_EQ(file->poses.size(), seq->frames.size());
+  for (size_t i = 0; i < seq->frames.size(); ++i) {
+    EXPECT_DOUBLE_EQ(file->poses[i].stamp, seq->frames[i].stamp) << "frame " << i;
+    EXPECT_DOUBLE_EQ(seq->frames[i].stamp, DefaultKittiStamp(i));
+  }
+  EXPECT_DOUBLE_EQ(seq->frames[11].stamp, 1.1);  // KITTI's 10 Hz
 }
 
 std::string SharedVslam() { return std::string(WAYMARK_SHARED_DIR) + "/data/vslam"; }

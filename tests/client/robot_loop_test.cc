@@ -32,9 +32,10 @@ using waymark::testing::CliResult;
 using waymark::testing::FakeSlamServer;
 using waymark::testing::RunWaymark;
 
-// Polls `condition` for up to `seconds`.
+// Polls `condition` for up to `seconds`: a bound against hangs, generous because a loaded machine
+// may need seconds for what a quiet one does in milliseconds.
 template <typename F>
-bool WaitFor(F condition, double seconds = 5) {
+bool WaitFor(F condition, double seconds = 60) {
   const double end = adapters::SteadySeconds() + seconds;
   while (adapters::SteadySeconds() < end) {
     if (condition()) return true;
@@ -265,15 +266,21 @@ TEST_F(RobotLoopTest, PassiveStreamsEveryScanWithIncreasingStampsAndClosesTheSes
   adapters::RealTimeSimulation& sim = *office;
   RobotLoopOptions options;
   options.robot_id = "r1";
-  options.duration_s = 4;
   options.time_scale = 20;
   RobotLoop loop(Client(), sim.base(), sim.laser(), options);
+  // Until five scans are answered, however long a loaded machine takes for them (at 20x the loop
+  // has 5 ms of wall time per scan, and a slow one skips scans).
+  std::thread stopper([&] {
+    WaitFor([&] { return loop.status().scans_answered >= 5; });
+    stop_ = true;
+  });
   auto status = loop.Run(stop_);
+  stop_ = true;
+  stopper.join();
   ASSERT_TRUE(status.ok()) << status.status();
-  // ~40 scans in 4 simulated seconds at 10 Hz; a slow machine (or a sanitizer build) skips some:
-  // at 20x the loop has 5 ms of wall time per scan.
   EXPECT_GE(status->scans_answered, 5u);
-  EXPECT_LE(status->scans_sent, 42u);  // never faster than the laser's rate
+  // Never faster than the laser's 10 Hz, however long the run took.
+  EXPECT_LE(status->scans_sent, status->device_time / 0.1 + 2);
   EXPECT_EQ(status->scans_rejected, 0u);
   EXPECT_EQ(server_.service().last_create().robot_id(), "r1");
   EXPECT_EQ(server_.service().last_create().laser().laser().beam_count(), 181u);
@@ -290,25 +297,33 @@ TEST_F(RobotLoopTest, PassiveStreamsEveryScanWithIncreasingStampsAndClosesTheSes
 
 TEST_F(RobotLoopTest, ActiveDrivesEachSuggestionForItsDurationThenStops) {
   server_.service().set_suggestion(Forward(/*duration=*/1.0));
+  // Each answer takes at least 50 ms: a whole simulated second at 20x. The hold starts when the
+  // suggestion is driven, so the wait must not eat into it.
+  server_.service().set_scan_delay(absl::Milliseconds(50));
   auto office = Office(/*speed=*/20);
   adapters::RealTimeSimulation& sim = *office;
   RobotLoopOptions options;
   options.mode = DriveMode::kActive;
-  options.duration_s = 5;
   options.time_scale = 20;
   RobotLoop loop(Client(), sim.base(), sim.laser(), options);
+  // Until the third suggestion: the first two holds then ran to their end (a hold is measured in
+  // simulated time, so a slow machine does not shorten it).
+  std::thread stopper([&] {
+    WaitFor([&] { return loop.status().suggestions_driven >= 3; });
+    stop_ = true;
+  });
   auto status = loop.Run(stop_);
+  stop_ = true;
+  stopper.join();
   ASSERT_TRUE(status.ok()) << status.status();
   EXPECT_EQ(server_.service().last_create().laser().exploration().mode(),
             v1::ExplorationConfig::ACTIVE);
-  // Go-stop: 1 s holds plus settle and answer time: at most 5 suggestions in 5 s (fewer on a slow
-  // machine, where settling and answers take more simulated time at 20x).
-  EXPECT_GE(status->suggestions_driven, 2u);
-  EXPECT_LE(status->suggestions_driven, 5u);
-  // The simulated Pioneer is capped at 0.15 m/s; 0.1 m/s for at most 5 s of holds.
-  EXPECT_GT(sim.distance_travelled(), 0.05);
-  EXPECT_LT(sim.distance_travelled(), 0.55);
-  EXPECT_EQ(status->stops[static_cast<int>(StopReason::kCommandExpired)], 0u);
+  EXPECT_GE(status->suggestions_driven, 3u);
+  // Two full 1 s holds at 0.1 m/s (the simulated Pioneer accelerates at a finite rate).
+  EXPECT_GT(sim.distance_travelled(), 0.15);
+  // No upper bound on the distance, and no check that the watchdog never cut a hold: the
+  // simulator follows the wall clock, so a loop held up by a busy machine lets the robot roll on
+  // 20 times as long (the watchdog's grace is 0.2 s of wall-clock time).
   auto state = sim.base().Read();
   ASSERT_TRUE(state.ok());
   EXPECT_EQ(state->linear, 0);  // stopped at the end
@@ -503,8 +518,11 @@ TEST_F(RobotLoopTest, CommandRunsTheSimulatorAndPrintsStatusLinesAndASummary) {
                             "--sim-speed", "10", "--robot-id", "cli-robot"});
   ASSERT_EQ(r.code, 0) << r.err;
   EXPECT_THAT(r.out, HasSubstr("simulated Pioneer with LMS200 in world 'office'"));
+  // A status line at the start and one every wall-clock second; whether one falls after the first
+  // answer (server=ok) depends on the machine's speed, so only the field is checked here (the
+  // serial-fakes test in tests/robot waits for server=ok).
   EXPECT_THAT(r.out, HasSubstr("pose=("));
-  EXPECT_THAT(r.out, HasSubstr("server=ok"));  // a status line every second of 1.5 s
+  EXPECT_THAT(r.out, HasSubstr(" server="));
   EXPECT_THAT(r.out, HasSubstr("stopped: session"));
   EXPECT_EQ(server_.service().last_create().robot_id(), "cli-robot");
 }

@@ -59,6 +59,8 @@ class SlamCliTest : public ::testing::Test {
 
 TEST_F(SlamCliTest, ReplayStreamsEveryScanWithinTheWindowAndWritesTheOutputs) {
   server_.service().set_scan_delay(absl::Milliseconds(2));
+  // Nothing is answered before the window is full: the window is used on any machine.
+  server_.service().set_hold_until_received(4);
   const std::string log = WriteLog(100);
   const auto out = dir_.path() / "out";
   CliResult r = Run({"--json", "slam", "replay", log, "--out", out.string(), "--window", "4",
@@ -295,6 +297,10 @@ TEST(SensorStreamTest, WindowKeepsTheServerQueueFromOverflowing) {
 
   for (const int window : {3, 1000}) {
     SCOPED_TRACE(window);
+    // Without a window, nothing is processed before the 12th message: the client has then
+    // overflowed the queue of 8, however quickly this machine runs the fake's worker. (With a
+    // window of 3 the client waits for answers after 3 messages: no hold.)
+    server.service().set_hold_until_received(window == 1000 ? 12 : 0);
     auto session = client.CreateSession(create);
     ASSERT_TRUE(session.ok());
     std::atomic<int> answers{0};

@@ -5,6 +5,7 @@
 
 #include <opencv2/imgcodecs.hpp>
 
+#include "client/render/text_fit.h"
 #include "tests/client/test_util.h"
 
 namespace waymark::cli {
@@ -108,6 +109,25 @@ TEST(TimelinePlot, PngIsDrawnAndBothFilesAreWritten) {
       WriteTimelinePictures(ThreePanels(), dir.path() / "t.svg", dir.path() / "t.png").ok());
   EXPECT_FALSE(cv::imread((dir.path() / "t.png").string()).empty());
   EXPECT_GT(std::filesystem::file_size(dir.path() / "t.svg"), 1000u);
+}
+
+// A title wider than the plot wraps, and the panels move down below it.
+TEST(TimelinePlot, LongTitleWrapsAndThePanelsMoveDown) {
+  TimelinePlot plot = ThreePanels();
+  const double top = WithClass(LayoutTimeline(plot), "panel-frame")[0]->points[0].y;
+  for (int i = 0; i < 6; ++i) plot.title += " and a much longer description of the run";
+  TimelineOptions options;
+  options.width_px = 500;
+  const Drawing d = LayoutTimeline(plot, options);
+  const auto titles = WithClass(d, "title");
+  ASSERT_GT(titles.size(), 1u);
+  for (const DrawItem* line : titles) {
+    EXPECT_LE(line->points[0].x + TextWidthPx(line->text, line->font_px), d.width);
+  }
+  const auto frames = WithClass(d, "panel-frame");
+  ASSERT_EQ(frames.size(), 3u);
+  EXPECT_GT(frames[0]->points[0].y, top);
+  EXPECT_GT(WithClass(d, "panel-title")[0]->points[0].y, titles.back()->points[0].y + 10);
 }
 
 TEST(TimelinePlot, EmptyAndSingleSampleSeriesDoNotBreakTheLayout) {

@@ -300,5 +300,40 @@ TEST(EvaluateTrajectory, TooFewMatchesSaysHowManyAndTheRanges) {
   EXPECT_EQ(EvaluateTrajectory(gt, gt, bad).status().code(), absl::StatusCode::kInvalidArgument);
 }
 
+// The issue-15 case: a trajectory stamped at 10 Hz against poses stamped 1 s apart matches only
+// where the two clocks coincide (6 of 51 poses). The ATE is computed, but must not pass silently.
+TEST(EvaluateTrajectory, FewMatchesWarnWithBothStampSpans) {
+  std::vector<StampedPose3> est = Helix(51);
+  std::vector<StampedPose3> gt = est;
+  for (size_t i = 0; i < est.size(); ++i) {
+    est[i].stamp = 0.1 * static_cast<double>(i);
+    gt[i].stamp = static_cast<double>(i);
+  }
+  auto e = EvaluateTrajectory(est, gt);
+  ASSERT_TRUE(e.ok()) << e.status();
+  EXPECT_EQ(e->matches.size(), 6u);
+  const std::optional<std::string> warning = FewMatchesWarning(*e);
+  ASSERT_TRUE(warning.has_value());
+  EXPECT_THAT(*warning, HasSubstr("only 6 of 51 poses matched"));
+  EXPECT_THAT(*warning, HasSubstr("estimate has 51 poses, stamps 0.000000 .. 5.000000"));
+  EXPECT_THAT(*warning, HasSubstr("ground truth has 51 poses, stamps 0.000000 .. 50.000000"));
+
+  // Half of the shorter trajectory is enough: a 20-pose estimate of a 200-pose ground truth.
+  gt = Helix(200);
+  est.assign(gt.begin(), gt.begin() + 20);
+  e = EvaluateTrajectory(est, gt);
+  ASSERT_TRUE(e.ok()) << e.status();
+  EXPECT_EQ(e->matches.size(), 20u);
+  EXPECT_FALSE(FewMatchesWarning(*e).has_value());
+  for (size_t i = 10; i < est.size(); ++i) est[i].stamp += 100;  // 10 of 20 still match
+  e = EvaluateTrajectory(est, gt);
+  ASSERT_TRUE(e.ok()) << e.status();
+  EXPECT_FALSE(FewMatchesWarning(*e).has_value());
+  est[9].stamp += 100;  // 9 of 20
+  e = EvaluateTrajectory(est, gt);
+  ASSERT_TRUE(e.ok()) << e.status();
+  EXPECT_TRUE(FewMatchesWarning(*e).has_value());
+}
+
 }  // namespace
 }  // namespace waymark::cli

@@ -49,6 +49,16 @@ TEST_F(VoCommandTest, SequenceIsRequired) {
   EXPECT_THAT(r.err + r.out, HasSubstr("SEQ_DIR"));
 }
 
+// The help names every file a run writes (vo_run.cc's "wrote ..." line).
+TEST_F(VoCommandTest, HelpListsEveryOutputFile) {
+  const CliResult r = RunWaymark("127.0.0.1:1", {"vo", "run", "--help"});
+  EXPECT_EQ(r.code, 0) << r.err;
+  for (const char* file : {"trajectory.txt", "trajectory.svg", "trajectory.png", "summary.json",
+                           "frames/NNNNNN.png"}) {
+    EXPECT_THAT(r.out, HasSubstr(file));
+  }
+}
+
 TEST_F(VoCommandTest, MissingFolder) {
   const CliResult r = Vo({(dir_.path() / "nope").string()});
   EXPECT_EQ(r.code, 1);

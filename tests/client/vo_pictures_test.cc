@@ -114,6 +114,17 @@ TEST(VoPicturesTest, TrajectorySceneMapsGroundTruthIntoTheEstimateFrame) {
     EXPECT_NEAR(scene.references[0].points[i].y, 0.5 * i, 1e-9);
   }
   EXPECT_TRUE(TrajectoryScene(estimate, std::nullopt, "").references.empty());
+  // Both paths marked at their ends; the camera (identity rotation: looking along +z) faces up
+  // the picture from its last position.
+  EXPECT_TRUE(scene.polylines[0].mark_ends);
+  EXPECT_TRUE(scene.references[0].mark_ends);
+  ASSERT_TRUE(scene.current_pose.has_value());
+  EXPECT_NEAR(scene.current_pose->position.x, 0.4, 1e-12);
+  EXPECT_NEAR(scene.current_pose->position.y, 2.0, 1e-12);
+  EXPECT_NEAR(scene.current_pose->heading, M_PI / 2, 1e-12);
+  std::vector<StampedPose3> turned = estimate;
+  turned.back().rotation = Eigen::AngleAxisd(-M_PI / 2, Eigen::Vector3d::UnitY()).matrix();
+  EXPECT_NEAR(TrajectoryScene(turned, std::nullopt, "").current_pose->heading, M_PI, 1e-12);
 
   ScopedTempDir dir;
   ASSERT_TRUE(WriteMapPictures(scene, dir.path() / "t.svg", dir.path() / "t.png",

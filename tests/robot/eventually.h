@@ -2,7 +2,9 @@
 #define WAYMARK_TESTS_ROBOT_EVENTUALLY_H_
 
 // Polls a condition until it holds or the time runs out: how the device tests wait for threads
-// (drivers, fake peers) without asserting on wall-clock time.
+// (drivers, fake peers) without asserting on wall-clock time. The default timeout is generous:
+// it only turns a hang into a failure, and a loaded machine may take seconds for what a quiet one
+// does in milliseconds.
 
 #include <functional>
 
@@ -12,7 +14,7 @@
 namespace waymark::testing {
 
 inline bool Eventually(const std::function<bool()>& condition,
-                       absl::Duration timeout = absl::Seconds(5)) {
+                       absl::Duration timeout = absl::Seconds(60)) {
   const absl::Time deadline = absl::Now() + timeout;
   while (absl::Now() < deadline) {
     if (condition()) return true;

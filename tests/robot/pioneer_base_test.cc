@@ -129,7 +129,9 @@ TEST(PioneerBaseTest, OdometryFollowsCommandsInSiUnits) {
   auto s = b.Read();
   ASSERT_TRUE(s.ok());
   EXPECT_GT(s->odometry.x, 0.15);
-  EXPECT_LT(s->odometry.x, 2.0);  // metres, not millimetres
+  // Metres, not millimetres (that would be >= 150). Not a tighter bound: how far the robot rolls
+  // between the 0.15 m seen and the stop depends on how quickly this thread runs again.
+  EXPECT_LT(s->odometry.x, 100.0);
 
   // Turning: 0.5 rad/s is RVEL 29 deg/s; the angular velocity comes back from the wheel speeds.
   ASSERT_TRUE(b.SetVelocity(0, 0.5).ok());
@@ -203,9 +205,11 @@ TEST(PioneerBaseTest, PulsesKeepTheWatchdogFromTripping) {
   ASSERT_TRUE(base.ok()) << base.status();
   ASSERT_TRUE((*base)->SetVelocity(0.1, 0).ok());
   const int pulses_before = peer->Count("PULSE");
-  absl::SleepFor(absl::Milliseconds(2500));  // no commands from the caller
+  // No commands from the caller while the driver pulses on its own: five pulses (2.5 s at the
+  // 500 ms interval) outlast the robot's 2 s watchdog. Counted, not slept for: on a loaded
+  // machine the 2.5 s may hold fewer pulses, which is not what this test is about.
+  EXPECT_TRUE(Eventually([&] { return peer->Count("PULSE") - pulses_before >= 5; }));
   EXPECT_EQ(peer->watchdog_trips(), 0);
-  EXPECT_GE(peer->Count("PULSE") - pulses_before, 2);
   auto state = (*base)->Read();
   ASSERT_TRUE(state.ok()) << state.status();
   EXPECT_NEAR(state->linear, 0.1, 1e-6);  // still driving
@@ -225,7 +229,7 @@ TEST(PioneerBaseTest, FakeWatchdogStopsARobotLeftWithoutPulses) {
   // VEL2: left and right wheel 10 x 20 mm/s each.
   ASSERT_TRUE((*port)->Write(*EncodeP2osCommand(p2os::kVel2, (10 << 8) | 10)).ok());
   ASSERT_TRUE(Eventually([&] { return peer->pose().x > 0.05; }));
-  ASSERT_TRUE(Eventually([&] { return peer->watchdog_trips() == 1; }, absl::Seconds(4)));
+  ASSERT_TRUE(Eventually([&] { return peer->watchdog_trips() == 1; }));
   const double x = peer->pose().x;
   absl::SleepFor(absl::Milliseconds(300));
   EXPECT_DOUBLE_EQ(peer->pose().x, x);  // stopped

@@ -15,16 +15,6 @@
 #include "absl/strings/str_cat.h"
 
 namespace waymark::testing {
-namespace {
-
-std::string ReadFile(const std::string& path) {
-  std::ifstream in(path);
-  std::stringstream ss;
-  ss << in.rdbuf();
-  return ss.str();
-}
-
-}  // namespace
 
 std::string ServerBinary() {
 #ifdef WAYMARK_BINARY_DIR
@@ -71,25 +61,17 @@ absl::StatusOr<std::unique_ptr<ServerProcess>> ServerProcess::StartWithAuth(
     const std::string& listen) {
   std::unique_ptr<ServerProcess> server(new ServerProcess());
   server->log_path_ = db_path + ".log." + std::to_string(std::rand());
-  std::vector<std::string> argv = {binary, "--listen", listen, "--db", db_path};
-  argv.insert(argv.end(), args.begin(), args.end());
-  const pid_t pid = fork();
-  if (pid < 0) return absl::InternalError("fork failed");
-  if (pid == 0) {
-    const int fd = open(server->log_path_.c_str(), O_WRONLY | O_CREAT | O_TRUNC, 0644);
-    dup2(fd, STDOUT_FILENO);
-    dup2(fd, STDERR_FILENO);
-    std::vector<char*> cargv;
-    for (auto& a : argv) cargv.push_back(a.data());
-    cargv.push_back(nullptr);
-    execv(binary.c_str(), cargv.data());
-    _exit(127);
-  }
-  server->pid_ = pid;
+  ChildProcess::Options options;
+  options.argv = {binary, "--listen", listen, "--db", db_path};
+  options.argv.insert(options.argv.end(), args.begin(), args.end());
+  options.stdout_path = options.stderr_path = server->log_path_;
+  absl::StatusOr<std::unique_ptr<ChildProcess>> process = ChildProcess::Start(options);
+  if (!process.ok()) return process.status();
+  server->process_ = *std::move(process);
   const std::string marker = "listening on ";
   const auto deadline = std::chrono::steady_clock::now() + std::chrono::seconds(60);
   while (std::chrono::steady_clock::now() < deadline) {
-    const std::string log = ReadFile(server->log_path_);
+    const std::string log = ReadWholeFile(server->log_path_);
     const size_t at = log.find(marker);
     if (at != std::string::npos) {
       const size_t end = log.find('\n', at);
@@ -104,35 +86,15 @@ absl::StatusOr<std::unique_ptr<ServerProcess>> ServerProcess::StartWithAuth(
     std::this_thread::sleep_for(std::chrono::milliseconds(50));
   }
   return absl::DeadlineExceededError(
-      absl::StrCat("server did not report listening in 60 s:\n", ReadFile(server->log_path_)));
+      absl::StrCat("server did not report listening in 60 s:\n", ReadWholeFile(server->log_path_)));
 }
 
-ServerProcess::~ServerProcess() {
-  if (pid_ > 0 && Running()) Stop(SIGKILL);
-}
+ServerProcess::~ServerProcess() = default;  // the child process kills a server still running
 
-bool ServerProcess::Running() {
-  if (pid_ <= 0) return false;
-  int status = 0;
-  const pid_t r = waitpid(pid_, &status, WNOHANG);
-  if (r == pid_) {
-    pid_ = -1;
-    return false;
-  }
-  return r == 0;
-}
+bool ServerProcess::Running() { return process_->Running(); }
 
-int ServerProcess::Stop(int signal) {
-  if (pid_ <= 0) return -1;
-  kill(pid_, signal);
-  int status = 0;
-  waitpid(pid_, &status, 0);
-  pid_ = -1;
-  if (WIFEXITED(status)) return WEXITSTATUS(status);
-  if (WIFSIGNALED(status)) return 128 + WTERMSIG(status);
-  return -1;
-}
+int ServerProcess::Stop(int signal) { return process_->Stop(signal); }
 
-std::string ServerProcess::Log() const { return ReadFile(log_path_); }
+std::string ServerProcess::Log() const { return ReadWholeFile(log_path_); }
 
 }  // namespace waymark::testing

@@ -11,6 +11,7 @@
 #include <vector>
 
 #include "absl/status/statusor.h"
+#include "tests/support/child_process.h"
 
 namespace waymark::testing {
 
@@ -31,7 +32,7 @@ class ServerProcess {
   ~ServerProcess();
 
   const std::string& address() const { return address_; }
-  pid_t pid() const { return pid_; }
+  pid_t pid() const { return process_->pid(); }
   // Sends `signal` and waits for the exit; returns the exit code (128 + signal if killed).
   int Stop(int signal);
   // True while the process runs.
@@ -40,7 +41,7 @@ class ServerProcess {
 
  private:
   ServerProcess() = default;
-  pid_t pid_ = -1;
+  std::unique_ptr<ChildProcess> process_;
   std::string address_;
   std::string log_path_;
 };
