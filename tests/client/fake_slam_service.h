@@ -22,6 +22,9 @@ namespace waymark::testing {
 // flow control, and rejects per-sensor stamps that do not increase (INVALID_ARGUMENT).
 // For exploration clients it can answer every scan with a fixed suggested control (set_suggestion)
 // and a covariance_trace_mean growing with the scan count, and it keeps the stamps it received.
+// Visual clients' image frames are answered like scans (a pose3d at x = stamp, "tracking").
+// Like the real server, a stream's first answer carries its StreamStart, and a hello (a first
+// message without payload) is answered at once with it.
 class FakeSlamService final : public v1::SlamService::Service {
  public:
   void set_scan_delay(absl::Duration delay) { scan_delay_ = delay; }
@@ -29,17 +32,25 @@ class FakeSlamService final : public v1::SlamService::Service {
   // Attached to every scan's update; the default (BEHAVIOUR_UNSPECIFIED) attaches none, as a
   // passive session does.
   void set_suggestion(const v1::SuggestedControl& suggestion);
-  // Every stream ends with UNAVAILABLE when its scan number `scans` + 1 arrives (that scan is not
-  // answered): a server or network that dies under a robot. 0 = never.
+  // Every stream ends with UNAVAILABLE when its scan (or frame) number `scans` + 1 arrives (that
+  // scan is not answered): a server or network that dies under a robot. 0 = never.
   void set_break_streams_after(int scans) {
     std::lock_guard<std::mutex> lock(mutex_);
     break_streams_after_ = scans;
+  }
+  // With a break: the session then loses every scan after its first `scans` (its trajectory, count
+  // and stamps go back), and the next stream starts "from_checkpoint": a server that crashed and
+  // resumed the session from an old checkpoint. -1 = keep everything.
+  void set_rollback_on_break(int scans) {
+    std::lock_guard<std::mutex> lock(mutex_);
+    rollback_on_break_ = scans;
   }
   int streams_opened() const {
     std::lock_guard<std::mutex> lock(mutex_);
     return streams_opened_;
   }
-  // Stamps of the messages received, in arrival order (rejected ones included).
+  // Stamps of the messages received, in arrival order (rejected ones included); frames are among
+  // the scans.
   std::vector<double> odometry_stamps() const;
   std::vector<double> scan_stamps() const;
   int max_outstanding_scans() const;
@@ -70,7 +81,14 @@ class FakeSlamService final : public v1::SlamService::Service {
     v1::Pose2D odometry;
     double last_odometry_stamp = -1e300;
     double last_scan_stamp = -1e300;
+    bool resumed_from_checkpoint = false;  // rolled back: the next stream says so
   };
+  // The session as a stream finds it when it attaches.
+  static v1::StreamStart StartOf(const SessionData& session);
+  // Forgets everything after the first `scans` scans (set_rollback_on_break).
+  static void RollBack(SessionData& session, int scans);
+  // Answers a scan or a frame that was accepted: the session's count, pose and map move on.
+  v1::SlamUpdate Process(SessionData& session, const v1::SensorData& message);
   static constexpr int kScansPerSegment = 10;
 
   mutable std::mutex mutex_;
@@ -83,6 +101,7 @@ class FakeSlamService final : public v1::SlamService::Service {
   int odometry_received_ = 0;
   int rejected_ = 0;
   int break_streams_after_ = 0;
+  int rollback_on_break_ = -1;
   int streams_opened_ = 0;
   v1::CreateSessionRequest last_create_;
   v1::SuggestedControl suggestion_;

@@ -60,30 +60,47 @@ std::string MakeTempDir(const std::string& prefix) {
 
 absl::StatusOr<std::unique_ptr<ServerProcess>> ServerProcess::Start(
     const std::string& binary, const std::string& db_path, const std::vector<std::string>& args,
-    const std::string& listen) {
+    const std::string& listen, Stderr stderr_to) {
   std::vector<std::string> insecure = {"--insecure-dev"};
   insecure.insert(insecure.end(), args.begin(), args.end());
-  return StartWithAuth(binary, db_path, insecure, listen);
+  return StartWithAuth(binary, db_path, insecure, listen, stderr_to);
 }
 
 absl::StatusOr<std::unique_ptr<ServerProcess>> ServerProcess::StartWithAuth(
     const std::string& binary, const std::string& db_path, const std::vector<std::string>& args,
-    const std::string& listen) {
+    const std::string& listen, Stderr stderr_to) {
   std::unique_ptr<ServerProcess> server(new ServerProcess());
   server->log_path_ = db_path + ".log." + std::to_string(std::rand());
   std::vector<std::string> argv = {binary, "--listen", listen, "--db", db_path};
   argv.insert(argv.end(), args.begin(), args.end());
+  int broken_pipe[2] = {-1, -1};
+  if (stderr_to == Stderr::kClosedPipe && pipe(broken_pipe) != 0) {
+    return absl::InternalError("pipe failed");
+  }
   const pid_t pid = fork();
   if (pid < 0) return absl::InternalError("fork failed");
   if (pid == 0) {
     const int fd = open(server->log_path_.c_str(), O_WRONLY | O_CREAT | O_TRUNC, 0644);
     dup2(fd, STDOUT_FILENO);
-    dup2(fd, STDERR_FILENO);
+    if (stderr_to == Stderr::kClosedPipe) {
+      close(broken_pipe[0]);
+      dup2(broken_pipe[1], STDERR_FILENO);
+      close(broken_pipe[1]);
+    } else {
+      dup2(fd, STDERR_FILENO);
+    }
+    // The test's own disposition (gtest leaves SIGPIPE at its default) must not decide the
+    // server's: it sets its own.
+    signal(SIGPIPE, SIG_DFL);
     std::vector<char*> cargv;
     for (auto& a : argv) cargv.push_back(a.data());
     cargv.push_back(nullptr);
     execv(binary.c_str(), cargv.data());
     _exit(127);
+  }
+  if (stderr_to == Stderr::kClosedPipe) {
+    close(broken_pipe[0]);  // the last read end: the server's stderr now leads nowhere
+    close(broken_pipe[1]);
   }
   server->pid_ = pid;
   const std::string marker = "listening on ";
@@ -122,15 +139,37 @@ bool ServerProcess::Running() {
   return r == 0;
 }
 
+int ServerProcess::ExitCode(int status) {
+  if (WIFEXITED(status)) return WEXITSTATUS(status);
+  if (WIFSIGNALED(status)) return 128 + WTERMSIG(status);
+  return -1;
+}
+
 int ServerProcess::Stop(int signal) {
   if (pid_ <= 0) return -1;
   kill(pid_, signal);
   int status = 0;
   waitpid(pid_, &status, 0);
   pid_ = -1;
-  if (WIFEXITED(status)) return WEXITSTATUS(status);
-  if (WIFSIGNALED(status)) return 128 + WTERMSIG(status);
-  return -1;
+  return ExitCode(status);
+}
+
+void ServerProcess::Signal(int signal) {
+  if (pid_ > 0) kill(pid_, signal);
+}
+
+std::optional<int> ServerProcess::WaitForExit(absl::Duration timeout) {
+  if (pid_ <= 0) return -1;
+  const absl::Time deadline = absl::Now() + timeout;
+  while (true) {
+    int status = 0;
+    if (waitpid(pid_, &status, WNOHANG) == pid_) {
+      pid_ = -1;
+      return ExitCode(status);
+    }
+    if (absl::Now() >= deadline) return std::nullopt;
+    std::this_thread::sleep_for(std::chrono::milliseconds(50));
+  }
 }
 
 std::string ServerProcess::Log() const { return ReadFile(log_path_); }
