@@ -24,8 +24,8 @@ void AnsweredProgress::Observe(const v1::SlamUpdate& update) {
 
 std::optional<std::string> ResumeWarning(const std::string& session_id,
                                          const AnsweredProgress& seen,
-                                         const v1::StreamStart& start, std::string_view unit,
-                                         std::string_view whose, std::string_view consequence) {
+                                         const v1::StreamStart& start, absl::string_view unit,
+                                         absl::string_view whose, absl::string_view consequence) {
   if (!seen.any() || start.scans_processed() >= seen.scans_processed()) return std::nullopt;
   const uint64_t scans = seen.scans_processed() - start.scans_processed();
   const double seconds = seen.last_stamp() - start.last_scan_stamp();

@@ -10,9 +10,9 @@
 #include <cstdint>
 #include <optional>
 #include <string>
-#include <string_view>
 
 #include "absl/status/status.h"
+#include "absl/strings/string_view.h"
 #include "waymark/v1/slam.pb.h"
 
 namespace waymark::client {
@@ -42,8 +42,8 @@ class AnsweredProgress {
 // robot's stream") and `consequence` what it means for it. nullopt when nothing was lost.
 std::optional<std::string> ResumeWarning(const std::string& session_id,
                                          const AnsweredProgress& seen,
-                                         const v1::StreamStart& start, std::string_view unit,
-                                         std::string_view whose, std::string_view consequence);
+                                         const v1::StreamStart& start, absl::string_view unit,
+                                         absl::string_view whose, absl::string_view consequence);
 
 }  // namespace waymark::client
 

@@ -330,7 +330,7 @@ TEST_F(CliTest, ArgumentErrorsOfAKnownCommandAreStillCli11s) {
   CliResult r = Run({"db", "create"});  // the name is missing
   EXPECT_NE(r.code, 0);
   EXPECT_THAT(r.err, Not(HasSubstr("unknown command")));
-  EXPECT_THAT(r.err, HasSubstr("name"));
+  EXPECT_THAT(r.err, HasSubstr("NAME is required"));
 }
 
 // Issue 15: `--server 127.0.0.1` dialled port 0, and an unreachable server printed gRPC's text.

@@ -93,7 +93,8 @@ v1::StreamStart FakeSlamService::StartOf(const SessionData& session) {
 
 void FakeSlamService::RollBack(SessionData& session, int scans) {
   if (scans < 0 || scans >= session.trajectory.poses_size()) return;
-  session.trajectory.mutable_poses()->Truncate(scans);
+  session.trajectory.mutable_poses()->DeleteSubrange(scans,
+                                                     session.trajectory.poses_size() - scans);
   session.info.set_scans_processed(static_cast<uint64_t>(scans));
   const double stamp = scans > 0 ? session.trajectory.poses(scans - 1).stamp() : 0;
   session.info.set_last_scan_stamp(stamp);
