@@ -31,9 +31,10 @@ std::optional<std::string> ResumeWarning(const std::string& session_id,
   const double seconds = seen.last_stamp() - start.last_scan_stamp();
   const std::string gap = absl::StrFormat("%d %s / %.1f s", scans, unit, seconds);
   if (start.from_checkpoint()) {
-    return absl::StrCat("warning: session ", session_id, " resumed from ",
-                        start.checkpoint_at_unix() > 0 ? "a checkpoint " : "its creation (never checkpointed), ",
-                        gap, " behind ", whose, ": ", consequence);
+    const char* from = start.checkpoint_at_unix() > 0 ? "a checkpoint "
+                                                       : "its creation (never checkpointed), ";
+    return absl::StrCat("warning: session ", session_id, " resumed from ", from, gap, " behind ",
+                        whose, ": ", consequence);
   }
   return absl::StrCat("warning: session ", session_id, " holds ", gap, " less than ", whose,
                       " had answered: ", consequence);

@@ -102,7 +102,9 @@ absl::Status SensorStream::Send(v1::SensorData& message) {
 
 absl::StatusOr<v1::StreamStart> SensorStream::Hello(absl::Duration timeout) {
   if (finished_) return absl::FailedPreconditionError("the stream is finished");
-  if (first_sent_) return absl::FailedPreconditionError("a hello must be the stream's first message");
+  if (first_sent_) {
+    return absl::FailedPreconditionError("a hello must be the stream's first message");
+  }
   {
     std::lock_guard<std::mutex> lock(mutex_);
     hello_outstanding_ = true;

@@ -11,7 +11,6 @@
 #include <vector>
 
 #include "absl/strings/ascii.h"
-#include "absl/strings/match.h"
 #include "client/common/steady_clock.h"
 #include "client/lib/session_resume.h"
 #include "client/robot/laser_session.h"
@@ -287,10 +286,11 @@ class RobotLoop::Impl {
     // The end callback may have stopped the base already; count the break once.
     if (!end_seen_.exchange(true)) guard_.Halt(StopReason::kStreamBroken).IgnoreError();
     // A stream the server ended explains itself in Finish(); one that hangs must be cancelled.
-    const absl::Status finished =
-        FinishStream(/*cancel=*/why.code() != absl::StatusCode::kUnavailable);
+    const bool cancel = why.code() != absl::StatusCode::kUnavailable;
+    const absl::Status finished = FinishStream(cancel);
+    // After our own cancel, Finish() says only CANCELLED: the reason is `why`.
     Event(fmt::format("server stream broken ({}): base stopped",
-                      finished.ok() ? Text(why) : Text(finished)));
+                      cancel || finished.ok() ? Text(why) : Text(finished)));
   }
 
   // A failed device read: the base stops at once (a robot that cannot see or feel its wheels must

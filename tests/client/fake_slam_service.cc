@@ -222,7 +222,8 @@ grpc::Status FakeSlamService::StreamSensorData(
             continue;  // odometry is answered only when rejected
           }
         } else {
-          const double stamp = message.has_frame() ? message.frame().stamp() : message.scan().stamp();
+          const double stamp =
+              message.has_frame() ? message.frame().stamp() : message.scan().stamp();
           const v1::LaserScan& scan = message.scan();
           if (!(stamp > session.last_scan_stamp)) {
             ++rejected_;
