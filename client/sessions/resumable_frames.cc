@@ -17,12 +17,18 @@ std::string Text(const absl::Status& status) {
   return status.ToString(absl::StatusToStringMode::kWithNoExtraData);
 }
 
+constexpr int kUnavailable = 14;  // google.rpc.Code of a rejection
+
 // What the streams' reader threads and the sending thread share.
 struct Answers {
   std::mutex mutex;
   std::vector<bool> answered;  // per frame: its answer (or rejection) arrived
   client::AnsweredProgress progress;
   absl::Time last_answer;
+  // The current stream had a frame refused for now (UNAVAILABLE: the server is shutting down):
+  // that frame and the ones after it go on the next stream.
+  bool refused = false;
+  std::string refusal;
 };
 
 }  // namespace
@@ -49,12 +55,21 @@ absl::Status StreamFramesResumably(client::SlamClient& client, const std::string
             if (update.sequence() == 0 || update.sequence() > sent->size()) return;
             index = (*sent)[update.sequence() - 1];
             if (answers.answered[index]) return;  // every frame is answered once
+            if (update.has_rejection() && update.rejection().code() == kUnavailable) {
+              answers.refused = true;  // not an answer: sent again on the next stream
+              answers.refusal = update.rejection().message();
+              return;
+            }
             answers.answered[index] = true;
             answers.progress.Observe(update);
             answers.last_answer = absl::Now();
           }
           on_answer(index, update);
         });
+    {
+      std::lock_guard<std::mutex> lock(answers.mutex);
+      answers.refused = false;
+    }
     absl::Status broke;
     const absl::StatusOr<v1::StreamStart> start = stream->Hello(options.hello_timeout);
     if (!start.ok()) {
@@ -73,6 +88,10 @@ absl::Status StreamFramesResumably(client::SlamClient& client, const std::string
       for (size_t i = 0; i < stamps.size(); ++i) {
         {
           std::lock_guard<std::mutex> lock(answers.mutex);
+          if (answers.refused) {
+            broke = absl::UnavailableError(answers.refusal);
+            break;
+          }
           if (answers.answered[i]) continue;
         }
         if (lost[i]) continue;
@@ -108,7 +127,11 @@ absl::Status StreamFramesResumably(client::SlamClient& client, const std::string
     const client::SensorStream::Stats stream_stats = stream->stats();
     stats->frames_sent += stream_stats.frames_sent;
     stats->max_outstanding = std::max(stats->max_outstanding, stream_stats.max_outstanding);
-    if (broke.ok() && finished.ok()) return absl::OkStatus();
+    if (broke.ok() && finished.ok()) {
+      std::lock_guard<std::mutex> lock(answers.mutex);
+      if (!answers.refused) return absl::OkStatus();
+      broke = absl::UnavailableError(answers.refusal);  // the refused go on the next stream
+    }
     if (!finished.ok()) broke = finished;
     if (client::SessionIsGone(broke)) return broke;
     {

@@ -179,10 +179,12 @@ grpc::Status FakeSlamService::StreamSensorData(
   const std::string session_id = first.session_id();
   int break_after = 0;
   int rollback = -1;
+  int refuse_after = 0;
   {
     std::lock_guard<std::mutex> lock(mutex_);
     if (sessions_.count(session_id) == 0) return NoSession(session_id);
     ++streams_opened_;
+    if (streams_opened_ == 1) refuse_after = refuse_first_stream_after_;
     break_after = break_streams_after_;
     rollback = rollback_on_break_;
     start = StartOf(sessions_[session_id]);
@@ -194,6 +196,7 @@ grpc::Status FakeSlamService::StreamSensorData(
     if (!stream->Read(&first)) return grpc::Status::OK;
   }
   int scans_in_stream = 0;
+  int refusable_in_stream = 0;
   bool broken = false;
 
   std::thread worker([&] {
@@ -256,6 +259,10 @@ grpc::Status FakeSlamService::StreamSensorData(
     if (answered && break_after > 0 && ++scans_in_stream > break_after) {
       broken = true;  // like a server that dies: this scan is never answered
       break;
+    }
+    if (answered && refuse_after > 0 && ++refusable_in_stream > refuse_after) {
+      write(Rejection(message.sequence(), 14, "fake: the server is shutting down"));
+      continue;
     }
     std::unique_lock<std::mutex> lock(queue_mutex);
     if (answered || message.has_odometry()) {

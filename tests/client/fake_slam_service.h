@@ -45,6 +45,13 @@ class FakeSlamService final : public v1::SlamService::Service {
     std::lock_guard<std::mutex> lock(mutex_);
     rollback_on_break_ = scans;
   }
+  // The first stream refuses every scan (or frame) after its first `scans` with an UNAVAILABLE
+  // rejection (not recorded as received) and goes on, as a server that is shutting down but has
+  // not ended its streams yet. 0 = never.
+  void set_refuse_first_stream_after(int scans) {
+    std::lock_guard<std::mutex> lock(mutex_);
+    refuse_first_stream_after_ = scans;
+  }
   int streams_opened() const {
     std::lock_guard<std::mutex> lock(mutex_);
     return streams_opened_;
@@ -102,6 +109,7 @@ class FakeSlamService final : public v1::SlamService::Service {
   int rejected_ = 0;
   int break_streams_after_ = 0;
   int rollback_on_break_ = -1;
+  int refuse_first_stream_after_ = 0;
   int streams_opened_ = 0;
   v1::CreateSessionRequest last_create_;
   v1::SuggestedControl suggestion_;

@@ -89,6 +89,24 @@ TEST_F(VoResumeTest, ASessionThatResumedFromAnOlderCheckpointIsReported) {
   EXPECT_EQ(TrajectoryLines(), kFrames);
 }
 
+// A server that is shutting down refuses frames with UNAVAILABLE before it ends the stream: those
+// are not answers, and go again on the next stream (seen with the real server: frames 62-66 of a
+// Bonn run were left "rejected: the server is shutting down").
+TEST_F(VoResumeTest, FramesRefusedForNowAreSentAgainOnTheNextStream) {
+  server_.service().set_refuse_first_stream_after(5);
+  const CliResult r = Run();
+  ASSERT_EQ(r.code, 0) << r.err;
+  const nlohmann::json summary = r.Json();
+  EXPECT_EQ(summary["processed"], kFrames);
+  EXPECT_EQ(summary["rejected"], 0);
+  EXPECT_EQ(summary["stream_reconnects"], 1);
+  EXPECT_THAT(r.err, HasSubstr("fake: the server is shutting down"));
+  std::vector<double> expected;
+  for (int i = 0; i < kFrames; ++i) expected.push_back(Stamp(i));
+  EXPECT_EQ(server_.service().scan_stamps(), expected);
+  EXPECT_EQ(TrajectoryLines(), kFrames);
+}
+
 TEST_F(VoResumeTest, NoServerAtAllIsReportedWithTheAddressDialled) {
   const CliResult r = RunWaymark("127.0.0.1:1", {"vo", "run", dir_.path().string(), "--fx", "50",
                                                  "--fy", "50", "--cx", "32", "--cy", "24", "--out",
