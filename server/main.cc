@@ -11,8 +11,11 @@
 // Every call needs a bearer token (server/service/access_policy.h) unless --insecure-dev, which is
 // only accepted on loopback. Plaintext is only served on loopback unless --allow-plaintext.
 // Prints "waymark-server listening on HOST:PORT" once it accepts calls (port 0 picks a free port).
-// SIGINT/SIGTERM: stop accepting, let in-flight calls finish (up to --shutdown-grace seconds),
-// then checkpoint every SLAM session in memory and close the database.
+// SIGINT/SIGTERM: stop accepting, checkpoint every SLAM session in memory, end the open streams
+// (UNAVAILABLE "server shutting down"; robots resume their sessions once the server is back), let
+// the other in-flight calls finish (up to --shutdown-grace seconds) and close the database.
+// SIGPIPE is ignored: a log reader that went away (stderr piped into a `tee` that was closed)
+// must not kill the server before its shutdown checkpoint.
 
 #include <malloc.h>
 
@@ -26,7 +29,6 @@
 #include <grpcpp/ext/proto_server_reflection_plugin.h>
 #include <grpcpp/grpcpp.h>
 #include <grpcpp/health_check_service_interface.h>
-#include <grpcpp/resource_quota.h>
 #include <spdlog/sinks/stdout_color_sinks.h>
 #include <spdlog/spdlog.h>
 
@@ -37,6 +39,7 @@
 #include "server/service/idle_stream_reaper.h"
 #include "server/service/metrics.h"
 #include "server/service/slam_registry.h"
+#include "server/service/server_channel.h"
 #include "server/service/server_security.h"
 #include "server/service/slam_service.h"
 #include "server/service/stream_limiter.h"
@@ -65,24 +68,6 @@ struct ServerFlags {
   waymark::service::SecurityOptions security;
   waymark::service::SlamRegistryOptions slam;
 };
-
-// Keepalive for robots on Wi-Fi: ping idle connections so dead links are noticed in seconds, and
-// accept the clients' own pings (client library: every 20 s) without calling them abusive.
-void ConfigureChannel(grpc::ServerBuilder* builder, const ServerFlags& flags) {
-  builder->AddChannelArgument(GRPC_ARG_KEEPALIVE_TIME_MS, 30000);
-  builder->AddChannelArgument(GRPC_ARG_KEEPALIVE_TIMEOUT_MS, 10000);
-  builder->AddChannelArgument(GRPC_ARG_KEEPALIVE_PERMIT_WITHOUT_CALLS, 1);
-  builder->AddChannelArgument(GRPC_ARG_HTTP2_MIN_RECV_PING_INTERVAL_WITHOUT_DATA_MS, 10000);
-  builder->AddChannelArgument(GRPC_ARG_HTTP2_MAX_PING_STRIKES, 0);
-  const int max_bytes = flags.max_message_mb * 1024 * 1024;
-  builder->SetMaxReceiveMessageSize(max_bytes);
-  builder->SetMaxSendMessageSize(max_bytes);
-  if (flags.threads > 0) {
-    grpc::ResourceQuota quota("waymark");
-    quota.SetMaxThreads(flags.threads);
-    builder->SetResourceQuota(quota);
-  }
-}
 
 // With auth on and no live admin token, nobody can manage tokens over the API: say how to start.
 void HintFirstToken(waymark::storage::TokenStore& tokens, const ServerFlags& flags) {
@@ -182,7 +167,7 @@ int Run(const ServerFlags& flags) {
   grpc::ServerBuilder builder;
   int port = 0;
   builder.AddListeningPort(flags.listen, *credentials, &port);
-  ConfigureChannel(&builder, flags);
+  waymark::service::ConfigureServerChannel(&builder, {flags.max_message_mb, flags.threads});
   builder.RegisterService(&crossing_service);
   builder.RegisterService(&slam_service);
   builder.RegisterService(&token_service);
@@ -208,16 +193,24 @@ int Run(const ServerFlags& flags) {
   std::signal(SIGINT, OnSignal);
   std::signal(SIGTERM, OnSignal);
   while (g_signal == 0) std::this_thread::sleep_for(std::chrono::milliseconds(100));
-  spdlog::info("signal {}: shutting down, letting in-flight calls finish", g_signal.load());
+  spdlog::info("signal {}: shutting down: saving the SLAM sessions, ending the streams, letting "
+               "in-flight calls finish",
+               g_signal.load());
   server->GetHealthCheckService()->SetServingStatus(false);
   const auto deadline = std::chrono::system_clock::now() +
                         std::chrono::milliseconds(static_cast<int>(flags.shutdown_grace_s * 1000));
-  server->Shutdown(deadline);
-  server->Wait();
-  // Streams have ended (their accepted messages answered): save every session in memory.
+  // Shutdown() refuses new calls at once and waits for the running ones (up to the grace); it
+  // runs beside the rest, which ends the calls that would never end on their own.
+  std::thread stop_serving([&] { server->Shutdown(deadline); });
+  // Sessions refuse new messages, answer the accepted ones and are saved; then the streams that
+  // fed them (and the crossing streams) end, telling their robots why.
   if (absl::Status s = (*slam_registry)->Shutdown(); !s.ok()) {
     spdlog::error("SLAM checkpoint at shutdown failed: {}", s.ToString());
   }
+  idle_streams.EndAll(grpc::StatusCode::UNAVAILABLE,
+                      "server shutting down (sessions saved): resume once it is back");
+  stop_serving.join();
+  server->Wait();
   spdlog::info("stopped");
   return 0;
 }
@@ -225,6 +218,8 @@ int Run(const ServerFlags& flags) {
 }  // namespace
 
 int main(int argc, char** argv) {
+  // Writes to a closed pipe (a log reader gone) fail with EPIPE instead of killing the server.
+  std::signal(SIGPIPE, SIG_IGN);
   ServerFlags flags;
   CLI::App app{"waymark-server: crossing recognition and SLAM sessions for robots, over gRPC"};
   app.add_option("--listen", flags.listen, "address to listen on (port 0 picks a free port)")
@@ -257,7 +252,8 @@ int main(int argc, char** argv) {
       ->check(CLI::Range(1, 1024))
       ->capture_default_str();
   app.add_option("--shutdown-grace", flags.shutdown_grace_s,
-                 "seconds in-flight calls get to finish on SIGINT/SIGTERM")
+                 "seconds in-flight calls get to finish on SIGINT/SIGTERM (open streams end as "
+                 "soon as their sessions are saved)")
       ->check(CLI::NonNegativeNumber)
       ->capture_default_str();
   app.add_option("--slam-queue", flags.slam.queue_capacity,

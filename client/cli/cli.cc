@@ -1,7 +1,10 @@
 #include "client/cli/cli.h"
 
 #include "client/cli/command.h"
+#include "client/cli/server_address.h"
+#include "client/cli/unknown_command.h"
 #include "client/cli/vo_command.h"
+#include "client/common/output.h"
 
 namespace waymark::cli {
 
@@ -16,7 +19,8 @@ int RunCli(int argc, const char* const* argv, std::ostream& out, std::ostream& e
   // `waymark --json db list`.
   app.fallthrough();
   app.require_subcommand(1);
-  app.add_option("--server", globals.server, "Server address host:port")
+  app.add_option("--server", globals.server,
+                 "Server address HOST[:PORT], [IPV6][:PORT] or unix:PATH (port 50051 if omitted)")
       ->envname("WAYMARK_SERVER")
       ->capture_default_str();
   app.add_flag("--json", globals.json, "Print one JSON document on stdout instead of tables");
@@ -55,8 +59,13 @@ int RunCli(int argc, const char* const* argv, std::ostream& out, std::ostream& e
   try {
     app.parse(argc, argv);
   } catch (const CLI::ParseError& e) {
+    if (std::optional<int> code = ReportUnknownCommand(app, e, err)) return *code;
     return app.exit(e, out, err);
   }
+  // Every command dials (and every error names) the completed address.
+  absl::StatusOr<std::string> server = WithDefaultPort(globals.server);
+  if (!server.ok()) return ReportError(context, server.status(), "--server / WAYMARK_SERVER");
+  globals.server = *std::move(server);
   if (globals.use_tls || !globals.tls.ca.empty() || !globals.tls.cert.empty()) {
     auto credentials = client::MakeTlsCredentials(globals.tls);
     if (!credentials.ok()) {

@@ -69,6 +69,11 @@ void AddVoCommands(CLI::App& app, CommandRegistry& registry) {
                   "Feature picture of every N-th frame sent (0 = only the most dynamic frame)")
       ->check(CLI::NonNegativeNumber)
       ->capture_default_str();
+  run->add_option("--reconnect-seconds", args->reconnect_seconds,
+                  "A broken stream is reopened on the same session (resending the frames not "
+                  "answered) until no frame has been answered for this long")
+      ->check(CLI::PositiveNumber)
+      ->capture_default_str();
   registry.Add(run, [args](CommandContext& c) { return RunVo(c, *args); });
 }
 

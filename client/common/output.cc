@@ -5,15 +5,19 @@
 #include <algorithm>
 
 #include "absl/status/status.h"
+#include "client/lib/status_util.h"
 
 namespace waymark::cli {
 
 int ReportError(const CommandContext& context, const absl::Status& status, std::string_view what) {
   context.err << "error: " << absl::StatusCodeToString(status.code()) << ": " << status.message();
   if (!what.empty()) context.err << " (" << what << ")";
-  // Transport errors do not always name the address the user typed (or took from WAYMARK_SERVER).
-  if (status.code() == absl::StatusCode::kUnavailable ||
-      status.code() == absl::StatusCode::kDeadlineExceeded) {
+  // gRPC's transport errors ("failed to connect to all addresses", "Socket closed") name no
+  // address, or not the one the user typed (or took from WAYMARK_SERVER): name the one dialled.
+  if (client::IsUnavailableCall(status)) {
+    context.err << ": is the server running at " << context.globals.server
+                << "? (--server HOST[:PORT] or WAYMARK_SERVER names another)";
+  } else if (status.code() == absl::StatusCode::kDeadlineExceeded) {
     context.err << " [server " << context.globals.server << "]";
   }
   context.err << "\n";

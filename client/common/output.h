@@ -15,7 +15,8 @@
 namespace waymark::cli {
 
 // Prints "error: CODE_NAME: message" on context.err and returns kExitFailure. `what` (optional)
-// says which input the error belongs to, e.g. a file name.
+// says which input the error belongs to, e.g. a file name. A call that found no server
+// (client::IsUnavailableCall) adds "is the server running at ADDRESS?" with the address dialled.
 int ReportError(const CommandContext& context, const absl::Status& status,
                 std::string_view what = {});
 

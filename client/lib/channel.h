@@ -15,9 +15,16 @@ namespace waymark::client {
 // Channel settings for robots on Wi-Fi: links drop silently and come back, so the client pings the
 // server even when idle, notices a dead link within keepalive_time + keepalive_timeout, and retries
 // connecting quickly once the robot is back in range.
+//
+// The keepalive must agree with the server's ping policy (server/service/server_channel.h; a test
+// checks it): keepalive_time not below the server's minimum ping interval, or the server answers
+// GOAWAY "too_many_pings". keepalive_timeout is generous: on a busy machine (a loaded 2-core robot
+// computer, a server decoding camera frames on every core) a ping's answer can take seconds, and
+// 10 s cut healthy streams with "keepalive watchdog timeout" (issue 15). A dead server is noticed
+// sooner by the streams' answer timeouts, and streams resume on a new connection.
 struct ChannelOptions {
-  absl::Duration keepalive_time = absl::Seconds(20);
-  absl::Duration keepalive_timeout = absl::Seconds(10);
+  absl::Duration keepalive_time = absl::Seconds(30);
+  absl::Duration keepalive_timeout = absl::Seconds(20);
   // Ping while no call is active, so the first call after a quiet period does not hit a dead link.
   // The server must allow it (see the report in crossing_client.h).
   bool keepalive_permit_without_calls = true;

@@ -34,6 +34,18 @@ SensorStream::~SensorStream() {
 void SensorStream::ReadLoop() {
   v1::SlamUpdate update;
   while (stream_->Read(&update)) {
+    bool hello_answer = false;
+    {
+      std::lock_guard<std::mutex> lock(mutex_);
+      if (update.has_stream_start() && !start_) start_ = update.stream_start();
+      // The hello has sequence 0, which no data message has.
+      hello_answer = hello_outstanding_ && update.sequence() == 0 && !update.has_rejection();
+      if (hello_answer) hello_outstanding_ = false;
+    }
+    if (hello_answer) {
+      changed_.notify_all();
+      continue;
+    }
     // The callback runs before the answer is counted, so a caller woken by WaitIdle or SendScan
     // already sees what the callback recorded.
     if (on_update_) on_update_(update);
@@ -86,6 +98,37 @@ absl::Status SensorStream::Send(v1::SensorData& message) {
     return absl::UnavailableError("the stream is closed; Finish() reports why");
   }
   return absl::OkStatus();
+}
+
+absl::StatusOr<v1::StreamStart> SensorStream::Hello(absl::Duration timeout) {
+  if (finished_) return absl::FailedPreconditionError("the stream is finished");
+  if (first_sent_) {
+    return absl::FailedPreconditionError("a hello must be the stream's first message");
+  }
+  {
+    std::lock_guard<std::mutex> lock(mutex_);
+    hello_outstanding_ = true;
+  }
+  v1::SensorData hello;  // sequence 0: numbered data starts at 1
+  if (absl::Status sent = Send(hello); !sent.ok()) return sent;
+  std::unique_lock<std::mutex> lock(mutex_);
+  changed_.wait_for(lock, absl::ToChronoNanoseconds(timeout),
+                    [this] { return read_done_ || !hello_outstanding_; });
+  if (!hello_outstanding_) {
+    if (start_.has_value()) return *start_;
+    return absl::UnimplementedError(
+        "the server answered the hello without stream_start: it is older than this client");
+  }
+  if (read_done_) {
+    return absl::UnavailableError("the server ended the stream before answering its hello");
+  }
+  return absl::DeadlineExceededError("no answer to the stream's hello within " +
+                                     absl::FormatDuration(timeout));
+}
+
+std::optional<v1::StreamStart> SensorStream::start() const {
+  std::lock_guard<std::mutex> lock(mutex_);
+  return start_;
 }
 
 absl::Status SensorStream::SendOdometry(const v1::Odometry& odometry) {

@@ -10,6 +10,7 @@
 #include <functional>
 #include <memory>
 #include <mutex>
+#include <optional>
 #include <string>
 #include <thread>
 #include <unordered_set>
@@ -47,8 +48,8 @@ inline constexpr int kDefaultFrameWindow = 4;
 // messages are not answered unless rejected, and are not windowed (each precedes a scan).
 // Visual sessions send image frames instead: each is answered like a scan and shares its window.
 //
-// Updates are read on an internal thread and handed to `on_update` (on that thread). Send* and
-// Finish() belong to one thread.
+// Updates are read on an internal thread and handed to `on_update` (on that thread); the answer to
+// a hello is not an update (see Hello()). Send* and Finish() belong to one thread.
 class SensorStream {
  public:
   using UpdateCallback = std::function<void(const v1::SlamUpdate&)>;
@@ -77,6 +78,12 @@ class SensorStream {
   absl::Status SendScan(const v1::LaserScan& scan);
   // Visual sessions: waits like SendScan (frames and scans share the window), then sends.
   absl::Status SendFrame(const v1::ImageFrame& frame);
+  // Sends a hello (the session id, no payload) as the stream's first message and waits for its
+  // answer: what the session holds (StreamStart), learnt before any data is sent. UNAVAILABLE
+  // when the stream ends first (Finish() says why), DEADLINE_EXCEEDED after `timeout`.
+  absl::StatusOr<v1::StreamStart> Hello(absl::Duration timeout);
+  // The StreamStart of the stream's first answer (or of the hello's), once it has arrived.
+  std::optional<v1::StreamStart> start() const;
   // Waits until every scan sent so far is answered (a rejection counts). DEADLINE_EXCEEDED after
   // `timeout`, UNAVAILABLE if the stream ended first. The update callback of the last answer has
   // returned by then.
@@ -117,6 +124,8 @@ class SensorStream {
   std::unordered_set<uint64_t> outstanding_scans_;  // sequences of scans and frames
   std::unordered_set<uint64_t> outstanding_frames_;  // the frames among them
   std::unordered_set<uint64_t> odometry_sequences_;  // only kept to classify rejections
+  std::optional<v1::StreamStart> start_;
+  bool hello_outstanding_ = false;  // sent, not yet answered (its answer is no update)
   Stats stats_;
   absl::Duration answer_timeout_ = absl::Seconds(120);
   std::function<void()> on_end_;

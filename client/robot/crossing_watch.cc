@@ -77,7 +77,8 @@ void CrossingWatch::RecognizeOnce() {
     request.mutable_image()->set_data(*std::move(frame));
     auto response = client_.RecognizeCrossing(request);
     if (!response.ok()) {
-      summary = fmt::format("recognition failed: {}", response.status().ToString());
+      summary = fmt::format("recognition failed: {}",
+                            response.status().ToString(absl::StatusToStringMode::kWithNoExtraData));
     } else {
       ok = true;
       recognized = response->recognized();

@@ -8,14 +8,20 @@
 #include <mutex>
 #include <optional>
 #include <thread>
+#include <vector>
 
 #include "absl/strings/ascii.h"
-#include "absl/strings/match.h"
 #include "client/common/steady_clock.h"
+#include "client/lib/session_resume.h"
 #include "client/robot/laser_session.h"
 
 namespace waymark::cli {
 namespace {
+
+// A status as an event shows it: code and message (without the payload that marks calls).
+std::string Text(const absl::Status& status) {
+  return status.ToString(absl::StatusToStringMode::kWithNoExtraData);
+}
 
 // Sleeps `seconds` of wall time in short slices, returning early once `stop` is set.
 void SleepUnlessStopped(double seconds, const std::atomic<bool>& stop) {
@@ -25,17 +31,6 @@ void SleepUnlessStopped(double seconds, const std::atomic<bool>& stop) {
     if (left <= 0) return;
     std::this_thread::sleep_for(std::chrono::duration<double>(std::min(left, 0.05)));
   }
-}
-
-// A session the server no longer has (unknown id, closed) cannot be resumed; anything else
-// (server down, restarting, the old stream not yet noticed as dead) is worth another try.
-bool SessionIsGone(const absl::Status& status) {
-  return status.code() == absl::StatusCode::kNotFound ||
-         (status.code() == absl::StatusCode::kFailedPrecondition &&
-          absl::StrContains(status.message(), "is closed")) ||
-         status.code() == absl::StatusCode::kInvalidArgument ||
-         status.code() == absl::StatusCode::kPermissionDenied ||
-         status.code() == absl::StatusCode::kUnauthenticated;
 }
 
 // Remembers when a device started failing; the run ends when it keeps failing past the grace.
@@ -108,6 +103,7 @@ class RobotLoop::Impl {
       } else if (answered_since_open_) {
         backoff = absl::ToDoubleSeconds(options_.reconnect_initial);
       }
+      ReportWarnings();
       MaybeReportStatus();
     }
     guard_.Halt(StopReason::kShutdown).IgnoreError();
@@ -115,7 +111,7 @@ class RobotLoop::Impl {
     if (result.ok() && options_.close_session) {
       auto closed = client_.CloseSession(session_id_);
       if (!closed.ok())
-        Event(fmt::format("could not close the session: {}", closed.status().ToString()));
+        Event(fmt::format("could not close the session: {}", Text(closed.status())));
     }
     if (!result.ok()) return result;
     return Snapshot();
@@ -171,6 +167,16 @@ class RobotLoop::Impl {
       if (client_.WaitForConnected(absl::Seconds(std::min(0.05, end - adapters::SteadySeconds()))))
         return;
     }
+  }
+
+  // Warnings found on the stream's reader thread, told on the loop's (where events come from).
+  void ReportWarnings() {
+    std::vector<std::string> warnings;
+    {
+      std::lock_guard<std::mutex> lock(mutex_);
+      warnings.swap(pending_warnings_);
+    }
+    for (const std::string& warning : warnings) Event(warning);
   }
 
   // Every status_period of wall time, also in the middle of a hold.
@@ -232,6 +238,16 @@ class RobotLoop::Impl {
   void OnUpdate(const v1::SlamUpdate& update) {
     std::lock_guard<std::mutex> lock(mutex_);
     answered_since_open_ = true;  // a rejection too: the server is there
+    // A reopened stream's first answer says what the session held when it attached: less than
+    // this robot had answered means the server lost it (resumed from an old checkpoint).
+    if (update.has_stream_start()) {
+      if (std::optional<std::string> warning = client::ResumeWarning(
+              session_id_, answered_progress_, update.stream_start(), "scans",
+              "this robot's stream", "the map and the pose restart from there")) {
+        pending_warnings_.push_back(*std::move(warning));
+      }
+    }
+    answered_progress_.Observe(update);
     if (update.has_rejection()) {
       ++status_.scans_rejected;
       status_.last_rejection = update.rejection().message();
@@ -260,8 +276,8 @@ class RobotLoop::Impl {
     std::lock_guard<std::mutex> lock(mutex_);
     scans_sent_before_ += stream->stats().scans_sent;
     if (!finished.ok()) {
-      status_.server_error = finished.ToString();
-      if (SessionIsGone(finished)) session_gone_ = finished;
+      status_.server_error = Text(finished);
+      if (client::SessionIsGone(finished)) session_gone_ = finished;
     }
     return finished;
   }
@@ -270,10 +286,11 @@ class RobotLoop::Impl {
     // The end callback may have stopped the base already; count the break once.
     if (!end_seen_.exchange(true)) guard_.Halt(StopReason::kStreamBroken).IgnoreError();
     // A stream the server ended explains itself in Finish(); one that hangs must be cancelled.
-    const absl::Status finished =
-        FinishStream(/*cancel=*/why.code() != absl::StatusCode::kUnavailable);
+    const bool cancel = why.code() != absl::StatusCode::kUnavailable;
+    const absl::Status finished = FinishStream(cancel);
+    // After our own cancel, Finish() says only CANCELLED: the reason is `why`.
     Event(fmt::format("server stream broken ({}): base stopped",
-                      finished.ok() ? why.ToString() : finished.ToString()));
+                      cancel || finished.ok() ? Text(why) : Text(finished)));
   }
 
   // A failed device read: the base stops at once (a robot that cannot see or feel its wheels must
@@ -283,11 +300,11 @@ class RobotLoop::Impl {
     guard_.Halt(StopReason::kDeviceError).IgnoreError();
     {
       std::lock_guard<std::mutex> lock(mutex_);
-      error_field = error.ToString();
+      error_field = Text(error);
     }
     if (health.Fail()) {
       fatal = absl::UnavailableError(
-          fmt::format("the {} stopped reporting: {}", device, error.ToString()));
+          fmt::format("the {} stopped reporting: {}", device, Text(error)));
     }
   }
 
@@ -402,7 +419,7 @@ class RobotLoop::Impl {
       ++suggestions_driven_;
     }
     if (absl::Status s = guard_.Drive(control.linear(), control.angular(), hold); !s.ok()) {
-      Event(fmt::format("suggestion refused: {}", s.ToString()));
+      Event(fmt::format("suggestion refused: {}", Text(s)));
       return absl::OkStatus();
     }
     // The hold starts with the drive, not at the scan: waiting for the answer (at rest) is no part
@@ -458,6 +475,8 @@ class RobotLoop::Impl {
   v1::SlamUpdate latest_;
   bool last_rejected_ = false;
   bool answered_since_open_ = false;
+  client::AnsweredProgress answered_progress_;  // over every stream of the run
+  std::vector<std::string> pending_warnings_;
   uint64_t suggestions_driven_ = 0;
   std::optional<double> start_stamp_;
   double last_base_stamp_ = 0;

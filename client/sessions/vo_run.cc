@@ -2,8 +2,9 @@
 // what came back (see vo_session.h; the outputs are described in vo_command.cc's help).
 //
 // Frames are sent with at most --window unanswered (SensorStream's flow control), so a slow session
-// never overflows the server's bounded queue. Only frames go on the stream, so the n-th message has
-// sequence n (SensorStream numbers messages from 1): an update's sequence names its frame.
+// never overflows the server's bounded queue. A broken stream (keepalive timeout, server restart)
+// is reopened on the same session and the run goes on from the first frame not answered
+// (resumable_frames.h); every frame is answered once.
 //
 // Every frame asks for per-feature data (want_features): which frame has the most dynamic features
 // is only known afterwards, and the data (~9 bytes per feature, ~10 KB per frame) is small next to
@@ -25,6 +26,7 @@
 #include "client/common/progress_bar.h"
 #include "client/common/read_file.h"
 #include "client/render/vo_frames.h"
+#include "client/sessions/resumable_frames.h"
 #include "client/sessions/vo_pictures.h"
 #include "client/sessions/vo_session.h"
 #include "client/eval/vo_summary.h"
@@ -131,10 +133,8 @@ int RunVo(CommandContext& context, const VoArgs& args) {
       state.sample_frames.insert(i);
     }
   }
-  auto on_update = [&state](const v1::SlamUpdate& update) {
+  auto on_answer = [&state](size_t i, const v1::SlamUpdate& update) {
     std::lock_guard<std::mutex> lock(state.mutex);
-    if (update.sequence() == 0 || update.sequence() > state.records.size()) return;
-    const size_t i = update.sequence() - 1;
     VoFrameRecord& record = state.records[i];
     record = RecordFromUpdate(update, record.index, record.stamp);
     if (record.rejected) return;
@@ -151,51 +151,55 @@ int RunVo(CommandContext& context, const VoArgs& args) {
       record.features.shrink_to_fit();
     }
   };
-  std::unique_ptr<client::SensorStream> stream =
-      client->StreamSensorData(session_id, args.window, on_update);
-
   ProgressBar progress(context.err, static_cast<int>(frames.size()), "frames", context.err_is_tty);
   const Clock::time_point start = Clock::now();
-  absl::Status failure;
-  size_t sent = 0;
-  for (const SequenceFrame* frame : frames) {
+  size_t loaded = 0;  // the highest frame loaded so far, for progress (resends load again)
+  absl::Status load_error;  // a frame that cannot be read ends the run: the sequence's fault
+  auto load = [&](size_t i) -> absl::StatusOr<v1::ImageFrame> {
+    const SequenceFrame& frame = *frames[i];
     v1::ImageFrame message;
-    message.set_stamp(frame->stamp);
-    absl::StatusOr<std::string> image = ReadFileBytes(frame->image);
-    if (!image.ok()) {
-      failure = image.status();
-      break;
-    }
+    message.set_stamp(frame.stamp);
+    absl::StatusOr<std::string> image = ReadFileBytes(frame.image);
+    if (!image.ok()) return load_error = image.status();
     message.set_image(*std::move(image));
     if (args.depth) {
-      absl::StatusOr<std::string> depth = ReadFileBytes(*frame->depth);
-      if (!depth.ok()) {
-        failure = depth.status();
-        break;
-      }
+      absl::StatusOr<std::string> depth = ReadFileBytes(*frame.depth);
+      if (!depth.ok()) return load_error = depth.status();
       message.set_depth(*std::move(depth));
     }
     message.set_want_features(true);
-    if (failure = stream->SendFrame(message); !failure.ok()) break;
-    ++sent;
-    progress.Update(static_cast<int>(sent));
-    if (!context.err_is_tty && sent % 25 == 0) {
-      context.err << fmt::format("vo: {}/{} frames sent\n", sent, frames.size());
+    if (i + 1 > loaded) {
+      loaded = i + 1;
+      progress.Update(static_cast<int>(loaded));
+      if (!context.err_is_tty && loaded % 25 == 0) {
+        context.err << fmt::format("vo: {}/{} frames sent\n", loaded, frames.size());
+      }
     }
-  }
-  const absl::Status finished = stream->Finish();
+    return message;
+  };
+  auto on_event = [&](const std::string& message) {
+    progress.Finish();  // a line of its own, not inside the bar
+    context.err << "vo: " << message << "\n";
+  };
+  std::vector<double> stamps;
+  for (const SequenceFrame* frame : frames) stamps.push_back(frame->stamp);
+  ResumableFramesOptions stream_options;
+  stream_options.window = args.window;
+  stream_options.give_up_after = absl::Seconds(args.reconnect_seconds);
+  ResumableFramesStats stream_stats;
+  const absl::Status streamed = StreamFramesResumably(*client, session_id, stamps, load,
+                                                      on_answer, on_event, stream_options,
+                                                      &stream_stats);
   const double processing_s = std::chrono::duration<double>(Clock::now() - start).count();
   progress.Finish();
-  if (!failure.ok() && failure.code() != absl::StatusCode::kUnavailable) {
-    stream.reset();
+  if (!load_error.ok()) {
     (void)client->CloseSession(session_id);
-    return ReportError(context, failure, args.sequence);
+    return ReportError(context, load_error, args.sequence);
   }
-  if (!finished.ok()) return ReportError(context, finished, "stream of session " + session_id);
+  if (!streamed.ok()) return ReportError(context, streamed, "stream of session " + session_id);
 
-  // The stream is finished: the reader thread is done with `state`.
+  // Every stream is finished: their reader threads are done with `state`.
   std::vector<VoFrameRecord>& records = state.records;
-  records.resize(sent);
   size_t rejections = 0;
   for (const VoFrameRecord& r : records) {
     if (!r.rejected) continue;
@@ -238,7 +242,9 @@ int RunVo(CommandContext& context, const VoArgs& args) {
       {"processing_s", processing_s},
       {"fps", processing_s > 0 ? static_cast<double>(poses.size()) / processing_s : 0.0},
       {"window", args.window},
-      {"max_outstanding", stream->stats().max_outstanding},
+      {"max_outstanding", stream_stats.max_outstanding},
+      {"stream_reconnects", stream_stats.reconnects},
+      {"answers_lost", stream_stats.answers_lost},
       {"out_dir", out_dir.string()},
   };
   summary.update(FrameSummary(records));

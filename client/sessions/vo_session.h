@@ -32,6 +32,8 @@ struct VoArgs {
   std::string name;
   int window = client::kDefaultFrameWindow;
   int sample_every = 25;  // feature pictures of every N-th frame (0 = none but the most dynamic)
+  // A broken stream is reopened on the session until no frame has been answered for this long.
+  double reconnect_seconds = 60;
 };
 
 // The camera for the session: the sequence's calib.txt, replaced by --camera, each value then

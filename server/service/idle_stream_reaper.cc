@@ -1,5 +1,6 @@
 #include "server/service/idle_stream_reaper.h"
 
+#include <grpc/grpc.h>
 #include <spdlog/spdlog.h>
 
 #include <algorithm>
@@ -22,10 +23,28 @@ IdleStreamReaper::~IdleStreamReaper() {
 std::unique_ptr<IdleStreamReaper::Watch> IdleStreamReaper::WatchStream(
     grpc::ServerContextBase* context) {
   std::unique_ptr<Watch> watch(new Watch(this, context));
-  if (idle_seconds_ <= 0) return watch;
   std::lock_guard<std::mutex> lock(mutex_);
   watched_[watch.get()] = Entry{Clock::now(), false};
+  if (ending_all_) EndLocked(watch.get());  // a robot reconnecting during the shutdown
   return watch;
+}
+
+void IdleStreamReaper::EndAll(grpc::StatusCode code, const std::string& message) {
+  std::lock_guard<std::mutex> lock(mutex_);
+  ending_all_ = true;
+  end_code_ = code;
+  end_message_ = message;
+  if (!watched_.empty()) spdlog::info("ending {} open streams: {}", watched_.size(), message);
+  for (const auto& [watch, entry] : watched_) EndLocked(watch);
+}
+
+void IdleStreamReaper::EndLocked(const Watch* watch) {
+  // Under the lock: the watch (and so its call) cannot end while it is being cancelled. A
+  // server-side cancel with a status sends that status to the client (TryCancel would send
+  // CANCELLED, which says nothing of why).
+  grpc_call_cancel_with_status(watch->context_->c_call(),
+                               static_cast<grpc_status_code>(end_code_), end_message_.c_str(),
+                               nullptr);
 }
 
 IdleStreamReaper::Watch::~Watch() {

@@ -6,6 +6,10 @@
 // (or an attacker) that connects, opens streams and stays silent: without this, such streams pile
 // up to the thread limit and starve every other robot. The per-robot cap (stream_limiter.h)
 // bounds one token; this bounds time.
+//
+// It also ends every open stream at shutdown (EndAll): a robot's stream lasts as long as the robot
+// drives, and gRPC's shutdown would otherwise wait its whole grace for streams that never end on
+// their own.
 
 #include <grpcpp/server_context.h>
 
@@ -14,6 +18,7 @@
 #include <map>
 #include <memory>
 #include <mutex>
+#include <string>
 #include <thread>
 
 namespace waymark::service {
@@ -38,7 +43,7 @@ class IdleStreamReaper {
     grpc::ServerContextBase* context_;
   };
 
-  // `idle_seconds` <= 0 turns it off (Watch() then returns watches that do nothing).
+  // `idle_seconds` <= 0 turns the idle limit off (streams are still watched for EndAll).
   explicit IdleStreamReaper(double idle_seconds);
   ~IdleStreamReaper();
   IdleStreamReaper(const IdleStreamReaper&) = delete;
@@ -47,6 +52,11 @@ class IdleStreamReaper {
   std::unique_ptr<Watch> WatchStream(grpc::ServerContextBase* context);
   double idle_seconds() const { return idle_seconds_; }
 
+  // Ends every watched stream, and every stream watched from now on, with `code` and `message`
+  // (what the client's Finish() returns; the handler's Read fails). For the server's shutdown,
+  // once the state the streams fed is saved.
+  void EndAll(grpc::StatusCode code, const std::string& message);
+
  private:
   using Clock = std::chrono::steady_clock;
   struct Entry {
@@ -54,11 +64,16 @@ class IdleStreamReaper {
     bool reaped = false;
   };
   void Loop();
+  // Under mutex_: ends the call of `watch` with the EndAll status.
+  void EndLocked(const Watch* watch);
 
   const double idle_seconds_;
   mutable std::mutex mutex_;
   std::condition_variable wake_;
   bool stopping_ = false;
+  bool ending_all_ = false;  // EndAll was called
+  grpc::StatusCode end_code_ = grpc::StatusCode::UNAVAILABLE;
+  std::string end_message_;
   std::map<const Watch*, Entry> watched_;
   std::thread thread_;
 };

@@ -391,7 +391,8 @@ absl::StatusOr<std::shared_ptr<SlamRegistry::Session>> SlamRegistry::LoadSession
 }
 
 absl::StatusOr<std::shared_ptr<SlamRegistry::Session>> SlamRegistry::ResidentOrLoad(
-    const std::string& id) {
+    const std::string& id, bool* loaded) {
+  if (loaded != nullptr) *loaded = false;
   if (auto resident = FindResident(id); resident.ok()) return resident;
   std::lock_guard<std::mutex> load_lock(load_mutex_);
   if (auto resident = FindResident(id); resident.ok()) return resident;  // loaded meanwhile
@@ -402,6 +403,7 @@ absl::StatusOr<std::shared_ptr<SlamRegistry::Session>> SlamRegistry::ResidentOrL
   if (!session.ok()) return session.status();
   spdlog::info("SLAM session {} resumed from its checkpoint ({} scans, {} poses)", id,
                (*session)->scans_processed, (*session)->stored_poses);
+  if (loaded != nullptr) *loaded = true;
   std::lock_guard<std::mutex> lock(mutex_);
   sessions_[id] = *session;
   return *session;
@@ -413,7 +415,8 @@ absl::StatusOr<std::unique_ptr<SlamRegistry::Stream>> SlamRegistry::OpenStream(
   if (shutting_down_) {
     return absl::UnavailableError("the server is shutting down; resume the session after it restarts");
   }
-  absl::StatusOr<std::shared_ptr<Session>> session = ResidentOrLoad(session_id);
+  bool loaded = false;
+  absl::StatusOr<std::shared_ptr<Session>> session = ResidentOrLoad(session_id, &loaded);
   if (!session.ok()) return session.status();
   {
     std::lock_guard<std::mutex> lock((*session)->mu);
@@ -427,7 +430,16 @@ absl::StatusOr<std::unique_ptr<SlamRegistry::Stream>> SlamRegistry::OpenStream(
     (*session)->stream_attached = true;
     (*session)->sink = std::move(sink);
   }
-  return std::unique_ptr<Stream>(new Stream(this, *session));
+  // The previous stream has drained the queue before it detached: this is all the session has.
+  v1::StreamStart start;
+  start.set_from_checkpoint(loaded);
+  {
+    std::lock_guard<std::mutex> lock((*session)->engine_mu);
+    start.set_scans_processed(static_cast<uint64_t>((*session)->scans_processed));
+    start.set_last_scan_stamp((*session)->processed_scan_stamp.value_or(0));
+    start.set_checkpoint_at_unix(static_cast<int64_t>((*session)->checkpoint_at));
+  }
+  return std::unique_ptr<Stream>(new Stream(this, *session, std::move(start)));
 }
 
 absl::Status SlamRegistry::Submit(const std::shared_ptr<Session>& owner,

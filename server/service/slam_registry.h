@@ -110,6 +110,9 @@ class SlamRegistry {
     Stream& operator=(const Stream&) = delete;
 
     const std::string& session_id() const;
+    // What the session held when this stream attached (the API's StreamStart): loaded from its
+    // checkpoint for this stream or already in memory, scans processed and the last one's stamp.
+    const v1::StreamStart& start() const { return start_; }
     // OK: the message is queued and, if it is a scan, will be answered through the sink.
     // Otherwise the message was rejected (see the admission rules above) and the status says why.
     absl::Status Submit(const v1::SensorData& data);
@@ -119,10 +122,11 @@ class SlamRegistry {
 
    private:
     friend class SlamRegistry;
-    Stream(SlamRegistry* registry, std::shared_ptr<Session> session)
-        : registry_(registry), session_(std::move(session)) {}
+    Stream(SlamRegistry* registry, std::shared_ptr<Session> session, v1::StreamStart start)
+        : registry_(registry), session_(std::move(session)), start_(std::move(start)) {}
     SlamRegistry* registry_;
     std::shared_ptr<Session> session_;
+    v1::StreamStart start_;
     bool closed_ = false;
   };
 
@@ -164,7 +168,9 @@ class SlamRegistry {
   absl::StatusOr<std::shared_ptr<Session>> FindResident(const std::string& id);
   // Builds a session (engine from the checkpoint + stored trajectory) from its stored record.
   absl::StatusOr<std::shared_ptr<Session>> LoadSession(const storage::SlamSessionRecord& record);
-  absl::StatusOr<std::shared_ptr<Session>> ResidentOrLoad(const std::string& id);
+  // `loaded` (optional) tells whether the session was loaded from the store by this call.
+  absl::StatusOr<std::shared_ptr<Session>> ResidentOrLoad(const std::string& id,
+                                                          bool* loaded = nullptr);
   // CloseSession's work, with load_mutex_ held.
   absl::Status CloseLocked(const std::string& session_id);
 

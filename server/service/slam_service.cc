@@ -3,6 +3,7 @@
 #include <atomic>
 #include <memory>
 #include <mutex>
+#include <optional>
 
 #include "server/service/service_call.h"
 
@@ -11,19 +12,35 @@ namespace {
 
 // Serializes the writes of one stream: the registry's worker writes answers while the handler
 // thread writes rejections (gRPC sync streams allow one Write at a time, concurrent with a Read).
+// The first answer, whichever it is, carries the stream's StreamStart.
 class StreamWriter {
  public:
   explicit StreamWriter(grpc::ServerReaderWriter<v1::SlamUpdate, v1::SensorData>* stream)
       : stream_(stream) {}
+  // Before the first Write.
+  void set_start(const v1::StreamStart& start) {
+    std::lock_guard<std::mutex> lock(mutex_);
+    start_ = start;
+  }
   void Write(const v1::SlamUpdate& update) {
     std::lock_guard<std::mutex> lock(mutex_);
     if (broken_) return;
-    if (!stream_->Write(update)) broken_ = true;  // the client went away; answers are moot
+    bool written;
+    if (start_.has_value()) {
+      v1::SlamUpdate first = update;
+      *first.mutable_stream_start() = *start_;
+      start_.reset();
+      written = stream_->Write(first);
+    } else {
+      written = stream_->Write(update);
+    }
+    if (!written) broken_ = true;  // the client went away; answers are moot
   }
 
  private:
   grpc::ServerReaderWriter<v1::SlamUpdate, v1::SensorData>* stream_;
   std::mutex mutex_;
+  std::optional<v1::StreamStart> start_;
   bool broken_ = false;
 };
 
@@ -79,9 +96,16 @@ grpc::Status SlamServiceImpl::StreamSensorData(
   absl::StatusOr<std::unique_ptr<SlamRegistry::Stream>> session = registry_->OpenStream(
       data.session_id(), [writer](const v1::SlamUpdate& update) { writer->Write(update); });
   if (!session.ok()) return ToGrpcStatus(session.status());
+  writer->set_start((*session)->start());
 
-  // The first message may carry only the session id (a hello); otherwise it is data like the rest.
+  // The first message may carry only the session id (a hello), answered at once with the
+  // stream's start; otherwise it is data like the rest.
   bool have = data.payload_case() != v1::SensorData::PAYLOAD_NOT_SET;
+  if (!have) {
+    v1::SlamUpdate hello;
+    hello.set_sequence(data.sequence());
+    writer->Write(hello);
+  }
   while (have || stream->Read(&data)) {
     have = false;
     watch->Touch();

@@ -448,5 +448,51 @@ TEST_F(CliTest, EvalWithoutUnknownFolderHasNullFalseAcceptRate) {
   EXPECT_THAT(missing_db.err, HasSubstr("NOT_FOUND"));
 }
 
+// Issue 15: an unknown command said only "A subcommand is required".
+TEST_F(CliTest, AnUnknownCommandIsNamedAndTheCommandsListed) {
+  CliResult r = Run({"frobnicate"});
+  EXPECT_NE(r.code, 0);
+  EXPECT_THAT(r.err, HasSubstr("error: unknown command 'frobnicate'\n"));
+  EXPECT_THAT(r.err, HasSubstr("\n  db "));
+  EXPECT_THAT(r.err, HasSubstr("\n  slam "));
+  EXPECT_THAT(r.err, HasSubstr("\n  vo "));
+  EXPECT_THAT(r.err, Not(HasSubstr("A subcommand is required")));
+
+  CliResult in_group = Run({"slam", "frob"});
+  EXPECT_NE(in_group.code, 0);
+  EXPECT_THAT(in_group.err, HasSubstr("error: unknown command 'frob' for 'waymark slam'\n"));
+  EXPECT_THAT(in_group.err, HasSubstr("commands of 'waymark slam':\n"));
+  EXPECT_THAT(in_group.err, HasSubstr("\n  replay "));
+  EXPECT_THAT(in_group.err, Not(HasSubstr("\n  db ")));
+
+  CliResult none = Run({"slam"});
+  EXPECT_NE(none.code, 0);
+  EXPECT_THAT(none.err, HasSubstr("error: 'waymark slam' needs a command\n"));
+  EXPECT_THAT(none.err, HasSubstr("\n  replay "));
+}
+
+TEST_F(CliTest, ArgumentErrorsOfAKnownCommandAreStillCli11s) {
+  CliResult r = Run({"db", "create"});  // the name is missing
+  EXPECT_NE(r.code, 0);
+  EXPECT_THAT(r.err, Not(HasSubstr("unknown command")));
+  EXPECT_THAT(r.err, HasSubstr("NAME is required"));
+}
+
+// Issue 15: `--server 127.0.0.1` dialled port 0, and an unreachable server printed gRPC's text.
+TEST_F(CliTest, AServerWithoutAPortIsDialledOnTheDefaultPort) {
+  // Nothing listens on 127.0.0.254 (a loopback address no test binds): the error names the
+  // address dialled, with the default port.
+  CliResult r = Run({"--timeout", "60", "db", "list"}, "127.0.0.254");
+  EXPECT_NE(r.code, 0);
+  EXPECT_THAT(r.err, HasSubstr("UNAVAILABLE"));
+  EXPECT_THAT(r.err, HasSubstr("is the server running at 127.0.0.254:50051?")) << r.err;
+}
+
+TEST_F(CliTest, AServerAddressThatCannotBeDialledIsRefusedBeforeDialling) {
+  CliResult r = Run({"db", "list"}, "127.0.0.1:0");
+  EXPECT_NE(r.code, 0);
+  EXPECT_THAT(r.err, HasSubstr("INVALID_ARGUMENT: server address '127.0.0.1:0': port '0'"));
+}
+
 }  // namespace
 }  // namespace waymark::cli

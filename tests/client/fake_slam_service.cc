@@ -6,6 +6,7 @@
 #include <cmath>
 #include <condition_variable>
 #include <deque>
+#include <optional>
 #include <thread>
 
 namespace waymark::testing {
@@ -63,7 +64,7 @@ grpc::Status FakeSlamService::CreateSession(grpc::ServerContext*,
                                             v1::Session* response) {
   std::lock_guard<std::mutex> lock(mutex_);
   last_create_ = *request;
-  if (request->laser().laser().beam_count() == 0) {
+  if (!request->has_visual() && request->laser().laser().beam_count() == 0) {
     return grpc::Status(grpc::StatusCode::INVALID_ARGUMENT, "laser geometry has no beams");
   }
   const std::string id = "s" + std::to_string(next_id_++);
@@ -73,11 +74,83 @@ grpc::Status FakeSlamService::CreateSession(grpc::ServerContext*,
   session.info.set_name(request->name());
   session.info.set_state(v1::Session::OPEN);
   *session.info.mutable_laser() = request->laser();
+  session.info.set_kind(request->has_visual() ? "visual" : "laser");
   session.info.set_resident(true);
   session.trajectory.set_session_id(id);
   session.map.set_session_id(id);
   *response = session.info;
   return grpc::Status::OK;
+}
+
+v1::StreamStart FakeSlamService::StartOf(const SessionData& session) {
+  v1::StreamStart start;
+  start.set_from_checkpoint(session.resumed_from_checkpoint);
+  start.set_scans_processed(session.info.scans_processed());
+  start.set_last_scan_stamp(session.info.last_scan_stamp());
+  start.set_checkpoint_at_unix(session.resumed_from_checkpoint ? 1 : 0);
+  return start;
+}
+
+void FakeSlamService::RollBack(SessionData& session, int scans) {
+  if (scans < 0 || scans >= session.trajectory.poses_size()) return;
+  session.trajectory.mutable_poses()->DeleteSubrange(scans,
+                                                     session.trajectory.poses_size() - scans);
+  session.info.set_scans_processed(static_cast<uint64_t>(scans));
+  const double stamp = scans > 0 ? session.trajectory.poses(scans - 1).stamp() : 0;
+  session.info.set_last_scan_stamp(stamp);
+  session.last_scan_stamp = scans > 0 ? stamp : -1e300;
+  session.last_odometry_stamp = session.last_scan_stamp;
+  session.resumed_from_checkpoint = true;
+}
+
+v1::SlamUpdate FakeSlamService::Process(SessionData& session, const v1::SensorData& message) {
+  v1::SlamUpdate update;
+  const uint64_t n = session.info.scans_processed() + 1;
+  session.info.set_scans_processed(n);
+  update.set_sequence(message.sequence());
+  update.set_scans_processed(n);
+  if (message.has_frame()) {
+    const double stamp = message.frame().stamp();
+    session.last_scan_stamp = stamp;
+    session.info.set_last_scan_stamp(stamp);
+    v1::TrajectoryPose* pose = session.trajectory.add_poses();
+    pose->set_stamp(stamp);
+    pose->mutable_pose3d()->set_x(stamp);
+    pose->mutable_pose3d()->set_qw(1);
+    update.set_stamp(stamp);
+    *update.mutable_pose3d() = pose->pose3d();
+    update.mutable_visual()->set_state(v1::VisualFrameInfo::TRACKING);
+    update.mutable_visual()->mutable_counts()->set_total(100);
+    update.mutable_visual()->mutable_counts()->set_tracked(80);
+    return update;
+  }
+  const v1::LaserScan& scan = message.scan();
+  session.last_scan_stamp = scan.stamp();
+  v1::TrajectoryPose* pose = session.trajectory.add_poses();
+  pose->set_stamp(scan.stamp());
+  *pose->mutable_pose() = session.odometry;
+  if (n % kScansPerSegment == 1) {
+    v1::MapSegment* segment = session.map.add_segments();
+    segment->set_id(n);
+    *segment->mutable_frame() = session.odometry;
+    segment->set_left(-0.5);
+    segment->set_right(1.0 + 0.1 * (n % 3));
+    segment->set_left_type(n % 2 ? v1::MapSegment::REAL : v1::MapSegment::VIRTUAL);
+    segment->set_right_type(n % 3 ? v1::MapSegment::REAL : v1::MapSegment::VIRTUAL);
+    session.map.set_map_revision(session.map.map_revision() + 1);
+  }
+  session.info.set_segments(session.map.segments_size());
+  session.info.set_last_scan_stamp(scan.stamp());
+  update.set_stamp(scan.stamp());
+  *update.mutable_pose() = session.odometry;
+  update.set_segments(session.map.segments_size());
+  update.set_map_revision(session.map.map_revision());
+  update.mutable_timings()->set_total_ms(0.5);
+  update.set_covariance_trace_mean(0.001 * n);
+  if (suggestion_.behaviour() != v1::SuggestedControl::BEHAVIOUR_UNSPECIFIED) {
+    *update.mutable_suggestion() = suggestion_;
+  }
+  return update;
 }
 
 grpc::Status FakeSlamService::StreamSensorData(
@@ -89,9 +162,17 @@ grpc::Status FakeSlamService::StreamSensorData(
   int outstanding = 0;
   int received = 0;  // messages read from the stream
   std::mutex write_mutex;  // one Write at a time
+  std::optional<v1::StreamStart> start;  // for the first answer, under write_mutex
   auto write = [&](const v1::SlamUpdate& update) {
     std::lock_guard<std::mutex> lock(write_mutex);
-    stream->Write(update);
+    if (!start) {
+      stream->Write(update);
+      return;
+    }
+    v1::SlamUpdate first = update;
+    *first.mutable_stream_start() = *start;
+    start.reset();
+    stream->Write(first);
   };
 
   v1::SensorData first;
@@ -99,14 +180,26 @@ grpc::Status FakeSlamService::StreamSensorData(
   const std::string session_id = first.session_id();
   int break_after = 0;
   int hold_until = 0;
+  int rollback = -1;
+  int refuse_after = 0;
   {
     std::lock_guard<std::mutex> lock(mutex_);
     if (sessions_.count(session_id) == 0) return NoSession(session_id);
     ++streams_opened_;
+    if (streams_opened_ == 1) refuse_after = refuse_first_stream_after_;
     break_after = break_streams_after_;
     hold_until = hold_until_received_;
+    rollback = rollback_on_break_;
+    start = StartOf(sessions_[session_id]);
+  }
+  if (first.payload_case() == v1::SensorData::PAYLOAD_NOT_SET) {  // a hello
+    v1::SlamUpdate hello;
+    hello.set_sequence(first.sequence());
+    write(hello);
+    if (!stream->Read(&first)) return grpc::Status::OK;
   }
   int scans_in_stream = 0;
+  int refusable_in_stream = 0;
   bool broken = false;
 
   std::thread worker([&] {
@@ -119,7 +212,8 @@ grpc::Status FakeSlamService::StreamSensorData(
         message = std::move(queue.front());
         queue.pop_front();
       }
-      if (message.has_scan()) std::this_thread::sleep_for(absl::ToChronoNanoseconds(scan_delay_));
+      const bool answered = message.has_scan() || message.has_frame();
+      if (answered) std::this_thread::sleep_for(absl::ToChronoNanoseconds(scan_delay_));
       v1::SlamUpdate update;
       {
         std::lock_guard<std::mutex> lock(mutex_);
@@ -134,51 +228,27 @@ grpc::Status FakeSlamService::StreamSensorData(
             continue;  // odometry is answered only when rejected
           }
         } else {
+          const double stamp =
+              message.has_frame() ? message.frame().stamp() : message.scan().stamp();
           const v1::LaserScan& scan = message.scan();
-          if (!(scan.stamp() > session.last_scan_stamp)) {
+          if (!(stamp > session.last_scan_stamp)) {
             ++rejected_;
-            update = Rejection(message.sequence(), 3, "scan stamp does not increase");
+            update = Rejection(message.sequence(), 3,
+                               message.has_frame() ? "frame stamp does not increase"
+                                                   : "scan stamp does not increase");
           } else if (scan.geometry().beam_count() != 0 &&
                      scan.geometry().beam_count() != static_cast<uint32_t>(scan.ranges_size())) {
             ++rejected_;
             update = Rejection(message.sequence(), 3, "beam count disagrees with the ranges");
           } else {
-            session.last_scan_stamp = scan.stamp();
-            v1::TrajectoryPose* pose = session.trajectory.add_poses();
-            pose->set_stamp(scan.stamp());
-            *pose->mutable_pose() = session.odometry;
-            const uint64_t n = session.info.scans_processed() + 1;
-            session.info.set_scans_processed(n);
-            if (n % kScansPerSegment == 1) {
-              v1::MapSegment* segment = session.map.add_segments();
-              segment->set_id(n);
-              *segment->mutable_frame() = session.odometry;
-              segment->set_left(-0.5);
-              segment->set_right(1.0 + 0.1 * (n % 3));
-              segment->set_left_type(n % 2 ? v1::MapSegment::REAL : v1::MapSegment::VIRTUAL);
-              segment->set_right_type(n % 3 ? v1::MapSegment::REAL : v1::MapSegment::VIRTUAL);
-              session.map.set_map_revision(session.map.map_revision() + 1);
-            }
-            session.info.set_segments(session.map.segments_size());
-            session.info.set_last_scan_stamp(scan.stamp());
-            update.set_sequence(message.sequence());
-            update.set_stamp(scan.stamp());
-            *update.mutable_pose() = session.odometry;
-            update.set_segments(session.map.segments_size());
-            update.set_map_revision(session.map.map_revision());
-            update.set_scans_processed(n);
-            update.mutable_timings()->set_total_ms(0.5);
-            update.set_covariance_trace_mean(0.001 * n);
-            if (suggestion_.behaviour() != v1::SuggestedControl::BEHAVIOUR_UNSPECIFIED) {
-              *update.mutable_suggestion() = suggestion_;
-            }
+            update = Process(session, message);
           }
         }
         if (update.has_rejection()) {
           session.info.set_messages_rejected(session.info.messages_rejected() + 1);
         }
       }
-      if (message.has_scan()) {
+      if (answered) {
         std::lock_guard<std::mutex> lock(queue_mutex);
         --outstanding;  // before the answer leaves, so the client can never see it early
       }
@@ -188,17 +258,23 @@ grpc::Status FakeSlamService::StreamSensorData(
 
   v1::SensorData message = std::move(first);
   do {
-    if (message.has_scan() && break_after > 0 && ++scans_in_stream > break_after) {
+    const bool answered = message.has_scan() || message.has_frame();
+    if (answered && break_after > 0 && ++scans_in_stream > break_after) {
       broken = true;  // like a server that dies: this scan is never answered
       break;
     }
+    if (answered && refuse_after > 0 && ++refusable_in_stream > refuse_after) {
+      write(Rejection(message.sequence(), 14, "fake: the server is shutting down"));
+      continue;
+    }
     std::unique_lock<std::mutex> lock(queue_mutex);
     if (++received == hold_until) queue_changed.notify_all();  // the worker may start
-    if (message.has_scan() || message.has_odometry()) {
+    if (answered || message.has_odometry()) {
       std::lock_guard<std::mutex> stats_lock(mutex_);
-      if (message.has_scan()) {
+      if (answered) {
         ++scans_received_;
-        scan_stamps_.push_back(message.scan().stamp());
+        scan_stamps_.push_back(message.has_frame() ? message.frame().stamp()
+                                                   : message.scan().stamp());
       }
       if (message.has_odometry()) {
         ++odometry_received_;
@@ -217,7 +293,7 @@ grpc::Status FakeSlamService::StreamSensorData(
       write(Rejection(message.sequence(), 8, "session queue full"));
       continue;
     }
-    if (message.has_scan()) {
+    if (answered) {
       ++outstanding;
       std::lock_guard<std::mutex> stats_lock(mutex_);
       max_outstanding_ = std::max(max_outstanding_, outstanding);
@@ -231,7 +307,11 @@ grpc::Status FakeSlamService::StreamSensorData(
   }
   queue_changed.notify_all();
   worker.join();
-  if (broken) return grpc::Status(grpc::StatusCode::UNAVAILABLE, "fake: stream broken on purpose");
+  if (broken) {
+    std::lock_guard<std::mutex> lock(mutex_);
+    RollBack(sessions_[session_id], rollback);
+    return grpc::Status(grpc::StatusCode::UNAVAILABLE, "fake: stream broken on purpose");
+  }
   return grpc::Status::OK;
 }
 

@@ -23,6 +23,9 @@ namespace waymark::testing {
 // Closing a closed session is FAILED_PRECONDITION "... is already closed", as on the real server.
 // For exploration clients it can answer every scan with a fixed suggested control (set_suggestion)
 // and a covariance_trace_mean growing with the scan count, and it keeps the stamps it received.
+// Visual clients' image frames are answered like scans (a pose3d at x = stamp, "tracking").
+// Like the real server, a stream's first answer carries its StreamStart, and a hello (a first
+// message without payload) is answered at once with it.
 class FakeSlamService final : public v1::SlamService::Service {
  public:
   void set_scan_delay(absl::Duration delay) { scan_delay_ = delay; }
@@ -37,8 +40,8 @@ class FakeSlamService final : public v1::SlamService::Service {
   // Attached to every scan's update; the default (BEHAVIOUR_UNSPECIFIED) attaches none, as a
   // passive session does.
   void set_suggestion(const v1::SuggestedControl& suggestion);
-  // Every stream ends with UNAVAILABLE when its scan number `scans` + 1 arrives (that scan is not
-  // answered): a server or network that dies under a robot. 0 = never.
+  // Every stream ends with UNAVAILABLE when its scan (or frame) number `scans` + 1 arrives (that
+  // scan is not answered): a server or network that dies under a robot. 0 = never.
   void set_break_streams_after(int scans) {
     std::lock_guard<std::mutex> lock(mutex_);
     break_streams_after_ = scans;
@@ -49,11 +52,26 @@ class FakeSlamService final : public v1::SlamService::Service {
     std::lock_guard<std::mutex> lock(mutex_);
     session_calls_fail_ = code;
   }
+  // With a break: the session then loses every scan after its first `scans` (its trajectory, count
+  // and stamps go back), and the next stream starts "from_checkpoint": a server that crashed and
+  // resumed the session from an old checkpoint. -1 = keep everything.
+  void set_rollback_on_break(int scans) {
+    std::lock_guard<std::mutex> lock(mutex_);
+    rollback_on_break_ = scans;
+  }
+  // The first stream refuses every scan (or frame) after its first `scans` with an UNAVAILABLE
+  // rejection (not recorded as received) and goes on, as a server that is shutting down but has
+  // not ended its streams yet. 0 = never.
+  void set_refuse_first_stream_after(int scans) {
+    std::lock_guard<std::mutex> lock(mutex_);
+    refuse_first_stream_after_ = scans;
+  }
   int streams_opened() const {
     std::lock_guard<std::mutex> lock(mutex_);
     return streams_opened_;
   }
-  // Stamps of the messages received, in arrival order (rejected ones included).
+  // Stamps of the messages received, in arrival order (rejected ones included); frames are among
+  // the scans.
   std::vector<double> odometry_stamps() const;
   std::vector<double> scan_stamps() const;
   int max_outstanding_scans() const;
@@ -87,7 +105,14 @@ class FakeSlamService final : public v1::SlamService::Service {
     v1::Pose2D odometry;
     double last_odometry_stamp = -1e300;
     double last_scan_stamp = -1e300;
+    bool resumed_from_checkpoint = false;  // rolled back: the next stream says so
   };
+  // The session as a stream finds it when it attaches.
+  static v1::StreamStart StartOf(const SessionData& session);
+  // Forgets everything after the first `scans` scans (set_rollback_on_break).
+  static void RollBack(SessionData& session, int scans);
+  // Answers a scan or a frame that was accepted: the session's count, pose and map move on.
+  v1::SlamUpdate Process(SessionData& session, const v1::SensorData& message);
   static constexpr int kScansPerSegment = 10;
 
   mutable std::mutex mutex_;
@@ -101,6 +126,8 @@ class FakeSlamService final : public v1::SlamService::Service {
   int rejected_ = 0;
   int break_streams_after_ = 0;
   int hold_until_received_ = 0;
+  int rollback_on_break_ = -1;
+  int refuse_first_stream_after_ = 0;
   int streams_opened_ = 0;
   grpc::StatusCode session_calls_fail_ = grpc::StatusCode::OK;
   v1::CreateSessionRequest last_create_;

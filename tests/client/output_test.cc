@@ -4,6 +4,8 @@
 
 #include <sstream>
 
+#include "client/lib/status_util.h"
+
 namespace waymark::cli {
 namespace {
 
@@ -42,8 +44,26 @@ TEST(ReportErrorTest, CodeNameMessageAndContext) {
   std::ostringstream err2;
   CommandContext remote{GlobalOptions{}, out, err2};
   remote.globals.server = "robot-hub:50051";
-  ReportError(remote, absl::UnavailableError("connection refused"));
-  EXPECT_EQ(err2.str(), "error: UNAVAILABLE: connection refused [server robot-hub:50051]\n");
+  ReportError(remote, absl::DeadlineExceededError("no answer"));
+  EXPECT_EQ(err2.str(), "error: DEADLINE_EXCEEDED: no answer [server robot-hub:50051]\n");
+}
+
+TEST(ReportErrorTest, AnUnreachableServerIsNamedWithTheAddressDialled) {
+  std::ostringstream out, err;
+  CommandContext context{GlobalOptions{}, out, err};
+  context.globals.server = "robot-hub:50051";
+  ReportError(context, client::ToAbslStatus(grpc::Status(grpc::StatusCode::UNAVAILABLE,
+                                                         "failed to connect to all addresses")));
+  EXPECT_EQ(err.str(),
+            "error: UNAVAILABLE: failed to connect to all addresses: is the server running at "
+            "robot-hub:50051? (--server HOST[:PORT] or WAYMARK_SERVER names another)\n");
+}
+
+TEST(ReportErrorTest, AnUnavailableDeviceIsNotBlamedOnTheServer) {
+  std::ostringstream out, err;
+  CommandContext context{GlobalOptions{}, out, err};
+  ReportError(context, absl::UnavailableError("/dev/ttyUSB0 hung up (device disconnected)"));
+  EXPECT_EQ(err.str(), "error: UNAVAILABLE: /dev/ttyUSB0 hung up (device disconnected)\n");
 }
 
 }  // namespace

@@ -378,6 +378,70 @@ TEST_F(RobotLoopTest, ABrokenStreamStopsTheBaseThenTheLoopReconnectsToTheSameSes
   EXPECT_TRUE(base.last_is_stop());
 }
 
+// Issue 15: after a server lost its shutdown checkpoint, the robot's session "resumed from its
+// checkpoint (0 scans, 0 poses)" and went on from (0, 0) without a word.
+TEST_F(RobotLoopTest, ASessionThatResumedFromAnOlderCheckpointIsWarnedAbout) {
+  server_.service().set_break_streams_after(4);
+  server_.service().set_rollback_on_break(1);  // the "server" lost scans 2..4 with the break
+  ScriptedBase base;
+  ScriptedLaser laser;
+  RobotLoopOptions options;
+  options.reconnect_initial = absl::Milliseconds(50);
+  options.reconnect_max = absl::Milliseconds(200);
+  RobotLoop loop(Client(), base, laser, options);
+  std::mutex events_mutex;
+  std::vector<std::string> events;
+  loop.set_event_callback([&](const std::string& e) {
+    std::lock_guard<std::mutex> lock(events_mutex);
+    events.push_back(e);
+  });
+  auto warned = [&] {
+    std::lock_guard<std::mutex> lock(events_mutex);
+    for (const std::string& e : events) {
+      if (e.find("resumed from") != std::string::npos) return true;
+    }
+    return false;
+  };
+  std::thread stopper([&] {
+    WaitFor(warned, 60);
+    stop_ = true;
+  });
+  auto status = loop.Run(stop_);
+  stopper.join();
+  ASSERT_TRUE(status.ok()) << status.status();
+  std::lock_guard<std::mutex> lock(events_mutex);
+  std::string warning;
+  for (const std::string& e : events) {
+    if (e.find("resumed from") != std::string::npos) warning = e;
+  }
+  EXPECT_THAT(warning, HasSubstr("warning: session s1 resumed from a checkpoint 3 scans / "));
+  EXPECT_THAT(warning, HasSubstr("behind this robot's stream: the map and the pose restart"));
+}
+
+TEST_F(RobotLoopTest, AStreamReopenedOnAnIntactSessionIsNotWarnedAbout) {
+  server_.service().set_break_streams_after(4);  // a network break: the session keeps everything
+  ScriptedBase base;
+  ScriptedLaser laser;
+  RobotLoopOptions options;
+  options.reconnect_initial = absl::Milliseconds(50);
+  RobotLoop loop(Client(), base, laser, options);
+  std::mutex events_mutex;
+  std::vector<std::string> events;
+  loop.set_event_callback([&](const std::string& e) {
+    std::lock_guard<std::mutex> lock(events_mutex);
+    events.push_back(e);
+  });
+  std::thread stopper([&] {
+    WaitFor([&] { return server_.service().streams_opened() >= 3; }, 60);
+    stop_ = true;
+  });
+  auto status = loop.Run(stop_);
+  stopper.join();
+  ASSERT_TRUE(status.ok()) << status.status();
+  std::lock_guard<std::mutex> lock(events_mutex);
+  for (const std::string& e : events) EXPECT_THAT(e, ::testing::Not(HasSubstr("warning")));
+}
+
 TEST_F(RobotLoopTest, BumperAndStallStopTheBase) {
   server_.service().set_suggestion(Forward(/*duration=*/5.0));
   ScriptedBase base;

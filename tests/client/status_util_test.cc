@@ -31,6 +31,12 @@ TEST(StatusUtilTest, NamedCodesMatch) {
             grpc::StatusCode::RESOURCE_EXHAUSTED);
 }
 
+TEST(StatusUtilTest, OnlyUnavailableCallsAreMarkedAsSuch) {
+  EXPECT_TRUE(IsUnavailableCall(ToAbslStatus(grpc::Status(grpc::StatusCode::UNAVAILABLE, "x"))));
+  EXPECT_FALSE(IsUnavailableCall(absl::UnavailableError("serial port hung up")));
+  EXPECT_FALSE(IsUnavailableCall(ToAbslStatus(grpc::Status(grpc::StatusCode::NOT_FOUND, "x"))));
+}
+
 TEST(StatusUtilTest, NonCanonicalCodeBecomesUnknown) {
   const absl::Status status = ToAbslStatus(grpc::Status(grpc::StatusCode::DO_NOT_USE, "odd"));
   EXPECT_EQ(status.code(), absl::StatusCode::kUnknown);

@@ -9,6 +9,7 @@
 #include <limits>
 #include <map>
 #include <memory>
+#include <optional>
 #include <string>
 #include <thread>
 #include <vector>
@@ -38,6 +39,7 @@ struct StreamResult {
   std::map<uint64_t, v1::SlamUpdate> by_sequence;
   std::vector<v1::SlamUpdate> scans;  // processed-scan answers in arrival order
   int answers = 0;
+  std::optional<v1::StreamStart> start;  // from the first answer
   grpc::Status status;
 };
 
@@ -51,8 +53,10 @@ StreamResult RunStream(v1::SlamService::Stub* stub, const std::string& session_i
     v1::SlamUpdate update;
     while (stream->Read(&update)) {
       ++result.answers;
+      if (result.answers == 1 && update.has_stream_start()) result.start = update.stream_start();
       result.by_sequence[update.sequence()] = update;
-      if (!update.has_rejection()) result.scans.push_back(update);
+      // A processed scan has scans_processed >= 1; the answer to a hello has none.
+      if (!update.has_rejection() && update.scans_processed() > 0) result.scans.push_back(update);
     }
   });
   if (!messages.empty()) messages[0].set_session_id(session_id);
@@ -374,9 +378,15 @@ TEST_F(SlamServerTest, AfterACrashTheSessionResumesFromItsLastPeriodicCheckpoint
   ASSERT_EQ(list.sessions_size(), 1);
   EXPECT_EQ(list.sessions(0).scans_processed(), 6u);  // checkpoints after scans 3 and 6
   EXPECT_EQ(list.sessions(0).last_scan_stamp(), 6.0);
-  // The robot resends from the first scan the server does not have (stamp 7) and goes on.
+  // The robot resends from the first scan the server does not have (stamp 7) and goes on. The
+  // stream's first answer says where the session resumed, so the robot can tell what it lost.
   StreamResult after = RunStream(stub_.get(), id, Drive(6, 3, 1.0, 100));
   ASSERT_TRUE(after.status.ok()) << after.status.error_message();
+  ASSERT_TRUE(after.start.has_value());
+  EXPECT_TRUE(after.start->from_checkpoint());
+  EXPECT_EQ(after.start->scans_processed(), 6u);
+  EXPECT_EQ(after.start->last_scan_stamp(), 6.0);
+  EXPECT_GT(after.start->checkpoint_at_unix(), 0);
   ASSERT_EQ(after.scans.size(), 3u);
   EXPECT_EQ(after.scans.back().scans_processed(), 9u);
   v1::GetTrajectoryRequest request;
@@ -429,6 +439,102 @@ TEST_F(SlamServerTest, DeleteSessionRefusesOpenSessionsUnlessForcedAndForgetsThe
             grpc::StatusCode::NOT_FOUND);
   EXPECT_EQ(RunStream(stub_.get(), open_id, Drive(0, 1, 1.0)).status.error_code(),
             grpc::StatusCode::NOT_FOUND);
+}
+
+// Issue 15: what a session held when a stream attached is in the stream's first answer, and a
+// hello (a first message with only the session id) gets it at once.
+TEST_F(SlamServerTest, AHelloIsAnsweredWithWhatTheSessionHolds) {
+  const std::string id = CreateSession("robot-1");
+  StreamResult fresh = RunStream(stub_.get(), id, Drive(0, 3, 1.0));
+  ASSERT_TRUE(fresh.status.ok()) << fresh.status.error_message();
+  ASSERT_TRUE(fresh.start.has_value());
+  EXPECT_FALSE(fresh.start->from_checkpoint());
+  EXPECT_EQ(fresh.start->scans_processed(), 0u);
+
+  v1::SensorData hello;
+  hello.set_sequence(7);
+  StreamResult again = RunStream(stub_.get(), id, {hello});
+  ASSERT_TRUE(again.status.ok()) << again.status.error_message();
+  ASSERT_EQ(again.answers, 1);
+  EXPECT_EQ(again.by_sequence[7].stream_start().scans_processed(), 3u);
+  EXPECT_EQ(again.by_sequence[7].stream_start().last_scan_stamp(), 3.0);
+  EXPECT_FALSE(again.by_sequence[7].stream_start().from_checkpoint());  // still in memory
+  EXPECT_TRUE(again.scans.empty());
+}
+
+// Issue 15: a server whose stderr went into a `tee` that was closed died of SIGPIPE at its next
+// log line, before its shutdown checkpoint.
+TEST_F(SlamServerTest, AServerWhoseStderrReaderIsGoneStillSavesItsSessionsOnSigterm) {
+  server_.reset();
+  // Checkpoints only at shutdown, so the session's progress is saved by the SIGTERM or not at all.
+  auto server = ServerProcess::Start(
+      testing::ServerBinary(), dir_ + "/waymark.db",
+      {"--slam-workers", "2", "--slam-checkpoint-seconds", "0", "--slam-checkpoint-scans", "0"},
+      "127.0.0.1:0", ServerProcess::Stderr::kClosedPipe);
+  ASSERT_TRUE(server.ok()) << server.status();  // killed by its first log line before the fix
+  server_ = std::move(*server);
+  channel_ = grpc::CreateChannel(server_->address(), grpc::InsecureChannelCredentials());
+  stub_ = v1::SlamService::NewStub(channel_);
+  const std::string id = CreateSession("robot-1");
+  StreamResult before = RunStream(stub_.get(), id, Drive(0, 5, 1.0));
+  ASSERT_TRUE(before.status.ok()) << before.status.error_message();
+  ASSERT_EQ(before.scans.size(), 5u);
+  stub_.reset();
+  channel_.reset();
+  EXPECT_EQ(server_->Stop(SIGTERM), 0);
+
+  StartServer();
+  v1::ListSessionsResponse list;
+  ASSERT_TRUE(stub_->ListSessions(Ctx().get(), v1::ListSessionsRequest(), &list).ok());
+  ASSERT_EQ(list.sessions_size(), 1);
+  EXPECT_EQ(list.sessions(0).scans_processed(), 5u);
+  EXPECT_GT(list.sessions(0).checkpoint_at_unix(), 0);
+}
+
+// Issue 15: on SIGTERM with a robot streaming, the server waited its whole grace for the stream.
+// It now saves the session, ends the stream with UNAVAILABLE "server shutting down" and exits.
+TEST_F(SlamServerTest, ShutdownEndsOpenStreamsOnceTheirSessionsAreSavedAndExits) {
+  server_.reset();
+  // A grace far longer than the test's wait: if the server exits within the wait, it did not
+  // wait for the stream to end on its own.
+  StartServer({"--slam-workers", "2", "--shutdown-grace", "600", "--slam-checkpoint-seconds", "0",
+               "--slam-checkpoint-scans", "0"});
+  const std::string id = CreateSession("robot-1");
+  // Far beyond what the shutdown takes, far below the grace: a server that waits for the grace
+  // fails the test here rather than hanging it.
+  auto ctx = Ctx(120);
+  auto stream = stub_->StreamSensorData(ctx.get());
+  std::vector<v1::SensorData> messages = Drive(0, 5, 1.0);
+  messages[0].set_session_id(id);
+  for (const v1::SensorData& message : messages) ASSERT_TRUE(stream->Write(message));
+  for (int answered = 0; answered < 5; ++answered) {
+    v1::SlamUpdate update;
+    ASSERT_TRUE(stream->Read(&update)) << "answer " << answered;
+    ASSERT_FALSE(update.has_rejection()) << update.rejection().message();
+  }
+
+  server_->Signal(SIGTERM);  // the stream is open: the robot has not half-closed
+  v1::SlamUpdate update;
+  while (stream->Read(&update)) {
+  }
+  const grpc::Status status = stream->Finish();
+  EXPECT_EQ(status.error_code(), grpc::StatusCode::UNAVAILABLE) << status.error_message();
+  EXPECT_NE(status.error_message().find("server shutting down"), std::string::npos)
+      << status.error_message();
+  stream.reset();
+  stub_.reset();
+  channel_.reset();
+  const std::optional<int> exit_code = server_->WaitForExit(absl::Seconds(120));
+  ASSERT_TRUE(exit_code.has_value()) << "still running 120 s after SIGTERM (grace 600 s)\n"
+                                     << server_->Log();
+  EXPECT_EQ(*exit_code, 0);
+
+  StartServer();
+  v1::ListSessionsResponse list;
+  ASSERT_TRUE(stub_->ListSessions(Ctx().get(), v1::ListSessionsRequest(), &list).ok());
+  ASSERT_EQ(list.sessions_size(), 1);
+  EXPECT_EQ(list.sessions(0).scans_processed(), 5u);
+  EXPECT_GT(list.sessions(0).checkpoint_at_unix(), 0);
 }
 
 }  // namespace

@@ -50,23 +50,33 @@ absl::StatusOr<std::unique_ptr<ChildProcess>> ChildProcess::Start(const Options&
   for (std::string& a : argv) cargv.push_back(a.data());
   cargv.push_back(nullptr);
   const bool one_log = options.stdout_path == options.stderr_path;
+  int broken_pipe[2] = {-1, -1};
+  if (options.stderr_to_closed_pipe && pipe(broken_pipe) != 0) {
+    return absl::InternalError(absl::StrCat("pipe: ", std::strerror(errno)));
+  }
   const pid_t pid = fork();
   if (pid < 0) return absl::InternalError(absl::StrCat("fork: ", std::strerror(errno)));
   if (pid == 0) {
     const int in = options.stdin_pipe ? pipe_fds[0] : open("/dev/null", O_RDONLY);
     const int out = open(options.stdout_path.c_str(), O_WRONLY | O_CREAT | O_TRUNC, 0644);
-    const int err =
-        one_log ? out : open(options.stderr_path.c_str(), O_WRONLY | O_CREAT | O_TRUNC, 0644);
+    const int err = options.stderr_to_closed_pipe ? broken_pipe[1]
+                    : one_log ? out
+                              : open(options.stderr_path.c_str(), O_WRONLY | O_CREAT | O_TRUNC, 0644);
     if (in < 0 || out < 0 || err < 0) _exit(126);
     dup2(in, STDIN_FILENO);
     dup2(out, STDOUT_FILENO);
     dup2(err, STDERR_FILENO);
     if (options.stdin_pipe) close(pipe_fds[1]);  // else the child never sees end of input
+    if (options.stderr_to_closed_pipe) close(broken_pipe[0]);
     signal(SIGPIPE, SIG_DFL);  // an ignored signal would stay ignored across exec
     execv(cargv[0], cargv.data());
     _exit(127);
   }
   child->pid_ = pid;
+  if (options.stderr_to_closed_pipe) {
+    close(broken_pipe[0]);  // the last read end: the child's stderr now leads nowhere
+    close(broken_pipe[1]);
+  }
   if (options.stdin_pipe) {
     close(pipe_fds[0]);
     child->stdin_fd_ = pipe_fds[1];
@@ -117,6 +127,19 @@ int ChildProcess::Stop(int signal) {
 }
 
 int ChildProcess::Wait() { return pid_ > 0 ? Reap(0) : exit_code_; }
+
+void ChildProcess::Signal(int signal) {
+  if (pid_ > 0) kill(pid_, signal);
+}
+
+std::optional<int> ChildProcess::WaitFor(absl::Duration timeout) {
+  const absl::Time deadline = absl::Now() + timeout;
+  while (Running()) {
+    if (absl::Now() >= deadline) return std::nullopt;
+    absl::SleepFor(absl::Milliseconds(50));
+  }
+  return exit_code_;
+}
 
 std::string ChildProcess::Stdout() const { return ReadWholeFile(stdout_path_); }
 std::string ChildProcess::Stderr() const { return ReadWholeFile(stderr_path_); }

@@ -10,6 +10,7 @@
 
 #include <functional>
 #include <memory>
+#include <optional>
 #include <string>
 #include <vector>
 
@@ -26,6 +27,9 @@ class ChildProcess {
     std::string stdout_path;        // created or truncated
     std::string stderr_path;        // may equal stdout_path (one log)
     bool stdin_pipe = false;        // else stdin is /dev/null
+    // stderr is a pipe whose read end is closed (stderr_path unused): the child's first write to
+    // it raises SIGPIPE, as for a program whose log went into a `tee` that was stopped.
+    bool stderr_to_closed_pipe = false;
   };
 
   static absl::StatusOr<std::unique_ptr<ChildProcess>> Start(const Options& options);
@@ -45,6 +49,10 @@ class ChildProcess {
   int Stop(int signal);
   // Waits for the exit without a signal.
   int Wait();
+  // Sends `signal` and returns at once.
+  void Signal(int signal);
+  // Waits up to `timeout` for the exit: its code as Stop() returns it, or nullopt.
+  std::optional<int> WaitFor(absl::Duration timeout);
 
   std::string Stdout() const;
   std::string Stderr() const;

@@ -50,21 +50,22 @@ std::string MakeTempDir(const std::string& prefix) {
 
 absl::StatusOr<std::unique_ptr<ServerProcess>> ServerProcess::Start(
     const std::string& binary, const std::string& db_path, const std::vector<std::string>& args,
-    const std::string& listen) {
+    const std::string& listen, Stderr stderr_to) {
   std::vector<std::string> insecure = {"--insecure-dev"};
   insecure.insert(insecure.end(), args.begin(), args.end());
-  return StartWithAuth(binary, db_path, insecure, listen);
+  return StartWithAuth(binary, db_path, insecure, listen, stderr_to);
 }
 
 absl::StatusOr<std::unique_ptr<ServerProcess>> ServerProcess::StartWithAuth(
     const std::string& binary, const std::string& db_path, const std::vector<std::string>& args,
-    const std::string& listen) {
+    const std::string& listen, Stderr stderr_to) {
   std::unique_ptr<ServerProcess> server(new ServerProcess());
   server->log_path_ = db_path + ".log." + std::to_string(std::rand());
   ChildProcess::Options options;
   options.argv = {binary, "--listen", listen, "--db", db_path};
   options.argv.insert(options.argv.end(), args.begin(), args.end());
   options.stdout_path = options.stderr_path = server->log_path_;
+  options.stderr_to_closed_pipe = stderr_to == Stderr::kClosedPipe;
   absl::StatusOr<std::unique_ptr<ChildProcess>> process = ChildProcess::Start(options);
   if (!process.ok()) return process.status();
   server->process_ = *std::move(process);
@@ -94,6 +95,12 @@ ServerProcess::~ServerProcess() = default;  // the child process kills a server 
 bool ServerProcess::Running() { return process_->Running(); }
 
 int ServerProcess::Stop(int signal) { return process_->Stop(signal); }
+
+void ServerProcess::Signal(int signal) { process_->Signal(signal); }
+
+std::optional<int> ServerProcess::WaitForExit(absl::Duration timeout) {
+  return process_->WaitFor(timeout);
+}
 
 std::string ServerProcess::Log() const { return ReadWholeFile(log_path_); }
 

@@ -7,16 +7,24 @@
 #include <sys/types.h>
 
 #include <memory>
+#include <optional>
 #include <string>
 #include <vector>
 
 #include "absl/status/statusor.h"
 #include "tests/support/child_process.h"
+#include "absl/time/time.h"
 
 namespace waymark::testing {
 
 class ServerProcess {
  public:
+  // Where the server's stderr goes.
+  enum class Stderr {
+    kLog,         // the log file, with stdout
+    kClosedPipe,  // a pipe whose read end is closed: every write is EPIPE (or SIGPIPE)
+  };
+
   // Starts `binary --listen 127.0.0.1:0 --db db_path --insecure-dev args...` and waits (up to
   // 60 s) for its "listening on" line. Authentication is off (--insecure-dev): tests of
   // everything but auth call without tokens.
@@ -24,17 +32,24 @@ class ServerProcess {
   static absl::StatusOr<std::unique_ptr<ServerProcess>> Start(const std::string& binary,
                                                               const std::string& db_path,
                                                               const std::vector<std::string>& args = {},
-                                                              const std::string& listen = "127.0.0.1:0");
+                                                              const std::string& listen = "127.0.0.1:0",
+                                                              Stderr stderr_to = Stderr::kLog);
   // The same with authentication on (no --insecure-dev), as deployed: calls need tokens.
   static absl::StatusOr<std::unique_ptr<ServerProcess>> StartWithAuth(
       const std::string& binary, const std::string& db_path,
-      const std::vector<std::string>& args = {}, const std::string& listen = "127.0.0.1:0");
+      const std::vector<std::string>& args = {}, const std::string& listen = "127.0.0.1:0",
+      Stderr stderr_to = Stderr::kLog);
   ~ServerProcess();
 
   const std::string& address() const { return address_; }
   pid_t pid() const { return process_->pid(); }
   // Sends `signal` and waits for the exit; returns the exit code (128 + signal if killed).
   int Stop(int signal);
+  // Sends `signal` and returns at once (see WaitForExit).
+  void Signal(int signal);
+  // Waits up to `timeout` for the process to exit: its exit code as Stop() returns it, or nullopt
+  // while it still runs.
+  std::optional<int> WaitForExit(absl::Duration timeout);
   // True while the process runs.
   bool Running();
   std::string Log() const;
