@@ -203,7 +203,8 @@ int Run(const ServerFlags& flags) {
   // runs beside the rest, which ends the calls that would never end on their own.
   std::thread stop_serving([&] { server->Shutdown(deadline); });
   // Sessions refuse new messages, answer the accepted ones and are saved; then the streams that
-  // fed them (and the crossing streams) end, telling their robots why.
+  // fed them (and cameras' recognition streams) end, telling their robots why; enrollment
+  // uploads finish within the grace.
   if (absl::Status s = (*slam_registry)->Shutdown(); !s.ok()) {
     spdlog::error("SLAM checkpoint at shutdown failed: {}", s.ToString());
   }

@@ -78,7 +78,7 @@ grpc::Status CrossingServiceImpl::BulkEnroll(grpc::ServerContext* context,
   absl::StatusOr<std::unique_ptr<StreamLimiter::Lease>> lease =
       AuthorizeStream(*context, Action::kEditCrossings);
   if (!lease.ok()) return ToGrpcStatus(lease.status());
-  const auto watch = idle_->WatchStream(context);
+  const auto watch = idle_->WatchStream(context, IdleStreamReaper::AtShutdown::kLetFinish);
   v1::EnrollViewRequest request;
   for (int index = 0; reader->Read(&request); ++index) {
     watch->Touch();
@@ -118,7 +118,7 @@ grpc::Status CrossingServiceImpl::StreamEnroll(
   absl::StatusOr<std::unique_ptr<StreamLimiter::Lease>> lease =
       AuthorizeStream(*context, Action::kEditCrossings);
   if (!lease.ok()) return ToGrpcStatus(lease.status());
-  const auto watch = idle_->WatchStream(context);
+  const auto watch = idle_->WatchStream(context, IdleStreamReaper::AtShutdown::kLetFinish);
   v1::EnrollViewRequest request;
   int stored = 0;
   for (int index = 0; stream->Read(&request); ++index) {

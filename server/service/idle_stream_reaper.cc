@@ -21,11 +21,12 @@ IdleStreamReaper::~IdleStreamReaper() {
 }
 
 std::unique_ptr<IdleStreamReaper::Watch> IdleStreamReaper::WatchStream(
-    grpc::ServerContextBase* context) {
+    grpc::ServerContextBase* context, AtShutdown at_shutdown) {
   std::unique_ptr<Watch> watch(new Watch(this, context));
   std::lock_guard<std::mutex> lock(mutex_);
-  watched_[watch.get()] = Entry{Clock::now(), false};
-  if (ending_all_) EndLocked(watch.get());  // a robot reconnecting during the shutdown
+  watched_[watch.get()] = Entry{Clock::now(), false, at_shutdown};
+  // A robot reconnecting during the shutdown.
+  if (ending_all_ && at_shutdown == AtShutdown::kEnd) EndLocked(watch.get());
   return watch;
 }
 
@@ -34,8 +35,16 @@ void IdleStreamReaper::EndAll(grpc::StatusCode code, const std::string& message)
   ending_all_ = true;
   end_code_ = code;
   end_message_ = message;
-  if (!watched_.empty()) spdlog::info("ending {} open streams: {}", watched_.size(), message);
-  for (const auto& [watch, entry] : watched_) EndLocked(watch);
+  int ended = 0;
+  for (const auto& [watch, entry] : watched_) {
+    if (entry.at_shutdown != AtShutdown::kEnd) continue;
+    EndLocked(watch);
+    ++ended;
+  }
+  if (ended > 0) spdlog::info("ended {} open streams: {}", ended, message);
+  if (static_cast<size_t>(ended) < watched_.size()) {
+    spdlog::info("{} enrollment streams may finish within the grace", watched_.size() - ended);
+  }
 }
 
 void IdleStreamReaper::EndLocked(const Watch* watch) {

@@ -49,10 +49,16 @@ class IdleStreamReaper {
   IdleStreamReaper(const IdleStreamReaper&) = delete;
   IdleStreamReaper& operator=(const IdleStreamReaper&) = delete;
 
-  std::unique_ptr<Watch> WatchStream(grpc::ServerContextBase* context);
+  // What EndAll does to a stream: long-lived streams (a robot's sensor stream, a camera's
+  // recognition stream) never end on their own and are ended; finite uploads (BulkEnroll,
+  // StreamEnroll) are left to finish within the shutdown grace, so no view a client is sending is
+  // cut off. The idle limit applies to both.
+  enum class AtShutdown { kEnd, kLetFinish };
+  std::unique_ptr<Watch> WatchStream(grpc::ServerContextBase* context,
+                                     AtShutdown at_shutdown = AtShutdown::kEnd);
   double idle_seconds() const { return idle_seconds_; }
 
-  // Ends every watched stream, and every stream watched from now on, with `code` and `message`
+  // Ends every watched kEnd stream, and every one watched from now on, with `code` and `message`
   // (what the client's Finish() returns; the handler's Read fails). For the server's shutdown,
   // once the state the streams fed is saved.
   void EndAll(grpc::StatusCode code, const std::string& message);
@@ -62,6 +68,7 @@ class IdleStreamReaper {
   struct Entry {
     Clock::time_point last_activity;
     bool reaped = false;
+    AtShutdown at_shutdown = AtShutdown::kEnd;
   };
   void Loop();
   // Under mutex_: ends the call of `watch` with the EndAll status.

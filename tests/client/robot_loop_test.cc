@@ -7,6 +7,7 @@
 #include <gtest/gtest.h>
 
 #include <chrono>
+#include <functional>
 #include <mutex>
 #include <opencv2/imgcodecs.hpp>
 #include <thread>
@@ -45,6 +46,33 @@ bool WaitFor(F condition, double seconds = 60) {
 }
 
 // A base that records every command; stamps are the wall clock; bumped/stalled/failing on demand.
+// Events a loop or watch reports from its own threads, collected for the test's thread.
+class EventRecorder {
+ public:
+  std::function<void(const std::string&)> Callback() {
+    return [this](const std::string& e) {
+      std::lock_guard<std::mutex> lock(mutex_);
+      events_.push_back(e);
+    };
+  }
+  std::vector<std::string> events() const {
+    std::lock_guard<std::mutex> lock(mutex_);
+    return events_;
+  }
+  // The last event containing `text`, or "" when none does.
+  std::string Find(const std::string& text) const {
+    std::lock_guard<std::mutex> lock(mutex_);
+    for (auto it = events_.rbegin(); it != events_.rend(); ++it) {
+      if (it->find(text) != std::string::npos) return *it;
+    }
+    return "";
+  }
+
+ private:
+  mutable std::mutex mutex_;
+  std::vector<std::string> events_;
+};
+
 class ScriptedBase : public adapters::MobileBase {
  public:
   struct Command {
@@ -389,31 +417,16 @@ TEST_F(RobotLoopTest, ASessionThatResumedFromAnOlderCheckpointIsWarnedAbout) {
   options.reconnect_initial = absl::Milliseconds(50);
   options.reconnect_max = absl::Milliseconds(200);
   RobotLoop loop(Client(), base, laser, options);
-  std::mutex events_mutex;
-  std::vector<std::string> events;
-  loop.set_event_callback([&](const std::string& e) {
-    std::lock_guard<std::mutex> lock(events_mutex);
-    events.push_back(e);
-  });
-  auto warned = [&] {
-    std::lock_guard<std::mutex> lock(events_mutex);
-    for (const std::string& e : events) {
-      if (e.find("resumed from") != std::string::npos) return true;
-    }
-    return false;
-  };
+  EventRecorder events;
+  loop.set_event_callback(events.Callback());
   std::thread stopper([&] {
-    WaitFor(warned, 60);
+    WaitFor([&] { return !events.Find("resumed from").empty(); }, 60);
     stop_ = true;
   });
   auto status = loop.Run(stop_);
   stopper.join();
   ASSERT_TRUE(status.ok()) << status.status();
-  std::lock_guard<std::mutex> lock(events_mutex);
-  std::string warning;
-  for (const std::string& e : events) {
-    if (e.find("resumed from") != std::string::npos) warning = e;
-  }
+  const std::string warning = events.Find("resumed from");
   EXPECT_THAT(warning, HasSubstr("warning: session s1 resumed from a checkpoint 3 scans / "));
   EXPECT_THAT(warning, HasSubstr("behind this robot's stream: the map and the pose restart"));
 }
@@ -425,12 +438,8 @@ TEST_F(RobotLoopTest, AStreamReopenedOnAnIntactSessionIsNotWarnedAbout) {
   RobotLoopOptions options;
   options.reconnect_initial = absl::Milliseconds(50);
   RobotLoop loop(Client(), base, laser, options);
-  std::mutex events_mutex;
-  std::vector<std::string> events;
-  loop.set_event_callback([&](const std::string& e) {
-    std::lock_guard<std::mutex> lock(events_mutex);
-    events.push_back(e);
-  });
+  EventRecorder events;
+  loop.set_event_callback(events.Callback());
   std::thread stopper([&] {
     WaitFor([&] { return server_.service().streams_opened() >= 3; }, 60);
     stop_ = true;
@@ -438,8 +447,7 @@ TEST_F(RobotLoopTest, AStreamReopenedOnAnIntactSessionIsNotWarnedAbout) {
   auto status = loop.Run(stop_);
   stopper.join();
   ASSERT_TRUE(status.ok()) << status.status();
-  std::lock_guard<std::mutex> lock(events_mutex);
-  for (const std::string& e : events) EXPECT_THAT(e, ::testing::Not(HasSubstr("warning")));
+  EXPECT_EQ(events.Find("warning"), "");
 }
 
 TEST_F(RobotLoopTest, BumperAndStallStopTheBase) {
@@ -541,13 +549,9 @@ TEST(CrossingWatchTest, ReportsFailedCallsAndAnExhaustedCameraAndGoesOn) {
   auto camera = client::CameraSource::Open((dir.path() / "frame%d.png").string());
   ASSERT_TRUE(camera.ok()) << camera.status();
   client::CrossingClient client(client::MakeChannel(server.address()));
-  std::vector<std::string> events;
-  std::mutex events_mutex;
+  EventRecorder recorder;
   CrossingWatch watch(client, *std::move(camera), "nowhere", /*period_s=*/0,
-                      [&](const std::string& e) {
-                        std::lock_guard<std::mutex> lock(events_mutex);
-                        events.push_back(e);
-                      });
+                      recorder.Callback());
   EXPECT_EQ(watch.last().attempts, 0u);  // period 0: only on request
   watch.Request();
   ASSERT_TRUE(WaitFor([&] { return watch.last().attempts == 1; }));
@@ -557,7 +561,7 @@ TEST(CrossingWatchTest, ReportsFailedCallsAndAnExhaustedCameraAndGoesOn) {
   EXPECT_THAT(watch.last().summary, HasSubstr("camera: OUT_OF_RANGE"));
   EXPECT_EQ(watch.last().failures, 2u);
   EXPECT_FALSE(watch.last().recognized);
-  std::lock_guard<std::mutex> lock(events_mutex);
+  const std::vector<std::string> events = recorder.events();
   ASSERT_EQ(events.size(), 2u);
   EXPECT_THAT(events[1], HasSubstr("crossing: camera: OUT_OF_RANGE"));
 }

@@ -518,8 +518,12 @@ TEST_F(SlamServerTest, ShutdownEndsOpenStreamsOnceTheirSessionsAreSavedAndExits)
   while (stream->Read(&update)) {
   }
   const grpc::Status status = stream->Finish();
+  // UNAVAILABLE either way, which a robot answers by reconnecting: the server's "server shutting
+  // down" status, or, when the process exits before the transport flushed that status (seen on a
+  // loaded machine), the closed connection.
   EXPECT_EQ(status.error_code(), grpc::StatusCode::UNAVAILABLE) << status.error_message();
-  EXPECT_NE(status.error_message().find("server shutting down"), std::string::npos)
+  EXPECT_TRUE(status.error_message().find("server shutting down") != std::string::npos ||
+              status.error_message().find("Socket closed") != std::string::npos)
       << status.error_message();
   stream.reset();
   stub_.reset();
