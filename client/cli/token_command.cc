@@ -62,7 +62,7 @@ int RunCreate(CommandContext& context, const TokenArgs& args) {
   return kExitOk;
 }
 
-int RunList(CommandContext& context) {
+int RunTokenList(CommandContext& context) {
   auto list = Connect(context).ListTokens();
   if (!list.ok()) return ReportError(context, list.status());
   if (context.globals.json) {
@@ -106,7 +106,7 @@ void AddTokenCommands(CLI::App& app, CommandRegistry& registry) {
   registry.Add(create, [args](CommandContext& context) { return RunCreate(context, *args); });
 
   CLI::App* list = token->add_subcommand("list", "List tokens (never their secrets)");
-  registry.Add(list, [](CommandContext& context) { return RunList(context); });
+  registry.Add(list, [](CommandContext& context) { return RunTokenList(context); });
 
   CLI::App* revoke = token->add_subcommand("revoke", "Revoke a token at once");
   revoke->add_option("NAME", args->name, "Token name")->required();
