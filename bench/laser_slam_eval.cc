@@ -42,6 +42,7 @@
 #include <fstream>
 #include <iostream>
 #include <map>
+#include <stdexcept>
 #include <nlohmann/json.hpp>
 #include <string>
 #include <vector>
@@ -81,7 +82,89 @@ void Usage() {
       << "usage: waymark-laser-eval --log LOG [--relations FILE] [--max-scans N] [--out DIR]\n"
          "                          [--json] [--max-active-segments N] [--active-radius M]\n"
          "                          [--freeze-after-scans N] [--min-travel M --min-turn R]\n"
-         "                          [--match-chi2 X]\n";
+         "                          [--match-chi2 X] [--mapping on|off]\n"
+         "                          [--mapping-opt NAME=VALUE ...]\n";
+}
+
+// Nearest-rank percentile, as slam_replay reports it.
+double Percentile(std::vector<double> values, double q) {
+  if (values.empty()) return 0;
+  std::sort(values.begin(), values.end());
+  const size_t index =
+      std::min(values.size() - 1, static_cast<size_t>(q * (values.size() - 1) + 0.5));
+  return values[index];
+}
+
+// --mapping-opt NAME=VALUE: one MappingOptions field by name (for tuning runs).
+bool SetMappingOption(const std::string& assignment, ls::MappingOptions* m) {
+  const size_t eq = assignment.find('=');
+  if (eq == std::string::npos) return false;
+  const std::string name = assignment.substr(0, eq);
+  const double value = std::stod(assignment.substr(eq + 1));
+  const std::map<std::string, double*> doubles = {
+      {"node_travel", &m->node_travel}, {"node_turn", &m->node_turn},
+      {"point_range", &m->point_range}, {"point_cell", &m->point_cell},
+      {"grid_resolution", &m->grid_resolution}, {"grid_sigma", &m->grid_sigma},
+      {"min_loop_travel", &m->min_loop_travel}, {"candidate_distance", &m->candidate_distance},
+      {"window_base_xy", &m->window_base_xy}, {"drift_xy_per_m", &m->drift_xy_per_m},
+      {"window_base_theta", &m->window_base_theta},
+      {"drift_theta_per_m", &m->drift_theta_per_m}, {"max_window_xy", &m->max_window_xy},
+      {"max_window_theta", &m->max_window_theta}, {"min_score", &m->min_score},
+      {"chain_sigma_xy", &m->chain_sigma_xy}, {"chain_sigma_xy_per_m", &m->chain_sigma_xy_per_m},
+      {"chain_sigma_theta", &m->chain_sigma_theta},
+      {"chain_sigma_theta_per_m", &m->chain_sigma_theta_per_m},
+      {"chain_sigma_theta_per_rad", &m->chain_sigma_theta_per_rad},
+      {"loop_sigma_xy", &m->loop_sigma_xy}, {"loop_sigma_theta", &m->loop_sigma_theta},
+      {"huber_scale", &m->huber_scale}, {"outlier_residual", &m->outlier_residual}};
+  const std::map<std::string, int*> ints = {
+      {"threads", &m->threads}, {"submap_nodes", &m->submap_nodes},
+      {"search_every_nodes", &m->search_every_nodes}, {"query_nodes", &m->query_nodes},
+      {"max_candidates", &m->max_candidates}, {"search_depth", &m->search_depth},
+      {"optimize_every_closures", &m->optimize_every_closures},
+      {"max_iterations", &m->max_iterations}};
+  if (auto it = doubles.find(name); it != doubles.end()) {
+    *it->second = value;
+    return true;
+  }
+  if (auto it = ints.find(name); it != ints.end()) {
+    *it->second = static_cast<int>(value);
+    return true;
+  }
+  return false;
+}
+
+// Loop closures whose relative pose disagrees with the final graph by more than 0.3 m or 3 deg
+// ("false": the optimum, held by all other constraints, does not agree with them).
+nlohmann::json MappingJson(const ls::MappingBackend& backend) {
+  const ls::MappingStats stats = backend.Stats();
+  const std::vector<ls::NodeView> nodes = backend.Nodes();
+  int loops = 0, enabled = 0, disagreeing = 0;
+  for (const ls::GraphConstraint& c : backend.Constraints()) {
+    if (c.kind != ls::GraphConstraint::Kind::kLoop) continue;
+    ++loops;
+    if (!c.enabled) continue;
+    ++enabled;
+    const ls::Pose2 a = nodes[c.from].global, b = nodes[c.to].global;
+    const double ca = std::cos(a.theta), sa = std::sin(a.theta);
+    const double dx = ca * (b.x - a.x) + sa * (b.y - a.y) - c.relative.x;
+    const double dy = -sa * (b.x - a.x) + ca * (b.y - a.y) - c.relative.y;
+    const double dt = std::remainder(b.theta - a.theta - c.relative.theta, 2 * M_PI);
+    if (std::hypot(dx, dy) > 0.3 || std::abs(dt) > 3.0 * M_PI / 180.0) ++disagreeing;
+  }
+  return {{"nodes", stats.nodes},
+          {"submaps", stats.submaps},
+          {"searches", stats.searches},
+          {"candidates", stats.candidates},
+          {"closures_accepted", stats.closures_accepted},
+          {"closures_rejected", stats.closures_rejected},
+          {"closures_switched_off", stats.closures_switched_off},
+          {"closures_in_graph", enabled},
+          {"closures_disagreeing_with_final_graph", disagreeing},
+          {"optimizations", stats.optimizations},
+          {"search_ms_p50", Percentile(stats.search_ms, 0.5)},
+          {"search_ms_p99", Percentile(stats.search_ms, 0.99)},
+          {"optimize_ms_p50", Percentile(stats.optimize_ms, 0.5)},
+          {"optimize_ms_p99", Percentile(stats.optimize_ms, 0.99)}};
 }
 
 bool ParseArgs(int argc, char** argv, Args* args) {
@@ -118,6 +201,11 @@ bool ParseArgs(int argc, char** argv, Args* args) {
         args->options.ekf.min_turn = std::stod(v);
       } else if (a == "--match-chi2") {
         args->options.ekf.match_chi2 = std::stod(v);
+      } else if (a == "--mapping") {
+        if (v != "on" && v != "off") throw std::invalid_argument(v);
+        args->options.mapping.enabled = v == "on";
+      } else if (a == "--mapping-opt") {
+        if (!SetMappingOption(v, &args->options.mapping)) throw std::invalid_argument(v);
       } else {
         std::cerr << "unknown option " << a << "\n";
         return false;
@@ -132,15 +220,6 @@ bool ParseArgs(int argc, char** argv, Args* args) {
     return false;
   }
   return true;
-}
-
-// Nearest-rank percentile, as slam_replay reports it.
-double Percentile(std::vector<double> values, double q) {
-  if (values.empty()) return 0;
-  std::sort(values.begin(), values.end());
-  const size_t index =
-      std::min(values.size() - 1, static_cast<size_t>(q * (values.size() - 1) + 0.5));
-  return values[index];
 }
 
 double PeakRssMb() {
@@ -296,6 +375,12 @@ int Run(const Args& args) {
     bin_ms[update->active_segments / kBinWidth].push_back(ms);
   }
   for (const std::string& r : rejections) std::cerr << "warning: rejected " << r << "\n";
+  {
+    // The last optimisation belongs to the run's cost.
+    const Clock::time_point start = Clock::now();
+    slam.FlushBackend();
+    engine_s += std::chrono::duration<double, std::milli>(Clock::now() - start).count() / 1000.0;
+  }
 
   const double duration_s = log.lasers.back().stamp - log.lasers.front().stamp;
   std::vector<cli::StampedPose> trajectory;
@@ -347,6 +432,7 @@ int Run(const Args& args) {
                     {"p99_ms", Percentile(values, 0.99)}});
   }
   j["by_active_segments"] = bins;
+  if (slam.backend() != nullptr) j["mapping"] = MappingJson(*slam.backend());
 
   std::vector<std::string> metric_lines;
   if (!args.relations.empty()) {
@@ -445,6 +531,7 @@ int Run(const Args& args) {
                                  Percentile(values, 0.5), Percentile(values, 0.99));
   }
   if (!metric_lines.empty()) {
+    if (j.contains("mapping")) std::cout << "loop closure: " << j["mapping"].dump() << "\n";
     std::cout << "relations metric (local: t2 - t1 <= " << kLocalRelationS << " s):\n";
     for (const std::string& line : metric_lines) std::cout << line << "\n";
   }

@@ -18,6 +18,7 @@ PACKAGES=(
   build-essential cmake ninja-build ccache pkg-config git
   libgrpc++-dev protobuf-compiler-grpc libprotobuf-dev protobuf-compiler
   libopencv-dev libeigen3-dev libabsl-dev libsqlite3-dev
+  libceres-dev  # the laser sessions' pose graph (server/laser_slam/mapping)
   libssl-dev  # SHA-256 of token secrets and enrolled images (storage/sha256), TLS (a gRPC dependency)
   libgtest-dev libgmock-dev libbenchmark-dev
   libcli11-dev libspdlog-dev libfmt-dev nlohmann-json3-dev

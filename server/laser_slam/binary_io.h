@@ -5,6 +5,7 @@
 // string, and a reader that fails (instead of reading past the end) on truncated input.
 
 #include <cstdint>
+#include <algorithm>
 #include <cstring>
 #include <string>
 
@@ -37,6 +38,10 @@ class BinaryReader {
     return true;
   }
   bool done() const { return in_.empty(); }
+  size_t remaining() const { return in_.size(); }
+  // What is left, unread.
+  absl::string_view Rest() const { return in_; }
+  void Skip(size_t n) { in_.remove_prefix(std::min(n, in_.size())); }
 
  private:
   absl::string_view in_;

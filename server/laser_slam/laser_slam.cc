@@ -11,6 +11,7 @@
 #include "server/laser_slam/exploration_planner.h"
 #include "server/laser_slam/geometry.h"
 #include "server/laser_slam/line_extraction.h"
+#include "server/laser_slam/mapping/point_cloud.h"
 #include "server/laser_slam/motion.h"
 #include "server/laser_slam/odometry_buffer.h"
 #include "server/laser_slam/segment_ekf.h"
@@ -19,7 +20,8 @@ namespace waymark::laser_slam {
 namespace {
 
 constexpr std::uint32_t kMagic = 0x534c4d57;  // "WMLS"
-constexpr std::uint32_t kVersion = 1;
+// 1: the EKF alone; 2: followed by the back end's graph (a flag, a length and its bytes).
+constexpr std::uint32_t kVersion = 2;
 
 }  // namespace
 
@@ -28,11 +30,13 @@ struct LaserSlam::Impl {
     if (o.exploration.mode != ExplorationMode::kPassive) {
       planner = std::make_unique<ExplorationPlanner>(o.exploration);
     }
+    if (o.mapping.enabled) backend = std::make_unique<MappingBackend>(o.mapping);
   }
 
   SlamOptions options;
   SegmentEkf ekf;
   std::unique_ptr<ExplorationPlanner> planner;  // active and wander sessions
+  std::unique_ptr<MappingBackend> backend;      // loop closure (options.mapping.enabled)
   LaserScan last_scan;                          // what the planner avoids
   OdometryBuffer odometry;
   bool have_scan = false;
@@ -47,6 +51,12 @@ struct LaserSlam::Impl {
     p.stamp = stamp;
     p.pose = ekf.state().robot;
     p.covariance = ekf.state().cov().topLeftCorner<3, 3>();
+    return p;
+  }
+
+  // A local pose of scan `scan` (1-based) in the map frame.
+  PoseEstimate ToMap(std::uint64_t scan, PoseEstimate p) const {
+    if (backend) p.pose = backend->ToGlobal(scan, p.pose);
     return p;
   }
 };
@@ -105,15 +115,25 @@ absl::StatusOr<ScanUpdate> LaserSlam::AddScan(const LaserScan& scan) {
     }
     if (changed) ++s.revision;
     update.pose = s.Current(scan.stamp);
+    if (s.backend) {
+      s.backend->AddScan(s.scans, scan.stamp, update.pose.pose,
+                         ScanToPoints(scan, s.options.laser_pose, s.options.extraction.min_range,
+                                      s.options.mapping.point_range));
+    }
   }
   s.odometry.DropBefore(scan.stamp);
   update.observed = static_cast<int>(observed->size());
   update.active_segments = static_cast<int>(s.ekf.state().segments.size());
   update.segments = update.active_segments + static_cast<int>(s.ekf.state().frozen.size());
   update.state_size = s.ekf.state().size();
-  update.map_revision = s.revision;
+  update.map_revision = map_revision();
   update.covariance_trace_mean = s.ekf.state().cov().trace() / s.ekf.state().size();
   s.trajectory.push_back(update.pose);
+  update.pose = s.ToMap(s.scans, update.pose);
+  if (s.backend) {
+    update.loop_closures = s.backend->Stats().closures_accepted;
+    update.graph_revision = s.backend->revision();
+  }
   update.timings.total = MsSince(start);
   // Planning is timed on its own (Suggestion::planning_ms), not as part of the filter's total.
   if (s.planner) update.suggestion = s.planner->Decide(View());
@@ -121,7 +141,8 @@ absl::StatusOr<ScanUpdate> LaserSlam::AddScan(const LaserScan& scan) {
 }
 
 PoseEstimate LaserSlam::CurrentPose() const {
-  return impl_->trajectory.empty() ? impl_->Current(0.0) : impl_->trajectory.back();
+  const Impl& s = *impl_;
+  return s.trajectory.empty() ? s.Current(0.0) : s.ToMap(s.scans, s.trajectory.back());
 }
 
 ExplorationView LaserSlam::View() const {
@@ -138,7 +159,7 @@ ExplorationView LaserSlam::View() const {
     }
     view.map_uncertainty += M_PI * std::sqrt(std::max(block.determinant(), 0.0));
   }
-  view.segments = Map();
+  view.segments = LocalMap();
   view.scan = s.last_scan;
   view.laser_pose = s.options.laser_pose;
   view.max_range = s.options.extraction.max_range;
@@ -159,6 +180,7 @@ MapSegment FromEntity(const SegmentEntity& e, bool active) {
   m.left_type = e.left_type;
   m.right_type = e.right_type;
   m.observations = e.observations;
+  m.last_seen_scan = e.last_seen_scan;
   m.active = active;
   return m;
 }
@@ -166,6 +188,14 @@ MapSegment FromEntity(const SegmentEntity& e, bool active) {
 }  // namespace
 
 std::vector<MapSegment> LaserSlam::Map() const {
+  std::vector<MapSegment> out = LocalMap();
+  if (impl_->backend) {
+    for (MapSegment& m : out) m.frame = impl_->backend->ToGlobal(m.last_seen_scan, m.frame);
+  }
+  return out;
+}
+
+std::vector<MapSegment> LaserSlam::LocalMap() const {
   const SpState& st = impl_->ekf.state();
   std::vector<MapSegment> out;
   out.reserve(st.segments.size() + st.frozen.size());
@@ -187,8 +217,26 @@ std::vector<MapSegment> LaserSlam::Map() const {
   return out;
 }
 
-const std::vector<PoseEstimate>& LaserSlam::Trajectory() const { return impl_->trajectory; }
-std::uint64_t LaserSlam::map_revision() const { return impl_->revision; }
+std::vector<PoseEstimate> LaserSlam::Trajectory() const {
+  const Impl& s = *impl_;
+  if (!s.backend) return s.trajectory;
+  // Pose k is scan k + 1 of the session (every scan has one, skipped or not).
+  std::vector<PoseEstimate> out = s.trajectory;
+  for (size_t k = 0; k < out.size(); ++k) out[k] = s.ToMap(k + 1, out[k]);
+  return out;
+}
+
+const std::vector<PoseEstimate>& LaserSlam::LocalTrajectory() const { return impl_->trajectory; }
+
+void LaserSlam::FlushBackend() {
+  if (impl_->backend) impl_->backend->Flush();
+}
+
+const MappingBackend* LaserSlam::backend() const { return impl_->backend.get(); }
+
+std::uint64_t LaserSlam::map_revision() const {
+  return impl_->revision + (impl_->backend ? impl_->backend->revision() : 0);
+}
 std::uint64_t LaserSlam::scans_processed() const { return impl_->scans; }
 const SlamOptions& LaserSlam::options() const { return impl_->options; }
 
@@ -267,6 +315,14 @@ std::string LaserSlam::SerializeState() const {
   for (int i = 0; i < n; ++i) {
     for (int j = 0; j <= i; ++j) w.Put(st.at(i, j));
   }
+  w.Put<std::uint8_t>(s.backend != nullptr);
+  if (s.backend) {
+    const std::string graph = s.backend->Serialize();
+    w.Put<std::uint64_t>(graph.size());
+    std::string out = w.Take();
+    out += graph;
+    return out;
+  }
   return w.Take();
 }
 
@@ -280,7 +336,7 @@ absl::StatusOr<std::unique_ptr<LaserSlam>> LaserSlam::FromCheckpoint(
   };
   std::uint32_t magic = 0, version = 0;
   if (!r.Get(&magic) || magic != kMagic) return corrupt("not a checkpoint");
-  if (!r.Get(&version) || version != kVersion) {
+  if (!r.Get(&version) || version < 1 || version > kVersion) {
     return absl::FailedPreconditionError(
         absl::StrCat("laser SLAM checkpoint version ", version, " is not supported (expected ",
                      kVersion, ")"));
@@ -334,6 +390,23 @@ absl::StatusOr<std::unique_ptr<LaserSlam>> LaserSlam::FromCheckpoint(
       if (!r.Get(&v) || !std::isfinite(v)) return corrupt("covariance");
       st.at(i, j) = v;
       st.at(j, i) = v;
+    }
+  }
+  if (version >= 2) {
+    std::uint8_t has_graph = 0;
+    std::uint64_t graph_size = 0;
+    if (!r.Get(&has_graph) || has_graph > 1) return corrupt("pose graph flag");
+    if (has_graph) {
+      if (!r.Get(&graph_size) || graph_size != r.remaining()) return corrupt("pose graph size");
+      // A checkpoint with a graph resumed with the back end off keeps the EKF only (the paper's
+      // method); one without a graph resumed with it on starts a graph at the resume.
+      if (s.backend) {
+        absl::StatusOr<std::unique_ptr<MappingBackend>> backend =
+            MappingBackend::Deserialize(options.mapping, r.Rest());
+        if (!backend.ok()) return backend.status();
+        s.backend = *std::move(backend);
+      }
+      r.Skip(graph_size);
     }
   }
   if (!r.done()) return corrupt("trailing bytes");

@@ -2,7 +2,13 @@
 #define WAYMARK_SERVER_LASER_SLAM_LASER_SLAM_H_
 
 // One laser SLAM session: odometry and scans in (each stream in time order), pose and segment map
-// out. Plain C++ and Eigen; the service owns threads, queues and storage.
+// out. Plain C++, Eigen and Ceres; the service owns queues and storage.
+//
+// Frames. The EKF (the paper's method) estimates poses in its own "local" frame, which drifts.
+// With the loop-closing back end on (options.mapping.enabled, mapping/mapping_backend.h), every
+// pose and segment this class returns is in the "map" frame: the local one corrected by the pose
+// graph as it stood when the answer was made (ScanUpdate) or now (Trajectory, Map). With the back
+// end off the two frames are the same.
 
 #include <cstdint>
 #include <memory>
@@ -16,6 +22,7 @@
 #include "absl/status/statusor.h"
 #include "absl/strings/string_view.h"
 #include "server/laser_slam/exploration_types.h"
+#include "server/laser_slam/mapping/mapping_backend.h"
 #include "server/laser_slam/options.h"
 #include "server/laser_slam/types.h"
 
@@ -46,6 +53,10 @@ struct ScanUpdate {
   double covariance_trace_mean = 0.0;
   // The next control, in active and wander sessions (options.exploration.mode).
   std::optional<Suggestion> suggestion;
+  // Loop-closing back end (options.mapping): loop constraints accepted so far in the session, and
+  // the revision of the pose graph (increases with every optimisation that moved the map).
+  int loop_closures = 0;
+  std::uint64_t graph_revision = 0;
   StageMs timings;
 };
 
@@ -66,10 +77,22 @@ class LaserSlam {
   absl::StatusOr<ScanUpdate> AddScan(const LaserScan& scan);
 
   PoseEstimate CurrentPose() const;
-  // What the exploration planner needs: pose, covariances, map, last scan.
+  // What the exploration planner needs: pose, covariances, map, last scan, in the EKF's local
+  // frame (the planner steers by what the robot sees around it; a loop closure does not move it).
   ExplorationView View() const;
+  // Segments in the map frame: each moved by the back end's correction at the scan that last
+  // matched it.
   std::vector<MapSegment> Map() const;
-  const std::vector<PoseEstimate>& Trajectory() const;
+  // The same segments in the EKF's local frame.
+  std::vector<MapSegment> LocalMap() const;
+  // One pose per scan, in the map frame (recomputed from the local poses and the current graph).
+  std::vector<PoseEstimate> Trajectory() const;
+  // The same poses in the EKF's local frame, as checkpoints store them.
+  const std::vector<PoseEstimate>& LocalTrajectory() const;
+  // Waits for the back end's thread and runs a last optimisation (no-op without a back end).
+  void FlushBackend();
+  // Nullptr when the back end is off.
+  const MappingBackend* backend() const;
   std::uint64_t map_revision() const;
   std::uint64_t scans_processed() const;
   const SlamOptions& options() const;

@@ -63,7 +63,8 @@ absl::Status ValidateSlamOptions(const SlamOptions& options) {
   if (!FinitePose(options.laser_pose)) {
     return absl::InvalidArgumentError("laser_pose must be finite");
   }
-  return ValidateExplorationOptions(options.exploration);
+  if (absl::Status s = ValidateExplorationOptions(options.exploration); !s.ok()) return s;
+  return ValidateMappingOptions(options.mapping);
 }
 
 absl::Status ValidateScanGeometry(const ScanGeometry& geometry) {

@@ -6,6 +6,7 @@
 
 #include "absl/status/status.h"
 #include "server/laser_slam/exploration_options.h"
+#include "server/laser_slam/mapping/mapping_options.h"
 #include "server/laser_slam/types.h"
 
 namespace waymark::laser_slam {
@@ -108,6 +109,8 @@ struct SlamOptions {
   Pose2 laser_pose;
   // Active exploration; mode kPassive (the default) suggests nothing.
   ExplorationOptions exploration;
+  // The loop-closing back end beside the EKF; mapping.enabled = false is the paper's method alone.
+  MappingOptions mapping;
 };
 
 absl::Status ValidateSlamOptions(const SlamOptions& options);

@@ -94,6 +94,7 @@ struct MapSegment {
   double left_variance = 0.0;   // of the endpoint along the line; 0 for a virtual endpoint
   double right_variance = 0.0;
   int observations = 0;         // scans that matched it
+  std::uint64_t last_seen_scan = 0;  // 1-based index of the last scan that matched it
   // In the filter's active window; false = frozen (marginalised out, see EkfOptions).
   bool active = true;
 };

@@ -105,11 +105,11 @@ absl::StatusOr<std::optional<v1::SlamUpdate>> LaserSessionEngine::Process(Engine
 std::string LaserSessionEngine::SerializeState() const { return slam_->SerializeState(); }
 
 int64_t LaserSessionEngine::trajectory_size() const {
-  return static_cast<int64_t>(slam_->Trajectory().size());
+  return static_cast<int64_t>(slam_->LocalTrajectory().size());
 }
 
 storage::TrajectoryPoseRecord LaserSessionEngine::PoseRecord(int64_t seq) const {
-  const ls::PoseEstimate& pose = slam_->Trajectory()[static_cast<size_t>(seq)];
+  const ls::PoseEstimate& pose = slam_->LocalTrajectory()[static_cast<size_t>(seq)];
   storage::TrajectoryPoseRecord record;
   record.seq = seq;
   record.stamp = pose.stamp;

@@ -184,7 +184,7 @@ TEST(LaserSlamTest, CheckpointResumesExactly) {
     }
   }
   absl::StatusOr<std::unique_ptr<LaserSlam>> resumed =
-      LaserSlam::FromCheckpoint(options, first_half.SerializeState(), first_half.Trajectory());
+      LaserSlam::FromCheckpoint(options, first_half.SerializeState(), first_half.LocalTrajectory());
   ASSERT_TRUE(resumed.ok()) << resumed.status();
   EXPECT_EQ((*resumed)->scans_processed(), half);
   for (std::size_t i = half; i < steps.size(); ++i) {

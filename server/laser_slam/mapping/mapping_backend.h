@@ -1,0 +1,143 @@
+#ifndef WAYMARK_SERVER_LASER_SLAM_MAPPING_MAPPING_BACKEND_H_
+#define WAYMARK_SERVER_LASER_SLAM_MAPPING_MAPPING_BACKEND_H_
+
+// The loop-closing back end of a laser session (docs/laser-slam.md, "Loop closure").
+//
+// The paper's EKF stays the local estimator and gives poses in its own frame, the "local" frame,
+// which drifts. Every scan after the robot moved node_travel / node_turn becomes a node: its
+// local pose and its points. Consecutive nodes are tied by the EKF's relative motion (chain
+// constraints); nodes are grouped into submaps of submap_nodes; a new node is matched against
+// complete older submaps by branch-and-bound correlative matching (loop constraints). A pose graph
+// over the nodes (Ceres) gives each node a "global" pose in the map frame. A local pose taken at
+// a scan is mapped to the map frame through the correction of the newest node at or before it:
+// global(node) (+) (-)local(node) (+) pose.
+//
+// With threads = 1, submap grids, loop searches and optimisations run on the back end's own
+// thread, so AddScan only appends a node; with threads = 0 they run inside AddScan.
+// Thread-safe: every public method may be called from any thread.
+
+#include <condition_variable>
+#include <cstdint>
+#include <deque>
+#include <memory>
+#include <mutex>
+#include <string>
+#include <thread>
+#include <vector>
+
+#include "absl/status/statusor.h"
+#include "absl/strings/string_view.h"
+#include "server/laser_slam/mapping/likelihood_grid.h"
+#include "server/laser_slam/mapping/mapping_options.h"
+#include "server/laser_slam/mapping/point_cloud.h"
+#include "server/laser_slam/mapping/pose_graph.h"
+#include "server/laser_slam/types.h"
+
+namespace waymark::laser_slam {
+
+// A node as the map and the grids need it.
+struct NodeView {
+  std::uint64_t scan = 0;  // 1-based index of the scan in the session
+  double stamp = 0.0;
+  Pose2 global;            // map frame
+  std::shared_ptr<const PointCloud> points;  // robot frame
+};
+
+struct MappingStats {
+  int nodes = 0;
+  int submaps = 0;
+  int searches = 0;             // loop searches (one per searched node)
+  int candidates = 0;           // submaps matched
+  int closures_accepted = 0;    // loop constraints added
+  int closures_rejected = 0;    // candidates with no pose above min_score
+  int closures_switched_off = 0;  // accepted, then found inconsistent by the graph
+  int optimizations = 0;
+  int pending_nodes = 0;        // waiting for the back end's thread
+  std::vector<double> search_ms;    // per searched node, all candidates
+  std::vector<double> optimize_ms;  // per optimisation
+};
+
+class MappingBackend {
+ public:
+  // `options` must pass ValidateMappingOptions.
+  explicit MappingBackend(const MappingOptions& options);
+  ~MappingBackend();
+  MappingBackend(const MappingBackend&) = delete;
+  MappingBackend& operator=(const MappingBackend&) = delete;
+
+  // A processed scan: its 1-based index, stamp, EKF pose and points (robot frame). Becomes a
+  // node when the robot moved enough since the last node (always for the first).
+  void AddScan(std::uint64_t scan, double stamp, const Pose2& local, const PointCloud& points);
+
+  // `local`, a pose of the EKF's frame at scan `scan`, in the map frame.
+  Pose2 ToGlobal(std::uint64_t scan, const Pose2& local) const;
+  // The transform from the local to the map frame at scan `scan`: ToGlobal(s, p) = it (+) p.
+  Pose2 CorrectionAt(std::uint64_t scan) const;
+
+  // Waits until the thread has handled every node, then optimises once more if any loop
+  // constraint came since the last optimisation. The graph is then final for these scans.
+  void Flush();
+
+  std::vector<NodeView> Nodes() const;
+  std::vector<GraphConstraint> Constraints() const;
+  MappingStats Stats() const;
+  // Increases with every optimisation that moved the nodes.
+  std::uint64_t revision() const;
+
+  // Versioned binary of nodes, submaps, constraints and counters (the grids are rebuilt from the
+  // points on demand). Call after Flush for a complete graph; pending nodes are included.
+  std::string Serialize() const;
+  static absl::StatusOr<std::unique_ptr<MappingBackend>> Deserialize(const MappingOptions& options,
+                                                                      absl::string_view bytes);
+
+ private:
+  struct Node {
+    std::uint64_t scan = 0;
+    double stamp = 0.0;
+    double travel = 0.0;  // EKF path length at the node
+    Pose2 local;
+    Pose2 global;
+    std::shared_ptr<const PointCloud> points;
+  };
+  struct Submap {
+    int first = 0;  // node indices [first, first + count)
+    int count = 0;
+    bool complete = false;
+  };
+
+  // Appends the node and its chain constraint; returns its index. Caller holds mu_.
+  int AppendNodeLocked(std::uint64_t scan, double stamp, const Pose2& local,
+                       const PointCloud& points);
+  // Submap bookkeeping, the loop search for node `index` and, when due, an optimisation.
+  // Takes mu_ itself, briefly.
+  void Process(int index, bool search);
+  void SearchLoops(int index);
+  void Optimize();
+  // The submap's points in its first node's frame, as a search pyramid (cached).
+  std::shared_ptr<const SearchPyramid> PyramidFor(int submap);
+  void WorkerLoop();
+  int NodeAtOrBeforeLocked(std::uint64_t scan) const;
+
+  const MappingOptions options_;
+  mutable std::mutex mu_;
+  std::condition_variable work_cv_;
+  std::condition_variable idle_cv_;
+  std::vector<Node> nodes_;
+  std::vector<Submap> submaps_;
+  std::vector<GraphConstraint> constraints_;
+  std::deque<int> queue_;   // nodes waiting for Process (threads = 1)
+  bool busy_ = false;
+  bool stop_ = false;
+  int closures_since_optimize_ = 0;
+  double tie_travel_ = -1.0;  // travel at the last accepted loop closure (-1: none yet)
+  std::uint64_t revision_ = 0;
+  MappingStats stats_;
+  // Pyramids of recently matched submaps (least recently used first).
+  std::deque<std::pair<int, std::shared_ptr<const SearchPyramid>>> pyramid_cache_;
+  std::mutex search_mu_;  // one search / optimisation at a time
+  std::thread worker_;
+};
+
+}  // namespace waymark::laser_slam
+
+#endif  // WAYMARK_SERVER_LASER_SLAM_MAPPING_MAPPING_BACKEND_H_

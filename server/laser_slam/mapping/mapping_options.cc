@@ -1,0 +1,61 @@
+#include "server/laser_slam/mapping/mapping_options.h"
+
+#include "absl/strings/str_cat.h"
+#include "server/laser_slam/option_checks.h"
+
+namespace waymark::laser_slam {
+
+absl::Status ValidateMappingOptions(const MappingOptions& o) {
+  if (o.threads < 0 || o.threads > 1) {
+    return absl::InvalidArgumentError(absl::StrCat("mapping.threads must be 0 or 1, got ", o.threads));
+  }
+  for (const auto& [value, name] :
+       {std::pair{o.node_travel, "mapping.node_travel"}, {o.node_turn, "mapping.node_turn"},
+        {o.point_range, "mapping.point_range"}, {o.point_cell, "mapping.point_cell"},
+        {o.grid_resolution, "mapping.grid_resolution"}, {o.grid_sigma, "mapping.grid_sigma"},
+        {o.max_window_xy, "mapping.max_window_xy"},
+        {o.candidate_distance, "mapping.candidate_distance"},
+        {o.max_window_theta, "mapping.max_window_theta"},
+        {o.chain_sigma_xy, "mapping.chain_sigma_xy"},
+        {o.chain_sigma_theta, "mapping.chain_sigma_theta"},
+        {o.loop_sigma_xy, "mapping.loop_sigma_xy"},
+        {o.loop_sigma_theta, "mapping.loop_sigma_theta"}, {o.huber_scale, "mapping.huber_scale"},
+        {o.outlier_residual, "mapping.outlier_residual"}}) {
+    if (absl::Status s = Positive(value, name); !s.ok()) return s;
+  }
+  for (const auto& [value, name] :
+       {std::pair{o.min_loop_travel, "mapping.min_loop_travel"},
+        {o.window_base_xy, "mapping.window_base_xy"},
+        {o.drift_xy_per_m, "mapping.drift_xy_per_m"},
+        {o.window_base_theta, "mapping.window_base_theta"},
+        {o.drift_theta_per_m, "mapping.drift_theta_per_m"},
+        {o.chain_sigma_xy_per_m, "mapping.chain_sigma_xy_per_m"},
+        {o.chain_sigma_theta_per_m, "mapping.chain_sigma_theta_per_m"},
+        {o.chain_sigma_theta_per_rad, "mapping.chain_sigma_theta_per_rad"}}) {
+    if (absl::Status s = NonNegative(value, name); !s.ok()) return s;
+  }
+  if (o.min_score <= 0.0 || o.min_score >= 1.0) {
+    return absl::InvalidArgumentError(
+        absl::StrCat("mapping.min_score must be in (0, 1), got ", o.min_score));
+  }
+  if (o.submap_nodes < 2 || o.submap_nodes > 1000) {
+    return absl::InvalidArgumentError(
+        absl::StrCat("mapping.submap_nodes must be in [2, 1000], got ", o.submap_nodes));
+  }
+  if (o.search_every_nodes < 1 || o.query_nodes < 1 || o.query_nodes > 50 ||
+      o.max_candidates < 1 || o.optimize_every_closures < 1 || o.max_iterations < 1) {
+    return absl::InvalidArgumentError(
+        "mapping.search_every_nodes, max_candidates, optimize_every_closures and max_iterations "
+        "must be >= 1, query_nodes in [1, 50]");
+  }
+  if (o.search_depth < 0 || o.search_depth > 10) {
+    return absl::InvalidArgumentError(
+        absl::StrCat("mapping.search_depth must be in [0, 10], got ", o.search_depth));
+  }
+  if (o.max_window_xy / o.grid_resolution > 4000.0) {
+    return absl::InvalidArgumentError("mapping.max_window_xy is too large for the grid resolution");
+  }
+  return absl::OkStatus();
+}
+
+}  // namespace waymark::laser_slam

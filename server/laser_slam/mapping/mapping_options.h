@@ -1,0 +1,83 @@
+#ifndef WAYMARK_SERVER_LASER_SLAM_MAPPING_MAPPING_OPTIONS_H_
+#define WAYMARK_SERVER_LASER_SLAM_MAPPING_MAPPING_OPTIONS_H_
+
+// Parameters of the loop-closing back end that runs beside the paper's EKF (docs/laser-slam.md,
+// "Loop closure"). The EKF stays the local estimator; the back end keeps scan nodes, groups them
+// into submaps, matches new nodes against older submaps and optimises a pose graph. Every default
+// is ours; its comment says where it comes from.
+
+#include "absl/status/status.h"
+
+namespace waymark::laser_slam {
+
+struct MappingOptions {
+  // false = the paper's method alone: no nodes, no graph, poses and map in the EKF's frame.
+  bool enabled = true;
+  // 0 = every search and optimisation runs inside AddScan (deterministic: tests, evaluation);
+  // 1 = one background thread per session does them, so a robot's stream never waits (the
+  // server's setting).
+  int threads = 0;
+
+  // A scan becomes a graph node when the EKF pose moved this far from the previous node (Karto's
+  // minimum travel; 0.25 m / 0.15 rad keep about one scan in four on ACES and Intel).
+  double node_travel = 0.25;
+  double node_turn = 0.15;
+  // Scan points kept per node: readings within this range (m), thinned to one per cell of this
+  // size (m). Longer than the EKF's 6 m: a loop is recognised by the shape of the whole room.
+  double point_range = 12.0;
+  double point_cell = 0.05;
+
+  // A submap is this many consecutive nodes; its grid is built once the submap is complete.
+  int submap_nodes = 25;
+  // Likelihood grids: cell size (m) and the spread of a wall's likelihood (m, 1 sigma).
+  double grid_resolution = 0.05;
+  double grid_sigma = 0.05;
+
+  // Loop search: every this many nodes, the newest node (with the points of the previous
+  // query_nodes - 1 nodes) is matched against complete submaps that ended at least
+  // min_loop_travel metres of travel ago and lie within the search window.
+  int search_every_nodes = 2;
+  int query_nodes = 5;
+  double min_loop_travel = 15.0;
+  int max_candidates = 4;
+  // A submap is a candidate when one of its nodes lies within this distance of the new node, plus
+  // the search window (m): from further away the two views share too little.
+  double candidate_distance = 4.0;
+  // The search window grows with the travel since the graph was last tied to older places:
+  // 3 sigma with sigma = window_base + drift * travel (xy, m) and the same for heading (rad).
+  double window_base_xy = 0.3;
+  double drift_xy_per_m = 0.02;
+  double window_base_theta = 0.1;
+  double drift_theta_per_m = 0.005;
+  double max_window_xy = 8.0;
+  double max_window_theta = 3.14159265358979;
+  // Acceptance: mean likelihood of the query points at the match (0..1). Measured on ACES and
+  // Intel (docs/results.md): true closures score 0.6-0.9, wrong places in corridors below 0.5.
+  double min_score = 0.6;
+  // Depth of the branch-and-bound pyramid (2^depth cells at the coarsest level).
+  int search_depth = 6;
+
+  // Pose graph: 1 sigma of the EKF's relative motion between consecutive nodes, per metre and per
+  // radian travelled, with floors; and of a loop constraint.
+  double chain_sigma_xy = 0.01;
+  double chain_sigma_xy_per_m = 0.02;
+  double chain_sigma_theta = 0.003;
+  double chain_sigma_theta_per_m = 0.005;
+  double chain_sigma_theta_per_rad = 0.02;
+  double loop_sigma_xy = 0.05;
+  double loop_sigma_theta = 0.01;
+  // Loop constraints use a Huber loss of this scale (whitened units); after each optimisation a
+  // loop constraint whose whitened residual exceeds outlier_residual is switched off and the
+  // graph optimised again (a wrong closure is worse than none).
+  double huber_scale = 1.0;
+  double outlier_residual = 5.0;
+  // Optimise after this many new loop constraints (or at Flush).
+  int optimize_every_closures = 1;
+  int max_iterations = 50;
+};
+
+absl::Status ValidateMappingOptions(const MappingOptions& options);
+
+}  // namespace waymark::laser_slam
+
+#endif  // WAYMARK_SERVER_LASER_SLAM_MAPPING_MAPPING_OPTIONS_H_

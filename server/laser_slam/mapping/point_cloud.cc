@@ -1,0 +1,56 @@
+#include "server/laser_slam/mapping/point_cloud.h"
+
+#include <cmath>
+#include <cstdint>
+#include <unordered_set>
+
+namespace waymark::laser_slam {
+
+PointCloud ScanToPoints(const LaserScan& scan, const Pose2& laser_pose, double min_range,
+                        double max_range) {
+  PointCloud points;
+  points.reserve(scan.ranges.size());
+  const double c = std::cos(laser_pose.theta), s = std::sin(laser_pose.theta);
+  for (size_t i = 0; i < scan.ranges.size(); ++i) {
+    const double r = scan.ranges[i];
+    if (!IsReturn(r, scan.geometry) || r < min_range || r > max_range) continue;
+    const double a = scan.geometry.angle_min + static_cast<double>(i) * scan.geometry.angle_increment;
+    const double lx = r * std::cos(a), ly = r * std::sin(a);
+    points.emplace_back(static_cast<float>(laser_pose.x + c * lx - s * ly),
+                        static_cast<float>(laser_pose.y + s * lx + c * ly));
+  }
+  return points;
+}
+
+PointCloud ThinPoints(const PointCloud& points, double cell) {
+  std::unordered_set<std::uint64_t> seen;
+  seen.reserve(points.size() * 2);
+  PointCloud out;
+  out.reserve(points.size());
+  for (const Eigen::Vector2f& p : points) {
+    const auto ix = static_cast<std::int64_t>(std::floor(p.x() / cell));
+    const auto iy = static_cast<std::int64_t>(std::floor(p.y() / cell));
+    const std::uint64_t key = (static_cast<std::uint64_t>(ix) << 32) ^
+                              (static_cast<std::uint64_t>(iy) & 0xffffffffULL);
+    if (seen.insert(key).second) out.push_back(p);
+  }
+  return out;
+}
+
+void AppendTransformed(const PointCloud& points, const Pose2& pose, PointCloud* out) {
+  const float c = static_cast<float>(std::cos(pose.theta));
+  const float s = static_cast<float>(std::sin(pose.theta));
+  const float x = static_cast<float>(pose.x), y = static_cast<float>(pose.y);
+  out->reserve(out->size() + points.size());
+  for (const Eigen::Vector2f& p : points) {
+    out->emplace_back(x + c * p.x() - s * p.y(), y + s * p.x() + c * p.y());
+  }
+}
+
+PointCloud TransformPoints(const PointCloud& points, const Pose2& pose) {
+  PointCloud out;
+  AppendTransformed(points, pose, &out);
+  return out;
+}
+
+}  // namespace waymark::laser_slam
