@@ -75,6 +75,11 @@ struct Args {
   int max_scans = 0;
   bool json = false;
   ls::SlamOptions options;
+  // --localize: after mapping, localize the same log on the map from scan localize_from, with an
+  // unknown start (or the SLAM pose there with --localize-known-start).
+  bool localize = false;
+  int localize_from = 0;
+  bool localize_known_start = false;
 };
 
 void Usage() {
@@ -83,7 +88,8 @@ void Usage() {
          "                          [--json] [--max-active-segments N] [--active-radius M]\n"
          "                          [--freeze-after-scans N] [--min-travel M --min-turn R]\n"
          "                          [--match-chi2 X] [--mapping on|off]\n"
-         "                          [--mapping-opt NAME=VALUE ...]\n";
+         "                          [--mapping-opt NAME=VALUE ...]\n"
+         "                          [--localize [--localize-from SCAN] [--localize-known-start]]\n";
 }
 
 // Nearest-rank percentile, as slam_replay reports it.
@@ -175,6 +181,14 @@ bool ParseArgs(int argc, char** argv, Args* args) {
       continue;
     }
     if (a == "-h" || a == "--help") return false;
+    if (a == "--localize") {
+      args->localize = true;
+      continue;
+    }
+    if (a == "--localize-known-start") {
+      args->localize_known_start = true;
+      continue;
+    }
     if (i + 1 >= argc) {
       std::cerr << "missing value for " << a << "\n";
       return false;
@@ -201,6 +215,8 @@ bool ParseArgs(int argc, char** argv, Args* args) {
         args->options.ekf.min_turn = std::stod(v);
       } else if (a == "--match-chi2") {
         args->options.ekf.match_chi2 = std::stod(v);
+      } else if (a == "--localize-from") {
+        args->localize_from = std::stoi(v);
       } else if (a == "--mapping") {
         if (v != "on" && v != "off") throw std::invalid_argument(v);
         args->options.mapping.enabled = v == "on";
@@ -301,6 +317,88 @@ cli::SceneSegment SceneOf(const ls::MapSegment& s) {
   return out;
 }
 
+ls::LaserScan ToScan(const CarmenLaser& laser) {
+  ls::LaserScan scan;
+  scan.stamp = laser.stamp;
+  scan.geometry.angle_min = laser.angle_min;
+  scan.geometry.angle_increment = laser.angle_increment;
+  scan.geometry.beam_count = static_cast<int>(laser.ranges.size());
+  scan.geometry.no_return_range = laser.no_return_range;
+  scan.ranges = laser.ranges;
+  return scan;
+}
+
+// The log again, as a localization session on the map just built: pose error against the SLAM
+// trajectory (same stamps, same map frame), time to the first fix, wrong fixes, cost per scan.
+absl::StatusOr<nlohmann::json> RunLocalization(const Args& args, const ls::SlamOptions& options,
+                                               const std::vector<CarmenLaser>& lasers,
+                                               const ls::LaserSlam& mapped) {
+  absl::StatusOr<ls::PointCloud> points = mapped.MapPoints();
+  if (!points.ok()) return points.status();
+  const std::vector<ls::PoseEstimate> reference = mapped.Trajectory();
+  const size_t from = std::min<size_t>(args.localize_from, lasers.size() - 1);
+  ls::LocalizationOptions lo;
+  if (args.localize_known_start) lo.initial_pose = reference[from].pose;
+  const Clock::time_point build_start = Clock::now();
+  absl::StatusOr<std::unique_ptr<ls::MapLocalizer>> localizer = ls::MapLocalizer::Create(lo, *points);
+  if (!localizer.ok()) return localizer.status();
+  const double build_ms =
+      std::chrono::duration<double, std::milli>(Clock::now() - build_start).count();
+  ls::SlamOptions plain = options;
+  plain.mapping.enabled = false;
+  ls::LaserSlam slam(plain, *std::move(localizer));
+  std::vector<double> scan_ms, errors, rot_errors, global_ms;
+  long first_fix = -1, wrong = 0, localized = 0;
+  double first_fix_error = 0;
+  for (size_t i = from; i < lasers.size(); ++i) {
+    ls::OdometryReading reading;
+    reading.stamp = lasers[i].stamp;
+    reading.pose = {lasers[i].odom_pose.x, lasers[i].odom_pose.y, lasers[i].odom_pose.theta};
+    const Clock::time_point start = Clock::now();
+    (void)slam.AddOdometry(reading);
+    absl::StatusOr<ls::ScanUpdate> update = slam.AddScan(ToScan(lasers[i]));
+    const double ms = std::chrono::duration<double, std::milli>(Clock::now() - start).count();
+    scan_ms.push_back(ms);
+    if (!update.ok() || !update->localization) continue;
+    if (update->localization->global_search) global_ms.push_back(ms);
+    if (!update->localization->localized) continue;
+    ++localized;
+    const ls::Pose2& truth = reference[i].pose;
+    const double e = std::hypot(update->pose.pose.x - truth.x, update->pose.pose.y - truth.y);
+    const double r = std::abs(std::remainder(update->pose.pose.theta - truth.theta, 2 * M_PI));
+    if (first_fix < 0) {
+      first_fix = static_cast<long>(i - from);
+      first_fix_error = e;
+    }
+    errors.push_back(e);
+    rot_errors.push_back(r * 180.0 / M_PI);
+    if (e > 0.5) ++wrong;
+  }
+  double mean = 0, rot_mean = 0;
+  for (double e : errors) mean += e / errors.size();
+  for (double r : rot_errors) rot_mean += r / rot_errors.size();
+  const double from_stamp = lasers[from].stamp;
+  return nlohmann::json{
+      {"from_scan", from},
+      {"known_start", args.localize_known_start},
+      {"map_points", points->size()},
+      {"build_ms", build_ms},
+      {"scans", lasers.size() - from},
+      {"localized_scans", localized},
+      {"first_fix_scans", first_fix},
+      {"first_fix_s", first_fix < 0 ? -1.0 : lasers[from + first_fix].stamp - from_stamp},
+      {"first_fix_error_m", first_fix_error},
+      {"error_mean_m", mean},
+      {"error_p95_m", Percentile(errors, 0.95)},
+      {"error_max_m", errors.empty() ? 0.0 : *std::max_element(errors.begin(), errors.end())},
+      {"rot_error_mean_deg", rot_mean},
+      {"scans_off_by_more_than_0.5m", wrong},
+      {"scan_ms_p50", Percentile(scan_ms, 0.5)},
+      {"scan_ms_p99", Percentile(scan_ms, 0.99)},
+      {"global_search_ms_p50", Percentile(global_ms, 0.5)},
+      {"global_searches", global_ms.size()}};
+}
+
 int Run(const Args& args) {
   auto read = ReadLasers(args.log);
   if (!read.ok()) {
@@ -343,14 +441,7 @@ int Run(const Args& args) {
     reading.stamp = laser.stamp;
     reading.pose = {laser.odom_pose.x, laser.odom_pose.y, laser.odom_pose.theta};
     odometry.push_back({laser.stamp, {reading.pose.x, reading.pose.y, reading.pose.theta}});
-    ls::LaserScan scan;
-    scan.stamp = laser.stamp;
-    scan.geometry.angle_min = laser.angle_min;
-    scan.geometry.angle_increment = laser.angle_increment;
-    scan.geometry.beam_count = static_cast<int>(laser.ranges.size());
-    scan.geometry.no_return_range = laser.no_return_range;
-    scan.ranges = std::move(laser.ranges);
-
+    const ls::LaserScan scan = ToScan(laser);  // the log is kept for a --localize pass
     const Clock::time_point start = Clock::now();
     absl::Status odom_status = slam.AddOdometry(reading);
     absl::StatusOr<ls::ScanUpdate> update = slam.AddScan(scan);
@@ -433,6 +524,15 @@ int Run(const Args& args) {
   }
   j["by_active_segments"] = bins;
   if (slam.backend() != nullptr) j["mapping"] = MappingJson(*slam.backend());
+  if (args.localize) {
+    absl::StatusOr<nlohmann::json> localization = RunLocalization(args, options, log.lasers, slam);
+    if (!localization.ok()) {
+      std::cerr << "localization: " << localization.status() << "\n";
+      return 1;
+    }
+    j["localization"] = *localization;
+    std::cout << "localization: " << localization->dump() << "\n";
+  }
 
   std::vector<std::string> metric_lines;
   if (!args.relations.empty()) {

@@ -20,23 +20,54 @@ namespace waymark::laser_slam {
 namespace {
 
 constexpr std::uint32_t kMagic = 0x534c4d57;  // "WMLS"
-// 1: the EKF alone; 2: followed by the back end's graph (a flag, a length and its bytes).
+// 1: the EKF alone; 2: followed by what the session has beside the EKF (a kind byte, a length and
+// its bytes).
 constexpr std::uint32_t kVersion = 2;
+enum class Beside : std::uint8_t { kNothing = 0, kGraph = 1, kLocalizer = 2, kImportedGrid = 3 };
+
+void PutGrid(BinaryWriter& w, const OccupancyGrid& g) {
+  w.Put(g.resolution);
+  w.Put(g.origin.x());
+  w.Put(g.origin.y());
+  w.Put<std::int32_t>(g.width);
+  w.Put<std::int32_t>(g.height);
+  for (std::int8_t c : g.cells) w.Put(c);
+}
+
+bool GetGrid(BinaryReader& r, OccupancyGrid* g) {
+  double ox = 0, oy = 0;
+  std::int32_t width = 0, height = 0;
+  if (!r.Get(&g->resolution) || !r.Get(&ox) || !r.Get(&oy) || !r.Get(&width) || !r.Get(&height) ||
+      !(g->resolution > 0) || width < 0 || height < 0 ||
+      static_cast<std::int64_t>(width) * height > kMaxOccupancyCells ||
+      r.remaining() < static_cast<size_t>(width) * height) {
+    return false;
+  }
+  g->origin = Eigen::Vector2d(ox, oy);
+  g->width = width;
+  g->height = height;
+  g->cells.resize(static_cast<size_t>(width) * height);
+  for (std::int8_t& c : g->cells) r.Get(&c);
+  return true;
+}
 
 }  // namespace
 
 struct LaserSlam::Impl {
-  explicit Impl(const SlamOptions& o) : options(o), ekf(o.ekf) {
+  Impl(const SlamOptions& o, std::unique_ptr<MapLocalizer> l)
+      : options(o), ekf(o.ekf), localizer(std::move(l)) {
     if (o.exploration.mode != ExplorationMode::kPassive) {
       planner = std::make_unique<ExplorationPlanner>(o.exploration);
     }
-    if (o.mapping.enabled) backend = std::make_unique<MappingBackend>(o.mapping);
+    if (o.mapping.enabled && !localizer) backend = std::make_unique<MappingBackend>(o.mapping);
   }
 
   SlamOptions options;
   SegmentEkf ekf;
   std::unique_ptr<ExplorationPlanner> planner;  // active and wander sessions
   std::unique_ptr<MappingBackend> backend;      // loop closure (options.mapping.enabled)
+  std::unique_ptr<MapLocalizer> localizer;      // localization sessions
+  std::optional<OccupancyGrid> imported_grid;   // an imported map's session
   LaserScan last_scan;                          // what the planner avoids
   OdometryBuffer odometry;
   bool have_scan = false;
@@ -57,11 +88,22 @@ struct LaserSlam::Impl {
   // A local pose of scan `scan` (1-based) in the map frame.
   PoseEstimate ToMap(std::uint64_t scan, PoseEstimate p) const {
     if (backend) p.pose = backend->ToGlobal(scan, p.pose);
+    if (localizer) p.pose = localizer->ToMap(scan, p.pose);
     return p;
   }
 };
 
-LaserSlam::LaserSlam(const SlamOptions& options) : impl_(std::make_unique<Impl>(options)) {}
+LaserSlam::LaserSlam(const SlamOptions& options, std::unique_ptr<MapLocalizer> localizer)
+    : impl_(std::make_unique<Impl>(options, std::move(localizer))) {}
+
+std::unique_ptr<LaserSlam> LaserSlam::FromImportedGrid(const SlamOptions& options,
+                                                       OccupancyGrid grid) {
+  SlamOptions plain = options;
+  plain.mapping.enabled = false;
+  auto slam = std::make_unique<LaserSlam>(plain);
+  slam->impl_->imported_grid = std::move(grid);
+  return slam;
+}
 LaserSlam::~LaserSlam() = default;
 
 absl::Status LaserSlam::AddOdometry(const OdometryReading& reading) {
@@ -120,6 +162,12 @@ absl::StatusOr<ScanUpdate> LaserSlam::AddScan(const LaserScan& scan) {
                          ScanToPoints(scan, s.options.laser_pose, s.options.extraction.min_range,
                                       s.options.mapping.point_range));
     }
+    if (s.localizer) {
+      update.localization = s.localizer->AddScan(
+          s.scans, scan.stamp, update.pose.pose,
+          ScanToPoints(scan, s.options.laser_pose, s.options.extraction.min_range,
+                       s.options.mapping.point_range));
+    }
   }
   s.odometry.DropBefore(scan.stamp);
   update.observed = static_cast<int>(observed->size());
@@ -130,6 +178,7 @@ absl::StatusOr<ScanUpdate> LaserSlam::AddScan(const LaserScan& scan) {
   update.covariance_trace_mean = s.ekf.state().cov().trace() / s.ekf.state().size();
   s.trajectory.push_back(update.pose);
   update.pose = s.ToMap(s.scans, update.pose);
+  if (s.localizer && !update.localization) update.localization = s.localizer->last();
   if (s.backend) {
     update.loop_closures = s.backend->Stats().closures_accepted;
     update.graph_revision = s.backend->revision();
@@ -234,6 +283,30 @@ void LaserSlam::FlushBackend() {
 
 const MappingBackend* LaserSlam::backend() const { return impl_->backend.get(); }
 
+namespace {
+
+absl::Status NoScansKept() {
+  return absl::FailedPreconditionError(
+      "this session keeps no scans (loop closure is off: the paper's EKF alone, or a "
+      "localization session): it has a segment map but no occupancy grid");
+}
+
+}  // namespace
+
+absl::StatusOr<OccupancyGrid> LaserSlam::RenderGrid(double resolution) const {
+  if (impl_->imported_grid) return *impl_->imported_grid;
+  if (!impl_->backend) return NoScansKept();
+  return RenderOccupancy(impl_->backend->Nodes(), resolution);
+}
+
+absl::StatusOr<PointCloud> LaserSlam::MapPoints() const {
+  if (impl_->imported_grid) return OccupiedPoints(*impl_->imported_grid);
+  if (!impl_->backend) return NoScansKept();
+  PointCloud points;
+  for (const NodeView& n : impl_->backend->Nodes()) AppendTransformed(*n.points, n.global, &points);
+  return points;
+}
+
 std::uint64_t LaserSlam::map_revision() const {
   return impl_->revision + (impl_->backend ? impl_->backend->revision() : 0);
 }
@@ -315,20 +388,31 @@ std::string LaserSlam::SerializeState() const {
   for (int i = 0; i < n; ++i) {
     for (int j = 0; j <= i; ++j) w.Put(st.at(i, j));
   }
-  w.Put<std::uint8_t>(s.backend != nullptr);
+  Beside beside = Beside::kNothing;
+  std::string extra;
   if (s.backend) {
-    const std::string graph = s.backend->Serialize();
-    w.Put<std::uint64_t>(graph.size());
-    std::string out = w.Take();
-    out += graph;
-    return out;
+    beside = Beside::kGraph;
+    extra = s.backend->Serialize();
+  } else if (s.localizer) {
+    beside = Beside::kLocalizer;
+    extra = s.localizer->Serialize();
+  } else if (s.imported_grid) {
+    beside = Beside::kImportedGrid;
+    BinaryWriter g;
+    PutGrid(g, *s.imported_grid);
+    extra = g.Take();
   }
-  return w.Take();
+  w.Put<std::uint8_t>(static_cast<std::uint8_t>(beside));
+  if (beside != Beside::kNothing) w.Put<std::uint64_t>(extra.size());
+  std::string out = w.Take();
+  out += extra;
+  return out;
 }
 
 absl::StatusOr<std::unique_ptr<LaserSlam>> LaserSlam::FromCheckpoint(
-    const SlamOptions& options, absl::string_view state, std::vector<PoseEstimate> trajectory) {
-  auto slam = std::make_unique<LaserSlam>(options);
+    const SlamOptions& options, absl::string_view state, std::vector<PoseEstimate> trajectory,
+    std::unique_ptr<MapLocalizer> localizer) {
+  auto slam = std::make_unique<LaserSlam>(options, std::move(localizer));
   Impl& s = *slam->impl_;
   BinaryReader r(state);
   const auto corrupt = [](const char* what) {
@@ -393,21 +477,40 @@ absl::StatusOr<std::unique_ptr<LaserSlam>> LaserSlam::FromCheckpoint(
     }
   }
   if (version >= 2) {
-    std::uint8_t has_graph = 0;
-    std::uint64_t graph_size = 0;
-    if (!r.Get(&has_graph) || has_graph > 1) return corrupt("pose graph flag");
-    if (has_graph) {
-      if (!r.Get(&graph_size) || graph_size != r.remaining()) return corrupt("pose graph size");
-      // A checkpoint with a graph resumed with the back end off keeps the EKF only (the paper's
-      // method); one without a graph resumed with it on starts a graph at the resume.
-      if (s.backend) {
-        absl::StatusOr<std::unique_ptr<MappingBackend>> backend =
-            MappingBackend::Deserialize(options.mapping, r.Rest());
-        if (!backend.ok()) return backend.status();
-        s.backend = *std::move(backend);
+    std::uint8_t beside = 0;
+    std::uint64_t size = 0;
+    if (!r.Get(&beside) || beside > 3) return corrupt("kind of the part beside the EKF");
+    if (beside != 0 && (!r.Get(&size) || size != r.remaining())) return corrupt("part size");
+    switch (static_cast<Beside>(beside)) {
+      case Beside::kNothing:
+        break;
+      case Beside::kGraph:
+        // A checkpoint with a graph resumed with the back end off keeps the EKF only (the
+        // paper's method); one without a graph resumed with it on starts a graph there.
+        if (s.backend) {
+          absl::StatusOr<std::unique_ptr<MappingBackend>> backend =
+              MappingBackend::Deserialize(options.mapping, r.Rest());
+          if (!backend.ok()) return backend.status();
+          s.backend = *std::move(backend);
+        }
+        break;
+      case Beside::kLocalizer:
+        if (!s.localizer) {
+          return absl::FailedPreconditionError(
+              "this checkpoint is a localization session's: resume it with its map");
+        }
+        if (absl::Status st = s.localizer->Restore(r.Rest()); !st.ok()) return st;
+        break;
+      case Beside::kImportedGrid: {
+        BinaryReader g(r.Rest());
+        OccupancyGrid grid;
+        if (!GetGrid(g, &grid) || !g.done()) return corrupt("imported grid");
+        s.imported_grid = std::move(grid);
+        s.backend.reset();
+        break;
       }
-      r.Skip(graph_size);
     }
+    r.Skip(size);
   }
   if (!r.done()) return corrupt("trailing bytes");
   st.segments = std::move(entities);

@@ -22,7 +22,9 @@
 #include "absl/status/statusor.h"
 #include "absl/strings/string_view.h"
 #include "server/laser_slam/exploration_types.h"
+#include "server/laser_slam/mapping/localizer.h"
 #include "server/laser_slam/mapping/mapping_backend.h"
+#include "server/laser_slam/mapping/occupancy_grid.h"
 #include "server/laser_slam/options.h"
 #include "server/laser_slam/types.h"
 
@@ -57,13 +59,19 @@ struct ScanUpdate {
   // the revision of the pose graph (increases with every optimisation that moved the map).
   int loop_closures = 0;
   std::uint64_t graph_revision = 0;
+  // Localization sessions: how the pose was found.
+  std::optional<LocalizationResult> localization;
   StageMs timings;
 };
 
 class LaserSlam {
  public:
-  // `options` must pass ValidateSlamOptions.
-  explicit LaserSlam(const SlamOptions& options);
+  // `options` must pass ValidateSlamOptions. With a `localizer` the session localizes on that
+  // fixed map (no back end, whatever options.mapping says); poses are in the map's frame.
+  explicit LaserSlam(const SlamOptions& options, std::unique_ptr<MapLocalizer> localizer = nullptr);
+  // A session that holds only an imported occupancy grid (closed at once; a map to localize on).
+  static std::unique_ptr<LaserSlam> FromImportedGrid(const SlamOptions& options,
+                                                     OccupancyGrid grid);
   ~LaserSlam();
   LaserSlam(const LaserSlam&) = delete;
   LaserSlam& operator=(const LaserSlam&) = delete;
@@ -93,6 +101,12 @@ class LaserSlam {
   void FlushBackend();
   // Nullptr when the back end is off.
   const MappingBackend* backend() const;
+  // The occupancy grid of the kept scans at their optimised poses (or the imported grid).
+  // FAILED_PRECONDITION without a back end (the paper's EKF keeps no scans).
+  absl::StatusOr<OccupancyGrid> RenderGrid(double resolution) const;
+  // The map as points in the map frame, for localizing on it: the kept scans at their optimised
+  // poses, or an imported grid's occupied cells. FAILED_PRECONDITION as RenderGrid.
+  absl::StatusOr<PointCloud> MapPoints() const;
   std::uint64_t map_revision() const;
   std::uint64_t scans_processed() const;
   const SlamOptions& options() const;
@@ -101,8 +115,10 @@ class LaserSlam {
   // periodic checkpoint appends poses instead of rewriting them). Versioned binary.
   std::string SerializeState() const;
   // Rebuilds a session from SerializeState() bytes and the trajectory stored beside them.
+  // A localization session passes its localizer (built on the same map); its state is restored.
   static absl::StatusOr<std::unique_ptr<LaserSlam>> FromCheckpoint(
-      const SlamOptions& options, absl::string_view state, std::vector<PoseEstimate> trajectory);
+      const SlamOptions& options, absl::string_view state, std::vector<PoseEstimate> trajectory,
+      std::unique_ptr<MapLocalizer> localizer = nullptr);
 
  private:
   struct Impl;

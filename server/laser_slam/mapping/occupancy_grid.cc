@@ -1,0 +1,120 @@
+#include "server/laser_slam/mapping/occupancy_grid.h"
+
+#include <algorithm>
+#include <cmath>
+#include <cstdlib>
+
+#include "absl/strings/str_cat.h"
+
+namespace waymark::laser_slam {
+namespace {
+
+// Log-odds increments of a hit and a pass-through, and the clamp (the usual inverse sensor model:
+// p(hit) = 0.7, p(free | pass) = 0.4 -> 0.85 and -0.4).
+constexpr float kHit = 0.85f;
+constexpr float kMiss = -0.4f;
+constexpr float kClamp = 5.0f;
+
+}  // namespace
+
+absl::StatusOr<OccupancyGrid> RenderOccupancy(const std::vector<NodeView>& nodes,
+                                              double resolution) {
+  OccupancyGrid grid;
+  grid.resolution = resolution;
+  if (nodes.empty()) return grid;
+  // Bounds of every node and point.
+  double min_x = nodes.front().global.x, max_x = min_x;
+  double min_y = nodes.front().global.y, max_y = min_y;
+  std::vector<PointCloud> world(nodes.size());
+  for (size_t i = 0; i < nodes.size(); ++i) {
+    const NodeView& n = nodes[i];
+    world[i] = TransformPoints(*n.points, n.global);
+    min_x = std::min(min_x, n.global.x);
+    max_x = std::max(max_x, n.global.x);
+    min_y = std::min(min_y, n.global.y);
+    max_y = std::max(max_y, n.global.y);
+    for (const Eigen::Vector2f& p : world[i]) {
+      min_x = std::min(min_x, double(p.x()));
+      max_x = std::max(max_x, double(p.x()));
+      min_y = std::min(min_y, double(p.y()));
+      max_y = std::max(max_y, double(p.y()));
+    }
+  }
+  const double margin = 2 * resolution;
+  grid.origin = Eigen::Vector2d(std::floor((min_x - margin) / resolution) * resolution,
+                                std::floor((min_y - margin) / resolution) * resolution);
+  const std::int64_t width =
+      static_cast<std::int64_t>(std::ceil((max_x + margin - grid.origin.x()) / resolution));
+  const std::int64_t height =
+      static_cast<std::int64_t>(std::ceil((max_y + margin - grid.origin.y()) / resolution));
+  if (width * height > kMaxOccupancyCells) {
+    const double fits = resolution * std::sqrt(double(width * height) / kMaxOccupancyCells);
+    return absl::ResourceExhaustedError(absl::StrCat(
+        "the map spans ", max_x - min_x, " x ", max_y - min_y, " m: at ", resolution,
+        " m per cell that is ", width * height, " cells (limit ", kMaxOccupancyCells,
+        "); ask for a resolution of at least ", std::ceil(fits * 1000) / 1000, " m"));
+  }
+  grid.width = static_cast<int>(width);
+  grid.height = static_cast<int>(height);
+  std::vector<float> log_odds(static_cast<size_t>(width * height), 0.0f);
+  std::vector<std::uint8_t> touched(log_odds.size(), 0);
+  const auto cell_of = [&](double x, double y) {
+    return Eigen::Vector2i(static_cast<int>(std::floor((x - grid.origin.x()) / resolution)),
+                           static_cast<int>(std::floor((y - grid.origin.y()) / resolution)));
+  };
+  const auto add = [&](const Eigen::Vector2i& c, float delta) {
+    if (c.x() < 0 || c.y() < 0 || c.x() >= grid.width || c.y() >= grid.height) return;
+    const size_t k = static_cast<size_t>(c.y()) * grid.width + c.x();
+    log_odds[k] = std::clamp(log_odds[k] + delta, -kClamp, kClamp);
+    touched[k] = 1;
+  };
+  for (size_t i = 0; i < nodes.size(); ++i) {
+    const Eigen::Vector2i from = cell_of(nodes[i].global.x, nodes[i].global.y);
+    for (const Eigen::Vector2f& p : world[i]) {
+      const Eigen::Vector2i to = cell_of(p.x(), p.y());
+      // Bresenham from the robot's cell to the cell before the hit.
+      int x = from.x(), y = from.y();
+      const int dx = std::abs(to.x() - x), dy = -std::abs(to.y() - y);
+      const int sx = x < to.x() ? 1 : -1, sy = y < to.y() ? 1 : -1;
+      int err = dx + dy;
+      while (x != to.x() || y != to.y()) {
+        add({x, y}, kMiss);
+        const int e2 = 2 * err;
+        if (e2 >= dy) {
+          err += dy;
+          x += sx;
+        }
+        if (e2 <= dx) {
+          err += dx;
+          y += sy;
+        }
+      }
+      add(to, kHit);
+    }
+  }
+  grid.cells.resize(log_odds.size());
+  for (size_t k = 0; k < log_odds.size(); ++k) {
+    if (!touched[k]) {
+      grid.cells[k] = -1;
+      continue;
+    }
+    const double p = 1.0 / (1.0 + std::exp(-double(log_odds[k])));
+    grid.cells[k] = static_cast<std::int8_t>(std::lround(100.0 * p));
+  }
+  return grid;
+}
+
+PointCloud OccupiedPoints(const OccupancyGrid& grid, int occupied) {
+  PointCloud points;
+  for (int y = 0; y < grid.height; ++y) {
+    for (int x = 0; x < grid.width; ++x) {
+      if (grid.At(x, y) >= occupied) {
+        points.emplace_back(static_cast<float>(grid.origin.x() + (x + 0.5) * grid.resolution),
+                            static_cast<float>(grid.origin.y() + (y + 0.5) * grid.resolution));
+      }
+    }
+  }
+  return points;
+}
+
+}  // namespace waymark::laser_slam

@@ -1,0 +1,43 @@
+#ifndef WAYMARK_SERVER_LASER_SLAM_MAPPING_OCCUPANCY_GRID_H_
+#define WAYMARK_SERVER_LASER_SLAM_MAPPING_OCCUPANCY_GRID_H_
+
+// The occupancy grid of a session's scans at their optimised poses, in the ROS convention
+// (nav_msgs/OccupancyGrid): row-major from the lower-left cell at `origin`, -1 unknown, 0 free ..
+// 100 occupied. Every kept scan point is a ray from its node: the cells it crosses gain evidence
+// of free space, the cell it ends in evidence of an obstacle (log odds, clamped).
+
+#include <cstdint>
+#include <vector>
+
+#include <Eigen/Core>
+
+#include "absl/status/statusor.h"
+#include "server/laser_slam/mapping/mapping_backend.h"
+#include "server/laser_slam/mapping/point_cloud.h"
+
+namespace waymark::laser_slam {
+
+struct OccupancyGrid {
+  double resolution = 0.05;
+  Eigen::Vector2d origin = Eigen::Vector2d::Zero();
+  int width = 0;
+  int height = 0;
+  std::vector<std::int8_t> cells;  // -1 unknown, 0..100
+
+  std::int8_t At(int x, int y) const { return cells[static_cast<size_t>(y) * width + x]; }
+};
+
+// The largest grid RenderOccupancy makes (cells); a coarser resolution is needed beyond.
+inline constexpr std::int64_t kMaxOccupancyCells = 100'000'000;
+
+// RESOURCE_EXHAUSTED (naming the resolution that would fit) when the map needs more than
+// kMaxOccupancyCells cells; an empty grid for no nodes.
+absl::StatusOr<OccupancyGrid> RenderOccupancy(const std::vector<NodeView>& nodes,
+                                              double resolution);
+
+// Centres of the occupied cells (value >= occupied), map frame: a grid as a point map.
+PointCloud OccupiedPoints(const OccupancyGrid& grid, int occupied = 65);
+
+}  // namespace waymark::laser_slam
+
+#endif  // WAYMARK_SERVER_LASER_SLAM_MAPPING_OCCUPANCY_GRID_H_
