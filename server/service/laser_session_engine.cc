@@ -30,25 +30,57 @@ LaserSessionEngine::LaserSessionEngine(v1::LaserSlamConfig config, LaserSessionO
                                        std::unique_ptr<ls::LaserSlam> slam)
     : config_(std::move(config)), options_(std::move(options)), slam_(std::move(slam)) {}
 
+namespace {
+
+// The localizer of a localization session (null for a mapping one).
+absl::StatusOr<std::unique_ptr<ls::MapLocalizer>> LocalizerFor(
+    const LaserSessionOptions& options, const LaserSessionEngine::MapPoints& map) {
+  if (!options.localize) return std::unique_ptr<ls::MapLocalizer>();
+  if (map == nullptr) {
+    return absl::InternalError("a localization session was built without its map");
+  }
+  return ls::MapLocalizer::Create(*options.localize, *map);
+}
+
+}  // namespace
+
 absl::StatusOr<std::unique_ptr<LaserSessionEngine>> LaserSessionEngine::Create(
-    const v1::LaserSlamConfig& config) {
+    const v1::LaserSlamConfig& config, MapPoints map) {
   absl::StatusOr<LaserSessionOptions> options = ToLaserSessionOptions(config);
   if (!options.ok()) return options.status();
-  auto slam = std::make_unique<ls::LaserSlam>(options->slam);
+  absl::StatusOr<std::unique_ptr<ls::MapLocalizer>> localizer = LocalizerFor(*options, map);
+  if (!localizer.ok()) return localizer.status();
+  auto slam = std::make_unique<ls::LaserSlam>(options->slam, *std::move(localizer));
   return std::unique_ptr<LaserSessionEngine>(
       new LaserSessionEngine(config, *std::move(options), std::move(slam)));
 }
 
-absl::StatusOr<std::unique_ptr<LaserSessionEngine>> LaserSessionEngine::FromCheckpoint(
-    const v1::LaserSlamConfig& config, const std::string& state,
-    const std::vector<storage::TrajectoryPoseRecord>& stored) {
+absl::StatusOr<std::unique_ptr<LaserSessionEngine>> LaserSessionEngine::FromImportedGrid(
+    const v1::LaserSlamConfig& config, ls::OccupancyGrid grid) {
   absl::StatusOr<LaserSessionOptions> options = ToLaserSessionOptions(config);
   if (!options.ok()) return options.status();
+  auto slam = ls::LaserSlam::FromImportedGrid(options->slam, std::move(grid));
+  return std::unique_ptr<LaserSessionEngine>(
+      new LaserSessionEngine(config, *std::move(options), std::move(slam)));
+}
+
+absl::StatusOr<ls::PointCloud> LaserSessionEngine::MapPointsForLocalization() const {
+  return slam_->MapPoints();
+}
+
+absl::StatusOr<std::unique_ptr<LaserSessionEngine>> LaserSessionEngine::FromCheckpoint(
+    const v1::LaserSlamConfig& config, const std::string& state,
+    const std::vector<storage::TrajectoryPoseRecord>& stored, MapPoints map) {
+  absl::StatusOr<LaserSessionOptions> options = ToLaserSessionOptions(config);
+  if (!options.ok()) return options.status();
+  absl::StatusOr<std::unique_ptr<ls::MapLocalizer>> localizer = LocalizerFor(*options, map);
+  if (!localizer.ok()) return localizer.status();
   std::vector<ls::PoseEstimate> trajectory;
   trajectory.reserve(stored.size());
   for (const storage::TrajectoryPoseRecord& pose : stored) trajectory.push_back(FromRecord(pose));
   absl::StatusOr<std::unique_ptr<ls::LaserSlam>> slam =
-      ls::LaserSlam::FromCheckpoint(options->slam, state, std::move(trajectory));
+      ls::LaserSlam::FromCheckpoint(options->slam, state, std::move(trajectory),
+                                    *std::move(localizer));
   if (!slam.ok()) return slam.status();
   return std::unique_ptr<LaserSessionEngine>(
       new LaserSessionEngine(config, *std::move(options), *std::move(slam)));
@@ -130,6 +162,21 @@ absl::Status LaserSessionEngine::FillMap(v1::SegmentMap* map) const {
   for (const ls::MapSegment& segment : slam_->Map()) *map->add_segments() = ToProtoSegment(segment);
   return absl::OkStatus();
 }
+
+absl::Status LaserSessionEngine::FillOccupancyGrid(double resolution,
+                                                   v1::OccupancyGrid* out) const {
+  absl::StatusOr<ls::OccupancyGrid> grid = slam_->RenderGrid(resolution);
+  if (!grid.ok()) return grid.status();
+  const std::string session_id = out->session_id();
+  const uint64_t revision = out->map_revision();
+  *out = ToProtoGrid(*grid);
+  out->set_session_id(session_id);
+  out->set_map_revision(revision);
+  out->set_scans(static_cast<uint32_t>(slam_->backend() ? slam_->backend()->Stats().nodes : 0));
+  return absl::OkStatus();
+}
+
+void LaserSessionEngine::Finish() { slam_->FlushBackend(); }
 
 void LaserSessionEngine::DescribeConfig(v1::Session* out) const {
   *out->mutable_laser() = config_;

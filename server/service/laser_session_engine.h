@@ -20,13 +20,23 @@ namespace waymark::service {
 
 class LaserSessionEngine final : public SessionEngine {
  public:
+  // The points of the map a localization session localizes on (config.localize), found by the
+  // registry from the map session's id; null for mapping sessions.
+  using MapPoints = std::shared_ptr<const laser_slam::PointCloud>;
+
   // `config` is the effective config (EffectiveLaserConfig); a new, empty session.
   static absl::StatusOr<std::unique_ptr<LaserSessionEngine>> Create(
-      const v1::LaserSlamConfig& config);
+      const v1::LaserSlamConfig& config, MapPoints map = nullptr);
   // A session resumed from its checkpoint bytes and stored trajectory.
   static absl::StatusOr<std::unique_ptr<LaserSessionEngine>> FromCheckpoint(
       const v1::LaserSlamConfig& config, const std::string& state,
-      const std::vector<storage::TrajectoryPoseRecord>& trajectory);
+      const std::vector<storage::TrajectoryPoseRecord>& trajectory, MapPoints map = nullptr);
+  // A session that holds only an imported grid.
+  static absl::StatusOr<std::unique_ptr<LaserSessionEngine>> FromImportedGrid(
+      const v1::LaserSlamConfig& config, laser_slam::OccupancyGrid grid);
+
+  // The map as points for localizing on it; FAILED_PRECONDITION when the session keeps none.
+  absl::StatusOr<laser_slam::PointCloud> MapPointsForLocalization() const;
 
   const char* kind() const override { return "laser"; }
   absl::StatusOr<AdmittedMessage> Admit(const v1::SensorData& data) const override;
@@ -37,6 +47,9 @@ class LaserSessionEngine final : public SessionEngine {
   storage::TrajectoryPoseRecord PoseRecord(int64_t seq) const override;
   void AppendTrajectory(v1::Trajectory* out) const override;
   absl::Status FillMap(v1::SegmentMap* map) const override;
+  absl::Status FillOccupancyGrid(double resolution, v1::OccupancyGrid* grid) const override;
+  void Finish() override;
+  bool trajectory_needs_engine() const override { return true; }
   void DescribeConfig(v1::Session* out) const override;
 
  private:

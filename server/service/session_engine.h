@@ -15,6 +15,7 @@
 
 #include "absl/status/status.h"
 #include "absl/status/statusor.h"
+#include "absl/strings/str_cat.h"
 #include "storage/slam_store.h"
 #include "waymark/v1/slam.pb.h"
 
@@ -62,6 +63,18 @@ class SessionEngine {
   virtual void AppendTrajectory(v1::Trajectory* out) const = 0;
   // FAILED_PRECONDITION for kinds without a segment map.
   virtual absl::Status FillMap(v1::SegmentMap* map) const = 0;
+  // The occupancy grid (laser sessions with kept scans); FAILED_PRECONDITION otherwise.
+  virtual absl::Status FillOccupancyGrid(double resolution, v1::OccupancyGrid* grid) const {
+    return absl::FailedPreconditionError(
+        absl::StrCat("a ", kind(), " session has no occupancy grid"));
+  }
+  // Called once before the final checkpoint of CloseSession: finish background work (the laser
+  // back end's last optimisation) so that the closed session holds its final map.
+  virtual void Finish() {}
+  // Whether GetTrajectory must come from the engine even for a session that is not in memory
+  // (its stored rows are not the poses it answers: laser sessions store EKF-frame poses and
+  // correct them with the pose graph when read).
+  virtual bool trajectory_needs_engine() const { return false; }
   // Sets the session's config (laser or visual, as it is echoed) and kind in `out`.
   virtual void DescribeConfig(v1::Session* out) const = 0;
 };

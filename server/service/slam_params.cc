@@ -58,14 +58,18 @@ absl::Status ValidateParams(const v1::LaserSlamParams& p, double min_range) {
   return absl::OkStatus();
 }
 
-absl::Status ValidateLaserPose(const v1::Pose2D& pose) {
+// A pose named `field` with |x|, |y| <= `extent` metres and theta in [-2 pi, 2 pi].
+absl::Status ValidatePose(const v1::Pose2D& pose, const std::string& field, double extent) {
   for (const auto& [value, name] : {std::pair<double, const char*>{pose.x(), "x"},
                                     {pose.y(), "y"}}) {
-    absl::Status s = InRange(value, absl::StrCat("laser.laser_pose.", name), -100.0, 100.0, false,
-                             "m");
+    absl::Status s = InRange(value, absl::StrCat(field, ".", name), -extent, extent, false, "m");
     if (!s.ok()) return s;
   }
-  return InRange(pose.theta(), "laser.laser_pose.theta", -2 * M_PI, 2 * M_PI, false, "rad");
+  return InRange(pose.theta(), field + ".theta", -2 * M_PI, 2 * M_PI, false, "rad");
+}
+
+absl::Status ValidateLaserPose(const v1::Pose2D& pose) {
+  return ValidatePose(pose, "laser.laser_pose", 100.0);
 }
 
 }  // namespace
@@ -121,6 +125,42 @@ absl::StatusOr<LaserSessionOptions> ToLaserSessionOptions(const v1::LaserSlamCon
       !s.ok()) {
     return s;
   }
+  if (p.has_loop_closure()) options.slam.mapping.enabled = p.loop_closure();
+  // The server never lets a search or an optimisation hold up a robot's stream.
+  options.slam.mapping.threads = 1;
+  if (config.has_localize()) {
+    const v1::LocalizationConfig& l = config.localize();
+    if (l.map_session_id().empty() || l.map_session_id().size() > 128) {
+      return absl::InvalidArgumentError(
+          "localize.map_session_id must name the closed laser session to localize on");
+    }
+    ls::LocalizationOptions lo;
+    if (l.has_initial_pose()) {
+      if (absl::Status s = ValidatePose(l.initial_pose(), "localize.initial_pose", 1e6); !s.ok()) return s;
+      lo.initial_pose = FromProtoPose(l.initial_pose());
+    }
+    if (l.has_initial_sigma_xy()) {
+      if (absl::Status s = InRange(l.initial_sigma_xy(), "localize.initial_sigma_xy", 0, 100, true, "m");
+          !s.ok()) {
+        return s;
+      }
+      lo.initial_sigma_xy = l.initial_sigma_xy();
+    }
+    if (l.has_initial_sigma_theta()) {
+      if (absl::Status s = InRange(l.initial_sigma_theta(), "localize.initial_sigma_theta", 0, M_PI,
+                                   true, "rad");
+          !s.ok()) {
+        return s;
+      }
+      lo.initial_sigma_theta = l.initial_sigma_theta();
+    }
+    lo.point_range = options.slam.mapping.point_range;
+    if (absl::Status s = ls::ValidateLocalizationOptions(lo); !s.ok()) {
+      return absl::InvalidArgumentError(absl::StrCat("localize: ", s.message()));
+    }
+    options.map_session_id = l.map_session_id();
+    options.localize = lo;
+  }
   // The engine's own check covers combinations (and anything added to it later).
   if (absl::Status s = ls::ValidateSlamOptions(options.slam); !s.ok()) {
     return absl::InvalidArgumentError(absl::StrCat("laser.params: ", s.message()));
@@ -142,6 +182,12 @@ absl::StatusOr<v1::LaserSlamConfig> EffectiveLaserConfig(const v1::LaserSlamConf
   p->set_match_chi2(o.ekf.match_chi2);
   p->set_min_travel(o.ekf.min_travel);
   p->set_min_turn(o.ekf.min_turn);
+  p->set_loop_closure(o.mapping.enabled);
+  if (options->localize) {
+    v1::LocalizationConfig* l = effective.mutable_localize();
+    l->set_initial_sigma_xy(options->localize->initial_sigma_xy);
+    l->set_initial_sigma_theta(options->localize->initial_sigma_theta);
+  }
   FillEffectiveExploration(o.exploration, effective.mutable_exploration());
   return effective;
 }
@@ -264,6 +310,72 @@ void FillSlamUpdate(const ls::ScanUpdate& scan_update, v1::SlamUpdate* update) {
   t->set_total_ms(scan_update.timings.total);
   update->set_covariance_trace_mean(scan_update.covariance_trace_mean);
   if (scan_update.suggestion) FillSuggestion(*scan_update.suggestion, update->mutable_suggestion());
+  update->set_loop_closures(count(scan_update.loop_closures));
+  update->set_graph_revision(scan_update.graph_revision);
+  if (scan_update.localization) {
+    const ls::LocalizationResult& l = *scan_update.localization;
+    v1::LocalizationStatus* out = update->mutable_localization();
+    out->set_localized(l.localized);
+    out->set_score(l.score);
+    out->set_fixes(count(l.fixes));
+    out->set_last_fix_stamp(l.last_fix_stamp);
+    out->set_global_search(l.global_search);
+  }
+}
+
+v1::OccupancyGrid ToProtoGrid(const ls::OccupancyGrid& grid) {
+  v1::OccupancyGrid out;
+  out.set_resolution(grid.resolution);
+  out.mutable_origin()->set_x(grid.origin.x());
+  out.mutable_origin()->set_y(grid.origin.y());
+  out.set_width(static_cast<uint32_t>(grid.width));
+  out.set_height(static_cast<uint32_t>(grid.height));
+  out.set_cells(std::string(reinterpret_cast<const char*>(grid.cells.data()), grid.cells.size()));
+  return out;
+}
+
+absl::StatusOr<ls::OccupancyGrid> FromProtoGrid(const v1::OccupancyGrid& in) {
+  if (absl::Status s = InRange(in.resolution(), "grid.resolution", 0.005, 10.0, false, "m");
+      !s.ok()) {
+    return s;
+  }
+  if (!std::isfinite(in.origin().x()) || !std::isfinite(in.origin().y()) ||
+      std::abs(in.origin().x()) > 1e7 || std::abs(in.origin().y()) > 1e7) {
+    return absl::InvalidArgumentError("grid.origin must be finite and within 10000 km");
+  }
+  if (in.width() == 0 || in.height() == 0) {
+    return absl::InvalidArgumentError("grid.width and grid.height must be positive");
+  }
+  const uint64_t cells = static_cast<uint64_t>(in.width()) * in.height();
+  if (cells > static_cast<uint64_t>(ls::kMaxOccupancyCells)) {
+    return absl::InvalidArgumentError(absl::StrCat("grid has ", cells, " cells; at most ",
+                                                   ls::kMaxOccupancyCells));
+  }
+  if (in.cells().size() != cells) {
+    return absl::InvalidArgumentError(absl::StrCat("grid.cells has ", in.cells().size(),
+                                                   " bytes; width x height is ", cells));
+  }
+  ls::OccupancyGrid grid;
+  grid.resolution = in.resolution();
+  grid.origin = Eigen::Vector2d(in.origin().x(), in.origin().y());
+  grid.width = static_cast<int>(in.width());
+  grid.height = static_cast<int>(in.height());
+  grid.cells.resize(cells);
+  int occupied = 0;
+  for (size_t k = 0; k < cells; ++k) {
+    const auto v = static_cast<std::int8_t>(in.cells()[k]);
+    if (v < -1 || v > 100) {
+      return absl::InvalidArgumentError(absl::StrCat(
+          "grid.cells[", k, "] is ", int(v), "; cells are -1 (unknown) or 0..100"));
+    }
+    grid.cells[k] = v;
+    occupied += v >= 65 ? 1 : 0;
+  }
+  if (occupied == 0) {
+    return absl::InvalidArgumentError(
+        "grid has no occupied cell (>= 65): there is nothing to localize against");
+  }
+  return grid;
 }
 
 }  // namespace waymark::service

@@ -5,6 +5,7 @@
 // messages that name the field, the value and the allowed range, so a robot engineer knows what to
 // fix. Unset optional parameters take the engine defaults (server/laser_slam/options.h).
 
+#include <optional>
 #include <string>
 
 #include "absl/status/status.h"
@@ -25,6 +26,9 @@ struct LaserSessionOptions {
   // The session's beam layout; beam_count == 0 when the session was created without one (then
   // every scan must carry its own geometry).
   laser_slam::ScanGeometry geometry;
+  // Localization sessions (config.localize set): the map session and how to localize on it.
+  std::string map_session_id;
+  std::optional<laser_slam::LocalizationOptions> localize;
 };
 
 // OK when value is in [lo, hi] (or (lo, hi] when lo_open); else INVALID_ARGUMENT
@@ -56,6 +60,10 @@ v1::Pose2D ToProtoPose(const laser_slam::Pose2& pose);
 laser_slam::Pose2 FromProtoPose(const v1::Pose2D& pose);
 v1::TrajectoryPose ToProtoTrajectoryPose(const laser_slam::PoseEstimate& pose);
 v1::MapSegment ToProtoSegment(const laser_slam::MapSegment& segment);
+// The engine's grid as the API's OccupancyGrid (session id and revision left to the caller), and
+// back; the latter validates (INVALID_ARGUMENT naming the field).
+v1::OccupancyGrid ToProtoGrid(const laser_slam::OccupancyGrid& grid);
+absl::StatusOr<laser_slam::OccupancyGrid> FromProtoGrid(const v1::OccupancyGrid& grid);
 // Fills the pose, counts and engine timings of `update` (not sequence, queue time or
 // scans_processed, which the session owns).
 void FillSlamUpdate(const laser_slam::ScanUpdate& scan_update, v1::SlamUpdate* update);

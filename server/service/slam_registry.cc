@@ -9,6 +9,7 @@
 #include <cstdio>
 #include <deque>
 #include <exception>
+#include <functional>
 #include <optional>
 #include <random>
 #include <utility>
@@ -137,9 +138,12 @@ absl::Status ResumeError(const absl::Status& status) {
 
 // Builds the engine of a session from its stored config: new, or resumed from a checkpoint and the
 // stored trajectory. Errors say what failed, without the session id.
+// Finds the map a localization session localizes on, by the map session's id.
+using MapLoader = std::function<absl::StatusOr<LaserSessionEngine::MapPoints>(const std::string&)>;
+
 absl::StatusOr<std::unique_ptr<SessionEngine>> BuildEngine(
     const std::string& kind, const std::string& config_bytes, const std::string* checkpoint,
-    std::vector<storage::TrajectoryPoseRecord> trajectory) {
+    std::vector<storage::TrajectoryPoseRecord> trajectory, const MapLoader& load_map) {
   if (kind == "visual") {
     v1::VisualSlamConfig config;
     if (!config.ParseFromString(config_bytes)) {
@@ -167,13 +171,21 @@ absl::StatusOr<std::unique_ptr<SessionEngine>> BuildEngine(
     return absl::DataLossError(
         absl::StrCat("stored config is invalid: ", options.status().message()));
   }
+  LaserSessionEngine::MapPoints map;
+  if (config.has_localize()) {
+    absl::StatusOr<LaserSessionEngine::MapPoints> loaded =
+        load_map(config.localize().map_session_id());
+    if (!loaded.ok()) return loaded.status();
+    map = *std::move(loaded);
+  }
   if (checkpoint == nullptr) {
-    absl::StatusOr<std::unique_ptr<LaserSessionEngine>> engine = LaserSessionEngine::Create(config);
+    absl::StatusOr<std::unique_ptr<LaserSessionEngine>> engine =
+        LaserSessionEngine::Create(config, map);
     if (!engine.ok()) return engine.status();
     return std::unique_ptr<SessionEngine>(*std::move(engine));
   }
   absl::StatusOr<std::unique_ptr<LaserSessionEngine>> engine =
-      LaserSessionEngine::FromCheckpoint(config, *checkpoint, trajectory);
+      LaserSessionEngine::FromCheckpoint(config, *checkpoint, trajectory, map);
   if (!engine.ok()) return ResumeError(engine.status());
   return std::unique_ptr<SessionEngine>(*std::move(engine));
 }
@@ -266,18 +278,26 @@ SlamRegistry::~SlamRegistry() {
   if (!status.ok()) spdlog::error("SLAM shutdown: {}", status.ToString());
 }
 
-absl::StatusOr<v1::Session> SlamRegistry::CreateSession(const v1::CreateSessionRequest& request) {
-  if (shutting_down_) return absl::UnavailableError("the server is shutting down");
-  if (request.robot_id().empty()) {
+absl::Status SlamRegistry::CheckNewSessionRequest(const std::string& robot_id,
+                                                  const std::string& name) {
+  if (robot_id.empty()) {
     return absl::InvalidArgumentError("robot_id is empty: name the robot that owns the session");
   }
-  if (request.robot_id().size() > kMaxRobotIdLength) {
-    return absl::InvalidArgumentError(absl::StrCat("robot_id is ", request.robot_id().size(),
+  if (robot_id.size() > kMaxRobotIdLength) {
+    return absl::InvalidArgumentError(absl::StrCat("robot_id is ", robot_id.size(),
                                                    " bytes long; at most ", kMaxRobotIdLength));
   }
-  if (request.name().size() > kMaxSessionNameLength) {
-    return absl::InvalidArgumentError(absl::StrCat("name is ", request.name().size(),
+  if (name.size() > kMaxSessionNameLength) {
+    return absl::InvalidArgumentError(absl::StrCat("name is ", name.size(),
                                                    " bytes long; at most ", kMaxSessionNameLength));
+  }
+  return absl::OkStatus();
+}
+
+absl::StatusOr<v1::Session> SlamRegistry::CreateSession(const v1::CreateSessionRequest& request) {
+  if (shutting_down_) return absl::UnavailableError("the server is shutting down");
+  if (absl::Status s = CheckNewSessionRequest(request.robot_id(), request.name()); !s.ok()) {
+    return s;
   }
   // Exactly one kind. A request with neither is a laser session with the defaults, as it was
   // before visual sessions existed.
@@ -300,23 +320,58 @@ absl::StatusOr<v1::Session> SlamRegistry::CreateSession(const v1::CreateSessionR
   } else {
     absl::StatusOr<v1::LaserSlamConfig> config = EffectiveLaserConfig(request.laser());
     if (!config.ok()) return config.status();
-    absl::StatusOr<std::unique_ptr<LaserSessionEngine>> built = LaserSessionEngine::Create(*config);
+    LaserSessionEngine::MapPoints map;
+    if (config->has_localize()) {
+      // The map is found (and refused with a precise error) before anything is stored.
+      absl::StatusOr<LaserSessionEngine::MapPoints> loaded =
+          LoadLocalizationMap(config->localize().map_session_id());
+      if (!loaded.ok()) return loaded.status();
+      map = *std::move(loaded);
+    }
+    absl::StatusOr<std::unique_ptr<LaserSessionEngine>> built =
+        LaserSessionEngine::Create(*config, map);
     if (!built.ok()) return built.status();
     engine = *std::move(built);
     config_bytes = config->SerializeAsString();
   }
+  return StoreNewSession(request.robot_id(), request.name(), std::move(config_bytes),
+                         std::move(engine), /*close=*/false);
+}
 
+absl::StatusOr<v1::Session> SlamRegistry::ImportMap(const v1::ImportMapRequest& request) {
+  if (shutting_down_) return absl::UnavailableError("the server is shutting down");
+  if (absl::Status s = CheckNewSessionRequest(request.robot_id(), request.name()); !s.ok()) {
+    return s;
+  }
+  absl::StatusOr<laser_slam::OccupancyGrid> grid = FromProtoGrid(request.grid());
+  if (!grid.ok()) return grid.status();
+  absl::StatusOr<v1::LaserSlamConfig> config = EffectiveLaserConfig(v1::LaserSlamConfig());
+  if (!config.ok()) return config.status();
+  absl::StatusOr<std::unique_ptr<LaserSessionEngine>> engine =
+      LaserSessionEngine::FromImportedGrid(*config, *std::move(grid));
+  if (!engine.ok()) return engine.status();
+  return StoreNewSession(request.robot_id(), request.name(), config->SerializeAsString(),
+                         *std::move(engine), /*close=*/true);
+}
+
+absl::StatusOr<v1::Session> SlamRegistry::StoreNewSession(const std::string& robot_id,
+                                                          const std::string& name,
+                                                          std::string config_bytes,
+                                                          std::unique_ptr<SessionEngine> engine,
+                                                          bool close) {
   std::lock_guard<std::mutex> load_lock(load_mutex_);
-  absl::StatusOr<int64_t> open = store_->CountSessions(storage::SlamSessionState::kOpen);
-  if (!open.ok()) return open.status();
-  if (*open >= options_.max_sessions) {
-    return absl::ResourceExhaustedError(absl::StrCat(
-        "this server holds ", *open, " open SLAM sessions, its limit (--max-sessions ",
-        options_.max_sessions, "); close finished sessions with CloseSession"));
+  if (!close) {
+    absl::StatusOr<int64_t> open = store_->CountSessions(storage::SlamSessionState::kOpen);
+    if (!open.ok()) return open.status();
+    if (*open >= options_.max_sessions) {
+      return absl::ResourceExhaustedError(absl::StrCat(
+          "this server holds ", *open, " open SLAM sessions, its limit (--max-sessions ",
+          options_.max_sessions, "); close finished sessions with CloseSession"));
+    }
   }
   storage::SlamSessionRecord record;
-  record.robot_id = request.robot_id();
-  record.name = request.name();
+  record.robot_id = robot_id;
+  record.name = name;
   record.kind = engine->kind();
   record.config = std::move(config_bytes);
   absl::StatusOr<storage::SlamSessionRecord> created;
@@ -326,6 +381,18 @@ absl::StatusOr<v1::Session> SlamRegistry::CreateSession(const v1::CreateSessionR
     if (!absl::IsAlreadyExists(created.status())) break;
   }
   if (!created.ok()) return created.status();
+  if (close) {
+    // Stored closed at once, with the engine's state as its only checkpoint.
+    storage::SlamCheckpoint checkpoint;
+    checkpoint.state = engine->SerializeState();
+    if (absl::Status s = store_->CloseSession(created->id, checkpoint); !s.ok()) {
+      (void)store_->DeleteSession(created->id);
+      return s;
+    }
+    absl::StatusOr<storage::SlamSessionRecord> stored = store_->GetSession(created->id);
+    if (!stored.ok()) return stored.status();
+    return Describe(*stored, nullptr);
+  }
 
   auto session = std::make_shared<Session>();
   session->id = created->id;
@@ -340,6 +407,66 @@ absl::StatusOr<v1::Session> SlamRegistry::CreateSession(const v1::CreateSessionR
     sessions_[session->id] = session;
   }
   return Describe(*created, session.get());
+}
+
+absl::StatusOr<std::unique_ptr<SessionEngine>> SlamRegistry::EngineOf(
+    const storage::SlamSessionRecord& record) {
+  std::vector<storage::TrajectoryPoseRecord> trajectory;
+  if (!record.checkpoint.empty()) {
+    absl::StatusOr<std::vector<storage::TrajectoryPoseRecord>> stored =
+        store_->LoadTrajectory(record.id);
+    if (!stored.ok()) return stored.status();
+    trajectory = *std::move(stored);
+  }
+  // Created but never checkpointed: nothing was processed that the store knows of.
+  absl::StatusOr<std::unique_ptr<SessionEngine>> engine = BuildEngine(
+      record.kind, record.config, record.checkpoint.empty() ? nullptr : &record.checkpoint,
+      std::move(trajectory),
+      [this](const std::string& id) { return LoadLocalizationMap(id); });
+  if (!engine.ok()) {
+    return absl::Status(engine.status().code(), absl::StrCat("SLAM session ", Quoted(record.id),
+                                                             ": ", engine.status().message()));
+  }
+  return engine;
+}
+
+absl::StatusOr<std::shared_ptr<const laser_slam::PointCloud>> SlamRegistry::LoadLocalizationMap(
+    const std::string& map_session_id) {
+  const std::string what = absl::StrCat("map session ", Quoted(map_session_id));
+  absl::StatusOr<storage::SlamSessionRecord> record = store_->GetSession(map_session_id);
+  if (absl::IsNotFound(record.status())) {
+    return absl::NotFoundError(absl::StrCat(
+        what, " not found: localize on a closed laser session of this server (ListSessions), or "
+              "import a map first (ImportMap, `waymark slam import-map`)"));
+  }
+  if (!record.ok()) return record.status();
+  if (record->kind != "laser") {
+    return absl::FailedPreconditionError(absl::StrCat(
+        what, " is a ", record->kind, " session: it has no laser map to localize on"));
+  }
+  if (record->state != storage::SlamSessionState::kClosed) {
+    return absl::FailedPreconditionError(absl::StrCat(
+        what, " is still open for writing: close it first (CloseSession, `waymark slam close ",
+        map_session_id, "`) so that its map is final"));
+  }
+  v1::LaserSlamConfig config;
+  if (config.ParseFromString(record->config) && config.has_localize()) {
+    return absl::FailedPreconditionError(absl::StrCat(
+        what, " is itself a localization session: it has no map of its own; localize on ",
+        Quoted(config.localize().map_session_id()), " instead"));
+  }
+  absl::StatusOr<std::unique_ptr<SessionEngine>> engine = EngineOf(*record);
+  if (!engine.ok()) return engine.status();
+  auto* laser = static_cast<LaserSessionEngine*>(engine->get());
+  absl::StatusOr<laser_slam::PointCloud> points = laser->MapPointsForLocalization();
+  if (!points.ok()) {
+    return absl::FailedPreconditionError(absl::StrCat(
+        what, " cannot be localized on: ", points.status().message()));
+  }
+  if (points->empty()) {
+    return absl::FailedPreconditionError(absl::StrCat(what, " has no scans in its map yet"));
+  }
+  return std::make_shared<const laser_slam::PointCloud>(*std::move(points));
 }
 
 absl::StatusOr<std::shared_ptr<SlamRegistry::Session>> SlamRegistry::FindResident(
@@ -360,21 +487,8 @@ absl::StatusOr<std::shared_ptr<SlamRegistry::Session>> SlamRegistry::LoadSession
   session->created_at = record.created_at;
   session->updated_at = record.updated_at;
   session->checkpoint_at = record.checkpoint_at;
-  std::vector<storage::TrajectoryPoseRecord> trajectory;
-  if (!record.checkpoint.empty()) {
-    absl::StatusOr<std::vector<storage::TrajectoryPoseRecord>> stored =
-        store_->LoadTrajectory(record.id);
-    if (!stored.ok()) return stored.status();
-    trajectory = *std::move(stored);
-  }
-  // Created but never checkpointed: nothing was processed that the store knows of.
-  absl::StatusOr<std::unique_ptr<SessionEngine>> engine =
-      BuildEngine(record.kind, record.config,
-                  record.checkpoint.empty() ? nullptr : &record.checkpoint, std::move(trajectory));
-  if (!engine.ok()) {
-    return absl::Status(engine.status().code(), absl::StrCat("SLAM session ", Quoted(record.id),
-                                                             ": ", engine.status().message()));
-  }
+  absl::StatusOr<std::unique_ptr<SessionEngine>> engine = EngineOf(record);
+  if (!engine.ok()) return engine.status();
   session->engine = *std::move(engine);
   session->stored_poses = session->engine->trajectory_size();
   session->scans_processed = record.scans_processed;
@@ -757,6 +871,11 @@ absl::Status SlamRegistry::CloseLocked(const std::string& session_id) {
       session.closed = true;
     }
     WaitIdle(session);
+    {
+      // The back end's last optimisation, so that the closed session keeps its final map.
+      std::lock_guard<std::mutex> lock(session.engine_mu);
+      session.engine->Finish();
+    }
     if (absl::Status s = Checkpoint(session, /*close=*/true); !s.ok()) {
       std::lock_guard<std::mutex> lock(session.mu);
       session.closed = false;
@@ -872,6 +991,17 @@ absl::StatusOr<v1::Trajectory> SlamRegistry::GetTrajectory(const std::string& se
     (*resident)->engine->AppendTrajectory(&out);
     return out;
   }
+  absl::StatusOr<storage::SlamSessionRecord> record = store_->GetSession(session_id);
+  if (!record.ok()) return record.status();
+  if (record->kind == "laser") {
+    // Stored laser poses are in the EKF's frame; the engine corrects them with its pose graph.
+    absl::StatusOr<std::shared_ptr<Session>> loaded = LoadSession(*record);
+    if (!loaded.ok()) return loaded.status();
+    if ((*loaded)->engine->trajectory_needs_engine()) {
+      (*loaded)->engine->AppendTrajectory(&out);
+      return out;
+    }
+  }
   absl::StatusOr<std::vector<storage::TrajectoryPoseRecord>> poses =
       store_->LoadTrajectory(session_id);
   if (!poses.ok()) return poses.status();
@@ -879,6 +1009,37 @@ absl::StatusOr<v1::Trajectory> SlamRegistry::GetTrajectory(const std::string& se
     *out.add_poses() = TrajectoryPoseFromRecord(pose);
   }
   return out;
+}
+
+absl::StatusOr<v1::OccupancyGrid> SlamRegistry::GetOccupancyGrid(
+    const std::string& session_id, std::optional<double> resolution) {
+  if (absl::Status s = CheckId(session_id); !s.ok()) return s;
+  const double cell = resolution.value_or(0.05);
+  if (absl::Status s = InRange(cell, "resolution", 0.01, 1.0, false, "m"); !s.ok()) return s;
+  std::shared_ptr<Session> session;
+  if (auto resident = FindResident(session_id); resident.ok()) {
+    session = *resident;
+  } else {
+    absl::StatusOr<storage::SlamSessionRecord> record = store_->GetSession(session_id);
+    if (!record.ok()) return record.status();
+    if (record->kind != "laser") {
+      return absl::FailedPreconditionError(
+          absl::StrCat("SLAM session ", Quoted(session_id), " is a ", record->kind,
+                       " session: only laser sessions have an occupancy grid"));
+    }
+    absl::StatusOr<std::shared_ptr<Session>> loaded = LoadSession(*record);
+    if (!loaded.ok()) return loaded.status();
+    session = *loaded;
+  }
+  v1::OccupancyGrid grid;
+  grid.set_session_id(session_id);
+  std::lock_guard<std::mutex> lock(session->engine_mu);
+  grid.set_map_revision(session->map_revision);
+  if (absl::Status s = session->engine->FillOccupancyGrid(cell, &grid); !s.ok()) {
+    return absl::Status(s.code(),
+                        absl::StrCat("SLAM session ", Quoted(session_id), ": ", s.message()));
+  }
+  return grid;
 }
 
 absl::Status SlamRegistry::CheckpointAll() {

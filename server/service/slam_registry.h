@@ -58,6 +58,7 @@
 #include <atomic>
 #include <condition_variable>
 #include <cstdint>
+#include <optional>
 #include <deque>
 #include <functional>
 #include <map>
@@ -69,6 +70,7 @@
 
 #include "absl/status/status.h"
 #include "absl/status/statusor.h"
+#include "server/service/session_engine.h"
 #include "server/service/slam_params.h"
 #include "storage/slam_store.h"
 #include "waymark/v1/slam.pb.h"
@@ -152,6 +154,14 @@ class SlamRegistry {
   absl::StatusOr<v1::Session> GetSession(const std::string& session_id);
   absl::StatusOr<v1::SegmentMap> GetMap(const std::string& session_id);
   absl::StatusOr<v1::Trajectory> GetTrajectory(const std::string& session_id);
+  // The occupancy grid of a laser session (rendered from its kept scans, or its imported grid).
+  // FAILED_PRECONDITION for a visual session or one without loop closure; INVALID_ARGUMENT for a
+  // resolution outside [0.01, 1] m; RESOURCE_EXHAUSTED when the map needs a coarser resolution.
+  absl::StatusOr<v1::OccupancyGrid> GetOccupancyGrid(const std::string& session_id,
+                                                     std::optional<double> resolution);
+  // Stores `request.grid` as a new closed laser session to localize on (INVALID_ARGUMENT naming
+  // the field for a bad grid).
+  absl::StatusOr<v1::Session> ImportMap(const v1::ImportMapRequest& request);
   absl::StatusOr<v1::ListSessionsResponse> ListSessions(const std::string& robot_id);
 
   // Checkpoints every resident session with unsaved work; returns the first error.
@@ -166,6 +176,18 @@ class SlamRegistry {
   SlamRegistry(std::unique_ptr<storage::SlamStore> store, const SlamRegistryOptions& options);
 
   absl::StatusOr<std::shared_ptr<Session>> FindResident(const std::string& id);
+  // The points of the map session a localization session localizes on: NOT_FOUND (unknown),
+  // FAILED_PRECONDITION (a visual session, still open, a localization session, no scans kept).
+  absl::StatusOr<std::shared_ptr<const laser_slam::PointCloud>> LoadLocalizationMap(
+      const std::string& map_session_id);
+  // A session's engine built from its stored record (not made resident).
+  absl::StatusOr<std::unique_ptr<SessionEngine>> EngineOf(const storage::SlamSessionRecord& record);
+  // Checks the request's common fields (robot id, name) as CreateSession does.
+  static absl::Status CheckNewSessionRequest(const std::string& robot_id, const std::string& name);
+  // Stores a new session around `engine` (id, limits) and makes it resident unless `close`.
+  absl::StatusOr<v1::Session> StoreNewSession(const std::string& robot_id,
+                                              const std::string& name, std::string config_bytes,
+                                              std::unique_ptr<SessionEngine> engine, bool close);
   // Builds a session (engine from the checkpoint + stored trajectory) from its stored record.
   absl::StatusOr<std::shared_ptr<Session>> LoadSession(const storage::SlamSessionRecord& record);
   // `loaded` (optional) tells whether the session was loaded from the store by this call.

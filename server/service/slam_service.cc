@@ -61,6 +61,12 @@ grpc::Status SlamServiceImpl::CreateSession(grpc::ServerContext* context,
   return ReplyAuthorized(
       *auth_, *context, Action::kSlam, response,
       [&](const Caller& caller) -> absl::StatusOr<v1::Session> {
+        if (request->laser().has_localize()) {
+          // A map is the session of a robot like any other: a robot localizes on its own maps
+          // (an admin may import a map for it: ImportMap with its robot_id).
+          absl::Status s = CheckSessionOwner(caller, request->laser().localize().map_session_id());
+          if (!s.ok() && !absl::IsNotFound(s)) return s;  // unknown: the registry says it well
+        }
         if (request->robot_id().empty() && !caller.auth_off) {
           // A robot's token already says which robot it is.
           v1::CreateSessionRequest own = *request;
@@ -151,6 +157,32 @@ grpc::Status SlamServiceImpl::DeleteSession(grpc::ServerContext* context,
   return ReplyForOwnSession(*context, request->session_id(), response, [&] {
     return registry_->DeleteSession(request->session_id(), request->force());
   });
+}
+
+grpc::Status SlamServiceImpl::GetOccupancyGrid(grpc::ServerContext* context,
+                                               const v1::GetOccupancyGridRequest* request,
+                                               v1::OccupancyGrid* response) {
+  return ReplyForOwnSession(*context, request->session_id(), response, [&] {
+    return registry_->GetOccupancyGrid(
+        request->session_id(),
+        request->has_resolution() ? std::optional<double>(request->resolution()) : std::nullopt);
+  });
+}
+
+grpc::Status SlamServiceImpl::ImportMap(grpc::ServerContext* context,
+                                        const v1::ImportMapRequest* request,
+                                        v1::Session* response) {
+  return ReplyAuthorized(
+      *auth_, *context, Action::kSlam, response,
+      [&](const Caller& caller) -> absl::StatusOr<v1::Session> {
+        if (request->robot_id().empty() && !caller.auth_off) {
+          v1::ImportMapRequest own = *request;  // a robot's token says which robot it is
+          own.set_robot_id(caller.robot_id);
+          return registry_->ImportMap(own);
+        }
+        if (absl::Status s = CheckRobot(caller, request->robot_id()); !s.ok()) return s;
+        return registry_->ImportMap(*request);
+      });
 }
 
 grpc::Status SlamServiceImpl::ListSessions(grpc::ServerContext* context,

@@ -45,6 +45,10 @@ class SlamServiceImpl final : public v1::SlamService::Service {
   // Like CloseSession: the caller's own sessions only (an admin's: any).
   grpc::Status DeleteSession(grpc::ServerContext*, const v1::DeleteSessionRequest* request,
                              v1::DeleteSessionResponse* response) override;
+  grpc::Status GetOccupancyGrid(grpc::ServerContext*, const v1::GetOccupancyGridRequest* request,
+                                v1::OccupancyGrid* response) override;
+  grpc::Status ImportMap(grpc::ServerContext*, const v1::ImportMapRequest* request,
+                         v1::Session* response) override;
 
  private:
   // OK when `caller` may use session `session_id`; NOT_FOUND for an unknown session.
