@@ -29,7 +29,7 @@ set -euo pipefail
 HERE=$(cd "$(dirname "$0")" && pwd)
 TOOLS="$HERE/laser_peer_mrpt"
 die() { echo "laser_peer_mrpt: $*" >&2; exit 1; }
-usage() { sed -n '/^#   bench/,/^#   env/p' "$0" | sed 's/^# \{0,1\}//' >&2; exit 2; }
+usage() { sed -n '/^#   bench/,/^# Methods/p' "$0" | sed '$d; s/^# \{0,1\}//' >&2; exit 2; }
 
 [ $# -ge 1 ] || usage
 case "$1" in -h|--help) usage ;; esac
