@@ -122,36 +122,48 @@ if [[ ",$METHODS," == *,waymark,* ]]; then
 fi
 
 # --- one run of one method -------------------------------------------------------------------
+# Each runner prints "WALL CPU" in seconds. CPU (user + system) is steadier than wall time on a
+# shared machine; for Waymark it is the replay client's plus the server's.
 now() { echo "$EPOCHREALTIME"; }
 elapsed() { awk -v a="$1" -v b="$2" 'BEGIN { printf "%.3f", b - a }'; }
 value() { sed -n "s/^ *\"$1\": \([^,]*\),\{0,1\}$/\1/p" "$2"; }
+# children_cpu VAR: VAR = CPU seconds of this shell's finished children. `times` must run in this
+# shell, not in a pipe or $(...), whose fresh subshell has no children yet.
+children_cpu() {
+  local file="$TMP/times.$BASHPID"
+  times > "$file"
+  printf -v "$1" '%s' "$(awk 'function s(t) { sub(/s$/, "", t); split(t, p, "m"); return p[1] * 60 + p[2] }
+    NR == 2 { printf "%.3f", s($1) + s($2) }' "$file")"
+}
+# CPU seconds a running process has used so far (fields 14, 15 of /proc/PID/stat, in ticks).
+process_cpu() { awk -v hz="$(getconf CLK_TCK)" '{ printf "%.3f", ($14 + $15) / hz }' "/proc/$1/stat"; }
 
-# run_waymark LOG DIR: DIR/trajectory.txt; prints the wall seconds.
+# run_waymark LOG DIR: DIR/trajectory.txt (and the replay's map, summary.json).
 run_waymark() {
-  local start end
-  start=$(now)
+  local start cpu0 cpu1 server0 end
+  children_cpu cpu0; server0=$(process_cpu "$SERVER"); start=$(now)
   "$W" --server "$ADDR" slam replay "$1" --out "$2" > "$2/replay.log" 2>&1 || return 1
-  end=$(now)
-  elapsed "$start" "$end"
+  end=$(now); children_cpu cpu1
+  echo "$(elapsed "$start" "$end") $(awk -v a="$cpu0" -v b="$cpu1" -v c="$server0" \
+    -v d="$(process_cpu "$SERVER")" 'BEGIN { printf "%.3f", b - a + d - c }')"
 }
 
-# run_icp PRESET CONVERTED DIR: icp-slam on CONVERTED/mrpt.rawlog, DIR/trajectory.txt; prints
-# the wall seconds.
+# run_icp PRESET CONVERTED DIR: icp-slam on CONVERTED/mrpt.rawlog, DIR/trajectory.txt.
 run_icp() {
-  local preset=$1 converted=$2 dir=$3 start end
+  local preset=$1 converted=$2 dir=$3 start cpu0 cpu1 end
   local icp_out="$TMP/icp-$preset"
   "$TOOLS/icp_slam_ini.sh" "$MRPT_INI" "$preset" "$icp_out" > "$dir/icp-slam.ini" || return 1
-  start=$(now)
+  children_cpu cpu0; start=$(now)
   icp-slam "$dir/icp-slam.ini" "$converted/mrpt.rawlog" < /dev/null > "$dir/icp-slam.log" 2>&1 || return 1
-  end=$(now)
+  end=$(now); children_cpu cpu1
+  echo "$(elapsed "$start" "$end") $(elapsed "$cpu0" "$cpu1")"
   awk -f "$TOOLS/icp_path_to_tum.awk" "$converted/stamps.txt" "$icp_out/log_estimated_path.txt" \
     > "$dir/trajectory.txt" 2>> "$dir/icp-slam.log" || return 1
-  elapsed "$start" "$end"
 }
 
 RUNS="$OUT/runs.tsv"
 CONVERSIONS="$OUT/conversions.tsv"
-printf 'log\tmethod\trun\tstatus\trelations\trelations_used\ttrans_mean\ttrans_std\trot_mean\trot_std\twall_s\tduration_s\tscans\n' > "$RUNS"
+printf 'log\tmethod\trun\tstatus\trelations\trelations_used\ttrans_mean\ttrans_std\trot_mean\trot_std\twall_s\tcpu_s\tduration_s\tscans\n' > "$RUNS"
 printf 'log\tscans\tduration_s\tconvert_s\n' > "$CONVERSIONS"
 FAILED=0
 LOADAVG_START=$(cut -d' ' -f1-3 /proc/loadavg)
@@ -183,10 +195,11 @@ for log in "${LOGS[@]}"; do
       echo -n "   $method, run $run of $REPEAT: "
       status=ok
       case "$method" in
-        waymark) wall=$(run_waymark "$log" "$dir") || status=failed ;;
-        mrpt-icp-shipped) wall=$(run_icp shipped "$converted" "$dir") || status=failed ;;
-        mrpt-icp-tuned) wall=$(run_icp tuned "$converted" "$dir") || status=failed ;;
+        waymark) times_=$(run_waymark "$log" "$dir") || status=failed ;;
+        mrpt-icp-shipped) times_=$(run_icp shipped "$converted" "$dir") || status=failed ;;
+        mrpt-icp-tuned) times_=$(run_icp tuned "$converted" "$dir") || status=failed ;;
       esac
+      read -r wall cpu <<< "$times_"
       row=(- - - - -)
       poses=-
       if [ "$status" = ok ]; then
@@ -203,14 +216,13 @@ for log in "${LOGS[@]}"; do
         printf '%.3f +- %.3f m, %.2f deg, ' "${row[1]}" "${row[2]}" "${row[3]}"
       fi
       if [ "$status" = ok ]; then
-        echo "$wall s wall, $poses poses"
+        echo "$wall s wall, $cpu s CPU, $poses poses"
       else
-        FAILED=$((FAILED + 1)); wall=-
+        FAILED=$((FAILED + 1)); wall=-; cpu=-
         echo "FAILED (see $dir)"
       fi
-      printf '%s\t%s\t%s\t%s\t%s\t%s\t%s\t%s\t%s\t%s\t%s\t%s\t%s\n' "$name" "$method" "$run" "$status" \
-        "$nrel" "${row[@]}" \
-        "$wall" "$duration" "$poses" >> "$RUNS"
+      printf '%s\t%s\t%s\t%s\t%s\t%s\t%s\t%s\t%s\t%s\t%s\t%s\t%s\t%s\n' "$name" "$method" "$run" \
+        "$status" "$nrel" "${row[@]}" "$wall" "$cpu" "$duration" "$poses" >> "$RUNS"
     done
   done
 done
