@@ -17,14 +17,14 @@
 # Methods:
 #   waymark           `waymark slam replay LOG` against a waymark-server started here (loopback,
 #                     free port, --insecure-dev, a temporary SQLite file); the server's defaults.
-#   mrpt-icp-shipped  MRPT 2.5 icp-slam with its example icp-slam_demo_classic.ini unchanged,
-#                     GUI and scene files off (../shared/peers/MRPT.md).
+#   mrpt-icp-shipped  MRPT 2.5 icp-slam with its example icp-slam_demo_classic.ini unchanged but
+#                     for the 3-D window, scene files and per-step INFO lines (../shared/peers/MRPT.md).
 #   mrpt-icp-tuned    the same plus MRPT.md's best settings of a 16-setting sweep.
 # MRPT reads the log through carmen2rawlog with four workarounds (laser_peer_mrpt/
 # carmen_for_mrpt.sh); its pose after every scan is exported at the scan's CARMEN stamp.
-# Wall time: the replay command for Waymark (it reads the compressed log itself), icp-slam alone
-# for MRPT (the conversion is timed apart, in results.json). Needs mrpt-apps and mrpt-common
-# (installed here when missing and running as root).
+# Wall and CPU time: the replay command for Waymark (it reads the compressed log itself; CPU adds
+# the server's), icp-slam alone for MRPT (the conversion is timed apart, in results.json).
+# Needs mrpt-apps and mrpt-common (installed here when missing and running as root).
 set -euo pipefail
 HERE=$(cd "$(dirname "$0")" && pwd)
 TOOLS="$HERE/laser_peer_mrpt"
