@@ -20,6 +20,7 @@ set -euo pipefail
 LOG=$1
 DIR=$2
 mkdir -p "$DIR"
+: > "$DIR/params.txt"  # a ROBOTLASER1 log may have no PARAM line (its lines carry their geometry)
 # The log's PARAM lines then the geometry ones (2, 3) into params.txt; each laser line prefixed by
 # its stamp (third field from the end) into lasers.tsv for the sort (4).
 "$(dirname "$0")/cat_log.sh" "$LOG" | awk -v params="$DIR/params.txt" -v lasers="$DIR/lasers.tsv" '
