@@ -33,6 +33,12 @@ if [ -x "$BUILD_DIR/bin/waymark-laser-eval" ]; then
   "$BUILD_DIR/bin/waymark-laser-eval" --log "$LASER/aces/aces.clf.bz2" --max-active-segments 400 \
     --active-radius 1000 --freeze-after-scans 1000000 --json > "$OUT/laser_aces_active400.json"
 fi
+if command -v icp-slam > /dev/null; then
+  echo "== laser SLAM beside MRPT icp-slam (ACES, Intel; through the server; relations metric)"
+  "$(dirname "$0")/laser_peer_mrpt.sh" "$BUILD_DIR" --out "$OUT/laser_peer_mrpt"
+else
+  echo "== laser SLAM beside MRPT icp-slam: skipped (no icp-slam: apt-get install mrpt-apps mrpt-common)"
+fi
 echo "== active exploration vs wandering in the simulator (every world x mode x seed)"
 OUT="$OUT/explore" "$(dirname "$0")/explore_eval.sh" "$BUILD_DIR"
 echo "== robot loop: stop and resume latency when the server is killed under a driving robot"
