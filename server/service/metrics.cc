@@ -1,5 +1,7 @@
 #include "server/service/metrics.h"
 
+#include "server/service/thread_stack_floor.h"
+
 #include <arpa/inet.h>
 #include <netinet/in.h>
 #include <prometheus/client_metric.h>
@@ -263,6 +265,9 @@ absl::StatusOr<std::unique_ptr<Metrics>> StartMetrics(const std::string& listen,
   auto metrics = std::make_unique<Metrics>(sources);
   try {
     // civetweb reports a failed bind as an exception from the constructor.
+    // civetweb's threads get at least this much stack (thread_stack_floor.cc says why).
+    static_assert(kThreadStackFloor >= (1 << 20));
+    (void)ThreadStackFloor();
     metrics->exposer_ = std::make_unique<prometheus::Exposer>(listen, /*num_threads=*/2);
   } catch (const std::exception& e) {
     return absl::UnavailableError(
