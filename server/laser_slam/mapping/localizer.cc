@@ -38,7 +38,8 @@ absl::Status ValidateLocalizationOptions(const LocalizationOptions& o) {
                           std::isfinite(o.initial_pose->theta))) {
     return absl::InvalidArgumentError("initial_pose must be finite");
   }
-  if (o.query_nodes < 1 || o.query_nodes > 50 || o.global_depth < 0 || o.global_depth > 10 ||
+  if (o.query_nodes < 1 || o.query_nodes > 50 || o.track_query_nodes < 1 ||
+      o.track_query_nodes > o.query_nodes || o.global_depth < 0 || o.global_depth > 10 ||
       o.global_coarsening < 1 || o.global_coarsening > 8 ||
       !(o.min_score > 0 && o.min_score < 1) ||
       !(o.global_min_score > 0 && o.global_min_score < 1)) {
@@ -95,9 +96,15 @@ LocalizationResult MapLocalizer::AddScan(std::uint64_t scan, double stamp, const
   last_node_local_ = local;
   recent_.push_back({local, ThinPoints(points, options_.point_cell)});
   while (static_cast<int>(recent_.size()) > options_.query_nodes) recent_.pop_front();
-  PointCloud query;
-  for (const QueryNode& n : recent_) AppendTransformed(n.points, Relative(local, n.local), &query);
-  query = ThinPoints(query, options_.point_cell);
+  // The points of the newest `count` nodes, in the newest one's frame.
+  const auto query_of = [&](int count) {
+    PointCloud query;
+    for (int i = std::max(0, static_cast<int>(recent_.size()) - count);
+         i < static_cast<int>(recent_.size()); ++i) {
+      AppendTransformed(recent_[i].points, Relative(local, recent_[i].local), &query);
+    }
+    return ThinPoints(query, options_.point_cell);
+  };
 
   if (localized_ && travel_ - fix_travel_ > options_.lost_after_m) localized_ = false;
   const bool from_initial = !localized_ && corrections_.empty() && options_.initial_pose;
@@ -112,8 +119,9 @@ LocalizationResult MapLocalizer::AddScan(std::uint64_t scan, double stamp, const
     window.theta =
         3.0 * (from_initial ? options_.initial_sigma_theta
                             : options_.track_sigma_theta + options_.drift_theta_per_m * untied);
-    const std::optional<GridMatch> match = MatchInWindow(
-        pyramid_, query, Compose(correction, local), window, options_.min_score);
+    const std::optional<GridMatch> match =
+        MatchInWindow(pyramid_, query_of(options_.track_query_nodes), Compose(correction, local),
+                      window, options_.min_score);
     if (match && match->score >= options_.min_score) {
       Accept(scan, stamp, Compose(match->pose, Invert(local)), match->score);
     } else if (match) {
@@ -125,6 +133,7 @@ LocalizationResult MapLocalizer::AddScan(std::uint64_t scan, double stamp, const
     const Pose2 centre{grid.origin.x() + 0.5 * grid.width * grid.resolution,
                        grid.origin.y() + 0.5 * grid.height * grid.resolution, 0.0};
     const SearchWindow whole{0.5 * std::max(grid.width, grid.height) * grid.resolution, M_PI};
+    const PointCloud query = query_of(options_.query_nodes);
     std::optional<GridMatch> match =
         MatchInWindow(coarse_, ThinPoints(query, grid.resolution), centre, whole,
                       options_.global_min_score);

@@ -16,9 +16,6 @@ constexpr std::uint32_t kMagic = 0x5047574d;  // "MWGP"
 constexpr std::uint32_t kVersion = 1;
 // Submap pyramids kept between searches (a few MB each).
 constexpr size_t kPyramidCacheSize = 12;
-// When the thread falls this many nodes behind, it completes submaps but skips loop searches
-// until it has caught up: a late closure is worth less than a thread that keeps pace.
-constexpr size_t kMaxBacklogForSearch = 20;
 
 }  // namespace
 
@@ -59,7 +56,7 @@ void MappingBackend::AddScan(std::uint64_t scan, double stamp, const Pose2& loca
       return;
     }
   }
-  Process(index, true);
+  Process(index);
 }
 
 int MappingBackend::AppendNodeLocked(std::uint64_t scan, double stamp, const Pose2& local,
@@ -101,15 +98,17 @@ int MappingBackend::AppendNodeLocked(std::uint64_t scan, double stamp, const Pos
   return index;
 }
 
-void MappingBackend::Process(int index, bool search) {
+void MappingBackend::Process(int index) {
   std::lock_guard<std::mutex> one_at_a_time(search_mu_);
-  if (search && index % options_.search_every_nodes == 0) SearchLoops(index);
+  if (index % options_.search_every_nodes == 0) SearchLoops(index);
   bool due = false;
   {
     std::lock_guard<std::mutex> lock(mu_);
     due = closures_since_optimize_ >= options_.optimize_every_closures;
   }
-  if (due) Optimize();
+  if (due) Optimize(index);
+  std::lock_guard<std::mutex> lock(mu_);
+  processed_ = index;
 }
 
 void MappingBackend::SearchLoops(int index) {
@@ -219,42 +218,38 @@ std::shared_ptr<const SearchPyramid> MappingBackend::PyramidFor(int submap) {
   return pyramid;
 }
 
-void MappingBackend::Optimize() {
+void MappingBackend::Optimize(int upto) {
   const auto start = Clock::now();
   std::vector<Pose2> poses;
   std::vector<GraphConstraint> constraints;
+  std::vector<int> indices;  // of the copied constraints in constraints_
   {
+    // The graph of the nodes handled so far: nodes appended since (the thread is behind the
+    // stream) only follow their predecessor, so leaving them out changes nothing but makes the
+    // result independent of how far behind the thread is (a replay gives the same map however
+    // fast it is sent).
     std::lock_guard<std::mutex> lock(mu_);
-    poses.reserve(nodes_.size());
-    for (const Node& n : nodes_) poses.push_back(n.global);
-    constraints = constraints_;
+    poses.reserve(upto + 1);
+    for (int i = 0; i <= upto; ++i) poses.push_back(nodes_[i].global);
+    for (int i = 0; i < static_cast<int>(constraints_.size()); ++i) {
+      if (constraints_[i].from <= upto && constraints_[i].to <= upto) indices.push_back(i);
+    }
+    // In the order the inline back end would have added them (by newer node, chain first): the
+    // thread may have appended a chain constraint before a loop one that belongs earlier, and the
+    // order of residuals changes the solver's rounding.
+    std::stable_sort(indices.begin(), indices.end(), [&](int a, int b) {
+      const GraphConstraint& ca = constraints_[a];
+      const GraphConstraint& cb = constraints_[b];
+      return std::make_pair(ca.to, ca.kind) < std::make_pair(cb.to, cb.kind);
+    });
+    for (int i : indices) constraints.push_back(constraints_[i]);
     closures_since_optimize_ = 0;
   }
   GraphSolveOptions solve;
   solve.huber_scale = options_.huber_scale;
   solve.max_iterations = options_.max_iterations;
-  SolvePoseGraph(poses, constraints, solve);
-  // A loop constraint that the optimum cannot satisfy contradicts the others: switch it off and
-  // solve again (a few rounds; each round switches off the worst only, since one wrong closure
-  // can drag the residuals of its right neighbours up with it).
-  int switched_off = 0;
-  for (int round = 0; round < 5; ++round) {
-    int worst = -1;
-    double worst_residual = options_.outlier_residual;
-    for (int i = 0; i < static_cast<int>(constraints.size()); ++i) {
-      const GraphConstraint& c = constraints[i];
-      if (c.kind != GraphConstraint::Kind::kLoop || !c.enabled) continue;
-      const double r = ConstraintResidual(poses, c);
-      if (r > worst_residual) {
-        worst_residual = r;
-        worst = i;
-      }
-    }
-    if (worst < 0) break;
-    constraints[worst].enabled = false;
-    ++switched_off;
-    SolvePoseGraph(poses, constraints, solve);
-  }
+  const int switched_off =
+      SolveRejectingOutliers(poses, constraints, solve, options_.outlier_residual);
   std::lock_guard<std::mutex> lock(mu_);
   const size_t solved = poses.size();
   for (size_t i = 0; i < solved; ++i) nodes_[i].global = poses[i];
@@ -262,7 +257,12 @@ void MappingBackend::Optimize() {
     nodes_[i].global =
         Compose(nodes_[i - 1].global, Relative(nodes_[i - 1].local, nodes_[i].local));
   }
-  for (size_t i = 0; i < constraints.size(); ++i) constraints_[i].enabled = constraints[i].enabled;
+  for (size_t i = 0; i < constraints.size(); ++i) {
+    constraints_[indices[i]].enabled = constraints[i].enabled;
+  }
+  // Submap grids are rebuilt from the moved nodes when next needed, so that what a search sees
+  // depends only on the graph (a session resumed from its checkpoint searches the same grids).
+  pyramid_cache_.clear();
   ++revision_;
   ++stats_.optimizations;
   stats_.closures_switched_off += switched_off;
@@ -272,17 +272,15 @@ void MappingBackend::Optimize() {
 void MappingBackend::WorkerLoop() {
   for (;;) {
     int index = 0;
-    bool search = true;
     {
       std::unique_lock<std::mutex> lock(mu_);
       work_cv_.wait(lock, [&] { return stop_ || !queue_.empty(); });
       if (stop_) return;
       index = queue_.front();
       queue_.pop_front();
-      search = queue_.size() < kMaxBacklogForSearch;
       busy_ = true;
     }
-    Process(index, search);
+    Process(index);
     {
       std::lock_guard<std::mutex> lock(mu_);
       busy_ = false;
@@ -301,9 +299,9 @@ void MappingBackend::Flush() {
   bool due = false;
   {
     std::lock_guard<std::mutex> lock(mu_);
-    due = closures_since_optimize_ > 0;
+    due = closures_since_optimize_ > 0 && processed_ >= 0;
   }
-  if (due) Optimize();
+  if (due) Optimize(processed_);
 }
 
 int MappingBackend::NodeAtOrBeforeLocked(std::uint64_t scan) const {
@@ -481,6 +479,7 @@ absl::StatusOr<std::unique_ptr<MappingBackend>> MappingBackend::Deserialize(
   }
   if (!r.done()) return corrupt("trailing bytes");
   b.stats_.nodes = nodes;
+  b.processed_ = nodes - 1;
   b.stats_.submaps = static_cast<int>(b.submaps_.size());
   return backend;
 }

@@ -13,7 +13,9 @@
 // global(node) (+) (-)local(node) (+) pose.
 //
 // With threads = 1, submap grids, loop searches and optimisations run on the back end's own
-// thread, so AddScan only appends a node; with threads = 0 they run inside AddScan.
+// thread, so AddScan only appends a node; with threads = 0 they run inside AddScan. The thread
+// handles every node in order, however far behind the stream it falls (a replay sent at 100x
+// real time), and sees the graph as the inline back end would: both give the same map.
 // Thread-safe: every public method may be called from any thread.
 
 #include <condition_variable>
@@ -110,9 +112,10 @@ class MappingBackend {
                        const PointCloud& points);
   // Submap bookkeeping, the loop search for node `index` and, when due, an optimisation.
   // Takes mu_ itself, briefly.
-  void Process(int index, bool search);
+  void Process(int index);
   void SearchLoops(int index);
-  void Optimize();
+  // Optimises the graph of nodes [0, upto] and carries the later nodes along.
+  void Optimize(int upto);
   // The submap's points in its first node's frame, as a search pyramid (cached).
   std::shared_ptr<const SearchPyramid> PyramidFor(int submap);
   void WorkerLoop();
@@ -127,6 +130,7 @@ class MappingBackend {
   std::vector<GraphConstraint> constraints_;
   std::deque<int> queue_;   // nodes waiting for Process (threads = 1)
   bool busy_ = false;
+  int processed_ = -1;  // the newest node Process has handled
   bool stop_ = false;
   int closures_since_optimize_ = 0;
   double tie_travel_ = -1.0;  // travel at the last accepted loop closure (-1: none yet)

@@ -83,4 +83,29 @@ GraphSolveReport SolvePoseGraph(std::vector<Pose2>& poses,
   return report;
 }
 
+int SolveRejectingOutliers(std::vector<Pose2>& poses, std::vector<GraphConstraint>& constraints,
+                           const GraphSolveOptions& options, double outlier_residual,
+                           int max_rounds) {
+  SolvePoseGraph(poses, constraints, options);
+  int switched_off = 0;
+  for (int round = 0; round < max_rounds; ++round) {
+    int worst = -1;
+    double worst_residual = outlier_residual;
+    for (int i = 0; i < static_cast<int>(constraints.size()); ++i) {
+      const GraphConstraint& c = constraints[i];
+      if (c.kind != GraphConstraint::Kind::kLoop || !c.enabled) continue;
+      const double r = ConstraintResidual(poses, c);
+      if (r > worst_residual) {
+        worst_residual = r;
+        worst = i;
+      }
+    }
+    if (worst < 0) break;
+    constraints[worst].enabled = false;
+    ++switched_off;
+    SolvePoseGraph(poses, constraints, options);
+  }
+  return switched_off;
+}
+
 }  // namespace waymark::laser_slam

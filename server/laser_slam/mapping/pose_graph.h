@@ -43,6 +43,14 @@ GraphSolveReport SolvePoseGraph(std::vector<Pose2>& poses,
                                 const std::vector<GraphConstraint>& constraints,
                                 const GraphSolveOptions& options);
 
+// SolvePoseGraph, then: a loop constraint whose whitened residual at the optimum exceeds
+// `outlier_residual` contradicts the others; the worst one is switched off (enabled = false) and
+// the graph solved again, for up to `max_rounds` rounds (one at a time, since one wrong closure
+// can drag the residuals of its right neighbours up with it). Returns how many were switched off.
+int SolveRejectingOutliers(std::vector<Pose2>& poses, std::vector<GraphConstraint>& constraints,
+                           const GraphSolveOptions& options, double outlier_residual,
+                           int max_rounds = 5);
+
 // Whitened residual norm of one constraint at `poses`.
 double ConstraintResidual(const std::vector<Pose2>& poses, const GraphConstraint& constraint);
 

@@ -1,0 +1,362 @@
+// The loop-closing back end (server/laser_slam/mapping): pose graph, likelihood grids and
+// branch-and-bound matching, occupancy grids, localization, checkpoints. Synthetic data with known
+// answers; the real logs are in tests/realdata.
+
+#include <cmath>
+#include <random>
+#include <vector>
+
+#include <gtest/gtest.h>
+
+#include "server/laser_slam/geometry.h"
+#include "server/laser_slam/laser_slam.h"
+#include "server/laser_slam/mapping/correlative_matcher.h"
+#include "server/laser_slam/mapping/likelihood_grid.h"
+#include "server/laser_slam/mapping/localizer.h"
+#include "server/laser_slam/mapping/mapping_backend.h"
+#include "server/laser_slam/mapping/occupancy_grid.h"
+#include "server/laser_slam/mapping/point_cloud.h"
+#include "server/laser_slam/mapping/pose_graph.h"
+#include "tests/laser_slam/synthetic_scan.h"
+
+namespace waymark::laser_slam {
+namespace {
+
+using testing::Box;
+using testing::CastScan;
+using testing::Lms200Geometry;
+using testing::RayCastOptions;
+using testing::Wall;
+
+// An L-shaped room with a pillar: no symmetry, so a scan has one pose in it.
+std::vector<Wall> LRoom() {
+  std::vector<Wall> walls = {
+      {{0, 0}, {10, 0}}, {{10, 0}, {10, 4}}, {{10, 4}, {4, 4}},
+      {{4, 4}, {4, 9}},  {{4, 9}, {0, 9}},   {{0, 9}, {0, 0}},
+  };
+  for (const Wall& w : Box(6.5, 1.5, 7.0, 2.2)) walls.push_back(w);
+  return walls;
+}
+
+PointCloud PointsFrom(const std::vector<Wall>& walls, const Pose2& pose) {
+  RayCastOptions ray;
+  ray.sensor_range = 12.0;
+  const LaserScan scan = CastScan(walls, pose, Lms200Geometry(), ray, nullptr);
+  return ScanToPoints(scan, Pose2{}, 0.05, 12.0);
+}
+
+// ---- pose graph ------------------------------------------------------------------------------
+
+struct SquareLoop {
+  std::vector<Pose2> truth;
+  std::vector<Pose2> drifted;  // dead reckoning of the biased chain
+  std::vector<GraphConstraint> constraints;
+};
+
+// A robot drives a 10 m square, one node every metre; the chain's measured steps turn 0.01 rad
+// too much per step, so the chained poses drift; the last node sees the first (a true closure).
+SquareLoop MakeSquareLoop() {
+  SquareLoop loop;
+  Pose2 pose;
+  for (int side = 0; side < 4; ++side) {
+    for (int i = 0; i < 10; ++i) {
+      loop.truth.push_back(pose);
+      const bool corner = i == 9;
+      pose = Compose(pose, Pose2{1.0, 0.0, corner ? M_PI / 2 : 0.0});
+    }
+  }
+  loop.truth.push_back(pose);  // back at the start
+  loop.drifted.push_back(loop.truth.front());
+  for (size_t i = 1; i < loop.truth.size(); ++i) {
+    GraphConstraint chain;
+    chain.from = static_cast<int>(i) - 1;
+    chain.to = static_cast<int>(i);
+    chain.relative = Relative(loop.truth[i - 1], loop.truth[i]);
+    chain.relative.theta += 0.01;  // the bias
+    chain.sigma = Eigen::Vector3d(0.05, 0.05, 0.02);
+    loop.constraints.push_back(chain);
+    loop.drifted.push_back(Compose(loop.drifted.back(), chain.relative));
+  }
+  GraphConstraint closure;
+  closure.kind = GraphConstraint::Kind::kLoop;
+  closure.from = 0;
+  closure.to = static_cast<int>(loop.truth.size()) - 1;
+  closure.relative = Relative(loop.truth.front(), loop.truth.back());
+  closure.sigma = Eigen::Vector3d(0.01, 0.01, 0.005);
+  loop.constraints.push_back(closure);
+  return loop;
+}
+
+double WorstError(const std::vector<Pose2>& a, const std::vector<Pose2>& b) {
+  double worst = 0.0;
+  for (size_t i = 0; i < a.size(); ++i) worst = std::max(worst, std::hypot(a[i].x - b[i].x, a[i].y - b[i].y));
+  return worst;
+}
+
+TEST(PoseGraphTest, ASquareLoopWithItsClosureRecoversTheTruth) {
+  SquareLoop loop = MakeSquareLoop();
+  std::vector<Pose2> poses = loop.drifted;
+  const double before = WorstError(poses, loop.truth);
+  ASSERT_GT(before, 2.0);  // 40 steps of 0.01 rad: metres off at the far corner
+  const GraphSolveReport report = SolvePoseGraph(poses, loop.constraints, GraphSolveOptions{});
+  EXPECT_LT(report.final_cost, report.initial_cost);
+  // The bias is spread over the loop: what remains is the inconsistency of a 0.01 rad bias per
+  // step, a few centimetres, against metres before.
+  EXPECT_LT(WorstError(poses, loop.truth), 0.15) << "before: " << before;
+  // The first node is the gauge.
+  EXPECT_EQ(poses.front().x, 0.0);
+  EXPECT_EQ(poses.front().theta, 0.0);
+}
+
+TEST(PoseGraphTest, AWrongClosureIsSwitchedOffAndTheRightOneKept) {
+  SquareLoop loop = MakeSquareLoop();
+  // A second closure, 3 m and 0.5 rad off, from the middle of the second side to the start.
+  GraphConstraint wrong = loop.constraints.back();
+  wrong.to = 15;
+  wrong.relative = Relative(loop.truth.front(), loop.truth[15]);
+  wrong.relative.x += 3.0;
+  wrong.relative.theta += 0.5;
+  loop.constraints.push_back(wrong);
+  std::vector<Pose2> poses = loop.drifted;
+  const int switched_off =
+      SolveRejectingOutliers(poses, loop.constraints, GraphSolveOptions{}, /*outlier_residual=*/5.0);
+  EXPECT_EQ(switched_off, 1);
+  EXPECT_FALSE(loop.constraints.back().enabled);
+  EXPECT_TRUE(loop.constraints[loop.constraints.size() - 2].enabled);
+  EXPECT_LT(WorstError(poses, loop.truth), 0.15);
+
+  // Without the switch-off the Huber loss only bounds the damage: the map is bent.
+  std::vector<Pose2> bent = loop.drifted;
+  for (GraphConstraint& c : loop.constraints) c.enabled = true;
+  SolvePoseGraph(bent, loop.constraints, GraphSolveOptions{});
+  EXPECT_GT(WorstError(bent, loop.truth), WorstError(poses, loop.truth));
+}
+
+// ---- grids and matching ----------------------------------------------------------------------
+
+TEST(LikelihoodGridTest, PyramidLevelsHoldTheMaximumOfTheirWindow) {
+  std::mt19937 rng(3);
+  std::uniform_real_distribution<float> u(0.0f, 3.0f);
+  PointCloud points;
+  for (int i = 0; i < 40; ++i) points.emplace_back(u(rng), u(rng));
+  const LikelihoodGrid grid = BuildLikelihoodGrid(points, 0.05, 0.05);
+  const SearchPyramid pyramid(grid, 3);
+  ASSERT_EQ(pyramid.depth(), 3);
+  for (int level = 0; level <= 3; ++level) {
+    const int w = 1 << level;
+    for (int y = -w; y < grid.height; y += 7) {
+      for (int x = -w; x < grid.width; x += 5) {
+        std::uint8_t expected = 0;
+        for (int dy = 0; dy < w; ++dy) {
+          for (int dx = 0; dx < w; ++dx) expected = std::max(expected, grid.At(x + dx, y + dy));
+        }
+        ASSERT_EQ(pyramid.At(level, x, y), expected) << "level " << level << " at " << x << "," << y;
+      }
+    }
+  }
+  // The field peaks on the points and falls off away from them.
+  EXPECT_GT(grid.Interpolate(points[0].x(), points[0].y()), 0.8);
+  EXPECT_EQ(grid.Interpolate(100.0, 100.0), 0.0);
+}
+
+TEST(CorrelativeMatcherTest, FindsTheScanPoseInTheMapWithinTheWindow) {
+  const std::vector<Wall> room = LRoom();
+  const Pose2 truth{2.3, 2.1, 0.4};
+  const PointCloud map_points = TransformPoints(PointsFrom(room, Pose2{5.0, 1.5, 2.5}), Pose2{5.0, 1.5, 2.5});
+  PointCloud all = map_points;
+  AppendTransformed(PointsFrom(room, Pose2{1.5, 6.0, -1.2}), Pose2{1.5, 6.0, -1.2}, &all);
+  const SearchPyramid map(BuildLikelihoodGrid(ThinPoints(all, 0.05), 0.05, 0.05), 6);
+  const PointCloud scan = ThinPoints(PointsFrom(room, truth), 0.05);
+  // Start 0.8 m and 0.25 rad away.
+  const Pose2 guess{truth.x + 0.6, truth.y - 0.5, truth.theta - 0.25};
+  const std::optional<GridMatch> match = MatchInWindow(map, scan, guess, SearchWindow{1.0, 0.4}, 0.5);
+  ASSERT_TRUE(match.has_value());
+  // Within a cell: the map's points sit where its own beams fell, not where this scan's do.
+  EXPECT_NEAR(match->pose.x, truth.x, 0.05);
+  EXPECT_NEAR(match->pose.y, truth.y, 0.05);
+  EXPECT_NEAR(match->pose.theta, truth.theta, 0.02);
+  EXPECT_GT(match->score, 0.5);
+
+  // Branch and bound finds what the exhaustive search (depth 0) finds, with fewer candidates.
+  const SearchPyramid flat(BuildLikelihoodGrid(ThinPoints(all, 0.05), 0.05, 0.05), 0);
+  const std::optional<GridMatch> exhaustive = MatchInWindow(flat, scan, guess, SearchWindow{1.0, 0.4}, 0.5);
+  ASSERT_TRUE(exhaustive.has_value());
+  EXPECT_NEAR(exhaustive->pose.x, match->pose.x, 1e-9);
+  EXPECT_NEAR(exhaustive->pose.y, match->pose.y, 1e-9);
+  EXPECT_NEAR(exhaustive->pose.theta, match->pose.theta, 1e-9);
+  EXPECT_LT(match->candidates * 5, exhaustive->candidates);
+
+  // Outside the window, or above any score it reaches: nothing, never a wrong pose.
+  EXPECT_FALSE(MatchInWindow(map, scan, Pose2{truth.x + 3, truth.y, truth.theta}, SearchWindow{0.5, 0.1}, 0.8));
+  EXPECT_FALSE(MatchInWindow(map, scan, guess, SearchWindow{1.0, 0.4}, 0.999));
+}
+
+TEST(OccupancyGridTest, WallsAreOccupiedTheRoomFreeAndTheOutsideUnknown) {
+  const std::vector<Wall> room = Box(0, 0, 6, 4);
+  std::vector<NodeView> nodes;
+  for (const Pose2& p : {Pose2{1.5, 2.0, 0.0}, Pose2{4.5, 2.0, M_PI}}) {
+    nodes.push_back(NodeView{1, 0.0, p, std::make_shared<const PointCloud>(PointsFrom(room, p))});
+  }
+  absl::StatusOr<OccupancyGrid> grid = RenderOccupancy(nodes, 0.05);
+  ASSERT_TRUE(grid.ok()) << grid.status();
+  const auto at = [&](double x, double y) {
+    return grid->At(static_cast<int>(std::floor((x - grid->origin.x()) / 0.05)),
+                    static_cast<int>(std::floor((y - grid->origin.y()) / 0.05)));
+  };
+  // The most occupied of the cells around (x, y): a wall point may fall either side of a border.
+  const auto wall_at = [&](double x, double y) {
+    int best = -1;
+    for (double dx : {-0.05, 0.0, 0.05}) {
+      for (double dy : {-0.05, 0.0, 0.05}) best = std::max<int>(best, at(x + dx, y + dy));
+    }
+    return best;
+  };
+  EXPECT_LE(at(3.0, 2.0), 19);      // the middle of the room: free by map_server's 0.196
+  EXPECT_GE(at(3.0, 2.0), 0);
+  EXPECT_GE(wall_at(3.0, 0.0), 65);  // the bottom wall
+  EXPECT_GE(wall_at(6.0, 2.0), 65);  // the right wall
+  EXPECT_EQ(at(3.0, -0.07), -1);     // behind the wall (the grid's margin): never seen
+  // The grid spans the points with a small margin.
+  EXPECT_LT(grid->origin.x(), 0.0);
+  EXPECT_GT(grid->origin.x() + grid->width * 0.05, 6.0);
+  EXPECT_NEAR(grid->width * 0.05, 6.0, 0.3);
+
+  // Occupied cells back as points: on the walls.
+  const PointCloud occupied = OccupiedPoints(*grid);
+  ASSERT_FALSE(occupied.empty());
+  for (const Eigen::Vector2f& p : occupied) {
+    const double to_wall = std::min({std::abs(p.x()), std::abs(p.x() - 6.0f), std::abs(p.y()),
+                                     std::abs(p.y() - 4.0f)});
+    EXPECT_LT(to_wall, 0.1) << p.transpose();
+  }
+
+  // A map too large for the resolution is refused with the resolution that fits.
+  nodes.push_back(NodeView{2, 0.0, Pose2{900.0, 900.0, 0.0}, nodes[0].points});
+  absl::StatusOr<OccupancyGrid> huge = RenderOccupancy(nodes, 0.05);
+  EXPECT_EQ(huge.status().code(), absl::StatusCode::kResourceExhausted);
+  EXPECT_NE(huge.status().message().find("resolution of at least"), std::string::npos);
+}
+
+// ---- localization ----------------------------------------------------------------------------
+
+PointCloud LRoomMap() {
+  PointCloud map;
+  for (const Pose2& p : {Pose2{2.0, 2.0, 0.0}, Pose2{7.0, 2.0, M_PI}, Pose2{2.0, 7.0, -M_PI / 2}}) {
+    AppendTransformed(PointsFrom(LRoom(), p), p, &map);
+  }
+  return map;
+}
+
+TEST(MapLocalizerTest, AnUnknownStartIsFoundByTwoAgreeingGlobalSearches) {
+  LocalizationOptions options;  // no initial pose
+  absl::StatusOr<std::unique_ptr<MapLocalizer>> localizer = MapLocalizer::Create(options, LRoomMap());
+  ASSERT_TRUE(localizer.ok()) << localizer.status();
+  // The robot starts at an unknown pose; its local frame is its start.
+  const Pose2 start{2.5, 3.0, 0.8};
+  LocalizationResult result;
+  std::uint64_t scan = 0;
+  for (int i = 0; i < 4; ++i) {
+    const Pose2 local{0.3 * i, 0.0, 0.0};
+    const Pose2 truth = Compose(start, local);
+    result = (*localizer)->AddScan(++scan, i, local, PointsFrom(LRoom(), truth));
+    if (i == 0) {
+      EXPECT_TRUE(result.global_search);
+      EXPECT_FALSE(result.localized);  // one match is not enough
+    }
+  }
+  ASSERT_TRUE(result.localized);
+  const Pose2 found = (*localizer)->ToMap(scan, Pose2{0.9, 0.0, 0.0});
+  const Pose2 truth = Compose(start, Pose2{0.9, 0.0, 0.0});
+  EXPECT_NEAR(found.x, truth.x, 0.05);
+  EXPECT_NEAR(found.y, truth.y, 0.05);
+  EXPECT_NEAR(found.theta, truth.theta, 0.02);
+  // Retroactively, the first scans are in the map frame too.
+  EXPECT_NEAR((*localizer)->ToMap(1, Pose2{}).x, start.x, 0.05);
+
+  // Tracking: odometry 10 % long is corrected by each match.
+  Pose2 local{0.9, 0.0, 0.0};
+  Pose2 truth_pose = truth;
+  for (int i = 0; i < 6; ++i) {
+    truth_pose = Compose(truth_pose, Pose2{0.3, 0.0, 0.05});
+    local = Compose(local, Pose2{0.33, 0.0, 0.05});  // odometry says 0.33 m
+    result = (*localizer)->AddScan(++scan, 10 + i, local, PointsFrom(LRoom(), truth_pose));
+    EXPECT_TRUE(result.localized);
+    EXPECT_FALSE(result.global_search);
+  }
+  const Pose2 tracked = (*localizer)->ToMap(scan, local);
+  EXPECT_NEAR(tracked.x, truth_pose.x, 0.05);
+  EXPECT_NEAR(tracked.y, truth_pose.y, 0.05);
+}
+
+TEST(MapLocalizerTest, AKnownStartTracksAtOnceAndTheStateSurvivesACheckpoint) {
+  LocalizationOptions options;
+  const Pose2 start{7.5, 1.0, 2.0};
+  options.initial_pose = Pose2{7.3, 1.2, 1.9};  // 0.3 m and 0.1 rad off, within 3 sigma
+  absl::StatusOr<std::unique_ptr<MapLocalizer>> localizer = MapLocalizer::Create(options, LRoomMap());
+  ASSERT_TRUE(localizer.ok());
+  const LocalizationResult first = (*localizer)->AddScan(1, 0.0, Pose2{}, PointsFrom(LRoom(), start));
+  EXPECT_TRUE(first.localized);
+  EXPECT_FALSE(first.global_search);
+  EXPECT_NEAR((*localizer)->ToMap(1, Pose2{}).x, start.x, 0.05);
+
+  absl::StatusOr<std::unique_ptr<MapLocalizer>> resumed = MapLocalizer::Create(options, LRoomMap());
+  ASSERT_TRUE(resumed.ok());
+  ASSERT_TRUE((*resumed)->Restore((*localizer)->Serialize()).ok());
+  EXPECT_TRUE((*resumed)->last().localized);
+  EXPECT_NEAR((*resumed)->ToMap(1, Pose2{}).x, (*localizer)->ToMap(1, Pose2{}).x, 1e-12);
+  std::string bytes = (*localizer)->Serialize();
+  EXPECT_EQ((*resumed)->Restore(bytes.substr(0, bytes.size() - 3)).code(),
+            absl::StatusCode::kDataLoss);
+
+  EXPECT_EQ(MapLocalizer::Create(options, PointCloud{}).status().code(),
+            absl::StatusCode::kFailedPrecondition);
+}
+
+// ---- the back end in a session ---------------------------------------------------------------
+
+TEST(MappingBackendTest, NodesFollowTheTravelAndTheCheckpointRestoresTheGraph) {
+  MappingOptions options;
+  options.submap_nodes = 3;
+  MappingBackend backend(options);
+  const PointCloud points = PointsFrom(LRoom(), Pose2{2, 2, 0});
+  std::uint64_t scan = 0;
+  for (int i = 0; i < 20; ++i) backend.AddScan(++scan, i, Pose2{0.05 * i, 0, 0}, points);
+  // 0.95 m of travel, a node every 0.25 m: the first scan and then every fifth.
+  EXPECT_EQ(backend.Stats().nodes, 4);
+  EXPECT_EQ(backend.Stats().submaps, 2);
+  // Between nodes a local pose maps through the correction of the node before it.
+  const Pose2 p = backend.ToGlobal(7, Pose2{0.3, 0.0, 0.0});
+  EXPECT_NEAR(p.x, 0.3, 1e-12);
+
+  absl::StatusOr<std::unique_ptr<MappingBackend>> restored =
+      MappingBackend::Deserialize(options, backend.Serialize());
+  ASSERT_TRUE(restored.ok()) << restored.status();
+  EXPECT_EQ((*restored)->Serialize(), backend.Serialize());
+  EXPECT_EQ((*restored)->Nodes().size(), 4u);
+  const std::string bytes = backend.Serialize();
+  EXPECT_EQ(MappingBackend::Deserialize(options, bytes.substr(0, bytes.size() - 1)).status().code(),
+            absl::StatusCode::kDataLoss);
+  EXPECT_EQ(MappingBackend::Deserialize(options, "garbage").status().code(),
+            absl::StatusCode::kDataLoss);
+}
+
+TEST(MappingBackendTest, TheThreadedBackEndAgreesWithTheInlineOneAfterFlush) {
+  MappingOptions inline_options, threaded_options;
+  threaded_options.threads = 1;
+  MappingBackend inline_backend(inline_options), threaded(threaded_options);
+  std::uint64_t scan = 0;
+  for (int i = 0; i < 60; ++i) {
+    const Pose2 pose{0.1 * i, 0.0, 0.0};
+    const PointCloud points = PointsFrom(LRoom(), Compose(Pose2{1.0, 1.0, 0.0}, pose));
+    ++scan;
+    inline_backend.AddScan(scan, i, pose, points);
+    threaded.AddScan(scan, i, pose, points);
+  }
+  threaded.Flush();
+  EXPECT_EQ(threaded.Stats().pending_nodes, 0);
+  EXPECT_EQ(threaded.Stats().nodes, inline_backend.Stats().nodes);
+  EXPECT_EQ(threaded.Serialize(), inline_backend.Serialize());
+}
+
+}  // namespace
+}  // namespace waymark::laser_slam
