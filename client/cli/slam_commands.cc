@@ -131,6 +131,12 @@ int RunImportMap(CommandContext& context, const ImportMapArgs& args) {
   if (!grid.ok()) return ReportError(context, grid.status());
   const std::string name = args.name.empty() ? "import of " + args.yaml : args.name;
   auto session = context.ConnectSlam()->ImportMap(args.robot_id, name, *grid);
+  if (absl::IsUnimplemented(session.status())) {
+    return ReportError(
+        context,
+        absl::UnimplementedError("the server does not import maps: it is older than this client"),
+        "ImportMap");
+  }
   if (!session.ok()) return ReportError(context, session.status(), "ImportMap");
   if (context.globals.json) {
     nlohmann::json json = ProtoToJson(*session);

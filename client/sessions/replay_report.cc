@@ -65,6 +65,7 @@ std::optional<double> TimeToFirstFix(const ReplayReport& report) {
 nlohmann::json LocalizationJson(const ReplayReport& report) {
   return {{"map_session_id", report.localize_map},
           {"localized_scans", report.localized_scans},
+          {"answers_with_status", report.localization_statuses},
           {"first_fix_scan", report.first_fix_scan ? nlohmann::json(*report.first_fix_scan)
                                                    : nlohmann::json(nullptr)},
           {"first_fix_stamp", OptionalJson(report.first_fix_stamp)},
@@ -78,6 +79,10 @@ std::string LocalizationText(const ReplayReport& report) {
   if (report.first_fix_scan && report.first_fix_stamp) {
     text += fmt::format(", first fix at scan {} (stamp {:.3f}, {:.2f} s after the first scan)",
                         *report.first_fix_scan, *report.first_fix_stamp, *TimeToFirstFix(report));
+  } else if (report.scans_answered > 0 && report.localization_statuses == 0) {
+    text +=
+        ": no answer carried a localization status (a server older than --localize-on maps "
+        "instead)";
   } else {
     text += ", never localized";
   }

@@ -101,6 +101,9 @@ struct ReplayReport {
   // (its index among the answered scans, 0 = the first, and its stamp): the time to first fix.
   std::string localize_map;  // the map session; empty for a mapping session
   uint64_t localized_scans = 0;
+  // Answers that carried a localization status at all: none means the server did not localize
+  // (one older than LaserSlamConfig.localize ignores it and maps).
+  uint64_t localization_statuses = 0;
   std::optional<uint64_t> first_fix_scan;
   std::optional<double> first_fix_stamp;
 

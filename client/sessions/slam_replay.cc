@@ -125,6 +125,7 @@ class Answers {
       return;
     }
     if (update.skipped()) ++skipped_motion_;
+    if (update.has_localization()) ++localization_statuses_;
     if (update.localization().localized()) {
       ++localized_;
       if (!first_fix_) first_fix_ = Fix{answered_, update.stamp()};
@@ -145,6 +146,7 @@ class Answers {
 
   std::vector<std::string> rejections() const { return Locked(rejections_); }
   uint64_t localized() const { return Locked(localized_); }
+  uint64_t localization_statuses() const { return Locked(localization_statuses_); }
   std::optional<Fix> first_fix() const { return Locked(first_fix_); }
   std::vector<double> server_ms() const { return Locked(server_ms_); }
   uint64_t skipped_motion() const { return Locked(skipped_motion_); }
@@ -163,6 +165,7 @@ class Answers {
   uint64_t skipped_motion_ = 0;
   uint64_t answered_ = 0;  // scans answered without a rejection
   uint64_t localized_ = 0;
+  uint64_t localization_statuses_ = 0;  // answers that carry a LocalizationStatus
   std::optional<Fix> first_fix_;
   v1::Trajectory trajectory_;
 };
@@ -418,6 +421,7 @@ int RunSlamReplay(CommandContext& context, const ReplayArgs& args, const StopReq
   if (args.localize) {
     report.localize_map = args.localize->map_session_id();
     report.localized_scans = answers.localized();
+    report.localization_statuses = answers.localization_statuses();
     if (const std::optional<Answers::Fix> fix = answers.first_fix()) {
       report.first_fix_scan = fix->scan;
       report.first_fix_stamp = fix->stamp;

@@ -78,7 +78,7 @@ grpc::Status FakeSlamService::CreateSession(grpc::ServerContext*,
   }
   const std::string id = "s" + std::to_string(next_id_++);
   SessionData& session = sessions_[id];
-  session.localizing = !map_id.empty();
+  session.localizing = !map_id.empty() && !ignore_localize_;
   session.info.set_session_id(id);
   session.info.set_robot_id(request->robot_id());
   session.info.set_name(request->name());
@@ -396,21 +396,19 @@ grpc::Status FakeSlamService::DeleteSession(grpc::ServerContext*,
   return grpc::Status::OK;
 }
 
-bool FakeSlamService::CountCall(const std::string& method) {
+grpc::Status FakeSlamService::CountCall(const std::string& method) {
   ++calls_[method];
-  int& failures = fail_next_[method];
-  if (failures <= 0) return false;
-  --failures;
-  return true;
+  Failures& failures = fail_next_[method];
+  if (failures.times <= 0) return grpc::Status::OK;
+  --failures.times;
+  return grpc::Status(failures.code, "fake: injected failure");
 }
 
 grpc::Status FakeSlamService::GetOccupancyGrid(grpc::ServerContext*,
                                                const v1::GetOccupancyGridRequest* request,
                                                v1::OccupancyGrid* response) {
   std::lock_guard<std::mutex> lock(mutex_);
-  if (CountCall("GetOccupancyGrid")) {
-    return grpc::Status(grpc::StatusCode::UNAVAILABLE, "fake: injected outage");
-  }
+  if (grpc::Status injected = CountCall("GetOccupancyGrid"); !injected.ok()) return injected;
   if (session_calls_fail_ != grpc::StatusCode::OK) {
     return grpc::Status(session_calls_fail_, "fake: session calls fail on purpose");
   }
@@ -437,9 +435,7 @@ grpc::Status FakeSlamService::GetOccupancyGrid(grpc::ServerContext*,
 grpc::Status FakeSlamService::ImportMap(grpc::ServerContext*, const v1::ImportMapRequest* request,
                                         v1::Session* response) {
   std::lock_guard<std::mutex> lock(mutex_);
-  if (CountCall("ImportMap")) {
-    return grpc::Status(grpc::StatusCode::UNAVAILABLE, "fake: injected outage");
-  }
+  if (grpc::Status injected = CountCall("ImportMap"); !injected.ok()) return injected;
   last_import_ = *request;
   const v1::OccupancyGrid& grid = request->grid();
   if (grid.width() == 0 || grid.height() == 0 ||

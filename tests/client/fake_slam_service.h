@@ -51,11 +51,19 @@ class FakeSlamService final : public v1::SlamService::Service {
     std::lock_guard<std::mutex> lock(mutex_);
     localized_from_scan_ = scan;
   }
-  // The next `times` calls of `method` ("GetOccupancyGrid" or "ImportMap") fail with UNAVAILABLE
-  // before reaching the service, as a dropped connection does.
-  void FailNextWithUnavailable(const std::string& method, int times) {
+  // The next `times` calls of `method` ("GetOccupancyGrid" or "ImportMap") fail with `code`
+  // before reaching the service: UNAVAILABLE as a dropped connection, UNIMPLEMENTED as a server
+  // older than the RPC.
+  void FailNext(const std::string& method, int times,
+                grpc::StatusCode code = grpc::StatusCode::UNAVAILABLE) {
     std::lock_guard<std::mutex> lock(mutex_);
-    fail_next_[method] = times;
+    fail_next_[method] = {times, code};
+  }
+  // Sessions created with LaserSlamConfig.localize map instead and answer no localization status,
+  // as a server older than the field.
+  void set_ignore_localize(bool ignore) {
+    std::lock_guard<std::mutex> lock(mutex_);
+    ignore_localize_ = ignore;
   }
   // Calls of "GetOccupancyGrid" or "ImportMap" received, failed ones included.
   int calls(const std::string& method) const {
@@ -159,8 +167,8 @@ class FakeSlamService final : public v1::SlamService::Service {
     bool localizing = false;                    // created with LaserSlamConfig.localize
     uint32_t fixes = 0;
   };
-  // Counts a call of `method` and says whether it is one set to fail (FailNextWithUnavailable).
-  bool CountCall(const std::string& method);
+  // Counts a call of `method`; the status to fail it with (FailNext), or OK to serve it.
+  grpc::Status CountCall(const std::string& method);
   // The session as a stream finds it when it attaches.
   static v1::StreamStart StartOf(const SessionData& session);
   // Forgets everything after the first `scans` scans (set_rollback_on_break).
@@ -189,7 +197,12 @@ class FakeSlamService final : public v1::SlamService::Service {
   std::optional<v1::OccupancyGrid> grid_;
   grpc::StatusCode grid_answer_ = grpc::StatusCode::OK;
   int localized_from_scan_ = 3;
-  std::map<std::string, int> fail_next_;
+  struct Failures {
+    int times = 0;
+    grpc::StatusCode code = grpc::StatusCode::UNAVAILABLE;
+  };
+  std::map<std::string, Failures> fail_next_;
+  bool ignore_localize_ = false;
   std::map<std::string, int> calls_;
   std::optional<double> last_grid_resolution_;
   v1::ImportMapRequest last_import_;

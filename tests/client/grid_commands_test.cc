@@ -90,7 +90,7 @@ TEST_F(GridCommandsTest, GetOccupancyGridIsRetriedAndImportMapIsNot) {
   EXPECT_EQ(server_.service().last_import().robot_id(), "r1");
   EXPECT_EQ(server_.service().last_import().name(), "hall");
 
-  server_.service().FailNextWithUnavailable("GetOccupancyGrid", 2);
+  server_.service().FailNext("GetOccupancyGrid", 2);
   auto grid = client.GetOccupancyGrid(imported->session_id(), 0.1);
   ASSERT_TRUE(grid.ok()) << grid.status();
   EXPECT_EQ(server_.service().calls("GetOccupancyGrid"), 3);
@@ -99,7 +99,7 @@ TEST_F(GridCommandsTest, GetOccupancyGridIsRetriedAndImportMapIsNot) {
   ASSERT_TRUE(client.GetOccupancyGrid(imported->session_id()).ok());
   EXPECT_EQ(server_.service().last_grid_resolution(), std::nullopt);
 
-  server_.service().FailNextWithUnavailable("ImportMap", 1);
+  server_.service().FailNext("ImportMap", 1);
   const int before = server_.service().calls("ImportMap");
   EXPECT_EQ(client.ImportMap("r1", "again", TestGrid()).status().code(),
             absl::StatusCode::kUnavailable);
@@ -238,11 +238,17 @@ TEST_F(GridCommandsTest, ImportMapErrorsNameTheFileAndCallNoServer) {
 
   // A refusal by the server is reported as such (and a write is not retried).
   ASSERT_TRUE(WriteRosMap(TestGrid(), dir_.path() / "saved").ok());
-  server_.service().FailNextWithUnavailable("ImportMap", 1);
+  server_.service().FailNext("ImportMap", 1);
   CliResult down = Run({"slam", "import-map", (dir_.path() / "saved" / "map.yaml").string()});
   EXPECT_EQ(down.code, 1);
   EXPECT_THAT(down.err, HasSubstr("UNAVAILABLE"));
   EXPECT_EQ(server_.service().calls("ImportMap"), 1);
+
+  server_.service().FailNext("ImportMap", 1, grpc::StatusCode::UNIMPLEMENTED);
+  CliResult old = Run({"slam", "import-map", (dir_.path() / "saved" / "map.yaml").string()});
+  EXPECT_EQ(old.code, 1);
+  EXPECT_THAT(old.err, HasSubstr("error: UNIMPLEMENTED: the server does not import maps: it is "
+                                 "older than this client (ImportMap)"));
 }
 
 TEST_F(GridCommandsTest, ReplayWritesTheGridIntoItsFolder) {

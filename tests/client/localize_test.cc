@@ -71,6 +71,7 @@ TEST_F(LocalizeTest, ReplayCreatesALocalizationSessionAndReportsTheFirstFix) {
   const nlohmann::json localization = r.Json()["localization"];
   EXPECT_EQ(localization["map_session_id"], "s1");
   EXPECT_EQ(localization["localized_scans"], 18);
+  EXPECT_EQ(localization["answers_with_status"], 20);
   EXPECT_EQ(localization["first_fix_scan"], 2);
   EXPECT_NEAR(localization["first_fix_stamp"].get<double>(), 1000.4, 1e-6);
   EXPECT_NEAR(localization["time_to_first_fix_s"].get<double>(), 0.4, 1e-6);
@@ -98,6 +99,18 @@ TEST_F(LocalizeTest, AReplayThatNeverLocalizesSaysSo) {
       {"slam", "replay", Log(10), "--out", (dir_.path() / "h").string(), "--localize-on", "s1"});
   EXPECT_THAT(human.out, HasSubstr("localization on map s1: 0 of 10 scans localized, never "
                                    "localized"));
+}
+
+TEST_F(LocalizeTest, AServerThatDoesNotLocalizeIsNotTakenForOneThatNeverLocalized) {
+  server_.service().set_ignore_localize(true);  // older than LaserSlamConfig.localize: it maps
+  CliResult r = Run({"--json", "slam", "replay", Log(10), "--out", (dir_.path() / "o").string(),
+                     "--localize-on", "s1"});
+  ASSERT_EQ(r.code, 0) << r.err;
+  EXPECT_EQ(r.Json()["localization"]["answers_with_status"], 0);
+  CliResult human = Run(
+      {"slam", "replay", Log(10), "--out", (dir_.path() / "h").string(), "--localize-on", "s1"});
+  EXPECT_THAT(human.out, HasSubstr("0 of 10 scans localized: no answer carried a localization "
+                                   "status (a server older than --localize-on maps instead)"));
 }
 
 TEST_F(LocalizeTest, AMappingReplayHasNoLocalizationReport) {
