@@ -11,7 +11,8 @@
 // 0.196, so a grid of -1 / 0 / 100 cells reads back unchanged and other values are quantised to
 // those three. Reading follows map_server: p = (255 - pixel) / 255 (pixel / 255 with negate),
 // occupied (100) if p > occupied_thresh, free (0) if p < free_thresh, else unknown (-1) in
-// trinary mode or in proportion in scale mode; raw mode takes the pixel as the cell.
+// trinary mode or in proportion in scale mode; raw mode takes the pixel as the cell (0..100; any
+// other value unknown).
 
 #include <cstdint>
 #include <filesystem>

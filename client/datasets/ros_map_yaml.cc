@@ -21,18 +21,20 @@ struct Entry {
 };
 using Entries = std::map<std::string, Entry>;
 
-// The line without a '#' comment: one at its start or after whitespace, outside quotes (YAML's
-// rule; "a#b" is a value).
+// The line without a '#' comment: one at its start or after whitespace, outside a quoted scalar
+// (YAML's rule: "a#b" is a value, and so is "'a # b'"). A quote opens a scalar only where a value
+// starts (after whitespace or ':'), so the apostrophe of "bob's" opens nothing.
 absl::string_view WithoutComment(absl::string_view line) {
   char quote = 0;
   for (size_t i = 0; i < line.size(); ++i) {
     const char c = line[i];
+    const bool token_start = i == 0 || line[i - 1] == ':' ||
+                             absl::ascii_isspace(static_cast<unsigned char>(line[i - 1]));
     if (quote != 0) {
       if (c == quote) quote = 0;
-    } else if (c == '"' || c == '\'') {
+    } else if ((c == '"' || c == '\'') && token_start) {
       quote = c;
-    } else if (c == '#' &&
-               (i == 0 || absl::ascii_isspace(static_cast<unsigned char>(line[i - 1])))) {
+    } else if (c == '#' && token_start) {
       return line.substr(0, i);
     }
   }

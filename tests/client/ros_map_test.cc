@@ -258,7 +258,8 @@ TEST(RosMapTest, ScaleAndRawModes) {
 TEST(RosMapYamlTest, ParsesWhatMapServerReadsAndFormatsItBack) {
   auto metadata = ParseRosMapYaml(
       "---\nimage: 'a#b.pgm'\nresolution: 5e-2 # m\norigin: [ -3 , 4.5,0 ]\nnegate: true\n"
-      "occupied_thresh: 0.7\nfree_thresh: 0.2\nmode: trinary\nunknown_key: kept quiet\r\n",
+      "occupied_thresh: 0.7\nfree_thresh: 0.2\nmode: trinary # the default\n"
+      "unknown_key: ignored\r\n",
       "m.yaml");
   ASSERT_TRUE(metadata.ok()) << metadata.status();
   EXPECT_EQ(metadata->image, "a#b.pgm");
@@ -274,6 +275,11 @@ TEST(RosMapYamlTest, ParsesWhatMapServerReadsAndFormatsItBack) {
   EXPECT_DOUBLE_EQ(again->origin_y, 4.5);
   EXPECT_TRUE(again->negate);
   EXPECT_EQ(again->mode, RosMapMode::kTrinary);
+
+  // An apostrophe inside a plain value opens no quote: the comment after it is still one.
+  auto apostrophe = ParseRosMapYaml(Yaml("bob's map.pgm   # the picture"), "b.yaml");
+  ASSERT_TRUE(apostrophe.ok()) << apostrophe.status();
+  EXPECT_EQ(apostrophe->image, "bob's map.pgm");
 }
 
 // ---- Bad files ---------------------------------------------------------------------------------
