@@ -18,6 +18,7 @@
 #include "client/devices/camera_source.h"
 #include "client/sim/sim_realtime.h"
 #include "client/cli/command.h"
+#include "client/cli/localize_flags.h"
 #include "client/robot/crossing_watch.h"
 #include "client/common/output.h"
 #include "client/robot/robot_loop.h"
@@ -42,6 +43,7 @@ struct RobotArgs {
   std::string robot_id;
   std::string name;
   std::string resume;
+  std::optional<v1::LocalizationConfig> localize;
   bool keep_session = false;
   double device_grace_s = 10;
 };
@@ -216,6 +218,7 @@ int RunRobot(CommandContext& context, RobotArgs args) {
   options.robot_id = args.robot_id.empty() ? DefaultRobotId() : args.robot_id;
   options.session_name = args.name;
   options.resume_session_id = args.resume;
+  options.localize = args.localize;
   options.limits = {args.max_linear, args.max_angular};
   options.duration_s = args.duration_s;
   options.time_scale = devices->time_scale;
@@ -313,7 +316,9 @@ void AddRobotCommand(CLI::App& app, CommandRegistry& registry) {
       ->capture_default_str();
   robot->add_option("--robot-id", args->robot_id, "Robot id for the session (default: hostname)");
   robot->add_option("--name", args->name, "Session name");
-  robot->add_option("--resume", args->resume, "Stream into this open session instead of a new one");
+  CLI::Option* resume = robot->add_option("--resume", args->resume,
+                                          "Stream into this open session instead of a new one");
+  AddLocalizeFlags(robot, &args->localize)->excludes(resume);
   robot->add_flag("--keep-session", args->keep_session,
                   "Leave the session open at exit (resume it later with --resume)");
   robot

@@ -1,19 +1,23 @@
 // `waymark slam ...`: laser SLAM sessions. replay and odometry live in slam_replay.cc; the small
-// session commands (list, map, trajectory, close, delete) here.
+// session commands (list, map, import-map, trajectory, close, delete) here.
 #include <fmt/format.h>
 
 #include <filesystem>
 #include <memory>
+#include <optional>
 #include <string>
 
 #include "absl/strings/str_cat.h"
 #include "client/cli/command.h"
+#include "client/cli/localize_flags.h"
 #include "client/common/output.h"
 #include "client/common/proto_json.h"
 #include "client/common/stop_signals.h"
-#include "client/render/slam_output.h"
-#include "client/sessions/slam_replay.h"
+#include "client/datasets/ros_map.h"
 #include "client/datasets/tum_trajectory.h"
+#include "client/render/slam_output.h"
+#include "client/sessions/session_grid.h"
+#include "client/sessions/slam_replay.h"
 
 namespace waymark::cli {
 namespace {
@@ -24,6 +28,20 @@ std::string StateName(v1::Session::State state) {
     case v1::Session::CLOSED: return "closed";
     default: return "unspecified";
   }
+}
+
+// A grid's size and place, without its cells.
+nlohmann::json GridJson(const v1::OccupancyGrid& grid) {
+  return {{"width", grid.width()},
+          {"height", grid.height()},
+          {"resolution", grid.resolution()},
+          {"origin", {grid.origin().x(), grid.origin().y()}}};
+}
+
+// "412 x 380 cells at 0.05 m, origin (-10.2, -3.5)"
+std::string DescribeGrid(const v1::OccupancyGrid& grid) {
+  return fmt::format("{} x {} cells at {:g} m, origin ({:g}, {:g})", grid.width(), grid.height(),
+                     grid.resolution(), grid.origin().x(), grid.origin().y());
 }
 
 int RunList(CommandContext& context, const std::string& robot) {
@@ -48,31 +66,89 @@ int RunList(CommandContext& context, const std::string& robot) {
   return kExitOk;
 }
 
-int RunMap(CommandContext& context, const std::string& session_id, const std::string& out) {
+struct MapArgs {
+  std::string session_id;
+  std::string out;
+  std::optional<double> resolution;  // of the occupancy grid; unset = the server's default
+};
+
+int RunMap(CommandContext& context, const MapArgs& args) {
   auto client = context.ConnectSlam();
-  auto map = client->GetMap(session_id);
+  auto map = client->GetMap(args.session_id);
   if (!map.ok()) return ReportError(context, map.status());
-  auto trajectory = client->GetTrajectory(session_id);
+  auto trajectory = client->GetTrajectory(args.session_id);
   if (!trajectory.ok()) return ReportError(context, trajectory.status());
-  const SlamOutTarget target = SlamOutTargetOf(
-      out.empty() ? std::filesystem::path("out") / session_id : std::filesystem::path(out));
+  const SlamOutTarget target =
+      SlamOutTargetOf(args.out.empty() ? std::filesystem::path("out") / args.session_id
+                                       : std::filesystem::path(args.out));
+  // A folder also gets the occupancy grid; a session without one still gets its segment map.
+  SessionGrid grid;
+  if (target.is_folder()) {
+    auto fetched = FetchSessionGrid(*client, args.session_id, args.resolution);
+    if (!fetched.ok()) return ReportError(context, fetched.status(), "GetOccupancyGrid");
+    grid = *std::move(fetched);
+  }
   auto written = WriteSlamOutputs(
       target, *map, *trajectory,
-      fmt::format("session {}: {} segments", session_id, map->segments_size()));
+      fmt::format("session {}: {} segments", args.session_id, map->segments_size()));
   if (!written.ok()) return ReportError(context, written.status(), target.path.string());
+  if (grid.grid) {
+    auto grid_files = WriteGridFiles(target.path, *grid.grid, *trajectory);
+    if (!grid_files.ok()) return ReportError(context, grid_files.status(), target.path.string());
+    written->insert(written->end(), grid_files->begin(), grid_files->end());
+  }
   if (context.globals.json) {
     nlohmann::json files = nlohmann::json::array();
     for (const auto& file : *written) files.push_back(file.string());
-    PrintJson(context.out, {{"session_id", session_id},
-                            {"segments", map->segments_size()},
-                            {"map_revision", map->map_revision()},
-                            {"trajectory_poses", trajectory->poses_size()},
-                            {target.is_folder() ? "out_dir" : "out", target.path.string()},
-                            {"files", files}});
+    nlohmann::json json = {{"session_id", args.session_id},
+                           {"segments", map->segments_size()},
+                           {"map_revision", map->map_revision()},
+                           {"trajectory_poses", trajectory->poses_size()},
+                           {target.is_folder() ? "out_dir" : "out", target.path.string()},
+                           {"files", files},
+                           {"grid", grid.grid ? GridJson(*grid.grid) : nlohmann::json(nullptr)}};
+    if (!grid.missing.empty()) json["grid_note"] = grid.missing;
+    PrintJson(context.out, json);
   } else {
-    context.out << fmt::format("{} segments (revision {}), {} poses: wrote {}\n",
-                               map->segments_size(), map->map_revision(),
-                               trajectory->poses_size(), DescribeWritten(*written));
+    const std::string grid_text =
+        grid.grid ? fmt::format(", occupancy grid {}", DescribeGrid(*grid.grid)) : "";
+    context.out << fmt::format("{} segments (revision {}), {} poses{}: wrote {}\n",
+                               map->segments_size(), map->map_revision(), trajectory->poses_size(),
+                               grid_text, DescribeWritten(*written));
+    if (!grid.missing.empty()) context.out << grid.missing << "\n";
+  }
+  return kExitOk;
+}
+
+struct ImportMapArgs {
+  std::string yaml;
+  std::string name;
+  std::string robot_id = "maps";
+};
+
+int RunImportMap(CommandContext& context, const ImportMapArgs& args) {
+  auto grid = ReadRosMap(args.yaml);
+  if (!grid.ok()) return ReportError(context, grid.status());
+  const std::string name = args.name.empty() ? "import of " + args.yaml : args.name;
+  auto session = context.ConnectSlam()->ImportMap(args.robot_id, name, *grid);
+  if (absl::IsUnimplemented(session.status())) {
+    return ReportError(
+        context,
+        absl::UnimplementedError("the server does not import maps: it is older than this client"),
+        "ImportMap");
+  }
+  if (!session.ok()) return ReportError(context, session.status(), "ImportMap");
+  if (context.globals.json) {
+    nlohmann::json json = ProtoToJson(*session);
+    json["grid"] = GridJson(*grid);
+    PrintJson(context.out, json);
+  } else {
+    context.out << fmt::format("imported {} ({}) as session {}\n", args.yaml, DescribeGrid(*grid),
+                               session->session_id());
+    context.out << fmt::format(
+        "localize on it: waymark slam replay LOG --localize-on {0}, or waymark robot ... "
+        "--localize-on {0}\n",
+        session->session_id());
   }
   return kExitOk;
 }
@@ -166,6 +242,15 @@ void AddOptionalNumber(CLI::App* command, const std::string& name,
       ->check(CLI::NonNegativeNumber);
 }
 
+// --resolution M of the occupancy grid, within the range GetOccupancyGrid accepts.
+void AddGridResolutionOption(CLI::App* command, std::optional<double>* target) {
+  command
+      ->add_option_function<double>(
+          "--resolution", [target](const double& value) { *target = value; },
+          "Occupancy grid cell size in metres, 0.01 to 1 (default: the server's, 0.05)")
+      ->check(CLI::Range(0.01, 1.0));
+}
+
 // --restamp and --rate HZ (which needs --restamp).
 void AddRestampFlags(CLI::App* command, bool* restamp, double* rate_hz) {
   CLI::Option* flag = command->add_flag(
@@ -191,9 +276,10 @@ void AddSlamCommands(CLI::App& app, CommandRegistry& registry) {
   CLI::App* replay = slam->add_subcommand(
       "replay",
       "Stream a CARMEN log (FLASER / ROBOTLASER1 lines; plain, .gz or .bz2) into a new session, "
-      "close it, and write trajectory.txt (TUM), map.svg, map.png and summary.json. A log whose "
-      "stamps are broken (most lines skipped) is reported and exits 1: use --restamp. Ctrl-C stops "
-      "early: the session is closed and the outputs written, marked partial (exit 130)");
+      "close it, and write trajectory.txt (TUM), map.svg, map.png, summary.json and, when the "
+      "session has an occupancy grid, map.pgm + map.yaml (ROS map_server) and occupancy.png. A log "
+      "whose stamps are broken (most lines skipped) is reported and exits 1: use --restamp. Ctrl-C "
+      "stops early: the session is closed and the outputs written, marked partial (exit 130)");
   replay->add_option("LOG", replay_args->log, "CARMEN log file")->required();
   replay->add_flag("--realtime", replay_args->realtime, "Send at the log's pace, not full speed");
   AddRestampFlags(replay, &replay_args->restamp, &replay_args->rate_hz);
@@ -222,6 +308,8 @@ void AddSlamCommands(CLI::App& app, CommandRegistry& registry) {
                     "Odometry noise: radians per metre travelled");
   AddOptionalNumber(replay, "--match-chi2", &replay_args->match_chi2,
                     "Association gate (chi-square, 2 dof)");
+  AddGridResolutionOption(replay, &replay_args->grid_resolution);
+  AddLocalizeFlags(replay, &replay_args->localize);
   registry.Add(replay, [replay_args](CommandContext& c) {
     StopSignals signals;  // Ctrl-C: stop sending, close the session, write partial outputs
     return RunSlamReplay(c, *replay_args, [&signals] { return signals.stop_requested().load(); });
@@ -245,19 +333,33 @@ void AddSlamCommands(CLI::App& app, CommandRegistry& registry) {
   list->add_option("--robot", *robot, "Only this robot's sessions");
   registry.Add(list, [robot](CommandContext& c) { return RunList(c, *robot); });
 
-  struct SessionArgs {
-    std::string session_id;
-    std::string out;
-  };
-  auto map_args = std::make_shared<SessionArgs>();
-  CLI::App* map = slam->add_subcommand("map", "Write a session's map.svg, map.png, trajectory.txt");
+  auto map_args = std::make_shared<MapArgs>();
+  CLI::App* map = slam->add_subcommand(
+      "map",
+      "Write a session's map.svg, map.png, trajectory.txt and, when it has an occupancy grid, "
+      "map.pgm + map.yaml (ROS map_server) and occupancy.png");
   map->add_option("SESSION", map_args->session_id, "Session id")->required();
   map->add_option("--out", map_args->out,
                   "Output folder (default ./out/<session>); a path ending in .svg or .png writes "
                   "only that picture");
-  registry.Add(map, [map_args](CommandContext& c) {
-    return RunMap(c, map_args->session_id, map_args->out);
-  });
+  AddGridResolutionOption(map, &map_args->resolution);
+  registry.Add(map, [map_args](CommandContext& c) { return RunMap(c, *map_args); });
+
+  auto import_args = std::make_shared<ImportMapArgs>();
+  CLI::App* import = slam->add_subcommand(
+      "import-map",
+      "Store a ROS map_server map (map.yaml and the PGM it names, e.g. from `slam map`) as a new "
+      "closed session to localize on (--localize-on); prints its id");
+  import->add_option("MAP_YAML", import_args->yaml, "The map's YAML file")->required();
+  import->add_option("--name", import_args->name, "Session name (default 'import of <file>')");
+  import->add_option("--robot", import_args->robot_id, "Robot id of the session")
+      ->capture_default_str();
+  registry.Add(import, [import_args](CommandContext& c) { return RunImportMap(c, *import_args); });
+
+  struct SessionArgs {
+    std::string session_id;
+    std::string out;
+  };
 
   auto trajectory_args = std::make_shared<SessionArgs>();
   CLI::App* trajectory =

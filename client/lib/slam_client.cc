@@ -283,6 +283,29 @@ absl::StatusOr<v1::Trajectory> SlamClient::GetTrajectory(const std::string& sess
                                    });
 }
 
+absl::StatusOr<v1::OccupancyGrid> SlamClient::GetOccupancyGrid(const std::string& session_id,
+                                                               std::optional<double> resolution) {
+  v1::GetOccupancyGridRequest request;
+  request.set_session_id(session_id);
+  if (resolution.has_value()) request.set_resolution(*resolution);
+  return CallUnary<v1::OccupancyGrid>(options_.timeout, options_.retry, Idempotency::kRead,
+                                      [&](auto* context, auto* response) {
+                                        return stub_->GetOccupancyGrid(context, request, response);
+                                      });
+}
+
+absl::StatusOr<v1::Session> SlamClient::ImportMap(const std::string& robot_id,
+                                                  const std::string& name,
+                                                  const v1::OccupancyGrid& grid) {
+  v1::ImportMapRequest request;
+  request.set_robot_id(robot_id);
+  request.set_name(name);
+  *request.mutable_grid() = grid;
+  return CallUnary<v1::Session>(
+      options_.timeout, options_.retry, Idempotency::kWrite,
+      [&](auto* context, auto* response) { return stub_->ImportMap(context, request, response); });
+}
+
 absl::StatusOr<v1::Session> SlamClient::CloseSession(const std::string& session_id) {
   v1::CloseSessionRequest request;
   request.set_session_id(session_id);

@@ -29,8 +29,9 @@ struct SlamClientOptions {
   absl::Duration timeout = absl::Seconds(30);
   // Deadline of a whole StreamSensorData stream; a robot streams for as long as it drives.
   absl::Duration stream_timeout = absl::InfiniteDuration();
-  // Applied to GetMap, GetTrajectory and ListSessions only (reads). CreateSession, CloseSession
-  // and DeleteSession are never retried.
+  // Applied to GetMap, GetTrajectory, GetOccupancyGrid and ListSessions only (reads).
+  // CreateSession, CloseSession, DeleteSession and ImportMap are never retried (a retry could
+  // apply them twice).
   RetryOptions retry;
 };
 
@@ -148,6 +149,13 @@ class SlamClient {
   absl::StatusOr<v1::Session> CreateSession(const v1::CreateSessionRequest& request);
   absl::StatusOr<v1::SegmentMap> GetMap(const std::string& session_id);
   absl::StatusOr<v1::Trajectory> GetTrajectory(const std::string& session_id);
+  // The session's occupancy grid; `resolution` (m per cell) unset = the server's default (0.05).
+  // FAILED_PRECONDITION for a session that keeps no scans (loop closure off).
+  absl::StatusOr<v1::OccupancyGrid> GetOccupancyGrid(
+      const std::string& session_id, std::optional<double> resolution = std::nullopt);
+  // Stores `grid` as a new closed laser session to localize on (see the proto).
+  absl::StatusOr<v1::Session> ImportMap(const std::string& robot_id, const std::string& name,
+                                        const v1::OccupancyGrid& grid);
   absl::StatusOr<v1::Session> CloseSession(const std::string& session_id);
   absl::StatusOr<v1::ListSessionsResponse> ListSessions(const std::string& robot_id = "");
   // Deletes a session and its stored data; `force` closes an open session first (see the proto).

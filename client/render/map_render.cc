@@ -421,7 +421,12 @@ std::string DrawingToSvg(const Drawing& d) {
 
 cv::Mat DrawingToImage(const Drawing& d) {
   cv::Mat image(std::max(1, d.height), std::max(1, d.width), CV_8UC3, cv::Scalar(255, 255, 255));
-  for (const DrawItem& item : d.items) {
+  DrawItemsOn(d.items, image);
+  return image;
+}
+
+void DrawItemsOn(const std::vector<DrawItem>& items, cv::Mat& image) {
+  for (const DrawItem& item : items) {
     const int thickness = std::max(1, static_cast<int>(std::lround(item.width_px)));
     switch (item.kind) {
       case DrawItem::Kind::kPolyline: {
@@ -460,7 +465,15 @@ cv::Mat DrawingToImage(const Drawing& d) {
       }
     }
   }
-  return image;
+}
+
+std::vector<DrawItem> PathItems(const std::vector<Vec2>& points_px, Rgb color, double width_px) {
+  std::vector<DrawItem> items;
+  if (points_px.empty()) return items;
+  if (points_px.size() >= 2) items.push_back(Line(points_px, color, width_px, "trajectory"));
+  items.push_back(StartMarker(points_px.front(), color));
+  items.push_back(EndMarker(points_px.back(), color));
+  return items;
 }
 
 std::string RenderSvg(const MapScene& scene, const RenderOptions& options) {
@@ -483,8 +496,14 @@ absl::Status WriteSvgFile(const Drawing& drawing, const std::filesystem::path& p
 }
 
 absl::Status WritePngFile(const Drawing& drawing, const std::filesystem::path& path) {
+  return WritePngImage(DrawingToImage(drawing), path);
+}
+
+}  // namespace
+
+absl::Status WritePngImage(const cv::Mat& image, const std::filesystem::path& path) {
   try {
-    if (!cv::imwrite(path.string(), DrawingToImage(drawing))) {
+    if (!cv::imwrite(path.string(), image)) {
       return absl::PermissionDeniedError("cannot write '" + path.string() + "'");
     }
   } catch (const cv::Exception& e) {
@@ -492,8 +511,6 @@ absl::Status WritePngFile(const Drawing& drawing, const std::filesystem::path& p
   }
   return absl::OkStatus();
 }
-
-}  // namespace
 
 absl::Status WriteDrawing(const Drawing& drawing, const std::filesystem::path& svg_path,
                           const std::filesystem::path& png_path) {

@@ -126,6 +126,11 @@ double NiceLength(double target_m);
 
 std::string DrawingToSvg(const Drawing& drawing);
 cv::Mat DrawingToImage(const Drawing& drawing);  // 8-bit BGR, anti-aliased, white background
+// Draws `items` (pixel coordinates) onto an 8-bit BGR image, as DrawingToImage does on white.
+void DrawItemsOn(const std::vector<DrawItem>& items, cv::Mat& image);
+// A path in pixel coordinates as the map pictures draw a trajectory: the line, a hollow circle at
+// its first point and a filled square at its last, in its colour.
+std::vector<DrawItem> PathItems(const std::vector<Vec2>& points_px, Rgb color, double width_px);
 
 std::string RenderSvg(const MapScene& scene, const RenderOptions& options = {});
 cv::Mat RenderImage(const MapScene& scene, const RenderOptions& options = {});
@@ -136,6 +141,8 @@ absl::Status WriteDrawing(const Drawing& drawing, const std::filesystem::path& s
                           const std::filesystem::path& png_path);
 // One of the two, chosen by the extension (.svg or .png, any case); INVALID_ARGUMENT for another.
 absl::Status WriteDrawingFile(const Drawing& drawing, const std::filesystem::path& path);
+// An image as PNG: PermissionDenied if it cannot be written, Internal on an OpenCV error.
+absl::Status WritePngImage(const cv::Mat& image, const std::filesystem::path& path);
 
 // Writes both pictures from one layout.
 absl::Status WriteMapPictures(const MapScene& scene, const std::filesystem::path& svg_path,

@@ -4,6 +4,9 @@
 #include <cmath>
 #include <system_error>
 
+#include "client/datasets/ros_map.h"
+#include "client/render/occupancy_picture.h"
+
 namespace waymark::cli {
 
 SceneSegment SegmentEndpoints(const v1::MapSegment& segment) {
@@ -26,14 +29,7 @@ std::vector<StampedPose> PosesOf(const v1::Trajectory& trajectory) {
   return poses;
 }
 
-MapScene SlamScene(const v1::SegmentMap& map, const v1::Trajectory& trajectory,
-                   const std::string& title, const std::vector<Vec2>& reference,
-                   const std::string& reference_label) {
-  MapScene scene;
-  scene.title = title;
-  for (const v1::MapSegment& segment : map.segments()) {
-    scene.segments.push_back(SegmentEndpoints(segment));
-  }
+ScenePolyline TrajectoryPolyline(const v1::Trajectory& trajectory) {
   ScenePolyline path;
   path.color = {30, 150, 60};
   path.width_px = 1.0;
@@ -42,6 +38,18 @@ MapScene SlamScene(const v1::SegmentMap& map, const v1::Trajectory& trajectory,
   for (const v1::TrajectoryPose& p : trajectory.poses()) {
     path.points.push_back({p.pose().x(), p.pose().y()});
   }
+  return path;
+}
+
+MapScene SlamScene(const v1::SegmentMap& map, const v1::Trajectory& trajectory,
+                   const std::string& title, const std::vector<Vec2>& reference,
+                   const std::string& reference_label) {
+  MapScene scene;
+  scene.title = title;
+  for (const v1::MapSegment& segment : map.segments()) {
+    scene.segments.push_back(SegmentEndpoints(segment));
+  }
+  ScenePolyline path = TrajectoryPolyline(trajectory);
   if (trajectory.poses_size() > 0) {
     const v1::Pose2D& last = trajectory.poses(trajectory.poses_size() - 1).pose();
     scene.current_pose = ScenePose{{last.x(), last.y()}, last.theta(), path.color, "current pose"};
@@ -101,6 +109,19 @@ absl::StatusOr<std::vector<std::filesystem::path>> WriteSlamOutputs(
   const Drawing drawing = LayoutScene(SlamScene(map, trajectory, title, reference));
   if (absl::Status s = WriteDrawingFile(drawing, target.path); !s.ok()) return s;
   return std::vector<std::filesystem::path>{target.path};
+}
+
+absl::StatusOr<std::vector<std::filesystem::path>> WriteGridFiles(
+    const std::filesystem::path& dir, const v1::OccupancyGrid& grid,
+    const v1::Trajectory& trajectory) {
+  absl::StatusOr<std::vector<std::filesystem::path>> files = WriteRosMap(grid, dir);
+  if (!files.ok()) return files.status();
+  const std::filesystem::path picture = dir / "occupancy.png";
+  std::vector<ScenePolyline> paths;
+  if (trajectory.poses_size() > 0) paths.push_back(TrajectoryPolyline(trajectory));
+  if (absl::Status s = WriteOccupancyPicture(picture, grid, paths); !s.ok()) return s;
+  files->push_back(picture);
+  return files;
 }
 
 std::string DescribeWritten(const std::vector<std::filesystem::path>& files) {

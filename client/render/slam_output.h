@@ -1,8 +1,8 @@
 #ifndef WAYMARK_CLIENT_RENDER_SLAM_OUTPUT_H_
 #define WAYMARK_CLIENT_RENDER_SLAM_OUTPUT_H_
 
-// What the slam commands write: the map pictures from a SegmentMap and a Trajectory, and the
-// trajectory in TUM format.
+// What the slam commands write: the map pictures from a SegmentMap and a Trajectory, the
+// trajectory in TUM format, and the occupancy grid as ROS map files and a picture.
 
 #include <filesystem>
 #include <string>
@@ -19,6 +19,9 @@ namespace waymark::cli {
 // Segment endpoints: frame origin + left/right along the frame's x axis.
 SceneSegment SegmentEndpoints(const v1::MapSegment& segment);
 std::vector<StampedPose> PosesOf(const v1::Trajectory& trajectory);
+
+// The trajectory as the map pictures draw it: a thin green line with start and end markers.
+ScenePolyline TrajectoryPolyline(const v1::Trajectory& trajectory);
 
 // Segments coloured by endpoint type, the trajectory as a thin line with start and end markers
 // and its last pose as the current pose (an arrow along its heading), and (when not empty) a
@@ -49,6 +52,12 @@ SlamOutTarget SlamOutTargetOf(const std::filesystem::path& out);
 absl::StatusOr<std::vector<std::filesystem::path>> WriteSlamOutputs(
     const SlamOutTarget& target, const v1::SegmentMap& map, const v1::Trajectory& trajectory,
     const std::string& title, const std::vector<Vec2>& reference = {});
+
+// DIR/map.pgm and DIR/map.yaml (ROS map_server files, datasets/ros_map.h) and DIR/occupancy.png
+// (the grid with the trajectory on it; DIR is created). Returns the files in that order.
+absl::StatusOr<std::vector<std::filesystem::path>> WriteGridFiles(const std::filesystem::path& dir,
+                                                                  const v1::OccupancyGrid& grid,
+                                                                  const v1::Trajectory& trajectory);
 
 // "out/aces/trajectory.txt, map.svg, map.png": the first path in full, the next ones by name when
 // they share its folder.

@@ -204,16 +204,20 @@ class RobotLoop::Impl {
       Event(fmt::format("resuming session {}", session_id_));
       return absl::OkStatus();
     }
-    auto session = client_.CreateSession(LaserSessionRequest(
+    v1::CreateSessionRequest request = LaserSessionRequest(
         laser_.layout(), options_.robot_id,
         !options_.session_name.empty()
             ? options_.session_name
             : fmt::format("{} {}", options_.robot_id, DriveModeName(options_.mode)),
         options_.mode == DriveMode::kActive ? options_.exploration
-                                            : v1::ExplorationConfig::PASSIVE));
+                                            : v1::ExplorationConfig::PASSIVE);
+    if (options_.localize) *request.mutable_laser()->mutable_localize() = *options_.localize;
+    auto session = client_.CreateSession(request);
     if (!session.ok()) return session.status();
     session_id_ = session->session_id();
-    Event(fmt::format("session {} created", session_id_));
+    Event(options_.localize ? fmt::format("session {} created, localizing on map {}", session_id_,
+                                          options_.localize->map_session_id())
+                            : fmt::format("session {} created", session_id_));
     return absl::OkStatus();
   }
 

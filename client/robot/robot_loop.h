@@ -16,6 +16,7 @@
 #include <atomic>
 #include <cstdint>
 #include <functional>
+#include <optional>
 #include <string>
 
 #include "absl/status/statusor.h"
@@ -40,6 +41,8 @@ struct RobotLoopOptions {
   std::string session_name;       // default "<robot_id> <mode>"
   std::string resume_session_id;  // attach to this open session instead of creating one
   v1::ExplorationConfig::Mode exploration = v1::ExplorationConfig::ACTIVE;  // for kActive
+  // Set: the session created localizes on this stored map instead of mapping (not with resume).
+  std::optional<v1::LocalizationConfig> localize;
   VelocityLimits limits;
   double duration_s = 0;    // device seconds to run; 0 = until `stop` is set
   double time_scale = 1.0;  // device seconds per wall second (the simulator's speed)

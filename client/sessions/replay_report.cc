@@ -56,6 +56,39 @@ RealtimeFactor FactorOf(const ReplayReport& report) {
   return {report.span.duration_s() / report.processing_s, ""};
 }
 
+// Seconds from the first scan sent to the first localized one.
+std::optional<double> TimeToFirstFix(const ReplayReport& report) {
+  if (!report.first_fix_stamp) return std::nullopt;
+  return *report.first_fix_stamp - report.span.first_stamp();
+}
+
+nlohmann::json LocalizationJson(const ReplayReport& report) {
+  return {{"map_session_id", report.localize_map},
+          {"localized_scans", report.localized_scans},
+          {"answers_with_status", report.localization_statuses},
+          {"first_fix_scan", report.first_fix_scan ? nlohmann::json(*report.first_fix_scan)
+                                                   : nlohmann::json(nullptr)},
+          {"first_fix_stamp", OptionalJson(report.first_fix_stamp)},
+          {"time_to_first_fix_s", OptionalJson(TimeToFirstFix(report))}};
+}
+
+std::string LocalizationText(const ReplayReport& report) {
+  std::string text =
+      fmt::format("localization on map {}: {} of {} scans localized", report.localize_map,
+                  report.localized_scans, report.scans_answered);
+  if (report.first_fix_scan && report.first_fix_stamp) {
+    text += fmt::format(", first fix at scan {} (stamp {:.3f}, {:.2f} s after the first scan)",
+                        *report.first_fix_scan, *report.first_fix_stamp, *TimeToFirstFix(report));
+  } else if (report.scans_answered > 0 && report.localization_statuses == 0) {
+    text +=
+        ": no answer carried a localization status (a server older than --localize-on maps "
+        "instead)";
+  } else {
+    text += ", never localized";
+  }
+  return text + "\n";
+}
+
 }  // namespace
 
 std::string LeftOpenAdvice(const std::string& session_id) {
@@ -104,6 +137,12 @@ nlohmann::json ReplayJson(const ReplayReport& report) {
       {report.out_is_folder ? "out_dir" : "out", report.out.string()},
       {"files", files},
   };
+  json["grid"] = report.grid_width > 0 ? nlohmann::json{{"width", report.grid_width},
+                                                        {"height", report.grid_height},
+                                                        {"resolution", report.grid_resolution}}
+                                       : nlohmann::json(nullptr);
+  if (!report.grid_note.empty()) json["grid_note"] = report.grid_note;
+  if (!report.localize_map.empty()) json["localization"] = LocalizationJson(report);
   if (!factor.value) json["realtime_factor_note"] = factor.problem;
   if (!report.map_problem.empty()) json["map_problem"] = report.map_problem;
   if (!report.close_error.empty()) json["close_error"] = report.close_error;
@@ -145,6 +184,8 @@ std::string ReplayText(const ReplayReport& report) {
   if (!report.map_problem.empty()) {
     text += "the map pictures show no segments: " + report.map_problem + "\n";
   }
+  if (!report.grid_note.empty()) text += report.grid_note + "\n";
+  if (!report.localize_map.empty()) text += LocalizationText(report);
   if (report.trajectory_source != "server") {
     text += fmt::format("trajectory: the {} poses of the {}\n", report.trajectory_poses,
                         report.trajectory_source);

@@ -34,6 +34,7 @@ class StampSpan {
  public:
   void Add(double stamp);
   int64_t scans() const { return scans_; }
+  double first_stamp() const { return first_; }
   double duration_s() const { return scans_ > 0 ? last_ - first_ : 0.0; }
   double max_gap_s() const { return max_gap_; }
 
@@ -89,6 +90,22 @@ struct ReplayReport {
   bool out_is_folder = true;
   std::vector<std::filesystem::path> files;  // written, summary.json included
   std::string write_error;                   // why the outputs could not be written
+  // The occupancy grid (map.pgm, map.yaml, occupancy.png): its size when written, else why not
+  // (a note: a replay never fails for its grid).
+  uint32_t grid_width = 0;  // 0 = not written
+  uint32_t grid_height = 0;
+  double grid_resolution = 0;
+  std::string grid_note;
+
+  // Localization sessions: the scans answered with localization.localized, and the first of them
+  // (its index among the answered scans, 0 = the first, and its stamp): the time to first fix.
+  std::string localize_map;  // the map session; empty for a mapping session
+  uint64_t localized_scans = 0;
+  // Answers that carried a localization status at all: none means the server did not localize
+  // (one older than LaserSlamConfig.localize ignores it and maps).
+  uint64_t localization_statuses = 0;
+  std::optional<uint64_t> first_fix_scan;
+  std::optional<double> first_fix_stamp;
 
   bool partial() const { return end == ReplayEnd::kInterrupted || end == ReplayEnd::kFailed; }
 };

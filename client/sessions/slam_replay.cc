@@ -9,6 +9,7 @@
 #include <filesystem>
 #include <fstream>
 #include <mutex>
+#include <optional>
 #include <thread>
 #include <vector>
 
@@ -22,6 +23,7 @@
 #include "client/render/slam_output.h"
 #include "client/robot/laser_session.h"
 #include "client/sessions/replay_report.h"
+#include "client/sessions/session_grid.h"
 
 namespace waymark::cli {
 namespace {
@@ -105,6 +107,7 @@ v1::CreateSessionRequest SessionRequest(const ReplayArgs& args, const CarmenLase
   if (args.odom_theta_per_rad) params->set_odom_theta_per_rad(*args.odom_theta_per_rad);
   if (args.odom_theta_per_m) params->set_odom_theta_per_m(*args.odom_theta_per_m);
   if (args.match_chi2) params->set_match_chi2(*args.match_chi2);
+  if (args.localize) *config->mutable_localize() = *args.localize;
   return create;
 }
 
@@ -122,6 +125,12 @@ class Answers {
       return;
     }
     if (update.skipped()) ++skipped_motion_;
+    if (update.has_localization()) ++localization_statuses_;
+    if (update.localization().localized()) {
+      ++localized_;
+      if (!first_fix_) first_fix_ = Fix{answered_, update.stamp()};
+    }
+    ++answered_;
     server_ms_.push_back(update.timings().total_ms());
     // The trajectory as the answers tell it, for when the server cannot be asked afterwards.
     v1::TrajectoryPose* pose = trajectory_.add_poses();
@@ -129,7 +138,16 @@ class Answers {
     *pose->mutable_pose() = update.pose();
   }
 
+  // The first scan answered localized: its index among the answered scans and its stamp.
+  struct Fix {
+    uint64_t scan = 0;
+    double stamp = 0;
+  };
+
   std::vector<std::string> rejections() const { return Locked(rejections_); }
+  uint64_t localized() const { return Locked(localized_); }
+  uint64_t localization_statuses() const { return Locked(localization_statuses_); }
+  std::optional<Fix> first_fix() const { return Locked(first_fix_); }
   std::vector<double> server_ms() const { return Locked(server_ms_); }
   uint64_t skipped_motion() const { return Locked(skipped_motion_); }
   v1::Trajectory trajectory() const { return Locked(trajectory_); }
@@ -145,6 +163,10 @@ class Answers {
   std::vector<std::string> rejections_;
   std::vector<double> server_ms_;
   uint64_t skipped_motion_ = 0;
+  uint64_t answered_ = 0;  // scans answered without a rejection
+  uint64_t localized_ = 0;
+  uint64_t localization_statuses_ = 0;  // answers that carry a LocalizationStatus
+  std::optional<Fix> first_fix_;
   v1::Trajectory trajectory_;
 };
 
@@ -161,6 +183,7 @@ void SleepUntil(Clock::time_point due, const StopRequested& stop) {
 struct SessionResults {
   v1::Trajectory trajectory;
   v1::SegmentMap map;
+  std::optional<v1::OccupancyGrid> grid;  // only asked for a folder --out
 };
 
 SessionResults CloseAndCollect(client::SlamClient& client, const std::string& session_id,
@@ -188,6 +211,40 @@ SessionResults CloseAndCollect(client::SlamClient& client, const std::string& se
   return results;
 }
 
+// The grid for a folder --out; whatever keeps it from being had is a note, not a failure.
+std::optional<v1::OccupancyGrid> CollectGrid(client::SlamClient& client,
+                                             const std::string& session_id,
+                                             std::optional<double> resolution,
+                                             ReplayReport& report) {
+  if (!report.map_problem.empty()) {
+    // The server did not answer for the map: asking again would only wait out more retries.
+    report.grid_note =
+        "no occupancy grid: the server could not be asked (" + report.map_problem + ")";
+    return std::nullopt;
+  }
+  absl::StatusOr<SessionGrid> grid = FetchSessionGrid(client, session_id, resolution);
+  if (!grid.ok()) {
+    report.grid_note = "no occupancy grid: GetOccupancyGrid: " + StatusText(grid.status());
+    return std::nullopt;
+  }
+  report.grid_note = grid->missing;
+  return std::move(grid->grid);
+}
+
+// map.pgm, map.yaml and occupancy.png into the folder; a failure is the grid's note.
+void WriteGrid(const std::filesystem::path& dir, const v1::OccupancyGrid& grid,
+               const v1::Trajectory& trajectory, ReplayReport& report) {
+  auto written = WriteGridFiles(dir, grid, trajectory);
+  if (!written.ok()) {
+    report.grid_note = "no occupancy grid files: " + StatusText(written.status());
+    return;
+  }
+  report.files.insert(report.files.end(), written->begin(), written->end());
+  report.grid_width = grid.width();
+  report.grid_height = grid.height();
+  report.grid_resolution = grid.resolution();
+}
+
 // The pictures (and trajectory) to `target`, then summary.json into a folder target. Failures go
 // to report.write_error.
 void WriteOutputs(const SlamOutTarget& target, const SessionResults& results,
@@ -207,6 +264,7 @@ void WriteOutputs(const SlamOutTarget& target, const SessionResults& results,
   }
   report.files = *std::move(written);
   if (!target.is_folder()) return;
+  if (results.grid) WriteGrid(target.path, *results.grid, results.trajectory, report);
   const std::filesystem::path summary_path = target.path / "summary.json";
   report.files.push_back(summary_path);  // before writing, so the file lists itself
   std::ofstream out(summary_path);
@@ -360,7 +418,20 @@ int RunSlamReplay(CommandContext& context, const ReplayArgs& args, const StopReq
   report.malformed_lines = feed.reader().malformed_lines();
   report.odometry_lines = feed.odometry_lines();
 
-  const SessionResults results = CloseAndCollect(*client, report.session_id, answers, report);
+  if (args.localize) {
+    report.localize_map = args.localize->map_session_id();
+    report.localized_scans = answers.localized();
+    report.localization_statuses = answers.localization_statuses();
+    if (const std::optional<Answers::Fix> fix = answers.first_fix()) {
+      report.first_fix_scan = fix->scan;
+      report.first_fix_stamp = fix->stamp;
+    }
+  }
+
+  SessionResults results = CloseAndCollect(*client, report.session_id, answers, report);
+  if (target.is_folder()) {
+    results.grid = CollectGrid(*client, report.session_id, args.grid_resolution, report);
+  }
   WriteOutputs(target, results, odometry_path, report);
 
   if (context.globals.json) {

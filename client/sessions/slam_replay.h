@@ -6,7 +6,8 @@
 // What is sent, per laser line (FLASER or ROBOTLASER1) in stamp order (CarmenLaserFeed: reordered
 // within a lookahead, lines whose stamp does not increase skipped; or, with --restamp, in file
 // order with stamps synthesized from the line number and a rate):
-//   1. an Odometry message with the odometry pose embedded in the laser line (FLASER odom_x/y/theta,
+//   1. an Odometry message with the odometry pose embedded in the laser line (FLASER
+//   odom_x/y/theta,
 //      ROBOTLASER1 robot_x/y/theta) at the laser line's stamp, then
 //   2. the scan, with its own beam geometry.
 // ODOM lines are read but not sent: every laser line carries the odometry at its own instant, which
@@ -24,6 +25,12 @@
 // The session's laser pose on the robot is inv(odom pose) (+) laser pose of the first laser line
 // when that offset is plausible (under 1 m and 0.1 rad); otherwise (e.g. GMapping-corrected logs,
 // whose laser pose is the corrected pose) the laser is assumed at the robot's origin.
+//
+// After the session is closed, its occupancy grid is fetched and written as map.pgm, map.yaml and
+// occupancy.png into a folder --out; a session without a grid (loop closure off, a server older
+// than GetOccupancyGrid) or any failure there is a note in the summary, never a failed replay.
+// With `localize` set the session localizes on a stored map instead of mapping; the summary then
+// counts the scans answered localized and names the first (the time to the first fix).
 
 #include <functional>
 #include <optional>
@@ -32,6 +39,7 @@
 #include "client/common/command_context.h"
 #include "client/datasets/carmen_laser_feed.h"
 #include "client/datasets/tum_trajectory.h"
+#include "waymark/v1/slam.pb.h"
 
 namespace waymark::cli {
 
@@ -56,6 +64,10 @@ struct ReplayArgs {
   std::optional<double> odom_theta_per_rad;
   std::optional<double> odom_theta_per_m;
   std::optional<double> match_chi2;
+  // GetOccupancyGrid's resolution (m per cell); unset = the server's default.
+  std::optional<double> grid_resolution;
+  // Set: a localization session on this map (LaserSlamConfig.localize) instead of a mapping one.
+  std::optional<v1::LocalizationConfig> localize;
 };
 
 int RunSlamReplay(CommandContext& context, const ReplayArgs& args,

@@ -67,8 +67,18 @@ grpc::Status FakeSlamService::CreateSession(grpc::ServerContext*,
   if (!request->has_visual() && request->laser().laser().beam_count() == 0) {
     return grpc::Status(grpc::StatusCode::INVALID_ARGUMENT, "laser geometry has no beams");
   }
+  const std::string& map_id = request->laser().localize().map_session_id();
+  if (!map_id.empty()) {
+    auto map = sessions_.find(map_id);
+    if (map == sessions_.end()) return NoSession(map_id);
+    if (map->second.info.state() != v1::Session::CLOSED) {
+      return grpc::Status(grpc::StatusCode::FAILED_PRECONDITION,
+                          "fake: map session '" + map_id + "' is not closed");
+    }
+  }
   const std::string id = "s" + std::to_string(next_id_++);
   SessionData& session = sessions_[id];
+  session.localizing = !map_id.empty() && !ignore_localize_;
   session.info.set_session_id(id);
   session.info.set_robot_id(request->robot_id());
   session.info.set_name(request->name());
@@ -149,6 +159,13 @@ v1::SlamUpdate FakeSlamService::Process(SessionData& session, const v1::SensorDa
   update.set_covariance_trace_mean(0.001 * n);
   if (suggestion_.behaviour() != v1::SuggestedControl::BEHAVIOUR_UNSPECIFIED) {
     *update.mutable_suggestion() = suggestion_;
+  }
+  if (session.localizing) {
+    const bool localized = n >= static_cast<uint64_t>(localized_from_scan_);
+    if (localized) ++session.fixes;
+    update.mutable_localization()->set_localized(localized);
+    update.mutable_localization()->set_fixes(session.fixes);
+    update.mutable_localization()->set_score(localized ? 0.8 : 0.0);
   }
   return update;
 }
@@ -376,6 +393,67 @@ grpc::Status FakeSlamService::DeleteSession(grpc::ServerContext*,
   *response->mutable_session() = it->second.info;
   response->set_trajectory_poses(static_cast<uint64_t>(it->second.trajectory.poses_size()));
   sessions_.erase(it);
+  return grpc::Status::OK;
+}
+
+grpc::Status FakeSlamService::CountCall(const std::string& method) {
+  ++calls_[method];
+  Failures& failures = fail_next_[method];
+  if (failures.times <= 0) return grpc::Status::OK;
+  --failures.times;
+  return grpc::Status(failures.code, "fake: injected failure");
+}
+
+grpc::Status FakeSlamService::GetOccupancyGrid(grpc::ServerContext*,
+                                               const v1::GetOccupancyGridRequest* request,
+                                               v1::OccupancyGrid* response) {
+  std::lock_guard<std::mutex> lock(mutex_);
+  if (grpc::Status injected = CountCall("GetOccupancyGrid"); !injected.ok()) return injected;
+  if (session_calls_fail_ != grpc::StatusCode::OK) {
+    return grpc::Status(session_calls_fail_, "fake: session calls fail on purpose");
+  }
+  if (grid_answer_ != grpc::StatusCode::OK) {
+    return grpc::Status(grid_answer_, "fake: GetOccupancyGrid answers this on purpose");
+  }
+  last_grid_resolution_.reset();
+  if (request->has_resolution()) last_grid_resolution_ = request->resolution();
+  auto it = sessions_.find(request->session_id());
+  if (it == sessions_.end()) return NoSession(request->session_id());
+  if (it->second.imported) {
+    *response = *it->second.imported;
+  } else if (grid_) {
+    *response = *grid_;
+  } else {
+    return grpc::Status(
+        grpc::StatusCode::FAILED_PRECONDITION,
+        "fake: session '" + request->session_id() + "' keeps no scans (loop closure off)");
+  }
+  response->set_session_id(request->session_id());
+  return grpc::Status::OK;
+}
+
+grpc::Status FakeSlamService::ImportMap(grpc::ServerContext*, const v1::ImportMapRequest* request,
+                                        v1::Session* response) {
+  std::lock_guard<std::mutex> lock(mutex_);
+  if (grpc::Status injected = CountCall("ImportMap"); !injected.ok()) return injected;
+  last_import_ = *request;
+  const v1::OccupancyGrid& grid = request->grid();
+  if (grid.width() == 0 || grid.height() == 0 ||
+      grid.cells().size() != static_cast<size_t>(grid.width()) * grid.height() ||
+      !(grid.resolution() > 0)) {
+    return grpc::Status(grpc::StatusCode::INVALID_ARGUMENT, "fake: the grid does not add up");
+  }
+  const std::string id = "s" + std::to_string(next_id_++);
+  SessionData& session = sessions_[id];
+  session.info.set_session_id(id);
+  session.info.set_robot_id(request->robot_id());
+  session.info.set_name(request->name());
+  session.info.set_state(v1::Session::CLOSED);
+  session.info.set_kind("laser");
+  session.trajectory.set_session_id(id);
+  session.map.set_session_id(id);
+  session.imported = grid;
+  *response = session.info;
   return grpc::Status::OK;
 }
 

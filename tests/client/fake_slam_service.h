@@ -6,6 +6,7 @@
 #include <map>
 #include <memory>
 #include <mutex>
+#include <optional>
 #include <string>
 #include <vector>
 
@@ -26,8 +27,60 @@ namespace waymark::testing {
 // Visual clients' image frames are answered like scans (a pose3d at x = stamp, "tracking").
 // Like the real server, a stream's first answer carries its StreamStart, and a hello (a first
 // message without payload) is answered at once with it.
+// Occupancy grids: GetOccupancyGrid answers the grid given to set_occupancy_grid for every
+// session (FAILED_PRECONDITION "keeps no scans" without one, as the real server for a session with
+// loop closure off), and an imported session's own grid; ImportMap stores a grid as a new closed
+// session, refusing one whose cells do not fill it. A session created with
+// LaserSlamConfig.localize needs a closed map session (NOT_FOUND, FAILED_PRECONDITION) and answers
+// its scans localized from the scan set_localized_from_scan names on.
 class FakeSlamService final : public v1::SlamService::Service {
  public:
+  // Every laser session's grid (session_id filled in per call).
+  void set_occupancy_grid(const v1::OccupancyGrid& grid) {
+    std::lock_guard<std::mutex> lock(mutex_);
+    grid_ = grid;
+  }
+  // GetOccupancyGrid answers `code` (OK: as above), e.g. UNIMPLEMENTED as an older server.
+  void set_grid_answer(grpc::StatusCode code) {
+    std::lock_guard<std::mutex> lock(mutex_);
+    grid_answer_ = code;
+  }
+  // Localization sessions: scan number `scan` (1 = the first processed) and later ones are
+  // answered localized. Default 3.
+  void set_localized_from_scan(int scan) {
+    std::lock_guard<std::mutex> lock(mutex_);
+    localized_from_scan_ = scan;
+  }
+  // The next `times` calls of `method` ("GetOccupancyGrid" or "ImportMap") fail with `code`
+  // before reaching the service: UNAVAILABLE as a dropped connection, UNIMPLEMENTED as a server
+  // older than the RPC.
+  void FailNext(const std::string& method, int times,
+                grpc::StatusCode code = grpc::StatusCode::UNAVAILABLE) {
+    std::lock_guard<std::mutex> lock(mutex_);
+    fail_next_[method] = {times, code};
+  }
+  // Sessions created with LaserSlamConfig.localize map instead and answer no localization status,
+  // as a server older than the field.
+  void set_ignore_localize(bool ignore) {
+    std::lock_guard<std::mutex> lock(mutex_);
+    ignore_localize_ = ignore;
+  }
+  // Calls of "GetOccupancyGrid" or "ImportMap" received, failed ones included.
+  int calls(const std::string& method) const {
+    std::lock_guard<std::mutex> lock(mutex_);
+    auto it = calls_.find(method);
+    return it == calls_.end() ? 0 : it->second;
+  }
+  // The resolution of the last GetOccupancyGrid (nullopt: it left it unset).
+  std::optional<double> last_grid_resolution() const {
+    std::lock_guard<std::mutex> lock(mutex_);
+    return last_grid_resolution_;
+  }
+  v1::ImportMapRequest last_import() const {
+    std::lock_guard<std::mutex> lock(mutex_);
+    return last_import_;
+  }
+
   void set_scan_delay(absl::Duration delay) { scan_delay_ = delay; }
   void set_queue_capacity(int capacity) { queue_capacity_ = capacity; }
   // The worker of a stream starts only once the stream has received `messages` messages (or
@@ -96,6 +149,10 @@ class FakeSlamService final : public v1::SlamService::Service {
   // As the real server: NOT_FOUND, FAILED_PRECONDITION for an open session without force.
   grpc::Status DeleteSession(grpc::ServerContext*, const v1::DeleteSessionRequest* request,
                              v1::DeleteSessionResponse* response) override;
+  grpc::Status GetOccupancyGrid(grpc::ServerContext*, const v1::GetOccupancyGridRequest* request,
+                                v1::OccupancyGrid* response) override;
+  grpc::Status ImportMap(grpc::ServerContext*, const v1::ImportMapRequest* request,
+                         v1::Session* response) override;
 
  private:
   struct SessionData {
@@ -106,7 +163,12 @@ class FakeSlamService final : public v1::SlamService::Service {
     double last_odometry_stamp = -1e300;
     double last_scan_stamp = -1e300;
     bool resumed_from_checkpoint = false;  // rolled back: the next stream says so
+    std::optional<v1::OccupancyGrid> imported;  // ImportMap's grid
+    bool localizing = false;                    // created with LaserSlamConfig.localize
+    uint32_t fixes = 0;
   };
+  // Counts a call of `method`; the status to fail it with (FailNext), or OK to serve it.
+  grpc::Status CountCall(const std::string& method);
   // The session as a stream finds it when it attaches.
   static v1::StreamStart StartOf(const SessionData& session);
   // Forgets everything after the first `scans` scans (set_rollback_on_break).
@@ -132,6 +194,18 @@ class FakeSlamService final : public v1::SlamService::Service {
   grpc::StatusCode session_calls_fail_ = grpc::StatusCode::OK;
   v1::CreateSessionRequest last_create_;
   v1::SuggestedControl suggestion_;
+  std::optional<v1::OccupancyGrid> grid_;
+  grpc::StatusCode grid_answer_ = grpc::StatusCode::OK;
+  int localized_from_scan_ = 3;
+  struct Failures {
+    int times = 0;
+    grpc::StatusCode code = grpc::StatusCode::UNAVAILABLE;
+  };
+  std::map<std::string, Failures> fail_next_;
+  bool ignore_localize_ = false;
+  std::map<std::string, int> calls_;
+  std::optional<double> last_grid_resolution_;
+  v1::ImportMapRequest last_import_;
   std::vector<double> odometry_stamps_;
   std::vector<double> scan_stamps_;
 };

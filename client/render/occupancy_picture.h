@@ -1,0 +1,41 @@
+#ifndef WAYMARK_CLIENT_RENDER_OCCUPANCY_PICTURE_H_
+#define WAYMARK_CLIENT_RENDER_OCCUPANCY_PICTURE_H_
+
+// A picture of an occupancy grid (occupancy.png): map.pgm as a person looks at it, with the
+// robot's path on it. Same orientation and shades as map.pgm (datasets/ros_map.h: top row =
+// highest y; occupied black, free white, unknown grey), each cell an integer number of pixels so
+// that a small grid is still big enough to see; paths as the map pictures draw trajectories.
+
+#include <filesystem>
+#include <opencv2/core.hpp>
+#include <vector>
+
+#include "absl/status/statusor.h"
+#include "client/render/map_render.h"
+#include "waymark/v1/slam.pb.h"
+
+namespace waymark::cli {
+
+struct OccupancyPictureOptions {
+  // Cells are scaled up by the smallest integer that makes the longer side at least this many
+  // pixels (a 40-cell grid would be a thumbnail otherwise); 0 = one pixel per cell.
+  int min_size_px = 512;
+};
+
+// Pixels per cell for `grid` under `options` (at least 1).
+int OccupancyPictureScale(const v1::OccupancyGrid& grid, const OccupancyPictureOptions& options);
+
+// The 8-bit BGR picture; `paths` are in world metres (map frame), each drawn with its start and
+// end markers. GridImage's errors for a grid that has no cells or not width x height of them.
+absl::StatusOr<cv::Mat> OccupancyPicture(const v1::OccupancyGrid& grid,
+                                         const std::vector<ScenePolyline>& paths = {},
+                                         const OccupancyPictureOptions& options = {});
+
+// OccupancyPicture as a PNG file.
+absl::Status WriteOccupancyPicture(const std::filesystem::path& path, const v1::OccupancyGrid& grid,
+                                   const std::vector<ScenePolyline>& paths = {},
+                                   const OccupancyPictureOptions& options = {});
+
+}  // namespace waymark::cli
+
+#endif  // WAYMARK_CLIENT_RENDER_OCCUPANCY_PICTURE_H_
