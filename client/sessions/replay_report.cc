@@ -127,6 +127,12 @@ nlohmann::json ReplayJson(const ReplayReport& report) {
       {"trajectory_poses", report.trajectory_poses},
       {"trajectory_source", report.trajectory_source},
       {"processing_s", report.processing_s},
+      {"close_s", report.close_s},
+      {"final_map_realtime_factor",
+       report.processing_s + report.close_s > 0 && report.span.duration_s() > 0 && !report.restamp_rate_hz
+           ? nlohmann::json(report.span.duration_s() / (report.processing_s + report.close_s))
+           : nlohmann::json(nullptr)},
+      {"loop_closures", report.loop_closures},
       {"log_duration_s", report.span.duration_s()},
       {"realtime_factor", OptionalJson(factor.value)},
       {"window", report.window},
@@ -181,6 +187,19 @@ std::string ReplayText(const ReplayReport& report) {
     text += fmt::format("replayed in {:.2f} s, no real-time factor ({}); {}\n", report.processing_s,
                         factor.problem, server_ms);
   }
+  if (report.session_closed && report.close_s >= 0.5) {
+    // The stream's answers come before the back end has caught up with them; say what the final
+    // map cost.
+    text += fmt::format("closing took {:.2f} s (the back end's last loop searches and "
+                        "optimisation){}\n",
+                        report.close_s,
+                        factor.value ? fmt::format(": the final map after {:.2f} s, {:.1f}x real time",
+                                                   report.processing_s + report.close_s,
+                                                   report.span.duration_s() /
+                                                       (report.processing_s + report.close_s))
+                                     : std::string());
+  }
+  if (report.loop_closures > 0) text += fmt::format("loop closures: {}\n", report.loop_closures);
   if (!report.map_problem.empty()) {
     text += "the map pictures show no segments: " + report.map_problem + "\n";
   }

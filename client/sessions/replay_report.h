@@ -78,7 +78,9 @@ struct ReplayReport {
   bool stamps_broken = false;
   std::optional<double> restamp_rate_hz;  // set: stamps synthesized from the line order
   StampSpan span;
-  double processing_s = 0;
+  double processing_s = 0;  // the stream: first scan sent to last answer
+  double close_s = 0;       // CloseSession: the back end's last searches and optimisation
+  uint64_t loop_closures = 0;  // in the final graph (GetMap), else as the last answers said
 
   // The results and where they went.
   int segments = 0;

@@ -125,6 +125,7 @@ class Answers {
       return;
     }
     if (update.skipped()) ++skipped_motion_;
+    loop_closures_ = std::max<uint64_t>(loop_closures_, update.loop_closures());
     if (update.has_localization()) ++localization_statuses_;
     if (update.localization().localized()) {
       ++localized_;
@@ -146,6 +147,7 @@ class Answers {
 
   std::vector<std::string> rejections() const { return Locked(rejections_); }
   uint64_t localized() const { return Locked(localized_); }
+  uint64_t loop_closures() const { return Locked(loop_closures_); }
   uint64_t localization_statuses() const { return Locked(localization_statuses_); }
   std::optional<Fix> first_fix() const { return Locked(first_fix_); }
   std::vector<double> server_ms() const { return Locked(server_ms_); }
@@ -165,6 +167,7 @@ class Answers {
   uint64_t skipped_motion_ = 0;
   uint64_t answered_ = 0;  // scans answered without a rejection
   uint64_t localized_ = 0;
+  uint64_t loop_closures_ = 0;  // the newest count the answers carried
   uint64_t localization_statuses_ = 0;  // answers that carry a LocalizationStatus
   std::optional<Fix> first_fix_;
   v1::Trajectory trajectory_;
@@ -188,7 +191,12 @@ struct SessionResults {
 
 SessionResults CloseAndCollect(client::SlamClient& client, const std::string& session_id,
                                const Answers& answers, ReplayReport& report) {
+  // Closing waits for the server's back end to finish its loop searches and last optimisation:
+  // the map is final only then, so that time belongs to the replay's cost.
+  const auto close_start = std::chrono::steady_clock::now();
   auto closed = client.CloseSession(session_id);
+  report.close_s =
+      std::chrono::duration<double>(std::chrono::steady_clock::now() - close_start).count();
   report.session_closed = closed.ok();
   if (!closed.ok()) report.close_error = StatusText(closed.status());
   SessionResults results;
@@ -252,6 +260,7 @@ void WriteOutputs(const SlamOutTarget& target, const SessionResults& results,
   report.out = target.path;
   report.out_is_folder = target.is_folder();
   report.segments = results.map.segments_size();
+  if (results.map.graph_nodes() > 0) report.loop_closures = results.map.loop_closures();
   report.map_revision = results.map.map_revision();
   report.trajectory_poses = results.trajectory.poses_size();
   std::string title = fmt::format("{}: {} scans, {} segments", LogName(report.log),
@@ -418,6 +427,7 @@ int RunSlamReplay(CommandContext& context, const ReplayArgs& args, const StopReq
   report.malformed_lines = feed.reader().malformed_lines();
   report.odometry_lines = feed.odometry_lines();
 
+  report.loop_closures = answers.loop_closures();
   if (args.localize) {
     report.localize_map = args.localize->map_session_id();
     report.localized_scans = answers.localized();
