@@ -80,6 +80,7 @@ struct Args {
   bool localize = false;
   int localize_from = 0;
   bool localize_known_start = false;
+  bool localize_on_grid = false;  // the map as an exported grid's occupied cells (import-map)
 };
 
 void Usage() {
@@ -89,7 +90,8 @@ void Usage() {
          "                          [--freeze-after-scans N] [--min-travel M --min-turn R]\n"
          "                          [--match-chi2 X] [--mapping on|off]\n"
          "                          [--mapping-opt NAME=VALUE ...]\n"
-         "                          [--localize [--localize-from SCAN] [--localize-known-start]]\n";
+         "                          [--localize [--localize-from SCAN] [--localize-known-start]\n"
+         "                           [--localize-on-grid]]\n";
 }
 
 // Nearest-rank percentile, as slam_replay reports it.
@@ -183,6 +185,10 @@ bool ParseArgs(int argc, char** argv, Args* args) {
     if (a == "-h" || a == "--help") return false;
     if (a == "--localize") {
       args->localize = true;
+      continue;
+    }
+    if (a == "--localize-on-grid") {
+      args->localize_on_grid = true;
       continue;
     }
     if (a == "--localize-known-start") {
@@ -334,6 +340,11 @@ absl::StatusOr<nlohmann::json> RunLocalization(const Args& args, const ls::SlamO
                                                const std::vector<CarmenLaser>& lasers,
                                                const ls::LaserSlam& mapped) {
   absl::StatusOr<ls::PointCloud> points = mapped.MapPoints();
+  if (args.localize_on_grid) {
+    absl::StatusOr<ls::OccupancyGrid> grid = mapped.RenderGrid(0.05);
+    if (!grid.ok()) return grid.status();
+    points = ls::OccupiedPoints(*grid);
+  }
   if (!points.ok()) return points.status();
   const std::vector<ls::PoseEstimate> reference = mapped.Trajectory();
   const size_t from = std::min<size_t>(args.localize_from, lasers.size() - 1);
@@ -374,6 +385,16 @@ absl::StatusOr<nlohmann::json> RunLocalization(const Args& args, const ls::SlamO
     rot_errors.push_back(r * 180.0 / M_PI);
     if (e > 0.5) ++wrong;
   }
+  // The session's own trajectory at the end (what GetTrajectory returns), against the same truth.
+  double final_mean = 0;
+  {
+    const std::vector<ls::PoseEstimate> final_poses = slam.Trajectory();
+    for (size_t k = 0; k < final_poses.size(); ++k) {
+      const ls::Pose2& truth = reference[from + k].pose;
+      final_mean += std::hypot(final_poses[k].pose.x - truth.x, final_poses[k].pose.y - truth.y) /
+                    final_poses.size();
+    }
+  }
   double mean = 0, rot_mean = 0;
   for (double e : errors) mean += e / errors.size();
   for (double r : rot_errors) rot_mean += r / rot_errors.size();
@@ -389,6 +410,7 @@ absl::StatusOr<nlohmann::json> RunLocalization(const Args& args, const ls::SlamO
       {"first_fix_s", first_fix < 0 ? -1.0 : lasers[from + first_fix].stamp - from_stamp},
       {"first_fix_error_m", first_fix_error},
       {"error_mean_m", mean},
+      {"final_trajectory_error_mean_m", final_mean},
       {"error_p95_m", Percentile(errors, 0.95)},
       {"error_max_m", errors.empty() ? 0.0 : *std::max_element(errors.begin(), errors.end())},
       {"rot_error_mean_deg", rot_mean},

@@ -268,7 +268,7 @@ std::vector<MapSegment> LaserSlam::LocalMap() const {
 
 std::vector<PoseEstimate> LaserSlam::Trajectory() const {
   const Impl& s = *impl_;
-  if (!s.backend) return s.trajectory;
+  if (!s.backend && !s.localizer) return s.trajectory;
   // Pose k is scan k + 1 of the session (every scan has one, skipped or not).
   std::vector<PoseEstimate> out = s.trajectory;
   for (size_t k = 0; k < out.size(); ++k) out[k] = s.ToMap(k + 1, out[k]);

@@ -175,6 +175,11 @@ TEST_F(LaserMapsTest, ARobotLocalizesOnAClosedMapFromAKnownStart) {
   // Odometry started at the robot's own origin; the answers are in the map's frame.
   EXPECT_NEAR(updates.back().pose().x(), 1.5, 0.05);
   EXPECT_NEAR(updates.back().pose().y(), -1.3 + 1.4, 0.05);
+  // The trajectory is in the map's frame too, not the odometry's (x = 0 there).
+  ASSERT_OK_AND_ASSIGN(v1::Trajectory trajectory, registry->GetTrajectory(session.session_id()));
+  ASSERT_EQ(trajectory.poses_size(), 15);
+  EXPECT_NEAR(trajectory.poses(14).pose().x(), 1.5, 0.05);
+  EXPECT_NEAR(trajectory.poses(0).pose().y(), -1.3, 0.05);
 
   // It survives a restart: the map is found again and the session goes on localized.
   ASSERT_OK(registry->Shutdown());
