@@ -1,6 +1,8 @@
 // End to end through the real server: `waymark slam replay` of the first 400 scans of the ACES log
 // (../shared/data/laser, read in place; skips when absent) against a waymark-server started for
-// the test, then the JSON summary, the trajectory file and the map pictures are checked.
+// the test, then the JSON summary, the trajectory file and the map pictures are checked. And the
+// first 3000 scans of the Intel log, where the robot goes round the building's loop: loop
+// closure, the map files, import-map and localization on the imported map.
 
 #include <gtest/gtest.h>
 #include <signal.h>
@@ -8,7 +10,9 @@
 #include <array>
 #include <cstdio>
 #include <filesystem>
+#include <cmath>
 #include <fstream>
+#include <map>
 #include <memory>
 #include <nlohmann/json.hpp>
 #include <opencv2/imgcodecs.hpp>
@@ -97,6 +101,91 @@ TEST(SlamReplayRealData, FirstScansOfAcesThroughTheRealServer) {
   EXPECT_EQ(Count(svg, "class=\"segment "), json["segments"].get<int>());
   EXPECT_FALSE(cv::imread(out_dir + "/map.png").empty());
   EXPECT_TRUE(std::filesystem::exists(out_dir + "/summary.json"));
+
+  EXPECT_EQ((*server)->Stop(SIGTERM), 0) << (*server)->Log();
+  std::filesystem::remove_all(dir);
+}
+
+// The TUM poses of a trajectory file by stamp (rounded to 0.1 ms).
+std::map<long long, std::pair<double, double>> ReadPositions(const std::string& path) {
+  std::map<long long, std::pair<double, double>> out;
+  std::istringstream lines(ReadText(path));
+  for (std::string line; std::getline(lines, line);) {
+    if (line.empty() || line[0] == '#') continue;
+    std::istringstream fields(line);
+    double t, x, y;
+    if (fields >> t >> x >> y) out[std::llround(t * 1e4)] = {x, y};
+  }
+  return out;
+}
+
+TEST(SlamReplayRealData, IntelsFirstLoopsCloseAndItsMapLocalizesTheRobot) {
+  const std::filesystem::path data = std::filesystem::path(WAYMARK_SHARED_DIR) / "data" / "laser";
+  const std::filesystem::path log = data / "intel" / "intel.clf.bz2";
+  const std::filesystem::path relations = data / "intel" / "intel.relations";
+  if (!std::filesystem::exists(log)) GTEST_SKIP() << "no " << log << " (../shared absent)";
+
+  const std::string dir = testing::MakeTempDir("waymark-intel-loops");
+  auto server = ServerProcess::Start(testing::ServerBinary(), dir + "/waymark.db");
+  ASSERT_TRUE(server.ok()) << server.status();
+  const std::string cli =
+      std::string(WAYMARK_BINARY_DIR) + "/bin/waymark --server " + (*server)->address();
+  const std::string out_dir = dir + "/map";
+  std::string out;
+  ASSERT_EQ(RunCommand(cli + " --json slam replay --max-scans 3000 --out " + out_dir + " " +
+                           log.string(),
+                       &out),
+            0)
+      << out << "\nserver log:\n" << (*server)->Log();
+  const nlohmann::json mapped = nlohmann::json::parse(out);
+  // Measured (2026-12-02): 166 loop closures; the paper's EKF alone is at 0.43 m mean on these
+  // relations, with loop closure 0.028 m. The floors leave room, not a second method.
+  EXPECT_GT(mapped["loop_closures"].get<int>(), 50);
+  std::string scored;
+  ASSERT_EQ(RunCommand(std::string(WAYMARK_BINARY_DIR) + "/bin/waymark --json eval relations " +
+                           out_dir + "/trajectory.txt " + relations.string(),
+                       &scored),
+            0)
+      << scored;
+  const nlohmann::json metric = nlohmann::json::parse(scored);
+  EXPECT_GT(metric["relations_used"].get<int>(), 400);
+  EXPECT_LT(metric["trans_abs_mean"].get<double>(), 0.06) << scored;
+
+  // The map a navigation stack takes, and back into the server.
+  for (const char* file : {"map.pgm", "map.yaml", "occupancy.png"}) {
+    EXPECT_TRUE(std::filesystem::exists(out_dir + "/" + file)) << file;
+  }
+  std::string imported;
+  ASSERT_EQ(RunCommand(cli + " --json slam import-map " + out_dir + "/map.yaml", &imported), 0)
+      << imported;
+  const std::string map_id = nlohmann::json::parse(imported)["session_id"].get<std::string>();
+
+  // The same scans again on the imported map, from an unknown start: found, then tracked.
+  const std::string loc_dir = dir + "/localize";
+  out.clear();
+  ASSERT_EQ(RunCommand(cli + " --json slam replay --max-scans 3000 --localize-on " + map_id +
+                           " --out " + loc_dir + " " + log.string(),
+                       &out),
+            0)
+      << out;
+  const nlohmann::json localized = nlohmann::json::parse(out);
+  // Measured: first fix at scan 147 (29 s), 2853 of 3000 scans localized, 0.066 m mean error.
+  EXPECT_GT(localized["localization"]["localized_scans"].get<int>(), 2500) << out;
+  const auto truth = ReadPositions(out_dir + "/trajectory.txt");
+  const auto found = ReadPositions(loc_dir + "/trajectory.txt");
+  double sum = 0;
+  int n = 0, far = 0;
+  for (const auto& [stamp, p] : found) {
+    const auto it = truth.find(stamp);
+    if (it == truth.end()) continue;
+    const double e = std::hypot(p.first - it->second.first, p.second - it->second.second);
+    sum += e;
+    far += e > 0.5 ? 1 : 0;
+    ++n;
+  }
+  ASSERT_GT(n, 2900);
+  EXPECT_LT(sum / n, 0.15);
+  EXPECT_EQ(far, 0);
 
   EXPECT_EQ((*server)->Stop(SIGTERM), 0) << (*server)->Log();
   std::filesystem::remove_all(dir);
