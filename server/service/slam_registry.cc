@@ -959,26 +959,27 @@ absl::StatusOr<v1::ListSessionsResponse> SlamRegistry::ListSessions(const std::s
   return response;
 }
 
-absl::StatusOr<v1::SegmentMap> SlamRegistry::GetMap(const std::string& session_id) {
+absl::StatusOr<std::shared_ptr<SlamRegistry::Session>> SlamRegistry::SessionToRead(
+    const std::string& session_id, const absl::Status& visual_refusal) {
   if (absl::Status s = CheckId(session_id); !s.ok()) return s;
-  std::shared_ptr<Session> session;
-  if (auto resident = FindResident(session_id); resident.ok()) {
-    session = *resident;
-  } else {
-    // Not in memory (closed, or not resumed since a restart): rebuild the engine from the
-    // checkpoint to read its map, without making the session resident.
-    absl::StatusOr<storage::SlamSessionRecord> record = store_->GetSession(session_id);
-    if (!record.ok()) return record.status();
-    if (record->kind == "visual") return NoSegmentMapError();  // without building a detector
-    absl::StatusOr<std::shared_ptr<Session>> loaded = LoadSession(*record);
-    if (!loaded.ok()) return loaded.status();
-    session = *loaded;
-  }
+  if (auto resident = FindResident(session_id); resident.ok()) return *resident;
+  // Not in memory (closed, or not resumed since a restart): rebuild the engine from the
+  // checkpoint to read it, without making the session resident.
+  absl::StatusOr<storage::SlamSessionRecord> record = store_->GetSession(session_id);
+  if (!record.ok()) return record.status();
+  if (record->kind == "visual") return visual_refusal;  // without building a detector
+  return LoadSession(*record);
+}
+
+absl::StatusOr<v1::SegmentMap> SlamRegistry::GetMap(const std::string& session_id) {
+  absl::StatusOr<std::shared_ptr<Session>> session =
+      SessionToRead(session_id, NoSegmentMapError());
+  if (!session.ok()) return session.status();
   v1::SegmentMap map;
   map.set_session_id(session_id);
-  std::lock_guard<std::mutex> lock(session->engine_mu);
-  map.set_map_revision(session->map_revision);
-  if (absl::Status s = session->engine->FillMap(&map); !s.ok()) return s;
+  std::lock_guard<std::mutex> lock((*session)->engine_mu);
+  map.set_map_revision((*session)->map_revision);
+  if (absl::Status s = (*session)->engine->FillMap(&map); !s.ok()) return s;
   return map;
 }
 
@@ -1013,29 +1014,18 @@ absl::StatusOr<v1::Trajectory> SlamRegistry::GetTrajectory(const std::string& se
 
 absl::StatusOr<v1::OccupancyGrid> SlamRegistry::GetOccupancyGrid(
     const std::string& session_id, std::optional<double> resolution) {
-  if (absl::Status s = CheckId(session_id); !s.ok()) return s;
   const double cell = resolution.value_or(0.05);
   if (absl::Status s = InRange(cell, "resolution", 0.01, 1.0, false, "m"); !s.ok()) return s;
-  std::shared_ptr<Session> session;
-  if (auto resident = FindResident(session_id); resident.ok()) {
-    session = *resident;
-  } else {
-    absl::StatusOr<storage::SlamSessionRecord> record = store_->GetSession(session_id);
-    if (!record.ok()) return record.status();
-    if (record->kind != "laser") {
-      return absl::FailedPreconditionError(
-          absl::StrCat("SLAM session ", Quoted(session_id), " is a ", record->kind,
-                       " session: only laser sessions have an occupancy grid"));
-    }
-    absl::StatusOr<std::shared_ptr<Session>> loaded = LoadSession(*record);
-    if (!loaded.ok()) return loaded.status();
-    session = *loaded;
-  }
+  absl::StatusOr<std::shared_ptr<Session>> session = SessionToRead(
+      session_id, absl::FailedPreconditionError(absl::StrCat(
+                      "SLAM session ", Quoted(session_id),
+                      " is a visual session: only laser sessions have an occupancy grid")));
+  if (!session.ok()) return session.status();
   v1::OccupancyGrid grid;
   grid.set_session_id(session_id);
-  std::lock_guard<std::mutex> lock(session->engine_mu);
-  grid.set_map_revision(session->map_revision);
-  if (absl::Status s = session->engine->FillOccupancyGrid(cell, &grid); !s.ok()) {
+  std::lock_guard<std::mutex> lock((*session)->engine_mu);
+  grid.set_map_revision((*session)->map_revision);
+  if (absl::Status s = (*session)->engine->FillOccupancyGrid(cell, &grid); !s.ok()) {
     return absl::Status(s.code(),
                         absl::StrCat("SLAM session ", Quoted(session_id), ": ", s.message()));
   }

@@ -180,6 +180,10 @@ class SlamRegistry {
   // FAILED_PRECONDITION (a visual session, still open, a localization session, no scans kept).
   absl::StatusOr<std::shared_ptr<const laser_slam::PointCloud>> LoadLocalizationMap(
       const std::string& map_session_id);
+  // A session to read from: the resident one, or one built from its checkpoint (not made
+  // resident); `visual_refusal` for a stored visual session (its engine is not built to read it).
+  absl::StatusOr<std::shared_ptr<Session>> SessionToRead(const std::string& session_id,
+                                                         const absl::Status& visual_refusal);
   // A session's engine built from its stored record (not made resident).
   absl::StatusOr<std::unique_ptr<SessionEngine>> EngineOf(const storage::SlamSessionRecord& record);
   // Checks the request's common fields (robot id, name) as CreateSession does.

@@ -12,6 +12,7 @@
 #include "client/lib/channel.h"
 #include "client/lib/slam_client.h"
 #include "tests/client/carmen_test_log.h"
+#include "tests/client/fake_slam_cli_test.h"
 #include "tests/client/fake_slam_service.h"
 #include "tests/client/test_util.h"
 
@@ -55,12 +56,8 @@ void ExpectSameGrid(const v1::OccupancyGrid& actual, const v1::OccupancyGrid& ex
   EXPECT_EQ(actual.cells(), expected.cells());
 }
 
-class GridCommandsTest : public ::testing::Test {
+class GridCommandsTest : public ::waymark::testing::FakeSlamCliTest {
  protected:
-  CliResult Run(std::vector<std::string> args) {
-    return RunWaymark(server_.address(), std::move(args));
-  }
-
   // A closed session s1 from a replay of a 20-scan log (into a folder of its own).
   void ReplaySession() {
     const auto log = dir_.path() / "test.clf";
@@ -69,14 +66,6 @@ class GridCommandsTest : public ::testing::Test {
     ASSERT_EQ(r.code, 0) << r.err;
   }
 
-  std::string ReplayLog(int scans) {
-    const auto log = dir_.path() / "test.clf";
-    std::ofstream(log) << MakeLog(scans);
-    return log.string();
-  }
-
-  ScopedTempDir dir_;
-  FakeSlamServer server_;
 };
 
 TEST_F(GridCommandsTest, GetOccupancyGridIsRetriedAndImportMapIsNot) {
@@ -255,7 +244,7 @@ TEST_F(GridCommandsTest, ReplayWritesTheGridIntoItsFolder) {
   server_.service().set_occupancy_grid(TestGrid());
   const auto out = dir_.path() / "o";
   CliResult r = Run(
-      {"--json", "slam", "replay", ReplayLog(20), "--out", out.string(), "--resolution", "0.1"});
+      {"--json", "slam", "replay", WriteLog(20), "--out", out.string(), "--resolution", "0.1"});
   ASSERT_EQ(r.code, 0) << r.err;
   EXPECT_EQ(server_.service().last_grid_resolution(), 0.1);
   const nlohmann::json summary =
@@ -287,7 +276,7 @@ TEST_F(GridCommandsTest, AReplayNeverFailsForItsGrid) {
     SCOPED_TRACE(c.note);
     server_.service().set_grid_answer(c.code);
     const auto out = dir_.path() / ("o" + std::to_string(static_cast<int>(c.code)));
-    CliResult r = Run({"slam", "replay", ReplayLog(20), "--out", out.string()});
+    CliResult r = Run({"slam", "replay", WriteLog(20), "--out", out.string()});
     EXPECT_EQ(r.code, 0) << r.err;
     EXPECT_THAT(r.out, HasSubstr(c.note));
     EXPECT_THAT(r.out, HasSubstr("summary.json"));
@@ -303,7 +292,7 @@ TEST_F(GridCommandsTest, AReplayWhoseServerIsGoneDoesNotAskForTheGrid) {
   server_.service().set_occupancy_grid(TestGrid());
   server_.service().set_session_calls_fail(grpc::StatusCode::NOT_FOUND);
   const auto out = dir_.path() / "o";
-  CliResult r = Run({"--json", "slam", "replay", ReplayLog(20), "--out", out.string()});
+  CliResult r = Run({"--json", "slam", "replay", WriteLog(20), "--out", out.string()});
   EXPECT_EQ(r.code, 0) << r.err;
   EXPECT_EQ(server_.service().calls("GetOccupancyGrid"), 0);
   EXPECT_THAT(r.Json()["grid_note"].get<std::string>(),

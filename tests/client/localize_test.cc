@@ -11,6 +11,7 @@
 #include "client/lib/channel.h"
 #include "client/lib/slam_client.h"
 #include "tests/client/carmen_test_log.h"
+#include "tests/client/fake_slam_cli_test.h"
 #include "tests/client/fake_slam_service.h"
 #include "tests/client/test_util.h"
 
@@ -25,7 +26,7 @@ using waymark::testing::ReadAll;
 using waymark::testing::RunWaymark;
 using waymark::testing::ScopedTempDir;
 
-class LocalizeTest : public ::testing::Test {
+class LocalizeTest : public ::waymark::testing::FakeSlamCliTest {
  protected:
   // A stored map to localize on: an imported 2 x 2 grid, session s1.
   void SetUp() override {
@@ -40,24 +41,12 @@ class LocalizeTest : public ::testing::Test {
     ASSERT_EQ(map->session_id(), "s1");
   }
 
-  CliResult Run(std::vector<std::string> args) {
-    return RunWaymark(server_.address(), std::move(args));
-  }
-
-  std::string Log(int scans) {
-    const auto log = dir_.path() / "test.clf";
-    std::ofstream(log) << MakeLog(scans);
-    return log.string();
-  }
-
-  ScopedTempDir dir_;
-  FakeSlamServer server_;
 };
 
 TEST_F(LocalizeTest, ReplayCreatesALocalizationSessionAndReportsTheFirstFix) {
   server_.service().set_localized_from_scan(3);
   const auto out = dir_.path() / "o";
-  CliResult r = Run({"--json", "slam", "replay", Log(20), "--out", out.string(), "--localize-on",
+  CliResult r = Run({"--json", "slam", "replay", WriteLog(20), "--out", out.string(), "--localize-on",
                      "s1", "--initial-pose", "1.5,-2,0.3"});
   ASSERT_EQ(r.code, 0) << r.err;
   const v1::LaserSlamConfig laser = server_.service().last_create().laser();
@@ -79,7 +68,7 @@ TEST_F(LocalizeTest, ReplayCreatesALocalizationSessionAndReportsTheFirstFix) {
   EXPECT_EQ(summary["localization"], localization);
 
   CliResult human = Run(
-      {"slam", "replay", Log(20), "--out", (dir_.path() / "h").string(), "--localize-on", "s1"});
+      {"slam", "replay", WriteLog(20), "--out", (dir_.path() / "h").string(), "--localize-on", "s1"});
   ASSERT_EQ(human.code, 0) << human.err;
   EXPECT_THAT(human.out, HasSubstr("localization on map s1: 18 of 20 scans localized, first fix at "
                                    "scan 2 (stamp 1000.400, 0.40 s after the first scan)"));
@@ -88,7 +77,7 @@ TEST_F(LocalizeTest, ReplayCreatesALocalizationSessionAndReportsTheFirstFix) {
 
 TEST_F(LocalizeTest, AReplayThatNeverLocalizesSaysSo) {
   server_.service().set_localized_from_scan(1000);
-  CliResult r = Run({"--json", "slam", "replay", Log(10), "--out", (dir_.path() / "o").string(),
+  CliResult r = Run({"--json", "slam", "replay", WriteLog(10), "--out", (dir_.path() / "o").string(),
                      "--localize-on", "s1"});
   ASSERT_EQ(r.code, 0) << r.err;
   const nlohmann::json localization = r.Json()["localization"];
@@ -96,41 +85,41 @@ TEST_F(LocalizeTest, AReplayThatNeverLocalizesSaysSo) {
   EXPECT_TRUE(localization["first_fix_scan"].is_null());
   EXPECT_TRUE(localization["time_to_first_fix_s"].is_null());
   CliResult human = Run(
-      {"slam", "replay", Log(10), "--out", (dir_.path() / "h").string(), "--localize-on", "s1"});
+      {"slam", "replay", WriteLog(10), "--out", (dir_.path() / "h").string(), "--localize-on", "s1"});
   EXPECT_THAT(human.out, HasSubstr("localization on map s1: 0 of 10 scans localized, never "
                                    "localized"));
 }
 
 TEST_F(LocalizeTest, AServerThatDoesNotLocalizeIsNotTakenForOneThatNeverLocalized) {
   server_.service().set_ignore_localize(true);  // older than LaserSlamConfig.localize: it maps
-  CliResult r = Run({"--json", "slam", "replay", Log(10), "--out", (dir_.path() / "o").string(),
+  CliResult r = Run({"--json", "slam", "replay", WriteLog(10), "--out", (dir_.path() / "o").string(),
                      "--localize-on", "s1"});
   ASSERT_EQ(r.code, 0) << r.err;
   EXPECT_EQ(r.Json()["localization"]["answers_with_status"], 0);
   CliResult human = Run(
-      {"slam", "replay", Log(10), "--out", (dir_.path() / "h").string(), "--localize-on", "s1"});
+      {"slam", "replay", WriteLog(10), "--out", (dir_.path() / "h").string(), "--localize-on", "s1"});
   EXPECT_THAT(human.out, HasSubstr("0 of 10 scans localized: no answer carried a localization "
                                    "status (a server older than --localize-on maps instead)"));
 }
 
 TEST_F(LocalizeTest, AMappingReplayHasNoLocalizationReport) {
-  CliResult r = Run({"--json", "slam", "replay", Log(5), "--out", (dir_.path() / "o").string()});
+  CliResult r = Run({"--json", "slam", "replay", WriteLog(5), "--out", (dir_.path() / "o").string()});
   ASSERT_EQ(r.code, 0) << r.err;
   EXPECT_FALSE(r.Json().contains("localization"));
   EXPECT_FALSE(server_.service().last_create().laser().has_localize());
 }
 
 TEST_F(LocalizeTest, ReplayArgumentAndServerErrors) {
-  CliResult no_map = Run({"slam", "replay", Log(5), "--initial-pose", "1,2,0"});
+  CliResult no_map = Run({"slam", "replay", WriteLog(5), "--initial-pose", "1,2,0"});
   EXPECT_NE(no_map.code, 0);
   EXPECT_THAT(no_map.err, HasSubstr("--initial-pose requires --localize-on"));
   CliResult bad_pose =
-      Run({"slam", "replay", Log(5), "--localize-on", "s1", "--initial-pose", "1,2"});
+      Run({"slam", "replay", WriteLog(5), "--localize-on", "s1", "--initial-pose", "1,2"});
   EXPECT_NE(bad_pose.code, 0);
   EXPECT_THAT(bad_pose.err, HasSubstr("expected X,Y,THETA"));
   EXPECT_EQ(server_.service().scans_received(), 0);
 
-  CliResult unknown = Run({"slam", "replay", Log(5), "--localize-on", "nowhere"});
+  CliResult unknown = Run({"slam", "replay", WriteLog(5), "--localize-on", "nowhere"});
   EXPECT_EQ(unknown.code, 1);
   EXPECT_THAT(unknown.err, HasSubstr("NOT_FOUND"));
   EXPECT_THAT(unknown.err, HasSubstr("(CreateSession)"));

@@ -14,6 +14,7 @@
 #include "client/sessions/slam_replay.h"
 #include "client/datasets/tum_trajectory.h"
 #include "tests/client/carmen_test_log.h"
+#include "tests/client/fake_slam_cli_test.h"
 #include "tests/client/fake_slam_service.h"
 #include "tests/client/test_util.h"
 
@@ -41,21 +42,7 @@ int PoseLines(const std::filesystem::path& path) {
   return n;
 }
 
-class SlamCliTest : public ::testing::Test {
- protected:
-  CliResult Run(std::vector<std::string> args) {
-    return RunWaymark(server_.address(), std::move(args));
-  }
-
-  std::string WriteLog(int scans) {
-    const auto path = dir_.path() / "test.clf";
-    std::ofstream(path) << MakeLog(scans);
-    return path.string();
-  }
-
-  ScopedTempDir dir_;
-  FakeSlamServer server_;
-};
+using SlamCliTest = ::waymark::testing::FakeSlamCliTest;
 
 TEST_F(SlamCliTest, ReplayStreamsEveryScanWithinTheWindowAndWritesTheOutputs) {
   server_.service().set_scan_delay(absl::Milliseconds(2));
