@@ -42,6 +42,7 @@
 #include <fstream>
 #include <iostream>
 #include <map>
+#include <numeric>
 #include <stdexcept>
 #include <nlohmann/json.hpp>
 #include <string>
@@ -169,6 +170,9 @@ nlohmann::json MappingJson(const ls::MappingBackend& backend) {
           {"closures_in_graph", enabled},
           {"closures_disagreeing_with_final_graph", disagreeing},
           {"optimizations", stats.optimizations},
+          {"search_s_total", std::accumulate(stats.search_ms.begin(), stats.search_ms.end(), 0.0) / 1000},
+          {"optimize_s_total",
+           std::accumulate(stats.optimize_ms.begin(), stats.optimize_ms.end(), 0.0) / 1000},
           {"search_ms_p50", Percentile(stats.search_ms, 0.5)},
           {"search_ms_p99", Percentile(stats.search_ms, 0.99)},
           {"optimize_ms_p50", Percentile(stats.optimize_ms, 0.5)},

@@ -88,7 +88,7 @@ int MappingBackend::AppendNodeLocked(std::uint64_t scan, double stamp, const Pos
   nodes_.push_back(std::move(node));
   const int index = static_cast<int>(nodes_.size()) - 1;
   if (submaps_.empty() || submaps_.back().complete) {
-    submaps_.push_back(Submap{index, 0, false});
+    submaps_.push_back(Submap{index, 0, false, {}});
   }
   Submap& submap = submaps_.back();
   ++submap.count;
@@ -98,8 +98,25 @@ int MappingBackend::AppendNodeLocked(std::uint64_t scan, double stamp, const Pos
   return index;
 }
 
+void MappingBackend::FreezeSubmapLocked(int index) {
+  for (auto it = submaps_.rbegin(); it != submaps_.rend(); ++it) {
+    if (index < it->first) continue;
+    if (it->complete && it->frozen.empty() && index == it->first + it->count - 1) {
+      const Pose2 anchor = nodes_[it->first].global;
+      for (int j = it->first; j <= index; ++j) {
+        it->frozen.push_back(Relative(anchor, nodes_[j].global));
+      }
+    }
+    return;
+  }
+}
+
 void MappingBackend::Process(int index) {
   std::lock_guard<std::mutex> one_at_a_time(search_mu_);
+  {
+    std::lock_guard<std::mutex> lock(mu_);
+    FreezeSubmapLocked(index);
+  }
   if (index % options_.search_every_nodes == 0) SearchLoops(index);
   bool due = false;
   {
@@ -160,10 +177,18 @@ void MappingBackend::SearchLoops(int index) {
   }
   query = ThinPoints(query, options_.point_cell);
   int accepted = 0, rejected = 0;
+  // The wide search scores half the points (one per 10 cm): the branch and bound costs in
+  // proportion to them, and a wall sampled every 10 cm still pins the pose to the 5 cm grid. The
+  // best pose is then refined and scored with all of them in a window of two cells.
+  const PointCloud sparse = ThinPoints(query, 2.0 * options_.point_cell);
   for (const Candidate& c : candidates) {
     const std::shared_ptr<const SearchPyramid> pyramid = PyramidFor(c.submap);
-    const std::optional<GridMatch> match =
-        MatchInWindow(*pyramid, query, c.initial, c.window, options_.min_score);
+    std::optional<GridMatch> match =
+        MatchInWindow(*pyramid, sparse, c.initial, c.window, options_.min_score);
+    if (match) {
+      const SearchWindow refine{2.0 * options_.grid_resolution, 0.02};
+      match = MatchInWindow(*pyramid, query, match->pose, refine, options_.min_score);
+    }
     if (!match || match->score < options_.min_score) {
       ++rejected;
       continue;
@@ -205,7 +230,9 @@ std::shared_ptr<const SearchPyramid> MappingBackend::PyramidFor(int submap) {
     const Submap& s = submaps_[submap];
     const Pose2 anchor = nodes_[s.first].global;
     for (int j = s.first; j < s.first + s.count; ++j) {
-      AppendTransformed(*nodes_[j].points, Relative(anchor, nodes_[j].global), &cloud);
+      const Pose2 pose = s.frozen.empty() ? Relative(anchor, nodes_[j].global)
+                                          : s.frozen[j - s.first];
+      AppendTransformed(*nodes_[j].points, pose, &cloud);
     }
   }
   auto pyramid = std::make_shared<const SearchPyramid>(
@@ -260,9 +287,6 @@ void MappingBackend::Optimize(int upto) {
   for (size_t i = 0; i < constraints.size(); ++i) {
     constraints_[indices[i]].enabled = constraints[i].enabled;
   }
-  // Submap grids are rebuilt from the moved nodes when next needed, so that what a search sees
-  // depends only on the graph (a session resumed from its checkpoint searches the same grids).
-  pyramid_cache_.clear();
   ++revision_;
   ++stats_.optimizations;
   stats_.closures_switched_off += switched_off;
@@ -384,6 +408,8 @@ std::string MappingBackend::Serialize() const {
     w.Put<std::int32_t>(s.first);
     w.Put<std::int32_t>(s.count);
     w.Put<std::uint8_t>(s.complete);
+    w.Put<std::uint32_t>(static_cast<std::uint32_t>(s.frozen.size()));
+    for (const Pose2& p : s.frozen) PutPose(w, p);
   }
   w.Put<std::uint32_t>(static_cast<std::uint32_t>(constraints_.size()));
   for (const GraphConstraint& c : constraints_) {
@@ -444,11 +470,17 @@ absl::StatusOr<std::unique_ptr<MappingBackend>> MappingBackend::Deserialize(
   b.submaps_.resize(count);
   for (Submap& s : b.submaps_) {
     std::uint8_t complete = 0;
+    std::uint32_t frozen = 0;
     if (!r.Get(&s.first) || !r.Get(&s.count) || !r.Get(&complete) || s.first < 0 || s.count < 1 ||
-        s.first + s.count > nodes) {
+        s.first + s.count > nodes || !r.Get(&frozen) ||
+        (frozen != 0 && frozen != static_cast<std::uint32_t>(s.count))) {
       return corrupt("submap");
     }
     s.complete = complete != 0;
+    s.frozen.resize(frozen);
+    for (Pose2& p : s.frozen) {
+      if (!GetPose(r, &p)) return corrupt("submap pose");
+    }
   }
   if (!r.Get(&count) || count > 100000000) return corrupt("constraint count");
   b.constraints_.resize(count);

@@ -105,6 +105,10 @@ class MappingBackend {
     int first = 0;  // node indices [first, first + count)
     int count = 0;
     bool complete = false;
+    // The nodes' poses relative to the first one, fixed when its last node was handled: its grid
+    // is drawn with them, so a grid built once stays right (Cartographer's finished submaps) and
+    // does not depend on when it was built.
+    std::vector<Pose2> frozen;
   };
 
   // Appends the node and its chain constraint; returns its index. Caller holds mu_.
@@ -136,6 +140,8 @@ class MappingBackend {
   double tie_travel_ = -1.0;  // travel at the last accepted loop closure (-1: none yet)
   std::uint64_t revision_ = 0;
   MappingStats stats_;
+  // Fixes the submap's frozen poses when node `index` is its last one. Caller holds mu_.
+  void FreezeSubmapLocked(int index);
   // Pyramids of recently matched submaps (least recently used first).
   std::deque<std::pair<int, std::shared_ptr<const SearchPyramid>>> pyramid_cache_;
   std::mutex search_mu_;  // one search / optimisation at a time

@@ -71,8 +71,10 @@ struct MappingOptions {
   // graph optimised again (a wrong closure is worse than none).
   double huber_scale = 1.0;
   double outlier_residual = 5.0;
-  // Optimise after this many new loop constraints (or at Flush).
-  int optimize_every_closures = 1;
+  // Optimise after this many new loop constraints (and at Flush). 3 instead of 1 halved the
+  // optimisation time on Intel (10.4 -> 5.3 s) at the same accuracy (0.030 m; ACES 0.045 ->
+  // 0.046 m): closures come in bursts, and the graph moves little between them.
+  int optimize_every_closures = 3;
   int max_iterations = 50;
 };
 
