@@ -82,6 +82,7 @@ struct Args {
   int localize_from = 0;
   bool localize_known_start = false;
   bool localize_on_grid = false;  // the map as an exported grid's occupied cells (import-map)
+  int localize_track_nodes = 0;   // LocalizationOptions::track_query_nodes; 0 = its default
 };
 
 void Usage() {
@@ -92,7 +93,7 @@ void Usage() {
          "                          [--match-chi2 X] [--mapping on|off]\n"
          "                          [--mapping-opt NAME=VALUE ...]\n"
          "                          [--localize [--localize-from SCAN] [--localize-known-start]\n"
-         "                           [--localize-on-grid]]\n";
+         "                           [--localize-on-grid] [--localize-track-nodes N]]\n";
 }
 
 // Nearest-rank percentile, as slam_replay reports it.
@@ -225,6 +226,8 @@ bool ParseArgs(int argc, char** argv, Args* args) {
         args->options.ekf.min_turn = std::stod(v);
       } else if (a == "--match-chi2") {
         args->options.ekf.match_chi2 = std::stod(v);
+      } else if (a == "--localize-track-nodes") {
+        args->localize_track_nodes = std::stoi(v);
       } else if (a == "--localize-from") {
         args->localize_from = std::stoi(v);
       } else if (a == "--mapping") {
@@ -354,6 +357,7 @@ absl::StatusOr<nlohmann::json> RunLocalization(const Args& args, const ls::SlamO
   const size_t from = std::min<size_t>(args.localize_from, lasers.size() - 1);
   ls::LocalizationOptions lo;
   if (args.localize_known_start) lo.initial_pose = reference[from].pose;
+  if (args.localize_track_nodes > 0) lo.track_query_nodes = args.localize_track_nodes;
   const Clock::time_point build_start = Clock::now();
   absl::StatusOr<std::unique_ptr<ls::MapLocalizer>> localizer = ls::MapLocalizer::Create(lo, *points);
   if (!localizer.ok()) return localizer.status();

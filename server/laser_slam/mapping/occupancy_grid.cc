@@ -9,10 +9,12 @@
 namespace waymark::laser_slam {
 namespace {
 
-// Log-odds increments of a hit and a pass-through, and the clamp (the usual inverse sensor model:
-// p(hit) = 0.7, p(free | pass) = 0.4 -> 0.85 and -0.4).
+// Log-odds increments of a hit and a pass-through, and the clamp. A pass counts for less than a
+// hit (p(hit) = 0.7, p(pass) = 0.45): rays that graze a wall cross its cells too, and with the
+// textbook -0.4 a third fewer wall cells reached "occupied" (Intel: 6954 against 8762), which
+// cost a robot localizing on the exported map (44 against 10 poses off by more than 0.5 m).
 constexpr float kHit = 0.85f;
-constexpr float kMiss = -0.4f;
+constexpr float kMiss = -0.2f;
 constexpr float kClamp = 5.0f;
 
 }  // namespace
