@@ -289,16 +289,24 @@ TEST(MapLocalizerTest, AnUnknownStartIsFoundByTwoAgreeingGlobalSearches) {
   EXPECT_NEAR(tracked.y, truth_pose.y, 0.05);
 }
 
-TEST(MapLocalizerTest, AKnownStartTracksAtOnceAndTheStateSurvivesACheckpoint) {
+TEST(MapLocalizerTest, AKnownStartIsFixedOnceFiveScansAreInAndTheStateSurvivesACheckpoint) {
   LocalizationOptions options;
   const Pose2 start{7.5, 1.0, 2.0};
   options.initial_pose = Pose2{7.3, 1.2, 1.9};  // 0.3 m and 0.1 rad off, within 3 sigma
   absl::StatusOr<std::unique_ptr<MapLocalizer>> localizer = MapLocalizer::Create(options, LRoomMap());
   ASSERT_TRUE(localizer.ok());
-  const LocalizationResult first = (*localizer)->AddScan(1, 0.0, Pose2{}, PointsFrom(LRoom(), start));
-  EXPECT_TRUE(first.localized);
-  EXPECT_FALSE(first.global_search);
+  // Dead reckoning from the given start until five scans can be matched together, never a
+  // global search.
+  LocalizationResult result;
+  for (int i = 0; i < 5; ++i) {
+    const Pose2 local{0.3 * i, 0.0, 0.0};
+    result = (*localizer)->AddScan(i + 1, i, local, PointsFrom(LRoom(), Compose(start, local)));
+    EXPECT_FALSE(result.global_search);
+    EXPECT_EQ(result.localized, i == 4) << i;
+  }
+  EXPECT_EQ(result.fixes, 1);
   EXPECT_NEAR((*localizer)->ToMap(1, Pose2{}).x, start.x, 0.05);
+  EXPECT_NEAR((*localizer)->ToMap(1, Pose2{}).y, start.y, 0.05);
 
   absl::StatusOr<std::unique_ptr<MapLocalizer>> resumed = MapLocalizer::Create(options, LRoomMap());
   ASSERT_TRUE(resumed.ok());

@@ -169,9 +169,12 @@ TEST_F(LaserMapsTest, ARobotLocalizesOnAClosedMapFromAKnownStart) {
   stream->Close();
   const std::vector<v1::SlamUpdate> updates = answers.Get();
   ASSERT_EQ(updates.size(), 15u);
-  EXPECT_TRUE(updates.front().localization().localized());
-  EXPECT_FALSE(updates.front().localization().global_search());
-  EXPECT_GE(updates.back().localization().fixes(), 3u);
+  // Dead reckoning from the given start until five scans 0.25 m apart can be matched: localized
+  // from the fifth on, never by a global search.
+  EXPECT_FALSE(updates.front().localization().localized());
+  for (const v1::SlamUpdate& u : updates) EXPECT_FALSE(u.localization().global_search());
+  EXPECT_TRUE(updates.back().localization().localized());
+  EXPECT_GE(updates.back().localization().fixes(), 1u);
   // Odometry started at the robot's own origin; the answers are in the map's frame.
   EXPECT_NEAR(updates.back().pose().x(), 1.5, 0.05);
   EXPECT_NEAR(updates.back().pose().y(), -1.3 + 1.4, 0.05);
@@ -260,13 +263,17 @@ TEST_F(LaserMapsTest, AnImportedGridIsAClosedMapToLocalizeOn) {
   ASSERT_OK_AND_ASSIGN(v1::Session session, registry->CreateSession(localize));
   Answers answers;
   ASSERT_OK_AND_ASSIGN(auto stream, registry->OpenStream(session.session_id(), answers.Sink()));
-  ASSERT_OK((*stream).Submit(Odom(1, 1.0, 0.0, 0.0, 0.0)));
-  ASSERT_OK((*stream).Submit(RoomScan(2, 1.0, 0.0, 0.0, 0.0)));
+  // Five scans 0.3 m apart along -y from world (0, 0), the map's (1.5, -0.3).
+  for (int k = 0; k < 5; ++k) {
+    ASSERT_OK((*stream).Submit(Odom(2 * k + 1, 1.0 + k, 0.0, -0.3 * k, 0.0)));
+    ASSERT_OK((*stream).Submit(RoomScan(2 * k + 2, 1.0 + k, 0.0, -0.3 * k, 0.0)));
+  }
   stream->Close();
-  ASSERT_EQ(answers.Get().size(), 1u);
-  EXPECT_TRUE(answers.Get().front().localization().localized());
-  EXPECT_NEAR(answers.Get().front().pose().x(), 1.5, 0.08);
-  EXPECT_NEAR(answers.Get().front().pose().y(), -0.3, 0.08);
+  ASSERT_EQ(answers.Get().size(), 5u);
+  const v1::SlamUpdate last = answers.Get().back();
+  EXPECT_TRUE(last.localization().localized());
+  EXPECT_NEAR(last.pose().x(), 1.5, 0.08);
+  EXPECT_NEAR(last.pose().y(), -0.3 - 1.2, 0.08);
 
   // Bad grids are refused naming the field, and nothing is stored.
   ASSERT_OK_AND_ASSIGN(v1::ListSessionsResponse before, registry->ListSessions(""));
