@@ -309,8 +309,8 @@ absl::StatusOr<v1::Session> SlamClient::ImportMap(const std::string& robot_id,
 absl::StatusOr<v1::Session> SlamClient::CloseSession(const std::string& session_id) {
   v1::CloseSessionRequest request;
   request.set_session_id(session_id);
-  return CallUnary<v1::Session>(options_.timeout, options_.retry, Idempotency::kWrite,
-                                [&](auto* context, auto* response) {
+  return CallUnary<v1::Session>(std::max(options_.timeout, kCloseSessionTimeout), options_.retry,
+                                Idempotency::kWrite, [&](auto* context, auto* response) {
                                   return stub_->CloseSession(context, request, response);
                                 });
 }

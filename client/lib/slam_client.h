@@ -156,6 +156,10 @@ class SlamClient {
   // Stores `grid` as a new closed laser session to localize on (see the proto).
   absl::StatusOr<v1::Session> ImportMap(const std::string& robot_id, const std::string& name,
                                         const v1::OccupancyGrid& grid);
+  // Closing a laser session waits for its loop-closing back end to finish (its last searches and
+  // optimisation: tens of seconds after a fast replay of a large log), so its deadline is the
+  // longer of options.timeout and kCloseSessionTimeout.
+  static constexpr absl::Duration kCloseSessionTimeout = absl::Minutes(10);
   absl::StatusOr<v1::Session> CloseSession(const std::string& session_id);
   absl::StatusOr<v1::ListSessionsResponse> ListSessions(const std::string& robot_id = "");
   // Deletes a session and its stored data; `force` closes an open session first (see the proto).

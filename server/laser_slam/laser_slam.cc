@@ -293,10 +293,12 @@ absl::Status NoScansKept() {
 
 }  // namespace
 
-absl::StatusOr<OccupancyGrid> LaserSlam::RenderGrid(double resolution) const {
+absl::StatusOr<OccupancyGrid> LaserSlam::RenderGrid(double resolution,
+                                                    std::int64_t max_cells) const {
   if (impl_->imported_grid) return *impl_->imported_grid;
   if (!impl_->backend) return NoScansKept();
-  return RenderOccupancy(impl_->backend->Nodes(), resolution);
+  const std::vector<NodeView> nodes = impl_->backend->Nodes();
+  return RenderOccupancy(nodes, ResolutionThatFits(nodes, resolution, max_cells), max_cells);
 }
 
 absl::StatusOr<PointCloud> LaserSlam::MapPoints() const {

@@ -103,7 +103,10 @@ class LaserSlam {
   const MappingBackend* backend() const;
   // The occupancy grid of the kept scans at their optimised poses (or the imported grid).
   // FAILED_PRECONDITION without a back end (the paper's EKF keeps no scans).
-  absl::StatusOr<OccupancyGrid> RenderGrid(double resolution) const;
+  // At most `max_cells` cells: a coarser resolution is chosen when the map needs it (the grid's
+  // resolution says which).
+  absl::StatusOr<OccupancyGrid> RenderGrid(double resolution,
+                                           std::int64_t max_cells = kMaxOccupancyCells) const;
   // The map as points in the map frame, for localizing on it: the kept scans at their optimised
   // poses, or an imported grid's occupied cells. FAILED_PRECONDITION as RenderGrid.
   absl::StatusOr<PointCloud> MapPoints() const;

@@ -171,7 +171,11 @@ absl::Status LaserSessionEngine::FillMap(v1::SegmentMap* map) const {
 
 absl::Status LaserSessionEngine::FillOccupancyGrid(double resolution,
                                                    v1::OccupancyGrid* out) const {
-  absl::StatusOr<ls::OccupancyGrid> grid = slam_->RenderGrid(resolution);
+  // One answer must fit gRPC's message limit (32 MB, 1 byte per cell) and the rendering's memory
+  // (6 bytes per cell) stay modest: larger maps come at a coarser resolution (`resolution` of the
+  // answer). fr-clinic (42 M cells at 5 cm) and Killian (35 M) come at 7-8 cm.
+  constexpr std::int64_t kMaxGridCells = 16'000'000;
+  absl::StatusOr<ls::OccupancyGrid> grid = slam_->RenderGrid(resolution, kMaxGridCells);
   if (!grid.ok()) return grid.status();
   const std::string session_id = out->session_id();
   const uint64_t revision = out->map_revision();

@@ -230,6 +230,14 @@ TEST(OccupancyGridTest, WallsAreOccupiedTheRoomFreeAndTheOutsideUnknown) {
     EXPECT_LT(to_wall, 0.1) << p.transpose();
   }
 
+  // A cell budget picks a coarser resolution that fits it.
+  const double coarser = ResolutionThatFits(nodes, 0.05, 2000);
+  EXPECT_GT(coarser, 0.05);
+  absl::StatusOr<OccupancyGrid> small = RenderOccupancy(nodes, coarser, 2000);
+  ASSERT_TRUE(small.ok()) << small.status();
+  EXPECT_LE(static_cast<std::int64_t>(small->width) * small->height, 2000);
+  EXPECT_EQ(ResolutionThatFits(nodes, 0.05, 1'000'000), 0.05);
+
   // A map too large for the resolution is refused with the resolution that fits.
   nodes.push_back(NodeView{2, 0.0, Pose2{900.0, 900.0, 0.0}, nodes[0].points});
   absl::StatusOr<OccupancyGrid> huge = RenderOccupancy(nodes, 0.05);

@@ -19,8 +19,38 @@ constexpr float kClamp = 5.0f;
 
 }  // namespace
 
+namespace {
+
+// Cells of the nodes' grid at `resolution` (their bounds with the 2-cell margin).
+std::int64_t CellsAt(const std::vector<NodeView>& nodes, double resolution) {
+  Eigen::Vector2d lo = Eigen::Vector2d::Constant(1e300), hi = -lo;
+  for (const NodeView& n : nodes) {
+    const Eigen::Vector2d p(n.global.x, n.global.y);
+    lo = lo.cwiseMin(p);
+    hi = hi.cwiseMax(p);
+    for (const Eigen::Vector2f& q : TransformPoints(*n.points, n.global)) {
+      lo = lo.cwiseMin(q.cast<double>());
+      hi = hi.cwiseMax(q.cast<double>());
+    }
+  }
+  const Eigen::Vector2d span = (hi - lo) / resolution + Eigen::Vector2d::Constant(5.0);
+  return static_cast<std::int64_t>(std::ceil(span.x())) * static_cast<std::int64_t>(std::ceil(span.y()));
+}
+
+}  // namespace
+
+double ResolutionThatFits(const std::vector<NodeView>& nodes, double resolution,
+                          std::int64_t max_cells) {
+  double fits = resolution;
+  while (!nodes.empty() && CellsAt(nodes, fits) > max_cells) {
+    fits = std::ceil(fits * std::sqrt(double(CellsAt(nodes, fits)) / max_cells) * 1000.0 + 1.0) /
+           1000.0;
+  }
+  return fits;
+}
+
 absl::StatusOr<OccupancyGrid> RenderOccupancy(const std::vector<NodeView>& nodes,
-                                              double resolution) {
+                                              double resolution, std::int64_t max_cells) {
   OccupancyGrid grid;
   grid.resolution = resolution;
   if (nodes.empty()) return grid;
@@ -49,11 +79,11 @@ absl::StatusOr<OccupancyGrid> RenderOccupancy(const std::vector<NodeView>& nodes
       static_cast<std::int64_t>(std::ceil((max_x + margin - grid.origin.x()) / resolution));
   const std::int64_t height =
       static_cast<std::int64_t>(std::ceil((max_y + margin - grid.origin.y()) / resolution));
-  if (width * height > kMaxOccupancyCells) {
-    const double fits = resolution * std::sqrt(double(width * height) / kMaxOccupancyCells);
+  if (width * height > max_cells) {
+    const double fits = resolution * std::sqrt(double(width * height) / max_cells);
     return absl::ResourceExhaustedError(absl::StrCat(
         "the map spans ", max_x - min_x, " x ", max_y - min_y, " m: at ", resolution,
-        " m per cell that is ", width * height, " cells (limit ", kMaxOccupancyCells,
+        " m per cell that is ", width * height, " cells (limit ", max_cells,
         "); ask for a resolution of at least ", std::ceil(fits * 1000) / 1000, " m"));
   }
   grid.width = static_cast<int>(width);

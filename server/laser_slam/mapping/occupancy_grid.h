@@ -31,9 +31,15 @@ struct OccupancyGrid {
 inline constexpr std::int64_t kMaxOccupancyCells = 100'000'000;
 
 // RESOURCE_EXHAUSTED (naming the resolution that would fit) when the map needs more than
-// kMaxOccupancyCells cells; an empty grid for no nodes.
+// `max_cells` cells (checked before anything is allocated); an empty grid for no nodes.
 absl::StatusOr<OccupancyGrid> RenderOccupancy(const std::vector<NodeView>& nodes,
-                                              double resolution);
+                                              double resolution,
+                                              std::int64_t max_cells = kMaxOccupancyCells);
+
+// The finest resolution at or above `resolution` (in whole millimetres) at which the nodes'
+// grid has at most `max_cells` cells.
+double ResolutionThatFits(const std::vector<NodeView>& nodes, double resolution,
+                          std::int64_t max_cells);
 
 // Centres of the occupied cells (value >= occupied), map frame: a grid as a point map.
 PointCloud OccupiedPoints(const OccupancyGrid& grid, int occupied = 65);
