@@ -129,7 +129,8 @@ nlohmann::json ReplayJson(const ReplayReport& report) {
       {"processing_s", report.processing_s},
       {"close_s", report.close_s},
       {"final_map_realtime_factor",
-       report.processing_s + report.close_s > 0 && report.span.duration_s() > 0 && !report.restamp_rate_hz
+       report.session_closed && report.processing_s + report.close_s > 0 &&
+               report.span.duration_s() > 0 && !report.restamp_rate_hz
            ? nlohmann::json(report.span.duration_s() / (report.processing_s + report.close_s))
            : nlohmann::json(nullptr)},
       {"loop_closures", report.loop_closures},
