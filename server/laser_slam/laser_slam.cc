@@ -157,16 +157,14 @@ absl::StatusOr<ScanUpdate> LaserSlam::AddScan(const LaserScan& scan) {
     }
     if (changed) ++s.revision;
     update.pose = s.Current(scan.stamp);
-    if (s.backend) {
-      s.backend->AddScan(s.scans, scan.stamp, update.pose.pose,
-                         ScanToPoints(scan, s.options.laser_pose, s.options.extraction.min_range,
-                                      s.options.mapping.point_range));
-    }
-    if (s.localizer) {
-      update.localization = s.localizer->AddScan(
-          s.scans, scan.stamp, update.pose.pose,
-          ScanToPoints(scan, s.options.laser_pose, s.options.extraction.min_range,
-                       s.options.mapping.point_range));
+    if (s.backend || s.localizer) {
+      const PointCloud points = ScanToPoints(scan, s.options.laser_pose,
+                                             s.options.extraction.min_range,
+                                             s.options.mapping.point_range);
+      if (s.backend) s.backend->AddScan(s.scans, scan.stamp, update.pose.pose, points);
+      if (s.localizer) {
+        update.localization = s.localizer->AddScan(s.scans, scan.stamp, update.pose.pose, points);
+      }
     }
   }
   s.odometry.DropBefore(scan.stamp);
@@ -180,7 +178,7 @@ absl::StatusOr<ScanUpdate> LaserSlam::AddScan(const LaserScan& scan) {
   update.pose = s.ToMap(s.scans, update.pose);
   if (s.localizer && !update.localization) update.localization = s.localizer->last();
   if (s.backend) {
-    update.loop_closures = s.backend->Stats().closures_accepted;
+    update.loop_closures = s.backend->loop_closures();
     update.graph_revision = s.backend->revision();
   }
   update.timings.total = MsSince(start);

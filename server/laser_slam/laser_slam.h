@@ -55,7 +55,7 @@ struct ScanUpdate {
   double covariance_trace_mean = 0.0;
   // The next control, in active and wander sessions (options.exploration.mode).
   std::optional<Suggestion> suggestion;
-  // Loop-closing back end (options.mapping): loop constraints accepted so far in the session, and
+  // Loop-closing back end (options.mapping): loop constraints in the graph so far, and
   // the revision of the pose graph (increases with every optimisation that moved the map).
   int loop_closures = 0;
   std::uint64_t graph_revision = 0;

@@ -161,10 +161,8 @@ void LaserSessionEngine::AppendTrajectory(v1::Trajectory* out) const {
 absl::Status LaserSessionEngine::FillMap(v1::SegmentMap* map) const {
   for (const ls::MapSegment& segment : slam_->Map()) *map->add_segments() = ToProtoSegment(segment);
   if (const ls::MappingBackend* backend = slam_->backend()) {
-    const ls::MappingStats stats = backend->Stats();
-    map->set_graph_nodes(static_cast<uint32_t>(stats.nodes));
-    map->set_loop_closures(
-        static_cast<uint32_t>(stats.closures_accepted - stats.closures_switched_off));
+    map->set_graph_nodes(static_cast<uint32_t>(backend->Stats().nodes));
+    map->set_loop_closures(static_cast<uint32_t>(backend->loop_closures()));
   }
   return absl::OkStatus();
 }

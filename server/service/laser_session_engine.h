@@ -49,7 +49,6 @@ class LaserSessionEngine final : public SessionEngine {
   absl::Status FillMap(v1::SegmentMap* map) const override;
   absl::Status FillOccupancyGrid(double resolution, v1::OccupancyGrid* grid) const override;
   void Finish() override;
-  bool trajectory_needs_engine() const override { return true; }
   void DescribeConfig(v1::Session* out) const override;
 
  private:

@@ -71,10 +71,6 @@ class SessionEngine {
   // Called once before the final checkpoint of CloseSession: finish background work (the laser
   // back end's last optimisation) so that the closed session holds its final map.
   virtual void Finish() {}
-  // Whether GetTrajectory must come from the engine even for a session that is not in memory
-  // (its stored rows are not the poses it answers: laser sessions store EKF-frame poses and
-  // correct them with the pose graph when read).
-  virtual bool trajectory_needs_engine() const { return false; }
   // Sets the session's config (laser or visual, as it is echoed) and kind in `out`.
   virtual void DescribeConfig(v1::Session* out) const = 0;
 };

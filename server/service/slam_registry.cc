@@ -998,10 +998,8 @@ absl::StatusOr<v1::Trajectory> SlamRegistry::GetTrajectory(const std::string& se
     // Stored laser poses are in the EKF's frame; the engine corrects them with its pose graph.
     absl::StatusOr<std::shared_ptr<Session>> loaded = LoadSession(*record);
     if (!loaded.ok()) return loaded.status();
-    if ((*loaded)->engine->trajectory_needs_engine()) {
-      (*loaded)->engine->AppendTrajectory(&out);
-      return out;
-    }
+    (*loaded)->engine->AppendTrajectory(&out);
+    return out;
   }
   absl::StatusOr<std::vector<storage::TrajectoryPoseRecord>> poses =
       store_->LoadTrajectory(session_id);

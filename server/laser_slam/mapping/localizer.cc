@@ -154,17 +154,17 @@ LocalizationResult MapLocalizer::AddScan(std::uint64_t scan, double stamp, const
       if (pending_global_) {
         // The motion between the two searches, as odometry saw it, must carry the first
         // match onto the second.
-        const Pose2 predicted = Compose(pending_global_->first, local);
+        const Pose2 predicted = Compose(*pending_global_, local);
         const Pose2 difference = Relative(predicted, match->pose);
         if (std::hypot(difference.x, difference.y) <= options_.global_agreement_xy &&
             std::abs(difference.theta) <= options_.global_agreement_theta) {
           Accept(scan, stamp, correction, match->score);
           pending_global_.reset();
         } else {
-          pending_global_ = std::make_pair(correction, local);
+          pending_global_ = correction;
         }
       } else {
-        pending_global_ = std::make_pair(correction, local);
+        pending_global_ = correction;
       }
     } else {
       pending_global_.reset();

@@ -107,8 +107,8 @@ class MapLocalizer {
   double travel_ = 0.0;
   double fix_travel_ = 0.0;      // travel at the last accepted match
   bool localized_ = false;
-  // A global match waiting for the next one to agree: its correction and the local pose.
-  std::optional<std::pair<Pose2, Pose2>> pending_global_;
+  // The correction of a global match waiting for the next one to agree with it.
+  std::optional<Pose2> pending_global_;
   // (scan, correction) from each accepted match on, in scan order.
   std::vector<std::pair<std::uint64_t, Pose2>> corrections_;
   LocalizationResult last_;

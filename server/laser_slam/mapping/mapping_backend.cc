@@ -308,7 +308,6 @@ void MappingBackend::WorkerLoop() {
     {
       std::lock_guard<std::mutex> lock(mu_);
       busy_ = false;
-      stats_.pending_nodes = static_cast<int>(queue_.size());
     }
     idle_cv_.notify_all();
   }
@@ -363,6 +362,11 @@ MappingStats MappingBackend::Stats() const {
   MappingStats s = stats_;
   s.pending_nodes = static_cast<int>(queue_.size()) + (busy_ ? 1 : 0);
   return s;
+}
+
+int MappingBackend::loop_closures() const {
+  std::lock_guard<std::mutex> lock(mu_);
+  return stats_.closures_accepted - stats_.closures_switched_off;
 }
 
 std::uint64_t MappingBackend::revision() const {
@@ -486,7 +490,7 @@ absl::StatusOr<std::unique_ptr<MappingBackend>> MappingBackend::Deserialize(
   b.constraints_.resize(count);
   for (GraphConstraint& c : b.constraints_) {
     std::uint8_t kind = 0, enabled = 0;
-    if (!r.Get(&kind) || kind > 2 || !r.Get(&c.from) || !r.Get(&c.to) || c.from < 0 ||
+    if (!r.Get(&kind) || kind > 1 || !r.Get(&c.from) || !r.Get(&c.to) || c.from < 0 ||
         c.to < 0 || c.from >= nodes || c.to >= nodes || !GetPose(r, &c.relative)) {
       return corrupt("constraint");
     }

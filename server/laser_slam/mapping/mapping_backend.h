@@ -54,7 +54,7 @@ struct MappingStats {
   int closures_rejected = 0;    // candidates with no pose above min_score
   int closures_switched_off = 0;  // accepted, then found inconsistent by the graph
   int optimizations = 0;
-  int pending_nodes = 0;        // waiting for the back end's thread
+  int pending_nodes = 0;        // waiting for the back end's thread (filled by Stats())
   std::vector<double> search_ms;    // per searched node, all candidates
   std::vector<double> optimize_ms;  // per optimisation
 };
@@ -82,7 +82,10 @@ class MappingBackend {
 
   std::vector<NodeView> Nodes() const;
   std::vector<GraphConstraint> Constraints() const;
+  // Copies the per-search and per-optimisation times: not for every scan.
   MappingStats Stats() const;
+  // Loop constraints in the graph (accepted and not switched off); cheap.
+  int loop_closures() const;
   // Increases with every optimisation that moved the nodes.
   std::uint64_t revision() const;
 

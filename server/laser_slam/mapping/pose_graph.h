@@ -16,7 +16,7 @@
 namespace waymark::laser_slam {
 
 struct GraphConstraint {
-  enum class Kind : std::uint8_t { kChain = 0, kLoop = 1, kFixed = 2 };
+  enum class Kind : std::uint8_t { kChain = 0, kLoop = 1 };
   Kind kind = Kind::kChain;
   int from = 0;                 // node indices
   int to = 0;
