@@ -330,6 +330,14 @@ cli::SceneSegment SceneOf(const ls::MapSegment& s) {
   return out;
 }
 
+// The odometry pose embedded in a laser line, at its stamp (as slam replay sends it).
+ls::OdometryReading ToOdometry(const CarmenLaser& laser) {
+  ls::OdometryReading reading;
+  reading.stamp = laser.stamp;
+  reading.pose = {laser.odom_pose.x, laser.odom_pose.y, laser.odom_pose.theta};
+  return reading;
+}
+
 ls::LaserScan ToScan(const CarmenLaser& laser) {
   ls::LaserScan scan;
   scan.stamp = laser.stamp;
@@ -370,9 +378,7 @@ absl::StatusOr<nlohmann::json> RunLocalization(const Args& args, const ls::SlamO
   long first_fix = -1, wrong = 0, localized = 0;
   double first_fix_error = 0;
   for (size_t i = from; i < lasers.size(); ++i) {
-    ls::OdometryReading reading;
-    reading.stamp = lasers[i].stamp;
-    reading.pose = {lasers[i].odom_pose.x, lasers[i].odom_pose.y, lasers[i].odom_pose.theta};
+    const ls::OdometryReading reading = ToOdometry(lasers[i]);
     const Clock::time_point start = Clock::now();
     (void)slam.AddOdometry(reading);
     absl::StatusOr<ls::ScanUpdate> update = slam.AddScan(ToScan(lasers[i]));
@@ -467,9 +473,7 @@ int Run(const Args& args) {
   std::vector<std::string> rejections;
   double engine_s = 0;
   for (CarmenLaser& laser : log.lasers) {
-    ls::OdometryReading reading;
-    reading.stamp = laser.stamp;
-    reading.pose = {laser.odom_pose.x, laser.odom_pose.y, laser.odom_pose.theta};
+    const ls::OdometryReading reading = ToOdometry(laser);
     odometry.push_back({laser.stamp, {reading.pose.x, reading.pose.y, reading.pose.theta}});
     const ls::LaserScan scan = ToScan(laser);  // the log is kept for a --localize pass
     const Clock::time_point start = Clock::now();

@@ -17,33 +17,44 @@ constexpr float kHit = 0.85f;
 constexpr float kMiss = -0.2f;
 constexpr float kClamp = 5.0f;
 
-}  // namespace
+// The box around every node and scan point, map frame.
+struct Bounds {
+  Eigen::Vector2d lo = Eigen::Vector2d::Constant(1e300);
+  Eigen::Vector2d hi = Eigen::Vector2d::Constant(-1e300);
+};
 
-namespace {
-
-// Cells of the nodes' grid at `resolution` (their bounds with the 2-cell margin).
-std::int64_t CellsAt(const std::vector<NodeView>& nodes, double resolution) {
-  Eigen::Vector2d lo = Eigen::Vector2d::Constant(1e300), hi = -lo;
+Bounds BoundsOf(const std::vector<NodeView>& nodes) {
+  Bounds b;
   for (const NodeView& n : nodes) {
-    const Eigen::Vector2d p(n.global.x, n.global.y);
-    lo = lo.cwiseMin(p);
-    hi = hi.cwiseMax(p);
-    for (const Eigen::Vector2f& q : TransformPoints(*n.points, n.global)) {
-      lo = lo.cwiseMin(q.cast<double>());
-      hi = hi.cwiseMax(q.cast<double>());
+    const double c = std::cos(n.global.theta), s = std::sin(n.global.theta);
+    const auto extend = [&](double x, double y) {
+      b.lo = b.lo.cwiseMin(Eigen::Vector2d(x, y));
+      b.hi = b.hi.cwiseMax(Eigen::Vector2d(x, y));
+    };
+    extend(n.global.x, n.global.y);
+    for (const Eigen::Vector2f& q : *n.points) {
+      extend(n.global.x + c * q.x() - s * q.y(), n.global.y + s * q.x() + c * q.y());
     }
   }
-  const Eigen::Vector2d span = (hi - lo) / resolution + Eigen::Vector2d::Constant(5.0);
-  return static_cast<std::int64_t>(std::ceil(span.x())) * static_cast<std::int64_t>(std::ceil(span.y()));
+  return b;
+}
+
+// Cells of a grid over `b` at `resolution`, its 2-cell margins and rounding included.
+std::int64_t CellsAt(const Bounds& b, double resolution) {
+  const Eigen::Vector2d span = (b.hi - b.lo) / resolution + Eigen::Vector2d::Constant(5.0);
+  return static_cast<std::int64_t>(std::ceil(span.x())) *
+         static_cast<std::int64_t>(std::ceil(span.y()));
 }
 
 }  // namespace
 
 double ResolutionThatFits(const std::vector<NodeView>& nodes, double resolution,
                           std::int64_t max_cells) {
+  if (nodes.empty()) return resolution;
+  const Bounds bounds = BoundsOf(nodes);
   double fits = resolution;
-  while (!nodes.empty() && CellsAt(nodes, fits) > max_cells) {
-    fits = std::ceil(fits * std::sqrt(double(CellsAt(nodes, fits)) / max_cells) * 1000.0 + 1.0) /
+  while (CellsAt(bounds, fits) > max_cells) {
+    fits = std::ceil(fits * std::sqrt(double(CellsAt(bounds, fits)) / max_cells) * 1000.0 + 1.0) /
            1000.0;
   }
   return fits;
@@ -54,24 +65,9 @@ absl::StatusOr<OccupancyGrid> RenderOccupancy(const std::vector<NodeView>& nodes
   OccupancyGrid grid;
   grid.resolution = resolution;
   if (nodes.empty()) return grid;
-  // Bounds of every node and point.
-  double min_x = nodes.front().global.x, max_x = min_x;
-  double min_y = nodes.front().global.y, max_y = min_y;
-  std::vector<PointCloud> world(nodes.size());
-  for (size_t i = 0; i < nodes.size(); ++i) {
-    const NodeView& n = nodes[i];
-    world[i] = TransformPoints(*n.points, n.global);
-    min_x = std::min(min_x, n.global.x);
-    max_x = std::max(max_x, n.global.x);
-    min_y = std::min(min_y, n.global.y);
-    max_y = std::max(max_y, n.global.y);
-    for (const Eigen::Vector2f& p : world[i]) {
-      min_x = std::min(min_x, double(p.x()));
-      max_x = std::max(max_x, double(p.x()));
-      min_y = std::min(min_y, double(p.y()));
-      max_y = std::max(max_y, double(p.y()));
-    }
-  }
+  const Bounds bounds = BoundsOf(nodes);
+  const double min_x = bounds.lo.x(), max_x = bounds.hi.x();
+  const double min_y = bounds.lo.y(), max_y = bounds.hi.y();
   const double margin = 2 * resolution;
   grid.origin = Eigen::Vector2d(std::floor((min_x - margin) / resolution) * resolution,
                                 std::floor((min_y - margin) / resolution) * resolution);
@@ -102,7 +98,7 @@ absl::StatusOr<OccupancyGrid> RenderOccupancy(const std::vector<NodeView>& nodes
   };
   for (size_t i = 0; i < nodes.size(); ++i) {
     const Eigen::Vector2i from = cell_of(nodes[i].global.x, nodes[i].global.y);
-    for (const Eigen::Vector2f& p : world[i]) {
+    for (const Eigen::Vector2f& p : TransformPoints(*nodes[i].points, nodes[i].global)) {
       const Eigen::Vector2i to = cell_of(p.x(), p.y());
       // Bresenham from the robot's cell to the cell before the hit.
       int x = from.x(), y = from.y();
