@@ -1,5 +1,5 @@
 // Active-exploration planner cost per decision (Google Benchmark): ExplorationPlanner::Decide
-// (server/laser_slam/exploration_planner.h) against the number of candidate controls and of
+// (server/laser_slam/exploration/exploration_planner.h) against the number of candidate controls and of
 // mapped segments, with wander mode as the baseline.
 //
 // The world is synthetic and deterministic: an office-like layout of walls within 15 m of the
@@ -25,8 +25,8 @@
 
 #include <benchmark/benchmark.h>
 
-#include "server/laser_slam/exploration_planner.h"
-#include "server/laser_slam/observation_prediction.h"
+#include "server/laser_slam/exploration/exploration_planner.h"
+#include "server/laser_slam/exploration/observation_prediction.h"
 #include "tests/laser_slam/synthetic_scan.h"
 
 namespace waymark::laser_slam {

@@ -8,7 +8,7 @@
 
 #include "server/common/stopwatch.h"
 #include "server/laser_slam/binary_io.h"
-#include "server/laser_slam/exploration_planner.h"
+#include "server/laser_slam/exploration/exploration_planner.h"
 #include "server/laser_slam/geometry.h"
 #include "server/laser_slam/line_extraction.h"
 #include "server/laser_slam/mapping/point_cloud.h"

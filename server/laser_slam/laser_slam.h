@@ -21,7 +21,7 @@
 #include "absl/status/status.h"
 #include "absl/status/statusor.h"
 #include "absl/strings/string_view.h"
-#include "server/laser_slam/exploration_types.h"
+#include "server/laser_slam/exploration/exploration_types.h"
 #include "server/laser_slam/mapping/localizer.h"
 #include "server/laser_slam/mapping/mapping_backend.h"
 #include "server/laser_slam/mapping/occupancy_grid.h"

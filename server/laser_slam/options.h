@@ -5,7 +5,7 @@
 // (the 6 m range) it is the default; every other default is ours and its comment says why.
 
 #include "absl/status/status.h"
-#include "server/laser_slam/exploration_options.h"
+#include "server/laser_slam/exploration/exploration_options.h"
 #include "server/laser_slam/mapping/mapping_options.h"
 #include "server/laser_slam/types.h"
 

@@ -2,11 +2,11 @@
 #define WAYMARK_SERVER_SERVICE_EXPLORATION_PARAMS_H_
 
 // Translation between ExplorationConfig / SuggestedControl (slam.proto) and the planner's types
-// (server/laser_slam/exploration_options.h, exploration_types.h).
+// (server/laser_slam/exploration/exploration_options.h, exploration_types.h).
 
 #include "absl/status/status.h"
-#include "server/laser_slam/exploration_options.h"
-#include "server/laser_slam/exploration_types.h"
+#include "server/laser_slam/exploration/exploration_options.h"
+#include "server/laser_slam/exploration/exploration_types.h"
 #include "waymark/v1/slam.pb.h"
 
 namespace waymark::service {

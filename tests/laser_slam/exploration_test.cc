@@ -1,9 +1,9 @@
-// Active exploration (server/laser_slam/exploration_planner.h) in constructed situations: the
+// Active exploration (server/laser_slam/exploration/exploration_planner.h) in constructed situations: the
 // predicted observation's extensions and corners, the collision check, the objective's choice at
 // a corridor end with a side opening, trap detection in a dead end and wall following out of it,
 // wander, and the zero cases of J.
 
-#include "server/laser_slam/exploration_planner.h"
+#include "server/laser_slam/exploration/exploration_planner.h"
 
 #include <cmath>
 #include <limits>
@@ -11,11 +11,11 @@
 
 #include <gtest/gtest.h>
 
-#include "server/laser_slam/clearance.h"
+#include "server/laser_slam/exploration/clearance.h"
 #include "server/laser_slam/geometry.h"
 #include "server/laser_slam/laser_slam.h"
 #include "server/laser_slam/motion.h"
-#include "server/laser_slam/observation_prediction.h"
+#include "server/laser_slam/exploration/observation_prediction.h"
 #include "tests/laser_slam/synthetic_scan.h"
 
 namespace waymark::laser_slam {

@@ -1,5 +1,5 @@
-#ifndef WAYMARK_SERVER_LASER_SLAM_OBSERVATION_PREDICTION_H_
-#define WAYMARK_SERVER_LASER_SLAM_OBSERVATION_PREDICTION_H_
+#ifndef WAYMARK_SERVER_LASER_SLAM_EXPLORATION_OBSERVATION_PREDICTION_H_
+#define WAYMARK_SERVER_LASER_SLAM_EXPLORATION_OBSERVATION_PREDICTION_H_
 
 // The predicted observation of the current map from a hypothetical robot pose (METHODS.md section
 // 2, J21 and J22): how far the next scan would extend mapped segments past their virtual endpoints
@@ -25,8 +25,8 @@
 
 #include <Eigen/Core>
 
-#include "server/laser_slam/exploration_options.h"
-#include "server/laser_slam/exploration_types.h"
+#include "server/laser_slam/exploration/exploration_options.h"
+#include "server/laser_slam/exploration/exploration_types.h"
 
 namespace waymark::laser_slam {
 
@@ -87,4 +87,4 @@ class ObservationPredictor {
 
 }  // namespace waymark::laser_slam
 
-#endif  // WAYMARK_SERVER_LASER_SLAM_OBSERVATION_PREDICTION_H_
+#endif  // WAYMARK_SERVER_LASER_SLAM_EXPLORATION_OBSERVATION_PREDICTION_H_

@@ -1,4 +1,4 @@
-#include "server/laser_slam/exploration_planner.h"
+#include "server/laser_slam/exploration/exploration_planner.h"
 
 #include <algorithm>
 #include <cmath>
@@ -7,7 +7,7 @@
 #include <Eigen/LU>
 
 #include "server/common/stopwatch.h"
-#include "server/laser_slam/clearance.h"
+#include "server/laser_slam/exploration/clearance.h"
 #include "server/laser_slam/geometry.h"
 #include "server/laser_slam/motion.h"
 

@@ -1,5 +1,5 @@
-#ifndef WAYMARK_SERVER_LASER_SLAM_WALL_FOLLOWER_H_
-#define WAYMARK_SERVER_LASER_SLAM_WALL_FOLLOWER_H_
+#ifndef WAYMARK_SERVER_LASER_SLAM_EXPLORATION_WALL_FOLLOWER_H_
+#define WAYMARK_SERVER_LASER_SLAM_EXPLORATION_WALL_FOLLOWER_H_
 
 // Wall following out of local traps (METHODS.md section 2, steps 1-3):
 // 1. Track the nearest mapped segment whose span contains the robot's projection; move along it
@@ -31,8 +31,8 @@
 
 #include <Eigen/Core>
 
-#include "server/laser_slam/exploration_options.h"
-#include "server/laser_slam/exploration_types.h"
+#include "server/laser_slam/exploration/exploration_options.h"
+#include "server/laser_slam/exploration/exploration_types.h"
 
 namespace waymark::laser_slam {
 
@@ -107,4 +107,4 @@ class WallFollower {
 
 }  // namespace waymark::laser_slam
 
-#endif  // WAYMARK_SERVER_LASER_SLAM_WALL_FOLLOWER_H_
+#endif  // WAYMARK_SERVER_LASER_SLAM_EXPLORATION_WALL_FOLLOWER_H_

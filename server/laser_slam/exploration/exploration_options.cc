@@ -1,4 +1,4 @@
-#include "server/laser_slam/exploration_options.h"
+#include "server/laser_slam/exploration/exploration_options.h"
 
 #include <cmath>
 #include <initializer_list>

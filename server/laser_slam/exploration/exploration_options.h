@@ -1,5 +1,5 @@
-#ifndef WAYMARK_SERVER_LASER_SLAM_EXPLORATION_OPTIONS_H_
-#define WAYMARK_SERVER_LASER_SLAM_EXPLORATION_OPTIONS_H_
+#ifndef WAYMARK_SERVER_LASER_SLAM_EXPLORATION_EXPLORATION_OPTIONS_H_
+#define WAYMARK_SERVER_LASER_SLAM_EXPLORATION_EXPLORATION_OPTIONS_H_
 
 // Parameters of active exploration (METHODS.md section 2, "Active exploration" and "Local
 // traps"). Where the paper gives a value (go-stop timing, velocity limits) it is the default;
@@ -78,4 +78,4 @@ absl::Status ValidateExplorationOptions(const ExplorationOptions& options);
 
 }  // namespace waymark::laser_slam
 
-#endif  // WAYMARK_SERVER_LASER_SLAM_EXPLORATION_OPTIONS_H_
+#endif  // WAYMARK_SERVER_LASER_SLAM_EXPLORATION_EXPLORATION_OPTIONS_H_

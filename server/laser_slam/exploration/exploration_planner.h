@@ -1,5 +1,5 @@
-#ifndef WAYMARK_SERVER_LASER_SLAM_EXPLORATION_PLANNER_H_
-#define WAYMARK_SERVER_LASER_SLAM_EXPLORATION_PLANNER_H_
+#ifndef WAYMARK_SERVER_LASER_SLAM_EXPLORATION_EXPLORATION_PLANNER_H_
+#define WAYMARK_SERVER_LASER_SLAM_EXPLORATION_EXPLORATION_PLANNER_H_
 
 // Active exploration by optimal control (METHODS.md section 2): after each scan, score every
 // collision-free candidate control u (held for one observation period) by
@@ -28,11 +28,11 @@
 
 #include <vector>
 
-#include "server/laser_slam/exploration_options.h"
-#include "server/laser_slam/exploration_types.h"
-#include "server/laser_slam/observation_prediction.h"
-#include "server/laser_slam/wall_follower.h"
-#include "server/laser_slam/wander_policy.h"
+#include "server/laser_slam/exploration/exploration_options.h"
+#include "server/laser_slam/exploration/exploration_types.h"
+#include "server/laser_slam/exploration/observation_prediction.h"
+#include "server/laser_slam/exploration/wall_follower.h"
+#include "server/laser_slam/exploration/wander_policy.h"
 
 namespace waymark::laser_slam {
 
@@ -70,4 +70,4 @@ class ExplorationPlanner {
 
 }  // namespace waymark::laser_slam
 
-#endif  // WAYMARK_SERVER_LASER_SLAM_EXPLORATION_PLANNER_H_
+#endif  // WAYMARK_SERVER_LASER_SLAM_EXPLORATION_EXPLORATION_PLANNER_H_

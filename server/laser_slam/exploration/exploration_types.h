@@ -1,5 +1,5 @@
-#ifndef WAYMARK_SERVER_LASER_SLAM_EXPLORATION_TYPES_H_
-#define WAYMARK_SERVER_LASER_SLAM_EXPLORATION_TYPES_H_
+#ifndef WAYMARK_SERVER_LASER_SLAM_EXPLORATION_EXPLORATION_TYPES_H_
+#define WAYMARK_SERVER_LASER_SLAM_EXPLORATION_EXPLORATION_TYPES_H_
 
 // What the exploration planner sees of a session (ExplorationView) and what it answers
 // (Suggestion).
@@ -62,4 +62,4 @@ struct Suggestion {
 
 }  // namespace waymark::laser_slam
 
-#endif  // WAYMARK_SERVER_LASER_SLAM_EXPLORATION_TYPES_H_
+#endif  // WAYMARK_SERVER_LASER_SLAM_EXPLORATION_EXPLORATION_TYPES_H_

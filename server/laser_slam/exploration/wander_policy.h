@@ -1,15 +1,15 @@
-#ifndef WAYMARK_SERVER_LASER_SLAM_WANDER_POLICY_H_
-#define WAYMARK_SERVER_LASER_SLAM_WANDER_POLICY_H_
+#ifndef WAYMARK_SERVER_LASER_SLAM_EXPLORATION_WANDER_POLICY_H_
+#define WAYMARK_SERVER_LASER_SLAM_EXPLORATION_WANDER_POLICY_H_
 
 // The paper's baseline ("wandering"): drive straight ahead at full speed while the path of one
 // observation period is free; otherwise turn in place at full rate towards the side where the last
 // scan saw more free space, and keep turning that way until straight ahead is free again (so the
 // robot does not dither between left and right in a corner).
 
-#include "server/laser_slam/clearance.h"
-#include "server/laser_slam/exploration_options.h"
-#include "server/laser_slam/exploration_types.h"
-#include "server/laser_slam/wall_follower.h"
+#include "server/laser_slam/exploration/clearance.h"
+#include "server/laser_slam/exploration/exploration_options.h"
+#include "server/laser_slam/exploration/exploration_types.h"
+#include "server/laser_slam/exploration/wall_follower.h"
 
 namespace waymark::laser_slam {
 
@@ -29,4 +29,4 @@ class WanderPolicy {
 
 }  // namespace waymark::laser_slam
 
-#endif  // WAYMARK_SERVER_LASER_SLAM_WANDER_POLICY_H_
+#endif  // WAYMARK_SERVER_LASER_SLAM_EXPLORATION_WANDER_POLICY_H_

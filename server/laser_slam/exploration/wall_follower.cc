@@ -1,4 +1,4 @@
-#include "server/laser_slam/wall_follower.h"
+#include "server/laser_slam/exploration/wall_follower.h"
 
 #include <algorithm>
 #include <cmath>

@@ -1,4 +1,4 @@
-#include "server/laser_slam/wander_policy.h"
+#include "server/laser_slam/exploration/wander_policy.h"
 
 #include <algorithm>
 #include <cmath>

@@ -1,4 +1,4 @@
-#include "server/laser_slam/observation_prediction.h"
+#include "server/laser_slam/exploration/observation_prediction.h"
 
 #include <algorithm>
 #include <cmath>

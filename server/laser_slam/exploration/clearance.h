@@ -1,5 +1,5 @@
-#ifndef WAYMARK_SERVER_LASER_SLAM_CLEARANCE_H_
-#define WAYMARK_SERVER_LASER_SLAM_CLEARANCE_H_
+#ifndef WAYMARK_SERVER_LASER_SLAM_EXPLORATION_CLEARANCE_H_
+#define WAYMARK_SERVER_LASER_SLAM_EXPLORATION_CLEARANCE_H_
 
 // Collision checking for suggested controls. The obstacles are the last scan's returns (exact
 // relative to the robot, whatever the map's error) and the mapped segments near the robot (which
@@ -9,7 +9,7 @@
 
 #include <Eigen/Core>
 
-#include "server/laser_slam/exploration_types.h"
+#include "server/laser_slam/exploration/exploration_types.h"
 
 namespace waymark::laser_slam {
 
@@ -39,4 +39,4 @@ bool PathIsFree(const ClearanceMap& map, double linear, double angular, double s
 
 }  // namespace waymark::laser_slam
 
-#endif  // WAYMARK_SERVER_LASER_SLAM_CLEARANCE_H_
+#endif  // WAYMARK_SERVER_LASER_SLAM_EXPLORATION_CLEARANCE_H_

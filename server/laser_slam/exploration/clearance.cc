@@ -1,4 +1,4 @@
-#include "server/laser_slam/clearance.h"
+#include "server/laser_slam/exploration/clearance.h"
 
 #include <algorithm>
 #include <cmath>
