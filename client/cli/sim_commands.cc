@@ -10,6 +10,8 @@
 #include <string>
 #include <system_error>
 
+#include <google/protobuf/text_format.h>
+
 #include "client/sim/sim_world.h"
 #include "client/cli/command.h"
 #include "client/render/map_render.h"
@@ -27,11 +29,12 @@ namespace fs = std::filesystem;
 struct ExploreArgs {
   std::string world;
   std::string mode = "active";
-  double duration_s = 300;
+  double duration_s = 1800;
   uint64_t seed = 1;
   bool half_degree = false;
   double odometry_error = 1.0;
   std::string out_dir;  // default ./out/sim-<world>-<mode>-s<seed>
+  std::string exploration;  // ExplorationConfig fields, protobuf text format
 };
 
 // A file-loaded world without a `name` line is called after its file.
@@ -192,7 +195,14 @@ void PrintSummary(std::ostream& out, const nlohmann::json& s) {
       {"mean covariance trace (run mean)", FormatNumber(s["cov_trace_mean"].get<double>(), 5)});
   table.AddRow({"collisions", std::to_string(s["collisions"].get<int>())});
   table.AddRow({"wall following share", FormatPercent(s["wall_following_share"].get<double>())});
-  table.AddRow({"planning p50 (ms)", number("planning_ms_p50", 2)});
+  table.AddRow({"planning p50 / p99 (ms)", fmt::format("{} / {}", number("planning_ms_p50", 2),
+                                                          number("planning_ms_p99", 2))});
+  const std::string state = s["final_state"].get<std::string>();
+  if (state != "-") {
+    const std::string reason = s["final_reason"].get<std::string>();
+    table.AddRow({"exploration", reason.empty() ? state : state + ": " + reason});
+    table.AddRow({"open boundary at the end", FormatPercent(s["open_boundary_final"].get<double>())});
+  }
   table.Print(out);
   out << "wrote " << s["out_dir"].get<std::string>()
       << "/trajectory_{true,estimated,odometry}.txt, map.svg, map.png, timeline.csv, "
@@ -204,8 +214,18 @@ int RunExplore(CommandContext& context, const ExploreArgs& args) {
   if (!world.ok()) return ReportError(context, world.status(), args.world);
   world->name = WorldName(*world, args.world);
   ExploreOptions options;
-  options.mode =
-      args.mode == "wander" ? v1::ExplorationConfig::WANDER : v1::ExplorationConfig::ACTIVE;
+  options.mode = args.mode == "wander"     ? v1::ExplorationConfig::WANDER
+                 : args.mode == "frontier" ? v1::ExplorationConfig::FRONTIER
+                                           : v1::ExplorationConfig::ACTIVE;
+  options.goal_layer = args.mode != "paper";
+  if (!google::protobuf::TextFormat::ParseFromString(args.exploration, &options.exploration)) {
+    return ReportError(context,
+                       absl::InvalidArgumentError(
+                           "--exploration is not ExplorationConfig in protobuf text format "
+                           "(e.g. 'travel_cost: 0.2 grid_resolution: 0.05'): '" +
+                           args.exploration + "'"),
+                       "sim explore");
+  }
   options.duration_s = args.duration_s;
   options.seed = args.seed;
   options.half_degree = args.half_degree;
@@ -266,17 +286,21 @@ void AddSimCommands(CLI::App& app, CommandRegistry& registry) {
   auto args = std::make_shared<ExploreArgs>();
   CLI::App* explore = sim->add_subcommand(
       "explore",
-      "Closed loop: the server steers a simulated robot (active or wander session); write true, "
-      "estimated and odometry trajectories, map and timeline pictures, timeline.csv and "
-      "summary.json");
+      "Closed loop: the server steers a simulated robot until it says DONE (or STUCK) or the "
+      "simulated time is up; write true, estimated and odometry trajectories, map and timeline "
+      "pictures, timeline.csv and summary.json");
   explore->add_option("--world", args->world, "Built-in world name (see `sim worlds`) or a file")
       ->required();
-  explore->add_option("--mode", args->mode, "Exploration mode")
-      ->check(CLI::IsMember({"active", "wander"}))
+  explore->add_option("--mode", args->mode,
+                      "active: the goal layer over the paper's planner; paper: the paper's "
+                      "one-step planner alone; wander: the paper's baseline; frontier: nearest "
+                      "frontier (the usual frontier explorer)")
+      ->check(CLI::IsMember({"active", "paper", "wander", "frontier"}))
       ->capture_default_str();
-  explore->add_option("--duration", args->duration_s, "Simulated seconds")
+  explore->add_option("--duration", args->duration_s,
+                      "Simulated seconds at most (active and frontier runs stop at DONE)")
       ->check(CLI::PositiveNumber)
-      ->required();
+      ->capture_default_str();
   explore->add_option("--seed", args->seed, "Simulator seed")->capture_default_str();
   explore->add_flag("--half-degree", args->half_degree,
                     "LMS200 0.5-degree mode (361 beams) instead of 1 degree (181)");
@@ -285,6 +309,10 @@ void AddSimCommands(CLI::App& app, CommandRegistry& registry) {
                       "distance and 0.5 % turn scale error, 0.005 rad/m drift, 2 % random)")
       ->check(CLI::Range(0.0, 100.0))
       ->capture_default_str();
+  explore->add_option("--exploration", args->exploration,
+                      "Exploration parameters to override, ExplorationConfig fields in protobuf "
+                      "text format (e.g. 'travel_cost: 0.2 revisit_variance: 1'; see "
+                      "docs/exploration.md)");
   explore->add_option("--out", args->out_dir,
                       "Output folder (default ./out/sim-<world>-<mode>-s<seed>)");
   registry.Add(explore, [args](CommandContext& context) { return RunExplore(context, *args); });

@@ -76,13 +76,24 @@ class AnswerWaiter {
 
 v1::CreateSessionRequest SessionRequest(const Simulation& sim, const adapters::World& world,
                                         const ExploreOptions& options) {
-  return LaserSessionRequest(
+  v1::CreateSessionRequest request = LaserSessionRequest(
       sim.laser_layout(), "sim",
       !options.session_name.empty()
           ? options.session_name
-          : fmt::format("sim explore {} {} s{}", world.name, ExplorationModeName(options.mode),
-                        options.seed),
+          : fmt::format("sim explore {} {} s{}", world.name, RunModeName(options), options.seed),
       options.mode);
+  v1::ExplorationConfig* exploration = request.mutable_laser()->mutable_exploration();
+  exploration->MergeFrom(options.exploration);
+  exploration->set_mode(options.mode);
+  if (options.mode == v1::ExplorationConfig::ACTIVE && !options.goal_layer) {
+    exploration->set_goal_layer(false);
+  }
+  return request;
+}
+
+bool Finished(const v1::ExplorationProgress& progress) {
+  return progress.state() == v1::ExplorationProgress::DONE ||
+         progress.state() == v1::ExplorationProgress::STUCK;
 }
 
 // The sensor side of the loop: stamps and messages from the simulation onto the stream.
@@ -144,6 +155,11 @@ std::string ExplorationModeName(v1::ExplorationConfig::Mode mode) {
   return absl::AsciiStrToLower(v1::ExplorationConfig::Mode_Name(mode));
 }
 
+std::string RunModeName(const ExploreOptions& options) {
+  if (options.mode == v1::ExplorationConfig::ACTIVE && !options.goal_layer) return "paper";
+  return ExplorationModeName(options.mode);
+}
+
 std::string BehaviourName(v1::SuggestedControl::Behaviour behaviour) {
   return absl::AsciiStrToLower(v1::SuggestedControl::Behaviour_Name(behaviour));
 }
@@ -169,7 +185,7 @@ absl::StatusOr<ExploreResult> RunExploration(client::SlamClient& client,
   if (!session.ok()) return session.status();
   ExploreResult result;
   result.world = world.name;
-  result.mode = ExplorationModeName(options.mode);
+  result.mode = RunModeName(options);
   result.seed = options.seed;
   result.session_id = session->session_id();
 
@@ -203,6 +219,7 @@ absl::StatusOr<ExploreResult> RunExploration(client::SlamClient& client,
     record.cov_trace_mean = update->covariance_trace_mean();
     record.segments = update->segments();
     record.suggestion = update->suggestion();
+    record.exploration = update->exploration();
     auto map = client.GetMap(result.session_id);
     if (!map.ok()) return map.status();
     result.final_map_world.clear();
@@ -221,6 +238,10 @@ absl::StatusOr<ExploreResult> RunExploration(client::SlamClient& client,
   absl::Status status = robot.SendOdometry();
   if (status.ok()) status = scan();
   while (status.ok() && sim.now() < options.duration_s - kTimeEpsilon) {
+    if (Finished(result.scans.back().exploration)) {
+      result.finished = true;
+      break;
+    }
     const v1::SuggestedControl& control = result.scans.back().suggestion;
     if (control.behaviour() == v1::SuggestedControl::BEHAVIOUR_UNSPECIFIED) {
       status = absl::FailedPreconditionError(
@@ -287,6 +308,30 @@ nlohmann::json ExploreSummary(const ExploreResult& result) {
     error_max = std::max(error_max, e);
   }
   const double n = std::max<double>(1, result.scans.size());
+  // Completeness at a time: the last scan at or before it (the final one when the run ended
+  // earlier, at DONE: nothing more would be mapped).
+  auto completeness_at = [&](double t) {
+    double c = 0;
+    for (const ScanRecord& r : result.scans) {
+      if (r.time > t + 1e-6) break;
+      c = r.completeness;
+    }
+    return c;
+  };
+  double time_to_95 = -1;
+  for (const ScanRecord& r : result.scans) {
+    if (r.completeness >= 0.95) {
+      time_to_95 = r.time;
+      break;
+    }
+  }
+  const v1::ExplorationProgress& progress = last.exploration;
+  const bool has_state = progress.state() != v1::ExplorationProgress::STATE_UNSPECIFIED;
+  const std::string state =
+      has_state ? absl::AsciiStrToLower(v1::ExplorationProgress::State_Name(progress.state()))
+                : "-";
+  const double done_time =
+      progress.state() == v1::ExplorationProgress::DONE ? last.time : -1.0;
   return {
       {"world", result.world},
       {"mode", result.mode},
@@ -307,6 +352,16 @@ nlohmann::json ExploreSummary(const ExploreResult& result) {
       {"distance_m", result.distance_m},
       {"wall_following_share", executed > 0 ? static_cast<double>(wall_following) / executed : 0},
       {"planning_ms_p50", Percentile(planning_ms, 50).value_or(0)},
+      {"planning_ms_p99", Percentile(planning_ms, 99).value_or(0)},
+      {"completeness_300s", completeness_at(300)},
+      {"completeness_600s", completeness_at(600)},
+      {"completeness_1200s", completeness_at(1200)},
+      {"time_to_95_s", time_to_95},
+      {"done_time_s", done_time},
+      {"final_state", state},
+      {"final_reason", progress.reason()},
+      {"open_boundary_final", has_state ? progress.open_boundary() : -1.0},
+      {"targets_given_up", progress.given_up()},
       {"odometry_sent", result.odometry_sent},
   };
 }

@@ -11,7 +11,8 @@
 //     server's default, so the service maps to its own 6 m range). One StreamSensorData with a
 //     scan window of 1: the loop waits for each scan's SlamUpdate before it moves.
 //  2. t = 0: Odometry(t, odometry pose), LaserScan(t, ranges); wait for the update.
-//  3. While sim.now() < duration:
+//  3. While sim.now() < duration and the last update's exploration state (goal layer sessions:
+//     ACTIVE with goal_layer, FRONTIER) is neither DONE nor STUCK:
 //     - the update's suggestion is required: none (or BEHAVIOUR_UNSPECIFIED) is FAILED_PRECONDITION
 //       "session is not in active or wander mode";
 //     - hold = min(suggestion.duration, duration - now), at least one control step when
@@ -51,6 +52,10 @@ inline constexpr double kControlStep = 0.1;  // s between odometry messages whil
 
 struct ExploreOptions {
   v1::ExplorationConfig::Mode mode = v1::ExplorationConfig::ACTIVE;
+  // ACTIVE: false is the paper's one-step planner alone (ExplorationConfig.goal_layer).
+  bool goal_layer = true;
+  // Set fields override the session's exploration parameters (mode and goal_layer excepted).
+  v1::ExplorationConfig exploration;
   double duration_s = 300;  // simulated
   uint64_t seed = 1;
   bool half_degree = false;  // LMS200 0.5-degree mode: 361 beams instead of 181
@@ -75,11 +80,12 @@ struct ScanRecord {
   uint32_t segments = 0;
   double completeness = 0;
   v1::SuggestedControl suggestion;  // what answered this scan (executed unless it is the last)
+  v1::ExplorationProgress exploration;  // goal layer sessions
 };
 
 struct ExploreResult {
   std::string world;
-  std::string mode;  // "active" / "wander"
+  std::string mode;  // "active", "paper" (ACTIVE without the goal layer), "wander", "frontier"
   uint64_t seed = 0;
   std::string session_id;
   std::vector<ScanRecord> scans;
@@ -89,6 +95,9 @@ struct ExploreResult {
   int collisions = 0;     // sim.collisions()
   int early_stops = 0;    // holds cut short by a bump
   uint64_t odometry_sent = 0;
+  // The session said DONE or STUCK (the run stopped there; state and reason in the last scan's
+  // exploration).
+  bool finished = false;
 };
 
 // Called after each scan is recorded (progress).
@@ -99,13 +108,20 @@ absl::StatusOr<ExploreResult> RunExploration(client::SlamClient& client,
                                              const ExploreOptions& options,
                                              const ScanCallback& on_scan = {});
 
-// "active", "wander", "passive"; "optimal", "wall_following", "wander", "blocked", "unspecified".
+// "active", "wander", "passive", "frontier"; "optimal", "wall_following", "wander", "blocked",
+// "to_target", "finished", "unspecified".
 std::string ExplorationModeName(v1::ExplorationConfig::Mode mode);
+// The name a run goes by: ExplorationModeName, except "paper" for ACTIVE without the goal layer.
+std::string RunModeName(const ExploreOptions& options);
 std::string BehaviourName(v1::SuggestedControl::Behaviour behaviour);
 
 // The run's figures (summary.json and --json): completeness, loc_error_mean_m, loc_error_final_m,
 // cov_trace_mean, collisions, sim_time_s, world, mode, seed, distance_m, scans, segments,
-// wall_following_share (of the executed suggestions), odometry_error_final_m, planning_ms_p50, ...
+// wall_following_share (of the executed suggestions), odometry_error_final_m, planning_ms_p50,
+// planning_ms_p99, completeness_300s / _600s / _1200s (at the last scan at or before that time;
+// the final value when the run ended earlier), time_to_95_s and done_time_s (-1: never),
+// final_state ("exploring", "done", "stuck"; "-" without the goal layer), final_reason,
+// open_boundary_final, ...
 // `out_dir` is added by the caller.
 nlohmann::json ExploreSummary(const ExploreResult& result);
 

@@ -183,7 +183,24 @@ absl::StatusOr<ScanUpdate> LaserSlam::AddScan(const LaserScan& scan) {
   }
   update.timings.total = MsSince(start);
   // Planning is timed on its own (Suggestion::planning_ms), not as part of the filter's total.
-  if (s.planner) update.suggestion = s.planner->Decide(View());
+  if (s.planner) {
+    update.suggestion = s.planner->Decide(View());
+    if (const ExplorationGoals* goals = s.planner->goals()) {
+      // The goal layer works in the planner's (local) frame; answers are in the map frame.
+      const Pose2 to_map = Compose(update.pose.pose, Invert(s.trajectory.back().pose));
+      auto move = [&](Eigen::Vector2d& p) {
+        const Pose2 q = Compose(to_map, Pose2{p.x(), p.y(), 0.0});
+        p = Eigen::Vector2d(q.x, q.y);
+      };
+      GoalProgress progress = goals->progress();
+      if (progress.target) {
+        move(progress.target->goal);
+        move(progress.target->look_at);
+      }
+      for (Eigen::Vector2d& p : progress.path) move(p);
+      update.exploration = std::move(progress);
+    }
+  }
   return update;
 }
 
@@ -212,6 +229,7 @@ ExplorationView LaserSlam::View() const {
   view.max_range = s.options.extraction.max_range;
   view.min_incidence = s.options.extraction.min_incidence;
   view.odometry = s.options.odometry;
+  view.loop_closures = s.backend ? s.backend->loop_closures() : -1;
   return view;
 }
 

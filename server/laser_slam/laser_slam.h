@@ -22,6 +22,7 @@
 #include "absl/status/statusor.h"
 #include "absl/strings/string_view.h"
 #include "server/laser_slam/exploration/exploration_types.h"
+#include "server/laser_slam/exploration/goal_layer.h"
 #include "server/laser_slam/mapping/localizer.h"
 #include "server/laser_slam/mapping/mapping_backend.h"
 #include "server/laser_slam/mapping/occupancy_grid.h"
@@ -55,6 +56,9 @@ struct ScanUpdate {
   double covariance_trace_mean = 0.0;
   // The next control, in active and wander sessions (options.exploration.mode).
   std::optional<Suggestion> suggestion;
+  // Where exploration stands (goal layer sessions: ACTIVE with goal_layer, FRONTIER); its target
+  // and path in the map frame.
+  std::optional<GoalProgress> exploration;
   // Loop-closing back end (options.mapping): loop constraints in the graph so far, and
   // the revision of the pose graph (increases with every optimisation that moved the map).
   int loop_closures = 0;

@@ -7,6 +7,7 @@
 #include "absl/status/status.h"
 #include "server/laser_slam/exploration/exploration_options.h"
 #include "server/laser_slam/exploration/exploration_types.h"
+#include "server/laser_slam/exploration/goal_layer.h"
 #include "waymark/v1/slam.pb.h"
 
 namespace waymark::service {
@@ -21,6 +22,9 @@ void FillEffectiveExploration(const laser_slam::ExplorationOptions& options,
                               v1::ExplorationConfig* config);
 
 void FillSuggestion(const laser_slam::Suggestion& suggestion, v1::SuggestedControl* control);
+
+void FillExplorationProgress(const laser_slam::GoalProgress& progress,
+                             v1::ExplorationProgress* out);
 
 }  // namespace waymark::service
 

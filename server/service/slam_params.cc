@@ -310,6 +310,9 @@ void FillSlamUpdate(const ls::ScanUpdate& scan_update, v1::SlamUpdate* update) {
   t->set_total_ms(scan_update.timings.total);
   update->set_covariance_trace_mean(scan_update.covariance_trace_mean);
   if (scan_update.suggestion) FillSuggestion(*scan_update.suggestion, update->mutable_suggestion());
+  if (scan_update.exploration) {
+    FillExplorationProgress(*scan_update.exploration, update->mutable_exploration());
+  }
   update->set_loop_closures(count(scan_update.loop_closures));
   update->set_graph_revision(scan_update.graph_revision);
   if (scan_update.localization) {

@@ -16,7 +16,13 @@ Eigen::Vector2d ToRobot(const Pose2& robot, const Pose2& point_in_map) {
 
 }  // namespace
 
-ClearanceMap::ClearanceMap(const ExplorationView& view, double reach) : reach_(reach) {
+ClearanceMap::ClearanceMap(const ExplorationView& view, double reach,
+                           const std::vector<Eigen::Vector2d>& more)
+    : reach_(reach) {
+  for (const Eigen::Vector2d& m : more) {
+    const Eigen::Vector2d p = ToRobot(view.robot, Pose2{m.x(), m.y(), 0.0});
+    if (p.norm() <= reach) points_.push_back(p);
+  }
   const LaserScan& scan = view.scan;
   const int beams = std::min<int>(scan.geometry.beam_count, static_cast<int>(scan.ranges.size()));
   for (int i = 0; i < beams; ++i) {

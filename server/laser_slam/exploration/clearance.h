@@ -16,7 +16,11 @@ namespace waymark::laser_slam {
 class ClearanceMap {
  public:
   // Keeps the obstacles within `reach` of the robot (the path length plus the body, say).
-  ClearanceMap(const ExplorationView& view, double reach);
+  // `more` are further obstacle points in the map frame (the exploration grid's occupied cells:
+  // walls beside or behind the robot that the laser, which sees ahead, and the segment map, which
+  // lacks walls seen only at grazing angles, do not show).
+  ClearanceMap(const ExplorationView& view, double reach,
+               const std::vector<Eigen::Vector2d>& more = {});
 
   // Distance from `p` (robot frame) to the nearest obstacle; `reach` when there is none nearer.
   double Distance(const Eigen::Vector2d& p) const;

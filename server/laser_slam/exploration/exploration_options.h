@@ -13,6 +13,10 @@ enum class ExplorationMode {
   kPassive,  // no suggestions
   kActive,   // optimal control, wall following in local traps
   kWander,   // the paper's baseline: straight ahead until an obstacle, then turn
+  // A frontier explorer as users know them (explore_lite, nav2's): drive to the nearest frontier
+  // along a grid path, no uncertainty term, no revisits. The baseline the goal layer is measured
+  // against.
+  kFrontier,
 };
 
 struct ExplorationOptions {
@@ -72,6 +76,56 @@ struct ExplorationOptions {
   double switch_distance = 0.8;   // m
   double adjacency = 0.5;         // m
   double lookahead = 1.0;         // m
+
+  // The goal layer (goal_layer.h), above the one-step planner in ACTIVE mode and alone in
+  // FRONTIER mode. goal_layer = false in ACTIVE mode is the paper's planner exactly as published.
+  bool goal_layer = true;
+  // Exploration grid: 0.1 m keeps a 40 x 30 m floor at 120 k cells (a decision's Dijkstra is one
+  // pass over them) and still resolves a 1 m doorway for a 0.8 m wide robot disc.
+  double grid_resolution = 0.1;  // m
+  // Frontier regions shorter than this many cells are gaps past a corner, not places to go.
+  int min_frontier_cells = 5;
+  // A frontier is reached from any traversable cell within approach_radius of it (the laser sees
+  // 8 m: standing on the frontier itself is not needed, and next to walls it is not possible).
+  double approach_radius = 1.0;  // m
+  double arrive_radius = 0.4;    // m: the robot has reached a target's goal cell
+  double face_tolerance = 0.6;   // rad: ... and faces the frontier (the laser sees ahead only)
+  double path_lookahead = 1.2;   // m along the path: the point the controls aim at
+  // Unmapped walls (ACTIVE): occupied cells farther than wall_explained from every segment are
+  // looked at from wall_view_min..wall_view_max away (the extraction fits lines to beams within
+  // its 6 m range at more than its incidence limit; 3 m gives dense beams).
+  double wall_explained = 0.2;  // m
+  double wall_view_min = 0.8;   // m
+  double wall_view_max = 3.0;   // m
+  // Paths keep comfort_distance from walls where they can (see grid_paths.h).
+  double comfort_distance = 0.8;  // m
+  double wall_penalty = 2.0;
+  // Among the controls that follow the path within progress_slack (m) of the best one, ACTIVE
+  // mode takes the one the paper's objective J prefers.
+  double progress_slack = 0.15;  // m
+  // Target utility (ACTIVE): U = weight_gain lg(gain) - travel_cost L - weight_trip_uncertainty
+  // lg(var_after): gain is the frontier's length (m), L the path length (m) and var_after the
+  // robot's position variance on arrival, predicted with the odometry model along L from the
+  // variance accumulated since the map was last tied (the paper's J1 at the scale of the map).
+  // FRONTIER mode takes the nearest target instead.
+  double weight_gain = 1.0;
+  double travel_cost = 0.1;  // per m: 10 m of extra path weigh as much as a tenfold gain
+  double weight_trip_uncertainty = 1.0;
+  // Active loop closing (ACTIVE, with the loop-closing back end): once the position variance
+  // accumulated since the last loop closure passes revisit_variance (m^2), places driven at least
+  // revisit_travel metres earlier become targets too; their gain is gain_floor and the variance
+  // on arrival that of the place when it was driven (closing the loop brings it back).
+  double revisit_variance = 0.09;  // (0.3 m)^2
+  double revisit_travel = 15.0;    // m (the back end's min_loop_travel)
+  double gain_floor = 0.5;         // m
+  // Keep the current target unless another one's utility is this much higher (no dithering).
+  double switch_margin = 0.3;
+  // A target whose path has not shortened by 0.2 m in no_progress_decisions decisions is given up.
+  int no_progress_decisions = 12;
+  // DONE after done_decisions decisions in a row without a target; STUCK after stuck_decisions
+  // decisions in a row without a collision-free control.
+  int done_decisions = 3;
+  int stuck_decisions = 15;
 };
 
 absl::Status ValidateExplorationOptions(const ExplorationOptions& options);

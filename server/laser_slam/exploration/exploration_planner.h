@@ -23,14 +23,26 @@
 // follower can circle a room or pace a dead end for ever; wandering breaks the loop), until the
 // map grows by exit_growth.
 //
-// The planner's state (trap counters, the followed wall) is not part of a session checkpoint: a
-// resumed session starts again in optimal control, which costs at most a few decisions.
+// The goal layer (goal_layer.h; ACTIVE with options.goal_layer, and FRONTIER mode) decides first:
+// with a target, the robot follows the grid path to it, and in ACTIVE mode the paper's J chooses
+// among the controls that follow the path about equally well (progress_slack), so the paper's
+// objective stays the local choice; without one (the goal layer found none this decision) the
+// paper's planner above decides (ACTIVE) or the robot wanders (FRONTIER); once the goal layer
+// says DONE or STUCK the robot stands (Behaviour::kFinished).
+//
+// The planner's state (trap counters, the followed wall, the goal layer's grid and target) is not
+// part of a session checkpoint: a resumed session starts again with an empty exploration grid,
+// which its first scans refill.
 
+#include <memory>
+#include <optional>
 #include <vector>
 
 #include "server/laser_slam/exploration/exploration_options.h"
+#include "server/laser_slam/exploration/goal_layer.h"
 #include "server/laser_slam/exploration/exploration_types.h"
 #include "server/laser_slam/exploration/observation_prediction.h"
+#include "server/laser_slam/exploration/clearance.h"
 #include "server/laser_slam/exploration/wall_follower.h"
 #include "server/laser_slam/exploration/wander_policy.h"
 
@@ -51,10 +63,19 @@ class ExplorationPlanner {
                      const MapTotals& totals, const Control& control) const;
 
   bool wall_following() const { return following_; }
+  // Nullptr unless the goal layer runs (ACTIVE with goal_layer, FRONTIER).
+  const ExplorationGoals* goals() const { return goals_.get(); }
   const WallFollower& follower() const { return follower_; }
 
  private:
   void UpdateTrapState(const MapTotals& totals, bool any_gain);
+  // The paper's planner (optimal control, wall following, wandering out of loops).
+  std::optional<Control> DecideLocally(const ExplorationView& view, const ClearanceMap& clearance,
+                                       const std::vector<Control>& feasible, Suggestion* s);
+  // The control that follows the goal layer's path (or faces the reached target).
+  std::optional<Control> FollowTarget(const ExplorationView& view,
+                                      const std::vector<Control>& feasible,
+                                      const GoalProgress& progress, Suggestion* s) const;
 
   ExplorationOptions options_;
   WallFollower follower_;
@@ -66,6 +87,9 @@ class ExplorationPlanner {
   bool have_totals_ = false;
   MapTotals largest_;       // the largest map seen so far (growth is measured against it)
   MapTotals follow_start_;  // the map when wall following started
+  std::unique_ptr<ExplorationGoals> goals_;
+  bool blocked_ = false;  // the last decision had no collision-free control
+  double last_turn_ = 0.0;  // angular velocity of the last decision when it turned in place
 };
 
 }  // namespace waymark::laser_slam

@@ -14,6 +14,12 @@
 
 namespace waymark::laser_slam {
 
+// A candidate control: held for one observation period.
+struct Control {
+  double linear = 0.0;   // m/s
+  double angular = 0.0;  // rad/s
+};
+
 struct ExplorationView {
   Pose2 robot;                                                 // map frame
   Eigen::Matrix3d robot_covariance = Eigen::Matrix3d::Zero();  // of the robot perturbation
@@ -28,6 +34,9 @@ struct ExplorationView {
   double max_range = 6.0;  // range the filter uses (extraction max_range)
   double min_incidence = 0.26;  // the extraction's incidence filter (rad)
   OdometryNoise odometry;
+  // Loop constraints in the back end's graph; -1 without a back end (the paper's EKF alone), where
+  // revisiting a place cannot close a loop.
+  int loop_closures = -1;
 };
 
 enum class Behaviour : std::uint8_t {
@@ -36,6 +45,8 @@ enum class Behaviour : std::uint8_t {
   kWallFollowing = 2,  // local trap
   kWander = 3,
   kBlocked = 4,        // no collision-free candidate: stand still
+  kToTarget = 5,       // the goal layer: following the path to an exploration target
+  kFinished = 6,       // exploration is over (DONE or STUCK): stand still
 };
 
 const char* BehaviourName(Behaviour behaviour);

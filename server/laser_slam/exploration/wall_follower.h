@@ -36,10 +36,6 @@
 
 namespace waymark::laser_slam {
 
-struct Control {
-  double linear = 0.0;
-  double angular = 0.0;
-};
 
 class WallFollower {
  public:

@@ -1,0 +1,486 @@
+#include "server/laser_slam/exploration/goal_layer.h"
+
+#include <algorithm>
+#include <cmath>
+#include <cstdlib>
+#include <fstream>
+#include <limits>
+
+#include "absl/strings/str_cat.h"
+#include "server/laser_slam/geometry.h"
+#include "server/laser_slam/motion.h"
+#include <Eigen/Eigenvalues>
+
+namespace waymark::laser_slam {
+namespace {
+
+// A place is remembered every this many metres of travel (revisit targets).
+constexpr double kPlaceSpacing = 1.0;
+// A path must shorten by this much to count as progress (m).
+constexpr double kProgress = 0.2;
+// Variances below this are the odometry model's floors, not information (m^2).
+constexpr double kVarianceFloor = 1e-4;
+// A reached target is still open when its frontier or wall has a cell this close to the point
+// it was looking at (m).
+constexpr double kStillOpenRadius = 0.25;
+// A given-up target's frontier cells within this distance are not targeted again (m).
+constexpr double kGivenUpRadius = 0.6;
+
+// Whether the straight line between two cells' centres crosses no occupied cell: a frontier seen
+// through a gap in a mapped wall (rays that slipped past a corner into a box) cannot be looked at
+// from the far side of that wall.
+// Occupied cells within `end_tolerance` (m) of `to` are ignored: a wall cell is looked at
+// through its own thickness.
+bool InSight(const ExplorationGrid& g, int from, int to, double end_tolerance = 0.0) {
+  const Eigen::Vector2d a = g.Centre(from % g.width(), from / g.width());
+  const Eigen::Vector2d b = g.Centre(to % g.width(), to / g.width());
+  const double length = (b - a).norm();
+  const int steps = static_cast<int>(std::ceil(length / (0.5 * g.resolution())));
+  const int last = steps - static_cast<int>(std::floor(end_tolerance / std::max(length, 1e-9) * steps));
+  for (int k = 1; k < last; ++k) {
+    const Eigen::Vector2i c = g.CellOf(a + (b - a) * (static_cast<double>(k) / steps));
+    if (g.At(c.x(), c.y()) == GridCell::kOccupied) return false;
+  }
+  return true;
+}
+
+// A frontier is looked at when the unknown beyond it is within 60 degrees of the line of sight.
+constexpr double kFacingCosine = 0.5;
+
+// The mean direction from a frontier cell to its unknown 4-neighbours (unit; zero if none).
+Eigen::Vector2d OpenDirection(const ExplorationGrid& g, const std::vector<char>& /*mask*/, int x,
+                              int y) {
+  Eigen::Vector2d d = Eigen::Vector2d::Zero();
+  const int dx[] = {1, -1, 0, 0}, dy[] = {0, 0, 1, -1};
+  for (int k = 0; k < 4; ++k) {
+    if (g.Inside(x + dx[k], y + dy[k]) && g.At(x + dx[k], y + dy[k]) == GridCell::kUnknown) {
+      d += Eigen::Vector2d(dx[k], dy[k]);
+    }
+  }
+  return d.norm() > 0 ? Eigen::Vector2d(d.normalized()) : d;
+}
+
+double Lg(double value, double floor) { return std::log10(std::max(value, floor)); }
+
+Eigen::Vector2d Position(const Pose2& p) { return Eigen::Vector2d(p.x, p.y); }
+
+}  // namespace
+
+std::vector<Eigen::Vector2d> ExplorationGoals::OccupiedNear(const Eigen::Vector2d& point,
+                                                           double reach) const {
+  std::vector<Eigen::Vector2d> out;
+  if (grid_.empty()) return out;
+  const Eigen::Vector2i c = grid_.CellOf(point);
+  const int r = static_cast<int>(std::ceil(reach / grid_.resolution()));
+  for (int y = std::max(0, c.y() - r); y <= std::min(grid_.height() - 1, c.y() + r); ++y) {
+    for (int x = std::max(0, c.x() - r); x <= std::min(grid_.width() - 1, c.x() + r); ++x) {
+      if (grid_.At(x, y) != GridCell::kOccupied) continue;
+      const Eigen::Vector2d centre = grid_.Centre(x, y);
+      if ((centre - point).norm() <= reach) out.push_back(centre);
+    }
+  }
+  return out;
+}
+
+double ExplorationGoals::CostToGoal(const Eigen::Vector2d& point) const {
+  const int i = to_goal_ ? to_goal_->CellIndex(point) : -1;
+  if (i < 0 || !to_goal_->Reachable(i)) return std::numeric_limits<double>::infinity();
+  return to_goal_->Cost(i);
+}
+
+Eigen::Vector2d ExplorationGoals::AimFrom(const Eigen::Vector2d& point, double lookahead) const {
+  int i = to_goal_ ? to_goal_->CellIndex(point) : -1;
+  if (i < 0 || !to_goal_->Reachable(i)) return point;
+  const double start = to_goal_->Length(i);
+  while (to_goal_->Parent(i) >= 0 && start - to_goal_->Length(i) < lookahead) i = to_goal_->Parent(i);
+  return grid_.Centre(i % grid_.width(), i / grid_.width());
+}
+
+const char* ExplorationStateName(ExplorationState state) {
+  switch (state) {
+    case ExplorationState::kExploring: return "exploring";
+    case ExplorationState::kDone: return "done";
+    case ExplorationState::kStuck: return "stuck";
+  }
+  return "unknown";
+}
+
+ExplorationGoals::ExplorationGoals(const ExplorationOptions& options, bool nearest_only)
+    : options_(options), nearest_only_(nearest_only), grid_(options.grid_resolution) {}
+
+void ExplorationGoals::Track(const ExplorationView& view) {
+  if (last_robot_) {
+    const Pose2 u = Relative(*last_robot_, view.robot);
+    const double d = std::hypot(u.x, u.y);
+    progress_.travel += d;
+    drift_ = drift_.Moved(d, std::abs(u.theta), view.odometry);
+  }
+  last_robot_ = view.robot;
+  if (view.loop_closures > last_loop_closures_) drift_ = Drift{};  // the map is tied again
+  last_loop_closures_ = std::max(last_loop_closures_, view.loop_closures);
+  progress_.drift_variance = drift_.position;
+  if (places_.empty() || progress_.travel - places_.back().travel >= kPlaceSpacing) {
+    places_.push_back({Position(view.robot), progress_.travel, progress_.drift_variance});
+  }
+}
+
+Drift Drift::Moved(double distance, double turn, const OdometryNoise& noise) const {
+  Drift out;
+  // Dead reckoning with the session's odometry model (the EKF's, METHODS.md section 2): the
+  // heading error grows with distance and turning, and a heading error sweeps the position
+  // sideways over the distance driven after it.
+  out.heading = heading + std::pow(noise.theta_per_m * distance, 2) +
+                std::pow(noise.theta_per_rad * turn, 2);
+  out.position = position + std::pow(noise.xy_per_m * distance, 2) + distance * distance * heading;
+  return out;
+}
+
+double ExplorationGoals::VarianceAfter(const Drift& start, double length,
+                                       const ExplorationView& view) const {
+  // In steps of one observation period's travel, as the robot will drive it.
+  const double step = options_.max_linear * options_.observation_period;
+  const int steps = static_cast<int>(std::ceil(length / step));
+  Drift d = start;
+  for (int i = 0; i < steps; ++i) d = d.Moved(length / steps, 0.0, view.odometry);
+  return d.position;
+}
+
+bool ExplorationGoals::GivenUp(const Eigen::Vector2d& point) const {
+  for (const Eigen::Vector2d& g : given_up_) {
+    if ((g - point).norm() <= kGivenUpRadius) return true;
+  }
+  return false;
+}
+
+void ExplorationGoals::GiveUp(const Eigen::Vector2d& look_at, bool for_lack_of_progress) {
+  if (const char* dir = std::getenv("WAYMARK_GOAL_DEBUG_DIR")) {  // TEMPORARY
+    std::ofstream log(std::string(dir) + "/log.txt", std::ios::app);
+    log << "GIVEUP kind " << int(progress_.target ? int(progress_.target->kind) : -1) << " at " << look_at.transpose() << " noprog " << for_lack_of_progress << "\n";
+  }
+  given_up_.push_back(look_at);
+  ++progress_.given_up;
+  no_progress_given_up_ += for_lack_of_progress;
+}
+
+double ExplorationGoals::Utility(const ExplorationTarget& t) const {
+  if (nearest_only_) return -t.path_length;
+  return options_.weight_gain * Lg(t.gain, options_.gain_floor) -
+         options_.travel_cost * t.path_length -
+         options_.weight_trip_uncertainty * Lg(t.variance_after, kVarianceFloor);
+}
+
+std::optional<ExplorationTarget> ExplorationGoals::WallTarget(const CostField& field,
+                                                              const GridRegion& region,
+                                                              int* goal_cell) const {
+  const ExplorationGrid& g = grid_;
+  // The wall's direction: the principal axis of its cells.
+  Eigen::Matrix2d scatter = Eigen::Matrix2d::Zero();
+  int look = region.cells.front();
+  for (int cell : region.cells) {
+    const Eigen::Vector2d d = g.Centre(cell % g.width(), cell / g.width()) - region.centroid;
+    scatter += d * d.transpose();
+    const Eigen::Vector2d l = g.Centre(look % g.width(), look / g.width()) - region.centroid;
+    if (d.squaredNorm() < l.squaredNorm()) look = cell;
+  }
+  Eigen::SelfAdjointEigenSolver<Eigen::Matrix2d> eigen(scatter);
+  const Eigen::Vector2d along = eigen.eigenvectors().col(1);
+  const Eigen::Vector2d at = g.Centre(look % g.width(), look / g.width());
+  // Metres of path a grazing view costs against a square one.
+  constexpr double kGrazingCost = 2.0;
+  const int reach = static_cast<int>(std::ceil(options_.wall_view_max / g.resolution()));
+  const Eigen::Vector2i c = g.CellOf(at);
+  int best = -1;
+  double best_score = 0.0;
+  for (int dy = -reach; dy <= reach; ++dy) {
+    for (int dx = -reach; dx <= reach; ++dx) {
+      const int x = c.x() + dx, y = c.y() + dy;
+      if (!g.Inside(x, y)) continue;
+      const int j = g.Index(x, y);
+      if (!field.Reachable(j)) continue;
+      const Eigen::Vector2d ray = at - g.Centre(x, y);
+      const double range = ray.norm();
+      if (range < options_.wall_view_min || range > options_.wall_view_max) continue;
+      const double score = field.Cost(j) + kGrazingCost * std::abs(ray.dot(along)) / range;
+      if ((best < 0 || score < best_score) && InSight(g, j, look, options_.wall_explained)) {
+        best = j;
+        best_score = score;
+      }
+    }
+  }
+  if (best < 0) return std::nullopt;
+  ExplorationTarget t;
+  t.kind = TargetKind::kWall;
+  t.goal = g.Centre(best % g.width(), best / g.width());
+  t.look_at = at;
+  t.path_length = field.Length(best);
+  *goal_cell = best;
+  return t;
+}
+
+std::vector<ExplorationTarget> ExplorationGoals::Targets(const CostField& field,
+                                                         const Frontiers& frontiers,
+                                                         const UnmappedWalls& walls,
+                                                         const ExplorationView& view,
+                                                         std::vector<int>* goal_cells) {
+  const ExplorationGrid& g = grid_;
+  const int reach = static_cast<int>(std::floor(options_.approach_radius / g.resolution()));
+  std::vector<Eigen::Vector2i> offsets;
+  for (int dy = -reach; dy <= reach; ++dy) {
+    for (int dx = -reach; dx <= reach; ++dx) {
+      if (std::hypot(dx, dy) * g.resolution() <= options_.approach_radius) offsets.emplace_back(dx, dy);
+    }
+  }
+  std::vector<ExplorationTarget> targets;
+  progress_.unreachable = 0;
+  for (const GridRegion& region : frontiers.regions) {
+    int open = 0, best_goal = -1, best_cell = -1;
+    for (int cell : region.cells) {
+      const int x = cell % g.width(), y = cell / g.width();
+      const Eigen::Vector2d f = g.Centre(x, y);
+      if (GivenUp(f)) continue;
+      ++open;
+      // Which way the unknown lies from this frontier cell: the goal must look that way, or the
+      // robot would only see along the frontier (the edge of a box's shadow stays an edge when
+      // seen from where the shadow was cast).
+      const Eigen::Vector2d into = OpenDirection(g, frontiers.mask, x, y);
+      for (const Eigen::Vector2i& o : offsets) {
+        if (!g.Inside(x + o.x(), y + o.y())) continue;
+        const int j = g.Index(x + o.x(), y + o.y());
+        if (!field.Reachable(j) || (best_goal >= 0 && field.Cost(j) >= field.Cost(best_goal))) {
+          continue;
+        }
+        const Eigen::Vector2d look = f - g.Centre(x + o.x(), y + o.y());
+        if (look.norm() > g.resolution() && look.dot(into) < kFacingCosine * look.norm()) continue;
+        if (InSight(g, j, cell)) {
+          best_goal = j;
+          best_cell = cell;
+        }
+      }
+    }
+    if (open < options_.min_frontier_cells) continue;  // what is left of it was given up
+    if (best_goal < 0) {
+      ++progress_.unreachable;
+      continue;
+    }
+    ExplorationTarget t;
+    t.kind = TargetKind::kFrontier;
+    t.goal = g.Centre(best_goal % g.width(), best_goal / g.width());
+    t.look_at = g.Centre(best_cell % g.width(), best_cell / g.width());
+    t.gain = open * g.resolution();
+    t.path_length = field.Length(best_goal);
+    t.variance_after = VarianceAfter(drift_, t.path_length, view);
+    t.utility = Utility(t);
+    targets.push_back(t);
+    goal_cells->push_back(best_goal);
+  }
+  // Walls the segment map lacks (not in FRONTIER mode: a frontier explorer knows no segments).
+  progress_.unmapped_walls = 0;
+  if (!nearest_only_) {
+    for (const GridRegion& region : walls.regions) {
+      GridRegion open;
+      for (int cell : region.cells) {
+        if (!GivenUp(g.Centre(cell % g.width(), cell / g.width()))) open.cells.push_back(cell);
+      }
+      if (static_cast<int>(open.cells.size()) < options_.min_frontier_cells) continue;
+      for (int cell : open.cells) open.centroid += g.Centre(cell % g.width(), cell / g.width());
+      open.centroid /= static_cast<double>(open.cells.size());
+      ++progress_.unmapped_walls;
+      int goal = -1;
+      std::optional<ExplorationTarget> t = WallTarget(field, open, &goal);
+      if (!t) {
+        ++progress_.unreachable;
+        continue;
+      }
+      t->gain = open.cells.size() * g.resolution();
+      t->variance_after = VarianceAfter(drift_, t->path_length, view);
+      t->utility = Utility(*t);
+      targets.push_back(*t);
+      goal_cells->push_back(goal);
+    }
+  }
+  // Active loop closing: only with a back end to close the loop (loop_closures >= 0).
+  const bool revisit = !nearest_only_ && view.loop_closures >= 0 &&
+                       progress_.drift_variance > options_.revisit_variance &&
+                       progress_.travel >= revisit_blocked_until_;
+  if (revisit) {
+    for (const Place& p : places_) {
+      if (progress_.travel - p.travel < options_.revisit_travel) break;  // places are in order
+      const Eigen::Vector2i c = g.CellOf(p.position);
+      if (!g.Inside(c.x(), c.y())) continue;
+      const int j = g.Index(c.x(), c.y());
+      if (!field.Reachable(j)) continue;
+      ExplorationTarget t;
+      t.kind = TargetKind::kRevisit;
+      t.goal = g.Centre(c.x(), c.y());
+      t.look_at = t.goal;
+      t.gain = options_.gain_floor;
+      t.path_length = field.Length(j);
+      t.variance_after = p.variance;
+      t.utility = Utility(t);
+      targets.push_back(t);
+      goal_cells->push_back(j);
+    }
+  }
+  return targets;
+}
+
+const GoalProgress& ExplorationGoals::Update(const ExplorationView& view, bool blocked) {
+  Track(view);
+  blocked_streak_ = blocked ? blocked_streak_ + 1 : 0;
+  grid_.Integrate(view.robot, view.laser_pose, view.scan, view.max_range, view.max_range,
+                  options_.robot_radius);
+  const Frontiers frontiers = FindFrontiers(grid_, options_.min_frontier_cells);
+  to_goal_.reset();  // it refers to the old distances
+  distance_ = ObstacleDistance(grid_, static_cast<float>(options_.comfort_distance + 1.0));
+  const Eigen::Vector2d robot = Position(view.robot);
+  // Half a cell more than the collision check needs: cell centres are up to that far from the
+  // walls' true positions, and a path the check then refuses makes the robot turn on the spot.
+  path_options_.required_distance =
+      options_.robot_radius + options_.clearance + 0.5 * grid_.resolution();
+  path_options_.comfort_distance =
+      std::max(options_.comfort_distance, path_options_.required_distance);
+  path_options_.wall_penalty = options_.wall_penalty;
+  path_options_.escape_centre = robot;
+  path_options_.escape_radius = options_.robot_radius + 0.2;
+  const CostField field(grid_, distance_, robot, path_options_);
+  std::vector<int> goal_cells;
+  const UnmappedWalls walls =
+      FindUnmappedWalls(grid_, view.segments, options_.wall_explained, options_.min_frontier_cells);
+  const std::vector<ExplorationTarget> targets =
+      Targets(field, frontiers, walls, view, &goal_cells);
+  // The boundary of the known free space is open where it is frontier or a wall not yet in the
+  // segment map (FRONTIER mode counts frontiers only).
+  const int open_cells = frontiers.open_cells + (nearest_only_ ? 0 : walls.unmapped_cells);
+  const int boundary = open_cells + walls.mapped_cells + (nearest_only_ ? walls.unmapped_cells : 0);
+  progress_.open_share = boundary > 0 ? static_cast<double>(open_cells) / boundary : 1.0;
+  progress_.known_area = grid_.KnownArea();
+  progress_.targets_left = static_cast<int>(targets.size());
+
+  // The current target: done once it was reached and faced (the scan just integrated looked at
+  // it), followed to its new goal while its frontier is open, dropped when the frontier closed.
+  int current = -1;
+  if (progress_.target) {
+    const ExplorationTarget& t = *progress_.target;
+    const Eigen::Vector2d to = t.look_at - robot;
+    const bool faced = to.norm() < 1e-6 ||
+                       std::abs(NormalizeAngle(std::atan2(to.y(), to.x()) - view.robot.theta)) <=
+                           options_.face_tolerance;
+    const bool reached = (robot - t.goal).norm() <= options_.arrive_radius && faced;
+    for (size_t i = 0; i < targets.size() && current < 0; ++i) {
+      if (targets[i].kind == t.kind && (targets[i].look_at - t.look_at).norm() <=
+                                           options_.approach_radius) {
+        current = static_cast<int>(i);
+      }
+    }
+    if (reached) {
+      // Looked at from its goal: whatever is still open right there is beyond this robot's
+      // reach (or its laser's) and is not targeted again.
+      const std::vector<char>& open = t.kind == TargetKind::kWall ? walls.mask : frontiers.mask;
+      if (t.kind == TargetKind::kRevisit) {
+        revisit_blocked_until_ = progress_.travel + options_.revisit_travel;
+      } else if (MaskedNear(grid_, open, t.look_at, kStillOpenRadius)) {
+        GiveUp(t.look_at, /*for_lack_of_progress=*/false);
+      }
+      current = -1;
+    } else if (current >= 0) {
+      if (targets[current].path_length < best_length_ - kProgress) {
+        best_length_ = targets[current].path_length;
+        since_progress_ = 0;
+      } else if (++since_progress_ >= options_.no_progress_decisions) {
+        GiveUp(t.look_at, /*for_lack_of_progress=*/true);
+        current = -1;
+      }
+    }
+  }
+  // Given-up targets are out of this decision's list from the next one on; skip them now.
+  int best = -1;
+  for (size_t i = 0; i < targets.size(); ++i) {
+    if (targets[i].kind != TargetKind::kRevisit && GivenUp(targets[i].look_at)) continue;
+    if (best < 0 || targets[i].utility > targets[best].utility) best = static_cast<int>(i);
+  }
+  if (current >= 0 && GivenUp(targets[current].look_at) &&
+      targets[current].kind != TargetKind::kRevisit) {
+    current = -1;
+  }
+  int chosen = current;
+  if (best >= 0 &&
+      (current < 0 || targets[best].utility > targets[current].utility + options_.switch_margin)) {
+    chosen = best;
+  }
+  if (chosen != current) {
+    best_length_ = chosen >= 0 ? targets[chosen].path_length : 0.0;
+    since_progress_ = 0;
+  }
+  if (chosen >= 0) {
+    progress_.target = targets[chosen];
+    to_goal_ = std::make_unique<CostField>(grid_, distance_, targets[chosen].goal, path_options_);
+    progress_.path.clear();
+    for (int i = to_goal_->CellIndex(robot); i >= 0 && to_goal_->Reachable(i);
+         i = to_goal_->Parent(i)) {
+      progress_.path.push_back(grid_.Centre(i % grid_.width(), i / grid_.width()));
+    }
+    progress_.arrived = (robot - targets[chosen].goal).norm() <= options_.arrive_radius;
+  } else {
+    progress_.target.reset();
+    progress_.path.clear();
+    progress_.arrived = false;
+  }
+
+  // State.
+  without_target_ = chosen >= 0 ? 0 : without_target_ + 1;
+  const int open_regions =
+      static_cast<int>(frontiers.regions.size()) + progress_.unmapped_walls;
+  if (blocked_streak_ >= options_.stuck_decisions) {
+    progress_.state = ExplorationState::kStuck;
+    progress_.reason = absl::StrCat("no collision-free control for ", blocked_streak_,
+                                    " decisions in a row");
+  } else if (chosen >= 0 || without_target_ < options_.done_decisions) {
+    progress_.state = ExplorationState::kExploring;
+    progress_.reason = chosen >= 0 ? "" : "no target this decision: looking around";
+  } else if (open_regions == 0) {
+    progress_.state = ExplorationState::kDone;
+    progress_.reason = nearest_only_
+                           ? "no frontier left: the known free space is closed by walls"
+                           : "no open boundary left: the known free space is closed by mapped walls";
+  } else {
+    progress_.state = ExplorationState::kDone;
+    progress_.reason = absl::StrCat(
+        "no reachable open boundary left (", open_regions, " open region(s) remain: ",
+        progress_.unreachable,
+        " that no path through mapped free space reaches or that no reachable place sees; targets "
+        "given up: ",
+        progress_.given_up - no_progress_given_up_, " still open once looked at, ",
+        no_progress_given_up_, " never got closer to)");
+  }
+  if (const char* dir = std::getenv("WAYMARK_GOAL_DEBUG_DIR")) {  // TEMPORARY debugging
+    static int n = 0;
+    std::ofstream out(std::string(dir) + "/g" + std::to_string(n++) + ".ppm");
+    out << "P6 " << grid_.width() << " " << grid_.height() << " 255\n";
+    std::vector<unsigned char> rgb(grid_.width() * grid_.height() * 3);
+    for (int y = 0; y < grid_.height(); ++y) for (int x = 0; x < grid_.width(); ++x) {
+      const int i = grid_.Index(x, y);
+      const int o = ((grid_.height() - 1 - y) * grid_.width() + x) * 3;
+      GridCell c = grid_.At(x, y);
+      unsigned char v = c == GridCell::kUnknown ? 128 : c == GridCell::kFree ? 255 : 0;
+      rgb[o] = rgb[o+1] = rgb[o+2] = v;
+      if (c == GridCell::kFree && !field.Traversable(i) && i >= 0) { rgb[o] = 255; rgb[o+1] = 220; rgb[o+2] = 220; }
+    }
+    auto paint = [&](const Eigen::Vector2d& p, int r, int g, int b) {
+      const Eigen::Vector2i c = grid_.CellOf(p);
+      if (!grid_.Inside(c.x(), c.y())) return;
+      const int o = ((grid_.height() - 1 - c.y()) * grid_.width() + c.x()) * 3;
+      rgb[o] = r; rgb[o+1] = g; rgb[o+2] = b;
+    };
+    for (const GridRegion& fr : frontiers.regions) for (int i : fr.cells) paint(grid_.Centre(i % grid_.width(), i / grid_.width()), 0, 0, 255);
+    for (const auto& p : progress_.path) paint(p, 0, 200, 0);
+    for (const auto& p : given_up_) paint(p, 255, 0, 255);
+    if (progress_.target) { paint(progress_.target->goal, 255, 0, 0); paint(progress_.target->look_at, 255, 128, 0); }
+    paint(robot, 200, 0, 0);
+    out.write(reinterpret_cast<const char*>(rgb.data()), rgb.size());
+    std::ofstream log(std::string(dir) + "/log.txt", std::ios::app);
+    log << n - 1 << " kind " << (chosen >= 0 ? int(targets[chosen].kind) : 0) << " lc " << view.loop_closures << " drift " << progress_.drift_variance << " state " << int(progress_.state) << " targets " << targets.size() << " chosen " << chosen << " cur " << current << " since " << since_progress_ << " best " << best_length_ << " len " << (chosen >= 0 ? targets[chosen].path_length : -1) << " arrived " << progress_.arrived << " robot " << robot.transpose() << " " << view.robot.theta << " " << progress_.reason << "\n";
+  }
+  return progress_;
+}
+
+}  // namespace waymark::laser_slam

@@ -1,0 +1,145 @@
+#ifndef WAYMARK_SERVER_LASER_SLAM_EXPLORATION_GOAL_LAYER_H_
+#define WAYMARK_SERVER_LASER_SLAM_EXPLORATION_GOAL_LAYER_H_
+
+// The goal layer above the paper's one-step planner (issue 17): where to go next at the scale of
+// the map, and when exploring is over.
+//
+// Each decision it integrates the scan into the exploration grid (exploration_grid.h), finds the
+// frontiers (frontiers.h), runs one Dijkstra from the robot (grid_paths.h) and turns every
+// frontier region into a target: the cheapest traversable cell within approach_radius of one of
+// its cells. ACTIVE mode ranks targets by utility (exploration_options.h: gain, travel, and the
+// position variance the trip will add, predicted with the odometry model), and adds revisits of
+// places driven long ago when the variance accumulated since the last loop closure is high
+// (active loop closing); FRONTIER mode takes the nearest. The chosen target is kept until it is
+// seen (its frontier closed), reached (then it must be faced: the laser sees ahead only),
+// beaten by switch_margin, or given up (no progress, or still open once reached and faced).
+//
+// State: EXPLORING while a target is left; DONE after done_decisions decisions with none (the
+// reason says whether open boundary remains that no path reaches); STUCK when the planner could
+// not move for stuck_decisions decisions, or when every open region left was given up for lack of
+// progress. Everything is in the planner's frame (the EKF's local one).
+
+#include <cstdint>
+#include <memory>
+#include <optional>
+#include <string>
+#include <vector>
+
+#include <Eigen/Core>
+
+#include "server/laser_slam/exploration/exploration_grid.h"
+#include "server/laser_slam/exploration/exploration_options.h"
+#include "server/laser_slam/exploration/exploration_types.h"
+#include "server/laser_slam/exploration/frontiers.h"
+#include "server/laser_slam/exploration/grid_paths.h"
+#include "server/laser_slam/exploration/unmapped_walls.h"
+
+namespace waymark::laser_slam {
+
+enum class ExplorationState : std::uint8_t { kExploring = 1, kDone = 2, kStuck = 3 };
+enum class TargetKind : std::uint8_t {
+  kFrontier = 1,  // the edge of the known free space
+  kRevisit = 2,   // a place driven long ago (active loop closing)
+  kWall = 3,      // a wall the grid has and the segment map has not (unmapped_walls.h)
+};
+
+const char* ExplorationStateName(ExplorationState state);
+
+struct ExplorationTarget {
+  TargetKind kind = TargetKind::kFrontier;
+  Eigen::Vector2d goal = Eigen::Vector2d::Zero();     // where the robot drives to
+  Eigen::Vector2d look_at = Eigen::Vector2d::Zero();  // what it faces there
+  double gain = 0.0;         // m of frontier (gain_floor for a revisit)
+  double path_length = 0.0;  // m
+  double variance_after = 0.0;  // m^2, predicted position variance on arrival
+  double utility = 0.0;
+};
+
+struct GoalProgress {
+  ExplorationState state = ExplorationState::kExploring;
+  std::string reason;
+  double open_share = 1.0;   // of the known free space's boundary
+  int targets_left = 0;      // reachable targets this decision (the chosen one included)
+  int unreachable = 0;       // frontier and wall regions no path reaches (or no place sees)
+  int unmapped_walls = 0;    // wall regions left (FRONTIER mode does not target them)
+  int given_up = 0;          // targets abandoned so far
+  std::optional<ExplorationTarget> target;
+  bool arrived = false;      // at the target's goal: turn to face it
+  std::vector<Eigen::Vector2d> path;  // robot to goal
+  double known_area = 0.0;   // m^2
+  double travel = 0.0;       // m driven, by the estimate
+  double drift_variance = 0.0;  // m^2 accumulated since the map was last tied
+};
+
+// Variances of dead reckoning since the map was last tied (m^2, rad^2).
+struct Drift {
+  double position = 0.0;
+  double heading = 0.0;
+  // After driving `distance` (m) and turning `turn` (rad).
+  Drift Moved(double distance, double turn, const OdometryNoise& noise) const;
+};
+
+class ExplorationGoals {
+ public:
+  // `options` must pass ValidateExplorationOptions. `nearest_only`: FRONTIER mode's choice.
+  ExplorationGoals(const ExplorationOptions& options, bool nearest_only);
+
+  // One decision: integrates view.scan at view.robot and re-plans. `blocked`: the planner found
+  // no collision-free control at the previous decision.
+  const GoalProgress& Update(const ExplorationView& view, bool blocked);
+
+  const GoalProgress& progress() const { return progress_; }
+  // Centres of the occupied cells within `reach` of `point`.
+  std::vector<Eigen::Vector2d> OccupiedNear(const Eigen::Vector2d& point, double reach) const;
+  // Cost (path metres, weighted near walls) from `point` to the current target's goal; infinity
+  // without a target or where no path reaches it. A navigation function: the local controller
+  // takes the control whose arc ends lowest.
+  double CostToGoal(const Eigen::Vector2d& point) const;
+  // The point `lookahead` metres along the path from `point` to the goal (the goal when nearer);
+  // `point` itself where no path reaches the goal.
+  Eigen::Vector2d AimFrom(const Eigen::Vector2d& point, double lookahead) const;
+  const ExplorationGrid& grid() const { return grid_; }
+
+ private:
+  struct Place {
+    Eigen::Vector2d position;
+    double travel;
+    double variance;
+  };
+  void Track(const ExplorationView& view);
+  // Every reachable target this decision (each with its goal cell's index in `goal_cells`).
+  std::vector<ExplorationTarget> Targets(const CostField& field, const Frontiers& frontiers,
+                                         const UnmappedWalls& walls, const ExplorationView& view,
+                                         std::vector<int>* goal_cells);
+  // Where to look at an unmapped wall from: a reachable cell in sight of it, between
+  // wall_view_min and wall_view_max away, cheap to reach and facing the wall squarely.
+  std::optional<ExplorationTarget> WallTarget(const CostField& field, const GridRegion& region,
+                                              int* goal_cell) const;
+  double Utility(const ExplorationTarget& target) const;
+  double VarianceAfter(const Drift& start, double length, const ExplorationView& view) const;
+  bool GivenUp(const Eigen::Vector2d& point) const;
+  void GiveUp(const Eigen::Vector2d& look_at, bool for_lack_of_progress);
+
+  ExplorationOptions options_;
+  bool nearest_only_;
+  ExplorationGrid grid_;
+  std::vector<float> distance_;  // ObstacleDistance of grid_ at this decision
+  PathOptions path_options_;
+  std::unique_ptr<CostField> to_goal_;  // Dijkstra from the current target's goal
+  GoalProgress progress_;
+  Drift drift_;  // accumulated since the map was last tied (a loop closure)
+  std::optional<Pose2> last_robot_;
+  int last_loop_closures_ = 0;
+  double revisit_blocked_until_ = 0.0;  // travel before which no revisit is proposed
+  std::vector<Place> places_;
+  std::vector<Eigen::Vector2d> given_up_;  // look-at points never to be targeted again
+  int no_progress_given_up_ = 0;
+  double best_length_ = 0.0;  // shortest path to the current target so far
+  int since_progress_ = 0;
+  int without_target_ = 0;
+  int blocked_streak_ = 0;
+};
+
+}  // namespace waymark::laser_slam
+
+#endif  // WAYMARK_SERVER_LASER_SLAM_EXPLORATION_GOAL_LAYER_H_
