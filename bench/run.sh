@@ -39,7 +39,7 @@ if command -v icp-slam > /dev/null; then
 else
   echo "== laser SLAM beside MRPT icp-slam: skipped (no icp-slam: apt-get install mrpt-apps mrpt-common)"
 fi
-echo "== active exploration vs wandering in the simulator (every world x mode x seed)"
+echo "== exploration modes in the simulator (every world x mode x seed; bench/explore_eval.sh)"
 OUT="$OUT/explore" "$(dirname "$0")/explore_eval.sh" "$BUILD_DIR"
 echo "== robot loop: stop and resume latency when the server is killed under a driving robot"
 "$BUILD_DIR/bin/waymark-robot-bench" --trials 20 --json > "$OUT/robot_safety.json"

@@ -283,7 +283,7 @@ void AddRobotCommand(CLI::App& app, CommandRegistry& registry) {
   robot
       ->add_option("--base", args->setup.base,
                    "serial:DEVICE (Pioneer over ARCOS/P2OS, e.g. serial:/dev/ttyS0) or "
-                   "sim:WORLD (simulator: corridor, loop, office or a world file)")
+                   "sim:WORLD (simulator: a built-in world, see `sim worlds`, or a world file)")
       ->required();
   robot
       ->add_option("--laser", args->setup.laser,

@@ -48,7 +48,8 @@ absl::StatusOr<RobotDevices> OpenRobotDevices(const RobotSetupOptions& options) 
   }
   if (sim_base && base_spec->argument.empty()) {
     return absl::InvalidArgumentError(
-        "--base sim needs a world: sim:corridor, sim:loop, sim:office or sim:FILE");
+        "--base sim needs a world: sim:NAME (a built-in world, see `waymark sim worlds`) or "
+        "sim:FILE");
   }
   if (sim_laser && !laser_spec->argument.empty()) {
     return absl::InvalidArgumentError("--laser takes a bare 'sim': the world comes from --base");

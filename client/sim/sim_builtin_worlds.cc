@@ -9,9 +9,10 @@ namespace waymark::adapters {
 namespace {
 
 // Walls are thin segments. In every world the start is at least 0.6 m from every wall, every
-// space is reachable through openings at least 1.2 m wide, and every wall can be seen from
-// somewhere the robot can go (cabinets against a wall are three walls, not a box, so no edge
-// hides behind the room's wall).
+// space is reachable through openings at least 1.2 m wide (in `cluttered` 1.0 m: its narrow
+// doorways are the point of it), and every wall can be seen from somewhere the robot can go
+// (cabinets against a wall are three walls, not a box, so no edge hides behind the room's wall;
+// no box stands flush against a wall).
 
 constexpr char kCorridor[] = R"(# corridor: a building floor like the paper's. A closed corridor 30 m x 2 m
 # (x 0..30, y 0..2) with four 4 x 4 m side rooms through 1.4 m doorways, two on each side, and a
@@ -132,6 +133,189 @@ wall 14.5 5.5 14.5 6.5
 wall 14.5 6.5 15 6.5
 )";
 
+constexpr char kBuilding[] = R"(# building: a long floor, 44 m x 30 m (x 0..44, y 0..30), for explorers that only look nearby.
+# A corridor ring 2 m wide runs along the outer walls; a cross corridor (x 21..23) splits the
+# middle into a west block (x 2..21) and an east block (x 23..42): loops round each block and
+# round both. A dead-end spur 12 m long (y 14..16) leaves the cross corridor eastwards. Thirteen
+# rooms (4 x 4 m to 6.5 x 5 m) open off the corridors and the spur through doorways 1.2-1.4 m
+# wide; from a corridor only a strip of a room's far wall shows through its doorway. The rest of
+# each block is solid. Start in the south corridor near the west end, facing east.
+name building
+start 3 1 0
+
+# Outer walls.
+wall 0 0 44 0
+wall 44 0 44 30
+wall 44 30 0 30
+wall 0 30 0 0
+
+# West block (x 2..21, y 2..28): its four faces, broken by the doorways.
+wall 2 2 4.3 2
+wall 5.6 2 10.6 2
+wall 11.9 2 17 2
+wall 18.4 2 21 2
+wall 2 28 3.8 28
+wall 5 28 9.3 28
+wall 10.6 28 21 28
+wall 2 2 2 14.3
+wall 2 15.6 2 28
+wall 21 2 21 13.8
+wall 21 15.1 21 28
+
+# Rooms A (x 2..8), B (x 8..14.5) and C (x 14.5..21) on the south corridor, y 2..7 (one back
+# wall); a desk in B, a table in C.
+wall 2 7 21 7
+wall 8 2 8 7
+wall 14.5 2 14.5 7
+box 10.4 4.6 12 5.4
+box 16.5 4.2 18.5 5.2
+
+# Rooms D (x 2..7) and E (x 7..13) on the north corridor, y 23..28; a desk in E.
+wall 2 23 13 23
+wall 7 23 7 28
+wall 13 23 13 28
+box 9 24.3 10.6 25.1
+
+# Room F (x 16..21, y 12..17) on the cross corridor, room G (x 2..6, y 13..17) on the west one.
+wall 21 12 16 12
+wall 16 12 16 17
+wall 16 17 21 17
+wall 2 13 6 13
+wall 6 13 6 17
+wall 6 17 2 17
+
+# East block (x 23..42, y 2..28): its faces; the west face opens into the spur (y 14..16).
+wall 23 2 26.8 2
+wall 28.1 2 32.2 2
+wall 33.5 2 42 2
+wall 23 28 30.4 28
+wall 31.7 28 42 28
+wall 23 2 23 14
+wall 23 16 23 28
+wall 42 2 42 21.8
+wall 42 23.1 42 28
+
+# The dead-end spur (x 23..35); rooms K below it and J above it open off it.
+wall 23 14 30.8 14
+wall 32 14 35 14
+wall 23 16 28.8 16
+wall 30.2 16 35 16
+wall 35 14 35 16
+
+# Rooms H (x 25..30) and I (x 30..36) on the south corridor, y 2..7; a cabinet in I's north-east
+# corner (two walls: the room's walls are its back).
+wall 25 2 25 7
+wall 25 7 36 7
+wall 30 2 30 7
+wall 36 7 36 2
+wall 35.4 7 35.4 6.4
+wall 35.4 6.4 36 6.4
+
+# Room K (x 29..34, y 9..14) with a cabinet against its back wall, room J (x 27..32, y 16..21).
+wall 29 14 29 9
+wall 29 9 34 9
+wall 34 9 34 14
+wall 30.5 9 30.5 9.45
+wall 30.5 9.45 32 9.45
+wall 32 9.45 32 9
+wall 27 16 27 21
+wall 27 21 32 21
+wall 32 21 32 16
+
+# Room L (x 37..42, y 20..25) on the east corridor, a cabinet in its north-west corner.
+wall 42 20 37 20
+wall 37 20 37 25
+wall 37 25 42 25
+wall 37 24.4 37.6 24.4
+wall 37.6 24.4 37.6 25
+
+# Room N (x 28..34, y 23..28) on the north corridor, a desk in it.
+wall 28 28 28 23
+wall 28 23 34 23
+wall 34 23 34 28
+box 29.2 24.3 30.8 25.1
+
+# Cabinets in the north and east corridors (0.45 m deep: the corridor keeps 1.55 m), so that
+# their long plain stretches are not all alike.
+wall 16 30 16 29.55
+wall 16 29.55 17.2 29.55
+wall 17.2 29.55 17.2 30
+wall 44 9 43.55 9
+wall 43.55 9 43.55 10.2
+wall 43.55 10.2 44 10.2
+)";
+
+constexpr char kCluttered[] = R"(# cluttered: a 20 m x 15 m floor (x 0..20, y 0..15) full of furniture, with narrow doorways
+# (1.0-1.1 m: the planner's robot, 0.6 m across with 0.1 m clearance each side, only just fits
+# through; the simulated body is 0.5 m across). An open-plan office (x 0..12, y 0..9) with six
+# desks, a pillar, a printer and cabinets; a meeting room (x 0..6, y 9..15) and a kitchen
+# (x 6..12, y 9..15) north of it, joined to each other and to the office; a lab (x 12..20,
+# y 0..7) with two benches and a pillar; a store (x 12..20, y 7..15) with four rows of shelves and
+# 1.1 m aisles, reached from the lab and the kitchen. Passages between the furniture are at least
+# 1.0 m wide. Start among the office's desks, facing east.
+name cluttered
+start 3.8 3.15 0
+
+# Outer walls.
+wall 0 0 20 0
+wall 20 0 20 15
+wall 20 15 0 15
+wall 0 15 0 0
+
+# Inner walls and their doorways: office-meeting room x 2..3 (1.0 m), office-kitchen
+# x 9.5..10.55, meeting room-kitchen y 12.5..13.5 (1.0 m), office-lab y 3..4.1 (1.1 m),
+# kitchen-store y 11..12.05, lab-store x 16.5..17.55.
+wall 0 9 2 9
+wall 3 9 9.5 9
+wall 10.55 9 12 9
+wall 6 9 6 12.5
+wall 6 13.5 6 15
+wall 12 0 12 3
+wall 12 4.1 12 11
+wall 12 12.05 12 15
+wall 12 7 16.5 7
+wall 17.55 7 20 7
+
+# Office: desks (1.6 x 0.8 m), a pillar, a printer.
+box 1.5 1.5 3.1 2.3
+box 1.5 4 3.1 4.8
+box 4.5 1.5 6.1 2.3
+box 4.5 4 6.1 4.8
+box 9.2 1.2 10 2.8
+box 9.2 5 10 6.6
+box 7.6 3 8 3.4
+box 4.2 7.2 5 7.8
+# Cabinets against the office's south and west walls (three walls each).
+wall 6.8 0 6.8 0.45
+wall 6.8 0.45 8 0.45
+wall 8 0.45 8 0
+wall 0 6.2 0.45 6.2
+wall 0.45 6.2 0.45 7.4
+wall 0.45 7.4 0 7.4
+
+# Meeting room: a table, a cabinet in the north-west corner (two walls).
+box 1.8 11.2 4.2 12.8
+wall 0 14.4 0.6 14.4
+wall 0.6 14.4 0.6 15
+
+# Kitchen: a counter along the north wall (three walls), a table.
+wall 7.5 15 7.5 14.4
+wall 7.5 14.4 10.5 14.4
+wall 10.5 14.4 10.5 15
+box 8.3 11 9.5 12.2
+
+# Lab: two benches, a pillar 1 m from the east wall.
+box 13.5 1.4 17 2.2
+box 13.5 4.2 17 5
+box 18.6 3 19 3.4
+
+# Store: shelves (5.4 x 0.5 m) with 1.1 m aisles between them, 1.3 m free at both ends.
+box 13.3 8.3 18.7 8.8
+box 13.3 9.9 18.7 10.4
+box 13.3 11.5 18.7 12
+box 13.3 13.1 18.7 13.6
+)";
+
 struct Builtin {
   const char* name;
   const char* text;
@@ -141,6 +325,8 @@ constexpr Builtin kBuiltins[] = {
     {"corridor", kCorridor},
     {"loop", kLoop},
     {"office", kOffice},
+    {"building", kBuilding},
+    {"cluttered", kCluttered},
 };
 
 }  // namespace

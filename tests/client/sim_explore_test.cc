@@ -259,7 +259,8 @@ TEST_F(SimExploreTest, WorldsListsTheBuiltInsWithTheirWallLength) {
     names.push_back(w["name"]);
     EXPECT_GT(w["wall_length_m"].get<double>(), 10);
   }
-  EXPECT_THAT(names, ::testing::IsSupersetOf({"corridor", "loop", "office"}));
+  EXPECT_THAT(names,
+              ::testing::IsSupersetOf({"corridor", "loop", "office", "building", "cluttered"}));
 }
 
 }  // namespace

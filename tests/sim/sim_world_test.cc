@@ -154,8 +154,13 @@ Reach Flood(const World& world, double radius, double cell) {
   return r;
 }
 
+// The disc the reachability checks flood with, per world: nearly 0.6 m radius where every opening
+// is at least 1.2 m wide, 0.45 m in `cluttered`, whose doorways are 1.0-1.1 m wide on purpose.
+double FloodRadius(const std::string& world) { return world == "cluttered" ? 0.45 : 0.55; }
+
 TEST(BuiltinWorldsTest, ParseWithStartInFreeSpace) {
-  ASSERT_EQ(BuiltinWorldNames(), (std::vector<std::string>{"corridor", "loop", "office"}));
+  ASSERT_EQ(BuiltinWorldNames(),
+            (std::vector<std::string>{"corridor", "loop", "office", "building", "cluttered"}));
   for (const std::string& name : BuiltinWorldNames()) {
     SCOPED_TRACE(name);
     absl::StatusOr<World> world = LoadWorld(name);
@@ -167,14 +172,14 @@ TEST(BuiltinWorldsTest, ParseWithStartInFreeSpace) {
   }
 }
 
-// Every space is reachable through openings at least 1.2 m wide (a disc of nearly 0.6 m radius
-// gets through), the world is closed, and every wall can be seen from somewhere reachable.
+// Every space is reachable through the world's openings (a disc of FloodRadius gets through), the
+// world is closed, and every wall can be seen from somewhere reachable.
 TEST(BuiltinWorldsTest, ClosedAndEveryWallVisibleFromReachableSpace) {
   for (const std::string& name : BuiltinWorldNames()) {
     SCOPED_TRACE(name);
     absl::StatusOr<World> world = LoadWorld(name);
     ASSERT_TRUE(world.ok()) << world.status();
-    const Reach reach = Flood(*world, 0.55, 0.05);
+    const Reach reach = Flood(*world, FloodRadius(name), 0.05);
     EXPECT_FALSE(reach.leaked);
     std::vector<std::pair<double, double>> places;  // reachable places, every 0.2 m
     for (int j = 0; j < reach.ny; j += 4) {
@@ -204,6 +209,100 @@ TEST(BuiltinWorldsTest, ClosedAndEveryWallVisibleFromReachableSpace) {
       EXPECT_TRUE(visible) << "wall " << k << ": " << w.x1 << " " << w.y1 << " " << w.x2 << " "
                            << w.y2;
     }
+  }
+}
+
+// The obstacles reachable space closes round: the unreached (4-connected) regions that do not
+// touch the grid's margin, each measured by the shorter side of its bounding box in metres. A
+// corridor loop closes round a block of rooms; a desk the robot drives round is a small one. A room
+// it cannot enter is not one: its walls join the rest of the walls it stands among.
+std::vector<double> EnclosedSizes(const Reach& reach) {
+  std::vector<char> seen = reach.reached;
+  std::vector<double> sizes;
+  for (int first = 0; first < reach.nx * reach.ny; ++first) {
+    if (seen[first]) continue;
+    seen[first] = 1;
+    int imin = first % reach.nx, imax = imin, jmin = first / reach.nx, jmax = jmin;
+    bool margin = false;
+    std::queue<int> queue;
+    queue.push(first);
+    while (!queue.empty()) {
+      const int i = queue.front() % reach.nx, j = queue.front() / reach.nx;
+      queue.pop();
+      imin = std::min(imin, i), imax = std::max(imax, i);
+      jmin = std::min(jmin, j), jmax = std::max(jmax, j);
+      if (i == 0 || j == 0 || i == reach.nx - 1 || j == reach.ny - 1) {
+        margin = true;
+        continue;
+      }
+      for (const int next : {j * reach.nx + i + 1, j * reach.nx + i - 1, (j + 1) * reach.nx + i,
+                             (j - 1) * reach.nx + i}) {
+        if (seen[next]) continue;
+        seen[next] = 1;
+        queue.push(next);
+      }
+    }
+    if (!margin) sizes.push_back(reach.cell * (std::min(imax - imin, jmax - jmin) + 1));
+  }
+  return sizes;
+}
+
+// How many blocks at least 5 m across the robot can drive all the way round (the flood disc of
+// FloodRadius): the corridor loops.
+int CorridorLoops(const std::string& name) {
+  absl::StatusOr<World> world = LoadWorld(name);
+  EXPECT_TRUE(world.ok()) << world.status();
+  if (!world.ok()) return -1;
+  const std::vector<double> sizes = EnclosedSizes(Flood(*world, FloodRadius(name), 0.05));
+  return static_cast<int>(
+      std::count_if(sizes.begin(), sizes.end(), [](double s) { return s >= 5; }));
+}
+
+// `building` is at least 40 m x 30 m and its corridors run round both of its blocks. The other
+// worlds are the check's controls: `loop` has its one block, `corridor` and `office` none.
+TEST(BuiltinWorldsTest, BuildingIsLargeWithCorridorLoops) {
+  absl::StatusOr<World> world = LoadWorld("building");
+  ASSERT_TRUE(world.ok()) << world.status();
+  double xmin = world->walls[0].x1, xmax = xmin, ymin = world->walls[0].y1, ymax = ymin;
+  for (const Wall& w : world->walls) {
+    xmin = std::min({xmin, w.x1, w.x2});
+    xmax = std::max({xmax, w.x1, w.x2});
+    ymin = std::min({ymin, w.y1, w.y2});
+    ymax = std::max({ymax, w.y1, w.y2});
+  }
+  EXPECT_GE(xmax - xmin, 40);
+  EXPECT_GE(ymax - ymin, 30);
+  EXPECT_EQ(CorridorLoops("building"), 2);
+  EXPECT_EQ(CorridorLoops("loop"), 1);
+  EXPECT_EQ(CorridorLoops("corridor"), 0);
+  EXPECT_EQ(CorridorLoops("office"), 0);
+}
+
+// The area (m^2) that the 0.45 m flood disc reaches, that has room for a 0.55 m disc, and that the
+// 0.55 m disc still does not reach from the start: space behind openings narrower than 1.2 m.
+double BehindNarrowOpenings(const std::string& name) {
+  absl::StatusOr<World> world = LoadWorld(name);
+  EXPECT_TRUE(world.ok()) << world.status();
+  if (!world.ok()) return -1;
+  const Reach small = Flood(*world, 0.45, 0.05), large = Flood(*world, 0.55, 0.05);
+  int cells = 0;
+  for (int j = 0; j < small.ny; ++j) {
+    for (int i = 0; i < small.nx; ++i) {
+      const int k = j * small.nx + i;
+      if (!small.reached[k] || large.reached[k]) continue;
+      const double x = small.x0 + i * small.cell, y = small.y0 + j * small.cell;
+      cells += geometry::Clearance(world->walls, x, y) >= 0.55;
+    }
+  }
+  return cells * small.cell * small.cell;
+}
+
+// `cluttered`'s doorways are narrower than 1.2 m: whole rooms lie behind them. In the other worlds
+// nothing does (their openings are at least 1.2 m wide, which FloodRadius relies on).
+TEST(BuiltinWorldsTest, OnlyClutteredHasNarrowDoorways) {
+  EXPECT_GT(BehindNarrowOpenings("cluttered"), 20);
+  for (const char* name : {"corridor", "loop", "office", "building"}) {
+    EXPECT_EQ(BehindNarrowOpenings(name), 0) << name;
   }
 }
 
