@@ -78,22 +78,59 @@ void ExpectSafeSuggestions(const cli::ExploreResult& result) {
   EXPECT_EQ(result.collisions, 0);
 }
 
-TEST_F(ExplorationServerTest, ActiveRunMapsMostOfASmallWorldWithoutTouchingAWall) {
+// The goal layer's end: the run stops when the session says DONE, the small world mapped.
+TEST_F(ExplorationServerTest, ActiveRunMapsASmallWorldAndSaysDoneWithoutTouchingAWall) {
   for (std::uint64_t seed : {1u, 2u}) {
-    auto result = Explore(v1::ExplorationConfig::ACTIVE, 600, seed);
+    auto result = Explore(v1::ExplorationConfig::ACTIVE, 1800, seed);
     ASSERT_TRUE(result.ok()) << result.status() << "\n" << server_->Log();
     ExpectSafeSuggestions(*result);
     const cli::ScanRecord& last = result->scans.back();
-    // Measured: completeness 1.0 after 600 s for seeds 1-5 (0.53-0.60 after 120 s, 0.60-1.0
-    // after 200 s); the floor leaves room for floating-point differences between machines.
+    EXPECT_TRUE(result->finished) << "seed " << seed;
+    EXPECT_EQ(last.exploration.state(), v1::ExplorationProgress::DONE)
+        << "seed " << seed << ": " << last.exploration.reason();
+    EXPECT_EQ(last.suggestion.behaviour(), v1::SuggestedControl::FINISHED);
+    EXPECT_LT(result->sim_time_s, 1800) << "seed " << seed;
     EXPECT_GE(last.completeness, 0.9) << "seed " << seed;
     EXPECT_LT(last.loc_error_m, 0.3) << "seed " << seed;
-    bool optimal = false;
+    // The paper's objective chose among the controls that follow the path.
+    bool scored_on_the_way = false;
     for (const cli::ScanRecord& scan : result->scans) {
-      optimal = optimal || scan.suggestion.behaviour() == v1::SuggestedControl::OPTIMAL;
+      scored_on_the_way = scored_on_the_way ||
+                          (scan.suggestion.behaviour() == v1::SuggestedControl::TO_TARGET &&
+                           scan.suggestion.j() != 0.0);
     }
-    EXPECT_TRUE(optimal);
+    EXPECT_TRUE(scored_on_the_way) << "seed " << seed;
   }
+}
+
+TEST_F(ExplorationServerTest, FrontierRunSaysDoneWithoutTouchingAWall) {
+  auto result = Explore(v1::ExplorationConfig::FRONTIER, 1800, 1);
+  ASSERT_TRUE(result.ok()) << result.status() << "\n" << server_->Log();
+  ExpectSafeSuggestions(*result);
+  EXPECT_EQ(result->scans.back().exploration.state(), v1::ExplorationProgress::DONE)
+      << result->scans.back().exploration.reason();
+  EXPECT_GE(result->scans.back().completeness, 0.8);
+}
+
+// goal_layer = false: the paper's planner exactly as published; no goal layer, no end.
+TEST_F(ExplorationServerTest, PaperModeKeepsTheOneStepPlannerAndRunsToTheEnd) {
+  cli::ExploreOptions options;
+  options.mode = v1::ExplorationConfig::ACTIVE;
+  options.goal_layer = false;
+  options.duration_s = 200;
+  auto result = cli::RunExploration(*client_, world_, options);
+  ASSERT_TRUE(result.ok()) << result.status();
+  ExpectSafeSuggestions(*result);
+  EXPECT_FALSE(result->finished);
+  EXPECT_NEAR(result->sim_time_s, 200, 1e-6);
+  bool optimal = false;
+  for (const cli::ScanRecord& scan : result->scans) {
+    optimal = optimal || scan.suggestion.behaviour() == v1::SuggestedControl::OPTIMAL;
+    EXPECT_NE(scan.suggestion.behaviour(), v1::SuggestedControl::TO_TARGET);
+    EXPECT_FALSE(scan.exploration.has_target());
+    EXPECT_EQ(scan.exploration.state(), v1::ExplorationProgress::STATE_UNSPECIFIED);
+  }
+  EXPECT_TRUE(optimal);
 }
 
 TEST_F(ExplorationServerTest, WanderRunDrivesAndTurnsWithoutTouchingAWall) {
@@ -161,7 +198,9 @@ TEST_F(ExplorationServerTest, ActiveSessionStillSuggestsAfterAServerRestart) {
   auto session = client_->CreateSession(ActiveRequest());
   ASSERT_TRUE(session.ok()) << session.status();
   const v1::SlamUpdate before = ScanOnce(*client_, session->session_id(), world_, 1.0);
-  EXPECT_EQ(before.suggestion().behaviour(), v1::SuggestedControl::OPTIMAL);
+  // The goal layer leads (to the unseen space behind the robot, first).
+  EXPECT_EQ(before.suggestion().behaviour(), v1::SuggestedControl::TO_TARGET);
+  EXPECT_EQ(before.exploration().state(), v1::ExplorationProgress::EXPLORING);
   ASSERT_EQ(server_->Stop(SIGTERM), 0);
   auto restarted = ServerProcess::Start(testing::ServerBinary(), dir_ + "/w.db");
   ASSERT_TRUE(restarted.ok()) << restarted.status();
@@ -171,7 +210,8 @@ TEST_F(ExplorationServerTest, ActiveSessionStillSuggestsAfterAServerRestart) {
   // The resumed session is still active (its exploration config was stored with it).
   const v1::SlamUpdate after = ScanOnce(*client_, session->session_id(), world_, 2.0);
   EXPECT_FALSE(after.has_rejection()) << after.rejection().message();
-  EXPECT_EQ(after.suggestion().behaviour(), v1::SuggestedControl::OPTIMAL);
+  EXPECT_EQ(after.suggestion().behaviour(), v1::SuggestedControl::TO_TARGET);
+  EXPECT_EQ(after.exploration().state(), v1::ExplorationProgress::EXPLORING);
   EXPECT_DOUBLE_EQ(after.suggestion().duration(), 4.0);
 }
 

@@ -49,9 +49,12 @@ class EngineLoop {
   EngineLoop(std::vector<Wall> walls, const Pose2& start, ExplorationMode mode)
       : walls_(std::move(walls)), truth_(start), start_(start), slam_(Options(mode)) {}
 
+  // These tests are about the paper's one-step planner: the goal layer above it is off
+  // (goal_layer_test.cc tests it).
   static SlamOptions Options(ExplorationMode mode) {
     SlamOptions o;
     o.exploration.mode = mode;
+    o.exploration.goal_layer = false;
     return o;
   }
 
