@@ -133,116 +133,70 @@ wall 14.5 5.5 14.5 6.5
 wall 14.5 6.5 15 6.5
 )";
 
-constexpr char kBuilding[] = R"(# building: a long floor, 44 m x 30 m (x 0..44, y 0..30), for explorers that only look nearby.
-# A corridor ring 2 m wide runs along the outer walls; a cross corridor (x 21..23) splits the
-# middle into a west block (x 2..21) and an east block (x 23..42): loops round each block and
-# round both. A dead-end spur 12 m long (y 14..16) leaves the cross corridor eastwards. Thirteen
-# rooms (4 x 4 m to 6.5 x 5 m) open off the corridors and the spur through doorways 1.2-1.4 m
-# wide; from a corridor only a strip of a room's far wall shows through its doorway. The rest of
-# each block is solid. Start in the south corridor near the west end, facing east.
+constexpr char kBuilding[] = R"(# building: a floor 40 m x 30 m (x 0..40, y 0..30), for explorers that only look nearby. A
+# corridor ring 2 m wide (centre line 24 m x 14 m, 76 m round) encloses a block of four rooms
+# (11 m x 6 m); three rooms (8-10 m x 7 m) open off its south side, three off its north side, and
+# a wing room (7 m x 12 m) off each end: twelve rooms, all through doorways 1.3 m wide. From the
+# corridor only a strip of a room shows through its doorway; the walls beside the doorway show
+# from the doorway itself. Sized so that a robot at the paper's 0.15 m/s can drive the ring and
+# look into every room within 1800 s. Start in the south corridor near the west end, facing east.
 name building
-start 3 1 0
+start 10 8 0
 
-# Outer walls.
-wall 0 0 44 0
-wall 44 0 44 30
-wall 44 30 0 30
-wall 0 30 0 0
+# Corridor ring: outer walls (doorways to the south and north rooms and the wings), inner
+# walls (doorways to the block's rooms).
+wall 7 7 10.35 7
+wall 11.65 7 19.35 7
+wall 20.65 7 28.35 7
+wall 29.65 7 33 7
+wall 7 23 10.35 23
+wall 11.65 23 19.35 23
+wall 20.65 23 28.35 23
+wall 29.65 23 33 23
+wall 7 7 7 14.35
+wall 7 15.65 7 23
+wall 33 7 33 14.35
+wall 33 15.65 33 23
+wall 9 9 13.35 9
+wall 14.65 9 24.35 9
+wall 25.65 9 31 9
+wall 9 21 13.35 21
+wall 14.65 21 24.35 21
+wall 25.65 21 31 21
+wall 9 9 9 21
+wall 31 9 31 21
 
-# West block (x 2..21, y 2..28): its four faces, broken by the doorways.
-wall 2 2 4.3 2
-wall 5.6 2 10.6 2
-wall 11.9 2 17 2
-wall 18.4 2 21 2
-wall 2 28 3.8 28
-wall 5 28 9.3 28
-wall 10.6 28 21 28
-wall 2 2 2 14.3
-wall 2 15.6 2 28
-wall 21 2 21 13.8
-wall 21 15.1 21 28
+# The block's four rooms (11 m x 6 m): two along the south corridor, two along the north one.
+wall 9 15 31 15
+wall 20 9 20 21
 
-# Rooms A (x 2..8), B (x 8..14.5) and C (x 14.5..21) on the south corridor, y 2..7 (one back
-# wall); a desk in B, a table in C.
-wall 2 7 21 7
-wall 8 2 8 7
-wall 14.5 2 14.5 7
-box 10.4 4.6 12 5.4
-box 16.5 4.2 18.5 5.2
+# South rooms (y 0..7) and north rooms (y 23..30), three each.
+wall 7 0 33 0
+wall 7 0 7 7
+wall 33 0 33 7
+wall 15 0 15 7
+wall 25 0 25 7
+wall 7 30 33 30
+wall 7 23 7 30
+wall 33 23 33 30
+wall 15 23 15 30
+wall 25 23 25 30
 
-# Rooms D (x 2..7) and E (x 7..13) on the north corridor, y 23..28; a desk in E.
-wall 2 23 13 23
-wall 7 23 7 28
-wall 13 23 13 28
-box 9 24.3 10.6 25.1
+# Wing rooms at the ends (x 0..7 and x 33..40, y 9..21).
+wall 0 9 7 9
+wall 0 21 7 21
+wall 0 9 0 21
+wall 33 9 40 9
+wall 33 21 40 21
+wall 40 9 40 21
 
-# Room F (x 16..21, y 12..17) on the cross corridor, room G (x 2..6, y 13..17) on the west one.
-wall 21 12 16 12
-wall 16 12 16 17
-wall 16 17 21 17
-wall 2 13 6 13
-wall 6 13 6 17
-wall 6 17 2 17
+# Furniture: a desk, a table, a corner cabinet (three walls), a crate.
+box 17 2 19 3
+box 23.5 17.5 26.5 19
+wall 32.5 30 32.5 29.2
+wall 32.5 29.2 33 29.2
+box 35.5 14 37.5 15
 
-# East block (x 23..42, y 2..28): its faces; the west face opens into the spur (y 14..16).
-wall 23 2 26.8 2
-wall 28.1 2 32.2 2
-wall 33.5 2 42 2
-wall 23 28 30.4 28
-wall 31.7 28 42 28
-wall 23 2 23 14
-wall 23 16 23 28
-wall 42 2 42 21.8
-wall 42 23.1 42 28
-
-# The dead-end spur (x 23..35); rooms K below it and J above it open off it.
-wall 23 14 30.8 14
-wall 32 14 35 14
-wall 23 16 28.8 16
-wall 30.2 16 35 16
-wall 35 14 35 16
-
-# Rooms H (x 25..30) and I (x 30..36) on the south corridor, y 2..7; a cabinet in I's north-east
-# corner (two walls: the room's walls are its back).
-wall 25 2 25 7
-wall 25 7 36 7
-wall 30 2 30 7
-wall 36 7 36 2
-wall 35.4 7 35.4 6.4
-wall 35.4 6.4 36 6.4
-
-# Room K (x 29..34, y 9..14) with a cabinet against its back wall, room J (x 27..32, y 16..21).
-wall 29 14 29 9
-wall 29 9 34 9
-wall 34 9 34 14
-wall 30.5 9 30.5 9.45
-wall 30.5 9.45 32 9.45
-wall 32 9.45 32 9
-wall 27 16 27 21
-wall 27 21 32 21
-wall 32 21 32 16
-
-# Room L (x 37..42, y 20..25) on the east corridor, a cabinet in its north-west corner.
-wall 42 20 37 20
-wall 37 20 37 25
-wall 37 25 42 25
-wall 37 24.4 37.6 24.4
-wall 37.6 24.4 37.6 25
-
-# Room N (x 28..34, y 23..28) on the north corridor, a desk in it.
-wall 28 28 28 23
-wall 28 23 34 23
-wall 34 23 34 28
-box 29.2 24.3 30.8 25.1
-
-# Cabinets in the north and east corridors (0.45 m deep: the corridor keeps 1.55 m), so that
-# their long plain stretches are not all alike.
-wall 16 30 16 29.55
-wall 16 29.55 17.2 29.55
-wall 17.2 29.55 17.2 30
-wall 44 9 43.55 9
-wall 43.55 9 43.55 10.2
-wall 43.55 10.2 44 10.2
 )";
 
 constexpr char kCluttered[] = R"(# cluttered: a 20 m x 15 m floor (x 0..20, y 0..15) full of furniture, with narrow doorways

@@ -104,18 +104,21 @@ struct ExplorationOptions {
   // mode takes the one the paper's objective J prefers.
   double progress_slack = 0.15;  // m
   // Target utility (ACTIVE): U = weight_gain lg(gain) - travel_cost L - weight_trip_uncertainty
-  // lg(var_after): gain is the frontier's length (m), L the path length (m) and var_after the
-  // robot's position variance on arrival, predicted with the odometry model along L from the
-  // variance accumulated since the map was last tied (the paper's J1 at the scale of the map).
-  // FRONTIER mode takes the nearest target instead.
+  // lg(var_after): gain is the frontier's (or unmapped wall's) length (m), L the path length (m)
+  // and var_after the robot's position variance on arrival, the filter's covariance now predicted
+  // with the odometry model along L (the paper's J1 at the scale of the map). FRONTIER mode takes
+  // the nearest target instead.
   double weight_gain = 1.0;
   double travel_cost = 0.1;  // per m: 10 m of extra path weigh as much as a tenfold gain
   double weight_trip_uncertainty = 1.0;
-  // Active loop closing (ACTIVE, with the loop-closing back end): once the position variance
-  // accumulated since the last loop closure passes revisit_variance (m^2), places driven at least
-  // revisit_travel metres earlier become targets too; their gain is gain_floor and the variance
-  // on arrival that of the place when it was driven (closing the loop brings it back).
-  double revisit_variance = 0.09;  // (0.3 m)^2
+  // Active loop closing (ACTIVE, with the loop-closing back end): once the filter's position
+  // variance passes revisit_variance (m^2), places driven at least revisit_travel metres earlier
+  // become targets too; their gain is gain_floor and the variance on arrival that of the place
+  // when it was driven (closing the loop brings it back). After a revisit, or a loop closure,
+  // none for another revisit_travel metres.
+  // 0.02 m^2 is about the filter's 90th percentile in the built-in worlds: revisits happen on
+  // long loops (docs/exploration.md has what they bought), not after every room.
+  double revisit_variance = 0.02;
   double revisit_travel = 15.0;    // m (the back end's min_loop_travel)
   double gain_floor = 0.5;         // m
   // Keep the current target unless another one's utility is this much higher (no dithering).

@@ -202,14 +202,15 @@ std::optional<Control> ExplorationPlanner::FollowTarget(const ExplorationView& v
     return feasible[best];
   }
   // ACTIVE: the paper's objective chooses among the controls that drive towards the goal about
-  // as well as the best one (rating within progress_slack, at least half its gain).
+  // as well as the best one (rating and gain within progress_slack of its own): the way there,
+  // not a slower pace (J1 alone would always prefer driving less).
   const double travel = options_.max_linear * period;
   const ObservationPredictor predictor(view, options_, travel);
   const MapTotals totals = Totals(view.segments);
   int chosen = -1;
   for (size_t i = 0; i < feasible.size(); ++i) {
     if (!(ratings[i] <= ratings[best] + options_.progress_slack) ||
-        gains[i] < 0.5 * gains[best]) {
+        gains[i] < gains[best] - options_.progress_slack) {
       continue;
     }
     const ControlScore score = Score(view, predictor, totals, feasible[i]);

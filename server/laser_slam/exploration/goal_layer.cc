@@ -2,8 +2,6 @@
 
 #include <algorithm>
 #include <cmath>
-#include <cstdlib>
-#include <fstream>
 #include <limits>
 
 #include "absl/strings/str_cat.h"
@@ -113,36 +111,30 @@ void ExplorationGoals::Track(const ExplorationView& view) {
     const Pose2 u = Relative(*last_robot_, view.robot);
     const double d = std::hypot(u.x, u.y);
     progress_.travel += d;
-    drift_ = drift_.Moved(d, std::abs(u.theta), view.odometry);
   }
   last_robot_ = view.robot;
-  if (view.loop_closures > last_loop_closures_) drift_ = Drift{};  // the map is tied again
+  // A loop just closed by the back end: no revisit is needed for a while.
+  if (view.loop_closures > last_loop_closures_) {
+    revisit_blocked_until_ = progress_.travel + options_.revisit_travel;
+  }
   last_loop_closures_ = std::max(last_loop_closures_, view.loop_closures);
-  progress_.drift_variance = drift_.position;
+  progress_.position_variance = view.robot_covariance(0, 0) + view.robot_covariance(1, 1);
   if (places_.empty() || progress_.travel - places_.back().travel >= kPlaceSpacing) {
-    places_.push_back({Position(view.robot), progress_.travel, progress_.drift_variance});
+    places_.push_back({Position(view.robot), progress_.travel, progress_.position_variance});
   }
 }
 
-Drift Drift::Moved(double distance, double turn, const OdometryNoise& noise) const {
-  Drift out;
-  // Dead reckoning with the session's odometry model (the EKF's, METHODS.md section 2): the
-  // heading error grows with distance and turning, and a heading error sweeps the position
-  // sideways over the distance driven after it.
-  out.heading = heading + std::pow(noise.theta_per_m * distance, 2) +
-                std::pow(noise.theta_per_rad * turn, 2);
-  out.position = position + std::pow(noise.xy_per_m * distance, 2) + distance * distance * heading;
-  return out;
-}
-
-double ExplorationGoals::VarianceAfter(const Drift& start, double length,
-                                       const ExplorationView& view) const {
-  // In steps of one observation period's travel, as the robot will drive it.
+double ExplorationGoals::VarianceAfter(double length, const ExplorationView& view) const {
+  // The paper's odometry model along the path, in steps of one observation period's travel as
+  // the robot will drive it, from the filter's covariance now (no observation update: J1's
+  // prediction at the scale of the map).
   const double step = options_.max_linear * options_.observation_period;
   const int steps = static_cast<int>(std::ceil(length / step));
-  Drift d = start;
-  for (int i = 0; i < steps; ++i) d = d.Moved(length / steps, 0.0, view.odometry);
-  return d.position;
+  Eigen::Matrix3d c = view.robot_covariance;
+  for (int i = 0; i < steps; ++i) {
+    c = PredictRobotCovariance(c, Pose2{length / steps, 0.0, 0.0}, view.odometry);
+  }
+  return c(0, 0) + c(1, 1);
 }
 
 bool ExplorationGoals::GivenUp(const Eigen::Vector2d& point) const {
@@ -153,10 +145,6 @@ bool ExplorationGoals::GivenUp(const Eigen::Vector2d& point) const {
 }
 
 void ExplorationGoals::GiveUp(const Eigen::Vector2d& look_at, bool for_lack_of_progress) {
-  if (const char* dir = std::getenv("WAYMARK_GOAL_DEBUG_DIR")) {  // TEMPORARY
-    std::ofstream log(std::string(dir) + "/log.txt", std::ios::app);
-    log << "GIVEUP kind " << int(progress_.target ? int(progress_.target->kind) : -1) << " at " << look_at.transpose() << " noprog " << for_lack_of_progress << "\n";
-  }
   given_up_.push_back(look_at);
   ++progress_.given_up;
   no_progress_given_up_ += for_lack_of_progress;
@@ -268,23 +256,28 @@ std::vector<ExplorationTarget> ExplorationGoals::Targets(const CostField& field,
     t.look_at = g.Centre(best_cell % g.width(), best_cell / g.width());
     t.gain = open * g.resolution();
     t.path_length = field.Length(best_goal);
-    t.variance_after = VarianceAfter(drift_, t.path_length, view);
+    t.variance_after = VarianceAfter(t.path_length, view);
     t.utility = Utility(t);
     targets.push_back(t);
     goal_cells->push_back(best_goal);
   }
-  // Walls the segment map lacks (not in FRONTIER mode: a frontier explorer knows no segments).
+  // Walls the segment map lacks (not in FRONTIER mode: a frontier explorer knows no segments),
+  // once no frontier is left to go to: the floor first, then the walls it showed only at grazing
+  // angles (looking at those on the way costs a detour per wall, and most of them turn into
+  // segments anyway as the robot drives by).
   progress_.unmapped_walls = 0;
+  const bool frontier_targets = !targets.empty();
   if (!nearest_only_) {
     for (const GridRegion& region : walls.regions) {
       GridRegion open;
       for (int cell : region.cells) {
         if (!GivenUp(g.Centre(cell % g.width(), cell / g.width()))) open.cells.push_back(cell);
       }
-      if (static_cast<int>(open.cells.size()) < options_.min_frontier_cells) continue;
+      if (static_cast<int>(open.cells.size()) < 2 * options_.min_frontier_cells) continue;
       for (int cell : open.cells) open.centroid += g.Centre(cell % g.width(), cell / g.width());
       open.centroid /= static_cast<double>(open.cells.size());
       ++progress_.unmapped_walls;
+      if (frontier_targets) continue;
       int goal = -1;
       std::optional<ExplorationTarget> t = WallTarget(field, open, &goal);
       if (!t) {
@@ -292,7 +285,7 @@ std::vector<ExplorationTarget> ExplorationGoals::Targets(const CostField& field,
         continue;
       }
       t->gain = open.cells.size() * g.resolution();
-      t->variance_after = VarianceAfter(drift_, t->path_length, view);
+      t->variance_after = VarianceAfter(t->path_length, view);
       t->utility = Utility(*t);
       targets.push_back(*t);
       goal_cells->push_back(goal);
@@ -300,7 +293,7 @@ std::vector<ExplorationTarget> ExplorationGoals::Targets(const CostField& field,
   }
   // Active loop closing: only with a back end to close the loop (loop_closures >= 0).
   const bool revisit = !nearest_only_ && view.loop_closures >= 0 &&
-                       progress_.drift_variance > options_.revisit_variance &&
+                       progress_.position_variance > options_.revisit_variance &&
                        progress_.travel >= revisit_blocked_until_;
   if (revisit) {
     for (const Place& p : places_) {
@@ -344,8 +337,10 @@ const GoalProgress& ExplorationGoals::Update(const ExplorationView& view, bool b
   path_options_.escape_radius = options_.robot_radius + 0.2;
   const CostField field(grid_, distance_, robot, path_options_);
   std::vector<int> goal_cells;
-  const UnmappedWalls walls =
-      FindUnmappedWalls(grid_, view.segments, options_.wall_explained, options_.min_frontier_cells);
+  // Walls shorter than 1 m (twice the frontier minimum) are not worth a trip: the extraction
+  // needs several beams on a wall, and a map that drifted leaves short slivers off its segments.
+  const UnmappedWalls walls = FindUnmappedWalls(grid_, view.segments, options_.wall_explained,
+                                                2 * options_.min_frontier_cells);
   const std::vector<ExplorationTarget> targets =
       Targets(field, frontiers, walls, view, &goal_cells);
   // The boundary of the known free space is open where it is frontier or a wall not yet in the
@@ -451,34 +446,6 @@ const GoalProgress& ExplorationGoals::Update(const ExplorationView& view, bool b
         "given up: ",
         progress_.given_up - no_progress_given_up_, " still open once looked at, ",
         no_progress_given_up_, " never got closer to)");
-  }
-  if (const char* dir = std::getenv("WAYMARK_GOAL_DEBUG_DIR")) {  // TEMPORARY debugging
-    static int n = 0;
-    std::ofstream out(std::string(dir) + "/g" + std::to_string(n++) + ".ppm");
-    out << "P6 " << grid_.width() << " " << grid_.height() << " 255\n";
-    std::vector<unsigned char> rgb(grid_.width() * grid_.height() * 3);
-    for (int y = 0; y < grid_.height(); ++y) for (int x = 0; x < grid_.width(); ++x) {
-      const int i = grid_.Index(x, y);
-      const int o = ((grid_.height() - 1 - y) * grid_.width() + x) * 3;
-      GridCell c = grid_.At(x, y);
-      unsigned char v = c == GridCell::kUnknown ? 128 : c == GridCell::kFree ? 255 : 0;
-      rgb[o] = rgb[o+1] = rgb[o+2] = v;
-      if (c == GridCell::kFree && !field.Traversable(i) && i >= 0) { rgb[o] = 255; rgb[o+1] = 220; rgb[o+2] = 220; }
-    }
-    auto paint = [&](const Eigen::Vector2d& p, int r, int g, int b) {
-      const Eigen::Vector2i c = grid_.CellOf(p);
-      if (!grid_.Inside(c.x(), c.y())) return;
-      const int o = ((grid_.height() - 1 - c.y()) * grid_.width() + c.x()) * 3;
-      rgb[o] = r; rgb[o+1] = g; rgb[o+2] = b;
-    };
-    for (const GridRegion& fr : frontiers.regions) for (int i : fr.cells) paint(grid_.Centre(i % grid_.width(), i / grid_.width()), 0, 0, 255);
-    for (const auto& p : progress_.path) paint(p, 0, 200, 0);
-    for (const auto& p : given_up_) paint(p, 255, 0, 255);
-    if (progress_.target) { paint(progress_.target->goal, 255, 0, 0); paint(progress_.target->look_at, 255, 128, 0); }
-    paint(robot, 200, 0, 0);
-    out.write(reinterpret_cast<const char*>(rgb.data()), rgb.size());
-    std::ofstream log(std::string(dir) + "/log.txt", std::ios::app);
-    log << n - 1 << " kind " << (chosen >= 0 ? int(targets[chosen].kind) : 0) << " lc " << view.loop_closures << " drift " << progress_.drift_variance << " state " << int(progress_.state) << " targets " << targets.size() << " chosen " << chosen << " cur " << current << " since " << since_progress_ << " best " << best_length_ << " len " << (chosen >= 0 ? targets[chosen].path_length : -1) << " arrived " << progress_.arrived << " robot " << robot.transpose() << " " << view.robot.theta << " " << progress_.reason << "\n";
   }
   return progress_;
 }

@@ -68,15 +68,7 @@ struct GoalProgress {
   std::vector<Eigen::Vector2d> path;  // robot to goal
   double known_area = 0.0;   // m^2
   double travel = 0.0;       // m driven, by the estimate
-  double drift_variance = 0.0;  // m^2 accumulated since the map was last tied
-};
-
-// Variances of dead reckoning since the map was last tied (m^2, rad^2).
-struct Drift {
-  double position = 0.0;
-  double heading = 0.0;
-  // After driving `distance` (m) and turning `turn` (rad).
-  Drift Moved(double distance, double turn, const OdometryNoise& noise) const;
+  double position_variance = 0.0;  // m^2, the filter's (x + y) for the robot now
 };
 
 class ExplorationGoals {
@@ -116,7 +108,8 @@ class ExplorationGoals {
   std::optional<ExplorationTarget> WallTarget(const CostField& field, const GridRegion& region,
                                               int* goal_cell) const;
   double Utility(const ExplorationTarget& target) const;
-  double VarianceAfter(const Drift& start, double length, const ExplorationView& view) const;
+  // The robot's position variance (x + y) after driving `length` from here.
+  double VarianceAfter(double length, const ExplorationView& view) const;
   bool GivenUp(const Eigen::Vector2d& point) const;
   void GiveUp(const Eigen::Vector2d& look_at, bool for_lack_of_progress);
 
@@ -127,7 +120,6 @@ class ExplorationGoals {
   PathOptions path_options_;
   std::unique_ptr<CostField> to_goal_;  // Dijkstra from the current target's goal
   GoalProgress progress_;
-  Drift drift_;  // accumulated since the map was last tied (a loop closure)
   std::optional<Pose2> last_robot_;
   int last_loop_closures_ = 0;
   double revisit_blocked_until_ = 0.0;  // travel before which no revisit is proposed
