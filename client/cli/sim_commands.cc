@@ -12,6 +12,7 @@
 
 #include <google/protobuf/text_format.h>
 
+#include "absl/strings/ascii.h"
 #include "client/sim/sim_world.h"
 #include "client/cli/command.h"
 #include "client/render/map_render.h"
@@ -125,18 +126,24 @@ absl::Status WriteTimelineCsv(const fs::path& path, const ExploreResult& result)
   std::ofstream out(path);
   out << "t_s,true_x,true_y,true_theta,est_x,est_y,est_theta,odom_x,odom_y,odom_theta,"
          "loc_error_m,odometry_error_m,robot_cov_trace,cov_trace_mean,segments,completeness,"
-         "behaviour,linear,angular,duration,j,j1,j21,j22,planning_ms\n";
+         "behaviour,linear,angular,duration,j,j1,j21,j22,planning_ms,state,target_kind,target_x,"
+         "target_y,path_length,open_boundary\n";
   for (const ScanRecord& r : result.scans) {
     const v1::SuggestedControl& c = r.suggestion;
     out << fmt::format(
         "{:.3f},{:.4f},{:.4f},{:.5f},{:.4f},{:.4f},{:.5f},{:.4f},{:.4f},{:.5f},{:.4f},{:.4f},{:.6g}"
         ","
-        "{:.6g},{},{:.4f},{},{:.4f},{:.4f},{:.3f},{:.6g},{:.6g},{:.6g},{:.6g},{:.3f}\n",
+        "{:.6g},{},{:.4f},{},{:.4f},{:.4f},{:.3f},{:.6g},{:.6g},{:.6g},{:.6g},{:.3f},{},{},{:.3f},"
+        "{:.3f},{:.3f},{:.4f}\n",
         r.time, r.true_pose.x, r.true_pose.y, r.true_pose.theta, r.estimate_world.x,
         r.estimate_world.y, r.estimate_world.theta, r.odometry_world.x, r.odometry_world.y,
         r.odometry_world.theta, r.loc_error_m, r.odometry_error_m, r.robot_cov_trace,
         r.cov_trace_mean, r.segments, r.completeness, BehaviourName(c.behaviour()), c.linear(),
-        c.angular(), c.duration(), c.j(), c.j1(), c.j21(), c.j22(), c.planning_ms());
+        c.angular(), c.duration(), c.j(), c.j1(), c.j21(), c.j22(), c.planning_ms(),
+        absl::AsciiStrToLower(v1::ExplorationProgress::State_Name(r.exploration.state())),
+        absl::AsciiStrToLower(v1::ExplorationProgress::TargetKind_Name(r.exploration.target_kind())),
+        r.exploration.target().x(), r.exploration.target().y(), r.exploration.path_length(),
+        r.exploration.open_boundary());
   }
   out.close();
   if (!out) return absl::PermissionDeniedError("cannot write '" + path.string() + "'");

@@ -362,6 +362,7 @@ nlohmann::json ExploreSummary(const ExploreResult& result) {
       {"final_reason", progress.reason()},
       {"open_boundary_final", has_state ? progress.open_boundary() : -1.0},
       {"targets_given_up", progress.given_up()},
+      {"known_area_m2", progress.known_area()},
       {"odometry_sent", result.odometry_sent},
   };
 }
