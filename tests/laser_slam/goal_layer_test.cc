@@ -1,9 +1,10 @@
 // The goal layer above the exploration planner (issue 17, server/laser_slam/exploration/
 // goal_layer.h) on ray-cast scans of hand-made worlds: DONE in a closed room, unmapped walls,
-// the target at a side opening and its path, an opening too narrow to reach, FRONTIER's nearest
-// target against ACTIVE's utility; the planner following its paths with collision-free controls
-// and finishing; and a closed loop through a LaserSlam session that explores two rooms until
-// DONE. goal_layer_grid_test.cc tests the grid, frontiers and paths it is built on.
+// the target at a side opening and its path, an opening too narrow to reach, STUCK when the
+// robot never gets closer, FRONTIER's nearest target against ACTIVE's utility; the planner
+// following its paths with collision-free controls and finishing; and a closed loop through a
+// LaserSlam session that explores two rooms until DONE. goal_layer_grid_test.cc tests the grid,
+// frontiers and paths it is built on.
 
 #include "server/laser_slam/exploration/goal_layer.h"
 
@@ -179,6 +180,24 @@ TEST(GoalLayerTest, FrontierBeyondANarrowOpeningIsUnreachableAndDoneSaysSo) {
   EXPECT_GT(p.open_share, 0.0);
   EXPECT_EQ(p.state, ExplorationState::kDone);
   EXPECT_THAT(p.reason, HasSubstr("no reachable open boundary left"));
+}
+
+// A robot that never gets closer to the one open region left (here it does not move at all)
+// gives its target up after no_progress_decisions decisions. The region is still there and a
+// path reaches it: that is STUCK (goal_layer.h, the proto's "no progress"), not DONE.
+TEST(GoalLayerTest, OpenRegionGivenUpForLackOfProgressIsStuckNotDone) {
+  const ExplorationOptions options;
+  ExplorationGoals goals(options, /*nearest_only=*/true);
+  LookBothWays(&goals, CorridorWithSideOpening(), Pose2{});
+  ASSERT_TRUE(goals.progress().target.has_value());
+  for (int i = 0; i < options.no_progress_decisions + options.done_decisions; ++i) {
+    goals.Update(ViewAt(CorridorWithSideOpening(), Pose2{}), false);
+  }
+  const GoalProgress& p = goals.progress();
+  EXPECT_EQ(p.given_up, 1);
+  EXPECT_EQ(p.unreachable, 0);
+  EXPECT_EQ(p.state, ExplorationState::kStuck) << p.reason;
+  EXPECT_THAT(p.reason, HasSubstr("never got closer"));
 }
 
 // A corridor with a narrow side opening near the robot (a little frontier) that opens at its end
