@@ -16,6 +16,7 @@
 #include "server/laser_slam/laser_slam.h"
 #include "server/laser_slam/motion.h"
 #include "server/laser_slam/exploration/observation_prediction.h"
+#include "tests/laser_slam/engine_loop.h"
 #include "tests/laser_slam/synthetic_scan.h"
 
 namespace waymark::laser_slam {
@@ -23,74 +24,21 @@ namespace {
 
 using testing::Box;
 using testing::CastScan;
+using testing::EngineLoop;
 using testing::Lms200OneDegreeGeometry;
 using testing::RayCastOptions;
 using testing::SegmentBetween;
+using testing::W;
 using testing::Wall;
 
-Wall W(double x1, double y1, double x2, double y2) {
-  return Wall{Eigen::Vector2d(x1, y1), Eigen::Vector2d(x2, y2)};
+// These tests are about the paper's one-step planner: the goal layer above it is off
+// (goal_layer_test.cc tests it).
+SlamOptions PaperPlanner(ExplorationMode mode) {
+  SlamOptions o;
+  o.exploration.mode = mode;
+  o.exploration.goal_layer = false;
+  return o;
 }
-
-double DistanceToWalls(const std::vector<Wall>& walls, const Eigen::Vector2d& p) {
-  double best = std::numeric_limits<double>::infinity();
-  for (const Wall& w : walls) {
-    const Eigen::Vector2d ab = w.b - w.a;
-    const double t = std::clamp((p - w.a).dot(ab) / ab.squaredNorm(), 0.0, 1.0);
-    best = std::min(best, (w.a + t * ab - p).norm());
-  }
-  return best;
-}
-
-// The closed loop robot <-> engine with perfect odometry and a noise-free laser: the robot
-// executes each suggestion exactly (go-stop), then scans.
-class EngineLoop {
- public:
-  EngineLoop(std::vector<Wall> walls, const Pose2& start, ExplorationMode mode)
-      : walls_(std::move(walls)), truth_(start), start_(start), slam_(Options(mode)) {}
-
-  // These tests are about the paper's one-step planner: the goal layer above it is off
-  // (goal_layer_test.cc tests it).
-  static SlamOptions Options(ExplorationMode mode) {
-    SlamOptions o;
-    o.exploration.mode = mode;
-    o.exploration.goal_layer = false;
-    return o;
-  }
-
-  ScanUpdate Observe() {
-    t_ += 0.1;
-    EXPECT_TRUE(slam_.AddOdometry({t_, Relative(start_, truth_)}).ok());
-    LaserScan scan = CastScan(walls_, truth_, Lms200OneDegreeGeometry(), RayCastOptions{}, nullptr);
-    scan.stamp = t_;
-    absl::StatusOr<ScanUpdate> u = slam_.AddScan(scan);
-    EXPECT_TRUE(u.ok()) << u.status();
-    return *u;
-  }
-
-  // Moves along the suggested arc in 0.1 s steps; returns the smallest distance to a wall.
-  double Apply(const Suggestion& s) {
-    double closest = std::numeric_limits<double>::infinity();
-    const int steps = static_cast<int>(std::round(s.duration / 0.1));
-    for (int k = 0; k < steps; ++k) {
-      truth_ = Compose(truth_, UnicycleArc(s.linear, s.angular, 0.1));
-      closest = std::min(closest, DistanceToWalls(walls_, Eigen::Vector2d(truth_.x, truth_.y)));
-      t_ += 0.1;
-      EXPECT_TRUE(slam_.AddOdometry({t_, Relative(start_, truth_)}).ok());
-    }
-    return closest;
-  }
-
-  const Pose2& truth() const { return truth_; }
-  LaserSlam& slam() { return slam_; }
-
- private:
-  std::vector<Wall> walls_;
-  Pose2 truth_;
-  Pose2 start_;
-  LaserSlam slam_;
-  double t_ = 0.0;
-};
 
 // The robot at the origin facing -y, where the tests put no map: what it sees from there is the
 // predictor's baseline.
@@ -223,7 +171,8 @@ std::vector<Wall> CorridorEndWithSideOpening() {
 }
 
 TEST(ExplorationPlannerTest, AtACorridorEndTurnsTowardsTheSideOpening) {
-  EngineLoop loop(CorridorEndWithSideOpening(), Pose2{0.0, 0.0, M_PI}, ExplorationMode::kActive);
+  EngineLoop loop(CorridorEndWithSideOpening(), Pose2{0.0, 0.0, M_PI},
+                  PaperPlanner(ExplorationMode::kActive));
   loop.Observe();
   Suggestion turn;
   turn.angular = 0.17;
@@ -241,7 +190,7 @@ TEST(ExplorationPlannerTest, AtACorridorEndTurnsTowardsTheSideOpening) {
   EXPECT_GT(s.angular, 0.0) << "turning left looks into the side corridor";
   EXPECT_GT(s.feasible, 0);
   // Scored directly: the best left turn beats the best right turn.
-  ExplorationOptions options = EngineLoop::Options(ExplorationMode::kActive).exploration;
+  ExplorationOptions options = PaperPlanner(ExplorationMode::kActive).exploration;
   const ExplorationPlanner planner(options);
   const ExplorationView view = loop.slam().View();
   const ObservationPredictor predictor(view, options, 0.6);
@@ -261,7 +210,7 @@ TEST(ExplorationPlannerTest, DeadEndTriggersWallFollowingWhichLeadsOut) {
   const std::vector<Wall> walls = {W(0, -1, 6, -1),  W(0, 1, 6, 1),   W(6, -1, 6, 1),
                                    W(0, 1, 0, 5),    W(0, -1, 0, -5), W(-8, -5, 0, -5),
                                    W(-8, 5, 0, 5),   W(-8, -5, -8, 5)};
-  EngineLoop loop(walls, Pose2{4.5, 0.0, 0.0}, ExplorationMode::kActive);
+  EngineLoop loop(walls, Pose2{4.5, 0.0, 0.0}, PaperPlanner(ExplorationMode::kActive));
   bool followed = false, optimal_after_following = false, left = false;
   double closest = std::numeric_limits<double>::infinity();
   for (int decision = 0; decision < 80 && !(left && optimal_after_following); ++decision) {
@@ -281,7 +230,7 @@ TEST(ExplorationPlannerTest, DeadEndTriggersWallFollowingWhichLeadsOut) {
 
 TEST(ExplorationPlannerTest, WanderDrivesStraightUntilAnObstacleThenTurns) {
   const std::vector<Wall> walls = Box(-3, -3, 3, 3);
-  EngineLoop loop(walls, Pose2{-2.0, 0.0, 0.0}, ExplorationMode::kWander);
+  EngineLoop loop(walls, Pose2{-2.0, 0.0, 0.0}, PaperPlanner(ExplorationMode::kWander));
   const ScanUpdate open = loop.Observe();
   ASSERT_TRUE(open.suggestion.has_value());
   EXPECT_EQ(open.suggestion->behaviour, Behaviour::kWander);
@@ -302,7 +251,7 @@ TEST(ExplorationPlannerTest, WanderDrivesStraightUntilAnObstacleThenTurns) {
 }
 
 TEST(ExplorationPlannerTest, PassiveSessionSuggestsNothing) {
-  EngineLoop loop(Box(-3, -3, 3, 3), Pose2{}, ExplorationMode::kPassive);
+  EngineLoop loop(Box(-3, -3, 3, 3), Pose2{}, PaperPlanner(ExplorationMode::kPassive));
   EXPECT_FALSE(loop.Observe().suggestion.has_value());
 }
 

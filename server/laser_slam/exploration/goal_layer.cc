@@ -60,6 +60,13 @@ Eigen::Vector2d OpenDirection(const ExplorationGrid& g, const std::vector<char>&
 
 double Lg(double value, double floor) { return std::log10(std::max(value, floor)); }
 
+bool WithinGivenUpRadius(const std::vector<Eigen::Vector2d>& points, const Eigen::Vector2d& p) {
+  for (const Eigen::Vector2d& g : points) {
+    if ((g - p).norm() <= kGivenUpRadius) return true;
+  }
+  return false;
+}
+
 Eigen::Vector2d Position(const Pose2& p) { return Eigen::Vector2d(p.x, p.y); }
 
 }  // namespace
@@ -138,14 +145,12 @@ double ExplorationGoals::VarianceAfter(double length, const ExplorationView& vie
 }
 
 bool ExplorationGoals::GivenUp(const Eigen::Vector2d& point) const {
-  for (const Eigen::Vector2d& g : given_up_) {
-    if ((g - point).norm() <= kGivenUpRadius) return true;
-  }
-  return false;
+  return WithinGivenUpRadius(given_up_, point);
 }
 
 void ExplorationGoals::GiveUp(const Eigen::Vector2d& look_at, bool for_lack_of_progress) {
   given_up_.push_back(look_at);
+  if (for_lack_of_progress) stalled_.push_back(look_at);
   ++progress_.given_up;
   no_progress_given_up_ += for_lack_of_progress;
 }
@@ -220,12 +225,17 @@ std::vector<ExplorationTarget> ExplorationGoals::Targets(const CostField& field,
   }
   std::vector<ExplorationTarget> targets;
   progress_.unreachable = 0;
+  stalled_regions_ = 0;
   for (const GridRegion& region : frontiers.regions) {
     int open = 0, best_goal = -1, best_cell = -1;
+    bool stalled = false;  // some of it was given up for lack of progress
     for (int cell : region.cells) {
       const int x = cell % g.width(), y = cell / g.width();
       const Eigen::Vector2d f = g.Centre(x, y);
-      if (GivenUp(f)) continue;
+      if (GivenUp(f)) {
+        stalled = stalled || WithinGivenUpRadius(stalled_, f);
+        continue;
+      }
       ++open;
       // Which way the unknown lies from this frontier cell: the goal must look that way, or the
       // robot would only see along the frontier (the edge of a box's shadow stays an edge when
@@ -245,7 +255,10 @@ std::vector<ExplorationTarget> ExplorationGoals::Targets(const CostField& field,
         }
       }
     }
-    if (open < options_.min_frontier_cells) continue;  // what is left of it was given up
+    if (open < options_.min_frontier_cells) {  // what is left of it was given up
+      stalled_regions_ += stalled;
+      continue;
+    }
     if (best_goal < 0) {
       ++progress_.unreachable;
       continue;
@@ -432,6 +445,13 @@ const GoalProgress& ExplorationGoals::Update(const ExplorationView& view, bool b
   } else if (chosen >= 0 || without_target_ < options_.done_decisions) {
     progress_.state = ExplorationState::kExploring;
     progress_.reason = chosen >= 0 ? "" : "no target this decision: looking around";
+  } else if (open_regions > 0 && stalled_regions_ == open_regions) {
+    // Every region left was given up because the robot never got closer to it, though a path
+    // led there: exploring is not over, the robot cannot go on (STUCK, as goal_layer.h says;
+    // DONE would report the unexplored rest as explored).
+    progress_.state = ExplorationState::kStuck;
+    progress_.reason = absl::StrCat("no progress: the robot never got closer to the ",
+                                    open_regions, " open region(s) left, all given up");
   } else if (open_regions == 0) {
     progress_.state = ExplorationState::kDone;
     progress_.reason = nearest_only_

@@ -125,7 +125,9 @@ class ExplorationGoals {
   double revisit_blocked_until_ = 0.0;  // travel before which no revisit is proposed
   std::vector<Place> places_;
   std::vector<Eigen::Vector2d> given_up_;  // look-at points never to be targeted again
+  std::vector<Eigen::Vector2d> stalled_;   // ... of which given up for lack of progress
   int no_progress_given_up_ = 0;
+  int stalled_regions_ = 0;  // frontier regions left, given up for lack of progress (this decision)
   double best_length_ = 0.0;  // shortest path to the current target so far
   int since_progress_ = 0;
   int without_target_ = 0;
