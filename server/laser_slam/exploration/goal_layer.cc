@@ -123,6 +123,7 @@ void ExplorationGoals::Track(const ExplorationView& view) {
   // A loop just closed by the back end: no revisit is needed for a while.
   if (view.loop_closures > last_loop_closures_) {
     revisit_blocked_until_ = progress_.travel + options_.revisit_travel;
+    revisiting_ = false;
   }
   last_loop_closures_ = std::max(last_loop_closures_, view.loop_closures);
   progress_.position_variance = view.robot_covariance(0, 0) + view.robot_covariance(1, 1);
@@ -305,10 +306,13 @@ std::vector<ExplorationTarget> ExplorationGoals::Targets(const CostField& field,
     }
   }
   // Active loop closing: only with a back end to close the loop (loop_closures >= 0).
-  const bool revisit = !nearest_only_ && view.loop_closures >= 0 &&
-                       progress_.position_variance > options_.revisit_variance &&
-                       progress_.travel >= revisit_blocked_until_;
-  if (revisit) {
+  // Once the variance passed the threshold, revisits stay targets until one is reached or a loop
+  // closes: the filter's variance wobbles round the threshold from scan to scan, and a target
+  // that comes and goes with it would have the robot turn back and forth.
+  revisiting_ = !nearest_only_ && view.loop_closures >= 0 &&
+                progress_.travel >= revisit_blocked_until_ &&
+                (revisiting_ || progress_.position_variance > options_.revisit_variance);
+  if (revisiting_) {
     for (const Place& p : places_) {
       if (progress_.travel - p.travel < options_.revisit_travel) break;  // places are in order
       const Eigen::Vector2i c = g.CellOf(p.position);
@@ -386,6 +390,7 @@ const GoalProgress& ExplorationGoals::Update(const ExplorationView& view, bool b
       const std::vector<char>& open = t.kind == TargetKind::kWall ? walls.mask : frontiers.mask;
       if (t.kind == TargetKind::kRevisit) {
         revisit_blocked_until_ = progress_.travel + options_.revisit_travel;
+        revisiting_ = false;
       } else if (MaskedNear(grid_, open, t.look_at, kStillOpenRadius)) {
         GiveUp(t.look_at, /*for_lack_of_progress=*/false);
       }

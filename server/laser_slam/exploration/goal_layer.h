@@ -123,6 +123,7 @@ class ExplorationGoals {
   std::optional<Pose2> last_robot_;
   int last_loop_closures_ = 0;
   double revisit_blocked_until_ = 0.0;  // travel before which no revisit is proposed
+  bool revisiting_ = false;  // revisits are targets (the variance passed revisit_variance)
   std::vector<Place> places_;
   std::vector<Eigen::Vector2d> given_up_;  // look-at points never to be targeted again
   std::vector<Eigen::Vector2d> stalled_;   // ... of which given up for lack of progress
