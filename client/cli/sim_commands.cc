@@ -206,11 +206,14 @@ void PrintSummary(std::ostream& out, const nlohmann::json& s) {
                                                           number("planning_ms_p99", 2))});
   const std::string state = s["final_state"].get<std::string>();
   if (state != "-") {
-    const std::string reason = s["final_reason"].get<std::string>();
-    table.AddRow({"exploration", reason.empty() ? state : state + ": " + reason});
+    table.AddRow({"exploration", state});
     table.AddRow({"open boundary at the end", FormatPercent(s["open_boundary_final"].get<double>())});
   }
   table.Print(out);
+  // The reason is a sentence: below the table rather than stretching its column.
+  if (state != "-" && !s["final_reason"].get<std::string>().empty()) {
+    out << state << ": " << s["final_reason"].get<std::string>() << "\n";
+  }
   out << "wrote " << s["out_dir"].get<std::string>()
       << "/trajectory_{true,estimated,odometry}.txt, map.svg, map.png, timeline.csv, "
          "timeline.svg, timeline.png, summary.json\n";
