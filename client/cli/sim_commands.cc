@@ -12,6 +12,7 @@
 
 #include <google/protobuf/text_format.h>
 
+#include "client/sim/sim_reach.h"
 #include "client/sim/sim_world.h"
 #include "client/cli/command.h"
 #include "client/render/map_render.h"
@@ -188,6 +189,9 @@ void PrintSummary(std::ostream& out, const nlohmann::json& s) {
   table.AddRow({"distance (m)", number("distance_m", 2)});
   table.AddRow({"segments", std::to_string(s["segments"].get<int>())});
   table.AddRow({"completeness", FormatPercent(s["completeness"].get<double>())});
+  table.AddRow({"completeness of the visible walls",
+                FormatPercent(s["completeness_visible"].get<double>())});
+  table.AddRow({"visible wall share", FormatPercent(s["visible_wall_share"].get<double>())});
   table.AddRow({"localisation error mean (m)", number("loc_error_mean_m", 3)});
   table.AddRow({"localisation error final (m)", number("loc_error_final_m", 3)});
   table.AddRow({"odometry-only error final (m)", number("odometry_error_final_m", 3)});
@@ -261,13 +265,18 @@ int RunExplore(CommandContext& context, const ExploreArgs& args) {
 
 int RunWorlds(CommandContext& context) {
   nlohmann::json list = nlohmann::json::array();
-  Table table({{"world"}, {"walls", true}, {"wall length (m)", true}});
+  Table table({{"world"}, {"walls", true}, {"wall length (m)", true}, {"visible (m)", true}});
   for (const std::string& name : adapters::BuiltinWorldNames()) {
     auto world = adapters::LoadWorld(name);
     if (!world.ok()) return ReportError(context, world.status(), name);
-    list.push_back(
-        {{"name", name}, {"walls", world->walls.size()}, {"wall_length_m", world->WallLength()}});
-    table.AddRow({name, std::to_string(world->walls.size()), FormatNumber(world->WallLength(), 1)});
+    // What the laser can see from where the robot fits: what completeness can reach at most.
+    const double visible = adapters::SampleLength(adapters::VisibleWalls(*world));
+    list.push_back({{"name", name},
+                    {"walls", world->walls.size()},
+                    {"wall_length_m", world->WallLength()},
+                    {"visible_wall_m", visible}});
+    table.AddRow({name, std::to_string(world->walls.size()), FormatNumber(world->WallLength(), 1),
+                  FormatNumber(visible, 1)});
   }
   if (context.globals.json) {
     PrintJson(context.out, {{"worlds", list}});

@@ -278,6 +278,10 @@ absl::StatusOr<ExploreResult> RunExploration(client::SlamClient& client,
   result.sim_time_s = sim.now();
   result.distance_m = sim.distance_travelled();
   result.collisions = sim.collisions();
+  // Per world, so once per run (a small fraction of a second: see docs/exploration.md).
+  const std::vector<adapters::WallSample> visible = adapters::VisibleWalls(world);
+  result.visible_wall_share = adapters::SampleLength(visible) / std::max(1e-9, world.WallLength());
+  result.completeness_visible = CompletenessOfVisible(visible, result.final_map_world);
   auto closed = client.CloseSession(result.session_id);
   if (!closed.ok()) return closed.status();
   return result;
@@ -341,6 +345,8 @@ nlohmann::json ExploreSummary(const ExploreResult& result) {
       {"scans", result.scans.size()},
       {"segments", last.segments},
       {"completeness", last.completeness},
+      {"completeness_visible", result.completeness_visible},
+      {"visible_wall_share", result.visible_wall_share},
       {"loc_error_mean_m", error_sum / n},
       {"loc_error_final_m", last.loc_error_m},
       {"loc_error_max_m", error_max},
