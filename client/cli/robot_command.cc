@@ -19,6 +19,7 @@
 #include "client/sim/sim_realtime.h"
 #include "client/cli/command.h"
 #include "client/cli/localize_flags.h"
+#include "client/lib/exploration_progress.h"
 #include "client/robot/crossing_watch.h"
 #include "client/common/output.h"
 #include "client/robot/robot_loop.h"
@@ -45,6 +46,7 @@ struct RobotArgs {
   std::string resume;
   std::optional<v1::LocalizationConfig> localize;
   bool keep_session = false;
+  bool keep_running = false;
   double device_grace_s = 10;
 };
 
@@ -64,6 +66,11 @@ std::string StatusLine(const RobotStatus& s, const std::optional<CrossingWatch::
   if (s.scans_rejected > 0) line += fmt::format(" rejected={}", s.scans_rejected);
   line += fmt::format(" v={:.2f} w={:.2f}", s.linear, s.angular);
   if (mode == DriveMode::kActive && !s.behaviour.empty()) line += " [" + s.behaviour + "]";
+  if (s.exploration.state() != v1::ExplorationProgress::STATE_UNSPECIFIED) {
+    line += fmt::format(" explore={} open={:.0f}% targets={}",
+                        client::ExplorationStateName(s.exploration),
+                        100 * s.exploration.open_boundary(), s.exploration.targets_left());
+  }
   if (s.server_connected) {
     line += " server=ok";
   } else {
@@ -77,11 +84,17 @@ std::string StatusLine(const RobotStatus& s, const std::optional<CrossingWatch::
   return line;
 }
 
+// Where exploration stood at the end: the answer that ended it, else the last one.
+const v1::ExplorationProgress& FinalExploration(const RobotStatus& s) {
+  return client::ExplorationEnded(s.exploration_end) ? s.exploration_end : s.exploration;
+}
+
 nlohmann::json SummaryJson(const RobotStatus& s, DriveMode mode, const std::string& devices) {
   nlohmann::json stops = nlohmann::json::object();
   for (int i = 0; i < static_cast<int>(StopReason::kCount); ++i) {
     stops[StopReasonName(static_cast<StopReason>(i))] = s.stops[i];
   }
+  const v1::ExplorationProgress& exploration = FinalExploration(s);
   return {{"session_id", s.session_id},
           {"mode", DriveModeName(mode)},
           {"devices", devices},
@@ -94,6 +107,8 @@ nlohmann::json SummaryJson(const RobotStatus& s, DriveMode mode, const std::stri
           {"suggestions_driven", s.suggestions_driven},
           {"reconnects", s.reconnects},
           {"safety_stops", stops},
+          {"exploration_state", client::ExplorationStateName(exploration)},
+          {"exploration_reason", exploration.reason()},
           {"last_server_error", s.server_error}};
 }
 
@@ -223,6 +238,7 @@ int RunRobot(CommandContext& context, RobotArgs args) {
   options.duration_s = args.duration_s;
   options.time_scale = devices->time_scale;
   options.close_session = !args.keep_session;
+  options.keep_running = args.keep_running;
   options.device_grace = absl::Seconds(args.device_grace_s);
   if (context.globals.timeout_s > 0) {
     options.answer_timeout = absl::Seconds(std::min(context.globals.timeout_s, 5.0));
@@ -264,11 +280,17 @@ int RunRobot(CommandContext& context, RobotArgs args) {
   if (context.globals.json) {
     PrintJson(context.out, summary);
   } else {
-    lines << fmt::format("stopped: session {} ({}), {} scans answered, {} reconnects\n",
-                         result->session_id, args.keep_session ? "left open" : "closed",
-                         result->scans_answered, result->reconnects);
+    lines << fmt::format(
+        "stopped: session {} ({}), {} scans answered, {} reconnects{}\n", result->session_id,
+        args.keep_session ? "left open" : "closed", result->scans_answered, result->reconnects,
+        client::ExplorationEnded(result->exploration_end)
+            ? ", exploration " + client::ExplorationStateName(result->exploration_end)
+            : "");
   }
-  return kExitOk;
+  // DONE is the success of an exploration run; STUCK has its own code so a script can tell a
+  // robot that gave up from one that finished.
+  return result->exploration_end.state() == v1::ExplorationProgress::STUCK ? kExitExplorationStuck
+                                                                           : kExitOk;
 }
 
 }  // namespace
@@ -279,7 +301,8 @@ void AddRobotCommand(CLI::App& app, CommandRegistry& registry) {
       "robot",
       "Run a robot against the server: stream its laser and odometry into a SLAM session, drive "
       "the server's suggestions (--mode active) or the keyboard (--mode teleop), recognize "
-      "crossings from its camera. Ctrl-C stops the robot, then exits.");
+      "crossings from its camera. Ctrl-C stops the robot, then exits. Active mode ends by itself "
+      "when the server says exploration is DONE (exit code 0) or STUCK (exit code 3).");
   robot
       ->add_option("--base", args->setup.base,
                    "serial:DEVICE (Pioneer over ARCOS/P2OS, e.g. serial:/dev/ttyS0) or "
@@ -321,6 +344,9 @@ void AddRobotCommand(CLI::App& app, CommandRegistry& registry) {
   AddLocalizeFlags(robot, &args->localize)->excludes(resume);
   robot->add_flag("--keep-session", args->keep_session,
                   "Leave the session open at exit (resume it later with --resume)");
+  robot->add_flag("--keep-running", args->keep_running,
+                  "Active mode: at DONE or STUCK stop the robot but keep running (streaming, "
+                  "session open) until Ctrl-C instead of exiting");
   robot
       ->add_option("--device-grace", args->device_grace_s,
                    "Seconds a base or laser may stay away (unplugged cable) before the run ends; "

@@ -13,6 +13,8 @@
 #include <google/protobuf/text_format.h>
 
 #include "absl/strings/ascii.h"
+#include "client/lib/exploration_progress.h"
+#include "client/sim/sim_reach.h"
 #include "client/sim/sim_world.h"
 #include "client/cli/command.h"
 #include "client/render/map_render.h"
@@ -140,7 +142,7 @@ absl::Status WriteTimelineCsv(const fs::path& path, const ExploreResult& result)
         r.odometry_world.theta, r.loc_error_m, r.odometry_error_m, r.robot_cov_trace,
         r.cov_trace_mean, r.segments, r.completeness, BehaviourName(c.behaviour()), c.linear(),
         c.angular(), c.duration(), c.j(), c.j1(), c.j21(), c.j22(), c.planning_ms(),
-        absl::AsciiStrToLower(v1::ExplorationProgress::State_Name(r.exploration.state())),
+        client::ExplorationStateName(r.exploration),
         absl::AsciiStrToLower(v1::ExplorationProgress::TargetKind_Name(r.exploration.target_kind())),
         r.exploration.target().x(), r.exploration.target().y(), r.exploration.path_length(),
         r.exploration.open_boundary());
@@ -195,6 +197,9 @@ void PrintSummary(std::ostream& out, const nlohmann::json& s) {
   table.AddRow({"distance (m)", number("distance_m", 2)});
   table.AddRow({"segments", std::to_string(s["segments"].get<int>())});
   table.AddRow({"completeness", FormatPercent(s["completeness"].get<double>())});
+  table.AddRow({"completeness of the visible walls",
+                FormatPercent(s["completeness_visible"].get<double>())});
+  table.AddRow({"visible wall share", FormatPercent(s["visible_wall_share"].get<double>())});
   table.AddRow({"localisation error mean (m)", number("loc_error_mean_m", 3)});
   table.AddRow({"localisation error final (m)", number("loc_error_final_m", 3)});
   table.AddRow({"odometry-only error final (m)", number("odometry_error_final_m", 3)});
@@ -271,13 +276,18 @@ int RunExplore(CommandContext& context, const ExploreArgs& args) {
 
 int RunWorlds(CommandContext& context) {
   nlohmann::json list = nlohmann::json::array();
-  Table table({{"world"}, {"walls", true}, {"wall length (m)", true}});
+  Table table({{"world"}, {"walls", true}, {"wall length (m)", true}, {"visible (m)", true}});
   for (const std::string& name : adapters::BuiltinWorldNames()) {
     auto world = adapters::LoadWorld(name);
     if (!world.ok()) return ReportError(context, world.status(), name);
-    list.push_back(
-        {{"name", name}, {"walls", world->walls.size()}, {"wall_length_m", world->WallLength()}});
-    table.AddRow({name, std::to_string(world->walls.size()), FormatNumber(world->WallLength(), 1)});
+    // What the laser can see from where the robot fits: what completeness can reach at most.
+    const double visible = adapters::SampleLength(adapters::VisibleWalls(*world));
+    list.push_back({{"name", name},
+                    {"walls", world->walls.size()},
+                    {"wall_length_m", world->WallLength()},
+                    {"visible_wall_m", visible}});
+    table.AddRow({name, std::to_string(world->walls.size()), FormatNumber(world->WallLength(), 1),
+                  FormatNumber(visible, 1)});
   }
   if (context.globals.json) {
     PrintJson(context.out, {{"worlds", list}});

@@ -20,6 +20,9 @@ inline constexpr int kExitOk = 0;
 inline constexpr int kExitFailure = 1;
 // Stopped by SIGINT/SIGTERM before the work was done (128 + SIGINT, as shells report it).
 inline constexpr int kExitInterrupted = 130;
+// `robot --mode active`: the session said STUCK (the robot cannot go on; it was stopped). Not 2,
+// which shells and many tools use for wrong usage, so a script can tell the two apart.
+inline constexpr int kExitExplorationStuck = 3;
 
 // Options every command accepts, before or after the command name.
 struct GlobalOptions {

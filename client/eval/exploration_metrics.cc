@@ -42,8 +42,9 @@ double PointSegmentDistance(const Vec2& p, const Vec2& a, const Vec2& b) {
   return std::hypot(p.x - (a.x + t * dx), p.y - (a.y + t * dy));
 }
 
-double Completeness(const std::vector<adapters::Wall>& walls,
-                    const std::vector<SceneSegment>& mapped, const CompletenessOptions& options) {
+namespace {
+
+std::vector<SceneSegment> FiniteSegments(const std::vector<SceneSegment>& mapped) {
   std::vector<SceneSegment> finite;
   for (const SceneSegment& s : mapped) {
     if (std::isfinite(s.a.x) && std::isfinite(s.a.y) && std::isfinite(s.b.x) &&
@@ -51,27 +52,48 @@ double Completeness(const std::vector<adapters::Wall>& walls,
       finite.push_back(s);
     }
   }
+  return finite;
+}
+
+// Plain scan over the segments: a few hundred segments times a few thousand samples per call is
+// milliseconds, and the exploration loop calls Completeness once per scan.
+bool Covered(const Vec2& sample, const std::vector<SceneSegment>& finite, double tolerance) {
+  return std::any_of(finite.begin(), finite.end(), [&](const SceneSegment& s) {
+    return PointSegmentDistance(sample, s.a, s.b) <= tolerance;
+  });
+}
+
+}  // namespace
+
+double Completeness(const std::vector<adapters::Wall>& walls,
+                    const std::vector<SceneSegment>& mapped, const CompletenessOptions& options) {
+  const std::vector<SceneSegment> finite = FiniteSegments(mapped);
   const double step = options.sample_step > 0 ? options.sample_step : 0.02;
+  std::vector<int> pieces(walls.size(), 0), hits(walls.size(), 0);
+  for (const adapters::WallSample& s : adapters::SampleWalls(walls, step)) {
+    ++pieces[s.wall];
+    hits[s.wall] += Covered({s.x, s.y}, finite, options.tolerance);
+  }
   double total = 0, covered = 0;
-  for (const adapters::Wall& wall : walls) {
-    const double length = std::hypot(wall.x2 - wall.x1, wall.y2 - wall.y1);
-    if (!(length > 0)) continue;
+  for (size_t k = 0; k < walls.size(); ++k) {
+    if (pieces[k] == 0) continue;  // zero length
+    const double length = std::hypot(walls[k].x2 - walls[k].x1, walls[k].y2 - walls[k].y1);
     total += length;
-    const int pieces = std::max(1, static_cast<int>(std::ceil(length / step)));
-    int hits = 0;
-    for (int i = 0; i < pieces; ++i) {
-      const double t = (i + 0.5) / pieces;
-      const Vec2 sample{wall.x1 + t * (wall.x2 - wall.x1), wall.y1 + t * (wall.y2 - wall.y1)};
-      // Plain scan over the segments: a few hundred segments times a few thousand samples per
-      // call is milliseconds, and the loop calls this once per scan.
-      const bool hit = std::any_of(finite.begin(), finite.end(), [&](const SceneSegment& s) {
-        return PointSegmentDistance(sample, s.a, s.b) <= options.tolerance;
-      });
-      hits += hit;
-    }
     // Scaled per wall rather than summed per piece, so a fully covered wall adds exactly its
     // length.
-    covered += length * hits / pieces;
+    covered += length * hits[k] / pieces[k];
+  }
+  return total > 0 ? std::min(1.0, covered / total) : 0.0;
+}
+
+double CompletenessOfVisible(const std::vector<adapters::WallSample>& visible,
+                             const std::vector<SceneSegment>& mapped,
+                             const CompletenessOptions& options) {
+  const std::vector<SceneSegment> finite = FiniteSegments(mapped);
+  double total = 0, covered = 0;
+  for (const adapters::WallSample& s : visible) {
+    total += s.length;
+    if (Covered({s.x, s.y}, finite, options.tolerance)) covered += s.length;
   }
   return total > 0 ? std::min(1.0, covered / total) : 0.0;
 }

@@ -8,6 +8,7 @@
 
 #include <vector>
 
+#include "client/sim/sim_reach.h"
 #include "client/sim/sim_world.h"
 #include "client/render/map_render.h"
 #include "client/datasets/tum_trajectory.h"
@@ -46,6 +47,15 @@ struct CompletenessOptions {
 double Completeness(const std::vector<adapters::Wall>& walls,
                     const std::vector<SceneSegment>& mapped,
                     const CompletenessOptions& options = {});
+
+// Completeness of what can be seen: the share in [0, 1] of the visible wall length (samples from
+// adapters::VisibleWalls, per world) whose samples lie within `tolerance` of some mapped segment
+// (options.sample_step is the samples' own). Some wall length is never seen from where the robot
+// fits (behind a cabinet, or only from spots it cannot reach), so Completeness stays below 1 for
+// any explorer; this reaches 1 for a map of everything seen. No visible walls scores 0.
+double CompletenessOfVisible(const std::vector<adapters::WallSample>& visible,
+                             const std::vector<SceneSegment>& mapped,
+                             const CompletenessOptions& options = {});
 
 // Distance from point p to the segment a-b (a point when a == b).
 double PointSegmentDistance(const Vec2& p, const Vec2& a, const Vec2& b);

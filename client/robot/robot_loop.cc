@@ -12,6 +12,7 @@
 
 #include "absl/strings/ascii.h"
 #include "client/common/steady_clock.h"
+#include "client/lib/exploration_progress.h"
 #include "client/lib/session_resume.h"
 #include "client/robot/laser_session.h"
 
@@ -82,9 +83,11 @@ class RobotLoop::Impl {
     if (absl::Status s = OpenSession(); !s.ok()) return s;
     absl::Status result = absl::OkStatus();
     double backoff = absl::ToDoubleSeconds(options_.reconnect_initial);
-    while (!stop.load() && !DurationReached()) {
+    while (!stop.load() && !DurationReached() && !(explored_ && !options_.keep_running)) {
       if (!stream_) OpenStream();
-      absl::Status step = options_.mode == DriveMode::kActive ? ActiveStep(stop) : PassiveStep();
+      // Explored and kept running: the robot stands and streams, as in passive mode.
+      absl::Status step =
+          options_.mode == DriveMode::kActive && !explored_ ? ActiveStep(stop) : PassiveStep();
       if (!step.ok()) {
         result = step;
         break;
@@ -262,6 +265,7 @@ class RobotLoop::Impl {
     ++status_.scans_answered;
     status_.pose = update.pose();
     status_.segments = update.segments();
+    status_.exploration = update.exploration();
     latest_ = update;
   }
 
@@ -401,11 +405,14 @@ class RobotLoop::Impl {
       return absl::OkStatus();
     }
     v1::SuggestedControl control;
+    v1::ExplorationProgress progress;
     {
       std::lock_guard<std::mutex> lock(mutex_);
       if (last_rejected_) return absl::OkStatus();  // counted; scan again
       control = latest_.suggestion();
+      progress = latest_.exploration();
     }
+    if (client::ExplorationEnded(progress)) return EndExploration(progress);
     if (control.behaviour() == v1::SuggestedControl::BEHAVIOUR_UNSPECIFIED) {
       return absl::FailedPreconditionError(fmt::format(
           "session {} suggests no controls: it is not in active or wander exploration mode "
@@ -453,6 +460,24 @@ class RobotLoop::Impl {
     return guard_.Stop();
   }
 
+  // DONE or STUCK: the session suggests nothing but standing still from here on, so the robot
+  // stops for good (it is at rest between holds already; the stop makes sure) and the run ends,
+  // or with keep_running goes on standing.
+  absl::Status EndExploration(const v1::ExplorationProgress& progress) {
+    const absl::Status stopped = guard_.Stop();
+    explored_ = true;
+    {
+      std::lock_guard<std::mutex> lock(mutex_);
+      status_.exploration_end = progress;
+      status_.behaviour = "finished";
+    }
+    Event(fmt::format(
+        "exploration {}{}: robot stopped{}", client::ExplorationStateName(progress),
+        progress.reason().empty() ? "" : ": " + progress.reason(),
+        options_.keep_running ? "; it stands, streaming, until the run is stopped" : ""));
+    return stopped;
+  }
+
   client::SlamClient& client_;
   adapters::MobileBase& base_;
   adapters::LaserScanner& laser_;
@@ -466,6 +491,7 @@ class RobotLoop::Impl {
 
   std::string session_id_;
   absl::Status session_gone_;
+  bool explored_ = false;  // an answer said DONE or STUCK (active mode); loop thread only
   std::unique_ptr<client::SensorStream> stream_;  // reset by the loop thread only
   std::atomic<bool> closing_{false};              // the loop itself is ending the current stream
   std::atomic<bool> end_seen_{false};             // the current stream's break has stopped the base

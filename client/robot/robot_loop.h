@@ -12,6 +12,11 @@
 // bumpers or a wheel stall, when a device stops reporting, and before the loop returns. A broken
 // stream is reopened on the same session with exponential backoff; the session resumes where it
 // was (the server reloads it from its checkpoint after a restart).
+//
+// End of exploration: in active mode, an answer whose exploration state (goal layer sessions) is
+// DONE or STUCK stops the base and ends the run like its duration would (the session is closed
+// unless close_session is false); RobotStatus.exploration_end says which. With keep_running the
+// loop stays connected instead, the robot standing and its scans still streamed, until `stop`.
 
 #include <atomic>
 #include <cstdint>
@@ -58,6 +63,9 @@ struct RobotLoopOptions {
   int passive_window = 8;        // scans in flight in passive/teleop mode
   absl::Duration status_period = absl::Seconds(1);  // wall clock
   bool close_session = true;                        // close the session when the run ends
+  // Active: after DONE or STUCK, keep streaming with the robot stopped until `stop` is set
+  // instead of ending the run.
+  bool keep_running = false;
 };
 
 // What a status line shows; also the run's summary.
@@ -81,6 +89,11 @@ struct RobotStatus {
   double linear = 0;         // commanded
   double angular = 0;
   std::string behaviour;  // of the suggestion being driven (active mode)
+  // The last answered scan's exploration progress (goal layer sessions; state unset otherwise).
+  v1::ExplorationProgress exploration;
+  // Active mode: the answer that ended exploration (DONE or STUCK) and stopped the robot; state
+  // unset while it goes on.
+  v1::ExplorationProgress exploration_end;
   uint64_t suggestions_driven = 0;
   uint64_t stops[static_cast<int>(StopReason::kCount)] = {};
 };
@@ -97,7 +110,8 @@ class RobotLoop {
   void set_status_callback(StatusCallback callback) { on_status_ = std::move(callback); }
   void set_event_callback(EventCallback callback) { on_event_ = std::move(callback); }
 
-  // Runs until the duration is reached or `stop` is set; the base is stopped on return. Errors:
+  // Runs until the duration is reached, `stop` is set or (active mode, without keep_running)
+  // exploration is DONE or STUCK; the base is stopped on return. Errors:
   // the session cannot be created/resumed, a device keeps failing, the session is not in a mode
   // that suggests controls (active), or the session is gone on the server.
   absl::StatusOr<RobotStatus> Run(const std::atomic<bool>& stop);

@@ -9,6 +9,7 @@
 #include <optional>
 
 #include "absl/strings/ascii.h"
+#include "client/lib/exploration_progress.h"
 #include "client/sim/sim_robot.h"
 #include "client/eval/eval_metrics.h"  // Percentile
 #include "client/eval/exploration_metrics.h"
@@ -89,11 +90,6 @@ v1::CreateSessionRequest SessionRequest(const Simulation& sim, const adapters::W
     exploration->set_goal_layer(false);
   }
   return request;
-}
-
-bool Finished(const v1::ExplorationProgress& progress) {
-  return progress.state() == v1::ExplorationProgress::DONE ||
-         progress.state() == v1::ExplorationProgress::STUCK;
 }
 
 // The sensor side of the loop: stamps and messages from the simulation onto the stream.
@@ -238,7 +234,7 @@ absl::StatusOr<ExploreResult> RunExploration(client::SlamClient& client,
   absl::Status status = robot.SendOdometry();
   if (status.ok()) status = scan();
   while (status.ok() && sim.now() < options.duration_s - kTimeEpsilon) {
-    if (Finished(result.scans.back().exploration)) {
+    if (client::ExplorationEnded(result.scans.back().exploration)) {
       result.finished = true;
       break;
     }
@@ -278,6 +274,10 @@ absl::StatusOr<ExploreResult> RunExploration(client::SlamClient& client,
   result.sim_time_s = sim.now();
   result.distance_m = sim.distance_travelled();
   result.collisions = sim.collisions();
+  // Per world, so once per run (a small fraction of a second: see docs/exploration.md).
+  const std::vector<adapters::WallSample> visible = adapters::VisibleWalls(world);
+  result.visible_wall_share = adapters::SampleLength(visible) / std::max(1e-9, world.WallLength());
+  result.completeness_visible = CompletenessOfVisible(visible, result.final_map_world);
   auto closed = client.CloseSession(result.session_id);
   if (!closed.ok()) return closed.status();
   return result;
@@ -327,9 +327,7 @@ nlohmann::json ExploreSummary(const ExploreResult& result) {
   }
   const v1::ExplorationProgress& progress = last.exploration;
   const bool has_state = progress.state() != v1::ExplorationProgress::STATE_UNSPECIFIED;
-  const std::string state =
-      has_state ? absl::AsciiStrToLower(v1::ExplorationProgress::State_Name(progress.state()))
-                : "-";
+  const std::string state = client::ExplorationStateName(progress);
   const double done_time =
       progress.state() == v1::ExplorationProgress::DONE ? last.time : -1.0;
   return {
@@ -341,6 +339,8 @@ nlohmann::json ExploreSummary(const ExploreResult& result) {
       {"scans", result.scans.size()},
       {"segments", last.segments},
       {"completeness", last.completeness},
+      {"completeness_visible", result.completeness_visible},
+      {"visible_wall_share", result.visible_wall_share},
       {"loc_error_mean_m", error_sum / n},
       {"loc_error_final_m", last.loc_error_m},
       {"loc_error_max_m", error_max},

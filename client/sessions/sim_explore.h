@@ -98,6 +98,10 @@ struct ExploreResult {
   // The session said DONE or STUCK (the run stopped there; state and reason in the last scan's
   // exploration).
   bool finished = false;
+  // Of the wall length the laser can see from where the robot fits (adapters::VisibleWalls): its
+  // share of all wall length, and the share of it the final map covers.
+  double visible_wall_share = 0;
+  double completeness_visible = 0;
 };
 
 // Called after each scan is recorded (progress).

@@ -1,5 +1,5 @@
-// Exploration metrics: map completeness against the true walls and the frames that put the SLAM
-// map and the odometry into the world.
+// Exploration metrics: map completeness against the true walls (all of them, and those that can
+// be seen) and the frames that put the SLAM map and the odometry into the world.
 #include "client/eval/exploration_metrics.h"
 
 #include <gtest/gtest.h>
@@ -49,6 +49,43 @@ TEST(ExplorationCompleteness, EmptyAndNonFiniteInputs) {
   EXPECT_DOUBLE_EQ(Completeness(Corridor(), {}), 0.0);
   const double nan = std::numeric_limits<double>::quiet_NaN();
   EXPECT_DOUBLE_EQ(Completeness(Corridor(), {{{nan, 0}, {10, 0}}}), 0.0);
+}
+
+// A 4 m x 3 m room with a 1 m wide cabinet (three walls) flush against its south wall: the 1 m of
+// wall behind the cabinet is never seen.
+adapters::World RoomWithCabinet() {
+  absl::StatusOr<adapters::World> world = adapters::ParseWorld(
+      "start 2 1.5 0\n"
+      "wall 0 0 4 0\nwall 4 0 4 3\nwall 4 3 0 3\nwall 0 3 0 0\n"
+      "wall 1.5 0 1.5 0.5\nwall 1.5 0.5 2.5 0.5\nwall 2.5 0.5 2.5 0\n");
+  EXPECT_TRUE(world.ok()) << world.status();
+  return world.ok() ? *std::move(world) : adapters::World{};
+}
+
+TEST(ExplorationCompletenessOfVisible, APerfectMapIsCompleteAndSoIsOneOfWhatCanBeSeen) {
+  const adapters::World room = RoomWithCabinet();
+  const std::vector<adapters::WallSample> visible = adapters::VisibleWalls(room);
+  EXPECT_NEAR(adapters::SampleLength(visible), room.WallLength() - 1, 1e-9);
+  EXPECT_DOUBLE_EQ(CompletenessOfVisible(visible, AsMap(room.walls)), 1.0);
+  // Everything but the wall behind the cabinet: all that can be seen, not all there is.
+  std::vector<Wall> seen = room.walls;
+  seen[0] = {0, 0, 1.5, 0};
+  seen.push_back({2.5, 0, 4, 0});
+  EXPECT_DOUBLE_EQ(CompletenessOfVisible(visible, AsMap(seen)), 1.0);
+  // (The cabinet's sides cover 0.1 m of the hidden metre at each end.)
+  EXPECT_NEAR(Completeness(room.walls, AsMap(seen)), (room.WallLength() - 0.8) / room.WallLength(),
+              0.002);
+}
+
+TEST(ExplorationCompletenessOfVisible, PartsAndNothing) {
+  const adapters::World room = RoomWithCabinet();
+  const std::vector<adapters::WallSample> visible = adapters::VisibleWalls(room);
+  // The north wall alone: 4 m of the 15 m that can be seen, and 0.1 m of each side wall.
+  EXPECT_NEAR(CompletenessOfVisible(visible, AsMap({room.walls[2]})), 4.2 / 15, 1e-9);
+  EXPECT_DOUBLE_EQ(CompletenessOfVisible(visible, {}), 0.0);
+  EXPECT_DOUBLE_EQ(CompletenessOfVisible({}, AsMap(room.walls)), 0.0);
+  const double nan = std::numeric_limits<double>::quiet_NaN();
+  EXPECT_DOUBLE_EQ(CompletenessOfVisible(visible, {{{nan, 3}, {4, 3}}}), 0.0);
 }
 
 TEST(ExplorationCompleteness, PointSegmentDistance) {

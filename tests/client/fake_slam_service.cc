@@ -46,6 +46,13 @@ void FakeSlamService::set_suggestion(const v1::SuggestedControl& suggestion) {
   std::lock_guard<std::mutex> lock(mutex_);
   suggestion_ = suggestion;
 }
+void FakeSlamService::set_exploration_end(int scan, v1::ExplorationProgress::State state,
+                                          const std::string& reason) {
+  std::lock_guard<std::mutex> lock(mutex_);
+  exploration_end_scan_ = scan;
+  exploration_end_.set_state(state);
+  exploration_end_.set_reason(reason);
+}
 std::vector<double> FakeSlamService::odometry_stamps() const {
   std::lock_guard<std::mutex> lock(mutex_);
   return odometry_stamps_;
@@ -159,6 +166,16 @@ v1::SlamUpdate FakeSlamService::Process(SessionData& session, const v1::SensorDa
   update.set_covariance_trace_mean(0.001 * n);
   if (suggestion_.behaviour() != v1::SuggestedControl::BEHAVIOUR_UNSPECIFIED) {
     *update.mutable_suggestion() = suggestion_;
+  }
+  if (exploration_end_scan_ > 0 && n >= static_cast<uint64_t>(exploration_end_scan_)) {
+    *update.mutable_exploration() = exploration_end_;
+    update.mutable_suggestion()->Clear();
+    update.mutable_suggestion()->set_behaviour(v1::SuggestedControl::FINISHED);
+    update.mutable_suggestion()->set_duration(suggestion_.duration());
+  } else if (exploration_end_scan_ > 0) {
+    update.mutable_exploration()->set_state(v1::ExplorationProgress::EXPLORING);
+    update.mutable_exploration()->set_open_boundary(0.5);
+    update.mutable_exploration()->set_targets_left(2);
   }
   if (session.localizing) {
     const bool localized = n >= static_cast<uint64_t>(localized_from_scan_);

@@ -23,7 +23,8 @@ namespace waymark::testing {
 // flow control, and rejects per-sensor stamps that do not increase (INVALID_ARGUMENT).
 // Closing a closed session is FAILED_PRECONDITION "... is already closed", as on the real server.
 // For exploration clients it can answer every scan with a fixed suggested control (set_suggestion)
-// and a covariance_trace_mean growing with the scan count, and it keeps the stamps it received.
+// and a covariance_trace_mean growing with the scan count, and it keeps the stamps it received;
+// with set_exploration_end, a goal layer's progress that ends in DONE or STUCK.
 // Visual clients' image frames are answered like scans (a pose3d at x = stamp, "tracking").
 // Like the real server, a stream's first answer carries its StreamStart, and a hello (a first
 // message without payload) is answered at once with it.
@@ -93,6 +94,12 @@ class FakeSlamService final : public v1::SlamService::Service {
   // Attached to every scan's update; the default (BEHAVIOUR_UNSPECIFIED) attaches none, as a
   // passive session does.
   void set_suggestion(const v1::SuggestedControl& suggestion);
+  // Goal layer progress on every scan's update: EXPLORING (half the boundary open, 2 targets
+  // left) before the session's scan number `scan` (1 = the first processed), then `state` (DONE
+  // or STUCK) with `reason` and a FINISHED suggestion of (0, 0) instead of set_suggestion's, as
+  // the real server answers once exploration has ended. 0 = no progress (the default).
+  void set_exploration_end(int scan, v1::ExplorationProgress::State state,
+                           const std::string& reason);
   // Every stream ends with UNAVAILABLE when its scan (or frame) number `scans` + 1 arrives (that
   // scan is not answered): a server or network that dies under a robot. 0 = never.
   void set_break_streams_after(int scans) {
@@ -194,6 +201,8 @@ class FakeSlamService final : public v1::SlamService::Service {
   grpc::StatusCode session_calls_fail_ = grpc::StatusCode::OK;
   v1::CreateSessionRequest last_create_;
   v1::SuggestedControl suggestion_;
+  int exploration_end_scan_ = 0;
+  v1::ExplorationProgress exploration_end_;
   std::optional<v1::OccupancyGrid> grid_;
   grpc::StatusCode grid_answer_ = grpc::StatusCode::OK;
   int localized_from_scan_ = 3;

@@ -6,15 +6,18 @@
 #include <gmock/gmock.h>
 #include <gtest/gtest.h>
 
+#include <algorithm>
 #include <chrono>
 #include <functional>
 #include <mutex>
 #include <opencv2/imgcodecs.hpp>
+#include <optional>
 #include <thread>
 
 #include "client/devices/camera_source.h"
 #include "client/sim/sim_realtime.h"
 #include "client/sim/sim_world.h"
+#include "client/common/command_context.h"  // exit codes
 #include "client/common/steady_clock.h"
 #include "client/lib/channel.h"
 #include "client/robot/crossing_watch.h"
@@ -539,6 +542,185 @@ TEST_F(RobotLoopTest, ResumesAnOpenSessionInsteadOfCreatingOne) {
   EXPECT_GT(status->scans_answered, 0u);
 }
 
+// ---- The end of exploration (goal layer: DONE, STUCK) ------------------------------------------
+
+// Runs `loop` on the test's thread until it ends by itself; a loop that does not within the
+// patience is stopped (the test then fails): a bound against a hang, not a speed requirement.
+absl::StatusOr<RobotStatus> RunUntilItEnds(RobotLoop& loop, std::atomic<bool>& stop,
+                                           bool& ended_by_itself) {
+  std::atomic<bool> returned{false};
+  std::thread patience([&] {
+    if (!WaitFor([&] { return returned.load(); }, 120)) stop = true;
+  });
+  auto status = loop.Run(stop);
+  ended_by_itself = !stop.load();
+  returned = true;
+  patience.join();
+  return status;
+}
+
+// The base's commands after the event containing `text` (an event comes from the loop's thread,
+// so the commands up to it were all sent before it).
+class CommandsAfterEvent {
+ public:
+  CommandsAfterEvent(RobotLoop& loop, ScriptedBase& base, std::string text) : base_(base) {
+    loop.set_event_callback([this, text](const std::string& e) {
+      if (e.find(text) == std::string::npos) return;
+      std::lock_guard<std::mutex> lock(mutex_);
+      event_ = e;
+      at_ = base_.commands().size();
+    });
+  }
+  std::string event() const {
+    std::lock_guard<std::mutex> lock(mutex_);
+    return event_;
+  }
+  // Commands up to the event (the last one is the stop that went with it), and after it.
+  std::vector<ScriptedBase::Command> before() const {
+    const auto all = base_.commands();
+    std::lock_guard<std::mutex> lock(mutex_);
+    return {all.begin(), all.begin() + std::min(at_, all.size())};
+  }
+  std::vector<ScriptedBase::Command> after() const {
+    const auto all = base_.commands();
+    std::lock_guard<std::mutex> lock(mutex_);
+    return {all.begin() + std::min(at_, all.size()), all.end()};
+  }
+
+ private:
+  ScriptedBase& base_;
+  mutable std::mutex mutex_;
+  std::string event_;
+  size_t at_ = 0;
+};
+
+int Drives(const std::vector<ScriptedBase::Command>& commands) {
+  return static_cast<int>(std::count_if(commands.begin(), commands.end(),
+                                        [](const ScriptedBase::Command& c) { return !c.stop; }));
+}
+
+TEST_F(RobotLoopTest, DoneStopsTheRobotEndsTheRunAndClosesTheSession) {
+  server_.service().set_suggestion(Forward(/*duration=*/0.3));
+  server_.service().set_exploration_end(4, v1::ExplorationProgress::DONE,
+                                        "every frontier explored");
+  ScriptedBase base;
+  ScriptedLaser laser;
+  RobotLoopOptions options;
+  options.mode = DriveMode::kActive;
+  options.status_period = absl::ZeroDuration();  // a status after every step
+  RobotLoop loop(Client(), base, laser, options);
+  CommandsAfterEvent commands(loop, base, "exploration done");
+  std::vector<RobotStatus> statuses;  // the status callback runs on the loop's thread
+  loop.set_status_callback([&](const RobotStatus& s) { statuses.push_back(s); });
+  bool ended_by_itself = false;
+  auto status = RunUntilItEnds(loop, stop_, ended_by_itself);
+  ASSERT_TRUE(status.ok()) << status.status();
+  EXPECT_TRUE(ended_by_itself);
+  EXPECT_EQ(status->exploration_end.state(), v1::ExplorationProgress::DONE);
+  EXPECT_EQ(status->exploration_end.reason(), "every frontier explored");
+  EXPECT_EQ(commands.event(), "exploration done: every frontier explored: robot stopped");
+  // Three suggestions driven, then the fourth scan's DONE: no scan, no drive after it.
+  EXPECT_EQ(status->suggestions_driven, 3u);
+  EXPECT_EQ(server_.service().scans_received(), 4);
+  const auto before = commands.before();
+  EXPECT_EQ(Drives(before), 3);
+  ASSERT_FALSE(before.empty());
+  EXPECT_TRUE(before.back().stop);  // the stop that DONE sent
+  const auto after = commands.after();
+  EXPECT_EQ(Drives(after), 0);
+  EXPECT_TRUE(base.last_is_stop());
+  // The status showed the progress on the way (the fake: half the boundary open, 2 targets).
+  const auto exploring = std::find_if(statuses.begin(), statuses.end(), [](const RobotStatus& s) {
+    return s.exploration.state() == v1::ExplorationProgress::EXPLORING;
+  });
+  ASSERT_NE(exploring, statuses.end());
+  EXPECT_DOUBLE_EQ(exploring->exploration.open_boundary(), 0.5);
+  EXPECT_EQ(exploring->exploration.targets_left(), 2u);
+  EXPECT_EQ(status->exploration.state(), v1::ExplorationProgress::DONE);
+  auto sessions = Client().ListSessions();
+  ASSERT_TRUE(sessions.ok());
+  ASSERT_EQ(sessions->sessions_size(), 1);
+  EXPECT_EQ(sessions->sessions(0).state(), v1::Session::CLOSED);
+}
+
+TEST_F(RobotLoopTest, StuckStopsTheRobotAndEndsTheRunToo) {
+  server_.service().set_suggestion(Forward(/*duration=*/0.3));
+  server_.service().set_exploration_end(2, v1::ExplorationProgress::STUCK,
+                                        "no collision-free control");
+  ScriptedBase base;
+  ScriptedLaser laser;
+  RobotLoopOptions options;
+  options.mode = DriveMode::kActive;
+  RobotLoop loop(Client(), base, laser, options);
+  CommandsAfterEvent commands(loop, base, "exploration stuck");
+  bool ended_by_itself = false;
+  auto status = RunUntilItEnds(loop, stop_, ended_by_itself);
+  ASSERT_TRUE(status.ok()) << status.status();
+  EXPECT_TRUE(ended_by_itself);
+  EXPECT_EQ(status->exploration_end.state(), v1::ExplorationProgress::STUCK);
+  EXPECT_EQ(commands.event(), "exploration stuck: no collision-free control: robot stopped");
+  EXPECT_EQ(server_.service().scans_received(), 2);
+  EXPECT_EQ(Drives(commands.before()), 1);
+  EXPECT_EQ(Drives(commands.after()), 0);
+}
+
+// Passive and teleop runs stream into sessions that may report progress too: it never ends them.
+TEST_F(RobotLoopTest, OnlyActiveModeEndsAtDone) {
+  server_.service().set_exploration_end(1, v1::ExplorationProgress::DONE, "nothing left");
+  ScriptedBase base;
+  ScriptedLaser laser;
+  RobotLoopOptions options;
+  RobotLoop loop(Client(), base, laser, options);
+  std::thread stopper([&] {
+    WaitFor([&] { return loop.status().scans_answered >= 3; });
+    stop_ = true;
+  });
+  auto status = loop.Run(stop_);
+  stopper.join();
+  ASSERT_TRUE(status.ok()) << status.status();
+  EXPECT_GE(status->scans_answered, 3u);
+  EXPECT_EQ(status->exploration.state(), v1::ExplorationProgress::DONE);
+  EXPECT_EQ(status->exploration_end.state(), v1::ExplorationProgress::STATE_UNSPECIFIED);
+}
+
+TEST_F(RobotLoopTest, KeepRunningStandsStreamingWithTheSessionOpenUntilStopped) {
+  server_.service().set_suggestion(Forward(/*duration=*/0.3));
+  server_.service().set_exploration_end(3, v1::ExplorationProgress::DONE,
+                                        "every frontier explored");
+  ScriptedBase base;
+  ScriptedLaser laser;
+  RobotLoopOptions options;
+  options.mode = DriveMode::kActive;
+  options.keep_running = true;
+  RobotLoop loop(Client(), base, laser, options);
+  CommandsAfterEvent commands(loop, base, "exploration done");
+  std::optional<v1::Session::State> state_while_standing;
+  std::thread stopper([&] {
+    // Scans go on after DONE (the third): the loop streams while the robot stands.
+    WaitFor([&] { return server_.service().scans_received() >= 6; });
+    auto sessions = Client().ListSessions();
+    if (sessions.ok() && sessions->sessions_size() == 1) {
+      state_while_standing = sessions->sessions(0).state();
+    }
+    stop_ = true;
+  });
+  auto status = loop.Run(stop_);
+  stopper.join();
+  ASSERT_TRUE(status.ok()) << status.status();
+  EXPECT_THAT(commands.event(), HasSubstr("robot stopped; it stands, streaming"));
+  EXPECT_EQ(status->exploration_end.state(), v1::ExplorationProgress::DONE);
+  EXPECT_GE(server_.service().scans_received(), 6);
+  EXPECT_GE(status->scans_answered, 6u);
+  EXPECT_EQ(status->suggestions_driven, 2u);
+  EXPECT_EQ(Drives(commands.before()), 2);
+  EXPECT_EQ(Drives(commands.after()), 0);
+  EXPECT_EQ(state_while_standing, v1::Session::OPEN);
+  auto sessions = Client().ListSessions();
+  ASSERT_TRUE(sessions.ok());
+  ASSERT_EQ(sessions->sessions_size(), 1);
+  EXPECT_EQ(sessions->sessions(0).state(), v1::Session::CLOSED);  // closed when it was stopped
+}
+
 // ---- Crossing recognition from the camera ------------------------------------------------------
 
 TEST(CrossingWatchTest, ReportsFailedCallsAndAnExhaustedCameraAndGoesOn) {
@@ -593,6 +775,44 @@ TEST_F(RobotLoopTest, CommandRunsTheSimulatorAndPrintsStatusLinesAndASummary) {
   EXPECT_THAT(r.out, HasSubstr(" server="));
   EXPECT_THAT(r.out, HasSubstr("stopped: session"));
   EXPECT_EQ(server_.service().last_create().robot_id(), "cli-robot");
+}
+
+// DONE ends `waymark robot --mode active` with exit code 0 and says so; the status lines carry
+// the progress. Each answer takes at least 150 ms, so twelve of them outlast the one second
+// between status lines however fast the machine is: one falls after the first answer.
+TEST_F(RobotLoopTest, CommandEndsAtDoneWithSuccessAndTheStateInTheSummary) {
+  server_.service().set_suggestion(Forward(/*duration=*/0.3));
+  server_.service().set_scan_delay(absl::Milliseconds(150));
+  server_.service().set_exploration_end(12, v1::ExplorationProgress::DONE,
+                                        "every frontier explored");
+  CliResult r = RunWaymark(server_.address(), {"robot", "--base", "sim:office", "--laser", "sim",
+                                               "--mode", "active", "--sim-speed", "10", "--json"});
+  ASSERT_EQ(r.code, 0) << r.err;
+  const nlohmann::json summary = r.Json();
+  EXPECT_EQ(summary["exploration_state"], "done");
+  EXPECT_EQ(summary["exploration_reason"], "every frontier explored");
+  EXPECT_EQ(summary["suggestions_driven"].get<int>(), 11);
+  EXPECT_THAT(r.err, HasSubstr("exploration done: every frontier explored: robot stopped"));
+  EXPECT_THAT(r.err, HasSubstr(" explore="));
+  EXPECT_THAT(r.err, HasSubstr(" targets="));
+  EXPECT_EQ(server_.service().scans_received(), 12);
+}
+
+TEST_F(RobotLoopTest, CommandEndsAtStuckWithItsOwnExitCode) {
+  server_.service().set_suggestion(Forward(/*duration=*/0.3));
+  server_.service().set_exploration_end(3, v1::ExplorationProgress::STUCK,
+                                        "no collision-free control");
+  CliResult r = RunWaymark(server_.address(), {"robot", "--base", "sim:office", "--laser", "sim",
+                                               "--mode", "active", "--sim-speed", "10"});
+  EXPECT_EQ(r.code, kExitExplorationStuck) << r.err;
+  EXPECT_EQ(kExitExplorationStuck, 3);  // documented in docs/robot.md
+  EXPECT_THAT(r.out, HasSubstr("exploration stuck: no collision-free control: robot stopped"));
+  EXPECT_THAT(r.out, HasSubstr("reconnects, exploration stuck"));
+  r = RunWaymark(server_.address(), {"robot", "--base", "sim:office", "--laser", "sim", "--mode",
+                                     "active", "--sim-speed", "10", "--json"});
+  EXPECT_EQ(r.code, kExitExplorationStuck) << r.err;
+  EXPECT_EQ(r.Json()["exploration_state"], "stuck");
+  EXPECT_EQ(r.Json()["exploration_reason"], "no collision-free control");
 }
 
 TEST_F(RobotLoopTest, CommandErrorsAreClear) {

@@ -119,6 +119,11 @@ TEST_F(SimExploreTest, GoStopLoopSendsOdometryEveryControlStepAndAScanPerHold) {
     EXPECT_GE(r.completeness, 0);
     EXPECT_LE(r.completeness, 1);
   }
+  // Every wall of the empty room is visible: both completeness figures measure the same walls
+  // (sampled every 2 and every 5 cm).
+  EXPECT_NEAR(result->visible_wall_share, 1.0, 1e-9);
+  EXPECT_GT(result->completeness_visible, 0);
+  EXPECT_NEAR(result->completeness_visible, result->scans.back().completeness, 0.02);
 
   const nlohmann::json summary = ExploreSummary(*result);
   EXPECT_EQ(summary["scans"], 6);
@@ -127,6 +132,8 @@ TEST_F(SimExploreTest, GoStopLoopSendsOdometryEveryControlStepAndAScanPerHold) {
   EXPECT_EQ(summary["wall_following_share"], 0.0);
   EXPECT_NEAR(summary["planning_ms_p50"].get<double>(), 1.5, 1e-12);
   EXPECT_NEAR(summary["cov_trace_mean"].get<double>(), 0.0035, 1e-12);
+  EXPECT_EQ(summary["completeness_visible"], result->completeness_visible);
+  EXPECT_EQ(summary["visible_wall_share"], result->visible_wall_share);
 }
 
 TEST_F(SimExploreTest, TheLastHoldIsCutAtTheDuration) {
@@ -172,7 +179,8 @@ TEST_F(SimExploreTest, CliWritesEveryOutputAndOneJsonObject) {
   for (const char* key :
        {"completeness", "loc_error_mean_m", "loc_error_final_m", "cov_trace_mean", "collisions",
         "sim_time_s", "world", "mode", "seed", "distance_m", "scans", "segments",
-        "wall_following_share", "odometry_error_final_m", "planning_ms_p50", "out_dir"}) {
+        "wall_following_share", "odometry_error_final_m", "planning_ms_p50", "out_dir",
+        "completeness_visible", "visible_wall_share"}) {
     EXPECT_TRUE(json.contains(key)) << key;
   }
   EXPECT_EQ(json["scans"], 4);
@@ -229,6 +237,8 @@ TEST_F(SimExploreTest, CliHumanOutputIsASummaryTable) {
                      (dir_.path() / "human").string()});
   ASSERT_EQ(r.code, 0) << r.err;
   EXPECT_THAT(r.out, HasSubstr("completeness"));
+  EXPECT_THAT(r.out, HasSubstr("completeness of the visible walls"));
+  EXPECT_THAT(r.out, HasSubstr("visible wall share"));
   EXPECT_THAT(r.out, HasSubstr("collisions"));
   EXPECT_TRUE(r.err.empty()) << r.err;  // no progress bar when stderr is not a terminal
 }
@@ -258,6 +268,9 @@ TEST_F(SimExploreTest, WorldsListsTheBuiltInsWithTheirWallLength) {
   for (const auto& w : json["worlds"]) {
     names.push_back(w["name"]);
     EXPECT_GT(w["wall_length_m"].get<double>(), 10);
+    // Some wall length is hidden (office: about 7.5 m of 87 m behind cabinets), never most of it.
+    EXPECT_LE(w["visible_wall_m"].get<double>(), w["wall_length_m"].get<double>());
+    EXPECT_GT(w["visible_wall_m"].get<double>(), 0.9 * w["wall_length_m"].get<double>());
   }
   EXPECT_THAT(names,
               ::testing::IsSupersetOf({"corridor", "loop", "office", "building", "cluttered"}));

@@ -266,6 +266,34 @@ TEST_F(RobotLoopServerTest, CommandDrivesTheSimulatorThroughTheRealServerWithout
   EXPECT_GE(summary["segments"].get<int>(), 5);
 }
 
+// The goal layer ends exploration of a small closed room after a few scans (the laser sees all of
+// it from the start; the robot turns to look at what the first scan left open): the robot is
+// stopped, the session closed, and the command exits by itself with success.
+TEST_F(RobotLoopServerTest, ActiveExplorationEndsAtDoneWithTheRobotStopped) {
+  const std::string world = dir_ + "/room.world";
+  std::ofstream(world) << "name room\nstart 1.5 1.25 0\n"
+                          "wall 0 0 3 0\nwall 3 0 3 2.5\nwall 3 2.5 0 2.5\nwall 0 2.5 0 0\n";
+  auto waymark = StartWaymark(server_->address(),
+                              {"robot", "--base", "sim:" + world, "--laser", "sim", "--mode",
+                               "active", "--sim-speed", "4", "--robot-id", "room", "--json"},
+                              dir_);
+  ASSERT_NE(waymark, nullptr);
+  const std::optional<int> code = waymark->WaitFor(kPatience);
+  if (!code) waymark->Stop(SIGINT);
+  ASSERT_EQ(code, 0) << waymark->Stderr() << waymark->Stdout();
+  EXPECT_THAT(waymark->Stderr(), HasSubstr("exploration done: "));
+  EXPECT_THAT(waymark->Stderr(), HasSubstr(": robot stopped"));
+  const nlohmann::json summary = nlohmann::json::parse(waymark->Stdout());
+  EXPECT_EQ(summary["exploration_state"], "done");
+  EXPECT_FALSE(summary["exploration_reason"].get<std::string>().empty());
+  EXPECT_EQ(summary["sim"]["collisions"].get<int>(), 0);
+  EXPECT_EQ(summary["safety_stops"]["server stream broken"].get<int>(), 0);
+  const std::optional<v1::Session> session = SessionOf(server_->address(), "room");
+  ASSERT_TRUE(session.has_value());
+  EXPECT_EQ(session->state(), v1::Session::CLOSED);
+  EXPECT_EQ(session->scans_processed(), summary["scans_answered"].get<uint64_t>());
+}
+
 // Ctrl-C once the robot has driven a suggestion (the server processed a second scan, which the
 // go-stop protocol sends only after the first hold).
 TEST_F(RobotLoopServerTest, CtrlCStopsTheRobotClosesTheSessionAndExitsCleanly) {

@@ -13,6 +13,7 @@
 
 #include "absl/status/status.h"
 #include "client/sim/sim_geometry.h"
+#include "client/sim/sim_reach.h"
 
 namespace waymark::adapters {
 namespace {
@@ -101,59 +102,6 @@ TEST(LoadWorldTest, FilesBuiltinsAndNotFound) {
   EXPECT_THAT(missing.status().message(), HasSubstr("corridor, loop, office"));
 }
 
-// A grid over the world's bounding box (plus a margin): the cells a disc of `radius` can reach
-// from the start without crossing a wall.
-struct Reach {
-  double x0, y0, cell;
-  int nx, ny;
-  std::vector<char> reached;
-  bool leaked = false;  // reached the margin: the world is not closed
-};
-
-Reach Flood(const World& world, double radius, double cell) {
-  double xmin = world.start.x, xmax = xmin, ymin = world.start.y, ymax = ymin;
-  for (const Wall& w : world.walls) {
-    xmin = std::min({xmin, w.x1, w.x2});
-    xmax = std::max({xmax, w.x1, w.x2});
-    ymin = std::min({ymin, w.y1, w.y2});
-    ymax = std::max({ymax, w.y1, w.y2});
-  }
-  Reach r;
-  r.cell = cell;
-  r.x0 = std::floor(xmin) - 1;
-  r.y0 = std::floor(ymin) - 1;
-  r.nx = static_cast<int>(std::ceil((xmax + 1 - r.x0) / cell)) + 1;
-  r.ny = static_cast<int>(std::ceil((ymax + 1 - r.y0) / cell)) + 1;
-  r.reached.assign(static_cast<size_t>(r.nx) * r.ny, 0);
-  const auto free = [&](int i, int j) {
-    return geometry::Clearance(world.walls, r.x0 + i * cell, r.y0 + j * cell) >= radius;
-  };
-  std::queue<std::pair<int, int>> queue;
-  const int si = static_cast<int>(std::lround((world.start.x - r.x0) / cell));
-  const int sj = static_cast<int>(std::lround((world.start.y - r.y0) / cell));
-  if (!free(si, sj)) return r;
-  r.reached[sj * r.nx + si] = 1;
-  queue.push({si, sj});
-  while (!queue.empty()) {
-    const auto [i, j] = queue.front();
-    queue.pop();
-    if (i == 0 || j == 0 || i == r.nx - 1 || j == r.ny - 1) {
-      r.leaked = true;
-      continue;
-    }
-    // Moving to a neighbour cell also needs the segment between them free; at this cell size
-    // (much smaller than the radius) both ends being free is enough.
-    for (const auto& [di, dj] : {std::pair{1, 0}, {-1, 0}, {0, 1}, {0, -1}}) {
-      const int ni = i + di, nj = j + dj;
-      char& seen = r.reached[nj * r.nx + ni];
-      if (seen || !free(ni, nj)) continue;
-      seen = 1;
-      queue.push({ni, nj});
-    }
-  }
-  return r;
-}
-
 // The disc the reachability checks flood with, per world: nearly 0.6 m radius where every opening
 // is at least 1.2 m wide, 0.45 m in `cluttered`, whose doorways are 1.0-1.1 m wide on purpose.
 double FloodRadius(const std::string& world) { return world == "cluttered" ? 0.45 : 0.55; }
@@ -179,34 +127,16 @@ TEST(BuiltinWorldsTest, ClosedAndEveryWallVisibleFromReachableSpace) {
     SCOPED_TRACE(name);
     absl::StatusOr<World> world = LoadWorld(name);
     ASSERT_TRUE(world.ok()) << world.status();
-    const Reach reach = Flood(*world, FloodRadius(name), 0.05);
+    const Reach reach = ReachableSpace(*world, FloodRadius(name));
     EXPECT_FALSE(reach.leaked);
-    std::vector<std::pair<double, double>> places;  // reachable places, every 0.2 m
-    for (int j = 0; j < reach.ny; j += 4) {
-      for (int i = 0; i < reach.nx; i += 4) {
-        if (reach.reached[j * reach.nx + i]) {
-          places.emplace_back(reach.x0 + i * reach.cell, reach.y0 + j * reach.cell);
-        }
-      }
-    }
-    ASSERT_GT(places.size(), 100u);
+    ASSERT_GT(std::count(reach.reached.begin(), reach.reached.end(), 1), 1600);  // 4 m^2
+    VisibilityOptions options;
+    options.radius = FloodRadius(name);
+    std::vector<bool> seen(world->walls.size(), false);
+    for (const WallSample& s : VisibleWalls(*world, options)) seen[s.wall] = true;
     for (size_t k = 0; k < world->walls.size(); ++k) {
       const Wall& w = world->walls[k];
-      bool visible = false;
-      for (int s = 1; s < 20 && !visible; ++s) {
-        const double px = w.x1 + (w.x2 - w.x1) * s / 20.0;
-        const double py = w.y1 + (w.y2 - w.y1) * s / 20.0;
-        for (const auto& [x, y] : places) {
-          const double d = std::hypot(px - x, py - y);
-          if (d > 8.0) continue;  // beyond the laser's range
-          const double hit = geometry::CastRay(world->walls, x, y, (px - x) / d, (py - y) / d);
-          if (hit >= d - 1e-6) {
-            visible = true;
-            break;
-          }
-        }
-      }
-      EXPECT_TRUE(visible) << "wall " << k << ": " << w.x1 << " " << w.y1 << " " << w.x2 << " "
+      EXPECT_TRUE(seen[k]) << "wall " << k << ": " << w.x1 << " " << w.y1 << " " << w.x2 << " "
                            << w.y2;
     }
   }
@@ -253,7 +183,7 @@ int CorridorLoops(const std::string& name) {
   absl::StatusOr<World> world = LoadWorld(name);
   EXPECT_TRUE(world.ok()) << world.status();
   if (!world.ok()) return -1;
-  const std::vector<double> sizes = EnclosedSizes(Flood(*world, FloodRadius(name), 0.05));
+  const std::vector<double> sizes = EnclosedSizes(ReachableSpace(*world, FloodRadius(name)));
   return static_cast<int>(
       std::count_if(sizes.begin(), sizes.end(), [](double s) { return s >= 5; }));
 }
@@ -284,7 +214,7 @@ double BehindNarrowOpenings(const std::string& name) {
   absl::StatusOr<World> world = LoadWorld(name);
   EXPECT_TRUE(world.ok()) << world.status();
   if (!world.ok()) return -1;
-  const Reach small = Flood(*world, 0.45, 0.05), large = Flood(*world, 0.55, 0.05);
+  const Reach small = ReachableSpace(*world, 0.45), large = ReachableSpace(*world, 0.55);
   int cells = 0;
   for (int j = 0; j < small.ny; ++j) {
     for (int i = 0; i < small.nx; ++i) {
