@@ -426,7 +426,15 @@ const GoalProgress& ExplorationGoals::Update(const ExplorationView& view, bool b
   }
   if (chosen >= 0) {
     progress_.target = targets[chosen];
-    to_goal_ = std::make_unique<CostField>(grid_, distance_, targets[chosen].goal, path_options_);
+    // The controls' arcs end within one observation period's travel of the robot: the field
+    // from the goal is needed up to there (in cost: that travel at the highest step cost), plus
+    // a cell.
+    PathOptions from_goal = path_options_;
+    from_goal.stop_near = robot;
+    from_goal.stop_margin = (options_.max_linear * options_.observation_period +
+                             2.0 * grid_.resolution()) *
+                            (1.0 + options_.wall_penalty);
+    to_goal_ = std::make_unique<CostField>(grid_, distance_, targets[chosen].goal, from_goal);
     progress_.path.clear();
     for (int i = to_goal_->CellIndex(robot); i >= 0 && to_goal_->Reachable(i);
          i = to_goal_->Parent(i)) {

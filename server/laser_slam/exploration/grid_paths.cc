@@ -61,10 +61,18 @@ CostField::CostField(const ExplorationGrid& grid, const std::vector<float>& dist
   open.push({0.0f, first});
   const double r = grid.resolution();
   const double span = std::max(options.comfort_distance - options.required_distance, 1e-6);
+  const Eigen::Vector2i stop_cell = grid.CellOf(options.stop_near);
+  const int stop_index = options.stop_margin > 0.0 && grid.Inside(stop_cell.x(), stop_cell.y())
+                             ? grid.Index(stop_cell.x(), stop_cell.y())
+                             : -1;
   while (!open.empty()) {
     const auto [c, i] = open.top();
     open.pop();
     if (c > cost_[i]) continue;
+    if (stop_index >= 0 && cost_[stop_index] < kUnreached &&
+        c > cost_[stop_index] + options.stop_margin) {
+      break;
+    }
     const int x = i % grid.width(), y = i / grid.width();
     for (int dy = -1; dy <= 1; ++dy) {
       for (int dx = -1; dx <= 1; ++dx) {

@@ -28,6 +28,12 @@ struct PathOptions {
   // leave, but only the way the collision check lets it, by getting no closer to the wall.
   Eigen::Vector2d escape_centre = Eigen::Vector2d::Zero();
   double escape_radius = 0.5;  // m
+  // Stop the search once the cell of `stop_near` is settled and every cell up to `stop_margin`
+  // (in cost) beyond it too (0: search the whole grid). A field from a goal needs only the cells
+  // the robot's next controls can end in and the path between them and the goal, all of which
+  // cost less than that.
+  Eigen::Vector2d stop_near = Eigen::Vector2d::Zero();
+  double stop_margin = 0.0;
 };
 
 // Distance (m) from each cell's centre to the nearest occupied cell, capped at `cap` (8-connected
