@@ -35,6 +35,7 @@ constexpr double kPi = 3.14159265358979323846;
 struct RobotArgs {
   RobotSetupOptions setup;
   std::string mode = "passive";
+  std::string explore = "active";  // the exploration mode behind --mode active
   std::string camera;
   std::string crossings;
   double recognize_every_s = 10;
@@ -230,6 +231,9 @@ int RunRobot(CommandContext& context, RobotArgs args) {
 
   RobotLoopOptions options;
   options.mode = mode;
+  options.exploration = args.explore == "frontier" ? v1::ExplorationConfig::FRONTIER
+                        : args.explore == "wander" ? v1::ExplorationConfig::WANDER
+                                                   : v1::ExplorationConfig::ACTIVE;
   options.robot_id = args.robot_id.empty() ? DefaultRobotId() : args.robot_id;
   options.session_name = args.name;
   options.resume_session_id = args.resume;
@@ -317,6 +321,13 @@ void AddRobotCommand(CLI::App& app, CommandRegistry& registry) {
                    "passive: stream only; active: drive the server's "
                    "suggestions; teleop: drive with the keyboard")
       ->check(CLI::IsMember({"passive", "active", "teleop"}))
+      ->capture_default_str();
+  robot
+      ->add_option("--explore", args->explore,
+                   "With --mode active, who chooses where to go: active (the goal layer over the "
+                   "paper's planner), frontier (nearest frontier) or wander (the paper's "
+                   "baseline); see docs/exploration.md")
+      ->check(CLI::IsMember({"active", "frontier", "wander"}))
       ->capture_default_str();
   robot->add_option("--camera", args->camera,
                     "Camera for crossing recognition: device index, video file, stream URL or "

@@ -777,6 +777,31 @@ TEST_F(RobotLoopTest, CommandRunsTheSimulatorAndPrintsStatusLinesAndASummary) {
   EXPECT_EQ(server_.service().last_create().robot_id(), "cli-robot");
 }
 
+// --explore picks the session's exploration mode behind --mode active (ACTIVE by default).
+TEST_F(RobotLoopTest, CommandExploreFlagPicksTheSessionsExplorationMode) {
+  server_.service().set_suggestion(Forward(/*duration=*/0.3));
+  server_.service().set_exploration_end(2, v1::ExplorationProgress::DONE, "explored");
+  for (const auto& [flag, mode] :
+       std::vector<std::pair<std::string, v1::ExplorationConfig::Mode>>{
+           {"", v1::ExplorationConfig::ACTIVE},
+           {"frontier", v1::ExplorationConfig::FRONTIER},
+           {"wander", v1::ExplorationConfig::WANDER}}) {
+    std::vector<std::string> args = {"robot", "--base", "sim:office", "--laser", "sim",
+                                     "--mode", "active", "--sim-speed", "10"};
+    if (!flag.empty()) {
+      args.push_back("--explore");
+      args.push_back(flag);
+    }
+    CliResult r = RunWaymark(server_.address(), args);
+    ASSERT_EQ(r.code, 0) << flag << ": " << r.err;
+    EXPECT_EQ(server_.service().last_create().laser().exploration().mode(), mode) << flag;
+  }
+  CliResult bad = RunWaymark(server_.address(), {"robot", "--base", "sim:office", "--laser", "sim",
+                                                 "--mode", "active", "--explore", "spiral"});
+  EXPECT_NE(bad.code, 0);
+  EXPECT_THAT(bad.err, HasSubstr("--explore"));
+}
+
 // DONE ends `waymark robot --mode active` with exit code 0 and says so; the status lines carry
 // the progress. Each answer takes at least 150 ms, so twelve of them outlast the one second
 // between status lines however fast the machine is: one falls after the first answer.
