@@ -182,7 +182,8 @@ std::optional<Control> ExplorationPlanner::FollowTarget(const ExplorationView& v
     ratings.push_back(cost + kHeadingWeight * std::abs(BearingError(end, aim)));
     // No turning back the way the last turn in place came: two headings either side of the
     // path's direction, each blocked a little differently, would make the robot dither between
-    // them for ever; going on round finds the way out.
+    // them for ever; going on round finds the way out. (Allowing one reversal was tried: in the
+    // cluttered world the robot then spent whole runs turning.)
     const bool turns_back = feasible[i].linear == 0.0 && last_turn_ * feasible[i].angular < 0.0;
     if (std::isfinite(ratings[i]) && !turns_back && (best < 0 || ratings[i] < ratings[best])) {
       best = static_cast<int>(i);
