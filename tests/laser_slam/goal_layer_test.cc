@@ -209,8 +209,11 @@ std::vector<Wall> CorridorIntoAHall() {
           W(3.4, 1.03, 3.4, 10),    W(3.4, -0.97, 3.4, -10)};
 }
 
+// The utility trades gain against travel: at a low travel cost the larger, farther frontier wins;
+// at a high one ACTIVE takes the near one too.
 TEST(GoalLayerTest, NearestOnlyTakesTheNearFrontierActiveTheLargerOne) {
-  const ExplorationOptions options;
+  ExplorationOptions options;
+  options.travel_cost = 0.1;
   ExplorationGoals nearest(options, /*nearest_only=*/true);
   ExplorationGoals active(options, /*nearest_only=*/false);
   LookBothWays(&nearest, CorridorIntoAHall(), Pose2{-1.0, 0.0, 0.0});
@@ -225,6 +228,14 @@ TEST(GoalLayerTest, NearestOnlyTakesTheNearFrontierActiveTheLargerOne) {
   EXPECT_GT(a.look_at.x(), 3.3) << "active: the hall, got " << a.look_at.transpose();
   EXPECT_LT(n.path_length, a.path_length);
   EXPECT_GT(a.gain, 5.0 * n.gain);
+
+  options.travel_cost = 1.0;
+  ExplorationGoals thrifty(options, /*nearest_only=*/false);
+  LookBothWays(&thrifty, CorridorIntoAHall(), Pose2{-1.0, 0.0, 0.0});
+  ASSERT_TRUE(thrifty.progress().target);
+  EXPECT_LT((thrifty.progress().target->look_at - n.look_at).norm(), 0.5)
+      << "a high travel cost: the near frontier, got "
+      << thrifty.progress().target->look_at.transpose();
 }
 
 // ---------------------------------------------------------------------------------------------
