@@ -287,6 +287,17 @@ class RobotLoopTest : public ::testing::Test {
     return std::make_unique<adapters::RealTimeSimulation>(*std::move(world), options);
   }
 
+  // Active mode against the fake answering forward suggestions until it ends exploration with
+  // `state` (and `reason`) at scan `at`.
+  RobotLoopOptions ActiveUntil(int at, v1::ExplorationProgress::State state,
+                               const std::string& reason) {
+    server_.service().set_suggestion(Forward(/*duration=*/0.3));
+    server_.service().set_exploration_end(at, state, reason);
+    RobotLoopOptions options;
+    options.mode = DriveMode::kActive;
+    return options;
+  }
+
   FakeSlamServer server_;
   std::unique_ptr<client::SlamClient> client_;
   std::atomic<bool> stop_{false};
@@ -600,13 +611,10 @@ int Drives(const std::vector<ScriptedBase::Command>& commands) {
 }
 
 TEST_F(RobotLoopTest, DoneStopsTheRobotEndsTheRunAndClosesTheSession) {
-  server_.service().set_suggestion(Forward(/*duration=*/0.3));
-  server_.service().set_exploration_end(4, v1::ExplorationProgress::DONE,
-                                        "every frontier explored");
+  RobotLoopOptions options =
+      ActiveUntil(4, v1::ExplorationProgress::DONE, "every frontier explored");
   ScriptedBase base;
   ScriptedLaser laser;
-  RobotLoopOptions options;
-  options.mode = DriveMode::kActive;
   options.status_period = absl::ZeroDuration();  // a status after every step
   RobotLoop loop(Client(), base, laser, options);
   CommandsAfterEvent commands(loop, base, "exploration done");
@@ -644,13 +652,10 @@ TEST_F(RobotLoopTest, DoneStopsTheRobotEndsTheRunAndClosesTheSession) {
 }
 
 TEST_F(RobotLoopTest, StuckStopsTheRobotAndEndsTheRunToo) {
-  server_.service().set_suggestion(Forward(/*duration=*/0.3));
-  server_.service().set_exploration_end(2, v1::ExplorationProgress::STUCK,
-                                        "no collision-free control");
+  RobotLoopOptions options =
+      ActiveUntil(2, v1::ExplorationProgress::STUCK, "no collision-free control");
   ScriptedBase base;
   ScriptedLaser laser;
-  RobotLoopOptions options;
-  options.mode = DriveMode::kActive;
   RobotLoop loop(Client(), base, laser, options);
   CommandsAfterEvent commands(loop, base, "exploration stuck");
   bool ended_by_itself = false;
@@ -684,13 +689,10 @@ TEST_F(RobotLoopTest, OnlyActiveModeEndsAtDone) {
 }
 
 TEST_F(RobotLoopTest, KeepRunningStandsStreamingWithTheSessionOpenUntilStopped) {
-  server_.service().set_suggestion(Forward(/*duration=*/0.3));
-  server_.service().set_exploration_end(3, v1::ExplorationProgress::DONE,
-                                        "every frontier explored");
+  RobotLoopOptions options =
+      ActiveUntil(3, v1::ExplorationProgress::DONE, "every frontier explored");
   ScriptedBase base;
   ScriptedLaser laser;
-  RobotLoopOptions options;
-  options.mode = DriveMode::kActive;
   options.keep_running = true;
   RobotLoop loop(Client(), base, laser, options);
   CommandsAfterEvent commands(loop, base, "exploration done");
