@@ -21,7 +21,8 @@ PORT=${PORT:-50091}
 WAYMARK="$BUILD_DIR/bin/waymark"
 SERVER_ADDRESS="127.0.0.1:$PORT"
 # The summary keys runs.tsv keeps, in its column order (after world, mode, seed and exit).
-KEYS=(completeness completeness_300s completeness_600s completeness_1200s time_to_95_s done_time_s
+KEYS=(completeness completeness_visible completeness_300s completeness_600s completeness_1200s
+  time_to_95_s done_time_s
   final_state distance_m loc_error_mean_m loc_error_final_m cov_trace_mean collisions
   planning_ms_p50 planning_ms_p99 sim_time_s)
 
@@ -128,19 +129,21 @@ awk -F'\t' -v worlds="$WORLDS" -v modes="$MODES" -v seeds="$SEEDS" -v duration="
       if (m == 1 || x > hi[key, c]) hi[key, c] = x
       if (x >= 0) { hit[key, c]++; hitsum[key, c] += x } } }
   END {
-    printf "| world | mode | runs | completeness 300 s | 600 s | 1200 s | end | time to 0.95 (s) |"
+    printf "| world | mode | runs | completeness 300 s | 600 s | 1200 s | end | of the visible |"
+    printf " time to 0.95 (s) |"
     printf " time to DONE (s) | distance (m) | loc. error mean (m) | loc. error final (m) |"
     printf " mean cov. trace | collisions | planning p50 / p99 (ms) |\n"
-    printf "|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|\n"
+    printf "|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|\n"
     nw = split(worlds, W, " "); nm = split(modes, M, " ")
     for (i = 1; i <= nw; i++) for (j = 1; j <= nm; j++) {
       key = W[i] SUBSEP M[j]
       if (!(key in runs)) continue
       collisions = cnt[key, col["collisions"]] ? sprintf("%d", sum[key, col["collisions"]]) : "-"
-      printf "| %s | %s | %d/%d | %s | %s | %s | %s | %s | %s | %s | %s | %s | %s | %s | %s / %s |\n",
+      printf "| %s | %s | %d/%d | %s | %s | %s | %s | %s | %s | %s | %s | %s | %s | %s | %s | %s / %s |\n",
         W[i], M[j], ok[key], runs[key],
         spread(key, col["completeness_300s"]), spread(key, col["completeness_600s"]),
         spread(key, col["completeness_1200s"]), spread(key, col["completeness"]),
+        spread(key, col["completeness_visible"]),
         reached(key, col["time_to_95_s"]), reached(key, col["done_time_s"]),
         spread(key, col["distance_m"]), spread(key, col["loc_error_mean_m"]),
         spread(key, col["loc_error_final_m"]), spread(key, col["cov_trace_mean"]), collisions,
@@ -148,6 +151,7 @@ awk -F'\t' -v worlds="$WORLDS" -v modes="$MODES" -v seeds="$SEEDS" -v duration="
     }
     printf "\nmean [min, max] over the seeds (%s), %s s simulated each; runs: finished/started.\n",
       seeds, duration
+    printf "Of the visible: completeness at the end over only the wall length that can be seen at all.\n"
     printf "Times to 0.95 completeness and to DONE: mean over the runs that got there (how many did).\n"
     printf "Collisions: sum over the seeds. Planning: median over the seeds of each run'"'"'s percentile.\n"
   }' "$ROWS" > "$OUT/table.md"
