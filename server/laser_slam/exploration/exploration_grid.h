@@ -50,6 +50,8 @@ class ExplorationGrid {
   Eigen::Vector2i CellOf(const Eigen::Vector2d& point) const;
   Eigen::Vector2d Centre(int x, int y) const;
   Eigen::Vector2d Centre(const Eigen::Vector2i& c) const { return Centre(c.x(), c.y()); }
+  // The centre of the cell at grid index `index` (Index(x, y)).
+  Eigen::Vector2d CentreOf(int index) const { return Centre(index % width_, index / width_); }
 
   // Marks a cell (tests and hand-made maps): grows the grid to hold it.
   void Set(const Eigen::Vector2d& point, GridCell cell);

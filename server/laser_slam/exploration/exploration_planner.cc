@@ -19,8 +19,6 @@ namespace {
 // noise move the total by centimetres.
 constexpr double kGrowthEpsilon = 0.1;
 
-double Lg(double value, double floor) { return std::log10(std::max(value, floor)); }
-
 }  // namespace
 
 const char* BehaviourName(Behaviour behaviour) {
@@ -248,10 +246,8 @@ Suggestion ExplorationPlanner::Decide(const ExplorationView& view) {
   s.feasible = static_cast<int>(feasible.size());
 
   std::optional<Control> chosen;
-  bool finished = false;
   if (progress) {
     if (progress->state != ExplorationState::kExploring) {
-      finished = true;
       s.behaviour = Behaviour::kFinished;
       chosen = Control{0.0, 0.0};
     } else if (progress->target && !progress->path.empty()) {
@@ -259,7 +255,7 @@ Suggestion ExplorationPlanner::Decide(const ExplorationView& view) {
       if (chosen) s.behaviour = Behaviour::kToTarget;
     }
   }
-  if (!chosen && !finished) chosen = DecideLocally(view, clearance, feasible, &s);
+  if (!chosen) chosen = DecideLocally(view, clearance, feasible, &s);
   last_turn_ = chosen && chosen->linear == 0.0 ? chosen->angular : 0.0;
   blocked_ = feasible.empty();
   if (!chosen) {

@@ -4,6 +4,8 @@
 // What the exploration planner sees of a session (ExplorationView) and what it answers
 // (Suggestion).
 
+#include <algorithm>
+#include <cmath>
 #include <cstdint>
 #include <vector>
 
@@ -50,6 +52,10 @@ enum class Behaviour : std::uint8_t {
 };
 
 const char* BehaviourName(Behaviour behaviour);
+
+// lg with a floor: a term of the paper's objective J, and of the goal layer's target utility,
+// that is zero or below the floor counts as the floor (lg 0 = -inf would hide every other term).
+inline double Lg(double value, double floor) { return std::log10(std::max(value, floor)); }
 
 // The terms of the objective for one control (METHODS.md: J1, J21, J22, J).
 struct ControlScore {

@@ -6,6 +6,7 @@
 
 #include "absl/strings/str_cat.h"
 #include "server/laser_slam/geometry.h"
+#include "server/laser_slam/exploration/path_following.h"
 #include "server/laser_slam/motion.h"
 #include <Eigen/Eigenvalues>
 
@@ -30,8 +31,8 @@ constexpr double kGivenUpRadius = 0.6;
 // Occupied cells within `end_tolerance` (m) of `to` are ignored: a wall cell is looked at
 // through its own thickness.
 bool InSight(const ExplorationGrid& g, int from, int to, double end_tolerance = 0.0) {
-  const Eigen::Vector2d a = g.Centre(from % g.width(), from / g.width());
-  const Eigen::Vector2d b = g.Centre(to % g.width(), to / g.width());
+  const Eigen::Vector2d a = g.CentreOf(from);
+  const Eigen::Vector2d b = g.CentreOf(to);
   const double length = (b - a).norm();
   const int steps = static_cast<int>(std::ceil(length / (0.5 * g.resolution())));
   const int last = steps - static_cast<int>(std::floor(end_tolerance / std::max(length, 1e-9) * steps));
@@ -46,8 +47,7 @@ bool InSight(const ExplorationGrid& g, int from, int to, double end_tolerance = 
 constexpr double kFacingCosine = 0.5;
 
 // The mean direction from a frontier cell to its unknown 4-neighbours (unit; zero if none).
-Eigen::Vector2d OpenDirection(const ExplorationGrid& g, const std::vector<char>& /*mask*/, int x,
-                              int y) {
+Eigen::Vector2d OpenDirection(const ExplorationGrid& g, int x, int y) {
   Eigen::Vector2d d = Eigen::Vector2d::Zero();
   const int dx[] = {1, -1, 0, 0}, dy[] = {0, 0, 1, -1};
   for (int k = 0; k < 4; ++k) {
@@ -57,8 +57,6 @@ Eigen::Vector2d OpenDirection(const ExplorationGrid& g, const std::vector<char>&
   }
   return d.norm() > 0 ? Eigen::Vector2d(d.normalized()) : d;
 }
-
-double Lg(double value, double floor) { return std::log10(std::max(value, floor)); }
 
 bool WithinGivenUpRadius(const std::vector<Eigen::Vector2d>& points, const Eigen::Vector2d& p) {
   for (const Eigen::Vector2d& g : points) {
@@ -98,20 +96,19 @@ Eigen::Vector2d ExplorationGoals::AimFrom(const Eigen::Vector2d& point, double l
   if (i < 0 || !to_goal_->Reachable(i)) return point;
   const double start = to_goal_->Length(i);
   while (to_goal_->Parent(i) >= 0 && start - to_goal_->Length(i) < lookahead) i = to_goal_->Parent(i);
-  return grid_.Centre(i % grid_.width(), i / grid_.width());
-}
-
-const char* ExplorationStateName(ExplorationState state) {
-  switch (state) {
-    case ExplorationState::kExploring: return "exploring";
-    case ExplorationState::kDone: return "done";
-    case ExplorationState::kStuck: return "stuck";
-  }
-  return "unknown";
+  return grid_.CentreOf(i);
 }
 
 ExplorationGoals::ExplorationGoals(const ExplorationOptions& options, bool nearest_only)
-    : options_(options), nearest_only_(nearest_only), grid_(options.grid_resolution) {}
+    : options_(options), nearest_only_(nearest_only), grid_(options.grid_resolution) {
+  const double r = options.grid_resolution;
+  const int reach = static_cast<int>(std::floor(options.approach_radius / r));
+  for (int dy = -reach; dy <= reach; ++dy) {
+    for (int dx = -reach; dx <= reach; ++dx) {
+      if (std::hypot(dx, dy) * r <= options.approach_radius) approach_offsets_.emplace_back(dx, dy);
+    }
+  }
+}
 
 void ExplorationGoals::Track(const ExplorationView& view) {
   if (last_robot_) {
@@ -153,7 +150,6 @@ void ExplorationGoals::GiveUp(const Eigen::Vector2d& look_at, bool for_lack_of_p
   given_up_.push_back(look_at);
   if (for_lack_of_progress) stalled_.push_back(look_at);
   ++progress_.given_up;
-  no_progress_given_up_ += for_lack_of_progress;
 }
 
 double ExplorationGoals::Utility(const ExplorationTarget& t) const {
@@ -171,14 +167,14 @@ std::optional<ExplorationTarget> ExplorationGoals::WallTarget(const CostField& f
   Eigen::Matrix2d scatter = Eigen::Matrix2d::Zero();
   int look = region.cells.front();
   for (int cell : region.cells) {
-    const Eigen::Vector2d d = g.Centre(cell % g.width(), cell / g.width()) - region.centroid;
+    const Eigen::Vector2d d = g.CentreOf(cell) - region.centroid;
     scatter += d * d.transpose();
-    const Eigen::Vector2d l = g.Centre(look % g.width(), look / g.width()) - region.centroid;
+    const Eigen::Vector2d l = g.CentreOf(look) - region.centroid;
     if (d.squaredNorm() < l.squaredNorm()) look = cell;
   }
   Eigen::SelfAdjointEigenSolver<Eigen::Matrix2d> eigen(scatter);
   const Eigen::Vector2d along = eigen.eigenvectors().col(1);
-  const Eigen::Vector2d at = g.Centre(look % g.width(), look / g.width());
+  const Eigen::Vector2d at = g.CentreOf(look);
   // Metres of path a grazing view costs against a square one.
   constexpr double kGrazingCost = 2.0;
   const int reach = static_cast<int>(std::ceil(options_.wall_view_max / g.resolution()));
@@ -204,7 +200,7 @@ std::optional<ExplorationTarget> ExplorationGoals::WallTarget(const CostField& f
   if (best < 0) return std::nullopt;
   ExplorationTarget t;
   t.kind = TargetKind::kWall;
-  t.goal = g.Centre(best % g.width(), best / g.width());
+  t.goal = g.CentreOf(best);
   t.look_at = at;
   t.path_length = field.Length(best);
   *goal_cell = best;
@@ -217,13 +213,6 @@ std::vector<ExplorationTarget> ExplorationGoals::Targets(const CostField& field,
                                                          const ExplorationView& view,
                                                          std::vector<int>* goal_cells) {
   const ExplorationGrid& g = grid_;
-  const int reach = static_cast<int>(std::floor(options_.approach_radius / g.resolution()));
-  std::vector<Eigen::Vector2i> offsets;
-  for (int dy = -reach; dy <= reach; ++dy) {
-    for (int dx = -reach; dx <= reach; ++dx) {
-      if (std::hypot(dx, dy) * g.resolution() <= options_.approach_radius) offsets.emplace_back(dx, dy);
-    }
-  }
   std::vector<ExplorationTarget> targets;
   progress_.unreachable = 0;
   stalled_regions_ = 0;
@@ -241,8 +230,8 @@ std::vector<ExplorationTarget> ExplorationGoals::Targets(const CostField& field,
       // Which way the unknown lies from this frontier cell: the goal must look that way, or the
       // robot would only see along the frontier (the edge of a box's shadow stays an edge when
       // seen from where the shadow was cast).
-      const Eigen::Vector2d into = OpenDirection(g, frontiers.mask, x, y);
-      for (const Eigen::Vector2i& o : offsets) {
+      const Eigen::Vector2d into = OpenDirection(g, x, y);
+      for (const Eigen::Vector2i& o : approach_offsets_) {
         if (!g.Inside(x + o.x(), y + o.y())) continue;
         const int j = g.Index(x + o.x(), y + o.y());
         if (!field.Reachable(j) || (best_goal >= 0 && field.Cost(j) >= field.Cost(best_goal))) {
@@ -266,8 +255,8 @@ std::vector<ExplorationTarget> ExplorationGoals::Targets(const CostField& field,
     }
     ExplorationTarget t;
     t.kind = TargetKind::kFrontier;
-    t.goal = g.Centre(best_goal % g.width(), best_goal / g.width());
-    t.look_at = g.Centre(best_cell % g.width(), best_cell / g.width());
+    t.goal = g.CentreOf(best_goal);
+    t.look_at = g.CentreOf(best_cell);
     t.gain = open * g.resolution();
     t.path_length = field.Length(best_goal);
     t.variance_after = VarianceAfter(t.path_length, view);
@@ -285,10 +274,10 @@ std::vector<ExplorationTarget> ExplorationGoals::Targets(const CostField& field,
     for (const GridRegion& region : walls.regions) {
       GridRegion open;
       for (int cell : region.cells) {
-        if (!GivenUp(g.Centre(cell % g.width(), cell / g.width()))) open.cells.push_back(cell);
+        if (!GivenUp(g.CentreOf(cell))) open.cells.push_back(cell);
       }
       if (static_cast<int>(open.cells.size()) < 2 * options_.min_frontier_cells) continue;
-      for (int cell : open.cells) open.centroid += g.Centre(cell % g.width(), cell / g.width());
+      for (int cell : open.cells) open.centroid += g.CentreOf(cell);
       open.centroid /= static_cast<double>(open.cells.size());
       ++progress_.unmapped_walls;
       if (frontier_targets) continue;
@@ -373,10 +362,7 @@ const GoalProgress& ExplorationGoals::Update(const ExplorationView& view, bool b
   int current = -1;
   if (progress_.target) {
     const ExplorationTarget& t = *progress_.target;
-    const Eigen::Vector2d to = t.look_at - robot;
-    const bool faced = to.norm() < 1e-6 ||
-                       std::abs(NormalizeAngle(std::atan2(to.y(), to.x()) - view.robot.theta)) <=
-                           options_.face_tolerance;
+    const bool faced = std::abs(BearingError(view.robot, t.look_at)) <= options_.face_tolerance;
     const bool reached = (robot - t.goal).norm() <= options_.arrive_radius && faced;
     for (size_t i = 0; i < targets.size() && current < 0; ++i) {
       if (targets[i].kind == t.kind && (targets[i].look_at - t.look_at).norm() <=
@@ -435,11 +421,8 @@ const GoalProgress& ExplorationGoals::Update(const ExplorationView& view, bool b
                              2.0 * grid_.resolution()) *
                             (1.0 + options_.wall_penalty);
     to_goal_ = std::make_unique<CostField>(grid_, distance_, targets[chosen].goal, from_goal);
-    progress_.path.clear();
-    for (int i = to_goal_->CellIndex(robot); i >= 0 && to_goal_->Reachable(i);
-         i = to_goal_->Parent(i)) {
-      progress_.path.push_back(grid_.Centre(i % grid_.width(), i / grid_.width()));
-    }
+    progress_.path = to_goal_->PathTo(to_goal_->CellIndex(robot));  // goal first
+    std::reverse(progress_.path.begin(), progress_.path.end());
     progress_.arrived = (robot - targets[chosen].goal).norm() <= options_.arrive_radius;
   } else {
     progress_.target.reset();
@@ -477,8 +460,8 @@ const GoalProgress& ExplorationGoals::Update(const ExplorationView& view, bool b
         progress_.unreachable,
         " that no path through mapped free space reaches or that no reachable place sees; targets "
         "given up: ",
-        progress_.given_up - no_progress_given_up_, " still open once looked at, ",
-        no_progress_given_up_, " never got closer to)");
+        progress_.given_up - static_cast<int>(stalled_.size()), " still open once looked at, ",
+        stalled_.size(), " never got closer to)");
   }
   return progress_;
 }

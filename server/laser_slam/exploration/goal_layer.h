@@ -43,8 +43,6 @@ enum class TargetKind : std::uint8_t {
   kWall = 3,      // a wall the grid has and the segment map has not (unmapped_walls.h)
 };
 
-const char* ExplorationStateName(ExplorationState state);
-
 struct ExplorationTarget {
   TargetKind kind = TargetKind::kFrontier;
   Eigen::Vector2d goal = Eigen::Vector2d::Zero();     // where the robot drives to
@@ -116,6 +114,8 @@ class ExplorationGoals {
   ExplorationOptions options_;
   bool nearest_only_;
   ExplorationGrid grid_;
+  // Cell offsets within approach_radius: where a frontier cell may be reached from.
+  std::vector<Eigen::Vector2i> approach_offsets_;
   std::vector<float> distance_;  // ObstacleDistance of grid_ at this decision
   PathOptions path_options_;
   std::unique_ptr<CostField> to_goal_;  // Dijkstra from the current target's goal
@@ -127,7 +127,6 @@ class ExplorationGoals {
   std::vector<Place> places_;
   std::vector<Eigen::Vector2d> given_up_;  // look-at points never to be targeted again
   std::vector<Eigen::Vector2d> stalled_;   // ... of which given up for lack of progress
-  int no_progress_given_up_ = 0;
   int stalled_regions_ = 0;  // frontier regions left, given up for lack of progress (this decision)
   double best_length_ = 0.0;  // shortest path to the current target so far
   int since_progress_ = 0;

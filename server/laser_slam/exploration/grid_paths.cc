@@ -117,7 +117,7 @@ std::vector<Eigen::Vector2d> CostField::PathTo(int index) const {
   std::vector<Eigen::Vector2d> path;
   if (index < 0 || index >= static_cast<int>(cost_.size()) || !Reachable(index)) return path;
   for (int i = index; i >= 0; i = parent_[i]) {
-    path.push_back(grid_.Centre(i % grid_.width(), i / grid_.width()));
+    path.push_back(grid_.CentreOf(i));
   }
   std::reverse(path.begin(), path.end());
   return path;
