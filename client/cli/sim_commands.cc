@@ -129,14 +129,14 @@ absl::Status WriteTimelineCsv(const fs::path& path, const ExploreResult& result)
   out << "t_s,true_x,true_y,true_theta,est_x,est_y,est_theta,odom_x,odom_y,odom_theta,"
          "loc_error_m,odometry_error_m,robot_cov_trace,cov_trace_mean,segments,completeness,"
          "behaviour,linear,angular,duration,j,j1,j21,j22,planning_ms,state,target_kind,target_x,"
-         "target_y,path_length,open_boundary\n";
+         "target_y,path_length,open_boundary,loop_closures\n";
   for (const ScanRecord& r : result.scans) {
     const v1::SuggestedControl& c = r.suggestion;
     out << fmt::format(
         "{:.3f},{:.4f},{:.4f},{:.5f},{:.4f},{:.4f},{:.5f},{:.4f},{:.4f},{:.5f},{:.4f},{:.4f},{:.6g}"
         ","
         "{:.6g},{},{:.4f},{},{:.4f},{:.4f},{:.3f},{:.6g},{:.6g},{:.6g},{:.6g},{:.3f},{},{},{:.3f},"
-        "{:.3f},{:.3f},{:.4f}\n",
+        "{:.3f},{:.3f},{:.4f},{}\n",
         r.time, r.true_pose.x, r.true_pose.y, r.true_pose.theta, r.estimate_world.x,
         r.estimate_world.y, r.estimate_world.theta, r.odometry_world.x, r.odometry_world.y,
         r.odometry_world.theta, r.loc_error_m, r.odometry_error_m, r.robot_cov_trace,
@@ -145,7 +145,7 @@ absl::Status WriteTimelineCsv(const fs::path& path, const ExploreResult& result)
         client::ExplorationStateName(r.exploration),
         absl::AsciiStrToLower(v1::ExplorationProgress::TargetKind_Name(r.exploration.target_kind())),
         r.exploration.target().x(), r.exploration.target().y(), r.exploration.path_length(),
-        r.exploration.open_boundary());
+        r.exploration.open_boundary(), r.loop_closures);
   }
   out.close();
   if (!out) return absl::PermissionDeniedError("cannot write '" + path.string() + "'");
@@ -332,7 +332,8 @@ void AddSimCommands(CLI::App& app, CommandRegistry& registry) {
   explore->add_option("--exploration", args->exploration,
                       "Exploration parameters to override, ExplorationConfig fields in protobuf "
                       "text format (e.g. 'travel_cost: 0.2 revisit_variance: 1'; see "
-                      "docs/exploration.md)");
+                      "docs/exploration.md). max_linear and max_angular are the simulated "
+                      "base's limits too (default the paper's 0.15 m/s, 0.17 rad/s)");
   explore->add_option("--out", args->out_dir,
                       "Output folder (default ./out/sim-<world>-<mode>-s<seed>)");
   registry.Add(explore, [args](CommandContext& context) { return RunExplore(context, *args); });

@@ -167,6 +167,13 @@ absl::StatusOr<ExploreResult> RunExploration(client::SlamClient& client,
   adapters::SimOptions sim_options;
   sim_options.seed = options.seed;
   sim_options.half_degree = options.half_degree;
+  // The simulated base drives as fast as the planner is told it may (the paper's limits unless
+  // --exploration sets others): a planner that plans 0.3 m/s arcs for a 0.15 m/s base would
+  // plan for places the robot never reaches.
+  if (options.exploration.has_max_linear()) sim_options.max_linear = options.exploration.max_linear();
+  if (options.exploration.has_max_angular()) {
+    sim_options.max_angular = options.exploration.max_angular();
+  }
   adapters::OdometryError& e = sim_options.odometry;
   const double k = options.odometry_error;
   e.distance_scale = 1.0 + k * (e.distance_scale - 1.0);
@@ -214,6 +221,7 @@ absl::StatusOr<ExploreResult> RunExploration(client::SlamClient& client,
     }
     record.cov_trace_mean = update->covariance_trace_mean();
     record.segments = update->segments();
+    record.loop_closures = update->loop_closures();
     record.suggestion = update->suggestion();
     record.exploration = update->exploration();
     auto map = client.GetMap(result.session_id);

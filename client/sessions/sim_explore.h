@@ -78,6 +78,7 @@ struct ScanRecord {
   double robot_cov_trace = 0;   // covariance[0] + [4] + [8]
   double cov_trace_mean = 0;    // update.covariance_trace_mean
   uint32_t segments = 0;
+  uint32_t loop_closures = 0;  // accepted by the back end so far
   double completeness = 0;
   v1::SuggestedControl suggestion;  // what answered this scan (executed unless it is the last)
   v1::ExplorationProgress exploration;  // goal layer sessions

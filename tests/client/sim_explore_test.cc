@@ -45,7 +45,8 @@ v1::SuggestedControl Straight(double duration = 4) {
 class SimExploreTest : public ::testing::Test {
  protected:
   absl::StatusOr<ExploreResult> Explore(
-      double duration, v1::ExplorationConfig::Mode mode = v1::ExplorationConfig::WANDER) {
+      double duration, v1::ExplorationConfig::Mode mode = v1::ExplorationConfig::WANDER,
+      const v1::ExplorationConfig& exploration = {}) {
     auto world = adapters::ParseWorld(kRoom);
     EXPECT_TRUE(world.ok()) << world.status();
     client::SlamClient client(client::MakeChannel(server_.address()));
@@ -54,6 +55,7 @@ class SimExploreTest : public ::testing::Test {
     options.duration_s = duration;
     options.seed = 7;
     options.answer_timeout = absl::Seconds(10);
+    options.exploration = exploration;
     return RunExploration(client, *world, options);
   }
 
@@ -134,6 +136,25 @@ TEST_F(SimExploreTest, GoStopLoopSendsOdometryEveryControlStepAndAScanPerHold) {
   EXPECT_NEAR(summary["cov_trace_mean"].get<double>(), 0.0035, 1e-12);
   EXPECT_EQ(summary["completeness_visible"], result->completeness_visible);
   EXPECT_EQ(summary["visible_wall_share"], result->visible_wall_share);
+}
+
+// The simulated base takes the planner's velocity limits: the paper's 0.15 m/s unless the
+// exploration config sets others (a faster plan on a base that clamps it would miss its arcs).
+TEST_F(SimExploreTest, TheBaseDrivesAsFastAsTheExplorationConfigAllows) {
+  v1::SuggestedControl fast = Straight();
+  fast.set_linear(0.3);
+  server_.service().set_suggestion(fast);
+  auto paper = Explore(8);
+  ASSERT_TRUE(paper.ok()) << paper.status();
+  EXPECT_NEAR(paper->distance_m, 0.15 * 8, 0.05);
+
+  v1::ExplorationConfig config;
+  config.set_max_linear(0.3);
+  config.set_max_angular(0.4);
+  auto faster = Explore(8, v1::ExplorationConfig::WANDER, config);
+  ASSERT_TRUE(faster.ok()) << faster.status();
+  EXPECT_NEAR(faster->distance_m, 0.3 * 8, 0.05);
+  EXPECT_NEAR(server_.service().last_create().laser().exploration().max_linear(), 0.3, 1e-12);
 }
 
 TEST_F(SimExploreTest, TheLastHoldIsCutAtTheDuration) {
