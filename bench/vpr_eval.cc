@@ -103,7 +103,12 @@ struct Run {
 };
 
 std::string ModeName(RecognitionMode mode) {
-  return mode == RecognitionMode::kVerified ? "verified" : "paper";
+  switch (mode) {
+    case RecognitionMode::kVerified: return "verified";
+    case RecognitionMode::kRetrieval: return "retrieval";
+    case RecognitionMode::kPaper: break;
+  }
+  return "paper";
 }
 
 json OptionsJson(const RecognitionOptions& o) {
@@ -120,6 +125,7 @@ json OptionsJson(const RecognitionOptions& o) {
   j["min_inlier_share"] = o.min_inlier_share;
   j["ransac_threshold_px"] = o.ransac_threshold_px;
   j["shortlist"] = o.shortlist;
+  j["max_log10_nfa"] = o.max_log10_nfa;
   return j;
 }
 
@@ -146,7 +152,8 @@ json TallyJson(const Tally& t) {
 
 class Evaluation {
  public:
-  explicit Evaluation(std::string shared) : shared_(std::move(shared)) {}
+  Evaluation(std::string shared, const crossing::FeatureOptions& features, bool quick)
+      : shared_(std::move(shared)), cache_(features), quick_(quick) {}
 
   bool Load();
   void RunAll();
@@ -181,6 +188,7 @@ class Evaluation {
   std::string shared_;
   DataPaths paths_;
   FeatureCache cache_;
+  bool quick_ = false;  // the three modes at their defaults only (feature experiments)
   std::optional<CorridorSet> corridor_;
   std::optional<TripletSet> triplets_;
   std::optional<FrameSequence> kitti_, bonn_;
@@ -190,6 +198,7 @@ class Evaluation {
 
   Run paper_, verified_;
   Run verified_inliers_only_;  // verified, alpha = 1, beta = 0: the hue term left out
+  std::vector<Run> retrieval_;  // retrieval mode at several max_log10_nfa
   std::vector<Run> paper_sweep_;
   std::vector<Run> verified_sweep_;  // replayed from verified_ (and verified_none_)
   Run verified_chosen_;              // the chosen point run for real (when not the defaults)
@@ -409,6 +418,19 @@ void Evaluation::RunAll() {
   std::cerr << "verified mode, defaults:\n";
   verified_ = Execute("verified", verified, AllGroups());
 
+  {
+    RecognitionOptions o;
+    o.mode = RecognitionMode::kRetrieval;
+    const std::vector<double> limits =
+        quick_ ? std::vector<double>{-2.0, 0.0} : std::vector<double>{-4.0, -2.0, 0.0, 2.0};
+    for (double nfa : limits) {
+      o.max_log10_nfa = nfa;
+      std::cerr << "retrieval mode, max_log10_nfa " << nfa << ":\n";
+      retrieval_.push_back(Execute(absl::StrFormat("retrieval nfa %g", nfa), o, AllGroups()));
+    }
+  }
+
+  if (quick_) return;
   // The hue term of the decision can overrule the geometric evidence: the same run without it.
   {
     RecognitionOptions o = verified;
@@ -915,14 +937,25 @@ int main(int argc, char** argv) {
   app.add_option("--shared", shared, "the shared folder holding data/vpr and data/vslam");
   app.add_option("--out", out_dir, "folder for vpr_results.json and vpr_results.md")->required();
   app.add_flag("--json", print_json, "also print the JSON results on stdout");
+  waymark::crossing::FeatureOptions features;
+  bool quick = false;
+  app.add_option("--work-width", features.work_width, "working resolution (every database)");
+  app.add_option("--work-height", features.work_height, "working resolution (every database)");
+  app.add_flag("--keep-aspect", features.keep_aspect, "fit images into the working size");
+  app.add_flag("--root-sift", features.root_sift, "RootSIFT descriptors");
+  app.add_option("--max-keypoints", features.max_keypoints, "keypoint budget (0 = all)");
+  app.add_flag("--quick", quick,
+               "only the three modes at their defaults, printed, no result files (feature "
+               "experiments)");
   CLI11_PARSE(app, argc, argv);
 
-  waymark::vpr::Evaluation eval(shared);
+  waymark::vpr::Evaluation eval(shared, features, quick);
   if (!eval.Load()) {
     std::cerr << "no data to evaluate under " << shared << "/data\n";
     return 1;
   }
   eval.RunAll();
+  if (quick) return 0;
   std::error_code ec;
   std::filesystem::create_directories(out_dir, ec);
   const nlohmann::json j = eval.ToJson();

@@ -1,5 +1,8 @@
 #include "server/crossing/features.h"
 
+#include <algorithm>
+#include <cmath>
+
 #include <opencv2/features2d.hpp>
 #include <opencv2/imgcodecs.hpp>
 #include <opencv2/imgproc.hpp>
@@ -70,13 +73,38 @@ absl::StatusOr<cv::Mat> DecodeImage(const std::string& bytes) {
   return image;
 }
 
+cv::Size WorkingSize(cv::Size image, const FeatureOptions& options) {
+  if (!options.keep_aspect || image.width <= 0 || image.height <= 0) {
+    return cv::Size(options.work_width, options.work_height);
+  }
+  const double scale = std::min(options.work_width / static_cast<double>(image.width),
+                                options.work_height / static_cast<double>(image.height));
+  return cv::Size(std::max(1, static_cast<int>(std::lround(image.width * scale))),
+                  std::max(1, static_cast<int>(std::lround(image.height * scale))));
+}
+
 cv::Mat ToWorkingResolution(const cv::Mat& bgr, const FeatureOptions& options) {
-  if (bgr.cols == options.work_width && bgr.rows == options.work_height) return bgr;
+  const cv::Size size = WorkingSize(bgr.size(), options);
+  if (bgr.size() == size) return bgr;
   cv::Mat resized;
-  const bool shrinking = bgr.cols > options.work_width;
-  cv::resize(bgr, resized, cv::Size(options.work_width, options.work_height), 0, 0,
-             shrinking ? cv::INTER_AREA : cv::INTER_LINEAR);
+  const bool shrinking = bgr.cols > size.width;
+  cv::resize(bgr, resized, size, 0, 0, shrinking ? cv::INTER_AREA : cv::INTER_LINEAR);
   return resized;
+}
+
+void ToRootSift(cv::Mat* descriptors) {
+  // sqrt(d / |d|_1) has unit L2 norm, so no entry exceeds 1 and typical ones are 0.05-0.4;
+  // 512 keeps them apart in 8 bits and saturates only the rare entries above 0.5.
+  constexpr double kScale = 512.0;
+  for (int r = 0; r < descriptors->rows; ++r) {
+    uint8_t* row = descriptors->ptr<uint8_t>(r);
+    double sum = 0;
+    for (int c = 0; c < descriptors->cols; ++c) sum += row[c];
+    if (sum <= 0) continue;
+    for (int c = 0; c < descriptors->cols; ++c) {
+      row[c] = cv::saturate_cast<uint8_t>(kScale * std::sqrt(row[c] / sum));
+    }
+  }
 }
 
 absl::StatusOr<ImageFeatures> ExtractSift(const cv::Mat& working_bgr,
@@ -95,6 +123,8 @@ absl::StatusOr<ImageFeatures> ExtractSift(const cv::Mat& working_bgr,
   }
   if (features.descriptors.empty()) {
     features.descriptors = cv::Mat(0, kDescriptorSize, CV_8U);
+  } else if (options.root_sift) {
+    ToRootSift(&features.descriptors);
   }
   return features;
 }

@@ -31,8 +31,15 @@ std::vector<cv::Point2f> KeypointPositions(const ImageFeatures& features);
 // bytes, or images smaller than 8x8 (nothing to recognize).
 absl::StatusOr<cv::Mat> DecodeImage(const std::string& bytes);
 
-// Resizes to the working resolution (a plain resize, as the paper's fixed 320x240 frames).
+// The size an image of `image` size is extracted at: work_width x work_height (the paper's fixed
+// frame), or with keep_aspect the largest size of the image's aspect ratio that fits into it.
+cv::Size WorkingSize(cv::Size image, const FeatureOptions& options);
+
+// Resizes to the working size (a plain resize by default, as the paper's fixed 320x240 frames).
 cv::Mat ToWorkingResolution(const cv::Mat& bgr, const FeatureOptions& options);
+
+// RootSIFT in place on N x 128 CV_8U SIFT descriptors (see FeatureOptions::root_sift).
+void ToRootSift(cv::Mat* descriptors);
 
 // SIFT (OpenCV, nOctaveLayers = 3, i.e. 6 images per octave as the paper) on the working-resolution
 // image. An image without texture gives zero keypoints, not an error.

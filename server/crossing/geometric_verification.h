@@ -6,6 +6,7 @@
 // view was captured sees the same scene from another viewpoint, so a homography would be too
 // strict; the fundamental matrix allows any rigid camera motion.
 
+#include <optional>
 #include <vector>
 
 #include <opencv2/core.hpp>
@@ -25,6 +26,13 @@ int CountEpipolarInliers(const std::vector<cv::Point2f>& query_points,
                          const std::vector<cv::Point2f>& view_points,
                          const VerificationOptions& options,
                          std::vector<uchar>* inlier_mask = nullptr);
+
+// The RANSAC fundamental matrix itself (view^T F query = 0), or an empty optional when fewer than
+// 8 pairs or no geometry is found.
+std::optional<cv::Matx33d> EstimateFundamental(const std::vector<cv::Point2f>& query_points,
+                                               const std::vector<cv::Point2f>& view_points,
+                                               const VerificationOptions& options,
+                                               std::vector<uchar>* inlier_mask = nullptr);
 
 }  // namespace waymark::crossing
 

@@ -36,8 +36,9 @@ absl::Status ValidateClusterOptions(const ClusterOptions& o) {
 }
 
 absl::Status ValidateRecognitionOptions(const RecognitionOptions& o) {
-  if (o.mode != RecognitionMode::kPaper && o.mode != RecognitionMode::kVerified) {
-    return Invalid("mode must be PAPER or VERIFIED");
+  if (o.mode != RecognitionMode::kPaper && o.mode != RecognitionMode::kVerified &&
+      o.mode != RecognitionMode::kRetrieval) {
+    return Invalid("mode must be PAPER, VERIFIED or RETRIEVAL");
   }
   if (!(o.ratio > 0 && o.ratio <= 1)) {
     return Invalid(absl::StrCat("ratio (lambda) = ", o.ratio, " must be in (0, 1]"));
@@ -62,6 +63,13 @@ absl::Status ValidateRecognitionOptions(const RecognitionOptions& o) {
   if (!(o.ransac_threshold_px > 0 && o.ransac_threshold_px <= 50)) {
     return Invalid(absl::StrCat("ransac_threshold_px = ", o.ransac_threshold_px,
                                 " must be in (0, 50]"));
+  }
+  if (!(o.max_log10_nfa >= -100 && o.max_log10_nfa <= 100)) {
+    return Invalid(absl::StrCat("max_log10_nfa = ", o.max_log10_nfa, " must be in [-100, 100]"));
+  }
+  if (!(o.evidence_threshold >= 0 && o.evidence_threshold < 1)) {
+    return Invalid(absl::StrCat("evidence_threshold = ", o.evidence_threshold,
+                                " must be in [0, 1)"));
   }
   if (o.shortlist < 1 || o.shortlist > 1000) {
     return Invalid(absl::StrCat("shortlist = ", o.shortlist, " must be in [1, 1000]"));

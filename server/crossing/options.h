@@ -14,6 +14,10 @@ enum class RecognitionMode {
   // Beyond the paper: looser ratio, shortlist from the global index, geometric verification
   // (RANSAC fundamental matrix, inliers are the match count) and a calibrated rejection rule.
   kVerified = 2,
+  // For robots that are not where the views were captured (issue 18): the verified mode's
+  // retrieval over every view, and acceptance by the number of false alarms of the epipolar
+  // match set (a_contrario.h) instead of an absolute inlier count.
+  kRetrieval = 3,
 };
 
 struct FeatureOptions {
@@ -24,6 +28,12 @@ struct FeatureOptions {
   int hue_bins = 36;
   // Keep at most this many SIFT keypoints (strongest first); 0 = no limit (ours; the paper has none).
   int max_keypoints = 0;
+  // Fit the image into work_width x work_height keeping its aspect ratio (ours) instead of the
+  // paper's plain resize, which squeezes portrait photos and wide frames to 4:3.
+  bool keep_aspect = false;
+  // RootSIFT (Arandjelovic & Zisserman 2012): each descriptor L1-normalised and square-rooted, so
+  // that Euclidean distance compares them as the Hellinger kernel does (ours).
+  bool root_sift = false;
 };
 
 struct ClusterOptions {
@@ -53,6 +63,12 @@ struct RecognitionOptions {
   double min_inlier_share = 0.2;    // ...and this share of its tentative matches
   double ransac_threshold_px = 3.0; // max epipolar distance at working resolution
   int shortlist = 24;               // views verified per query, ranked by index votes
+  // Retrieval mode (ours): the winner is accepted when chance alone would match fewer than
+  // 10^max_log10_nfa views of the shortlist as well (0: less than one; a_contrario.h).
+  double max_log10_nfa = 0.0;
+  // StreamRecognize in retrieval mode (the service, not Recognize): a crossing is recognized once
+  // its posterior over the frames passes this (place_evidence.h); 0 = every frame on its own.
+  double evidence_threshold = 0.95;
 };
 
 // Search parameters of the global descriptor index (ours; see descriptor_index.h).

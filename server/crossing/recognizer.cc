@@ -3,6 +3,8 @@
 #include <algorithm>
 
 #include "absl/strings/str_cat.h"
+#include "absl/strings/str_format.h"
+#include "server/crossing/a_contrario.h"
 #include "server/crossing/decision.h"
 #include "server/crossing/geometric_verification.h"
 #include "server/crossing/hue_histogram.h"
@@ -92,38 +94,55 @@ void RecognizePaper(const ViewDatabase& db, const ImageFeatures& query,
   out->candidates = std::move(list);
 }
 
-void RecognizeVerified(const ViewDatabase& db, const ImageFeatures& query,
-                       const RecognitionOptions& options, Recognition* out) {
-  auto start = Clock::now();
-  const ViewMatches tentative = MatchQuery(db, query.descriptors, options.verified_ratio, false);
-  // Shortlist: the views with most tentative matches.
+// The verified and retrieval modes' shortlist: the views with most tentative matches (ratio
+// `verified_ratio`, through the index over every view), most first.
+std::vector<std::pair<int, uint32_t>> Shortlist(const ViewMatches& tentative, int size) {
   std::vector<std::pair<int, uint32_t>> ranked;
   for (const auto& [slot, m] : tentative) ranked.emplace_back(static_cast<int>(m.size()), slot);
   std::sort(ranked.begin(), ranked.end(), [](const auto& a, const auto& b) {
     return a.first != b.first ? a.first > b.first : a.second < b.second;
   });
-  if (static_cast<int>(ranked.size()) > options.shortlist) ranked.resize(options.shortlist);
+  if (static_cast<int>(ranked.size()) > size) ranked.resize(size);
+  return ranked;
+}
+
+// The matched keypoint positions of the query (`q`) and of the view (`v`), pair by pair.
+void MatchedPoints(const ImageFeatures& query, const ViewEntry& view,
+                   const std::vector<DescriptorMatch>& pairs, std::vector<cv::Point2f>* q,
+                   std::vector<cv::Point2f>* v) {
+  q->clear();
+  v->clear();
+  for (const DescriptorMatch& p : pairs) {
+    q->push_back(query.keypoints[p.query_index].pt);
+    v->push_back(view.points[p.train_id - view.span.first]);
+  }
+}
+
+bool IsCenter(const ViewDatabase& db, uint32_t slot) {
+  const ViewEntry& view = db.views()[slot];
+  return view.cluster >= 0 && db.clusters()[view.cluster].center == slot;
+}
+
+void RecognizeVerified(const ViewDatabase& db, const ImageFeatures& query,
+                       const RecognitionOptions& options, Recognition* out) {
+  auto start = Clock::now();
+  const ViewMatches tentative = MatchQuery(db, query.descriptors, options.verified_ratio, false);
+  const auto ranked = Shortlist(tentative, options.shortlist);
   out->matching_ms = MsSince(start);
 
   start = Clock::now();
   VerificationOptions verification;
   verification.threshold_px = options.ransac_threshold_px;
   std::vector<Candidate> list;
+  std::vector<cv::Point2f> q, v;
   for (const auto& [count, slot] : ranked) {
     // Inliers are a subset of the tentative matches: a view with fewer tentative matches than the
     // rejection rule's minimum could never be accepted, so it is not worth a RANSAC.
     if (count < std::max(8, options.min_inliers)) continue;
-    const auto& pairs = tentative.at(slot);
-    const ViewEntry& view = db.views()[slot];
-    std::vector<cv::Point2f> q, v;
-    for (const DescriptorMatch& p : pairs) {
-      q.push_back(query.keypoints[p.query_index].pt);
-      v.push_back(view.points[p.train_id - view.span.first]);
-    }
+    MatchedPoints(query, db.views()[slot], tentative.at(slot), &q, &v);
     const int inliers = CountEpipolarInliers(q, v, verification);
     if (inliers == 0) continue;
-    const bool is_center = view.cluster >= 0 && db.clusters()[view.cluster].center == slot;
-    list.push_back(Candidate{slot, inliers, count, is_center});
+    list.push_back(Candidate{slot, inliers, count, IsCenter(db, slot)});
   }
   out->verification_ms = MsSince(start);
   if (list.empty()) {
@@ -148,6 +167,66 @@ void RecognizeVerified(const ViewDatabase& db, const ImageFeatures& query,
   out->candidates = std::move(list);
 }
 
+// Retrieval mode: the verified mode's shortlist, each view's match set judged by its number of
+// false alarms (a_contrario.h), the most meaningful first; the paper's hue and decision steps
+// rank the top N2, and the winner is accepted when its match set is meaningful.
+void RecognizeRetrieval(const ViewDatabase& db, const ImageFeatures& query,
+                        const RecognitionOptions& options, Recognition* out) {
+  auto start = Clock::now();
+  const ViewMatches tentative = MatchQuery(db, query.descriptors, options.verified_ratio, false);
+  const auto ranked = Shortlist(tentative, options.shortlist);
+  out->matching_ms = MsSince(start);
+
+  start = Clock::now();
+  VerificationOptions verification;
+  verification.threshold_px = options.ransac_threshold_px;
+  const cv::Size image(std::max(1, query.width), std::max(1, query.height));
+  // Every verified view is a test: the shortlist's size (at least 1).
+  const double tests = std::max<double>(1.0, static_cast<double>(ranked.size()));
+  std::vector<Candidate> list;
+  std::vector<cv::Point2f> q, v;
+  for (const auto& [count, slot] : ranked) {
+    if (count < 8) continue;  // the 8-point minimum
+    MatchedPoints(query, db.views()[slot], tentative.at(slot), &q, &v);
+    const std::optional<cv::Matx33d> f = EstimateFundamental(q, v, verification);
+    if (!f) continue;
+    // The smaller support of the two images is the more conservative random-point model.
+    const cv::Size qs = MatchSupport(q, image);
+    const cv::Size vs = MatchSupport(v, image);
+    const cv::Size support = qs.area() < vs.area() ? qs : vs;
+    const EpipolarEvidence evidence =
+        AContrarioEvidence(EpipolarResiduals(*f, q, v), support, tests);
+    if (evidence.inliers == 0) continue;
+    Candidate c{slot, evidence.inliers, count, IsCenter(db, slot)};
+    c.log10_nfa = evidence.log10_nfa;
+    list.push_back(c);
+  }
+  out->verification_ms = MsSince(start);
+  if (list.empty()) {
+    out->reason = "no view has geometrically consistent matches";
+    return;
+  }
+  std::stable_sort(list.begin(), list.end(), [](const Candidate& a, const Candidate& b) {
+    return a.log10_nfa < b.log10_nfa;
+  });
+  start = Clock::now();
+  const int best = Decide(db, query, options, &list);
+  out->histogram_ms = MsSince(start);
+  const Candidate& winner = list[best];
+  out->decision = winner.decision;
+  out->log10_nfa = winner.log10_nfa;
+  if (!(winner.log10_nfa < options.max_log10_nfa)) {
+    out->reason = absl::StrFormat(
+        "best view's %d inliers of %d tentative matches could be chance: 10^%.1f false alarms "
+        "expected, the limit is 10^%.1f",
+        winner.matches, winner.tentative, winner.log10_nfa, options.max_log10_nfa);
+  } else {
+    out->recognized = true;
+    out->best_slot = winner.slot;
+  }
+  out->candidates = std::move(list);
+}
+
 }  // namespace
 
 absl::StatusOr<Recognition> Recognize(const ViewDatabase& database, const ImageFeatures& query,
@@ -164,6 +243,8 @@ absl::StatusOr<Recognition> Recognize(const ViewDatabase& database, const ImageF
   }
   if (options.mode == RecognitionMode::kVerified) {
     RecognizeVerified(database, query, options, &out);
+  } else if (options.mode == RecognitionMode::kRetrieval) {
+    RecognizeRetrieval(database, query, options, &out);
   } else {
     RecognizePaper(database, query, options, &out);
   }

@@ -24,12 +24,16 @@ struct Candidate {
   bool kept = false;       // among the top N2 that reached the histogram step
   double similarity = 0;   // S = 1 - Bhattacharyya distance (kept views only)
   double decision = 0;     // Des (kept views only)
+  double log10_nfa = 0;    // retrieval mode: false alarms of its match set (a_contrario.h)
 };
 
 struct Recognition {
   bool recognized = false;
   uint32_t best_slot = 0;  // valid when recognized
   double decision = 0;
+  // Retrieval mode: log10 of the winner's expected number of false alarms (the lower, the
+  // surer; < max_log10_nfa when recognized).
+  double log10_nfa = 0;
   std::vector<Candidate> candidates;  // sorted by matches, descending
   int qualifying_clusters = 0;
   std::string reason;  // why not recognized

@@ -93,9 +93,12 @@ absl::StatusOr<std::shared_ptr<CrossingRegistry::Database>> CrossingRegistry::Lo
 
   // One view at a time: a large database never sits in memory twice (rows and index).
   const absl::Status loaded = store_->ForEachView(record.id, [&](storage::ViewRecord&& v) {
-    if (v.format_version != storage::kFeatureFormatVersion ||
-        v.width != db->options.features.work_width ||
-        v.height != db->options.features.work_height) {
+    const crossing::FeatureOptions& f = db->options.features;
+    // With keep_aspect a view fills the working size along one side.
+    const bool size_fits = f.keep_aspect ? (v.width <= f.work_width && v.height <= f.work_height &&
+                                            (v.width == f.work_width || v.height == f.work_height))
+                                         : (v.width == f.work_width && v.height == f.work_height);
+    if (v.format_version != storage::kFeatureFormatVersion || !size_fits) {
       return absl::FailedPreconditionError(absl::StrCat(
           "view ", v.id, " was extracted with format ", v.format_version, " at ", v.width, "x",
           v.height, ", not what this server uses: re-enroll the database"));
@@ -325,7 +328,7 @@ absl::StatusOr<v1::RebuildClustersResponse> CrossingRegistry::RebuildClusters(
 }
 
 absl::StatusOr<v1::RecognizeResponse> CrossingRegistry::Recognize(
-    const v1::RecognizeRequest& request) {
+    const v1::RecognizeRequest& request, crossing::RecognitionOptions* effective) {
   const auto start = Clock::now();
   absl::StatusOr<std::shared_ptr<Database>> found = Find(request.database());
   if (!found.ok()) return found.status();
@@ -333,6 +336,7 @@ absl::StatusOr<v1::RecognizeResponse> CrossingRegistry::Recognize(
   absl::StatusOr<crossing::RecognitionOptions> options =
       ResolveRecognitionOptions(db.options.recognition, request.params());
   if (!options.ok()) return options.status();
+  if (effective != nullptr) *effective = *options;
 
   crossing::ExtractionTimings timings;
   absl::StatusOr<crossing::ImageFeatures> features =
@@ -356,6 +360,7 @@ absl::StatusOr<v1::RecognizeResponse> CrossingRegistry::Recognize(
     response.set_heading_deg(best.heading_deg);
   }
   response.set_decision(result->decision);
+  response.set_log10_nfa(result->log10_nfa);
   for (const crossing::Candidate& c : result->candidates) {
     const crossing::ViewEntry& v = views[c.slot];
     v1::Candidate* out = response.add_candidates();
@@ -370,6 +375,7 @@ absl::StatusOr<v1::RecognizeResponse> CrossingRegistry::Recognize(
     out->set_similarity(c.similarity);
     out->set_decision(c.decision);
     out->set_kept(c.kept);
+    out->set_log10_nfa(c.log10_nfa);
   }
   response.set_keypoints(features->descriptors.rows);
   response.set_qualifying_clusters(result->qualifying_clusters);

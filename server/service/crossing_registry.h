@@ -81,7 +81,10 @@ class CrossingRegistry {
   absl::StatusOr<v1::RebuildClustersResponse> RebuildClusters(
       const v1::RebuildClustersRequest& request);
 
-  absl::StatusOr<v1::RecognizeResponse> Recognize(const v1::RecognizeRequest& request);
+  // `effective`, if given, gets the options the request resolved to (the database's defaults
+  // under the request's overrides).
+  absl::StatusOr<v1::RecognizeResponse> Recognize(
+      const v1::RecognizeRequest& request, crossing::RecognitionOptions* effective = nullptr);
 
  private:
   using Database = ResidentDatabase;

@@ -1,7 +1,9 @@
 #include "server/service/crossing_service.h"
 
+
 #include "absl/strings/str_cat.h"
 #include "server/service/service_call.h"
+#include "server/service/stream_evidence.h"
 
 namespace waymark::service {
 
@@ -182,13 +184,16 @@ grpc::Status CrossingServiceImpl::StreamRecognize(
   const auto watch = idle_->WatchStream(context);
   v1::RecognizeRequest request;
   int64_t frame = 0;
+  StreamEvidence evidence;  // retrieval mode: the belief over the stream's frames
   while (stream->Read(&request)) {
     watch->Touch();
     if (context->IsCancelled()) return grpc::Status(grpc::StatusCode::CANCELLED, "cancelled");
-    absl::StatusOr<v1::RecognizeResponse> result = registry_->Recognize(request);
+    crossing::RecognitionOptions effective;
+    absl::StatusOr<v1::RecognizeResponse> result = registry_->Recognize(request, &effective);
     v1::RecognizeResponse response;
     if (result.ok()) {
       response = std::move(*result);
+      evidence.Apply(effective, &response);
     } else if (result.status().code() == absl::StatusCode::kNotFound ||
                result.status().code() == absl::StatusCode::kFailedPrecondition) {
       // No frame can succeed against a missing or empty database: end the stream.

@@ -15,10 +15,12 @@ absl::StatusOr<RecognitionMode> FromProtoMode(v1::RecognitionMode mode) {
       return RecognitionMode::kPaper;
     case v1::RECOGNITION_MODE_VERIFIED:
       return RecognitionMode::kVerified;
+    case v1::RECOGNITION_MODE_RETRIEVAL:
+      return RecognitionMode::kRetrieval;
     default:
-      return absl::InvalidArgumentError(
-          absl::StrCat("recognition mode ", static_cast<int>(mode),
-                       " is not known: use RECOGNITION_MODE_PAPER or RECOGNITION_MODE_VERIFIED"));
+      return absl::InvalidArgumentError(absl::StrCat(
+          "recognition mode ", static_cast<int>(mode),
+          " is not known: use RECOGNITION_MODE_PAPER, _VERIFIED or _RETRIEVAL"));
   }
 }
 
@@ -40,6 +42,8 @@ absl::Status Overlay(const v1::RecognitionParams& p, crossing::RecognitionOption
   if (p.has_min_inlier_share()) options->min_inlier_share = p.min_inlier_share();
   if (p.has_ransac_threshold_px()) options->ransac_threshold_px = p.ransac_threshold_px();
   if (p.has_shortlist()) options->shortlist = p.shortlist();
+  if (p.has_max_log10_nfa()) options->max_log10_nfa = p.max_log10_nfa();
+  if (p.has_evidence_threshold()) options->evidence_threshold = p.evidence_threshold();
   return crossing::ValidateRecognitionOptions(*options);
 }
 
@@ -56,13 +60,19 @@ void FillRecognition(const crossing::RecognitionOptions& o, v1::RecognitionParam
   p->set_min_inlier_share(o.min_inlier_share);
   p->set_ransac_threshold_px(o.ransac_threshold_px);
   p->set_shortlist(o.shortlist);
+  p->set_max_log10_nfa(o.max_log10_nfa);
+  p->set_evidence_threshold(o.evidence_threshold);
 }
 
 }  // namespace
 
 v1::RecognitionMode ToProtoMode(RecognitionMode mode) {
-  return mode == RecognitionMode::kVerified ? v1::RECOGNITION_MODE_VERIFIED
-                                            : v1::RECOGNITION_MODE_PAPER;
+  switch (mode) {
+    case RecognitionMode::kVerified: return v1::RECOGNITION_MODE_VERIFIED;
+    case RecognitionMode::kRetrieval: return v1::RECOGNITION_MODE_RETRIEVAL;
+    case RecognitionMode::kPaper: break;
+  }
+  return v1::RECOGNITION_MODE_PAPER;
 }
 
 absl::StatusOr<v1::DatabaseParams> EffectiveDatabaseParams(const v1::DatabaseParams& requested) {
@@ -71,6 +81,8 @@ absl::StatusOr<v1::DatabaseParams> EffectiveDatabaseParams(const v1::DatabasePar
   if (requested.has_work_height()) o.features.work_height = requested.work_height();
   if (requested.has_hue_bins()) o.features.hue_bins = requested.hue_bins();
   if (requested.has_max_keypoints()) o.features.max_keypoints = requested.max_keypoints();
+  if (requested.has_keep_aspect()) o.features.keep_aspect = requested.keep_aspect();
+  if (requested.has_root_sift()) o.features.root_sift = requested.root_sift();
   if (requested.has_cluster_threshold()) o.clustering.threshold = requested.cluster_threshold();
   if (absl::Status s = crossing::ValidateFeatureOptions(o.features); !s.ok()) return s;
   if (absl::Status s = crossing::ValidateClusterOptions(o.clustering); !s.ok()) return s;
@@ -81,6 +93,8 @@ absl::StatusOr<v1::DatabaseParams> EffectiveDatabaseParams(const v1::DatabasePar
   effective.set_work_height(o.features.work_height);
   effective.set_hue_bins(o.features.hue_bins);
   effective.set_max_keypoints(o.features.max_keypoints);
+  effective.set_keep_aspect(o.features.keep_aspect);
+  effective.set_root_sift(o.features.root_sift);
   effective.set_cluster_threshold(o.clustering.threshold);
   FillRecognition(o.recognition, effective.mutable_recognition());
   return effective;
@@ -92,6 +106,8 @@ DatabaseOptions ToDatabaseOptions(const v1::DatabaseParams& p) {
   o.features.work_height = p.work_height();
   o.features.hue_bins = p.hue_bins();
   o.features.max_keypoints = p.max_keypoints();
+  o.features.keep_aspect = p.keep_aspect();
+  o.features.root_sift = p.root_sift();
   o.clustering.threshold = p.cluster_threshold();
   // Stored params were validated when the database was created.
   Overlay(p.recognition(), &o.recognition).IgnoreError();
