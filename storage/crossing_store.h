@@ -41,6 +41,9 @@ struct ViewRecord {
   int64_t id = 0;  // assigned on insert; increasing ids are the enrollment order
   int64_t crossing_id = 0;
   double heading_deg = 0;
+  // Where in the crossing the view was taken ("north-kerb", "p2", "t=12.5s"): free text that only
+  // tells the views of one heading apart; empty = not tagged (and every view before schema v6).
+  std::string position;
   int32_t width = 0;   // working resolution the features were extracted at
   int32_t height = 0;
   int32_t keypoint_count = 0;

@@ -186,6 +186,13 @@ ALTER TABLE view ADD COLUMN content_sha256 BLOB;
 CREATE INDEX view_content_sha256 ON view(content_sha256) WHERE content_sha256 IS NOT NULL;
 )sql";
 
+// v6: the capture position of each crossing view (issue 18): where in the crossing the view was
+// taken, so one crossing may hold views from several positions at the same heading. Free text,
+// '' (not tagged) for the views enrolled before, which is what they were.
+constexpr absl::string_view kV6ViewPosition = R"sql(
+ALTER TABLE view ADD COLUMN position TEXT NOT NULL DEFAULT '';
+)sql";
+
 absl::Status TooNewError(sqlite::Connection& connection, int version, int latest) {
   return absl::FailedPreconditionError(absl::StrCat(
       "database \"", connection.path(), "\" has schema version ", version,
@@ -203,6 +210,7 @@ const std::vector<absl::string_view>& SchemaMigrations() {
       kV3Tokens,
       kV4VisualSessions,
       kV5ViewContentHash,
+      kV6ViewPosition,
   };
   return *kSteps;
 }

@@ -88,8 +88,8 @@ absl::Status CheckBlobSize(const Statement& row, int column, int64_t expected, i
 // Columns read by ReadViewRow, in order.
 constexpr char kSelectViews[] =
     "SELECT v.id, v.crossing_id, v.heading_deg, v.width, v.height, v.keypoint_count, "
-    "v.keypoints, v.descriptors, v.hue_hist, v.hue_bins, v.format_version, v.content_sha256 "
-    "FROM view v JOIN crossing c ON c.id = v.crossing_id WHERE c.db_id = ? ORDER BY v.id";
+    "v.keypoints, v.descriptors, v.hue_hist, v.hue_bins, v.format_version, v.content_sha256, "
+    "v.position FROM view v JOIN crossing c ON c.id = v.crossing_id WHERE c.db_id = ? ORDER BY v.id";
 
 absl::StatusOr<ViewRecord> ReadViewRow(const Statement& row) {
   ViewRecord view;
@@ -112,6 +112,7 @@ absl::StatusOr<ViewRecord> ReadViewRow(const Statement& row) {
   view.descriptors = row.ColumnBlob(7);
   ASSIGN_OR_RETURN(view.hue_hist, row.ColumnFloatBlob(8));
   if (!row.ColumnIsNull(11)) view.content_sha256 = std::string(row.ColumnBlobView(11));
+  view.position = row.ColumnText(12);
   return view;
 }
 
@@ -502,7 +503,7 @@ class SqliteCrossingStore final : public CrossingStore {
         connection_.Prepare(
             "INSERT INTO view (crossing_id, heading_deg, width, height, keypoint_count, "
             "keypoints, descriptors, hue_hist, hue_bins, format_version, image, created_at, "
-            "content_sha256) VALUES (?, ?, ?, ?, ?, ?, ?, ?, ?, ?, ?, ?, ?)"));
+            "content_sha256, position) VALUES (?, ?, ?, ?, ?, ?, ?, ?, ?, ?, ?, ?, ?, ?)"));
     RETURN_IF_ERROR(insert.BindInt64(1, view.crossing_id));
     RETURN_IF_ERROR(insert.BindDouble(2, view.heading_deg));
     RETURN_IF_ERROR(insert.BindInt64(3, view.width));
@@ -521,6 +522,7 @@ class SqliteCrossingStore final : public CrossingStore {
                         ? insert.BindNull(13)
                         : insert.BindBlob(13, view.content_sha256.data(),
                                           view.content_sha256.size()));
+    RETURN_IF_ERROR(insert.BindText(14, view.position));
     RETURN_IF_ERROR(insert.Run());
 
     AddViewResult result;

@@ -2,6 +2,9 @@
 
 #include <fmt/format.h>
 
+#include <algorithm>
+#include <vector>
+
 #include "client/common/output.h"
 #include "client/common/proto_json.h"
 
@@ -12,9 +15,11 @@ std::string RecognitionSummary(const v1::RecognizeResponse& response) {
     return response.reason().empty() ? "not recognized"
                                      : fmt::format("not recognized: {}", response.reason());
   }
-  return fmt::format("recognized {}, heading {:.1f} deg, decision {:.3f} (view {})",
+  const std::string position =
+      response.position().empty() ? "" : fmt::format(", position {}", response.position());
+  return fmt::format("recognized {}, heading {:.1f} deg, decision {:.3f} (view {}{})",
                      response.crossing(), response.heading_deg(), response.decision(),
-                     response.view_id());
+                     response.view_id(), position);
 }
 
 std::string RecognitionDetails(const v1::RecognizeResponse& response) {
@@ -32,23 +37,34 @@ void PrintCandidateTable(std::ostream& out, const v1::RecognizeResponse& respons
     return;
   }
   const bool verified = response.mode() == v1::RECOGNITION_MODE_VERIFIED;
-  Table table({{"view", true},
-               {"crossing"},
-               {"heading", true},
-               {"cluster", true},
-               {"centre"},
-               {verified ? "inliers" : "matches", true},
-               {"tentative", true},
-               {"similarity", true},
-               {"decision", true},
-               {"best"}});
+  // Capture positions get a column when some view has one (databases enrolled with positions).
+  const bool positions =
+      std::any_of(response.candidates().begin(), response.candidates().end(),
+                  [](const v1::Candidate& c) { return !c.position().empty(); });
+  // The position column goes after the heading.
+  constexpr int kPositionColumn = 3;
+  std::vector<Table::Column> columns = {{"view", true},
+                                        {"crossing"},
+                                        {"heading", true},
+                                        {"cluster", true},
+                                        {"centre"},
+                                        {verified ? "inliers" : "matches", true},
+                                        {"tentative", true},
+                                        {"similarity", true},
+                                        {"decision", true},
+                                        {"best"}};
+  if (positions) columns.insert(columns.begin() + kPositionColumn, {"position"});
+  Table table(std::move(columns));
   for (const v1::Candidate& c : response.candidates()) {
     const bool best = response.recognized() && c.view_id() == response.view_id();
-    table.AddRow({std::to_string(c.view_id()), c.crossing(), fmt::format("{:.1f}", c.heading_deg()),
-                  std::to_string(c.cluster_id()), c.is_center() ? "yes" : "",
-                  std::to_string(c.matches()), verified ? std::to_string(c.tentative()) : "-",
-                  c.kept() ? fmt::format("{:.3f}", c.similarity()) : "-",
-                  c.kept() ? fmt::format("{:.3f}", c.decision()) : "-", best ? "<=" : ""});
+    std::vector<std::string> row = {
+        std::to_string(c.view_id()), c.crossing(), fmt::format("{:.1f}", c.heading_deg()),
+        std::to_string(c.cluster_id()), c.is_center() ? "yes" : "", std::to_string(c.matches()),
+        verified ? std::to_string(c.tentative()) : "-",
+        c.kept() ? fmt::format("{:.3f}", c.similarity()) : "-",
+        c.kept() ? fmt::format("{:.3f}", c.decision()) : "-", best ? "<=" : ""};
+    if (positions) row.insert(row.begin() + kPositionColumn, c.position());
+    table.AddRow(std::move(row));
   }
   table.Print(out);
 }

@@ -10,14 +10,16 @@ namespace waymark::cli {
 
 // Human-readable recognition results, shared by `recognize` (files and camera) and `eval`.
 
-// "recognized A, heading 30.0 deg, decision 0.873" or "not recognized: <reason>".
+// "recognized A, heading 30.0 deg, decision 0.873 (view 12)" (", position north-kerb" after the
+// view when it has one) or "not recognized: <reason>".
 std::string RecognitionSummary(const v1::RecognizeResponse& response);
 
 // "keypoints 512, qualifying clusters 3, server 45.1 ms (decode 1.2, extraction 30.1, ...)".
 std::string RecognitionDetails(const v1::RecognizeResponse& response);
 
-// The candidate list as in the paper's Table 1: view, crossing, heading, matches, similarity,
-// decision (similarity and decision only for the views the histogram step saw).
+// The candidate list as in the paper's Table 1: view, crossing, heading (and capture position when
+// a view has one), matches, similarity, decision (similarity and decision only for the views the
+// histogram step saw).
 void PrintCandidateTable(std::ostream& out, const v1::RecognizeResponse& response);
 
 }  // namespace waymark::cli

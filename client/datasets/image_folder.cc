@@ -3,9 +3,11 @@
 #include <algorithm>
 #include <cctype>
 #include <charconv>
+#include <map>
 #include <set>
 #include <system_error>
 #include <tuple>
+#include <utility>
 
 #include "absl/status/status.h"
 #include "absl/strings/str_cat.h"
@@ -30,14 +32,19 @@ bool IsVisibleImage(const fs::directory_entry& entry) {
 // A folder in messages: "DIR/a/b/".
 std::string FolderName(const fs::path& folder) { return folder.string() + "/"; }
 
-// An image found in a first-level folder of a scanned folder.
+// An image found in a first-level folder of a scanned folder, or in a position folder inside one.
 struct FoundImage {
   std::string folder;
   fs::path path;
+  std::string position;  // the position folder's name; empty for an image directly in `folder`
 };
 
-// Where a scan found images: directly in DIR, in DIR/<folder>/ (where the layouts want them), and
-// the folders below DIR/<folder>/ that hold images (too deep).
+// Whether a walk takes DIR/<folder>/<position>/ as a place for images (enrollment) or not.
+enum class PositionFolders { kNo, kYes };
+
+// Where a scan found images: directly in DIR, in DIR/<folder>/ (and DIR/<folder>/<position>/ with
+// PositionFolders::kYes) where the layouts want them, and the folders below those that hold images
+// (too deep).
 struct FolderWalk {
   std::vector<fs::path> top;
   std::vector<FoundImage> images;
@@ -56,7 +63,21 @@ void CollectImageFolders(const fs::path& folder, std::set<fs::path>* out) {
   }
 }
 
-absl::StatusOr<FolderWalk> WalkFolder(const fs::path& dir) {
+// The images directly in `folder` (a position folder of crossing `crossing`) into `walk`, and its
+// sub-folders that hold images into its too-deep list.
+void WalkPositionFolder(const fs::path& folder, const std::string& crossing, FolderWalk* walk) {
+  const std::string position = folder.filename().string();
+  for (const fs::directory_entry& file : fs::directory_iterator(folder)) {
+    if (IsVisibleImage(file)) {
+      walk->images.push_back({crossing, file.path(), position});
+    } else if (file.is_directory() && !IsHidden(file.path())) {
+      CollectImageFolders(file.path(), &walk->too_deep);
+    }
+  }
+}
+
+absl::StatusOr<FolderWalk> WalkFolder(const fs::path& dir,
+                                      PositionFolders positions = PositionFolders::kNo) {
   std::error_code ec;
   if (!fs::is_directory(dir, ec)) {
     return absl::NotFoundError(absl::StrCat("'", dir.string(), "' is not a directory"));
@@ -72,9 +93,13 @@ absl::StatusOr<FolderWalk> WalkFolder(const fs::path& dir) {
       const std::string folder = entry.path().filename().string();
       for (const fs::directory_entry& file : fs::directory_iterator(entry.path())) {
         if (IsVisibleImage(file)) {
-          walk.images.push_back({folder, file.path()});
+          walk.images.push_back({folder, file.path(), ""});
         } else if (file.is_directory() && !IsHidden(file.path())) {
-          CollectImageFolders(file.path(), &walk.too_deep);
+          if (positions == PositionFolders::kYes) {
+            WalkPositionFolder(file.path(), folder, &walk);
+          } else {
+            CollectImageFolders(file.path(), &walk.too_deep);
+          }
         }
       }
     }
@@ -89,8 +114,10 @@ absl::StatusOr<FolderWalk> WalkFolder(const fs::path& dir) {
   return walk;
 }
 
-// The problems of a walk that no layout of DIR/<folder>/<file> accepts.
-std::vector<std::string> DepthProblems(const fs::path& dir, const FolderWalk& walk) {
+// The problems of a walk that no layout of DIR/<folder>/<file> (or, with PositionFolders::kYes,
+// DIR/<folder>/<position>/<file>) accepts.
+std::vector<std::string> DepthProblems(const fs::path& dir, const FolderWalk& walk,
+                                       PositionFolders positions = PositionFolders::kNo) {
   std::vector<std::string> problems;
   if (!walk.top.empty()) {
     problems.push_back(absl::StrCat(
@@ -99,9 +126,12 @@ std::vector<std::string> DepthProblems(const fs::path& dir, const FolderWalk& wa
         "folder of their own, ", FolderName(dir / "<crossing>")));
   }
   for (const fs::path& folder : walk.too_deep) {
-    problems.push_back(absl::StrCat("found images in ", FolderName(folder),
-                                    ": one level too deep? crossing folders go directly in ",
-                                    FolderName(dir)));
+    problems.push_back(absl::StrCat(
+        "found images in ", FolderName(folder), ": one level too deep? ",
+        positions == PositionFolders::kYes
+            ? absl::StrCat("images go in a crossing folder or in its position folders, ",
+                           FolderName(dir / "<crossing>" / "<position>"))
+            : absl::StrCat("crossing folders go directly in ", FolderName(dir))));
   }
   return problems;
 }
@@ -126,6 +156,32 @@ absl::Status NoImagesError(const fs::path& dir, const std::string& expected) {
 }
 
 bool IsDigit(char c) { return std::isdigit(static_cast<unsigned char>(c)) != 0; }
+
+// The crossing folders that hold both images and position folders of images: which layout they
+// follow is not clear (a stray image, or a position folder created by mistake), so each is named
+// with an example of either kind.
+std::vector<std::string> MixedCrossingFolders(const fs::path& dir,
+                                              const std::vector<FoundImage>& images) {
+  struct Kinds {
+    const FoundImage* direct = nullptr;
+    const FoundImage* positioned = nullptr;
+  };
+  std::map<std::string, Kinds> crossings;
+  for (const FoundImage& image : images) {
+    Kinds& kinds = crossings[image.folder];
+    const FoundImage*& first = image.position.empty() ? kinds.direct : kinds.positioned;
+    if (first == nullptr) first = &image;
+  }
+  std::vector<std::string> problems;
+  for (const auto& [crossing, kinds] : crossings) {
+    if (kinds.direct == nullptr || kinds.positioned == nullptr) continue;
+    problems.push_back(absl::StrCat(
+        FolderName(dir / crossing), " holds both images (e.g. ", kinds.direct->path.string(),
+        ") and position folders (e.g. ", FolderName(kinds.positioned->path.parent_path()),
+        "): put all of a crossing's views in position folders, or none"));
+  }
+  return problems;
+}
 
 }  // namespace
 
@@ -172,9 +228,12 @@ absl::StatusOr<double> ParseHeading(const fs::path& file) {
 }
 
 absl::StatusOr<std::vector<EnrollImage>> ScanEnrollFolder(const fs::path& dir) {
-  absl::StatusOr<FolderWalk> walk = WalkFolder(dir);
+  absl::StatusOr<FolderWalk> walk = WalkFolder(dir, PositionFolders::kYes);
   if (!walk.ok()) return walk.status();
-  std::vector<std::string> problems = DepthProblems(dir, *walk);
+  std::vector<std::string> problems = DepthProblems(dir, *walk, PositionFolders::kYes);
+  for (std::string& problem : MixedCrossingFolders(dir, walk->images)) {
+    problems.push_back(std::move(problem));
+  }
   std::vector<EnrollImage> images;
   images.reserve(walk->images.size());
   for (FoundImage& image : walk->images) {
@@ -183,16 +242,18 @@ absl::StatusOr<std::vector<EnrollImage>> ScanEnrollFolder(const fs::path& dir) {
       problems.emplace_back(heading.status().message());
       continue;
     }
-    images.push_back({std::move(image.folder), *heading, std::move(image.path)});
+    images.push_back({std::move(image.folder), *heading, std::move(image.path),
+                      std::move(image.position), ""});
   }
   std::sort(images.begin(), images.end(), [](const EnrollImage& a, const EnrollImage& b) {
-    return std::tie(a.crossing, a.heading_deg, a.path) <
-           std::tie(b.crossing, b.heading_deg, b.path);
+    return std::tie(a.crossing, a.position, a.heading_deg, a.path) <
+           std::tie(b.crossing, b.position, b.heading_deg, b.path);
   });
-  // One image per heading: a second one is a stray copy (030.jpg beside 30.png), and `enroll
-  // --replace` would let the later replace the earlier.
+  // One image per heading (and position): a second one is a stray copy (030.jpg beside 30.png),
+  // and `enroll --replace` would let the later replace the earlier.
   for (size_t i = 1; i < images.size(); ++i) {
     if (images[i].crossing == images[i - 1].crossing &&
+        images[i].position == images[i - 1].position &&
         images[i].heading_deg == images[i - 1].heading_deg) {
       problems.push_back(absl::StrCat("'", images[i - 1].path.string(), "' and '",
                                       images[i].path.string(), "' both have heading ",

@@ -2,6 +2,7 @@
 
 #include <algorithm>
 #include <cctype>
+#include <cmath>
 #include <filesystem>
 #include <opencv2/core.hpp>
 #include <opencv2/imgcodecs.hpp>
@@ -132,12 +133,41 @@ absl::StatusOr<std::unique_ptr<CameraSource>> CameraSource::Open(
 }
 
 absl::StatusOr<std::string> CameraSource::Next() {
+  absl::StatusOr<cv::Mat> frame = NextImage();
+  if (!frame.ok()) return frame.status();
+  return Encode(*frame);
+}
+
+absl::Status CameraSource::EndError() const {
+  return absl::OutOfRangeError(absl::StrCat("end of ", SourceKindName(kind_), " '", source_,
+                                            "' after ", frames_read_, " frames"));
+}
+
+absl::Status CameraSource::Skip() {
+  try {
+    if (!capture_.grab()) return EndError();
+  } catch (const cv::Exception& e) {
+    return absl::InternalError(
+        absl::StrCat("OpenCV failed on frame ", frames_read_, " of '", source_, "': ", e.what()));
+  }
+  ++frames_read_;
+  return absl::OkStatus();
+}
+
+double CameraSource::fps() const {
+  const double fps = capture_.get(cv::CAP_PROP_FPS);
+  return std::isfinite(fps) && fps > 0 ? fps : 0;
+}
+
+int64_t CameraSource::frame_count() const {
+  const double count = capture_.get(cv::CAP_PROP_FRAME_COUNT);
+  return std::isfinite(count) && count > 0 ? static_cast<int64_t>(count) : 0;
+}
+
+absl::StatusOr<cv::Mat> CameraSource::NextImage() {
   cv::Mat frame;
   try {
-    if (!capture_.read(frame) || frame.empty()) {
-      return absl::OutOfRangeError(absl::StrCat("end of ", SourceKindName(kind_), " '", source_,
-                                                "' after ", frames_read_, " frames"));
-    }
+    if (!capture_.read(frame) || frame.empty()) return EndError();
     if (options_.width > 0 && options_.height > 0 &&
         (frame.cols != options_.width || frame.rows != options_.height)) {
       cv::Mat resized;
@@ -145,15 +175,24 @@ absl::StatusOr<std::string> CameraSource::Next() {
       cv::resize(frame, resized, cv::Size(options_.width, options_.height), 0, 0, cv::INTER_AREA);
       frame = resized;
     }
+    ++frames_read_;
+    return frame;
+  } catch (const cv::Exception& e) {
+    return absl::InternalError(
+        absl::StrCat("OpenCV failed on frame ", frames_read_, " of '", source_, "': ", e.what()));
+  }
+}
+
+absl::StatusOr<std::string> CameraSource::Encode(const cv::Mat& frame) const {
+  try {
     std::vector<uchar> jpeg;
     if (!cv::imencode(".jpg", frame, jpeg, {cv::IMWRITE_JPEG_QUALITY, options_.jpeg_quality})) {
       return absl::InternalError("JPEG encoding failed");
     }
-    ++frames_read_;
     return std::string(jpeg.begin(), jpeg.end());
   } catch (const cv::Exception& e) {
-    return absl::InternalError(
-        absl::StrCat("OpenCV failed on frame ", frames_read_, " of '", source_, "': ", e.what()));
+    return absl::InternalError(absl::StrCat("OpenCV failed to encode a frame of '", source_,
+                                            "': ", e.what()));
   }
 }
 

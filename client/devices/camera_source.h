@@ -3,9 +3,11 @@
 
 #include <cstdint>
 #include <memory>
+#include <opencv2/core.hpp>
 #include <opencv2/videoio.hpp>
 #include <string>
 
+#include "absl/status/status.h"
 #include "absl/status/statusor.h"
 
 namespace waymark::client {
@@ -42,6 +44,18 @@ class CameraSource {
   // The next frame, resized and JPEG-encoded. OUT_OF_RANGE once the source has no more frames
   // (end of file or sequence, camera unplugged, stream closed); INTERNAL if encoding fails.
   absl::StatusOr<std::string> Next();
+  // The same in two steps, for callers that look at a frame before sending it: the next frame
+  // resized but not encoded, and a frame JPEG-encoded with the options' quality.
+  absl::StatusOr<cv::Mat> NextImage();
+  absl::StatusOr<std::string> Encode(const cv::Mat& frame) const;
+  // Steps over the next frame without converting or encoding it (cv::VideoCapture::grab), e.g. to
+  // sample a video. OUT_OF_RANGE at the end, as Next(). Counts in frames_read().
+  absl::Status Skip();
+
+  // What the source declares: frames per second and, for files, the number of frames; 0 when it
+  // does not say (cameras, streams, some containers). A file's count may be an estimate.
+  double fps() const;
+  int64_t frame_count() const;
 
   SourceKind kind() const { return kind_; }
   const std::string& source() const { return source_; }
@@ -49,6 +63,7 @@ class CameraSource {
 
  private:
   CameraSource(std::string source, SourceKind kind, const CameraSourceOptions& options);
+  absl::Status EndError() const;  // OUT_OF_RANGE: no more frames
 
   std::string source_;
   SourceKind kind_;

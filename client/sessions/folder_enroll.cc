@@ -16,12 +16,19 @@ v1::EnrollViewRequest MakeRequest(const FolderEnrollOptions& options, const Enro
   request.set_database(options.database);
   request.set_crossing(image.crossing);
   request.set_heading_deg(image.heading_deg);
+  request.set_position(image.position);
   request.mutable_image()->set_data(std::move(bytes));
   request.set_create_crossing(true);
   request.set_store_image(options.store_images);
   request.set_skip_invalid(!options.strict);
   request.set_replace(options.replace);
   return request;
+}
+
+// The image's bytes: its file, or the frame it holds (EnrollImage::encoded).
+absl::StatusOr<std::string> ImageBytes(const EnrollImage& image) {
+  if (!image.encoded.empty()) return image.encoded;
+  return ReadFileBytes(image.path);
 }
 
 void Record(const v1::EnrollViewResponse& answer, const EnrollImage& image,
@@ -70,7 +77,7 @@ FolderEnrollReport EnrollFolder(client::CrossingClient& client,
       } else if (stop.load()) {
         report.stopped = true;
         stop_writing();
-      } else if (absl::StatusOr<std::string> bytes = ReadFileBytes(images[next].path);
+      } else if (absl::StatusOr<std::string> bytes = ImageBytes(images[next]);
                  !bytes.ok()) {
         read_error = bytes.status();
         stop_writing();

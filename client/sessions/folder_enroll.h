@@ -1,8 +1,9 @@
 #ifndef WAYMARK_CLIENT_SESSIONS_FOLDER_ENROLL_H_
 #define WAYMARK_CLIENT_SESSIONS_FOLDER_ENROLL_H_
 
-// `waymark enroll NAME DIR`: the views of a scanned folder (image_folder.h) into a crossing
-// database over StreamEnroll, with the server's answer for every view (stored, duplicate or
+// `waymark enroll NAME DIR` and `enroll NAME --video FILE`: the views of a scanned folder
+// (image_folder.h) or the frames sampled from a video (video_frames.h) into a crossing database
+// over StreamEnroll, with the server's answer for every view (stored, duplicate or
 // invalid), so progress counts what the server did, not what was sent.
 //
 // At most `window` views are in flight (sent, not yet answered): enough for the server never to

@@ -6,6 +6,8 @@
 // service holds a reader/writer lock per database).
 
 #include <cstdint>
+#include <string>
+#include <utility>
 #include <vector>
 
 #include <opencv2/core.hpp>
@@ -21,6 +23,9 @@ struct ViewEntry {
   int64_t view_id = 0;      // storage id; increasing = enrollment order
   int64_t crossing_id = 0;
   double heading_deg = 0;
+  // Where in the crossing the view was taken ("north-kerb", "t=12.5s"; empty = not tagged).
+  // Carried for the caller, never used by matching or clustering.
+  std::string position;
   ViewSpan span;            // descriptors in the index's store
   std::vector<cv::Point2f> points;  // keypoint positions at working resolution
   std::vector<float> hue_hist;
@@ -54,6 +59,10 @@ class ViewDatabase {
                    const cv::Mat& descriptors, std::vector<cv::Point2f> points,
                    std::vector<float> hue_hist, bool defer_indexing = false);
   void FinishLoading() { index_.BuildPending(); }
+  // Tags the view in `slot` with its capture position (ViewEntry::position).
+  void SetPosition(uint32_t slot, std::string position) {
+    views_[slot].position = std::move(position);
+  }
 
   // The paper's clustering step for a view that is not yet a centre or member: matches against
   // every current centre, the best one joins if it reaches the threshold.

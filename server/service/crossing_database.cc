@@ -31,6 +31,20 @@ absl::Status ValidateHeading(double heading_deg) {
   return absl::OkStatus();
 }
 
+absl::Status ValidatePosition(const std::string& position) {
+  if (position.size() > 64) {
+    return absl::InvalidArgumentError(absl::StrCat("position \"", position.substr(0, 64),
+                                                   "...\" is over 64 characters long"));
+  }
+  for (char c : position) {
+    if (static_cast<unsigned char>(c) < 0x20 || c == 0x7f) {
+      return absl::InvalidArgumentError(
+          absl::StrCat("position \"", position, "\" may not contain control characters"));
+    }
+  }
+  return absl::OkStatus();
+}
+
 bool SameHeading(double a_deg, double b_deg) { return std::abs(a_deg - b_deg) < 1e-6; }
 
 void ViewContents::Add(int64_t view_id, const std::string& sha256) {
@@ -119,8 +133,10 @@ RemainingViews CopyViewsExcept(const crossing::ViewDatabase& source,
       remaining.dropped_per_crossing[v.crossing_id]++;
       continue;
     }
-    remaining.views->AddView(v.view_id, v.crossing_id, v.heading_deg, source.Descriptors(s),
-                             v.points, v.hue_hist, /*defer_indexing=*/true);
+    const uint32_t slot =
+        remaining.views->AddView(v.view_id, v.crossing_id, v.heading_deg, source.Descriptors(s),
+                                 v.points, v.hue_hist, /*defer_indexing=*/true);
+    remaining.views->SetPosition(slot, v.position);
     remaining.keypoints += v.span.count;
   }
   remaining.views->FinishLoading();

@@ -28,6 +28,8 @@ namespace waymark::service {
 absl::Status ValidateCrossingName(const std::string& name);
 // A compass heading in [0, 360) degrees.
 absl::Status ValidateHeading(double heading_deg);
+// A view's capture position: empty, or up to 64 characters without control characters.
+absl::Status ValidatePosition(const std::string& position);
 // Headings that name the same view direction (they come from file names and JSON, so exact
 // equality of the decimal values is what "the same" means; the tolerance only absorbs rounding).
 bool SameHeading(double a_deg, double b_deg);

@@ -24,9 +24,17 @@ namespace {
 // A view with fewer keypoints could never reach N1 = 10 matches: refuse it at enrollment.
 constexpr int kMinEnrollKeypoints = 10;
 
+// Whether `view` sits at the request's crossing (`crossing_id`, the id of its name), heading and
+// position: the place a `replace` request takes.
+bool AtRequestedPlace(const crossing::ViewEntry& view, int64_t crossing_id,
+                      const v1::EnrollViewRequest& request) {
+  return view.crossing_id == crossing_id && SameHeading(view.heading_deg, request.heading_deg()) &&
+         view.position == request.position();
+}
+
 // The stored view that makes `request` a duplicate: the one holding the same image. With
-// `replace`, only when it sits at the requested crossing and heading already; elsewhere it is one
-// of the views the request replaces (the image moves here).
+// `replace`, only when it sits at the requested crossing, heading and position already; elsewhere
+// it is one of the views the request replaces (the image moves here).
 const crossing::ViewEntry* DuplicateOf(const ResidentDatabase& db,
                                        const v1::EnrollViewRequest& request,
                                        const std::string& content) {
@@ -35,8 +43,9 @@ const crossing::ViewEntry* DuplicateOf(const ResidentDatabase& db,
   // Never null while the contents and the views change together (under the exclusive lock).
   const crossing::ViewEntry* view = db.FindView(*holder);
   if (view == nullptr || !request.replace()) return view;
-  const bool same_place = db.CrossingName(view->crossing_id) == request.crossing() &&
-                          SameHeading(view->heading_deg, request.heading_deg());
+  auto id_it = db.crossing_ids.find(request.crossing());
+  const bool same_place =
+      id_it != db.crossing_ids.end() && AtRequestedPlace(*view, id_it->second, request);
   return same_place ? view : nullptr;
 }
 
@@ -59,6 +68,7 @@ v1::EnrollViewResponse DuplicateAnswer(const ResidentDatabase& db, const crossin
   response.set_crossing_id(view.crossing_id);
   response.set_crossing(db.CrossingName(view.crossing_id));
   response.set_heading_deg(view.heading_deg);
+  response.set_position(view.position);
   response.mutable_timings()->set_total_ms(MsSince(start));
   return response;
 }
@@ -71,6 +81,7 @@ void InstallView(ResidentDatabase& db, const storage::AddViewResult& added, int 
   const uint32_t slot = db.views->AddView(added.view_id, added.crossing_id, request.heading_deg(),
                                           features.descriptors,
                                           crossing::KeypointPositions(features), features.hue_hist);
+  db.views->SetPosition(slot, request.position());
   if (join_cluster >= 0) {
     db.views->AddToCluster(join_cluster, slot);
   } else {
@@ -89,6 +100,7 @@ absl::StatusOr<v1::EnrollViewResponse> CrossingRegistry::EnrollView(
   if (crossing_created != nullptr) *crossing_created = false;
   if (absl::Status s = ValidateCrossingName(request.crossing()); !s.ok()) return s;
   if (absl::Status s = ValidateHeading(request.heading_deg()); !s.ok()) return s;
+  if (absl::Status s = ValidatePosition(request.position()); !s.ok()) return s;
   absl::StatusOr<std::shared_ptr<Database>> found = Find(request.database());
   if (!found.ok()) return found.status();
   Database& db = **found;
@@ -130,14 +142,14 @@ absl::StatusOr<v1::EnrollViewResponse> CrossingRegistry::EnrollView(
   const int64_t crossing_id = new_crossing ? 0 : id_it->second;
   storage::ViewRecord record = ToViewRecord(crossing_id, request.heading_deg(), *features);
   record.content_sha256 = *content;
+  record.position = request.position();
   if (request.store_image()) record.image = request.image().data();
 
-  // What `replace` deletes: the crossing's views at this heading and the view holding this image
-  // elsewhere (DuplicateOf returned null for it).
+  // What `replace` deletes: the crossing's views at this heading and position and the view
+  // holding this image elsewhere (DuplicateOf returned null for it).
   const std::optional<int64_t> holder = db.contents.Find(*content);
   const auto replaced = [&](const crossing::ViewEntry& v) {
-    return (!new_crossing && v.crossing_id == crossing_id &&
-            SameHeading(v.heading_deg, request.heading_deg())) ||
+    return (!new_crossing && AtRequestedPlace(v, crossing_id, request)) ||
            (holder.has_value() && v.view_id == *holder);
   };
   const bool replaces = request.replace() &&
@@ -154,6 +166,7 @@ absl::StatusOr<v1::EnrollViewResponse> CrossingRegistry::EnrollView(
   response.set_crossing_id(committed->added.crossing_id);
   response.set_crossing(request.crossing());
   response.set_heading_deg(request.heading_deg());
+  response.set_position(request.position());
   response.set_crossing_created(new_crossing);
   response.set_keypoints(features->descriptors.rows);
   response.set_cluster_id(committed->added.cluster_id);

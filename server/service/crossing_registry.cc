@@ -110,8 +110,10 @@ absl::StatusOr<std::shared_ptr<CrossingRegistry::Database>> CrossingRegistry::Lo
     }
     const cv::Mat descriptors(v.keypoint_count, crossing::kDescriptorSize, CV_8U,
                               v.descriptors.data());
-    db->views->AddView(v.id, v.crossing_id, v.heading_deg, descriptors, std::move(points),
-                       std::move(v.hue_hist), /*defer_indexing=*/true);
+    const uint32_t slot =
+        db->views->AddView(v.id, v.crossing_id, v.heading_deg, descriptors, std::move(points),
+                           std::move(v.hue_hist), /*defer_indexing=*/true);
+    db->views->SetPosition(slot, std::move(v.position));
     db->views_per_crossing[v.crossing_id]++;
     db->contents.Add(v.id, v.content_sha256);
     db->keypoints += v.keypoint_count;
@@ -358,6 +360,7 @@ absl::StatusOr<v1::RecognizeResponse> CrossingRegistry::Recognize(
     response.set_crossing(db.CrossingName(best.crossing_id));
     response.set_view_id(best.view_id);
     response.set_heading_deg(best.heading_deg);
+    response.set_position(best.position);
   }
   response.set_decision(result->decision);
   response.set_log10_nfa(result->log10_nfa);
@@ -368,6 +371,7 @@ absl::StatusOr<v1::RecognizeResponse> CrossingRegistry::Recognize(
     out->set_crossing_id(v.crossing_id);
     out->set_crossing(db.CrossingName(v.crossing_id));
     out->set_heading_deg(v.heading_deg);
+    out->set_position(v.position);
     if (v.cluster >= 0) out->set_cluster_id(db.views->clusters()[v.cluster].cluster_id);
     out->set_is_center(c.is_center);
     out->set_matches(c.matches);

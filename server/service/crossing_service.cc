@@ -94,6 +94,7 @@ grpc::Status CrossingServiceImpl::BulkEnroll(grpc::ServerContext* context,
         v1::SkippedView* skipped = response->add_skipped();
         skipped->set_crossing(request.crossing());
         skipped->set_heading_deg(request.heading_deg());
+        skipped->set_position(request.position());
         skipped->set_index(index);
         skipped->set_reason(answer->error_message());
         break;
@@ -146,6 +147,7 @@ absl::StatusOr<v1::EnrollViewResponse> CrossingServiceImpl::EnrollStreamedView(
   invalid.set_outcome(v1::ENROLL_OUTCOME_INVALID);
   invalid.set_crossing(request.crossing());
   invalid.set_heading_deg(request.heading_deg());
+  invalid.set_position(request.position());
   invalid.set_error_code(static_cast<int32_t>(enrolled.status().code()));
   invalid.set_error_message(std::string(enrolled.status().message()));
   return invalid;

@@ -38,6 +38,7 @@ void StreamEvidence::Apply(const crossing::RecognitionOptions& options,
   response->clear_crossing();
   response->clear_view_id();
   response->clear_heading_deg();
+  response->clear_position();
   if (!belief.recognized) {
     if (response->reason().empty()) {
       response->set_reason("evidence over the frames so far is below the threshold");
@@ -56,6 +57,7 @@ void StreamEvidence::Apply(const crossing::RecognitionOptions& options,
   if (best) {
     response->set_view_id(best->view_id());
     response->set_heading_deg(best->heading_deg());
+    response->set_position(best->position());
   }
 }
 

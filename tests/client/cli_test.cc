@@ -271,7 +271,7 @@ TEST_F(CliTest, EnrollErrorSaysWhatWasDoneAndExitsNonZero) {
 
 TEST_F(CliTest, EnrollRefusesABadLayoutBeforeSendingAnything) {
   ScopedTempDir dir;
-  WriteImage(dir.Make("views/a/b/000.png"), 40, 30, cv::Scalar(1, 2, 3));
+  WriteImage(dir.Make("views/a/b/c/000.png"), 40, 30, cv::Scalar(1, 2, 3));
   ASSERT_EQ(Run({"db", "create", "campus"}).code, 0);
   CliResult r = Run({"enroll", "campus", (dir.path() / "views").string()});
   EXPECT_NE(r.code, 0);
@@ -279,8 +279,88 @@ TEST_F(CliTest, EnrollRefusesABadLayoutBeforeSendingAnything) {
   EXPECT_EQ(server_.service().calls("StreamEnroll"), 0);
 }
 
+TEST_F(CliTest, EnrollSendsThePositionFolderAsTheViewsPosition) {
+  ScopedTempDir dir;
+  WriteImage(dir.Make("views/A/north-kerb/000.png"), 40, 30, cv::Scalar(255, 0, 0));
+  WriteImage(dir.Make("views/A/p2/000.png"), 40, 30, cv::Scalar(0, 255, 0));
+  WriteImage(dir.Make("views/B/090.png"), 40, 30, cv::Scalar(0, 0, 255));
+  ASSERT_EQ(Run({"db", "create", "campus"}).code, 0);
+  const std::string views = (dir.path() / "views").string();
+  CliResult r = Run({"enroll", "campus", views});
+  ASSERT_EQ(r.code, 0) << r.err;
+  EXPECT_THAT(r.out, HasSubstr("3 views of 2 crossings into campus: 3 stored"));
+  const auto stored = server_.service().views("campus");
+  ASSERT_EQ(stored.size(), 3u);
+  EXPECT_EQ(stored[0].position, "north-kerb");
+  EXPECT_EQ(stored[1].position, "p2");
+  EXPECT_EQ(stored[2].position, "");
+
+  // The place of a duplicate names the position it is stored at.
+  Copy(dir, "views/A/north-kerb/000.png", "views/C/045.png");
+  EXPECT_THAT(Run({"enroll", "campus", views}).err, HasSubstr("(A/north-kerb/0); use --replace"));
+
+  // Recognition names the best view's position, and the candidate table gets a column for it.
+  CliResult recognized =
+      Run({"recognize", "campus", (dir.path() / "views/A/north-kerb/000.png").string(), "-v"});
+  ASSERT_EQ(recognized.code, 0) << recognized.err;
+  EXPECT_THAT(recognized.out, HasSubstr("position north-kerb"));
+  EXPECT_THAT(recognized.out, HasSubstr("position"));
+}
+
+TEST_F(CliTest, EnrollVideoSendsSampledFramesTaggedWithTheirTimes) {
+  ScopedTempDir dir;
+  std::vector<cv::Mat> frames;
+  for (int i = 0; i < 20; ++i) frames.push_back(waymark::testing::BlockFrame(16 * i));
+  const std::string video = dir.Make("drive.avi").string();
+  waymark::testing::WriteVideo(video, frames, 10);
+  ASSERT_EQ(Run({"db", "create", "campus"}).code, 0);
+
+  CliResult r = Run({"enroll", "campus", "--video", video, "--crossing", "main-and-1st",
+                     "--every-s", "0.5", "--json"});
+  ASSERT_EQ(r.code, 0) << r.err;
+  const nlohmann::json json = r.Json();
+  EXPECT_EQ(json["views"], 4);
+  EXPECT_EQ(json["video"]["sampled"], 4);
+  EXPECT_EQ(json["video"]["kept"], 4);
+  EXPECT_EQ(json["video"]["ended_early"], false);
+  const auto stored = server_.service().views("campus");
+  ASSERT_EQ(stored.size(), 4u);
+  EXPECT_EQ(stored[0].crossing, "main-and-1st");
+  EXPECT_EQ(stored[0].heading_deg, 0);
+  EXPECT_EQ(stored[0].position, "t=0s");
+  EXPECT_EQ(stored[3].position, "t=1.5s");
+
+  // Again, with a heading: the same frames are duplicates; the summary says how they were sampled.
+  CliResult again =
+      Run({"enroll", "campus", "--video", video, "--crossing", "main-and-1st", "--heading", "90"});
+  ASSERT_EQ(again.code, 0) << again.err;
+  EXPECT_THAT(again.out, HasSubstr(video + ": 4 frames sampled every 0.5 s over 2.0 s: 4 kept"));
+  EXPECT_THAT(again.out, HasSubstr("0 stored, 4 skipped as duplicates"));
+}
+
+TEST_F(CliTest, EnrollVideoThatCannotBeReadEnrollsNothingAndSaysSo) {
+  ScopedTempDir dir;
+  const std::string garbage = dir.Make("garbage.avi").string();
+  std::ofstream(garbage) << std::string(4096, 'x');
+  ASSERT_EQ(Run({"db", "create", "campus"}).code, 0);
+  CliResult r = Run({"enroll", "campus", "--video", garbage, "--crossing", "A"});
+  EXPECT_EQ(r.code, 1);
+  EXPECT_THAT(r.err, HasSubstr(garbage));
+  EXPECT_THAT(r.err, HasSubstr("nothing was enrolled"));
+  EXPECT_EQ(server_.service().calls("StreamEnroll"), 0);
+
+  EXPECT_THAT(Run({"enroll", "campus"}).err, HasSubstr("give either DIR or --video FILE"));
+  EXPECT_NE(Run({"enroll", "campus", "--video", garbage}).code, 0);  // --crossing missing
+  EXPECT_NE(Run({"enroll", "campus", (dir.path()).string(), "--video", garbage, "--crossing", "A"})
+                .code,
+            0);
+  EXPECT_EQ(server_.service().calls("StreamEnroll"), 0);
+}
+
 TEST_F(CliTest, HelpListsTheNewFlags) {
   EXPECT_THAT(Run({"enroll", "--help"}).out, HasSubstr("--replace"));
+  EXPECT_THAT(Run({"enroll", "--help"}).out, HasSubstr("--every-s"));
+  EXPECT_THAT(Run({"enroll", "--help"}).out, HasSubstr("<position>"));
   EXPECT_THAT(Run({"recognize", "--help"}).out, HasSubstr("folders"));
 }
 

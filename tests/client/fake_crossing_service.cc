@@ -202,7 +202,8 @@ grpc::Status FakeCrossingService::EnrollOne(const v1::EnrollViewRequest& request
   if (db == nullptr) return NoDatabase(request.database());
   const std::string& bytes = request.image().data();
   auto same_place = [&](const View& v) {
-    return v.crossing == request.crossing() && v.heading_deg == request.heading_deg();
+    return v.crossing == request.crossing() && v.heading_deg == request.heading_deg() &&
+           v.position == request.position();
   };
   for (const View& view : db->views) {
     if (view.bytes != bytes || (request.replace() && !same_place(view))) continue;
@@ -210,6 +211,7 @@ grpc::Status FakeCrossingService::EnrollOne(const v1::EnrollViewRequest& request
     answer->set_view_id(view.id);
     answer->set_crossing(view.crossing);
     answer->set_heading_deg(view.heading_deg);
+    answer->set_position(view.position);
     return grpc::Status::OK;
   }
   if (bytes.empty()) {
@@ -245,12 +247,15 @@ grpc::Status FakeCrossingService::EnrollOne(const v1::EnrollViewRequest& request
   }
   crossing->second.set_views(crossing->second.views() + 1);
   const int64_t id = next_id_++;
-  db->views.push_back({request.crossing(), request.heading_deg(), bytes, request.store_image(), id});
+  db->views.push_back(
+      {request.crossing(), request.heading_deg(), bytes, request.store_image(), id,
+       request.position()});
   answer->set_outcome(v1::ENROLL_OUTCOME_STORED);
   answer->set_view_id(id);
   answer->set_crossing_id(crossing->second.id());
   answer->set_crossing(request.crossing());
   answer->set_heading_deg(request.heading_deg());
+  answer->set_position(request.position());
   answer->set_keypoints(kKeypointsPerView);
   return grpc::Status::OK;
 }
@@ -320,11 +325,13 @@ grpc::Status FakeCrossingService::RecognizeCrossing(grpc::ServerContext*,
     response->set_crossing(view.crossing);
     response->set_view_id(view.id);
     response->set_heading_deg(view.heading_deg);
+    response->set_position(view.position);
     response->set_decision(0.9);
     v1::Candidate* candidate = response->add_candidates();
     candidate->set_view_id(response->view_id());
     candidate->set_crossing(view.crossing);
     candidate->set_heading_deg(view.heading_deg);
+    candidate->set_position(view.position);
     candidate->set_matches(kKeypointsPerView);
     candidate->set_kept(true);
     candidate->set_similarity(0.8);

@@ -29,6 +29,7 @@ class FakeCrossingService final : public v1::CrossingService::Service {
     std::string bytes;
     bool store_image = false;
     int64_t id = 0;
+    std::string position;
   };
 
   // Test hooks; set before calls, read after.

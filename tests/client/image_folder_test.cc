@@ -123,18 +123,72 @@ TEST(ScanEnrollFolderTest, ANumberedFrameFolderIsNotTakenForHeadings) {
 
 TEST(ScanEnrollFolderTest, ANestedLayoutSaysWhereTheImagesAreAndWhatIsExpected) {
   ScopedTempDir dir;
-  WriteImage(dir.Make("a/b/000.jpg"), 8, 6, kGrey);
-  WriteImage(dir.Make("a/b/090.jpg"), 8, 6, kGrey);
-  WriteImage(dir.Make("a/c/d/000.jpg"), 8, 6, kGrey);
+  WriteImage(dir.Make("a/b/c/000.jpg"), 8, 6, kGrey);
+  WriteImage(dir.Make("a/b/c/090.jpg"), 8, 6, kGrey);
+  WriteImage(dir.Make("a/d/e/f/000.jpg"), 8, 6, kGrey);
   auto images = ScanEnrollFolder(dir.path());
   ASSERT_FALSE(images.ok());
   EXPECT_EQ(images.status().code(), absl::StatusCode::kInvalidArgument);
   const std::string message(images.status().message());
-  EXPECT_THAT(message, HasSubstr("found images in " + (dir.path() / "a/b").string() +
+  EXPECT_THAT(message, HasSubstr("found images in " + (dir.path() / "a/b/c").string() +
                                  "/: one level too deep?"));
-  EXPECT_THAT(message, HasSubstr((dir.path() / "a/c/d").string() + "/"));
+  EXPECT_THAT(message, HasSubstr((dir.path() / "a/d/e/f").string() + "/"));
   EXPECT_THAT(message, HasSubstr("DIR/<crossing>/<heading_deg>.jpg"));
+  EXPECT_THAT(message, HasSubstr("DIR/<crossing>/<position>/<heading_deg>.jpg"));
   EXPECT_THAT(message, Not(HasSubstr("no .jpg/.jpeg/.png images found")));
+}
+
+// DIR/<crossing>/<position>/<heading>: the folder names the view's position; crossings of either
+// layout sit side by side.
+TEST(ScanEnrollFolderTest, PositionFoldersTagTheirViews) {
+  ScopedTempDir dir;
+  WriteImage(dir.Make("A/p2/000.jpg"), 8, 6, kGrey);
+  WriteImage(dir.Make("A/north-kerb/090.jpg"), 8, 6, kGrey);
+  WriteImage(dir.Make("A/north-kerb/000.jpg"), 8, 6, kGrey);
+  std::ofstream(dir.Make("A/empty/notes.txt")) << "x";  // no images: not a position
+  WriteImage(dir.Make("B/030.png"), 8, 6, kGrey);
+  auto images = ScanEnrollFolder(dir.path());
+  ASSERT_TRUE(images.ok()) << images.status();
+  ASSERT_EQ(images->size(), 4u);
+  EXPECT_EQ((*images)[0].crossing, "A");
+  EXPECT_EQ((*images)[0].position, "north-kerb");
+  EXPECT_EQ((*images)[0].heading_deg, 0);
+  EXPECT_EQ((*images)[1].position, "north-kerb");
+  EXPECT_EQ((*images)[1].heading_deg, 90);
+  EXPECT_EQ((*images)[2].position, "p2");
+  EXPECT_EQ((*images)[2].path, dir.path() / "A/p2/000.jpg");
+  EXPECT_EQ((*images)[3].crossing, "B");
+  EXPECT_EQ((*images)[3].position, "");
+  EXPECT_EQ((*images)[3].heading_deg, 30);
+}
+
+TEST(ScanEnrollFolderTest, ACrossingFolderWithImagesAndPositionFoldersIsAnErrorNamingBoth) {
+  ScopedTempDir dir;
+  WriteImage(dir.Make("A/000.jpg"), 8, 6, kGrey);
+  WriteImage(dir.Make("A/north-kerb/090.jpg"), 8, 6, kGrey);
+  WriteImage(dir.Make("B/p1/000.jpg"), 8, 6, kGrey);  // fine
+  auto images = ScanEnrollFolder(dir.path());
+  ASSERT_FALSE(images.ok());
+  EXPECT_EQ(images.status().code(), absl::StatusCode::kInvalidArgument);
+  const std::string message(images.status().message());
+  EXPECT_THAT(message, HasSubstr((dir.path() / "A").string() + "/ holds both images (e.g. " +
+                                 (dir.path() / "A/000.jpg").string() +
+                                 ") and position folders (e.g. " +
+                                 (dir.path() / "A/north-kerb").string() + "/)"));
+  EXPECT_THAT(message, Not(HasSubstr((dir.path() / "B").string() + "/ holds")));
+}
+
+TEST(ScanEnrollFolderTest, OneHeadingMayBeTakenFromEachPositionButOnlyOnce) {
+  ScopedTempDir dir;
+  WriteImage(dir.Make("A/p1/030.jpg"), 8, 6, kGrey);
+  WriteImage(dir.Make("A/p2/030.jpg"), 8, 6, kGrey);
+  ASSERT_TRUE(ScanEnrollFolder(dir.path()).ok());
+  WriteImage(dir.Make("A/p2/30.png"), 8, 6, kGrey);
+  auto images = ScanEnrollFolder(dir.path());
+  ASSERT_FALSE(images.ok());
+  EXPECT_THAT(images.status().message(), HasSubstr("both have heading 30"));
+  EXPECT_THAT(images.status().message(), HasSubstr((dir.path() / "A/p2/30.png").string()));
+  EXPECT_THAT(images.status().message(), Not(HasSubstr("A/p1/030.jpg")));
 }
 
 TEST(ScanEnrollFolderTest, ImagesBesideGoodOnesButTooDeepAreStillAnError) {

@@ -4,6 +4,7 @@
 #include <iterator>
 #include <opencv2/imgcodecs.hpp>
 #include <opencv2/imgproc.hpp>
+#include <opencv2/videoio.hpp>
 #include <random>
 #include <sstream>
 #include <stdexcept>
@@ -36,6 +37,30 @@ fs::path ScopedTempDir::Make(const std::string& relative) const {
   fs::path full = path_ / relative;
   fs::create_directories(full.parent_path());
   return full;
+}
+
+cv::Mat BlockFrame(int shift) {
+  cv::Mat blocks(30, 40, CV_8UC1);
+  cv::RNG rng(18);
+  rng.fill(blocks, cv::RNG::UNIFORM, 0, 256);
+  cv::Mat grey;
+  cv::resize(blocks, grey, cv::Size(320, 240), 0, 0, cv::INTER_NEAREST);
+  cv::Mat shifted = grey;
+  const int s = ((shift % grey.cols) + grey.cols) % grey.cols;
+  if (s > 0) {
+    cv::hconcat(grey.colRange(grey.cols - s, grey.cols), grey.colRange(0, grey.cols - s), shifted);
+  }
+  cv::Mat frame;
+  cv::cvtColor(shifted, frame, cv::COLOR_GRAY2BGR);
+  return frame;
+}
+
+void WriteVideo(const fs::path& path, const std::vector<cv::Mat>& frames, double fps) {
+  fs::create_directories(path.parent_path());
+  cv::VideoWriter writer(path.string(), cv::CAP_OPENCV_MJPEG,
+                         cv::VideoWriter::fourcc('M', 'J', 'P', 'G'), fps, frames.front().size());
+  if (!writer.isOpened()) throw std::runtime_error("cv::VideoWriter failed for " + path.string());
+  for (const cv::Mat& frame : frames) writer.write(frame);
 }
 
 void WriteImage(const fs::path& path, int width, int height, cv::Scalar color) {

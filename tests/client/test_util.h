@@ -31,6 +31,13 @@ void WriteImage(const std::filesystem::path& path, int width, int height, cv::Sc
 
 std::string ReadAll(const std::filesystem::path& path);
 
+// A 320x240 frame of sharp 8-pixel blocks of random grey (fixed seed), shifted right by `shift`
+// pixels (wrapping): frames with shifts far apart differ everywhere.
+cv::Mat BlockFrame(int shift);
+
+// Writes `frames` as a Motion-JPEG AVI (OpenCV's own writer, no codec library needed) at `fps`.
+void WriteVideo(const std::filesystem::path& path, const std::vector<cv::Mat>& frames, double fps);
+
 // The outcome of one `waymark` command line run in process.
 struct CliResult {
   int code = -1;

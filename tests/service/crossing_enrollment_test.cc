@@ -1,5 +1,6 @@
 // CrossingRegistry::EnrollView on a real SQLite file, without gRPC: duplicates by image hash,
-// `replace`, and a database written before hashes were stored (schema v4), whose views have none.
+// `replace`, a database written before hashes were stored (schema v4), whose views have none, and
+// capture positions (issue 18).
 
 #include <memory>
 #include <string>
@@ -127,6 +128,47 @@ TEST_F(CrossingEnrollmentTest, ViewsWithoutAHashAreUnknownAndReplaceReplacesThem
   EXPECT_EQ(upgraded.replaced_view_ids_size(), 1);
   EXPECT_EQ(Views(), 3);
   EXPECT_EQ(Enroll(View("A", 90, 90)).outcome(), v1::ENROLL_OUTCOME_DUPLICATE);
+}
+
+// A view's capture position is stored with it, answered for duplicates, survives a reload and
+// names the best view of a recognition; `replace` takes the place of the view at the same
+// crossing, heading and position only.
+TEST_F(CrossingEnrollmentTest, PositionsTellViewsOfOneHeadingApart) {
+  v1::EnrollViewRequest kerb = View("A", 0, 0);
+  kerb.set_position("north-kerb");
+  const v1::EnrollViewResponse stored = Enroll(kerb);
+  EXPECT_EQ(stored.outcome(), v1::ENROLL_OUTCOME_STORED);
+  EXPECT_EQ(stored.position(), "north-kerb");
+  v1::EnrollViewRequest middle = View("A", 0, 120);
+  middle.set_position("p2");
+  Enroll(middle);
+  EXPECT_EQ(Views(), 2);  // the same heading from two positions: two views
+
+  v1::EnrollViewRequest copy = View("B", 90, 0);  // kerb's image again
+  EXPECT_EQ(Enroll(copy).position(), "north-kerb");
+
+  v1::EnrollViewRequest reshot = View("A", 0, 240);
+  reshot.set_position("p2");
+  reshot.set_replace(true);
+  const v1::EnrollViewResponse replaced = Enroll(reshot);
+  EXPECT_EQ(replaced.replaced_view_ids_size(), 1);  // p2 only, not north-kerb
+  EXPECT_EQ(Views(), 2);
+
+  Load();
+  v1::RecognizeRequest query;
+  query.set_database("campus");
+  query.mutable_image()->set_data(testing::EncodePng(testing::CropView(panorama_, 0)));
+  absl::StatusOr<v1::RecognizeResponse> answer = registry_->Recognize(query);
+  ASSERT_TRUE(answer.ok()) << answer.status();
+  ASSERT_TRUE(answer->recognized()) << answer->reason();
+  EXPECT_EQ(answer->view_id(), stored.view_id());
+  EXPECT_EQ(answer->position(), "north-kerb");
+  ASSERT_GT(answer->candidates_size(), 0);
+  EXPECT_EQ(answer->candidates(0).position(), "north-kerb");
+
+  v1::EnrollViewRequest bad = View("A", 30, 200);
+  bad.set_position("two\nlines");
+  EXPECT_EQ(registry_->EnrollView(bad).status().code(), absl::StatusCode::kInvalidArgument);
 }
 
 }  // namespace
