@@ -26,6 +26,7 @@
 #include "absl/strings/str_format.h"
 #include "bench/vpr_datasets.h"
 #include "bench/vpr_experiment.h"
+#include "server/crossing/place_evidence.h"
 
 namespace waymark::vpr {
 namespace {
@@ -55,6 +56,10 @@ constexpr const char* kCorridorUnknown = "corridor_unknown";
 constexpr const char* kTripletsUnknown = "triplets_unknown";
 constexpr const char* kCorridorVsTriplets = "corridor_vs_triplet_db";
 constexpr const char* kTripletsVsCorridor = "triplets_vs_corridor_db";
+
+constexpr const char* kCorridorSegments = "corridor_segments";
+// Corridor stretches of this many frames are the "crossings" of the stream experiment.
+constexpr int kSegment = 10;
 
 constexpr int kKittiStrides[] = {2, 5, 10};
 constexpr int kBonnStrides[] = {5, 10, 20, 40};
@@ -165,6 +170,7 @@ class Evaluation {
                         const std::vector<Protocol>& protocols, Group extra = {});
   Run Execute(const std::string& label, const RecognitionOptions& options,
               const std::vector<std::string>& groups);
+  std::string SequenceReport(const Run& run, double threshold) const;
   std::vector<std::string> GroupsOf(const std::string& dataset) const;
   std::vector<std::string> AllGroups() const;
   std::vector<std::string> PaperSweepGroups() const;
@@ -199,6 +205,7 @@ class Evaluation {
   Run paper_, verified_;
   Run verified_inliers_only_;  // verified, alpha = 1, beta = 0: the hue term left out
   std::vector<Run> retrieval_;  // retrieval mode at several max_log10_nfa
+  std::vector<std::string> sequence_;  // the evidence filter over the corridor traversal
   std::vector<Run> paper_sweep_;
   std::vector<Run> verified_sweep_;  // replayed from verified_ (and verified_none_)
   Run verified_chosen_;              // the chosen point run for real (when not the defaults)
@@ -277,6 +284,13 @@ bool Evaluation::Load() {
                         "corridor: refs 0-54 enrolled; queries with GT in 0-52 known, in 60-110 "
                         "unknown",
                         {CorridorPartial(*corridor_)})))
+      return false;
+  }
+  if (corridor_) {
+    if (!check(AddGroup(kCorridorSegments,
+                        absl::StrCat("corridor cut into stretches of ", kSegment,
+                                     " refs (one place each), queries in traversal order"),
+                        {CorridorSegments(*corridor_, kSegment)})))
       return false;
   }
   if (triplets_) {
@@ -406,6 +420,64 @@ Run Evaluation::Execute(const std::string& label, const RecognitionOptions& opti
 
 std::vector<std::string> Evaluation::PaperSweepGroups() const { return AllGroups(); }
 
+// StreamRecognize's evidence filter replayed over a query traversal streamed in order: how often
+// its answer is right or wrong, and how many frames after entering a stretch it names it.
+std::string Evaluation::SequenceReport(const Run& run, double threshold) const {
+  const std::vector<QueryOutcome>* outcomes = run.Get(kCorridorSegments);
+  const Group* group = nullptr;
+  for (const Group& g : groups_) {
+    if (g.name == kCorridorSegments) group = &g;
+  }
+  if (outcomes == nullptr || group == nullptr) return "";
+  const std::vector<Query>& queries = group->parts.front().protocol.queries;
+  crossing::EvidenceOptions options;
+  options.threshold = threshold;
+  crossing::PlaceEvidenceFilter filter(options);
+  int decided = 0, decided_right = 0, single_right = 0, single_accepted = 0, single_wrong = 0;
+  std::vector<int> delays;
+  int runs = 0, runs_named = 0;
+  int64_t run_place = -1;
+  int run_start = 0;
+  bool run_named = false;
+  for (size_t i = 0; i < outcomes->size() && i < queries.size(); ++i) {
+    const QueryOutcome& o = (*outcomes)[i];
+    std::vector<crossing::FrameEvidence> frame;
+    for (const auto& [place, nfa] : o.evidence) frame.push_back({place, nfa});
+    const crossing::PlaceBelief& b = filter.Update(frame);
+    const std::vector<int64_t>& accepted = queries[i].accepted;
+    const bool right = b.recognized && std::find(accepted.begin(), accepted.end(), b.crossing_id) != accepted.end();
+    decided += b.recognized;
+    decided_right += right;
+    single_right += o.correct();
+    single_accepted += o.recognized;
+    single_wrong += o.recognized && !o.winner_correct;
+    // A stretch is entered when the query's first accepted place changes.
+    if (accepted.empty()) continue;
+    const int64_t place = accepted.back();
+    if (place != run_place) {
+      if (run_place >= 0) runs_named += run_named;
+      ++runs;
+      run_place = place;
+      run_start = static_cast<int>(i);
+      run_named = false;
+    }
+    if (!run_named && b.recognized && b.crossing_id == place) {
+      run_named = true;
+      delays.push_back(static_cast<int>(i) - run_start + 1);
+    }
+  }
+  runs_named += run_named;
+  std::sort(delays.begin(), delays.end());
+  const int n = static_cast<int>(outcomes->size());
+  const double median = delays.empty() ? NAN : delays[delays.size() / 2];
+  return absl::StrFormat(
+      "threshold %.2f: frames alone right %d/%d (accepted %d, wrong %d); with evidence answered "
+      "%d/%d frames, right %d, wrong %d; %d/%d stretches named, median %.0f frames after "
+      "entering (max %d)",
+      threshold, single_right, n, single_accepted, single_wrong, decided, n, decided_right,
+      decided - decided_right, runs_named, runs, median, delays.empty() ? 0 : delays.back());
+}
+
 void Evaluation::RunAll() {
   const auto start = Clock::now();
   RecognitionOptions paper;
@@ -430,6 +502,13 @@ void Evaluation::RunAll() {
     }
   }
 
+  for (const Run& r : retrieval_) {
+    if (r.options.max_log10_nfa != 0.0) continue;
+    for (double threshold : {0.8, 0.95, 0.99}) {
+      sequence_.push_back(SequenceReport(r, threshold));
+      std::cerr << "stream over the corridor, " << sequence_.back() << "\n";
+    }
+  }
   if (quick_) return;
   // The hue term of the decision can overrule the geometric evidence: the same run without it.
   {
@@ -853,6 +932,27 @@ std::string Evaluation::ToMarkdown() const {
       "5).\n\n",
       d.ratio, d.n0, d.n1, d.n2, d.alpha, d.verified_ratio, d.shortlist, d.ransac_threshold_px,
       d.min_inliers, d.min_inlier_share);
+
+  md << "## Retrieval mode (a-contrario acceptance) at several limits\n\n";
+  md << "| set | queries | " ;
+  for (const Run& r : retrieval_) md << r.label << ": accuracy | false accepts | ";
+  md << "\n|---|---|";
+  for (size_t i = 0; i < retrieval_.size(); ++i) md << "---|---|";
+  md << "\n";
+  for (const Group& g : groups_) {
+    if (retrieval_.empty() || retrieval_.front().Get(g.name) == nullptr) continue;
+    md << "| " << g.name << " | " << retrieval_.front().Get(g.name)->size() << " | ";
+    for (const Run& r : retrieval_) {
+      const Tally t = Summarize(*r.Get(g.name));
+      md << Pct(t.accuracy()) << " | " << Pct(t.false_accept_rate()) << " | ";
+    }
+    md << "\n";
+  }
+  md << "\nEvidence over frames (StreamRecognize's filter replayed on the corridor query traversal "
+        "in order, places = stretches of " << kSegment << " refs, retrieval mode at "
+        "max_log10_nfa 0):\n\n";
+  for (const std::string& line : sequence_) md << "- " << line << "\n";
+  md << "\n";
 
   md << "## Both modes at their defaults\n\n";
   md << "Accuracy = correct / known queries (not recognized counts as wrong); precision = correct "

@@ -207,8 +207,13 @@ absl::StatusOr<std::vector<QueryOutcome>> RunQueries(const PreparedProtocol& pre
       for (size_t c = 0; c < r->candidates.size(); ++c) {
         if (r->candidates[c].slot == r->best_slot) winner = static_cast<int>(c);
       }
-    } else if (options.mode == RecognitionMode::kVerified) {
+    } else if (options.mode != RecognitionMode::kPaper) {
       winner = DecisionWinner(r->candidates);
+    }
+    if (options.mode == RecognitionMode::kRetrieval) {
+      for (const crossing::Candidate& c : r->candidates) {
+        o.evidence.emplace_back(db.views()[c.slot].crossing_id, c.log10_nfa);
+      }
     }
     if (winner >= 0) {
       const crossing::Candidate& c = r->candidates[winner];
@@ -257,6 +262,24 @@ Protocol CorridorAll(const CorridorSet& set) {
     Query query;
     query.path = set.queries[q];
     query.accepted = ToPlaces(set.ground_truth[q]);
+    p.queries.push_back(query);
+  }
+  return p;
+}
+
+Protocol CorridorSegments(const CorridorSet& set, int segment) {
+  Protocol p;
+  p.name = absl::StrCat("corridor_segments_", segment);
+  for (size_t r = 0; r < set.refs.size(); ++r) {
+    p.enroll.push_back({set.refs[r], static_cast<int64_t>(r) / segment, 0.0});
+  }
+  for (size_t q = 0; q < set.queries.size(); ++q) {
+    Query query;
+    query.path = set.queries[q];
+    for (int r : set.ground_truth[q]) {
+      const int64_t place = r / segment;
+      if (!Contains(query.accepted, place)) query.accepted.push_back(place);
+    }
     p.queries.push_back(query);
   }
   return p;

@@ -89,6 +89,8 @@ struct QueryOutcome {
   double distance_m = -1;
   double angle_deg = -1;
   double ms = 0;  // Recognize() wall time
+  // Retrieval mode: every candidate's place and log10 NFA (what a stream's evidence filter gets).
+  std::vector<std::pair<int64_t, double>> evidence;
 
   bool correct() const { return recognized && winner_correct; }
   bool false_accept() const { return recognized && !known; }
@@ -146,6 +148,10 @@ std::vector<QueryOutcome> ReplayRejectionRule(const std::vector<QueryOutcome>& o
 
 // Every ref its own place (place = ref index, heading 0), every query; accepted = ground truth.
 Protocol CorridorAll(const CorridorSet& set);
+// Every ref enrolled with place = its index / `segment`: the corridor cut into stretches of
+// `segment` frames, each a "crossing" a robot passes through; queries in traversal order,
+// accepted = the stretches of their ground-truth refs. For evidence over a stream.
+Protocol CorridorSegments(const CorridorSet& set, int segment);
 // Refs 0..enrolled_last enrolled. Queries whose ground truth lies entirely in 0..known_last are
 // known (accepted = ground truth), those whose ground truth lies entirely in
 // unknown_first..end are unknown; the rest (straddling the boundary) are left out.

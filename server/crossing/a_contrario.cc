@@ -8,6 +8,7 @@ namespace waymark::crossing {
 namespace {
 
 constexpr int kSample = 7;  // points that fix a fundamental matrix
+constexpr int kRefit = 8;   // parameters of the least-squares refit (the 8-point system)
 constexpr double kLn10 = 2.302585092994046;
 
 double LineDistance(const cv::Vec3d& line, const cv::Point2f& p) {
@@ -68,12 +69,14 @@ EpipolarEvidence AContrarioEvidence(std::vector<double> residuals_px, cv::Size i
   // A residual of 0 (a sample point itself) would give alpha = 0: a tenth of a pixel is the
   // keypoints' own precision at best.
   constexpr double kMinResidual = 0.1;
-  for (int k = kSample + 1; k <= n; ++k) {
+  for (int k = kRefit + 1; k <= n; ++k) {
     const double e = residuals_px[k - 1];
     if (!std::isfinite(e)) break;
     const double alpha = std::min(1.0, 2.0 * std::max(e, kMinResidual) * diagonal / area);
+    // The model comes back refitted to all its inliers (least squares on the 8-point system):
+    // 8 of the k residuals are fitted, not drawn, so only k - 8 count as evidence.
     const double log_nfa = log_constant + Log10Binomial(n, k) + Log10Binomial(k, kSample) +
-                           (k - kSample) * std::log10(alpha);
+                           (k - kRefit) * std::log10(alpha);
     if (log_nfa < best.log10_nfa) {
       best.log10_nfa = log_nfa;
       best.inliers = k;

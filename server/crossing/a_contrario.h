@@ -7,12 +7,14 @@
 // different things for 100 and 2,000 keypoints or for 160x120 and 1280x960 images, a match set is
 // judged by how often chance alone would produce one as consistent:
 //
-//   NFA(k) = tests * 3 * (n - 7) * C(n, k) * C(k, 7) * alpha_k^(k - 7)
+//   NFA(k) = tests * 3 * (n - 7) * C(n, k) * C(k, 7) * alpha_k^(k - 8)
 //
 // n tentative matches, k of them within e_k pixels of their epipolar line (e_k the k-th smallest
 // residual), alpha_k = 2 e_k D / A the probability that a random point of an image of diagonal D
 // and area A lies that close to a given line, C(k, 7) the 7-point samples that fix the geometry
-// (up to 3 solutions), and `tests` the number of views verified for the query. The expected
+// (up to 3 solutions), and `tests` the number of views verified for the query. The exponent is
+// ORSA's k - 7 less one: the model comes back refitted to all its inliers by least squares (8
+// parameters), which pulls every inlier's residual down. The expected
 // number of views matched this well by chance is the minimum over k; below 1 (log10 < 0) the
 // match is "meaningful", and one threshold holds across cameras and resolutions.
 

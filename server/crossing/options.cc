@@ -64,8 +64,8 @@ absl::Status ValidateRecognitionOptions(const RecognitionOptions& o) {
     return Invalid(absl::StrCat("ransac_threshold_px = ", o.ransac_threshold_px,
                                 " must be in (0, 50]"));
   }
-  if (!(o.max_log10_nfa >= -100 && o.max_log10_nfa <= 100)) {
-    return Invalid(absl::StrCat("max_log10_nfa = ", o.max_log10_nfa, " must be in [-100, 100]"));
+  if (!(o.max_log10_nfa >= -1e4 && o.max_log10_nfa <= 100)) {
+    return Invalid(absl::StrCat("max_log10_nfa = ", o.max_log10_nfa, " must be in [-10000, 100]"));
   }
   if (!(o.evidence_threshold >= 0 && o.evidence_threshold < 1)) {
     return Invalid(absl::StrCat("evidence_threshold = ", o.evidence_threshold,

@@ -118,12 +118,13 @@ TEST_F(RecognizerTest, CandidateTableIsSortedAndKeepsN2) {
 
 TEST_F(RecognizerTest, UnknownPlaceIsNotRecognized) {
   const cv::Mat other = testing::MakePanorama(999);
-  for (RecognitionMode mode : {RecognitionMode::kPaper, RecognitionMode::kVerified}) {
+  for (RecognitionMode mode :
+       {RecognitionMode::kPaper, RecognitionMode::kVerified, RecognitionMode::kRetrieval}) {
     RecognitionOptions options;
     options.mode = mode;
     const auto result = Recognize(*db_, Extract(testing::CropView(other, 100)), options);
     ASSERT_TRUE(result.ok());
-    EXPECT_FALSE(result->recognized) << "mode " << static_cast<int>(mode);
+    EXPECT_FALSE(result->recognized) << "mode " << static_cast<int>(mode) << " nfa " << result->log10_nfa << " inl " << (result->candidates.empty() ? -1 : result->candidates.front().matches) << "/" << (result->candidates.empty() ? -1 : result->candidates.front().tentative);
     EXPECT_FALSE(result->reason.empty());
   }
 }
@@ -137,6 +138,26 @@ TEST_F(RecognizerTest, VerifiedModeRecognizesWithInliers) {
   EXPECT_EQ(db_->views()[result->best_slot].crossing_id, 3);
   EXPECT_GE(result->candidates.front().matches, options.min_inliers);
   EXPECT_LE(result->candidates.front().matches, result->candidates.front().tentative);
+}
+
+TEST_F(RecognizerTest, RetrievalModeAcceptsByFalseAlarmsAndSaysHowSure) {
+  RecognitionOptions options;
+  options.mode = RecognitionMode::kRetrieval;
+  const auto result = Recognize(*db_, Extract(testing::CropView(panoramas_[1], 110.0)), options);
+  ASSERT_TRUE(result.ok());
+  ASSERT_TRUE(result->recognized) << result->reason;
+  EXPECT_EQ(db_->views()[result->best_slot].crossing_id, 2);
+  EXPECT_LT(result->log10_nfa, options.max_log10_nfa);
+  // Candidates are ordered by their evidence, and every one carries it.
+  for (size_t i = 1; i < result->candidates.size(); ++i) {
+    EXPECT_LE(result->candidates[i - 1].log10_nfa, result->candidates[i].log10_nfa);
+  }
+  // The same frame with the limit at its own evidence is refused, with the reason.
+  options.max_log10_nfa = result->log10_nfa;
+  const auto strict = Recognize(*db_, Extract(testing::CropView(panoramas_[1], 110.0)), options);
+  ASSERT_TRUE(strict.ok());
+  EXPECT_FALSE(strict->recognized);
+  EXPECT_NE(strict->reason.find("could be chance"), std::string::npos) << strict->reason;
 }
 
 TEST_F(RecognizerTest, TexturelessImageIsANormalNegativeAnswer) {
@@ -226,6 +247,40 @@ TEST(FeaturesTest, AnySizeIsResizedToWorkingResolution) {
     EXPECT_LT(kp.pt.x, 320);
     EXPECT_LT(kp.pt.y, 240);
   }
+}
+
+TEST(FeaturesTest, KeepAspectFitsTheImageIntoTheWorkingSize) {
+  FeatureOptions options;
+  options.keep_aspect = true;
+  EXPECT_EQ(WorkingSize(cv::Size(1280, 960), options), cv::Size(320, 240));
+  EXPECT_EQ(WorkingSize(cv::Size(1241, 376), options), cv::Size(320, 97));   // KITTI
+  EXPECT_EQ(WorkingSize(cv::Size(3024, 4032), options), cv::Size(180, 240));  // a portrait photo
+  options.keep_aspect = false;  // the paper's plain resize
+  EXPECT_EQ(WorkingSize(cv::Size(1241, 376), options), cv::Size(320, 240));
+
+  options.keep_aspect = true;
+  const cv::Mat wide = testing::MakePanorama(5, 1200, 400);
+  auto f = ExtractFeatures(testing::EncodePng(wide), options);
+  ASSERT_TRUE(f.ok());
+  EXPECT_EQ(f->width, 320);
+  EXPECT_EQ(f->height, 107);
+}
+
+TEST(FeaturesTest, RootSiftDescriptorsHaveUnitLengthBeforeQuantisation) {
+  FeatureOptions options;
+  options.root_sift = true;
+  auto f = ExtractFeatures(testing::EncodePng(testing::MakePanorama(9, 640, 480)), options);
+  ASSERT_TRUE(f.ok());
+  ASSERT_GT(f->descriptors.rows, 20);
+  for (int r = 0; r < f->descriptors.rows; ++r) {
+    const double norm = cv::norm(f->descriptors.row(r), cv::NORM_L2) / 512.0;
+    EXPECT_NEAR(norm, 1.0, 0.05) << "row " << r;
+  }
+  // The same keypoints as plain SIFT: only the descriptors change.
+  options.root_sift = false;
+  auto plain = ExtractFeatures(testing::EncodePng(testing::MakePanorama(9, 640, 480)), options);
+  ASSERT_TRUE(plain.ok());
+  EXPECT_EQ(plain->keypoints.size(), f->keypoints.size());
 }
 
 }  // namespace

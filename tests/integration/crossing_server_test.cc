@@ -547,6 +547,56 @@ TEST_F(CrossingServerTest, StreamRecognizeAnswersEveryFrameAndSurvivesABadOne) {
   EXPECT_EQ(responses[3].crossing(), "crossing-1");
 }
 
+// Retrieval mode over a stream: the answer is the belief over the frames so far; one frame
+// does not decide, agreeing frames do, and a robot that moves on is followed.
+TEST_F(CrossingServerTest, StreamRecognizeInRetrievalModeDecidesOnEvidenceOverFrames) {
+  EnrollAll("evidence");
+  auto ctx = Ctx();
+  auto stream = (*client_)->StreamRecognize(ctx.get());
+  std::vector<std::string> frames;
+  for (double h : {40.0, 47.0, 54.0, 61.0}) frames.push_back(EncodeJpeg(CropView(panoramas_[0], h)));
+  for (double h : {200.0, 207.0, 214.0, 221.0, 228.0}) {
+    frames.push_back(EncodeJpeg(CropView(panoramas_[1], h)));
+  }
+  for (const std::string& f : frames) {
+    v1::RecognizeRequest q;
+    q.set_database("evidence");
+    q.mutable_image()->set_data(f);
+    q.mutable_params()->set_mode(v1::RECOGNITION_MODE_RETRIEVAL);
+    ASSERT_TRUE(stream->Write(q));
+  }
+  stream->WritesDone();
+  std::vector<v1::RecognizeResponse> responses;
+  v1::RecognizeResponse r;
+  while (stream->Read(&r)) responses.push_back(r);
+  ASSERT_TRUE(stream->Finish().ok());
+  ASSERT_EQ(responses.size(), frames.size());
+  for (const auto& answer : responses) {
+    EXPECT_EQ(answer.mode(), v1::RECOGNITION_MODE_RETRIEVAL);
+    EXPECT_TRUE(answer.has_evidence());
+  }
+  // Frame 0: the frame alone is sure, the belief not yet.
+  EXPECT_TRUE(responses[0].evidence().frame_recognized());
+  EXPECT_FALSE(responses[0].recognized());
+  EXPECT_EQ(responses[0].evidence().crossing(), "crossing-0");
+  EXPECT_LT(responses[0].evidence().posterior(), 0.95);
+  // From the second agreeing frame on: recognized, with this frame's best view of the crossing.
+  for (int i = 1; i < 4; ++i) {
+    EXPECT_TRUE(responses[i].recognized()) << i;
+    EXPECT_EQ(responses[i].crossing(), "crossing-0") << i;
+    EXPECT_GT(responses[i].view_id(), 0) << i;
+    EXPECT_LT(responses[i].log10_nfa(), 0) << i;
+  }
+  EXPECT_EQ(responses[3].evidence().frames(), 4);
+  // The robot moved on: crossing-1 within three frames, and not on its first.
+  EXPECT_NE(responses[4].crossing(), "crossing-1");
+  bool followed = false;
+  for (size_t i = 5; i < 7; ++i) followed = followed || responses[i].crossing() == "crossing-1";
+  EXPECT_TRUE(followed);
+  EXPECT_EQ(responses.back().crossing(), "crossing-1");
+  EXPECT_TRUE(responses.back().recognized());
+}
+
 TEST_F(CrossingServerTest, DeleteCrossingReclustersAndRebuildKeepsRecognition) {
   EnrollAll("edit");
   v1::DeleteCrossingRequest del;
