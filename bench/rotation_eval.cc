@@ -149,7 +149,12 @@ struct Cell {  // one (fov, mode, offset)
 };
 
 const char* ModeName(wc::RecognitionMode m) {
-  return m == wc::RecognitionMode::kPaper ? "paper" : "verified";
+  switch (m) {
+    case wc::RecognitionMode::kVerified: return "verified";
+    case wc::RecognitionMode::kRetrieval: return "retrieval";
+    case wc::RecognitionMode::kPaper: break;
+  }
+  return "paper";
 }
 
 cv::Mat ContactSheet(const std::vector<cv::Mat>& views, const std::string& title) {
@@ -205,7 +210,9 @@ int Run(const Args& args) {
 
   std::error_code ec;
   std::filesystem::create_directories(args.out, ec);
-  const wc::RecognitionMode modes[] = {wc::RecognitionMode::kPaper, wc::RecognitionMode::kVerified};
+  const wc::RecognitionMode modes[] = {wc::RecognitionMode::kPaper, wc::RecognitionMode::kVerified,
+                                       wc::RecognitionMode::kRetrieval};
+  constexpr int kModes = 3;
 
   nlohmann::json json;
   json["packages"] = packages;
@@ -277,7 +284,7 @@ int Run(const Args& args) {
         for (int k = 0; k < kViewsPerCrossing; ++k) {
           const double truth = k * kStepDeg + offset;
           const wc::ImageFeatures f = Extract(Render(panoramas[i], truth, fov));
-          for (int m = 0; m < 2; ++m) {
+          for (int m = 0; m < kModes; ++m) {
             wc::RecognitionOptions options;
             options.mode = modes[m];
             absl::StatusOr<wc::Recognition> r = wc::Recognize(db, f, options);
@@ -311,9 +318,12 @@ int Run(const Args& args) {
       }
       const Cell& paper = cells[{0, offset}];
       const Cell& verified = cells[{1, offset}];
+      const Cell& retrieval = cells[{2, offset}];
       std::cerr << absl::StrFormat(
-          "fov %g offset %g: paper %d/%d correct, verified %d/%d correct (%.0f s)\n", fov, offset,
-          paper.correct, paper.queries, verified.correct, verified.queries,
+          "fov %g offset %g: paper %d/%d correct, verified %d/%d, retrieval %d/%d (%d wrong) "
+          "(%.0f s)\n",
+          fov, offset, paper.correct, paper.queries, verified.correct, verified.queries,
+          retrieval.correct, retrieval.queries, retrieval.wrong,
           std::chrono::duration<double>(Clock::now() - start).count());
     }
 
@@ -333,7 +343,7 @@ int Run(const Args& args) {
     jfov["clusters_mixing_crossings"] = mixed;
     jfov["median_keypoints_per_view"] = Median(keypoints);
     for (double offset : args.offsets) {
-      for (int m = 0; m < 2; ++m) {
+      for (int m = 0; m < kModes; ++m) {
         const Cell& c = cells[{m, offset}];
         const double med = Median(c.errors);
         const double med_matches = Median(c.matches);
@@ -362,8 +372,9 @@ int Run(const Args& args) {
         jfov["rows"].push_back(row);
       }
     }
-    // Per panorama: correct answers per offset (paper / verified).
-    md << "\nCorrect crossing per panorama, out of 12 (paper / verified):\n\n| panorama |";
+    // Per panorama: correct answers per offset (paper / verified / retrieval).
+    md << "\nCorrect crossing per panorama, out of 12 (paper / verified / retrieval):\n\n"
+          "| panorama |";
     for (double offset : args.offsets) md << " " << offset << " deg |";
     md << "\n|---|";
     for (size_t j = 0; j < args.offsets.size(); ++j) md << "---|";
@@ -372,7 +383,8 @@ int Run(const Args& args) {
       md << "| " << p.name << " |";
       for (double offset : args.offsets) {
         md << " " << cells[{0, offset}].per_panorama[p.name].first << " / "
-           << cells[{1, offset}].per_panorama[p.name].first << " |";
+           << cells[{1, offset}].per_panorama[p.name].first << " / "
+           << cells[{2, offset}].per_panorama[p.name].first << " |";
       }
       md << "\n";
     }

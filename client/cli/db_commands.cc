@@ -21,6 +21,8 @@ struct CreateArgs {
   int cluster_threshold = 0;
   int max_keypoints = 0;
   std::string mode;
+  bool keep_aspect = false;
+  bool root_sift = false;
   CLI::Option* work_width_option = nullptr;
   CLI::Option* work_height_option = nullptr;
   CLI::Option* hue_bins_option = nullptr;
@@ -41,6 +43,8 @@ v1::CreateDatabaseRequest MakeCreateRequest(const CreateArgs& args) {
     params->set_cluster_threshold(args.cluster_threshold);
   }
   if (args.max_keypoints_option->count() > 0) params->set_max_keypoints(args.max_keypoints);
+  if (args.keep_aspect) params->set_keep_aspect(true);
+  if (args.root_sift) params->set_root_sift(true);
   if (args.mode_option->count() > 0) {
     params->mutable_recognition()->set_mode(ModeFromName(args.mode));
   }
@@ -205,6 +209,11 @@ void AddDbCommands(CLI::App& app, CommandRegistry& registry) {
           ->add_option("--max-keypoints", create_args->max_keypoints,
                        "Keypoints kept per image, 0 = all [0]")
           ->check(CLI::NonNegativeNumber);
+  create->add_flag("--keep-aspect", create_args->keep_aspect,
+                   "Fit images into the working size keeping their aspect ratio (the paper "
+                   "squeezes them to it)");
+  create->add_flag("--root-sift", create_args->root_sift,
+                   "RootSIFT descriptors (recommended with --mode retrieval)");
   create_args->mode_option = AddModeOption(create, &create_args->mode);
   registry.Add(create, [create_args](CommandContext& c) { return RunCreate(c, *create_args); });
 

@@ -11,13 +11,15 @@ CLI::Option* AddModeOption(CLI::App* command, std::string* mode) {
   return command
       ->add_option("--mode", *mode,
                    "paper: the paper's method exactly; verified: geometric verification and a "
-                   "calibrated rejection rule")
-      ->transform(CLI::IsMember({"paper", "verified"}, CLI::ignore_case));
+                   "calibrated rejection rule; retrieval: acceptance by the expected number of "
+                   "false alarms, and evidence over a stream's frames")
+      ->transform(CLI::IsMember({"paper", "verified", "retrieval"}, CLI::ignore_case));
 }
 
 v1::RecognitionMode ModeFromName(const std::string& name) {
   if (name == "paper") return v1::RECOGNITION_MODE_PAPER;
   if (name == "verified") return v1::RECOGNITION_MODE_VERIFIED;
+  if (name == "retrieval") return v1::RECOGNITION_MODE_RETRIEVAL;
   return v1::RECOGNITION_MODE_UNSPECIFIED;
 }
 
@@ -47,6 +49,20 @@ void RecognitionFlags::Register(CLI::App* command) {
       command->add_option("--min-inliers", min_inliers_, "Verified mode: inliers to accept")
           ->check(CLI::NonNegativeNumber)
           ->group(group);
+  max_log10_nfa_option_ =
+      command
+          ->add_option("--max-log10-nfa", max_log10_nfa_,
+                       "Retrieval mode: accept when chance would match fewer than 10^X views as "
+                       "well [0]")
+          ->check(CLI::Range(-10000.0, 100.0))
+          ->group(group);
+  evidence_option_ =
+      command
+          ->add_option("--evidence", evidence_,
+                       "Retrieval mode, streams: posterior over the frames a crossing needs; 0 = "
+                       "every frame on its own [0.95]")
+          ->check(CLI::Range(0.0, 0.999999))
+          ->group(group);
 }
 
 v1::RecognitionParams RecognitionFlags::ToParams() const {
@@ -59,6 +75,8 @@ v1::RecognitionParams RecognitionFlags::ToParams() const {
   if (Given(alpha_option_)) params.set_alpha(alpha_);
   if (Given(beta_option_)) params.set_beta(beta_);
   if (Given(min_inliers_option_)) params.set_min_inliers(min_inliers_);
+  if (Given(max_log10_nfa_option_)) params.set_max_log10_nfa(max_log10_nfa_);
+  if (Given(evidence_option_)) params.set_evidence_threshold(evidence_);
   return params;
 }
 

@@ -30,6 +30,8 @@ class RecognitionFlags {
   double alpha_ = 0;
   double beta_ = 0;
   int min_inliers_ = 0;
+  double max_log10_nfa_ = 0;
+  double evidence_ = 0;
 
   CLI::Option* mode_option_ = nullptr;
   CLI::Option* ratio_option_ = nullptr;
@@ -39,6 +41,8 @@ class RecognitionFlags {
   CLI::Option* alpha_option_ = nullptr;
   CLI::Option* beta_option_ = nullptr;
   CLI::Option* min_inliers_option_ = nullptr;
+  CLI::Option* max_log10_nfa_option_ = nullptr;
+  CLI::Option* evidence_option_ = nullptr;
 };
 
 }  // namespace waymark::cli

@@ -17,9 +17,18 @@ std::string RecognitionSummary(const v1::RecognizeResponse& response) {
   }
   const std::string position =
       response.position().empty() ? "" : fmt::format(", position {}", response.position());
-  return fmt::format("recognized {}, heading {:.1f} deg, decision {:.3f} (view {}{})",
-                     response.crossing(), response.heading_deg(), response.decision(),
-                     response.view_id(), position);
+  // Retrieval mode says how sure it is: the false alarms chance would give.
+  const std::string sure = response.mode() == v1::RECOGNITION_MODE_RETRIEVAL
+                               ? fmt::format(", 10^{:.1f} false alarms", response.log10_nfa())
+                               : "";
+  const std::string belief =
+      response.has_evidence()
+          ? fmt::format(", posterior {:.3f} over {} frames", response.evidence().posterior(),
+                        response.evidence().frames())
+          : "";
+  return fmt::format("recognized {}, heading {:.1f} deg, decision {:.3f}{}{} (view {}{})",
+                     response.crossing(), response.heading_deg(), response.decision(), sure,
+                     belief, response.view_id(), position);
 }
 
 std::string RecognitionDetails(const v1::RecognizeResponse& response) {
