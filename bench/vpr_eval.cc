@@ -27,6 +27,7 @@
 #include "bench/vpr_datasets.h"
 #include "bench/vpr_experiment.h"
 #include "server/crossing/place_evidence.h"
+#include "server/crossing/vlad.h"
 
 namespace waymark::vpr {
 namespace {
@@ -171,6 +172,7 @@ class Evaluation {
   Run Execute(const std::string& label, const RecognitionOptions& options,
               const std::vector<std::string>& groups);
   std::string SequenceReport(const Run& run, double threshold) const;
+  void VladReport(int words);
   std::vector<std::string> GroupsOf(const std::string& dataset) const;
   std::vector<std::string> AllGroups() const;
   std::vector<std::string> PaperSweepGroups() const;
@@ -420,6 +422,48 @@ Run Evaluation::Execute(const std::string& label, const RecognitionOptions& opti
 
 std::vector<std::string> Evaluation::PaperSweepGroups() const { return AllGroups(); }
 
+// Global retrieval alone (VLAD over the database's own descriptors, `words` words): R@1 and R@5
+// of the cosine-nearest views, per group, no verification.
+void Evaluation::VladReport(int words) {
+  for (const Group& g : groups_) {
+    if (g.name != kCorridor && g.name != kTriplets && g.name != kCorridorSegments) continue;
+    int queries = 0, top1 = 0, top5 = 0;
+    for (const PreparedProtocol& part : g.parts) {
+      cv::Mat all;
+      std::vector<cv::Mat> views;
+      for (const Enrollment& e : part.protocol.enroll) {
+        const crossing::ImageFeatures* f = *cache_.Get(e.path);
+        all.push_back(f->descriptors);
+      }
+      const crossing::VladVocabulary vocabulary = crossing::VladVocabulary::Train(all, words);
+      for (const Enrollment& e : part.protocol.enroll) {
+        views.push_back(vocabulary.Encode((*cache_.Get(e.path))->descriptors));
+      }
+      for (size_t q = 0; q < part.protocol.queries.size(); ++q) {
+        const Query& query = part.protocol.queries[q];
+        if (query.accepted.empty()) continue;
+        const cv::Mat v = vocabulary.Encode(part.query_features[q]->descriptors);
+        std::vector<std::pair<double, size_t>> ranked;
+        for (size_t i = 0; i < views.size(); ++i) ranked.push_back({-v.dot(views[i]), i});
+        std::sort(ranked.begin(), ranked.end());
+        ++queries;
+        for (size_t r = 0; r < std::min<size_t>(5, ranked.size()); ++r) {
+          const int64_t place = part.protocol.enroll[ranked[r].second].place;
+          if (std::find(query.accepted.begin(), query.accepted.end(), place) !=
+              query.accepted.end()) {
+            top1 += r == 0;
+            ++top5;
+            break;
+          }
+        }
+      }
+    }
+    std::cerr << absl::StrFormat("  [vlad %d] %-24s R@1 %s  R@5 %s\n", words, g.name,
+                                 Pct(queries ? double(top1) / queries : NAN),
+                                 Pct(queries ? double(top5) / queries : NAN));
+  }
+}
+
 // StreamRecognize's evidence filter replayed over a query traversal streamed in order: how often
 // its answer is right or wrong, and how many frames after entering a stretch it names it.
 std::string Evaluation::SequenceReport(const Run& run, double threshold) const {
@@ -509,6 +553,7 @@ void Evaluation::RunAll() {
       std::cerr << "stream over the corridor, " << sequence_.back() << "\n";
     }
   }
+  for (int words : {16, 64}) VladReport(words);
   if (quick_) return;
   // The hue term of the decision can overrule the geometric evidence: the same run without it.
   {

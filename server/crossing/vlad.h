@@ -1,0 +1,31 @@
+#ifndef WAYMARK_SERVER_CROSSING_VLAD_H_
+#define WAYMARK_SERVER_CROSSING_VLAD_H_
+
+// VLAD (Jegou et al. 2010; with the intra-normalisation of Arandjelovic & Zisserman 2013): one
+// global vector per image from its local descriptors, for retrieval over every view. Each
+// descriptor adds its residual to the nearest of `words` centres; the per-word sums are
+// square-rooted (signed), normalised per word and then as a whole.
+
+#include <opencv2/core.hpp>
+
+namespace waymark::crossing {
+
+class VladVocabulary {
+ public:
+  // k-means (k-means++, fixed seed: the same descriptors give the same words) on at most
+  // `max_samples` of `descriptors` (N x 128, CV_8U or CV_32F). Fewer descriptors than words:
+  // an empty vocabulary.
+  static VladVocabulary Train(const cv::Mat& descriptors, int words, int max_samples = 100000);
+
+  bool empty() const { return centers_.empty(); }
+  int words() const { return centers_.rows; }
+  // 1 x (words * 128) CV_32F, unit L2 norm (all zero for no descriptors).
+  cv::Mat Encode(const cv::Mat& descriptors) const;
+
+ private:
+  cv::Mat centers_;  // words x 128, CV_32F
+};
+
+}  // namespace waymark::crossing
+
+#endif  // WAYMARK_SERVER_CROSSING_VLAD_H_
