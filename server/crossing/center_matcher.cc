@@ -36,25 +36,32 @@ __attribute__((always_inline)) inline Lanes LoadLanes(const float* p) {
 // Appends to `hits` the descriptors of a centre whose projected squared distance to the query is
 // under their threshold scale * s(x)^2 + slack. The distance is taken as |q|^2 + |x|^2 - 2 q.x
 // (one multiply-add per dimension; `minus_twice_query` holds -2 q), kLanes descriptors at a time
-// with their sums in registers over all dimensions. The crossing library is built for any
-// x86-64; the loader picks the AVX-512 or AVX2 clone where the CPU has it.
+// with their sums in registers over all dimensions. Most queries have no hit in a centre, so the
+// lanes' verdicts are OR-ed across the centre and looked at once; only a centre with a hit is
+// gone over again to list them. The crossing library is built for any x86-64; the loader picks
+// the AVX-512 or AVX2 clone where the CPU has it.
 #if defined(__x86_64__) && defined(__GNUC__) && !defined(__clang__)
 __attribute__((target_clones("avx512f", "avx2", "default")))
 #endif
 void ProjectedHits(const float* minus_twice_query, float query_norm, const float* projected,
                    const float* norms, const float* neighbour_sq, uint32_t padded, float scale,
                    float slack, std::vector<uint32_t>* hits) {
-  for (uint32_t first = 0; first < padded; first += kLanes) {
+  const auto below = [&](uint32_t first) {
     Lanes sum = LoadLanes(norms + first) + query_norm;
     for (int j = 0; j < CenterMatcher::kDims; ++j) {
       sum += minus_twice_query[j] * LoadLanes(projected + static_cast<size_t>(j) * padded + first);
     }
-    const LaneMask below = sum < LoadLanes(neighbour_sq + first) * scale + slack;
-    int32_t any = 0;
-    for (uint32_t l = 0; l < kLanes; ++l) any |= below[l];
-    if (any == 0) continue;
+    return sum < LoadLanes(neighbour_sq + first) * scale + slack;
+  };
+  LaneMask any = {};
+  for (uint32_t first = 0; first < padded; first += kLanes) any |= below(first);
+  int32_t found = 0;
+  for (uint32_t l = 0; l < kLanes; ++l) found |= any[l];
+  if (found == 0) return;
+  for (uint32_t first = 0; first < padded; first += kLanes) {
+    const LaneMask lanes = below(first);
     for (uint32_t l = 0; l < kLanes; ++l) {
-      if (below[l] != 0) hits->push_back(first + l);
+      if (lanes[l] != 0) hits->push_back(first + l);
     }
   }
 }
