@@ -334,16 +334,7 @@ json RunSize(int n, const std::vector<BenchView>& all_views, const std::vector<s
   // 7. The paper's clustering, quadratic: every view against every centre, exact (36 and 360 only).
   if (n <= 400) {
     const auto t0 = Clock::now();
-    std::vector<uint32_t> centres;
-    for (uint32_t s = 0; s < indexed.views().size(); ++s) {
-      std::vector<int> per_center;
-      const cv::Mat d = indexed.Descriptors(s);
-      for (uint32_t c : centres) {
-        per_center.push_back(static_cast<int>(
-            crossing::MatchViewExact(d, indexed.index().store(), indexed.spans()[c], 0.32).size()));
-      }
-      if (crossing::AssignCluster(per_center, 5) < 0) centres.push_back(s);
-    }
+    const auto centres = crossing::QuadraticClusters(indexed, crossing::ClusterOptions{});
     out["quadratic_clustering_s"] = Ms(t0, Clock::now()) / 1000;
     out["quadratic_clusters"] = centres.size();
   }

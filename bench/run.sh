@@ -14,6 +14,9 @@ echo "== active-exploration planner: ms per decision vs candidate controls and s
   --benchmark_out="$OUT/planner_bench.json" --benchmark_out_format=json
 echo "== RecognizeCrossing latency, memory and clustering vs database size"
 "$BUILD_DIR/bin/waymark-bench-recognition" --shared "$SHARED" --out "$OUT" ${BENCH_SIZES:+--sizes $BENCH_SIZES}
+echo "== enrollment cost: SIFT and the incremental clustering vs the quadratic reference"
+"$BUILD_DIR/bin/waymark-bench-enroll" --shared "$SHARED" ${BENCH_SIZES:+--sizes $BENCH_SIZES} \
+  --reference-max 360 | tee "$OUT/bench_enroll.md"
 if [ -x "$BUILD_DIR/bin/waymark-vpr-eval" ]; then
   echo "== recognition accuracy on the place-recognition sets"
   "$BUILD_DIR/bin/waymark-vpr-eval" --shared "$SHARED" --out "$OUT"

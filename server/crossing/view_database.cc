@@ -25,32 +25,11 @@ uint32_t ViewDatabase::AddView(int64_t view_id, int64_t crossing_id, double head
   return slot;
 }
 
-std::vector<int> ViewDatabase::CountCenterMatches(const cv::Mat& descriptors,
-                                                  const ForestSet& centers,
-                                                  const std::vector<ClusterEntry>& clusters,
-                                                  const ClusterOptions& options) const {
-  // The index shortlists the centres; the count itself is exact, as the paper's clustering
-  // (enrollment is not latency-bound, and a count of 4 vs 5 decides a new cluster). Approximate
-  // counts do not do as a shortlist: a descriptor can be distinctive within one centre yet have
-  // closer neighbours in others, and so never reach the global neighbour list.
-  const std::unordered_map<uint32_t, int> votes = CountViewVotes(descriptors, centers);
-  std::vector<int> per_center(clusters.size(), 0);
-  for (size_t c = 0; c < clusters.size(); ++c) {
-    auto it = votes.find(clusters[c].center);
-    if (it == votes.end() || it->second < options.threshold) continue;
-    per_center[c] = static_cast<int>(
-        MatchViewExact(descriptors, index_.store(), spans_[clusters[c].center], options.ratio)
-            .size());
-  }
-  return per_center;
-}
-
 ClusterProposal ViewDatabase::ProposeCluster(const cv::Mat& descriptors,
                                              const ClusterOptions& options) const {
   ClusterProposal proposal;
   if (clusters_.empty()) return proposal;
-  const std::vector<int> per_center =
-      CountCenterMatches(descriptors, centers_, clusters_, options);
+  const std::vector<int> per_center = centers_.CountMatches(descriptors, options.ratio);
   proposal.cluster = AssignCluster(per_center, options.threshold);
   for (int m : per_center) proposal.matches = std::max(proposal.matches, m);
   return proposal;
@@ -64,7 +43,7 @@ int ViewDatabase::NewCluster(int64_t cluster_id, uint32_t center_slot) {
   clusters_.push_back(std::move(cluster));
   const int index = static_cast<int>(clusters_.size()) - 1;
   views_[center_slot].cluster = index;
-  centers_.Add(IdRange(views_[center_slot].span.first, views_[center_slot].span.count));
+  centers_.Add(views_[center_slot].span);
   return index;
 }
 
@@ -75,12 +54,12 @@ void ViewDatabase::AddToCluster(int cluster, uint32_t slot) {
 
 std::vector<ClusterEntry> ViewDatabase::ComputeClusters(const ClusterOptions& options) const {
   std::vector<ClusterEntry> clusters;
-  ForestSet centers(index_.store(), index_.options());  // centres so far
+  CenterMatcher centers(index_.store());  // centres so far
   for (uint32_t slot = 0; slot < views_.size(); ++slot) {
     const int join =
         clusters.empty()
             ? -1
-            : AssignCluster(CountCenterMatches(Descriptors(slot), centers, clusters, options),
+            : AssignCluster(centers.CountMatches(Descriptors(slot), options.ratio),
                             options.threshold);
     if (join >= 0) {
       clusters[join].members.push_back(slot);
@@ -89,7 +68,7 @@ std::vector<ClusterEntry> ViewDatabase::ComputeClusters(const ClusterOptions& op
       cluster.center = slot;
       cluster.members.push_back(slot);
       clusters.push_back(std::move(cluster));
-      centers.Add(IdRange(views_[slot].span.first, views_[slot].span.count));
+      centers.Add(views_[slot].span);
     }
   }
   return clusters;
@@ -98,14 +77,12 @@ std::vector<ClusterEntry> ViewDatabase::ComputeClusters(const ClusterOptions& op
 void ViewDatabase::SetClusters(std::vector<ClusterEntry> clusters) {
   clusters_ = std::move(clusters);
   for (ViewEntry& v : views_) v.cluster = -1;
-  // Centres indexed in creation order, as NewCluster would have: the same forests as live.
+  // Centres in cluster order, as NewCluster would have added them.
   centers_.Clear();
   for (size_t c = 0; c < clusters_.size(); ++c) {
     for (uint32_t slot : clusters_[c].members) views_[slot].cluster = static_cast<int>(c);
-    const ViewSpan span = views_[clusters_[c].center].span;
-    centers_.Add(IdRange(span.first, span.count), /*defer_build=*/true);
+    centers_.Add(views_[clusters_[c].center].span);
   }
-  centers_.BuildPending();
 }
 
 cv::Mat ViewDatabase::Descriptors(uint32_t slot) const {
@@ -126,6 +103,29 @@ size_t ViewDatabase::memory_bytes() const {
              v.hue_hist.capacity() * sizeof(float);
   }
   return bytes;
+}
+
+std::vector<ClusterEntry> QuadraticClusters(const ViewDatabase& db, const ClusterOptions& options) {
+  std::vector<ClusterEntry> clusters;
+  for (uint32_t slot = 0; slot < db.views().size(); ++slot) {
+    const cv::Mat descriptors = db.Descriptors(slot);
+    std::vector<int> per_center;
+    for (const ClusterEntry& c : clusters) {
+      per_center.push_back(static_cast<int>(
+          MatchViewExact(descriptors, db.index().store(), db.spans()[c.center], options.ratio)
+              .size()));
+    }
+    const int join = AssignCluster(per_center, options.threshold);
+    if (join >= 0) {
+      clusters[join].members.push_back(slot);
+    } else {
+      ClusterEntry cluster;
+      cluster.center = slot;
+      cluster.members.push_back(slot);
+      clusters.push_back(std::move(cluster));
+    }
+  }
+  return clusters;
 }
 
 }  // namespace waymark::crossing

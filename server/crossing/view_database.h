@@ -12,6 +12,7 @@
 
 #include <opencv2/core.hpp>
 
+#include "server/crossing/center_matcher.h"
 #include "server/crossing/descriptor_index.h"
 #include "server/crossing/features.h"
 #include "server/crossing/options.h"
@@ -47,7 +48,7 @@ struct ClusterProposal {
 class ViewDatabase {
  public:
   explicit ViewDatabase(const IndexOptions& index_options = {})
-      : index_(index_options), centers_(index_.store(), index_options) {}
+      : index_(index_options), centers_(index_.store()) {}
   ViewDatabase(const ViewDatabase&) = delete;
   ViewDatabase& operator=(const ViewDatabase&) = delete;
 
@@ -65,7 +66,8 @@ class ViewDatabase {
   }
 
   // The paper's clustering step for a view that is not yet a centre or member: matches against
-  // every current centre, the best one joins if it reaches the threshold.
+  // every current centre (exact counts, through the CenterMatcher), the best one joins if it
+  // reaches the threshold (the first of equal counts, as AssignCluster).
   ClusterProposal ProposeCluster(const cv::Mat& descriptors, const ClusterOptions& options) const;
   int NewCluster(int64_t cluster_id, uint32_t center_slot);
   void AddToCluster(int cluster, uint32_t slot);
@@ -84,20 +86,19 @@ class ViewDatabase {
   size_t memory_bytes() const;  // descriptors + index + keypoints + histograms
 
  private:
-  // Per-centre match counts of `descriptors`: exact for the centres `centers` (the centres'
-  // forests) shortlists, 0 for the others.
-  std::vector<int> CountCenterMatches(const cv::Mat& descriptors, const ForestSet& centers,
-                                      const std::vector<ClusterEntry>& clusters,
-                                      const ClusterOptions& options) const;
-
   DescriptorIndex index_;
-  // The cluster centres' descriptors, indexed (ids into index_'s store, nothing copied): the
-  // clustering matches new views against centres only.
-  ForestSet centers_;
+  // The cluster centres in cluster order (ids into index_'s store): the clustering matches new
+  // views against centres only.
+  CenterMatcher centers_;
   std::vector<ViewEntry> views_;
   std::vector<ClusterEntry> clusters_;
   std::vector<ViewSpan> spans_;  // mirror of views_[i].span, the shape the matchers take
 };
+
+// The paper's clustering verbatim, the reference ComputeClusters is tested against: every view in
+// enrollment order matched by brute force (MatchViewExact) against every centre so far. Quadratic:
+// for tests and benchmarks, not for the service.
+std::vector<ClusterEntry> QuadraticClusters(const ViewDatabase& db, const ClusterOptions& options);
 
 }  // namespace waymark::crossing
 

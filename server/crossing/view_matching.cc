@@ -8,12 +8,11 @@
 namespace waymark::crossing {
 namespace {
 
-// Nearest and second-nearest squared distances of `q` within a view, and the nearest's id.
-struct TwoNearest {
-  int32_t first = std::numeric_limits<int32_t>::max();
-  int32_t second = std::numeric_limits<int32_t>::max();
-  uint32_t first_id = 0;
-};
+// The largest possible squared distance of two SIFT descriptors (unit vectors scaled to 512):
+// an ambiguous view whose nearest is farther than ratio * this can never pass.
+constexpr int64_t kMaxSquaredDistance = 2LL * 512 * 512;
+
+}  // namespace
 
 TwoNearest FindTwoNearest(const uint8_t* q, const DescriptorStore& store, ViewSpan view) {
   TwoNearest best;
@@ -29,12 +28,6 @@ TwoNearest FindTwoNearest(const uint8_t* q, const DescriptorStore& store, ViewSp
   }
   return best;
 }
-
-// The largest possible squared distance of two SIFT descriptors (unit vectors scaled to 512):
-// an ambiguous view whose nearest is farther than ratio * this can never pass.
-constexpr int64_t kMaxSquaredDistance = 2LL * 512 * 512;
-
-}  // namespace
 
 std::vector<DescriptorMatch> MatchViewExact(const cv::Mat& query, const DescriptorStore& store,
                                             ViewSpan view, double ratio) {
@@ -102,23 +95,6 @@ ViewMatches MatchAllViews(const cv::Mat& query, const ForestSet& forests,
     }
   }
   return result;
-}
-
-std::unordered_map<uint32_t, int> CountViewVotes(const cv::Mat& query, const ForestSet& forests) {
-  std::unordered_map<uint32_t, int> votes;
-  KnnList knn(forests.options().knn);
-  std::vector<uint32_t> seen;
-  for (int i = 0; i < query.rows; ++i) {
-    knn.Clear();
-    forests.Search(query.ptr<uint8_t>(i), &knn);
-    seen.clear();
-    for (const Neighbour& n : knn.items()) {
-      const uint32_t view = forests.store().ViewOf(n.id);
-      if (std::find(seen.begin(), seen.end(), view) == seen.end()) seen.push_back(view);
-    }
-    for (uint32_t view : seen) ++votes[view];
-  }
-  return votes;
 }
 
 }  // namespace waymark::crossing

@@ -6,6 +6,7 @@
 // the second nearest (dis_b) satisfy dis_a < ratio * dis_b. M = number of such query descriptors.
 
 #include <cstdint>
+#include <limits>
 #include <unordered_map>
 #include <vector>
 
@@ -33,6 +34,15 @@ inline bool PassesRatio(int64_t a2, int64_t b2, double ratio) {
   return static_cast<double>(a2) < ratio * ratio * static_cast<double>(b2);
 }
 
+// Nearest and second-nearest squared distances of `q` within a view, and the nearest's id
+// (the exact search every ratio-test count here agrees with).
+struct TwoNearest {
+  int32_t first = std::numeric_limits<int32_t>::max();
+  int32_t second = std::numeric_limits<int32_t>::max();
+  uint32_t first_id = 0;
+};
+TwoNearest FindTwoNearest(const uint8_t* q, const DescriptorStore& store, ViewSpan view);
+
 // Exact (brute-force) ratio-test matches of `query` (N x 128 CV_8U) against one view. A view with
 // fewer than two descriptors has no second neighbour, so nothing matches it.
 std::vector<DescriptorMatch> MatchViewExact(const cv::Mat& query, const DescriptorStore& store,
@@ -50,11 +60,6 @@ inline ViewMatches MatchAllViews(const cv::Mat& query, const DescriptorIndex& in
                                  bool resolve_exactly) {
   return MatchAllViews(query, index.forests(), spans, ratio, resolve_exactly);
 }
-
-// For each view, how many query descriptors have it among their `knn` nearest indexed
-// descriptors. A view with fewer votes than k cannot have k ratio-test matches that the index
-// would find, so votes shortlist the views worth matching exactly.
-std::unordered_map<uint32_t, int> CountViewVotes(const cv::Mat& query, const ForestSet& forests);
 
 }  // namespace waymark::crossing
 

@@ -96,8 +96,16 @@ void InstallView(ResidentDatabase& db, const storage::AddViewResult& added, int 
 
 absl::StatusOr<v1::EnrollViewResponse> CrossingRegistry::EnrollView(
     const v1::EnrollViewRequest& request, bool* crossing_created) {
-  const auto start = Clock::now();
+  absl::StatusOr<PreparedEnrollment> prepared = PrepareEnrollment(request);
   if (crossing_created != nullptr) *crossing_created = false;
+  if (!prepared.ok()) return prepared.status();
+  return CommitEnrollment(request, std::move(*prepared), crossing_created);
+}
+
+absl::StatusOr<CrossingRegistry::PreparedEnrollment> CrossingRegistry::PrepareEnrollment(
+    const v1::EnrollViewRequest& request) {
+  PreparedEnrollment prepared;
+  prepared.start = Clock::now();
   if (absl::Status s = ValidateCrossingName(request.crossing()); !s.ok()) return s;
   if (absl::Status s = ValidateHeading(request.heading_deg()); !s.ok()) return s;
   if (absl::Status s = ValidatePosition(request.position()); !s.ok()) return s;
@@ -106,21 +114,22 @@ absl::StatusOr<v1::EnrollViewResponse> CrossingRegistry::EnrollView(
   Database& db = **found;
   absl::StatusOr<std::string> content = storage::Sha256(request.image().data());
   if (!content.ok()) return content.status();
+  prepared.content = std::move(*content);
 
   // A duplicate needs no features: answer it before the slow part.
   {
     absl::ReaderMutexLock lock(&db.mutex);
     if (absl::Status s = db.CheckAlive(); !s.ok()) return s;
     if (absl::Status s = CheckCrossing(db, request); !s.ok()) return s;
-    if (const crossing::ViewEntry* held = DuplicateOf(db, request, *content)) {
-      return DuplicateAnswer(db, *held, start);
+    if (const crossing::ViewEntry* held = DuplicateOf(db, request, prepared.content)) {
+      prepared.answer = DuplicateAnswer(db, *held, prepared.start);
+      return prepared;
     }
   }
 
   // Feature extraction is the slow part and needs no lock (options never change after creation).
-  crossing::ExtractionTimings timings;
   absl::StatusOr<crossing::ImageFeatures> features =
-      Extract(request.image().data(), db.options.features, &timings);
+      Extract(request.image().data(), db.options.features, &prepared.timings);
   if (!features.ok()) return features.status();
   if (features->descriptors.rows < kMinEnrollKeypoints) {
     return absl::InvalidArgumentError(absl::StrCat(
@@ -128,26 +137,41 @@ absl::StatusOr<v1::EnrollViewResponse> CrossingRegistry::EnrollView(
         features->height, "; a view needs at least ", kMinEnrollKeypoints,
         " to be recognizable (blank, blurred or textureless image?)"));
   }
+  prepared.features = std::move(*features);
+  return prepared;
+}
+
+absl::StatusOr<v1::EnrollViewResponse> CrossingRegistry::CommitEnrollment(
+    const v1::EnrollViewRequest& request, PreparedEnrollment prepared, bool* crossing_created) {
+  if (crossing_created != nullptr) *crossing_created = false;
+  if (prepared.answer.has_value()) return *prepared.answer;
+  const auto start = prepared.start;
+  const crossing::ExtractionTimings& timings = prepared.timings;
+  const crossing::ImageFeatures& features = prepared.features;
+  const std::string& content = prepared.content;
+  absl::StatusOr<std::shared_ptr<Database>> found = Find(request.database());
+  if (!found.ok()) return found.status();
+  Database& db = **found;
 
   absl::MutexLock lock(&db.mutex);
   if (absl::Status s = db.CheckAlive(); !s.ok()) return s;
   // Again, in the critical section of the commit: the crossing may have been deleted, and an
   // enrollment of the same image may have committed while this one was extracting.
   if (absl::Status s = CheckCrossing(db, request); !s.ok()) return s;
-  if (const crossing::ViewEntry* held = DuplicateOf(db, request, *content)) {
+  if (const crossing::ViewEntry* held = DuplicateOf(db, request, content)) {
     return DuplicateAnswer(db, *held, start);
   }
   auto id_it = db.crossing_ids.find(request.crossing());
   const bool new_crossing = id_it == db.crossing_ids.end();
   const int64_t crossing_id = new_crossing ? 0 : id_it->second;
-  storage::ViewRecord record = ToViewRecord(crossing_id, request.heading_deg(), *features);
-  record.content_sha256 = *content;
+  storage::ViewRecord record = ToViewRecord(crossing_id, request.heading_deg(), features);
+  record.content_sha256 = content;
   record.position = request.position();
   if (request.store_image()) record.image = request.image().data();
 
   // What `replace` deletes: the crossing's views at this heading and position and the view
   // holding this image elsewhere (DuplicateOf returned null for it).
-  const std::optional<int64_t> holder = db.contents.Find(*content);
+  const std::optional<int64_t> holder = db.contents.Find(content);
   const auto replaced = [&](const crossing::ViewEntry& v) {
     return (!new_crossing && AtRequestedPlace(v, crossing_id, request)) ||
            (holder.has_value() && v.view_id == *holder);
@@ -155,8 +179,8 @@ absl::StatusOr<v1::EnrollViewResponse> CrossingRegistry::EnrollView(
   const bool replaces = request.replace() &&
                         std::any_of(db.views->views().begin(), db.views->views().end(), replaced);
   absl::StatusOr<CommittedView> committed =
-      replaces ? CommitReplacingViews(db, request, record, *features, new_crossing, replaced)
-               : CommitView(db, request, record, *features, new_crossing);
+      replaces ? CommitReplacingViews(db, request, record, features, new_crossing, replaced)
+               : CommitView(db, request, record, features, new_crossing);
   if (!committed.ok()) return committed.status();
   if (new_crossing && crossing_created != nullptr) *crossing_created = true;
 
@@ -168,7 +192,7 @@ absl::StatusOr<v1::EnrollViewResponse> CrossingRegistry::EnrollView(
   response.set_heading_deg(request.heading_deg());
   response.set_position(request.position());
   response.set_crossing_created(new_crossing);
-  response.set_keypoints(features->descriptors.rows);
+  response.set_keypoints(features.descriptors.rows);
   response.set_cluster_id(committed->added.cluster_id);
   response.set_new_cluster(committed->new_cluster);
   for (int64_t id : committed->replaced_view_ids) response.add_replaced_view_ids(id);

@@ -32,11 +32,13 @@
 #include <functional>
 #include <map>
 #include <memory>
+#include <optional>
 #include <string>
 #include <vector>
 
 #include "absl/status/statusor.h"
 #include "absl/synchronization/mutex.h"
+#include "server/common/stopwatch.h"
 #include "server/crossing/features.h"
 #include "server/crossing/view_database.h"
 #include "server/service/crossing_database.h"
@@ -78,6 +80,23 @@ class CrossingRegistry {
   // `crossing_created`, if given, is set when the request created its crossing.
   absl::StatusOr<v1::EnrollViewResponse> EnrollView(const v1::EnrollViewRequest& request,
                                                     bool* crossing_created = nullptr);
+  // EnrollView in its two steps, so that a stream of views can extract the next views' features
+  // while one commits (BulkEnroll, StreamEnroll). PrepareEnrollment needs no exclusive lock: it
+  // validates, hashes, answers a duplicate already held and extracts the features.
+  // CommitEnrollment takes the lock and does the rest as EnrollView (the checks again, the
+  // cluster, the transaction, memory). A prepared view carries no database state, so views of one
+  // stream may be prepared out of order and committed in order.
+  struct PreparedEnrollment {
+    Clock::time_point start;
+    std::string content;  // SHA-256 of the image bytes
+    crossing::ExtractionTimings timings;
+    crossing::ImageFeatures features;
+    std::optional<v1::EnrollViewResponse> answer;  // set when nothing is left to commit
+  };
+  absl::StatusOr<PreparedEnrollment> PrepareEnrollment(const v1::EnrollViewRequest& request);
+  absl::StatusOr<v1::EnrollViewResponse> CommitEnrollment(const v1::EnrollViewRequest& request,
+                                                          PreparedEnrollment prepared,
+                                                          bool* crossing_created = nullptr);
   absl::StatusOr<v1::RebuildClustersResponse> RebuildClusters(
       const v1::RebuildClustersRequest& request);
 

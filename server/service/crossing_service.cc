@@ -1,11 +1,66 @@
 #include "server/service/crossing_service.h"
 
+#include <algorithm>
+#include <deque>
+#include <future>
+#include <memory>
+#include <thread>
 
 #include "absl/strings/str_cat.h"
 #include "server/service/service_call.h"
 #include "server/service/stream_evidence.h"
 
 namespace waymark::service {
+namespace {
+
+// The views of an enrollment stream, in stream order, with up to `depth` of them being prepared
+// (hashed, features extracted) ahead on their own threads while the handler commits the oldest:
+// extraction, most of a view's cost, runs in parallel across views; the commit (cluster,
+// transaction, memory) stays sequential and in stream order, as one EnrollView after another.
+// Extractions still pass the registry's extraction gate.
+class PreparedStream {
+ public:
+  struct View {
+    v1::EnrollViewRequest request;
+    absl::StatusOr<CrossingRegistry::PreparedEnrollment> prepared;
+  };
+
+  PreparedStream(CrossingRegistry* registry, size_t depth) : registry_(registry), depth_(depth) {}
+  // Waits for the views still being prepared (their futures join on destruction).
+  ~PreparedStream() = default;
+
+  bool full() const { return pending_.size() >= depth_; }
+  bool empty() const { return pending_.empty(); }
+
+  void Push(v1::EnrollViewRequest request) {
+    auto shared = std::make_shared<const v1::EnrollViewRequest>(std::move(request));
+    pending_.push_back({shared, std::async(std::launch::async, [registry = registry_, shared] {
+                          return registry->PrepareEnrollment(*shared);
+                        })});
+  }
+
+  // The oldest view, once prepared.
+  View Pop() {
+    Pending front = std::move(pending_.front());
+    pending_.pop_front();
+    return View{*front.request, front.prepared.get()};
+  }
+
+ private:
+  struct Pending {
+    std::shared_ptr<const v1::EnrollViewRequest> request;
+    std::future<absl::StatusOr<CrossingRegistry::PreparedEnrollment>> prepared;
+  };
+  CrossingRegistry* registry_;
+  size_t depth_;
+  std::deque<Pending> pending_;
+};
+
+// Views prepared ahead of the commit: one per hardware thread keeps the cores busy extracting
+// while the handler's thread commits.
+size_t PrepareAhead() { return std::max(1u, std::thread::hardware_concurrency()); }
+
+}  // namespace
 
 absl::StatusOr<std::unique_ptr<StreamLimiter::Lease>> CrossingServiceImpl::AuthorizeStream(
     const grpc::ServerContext& context, Action action) {
@@ -81,20 +136,30 @@ grpc::Status CrossingServiceImpl::BulkEnroll(grpc::ServerContext* context,
       AuthorizeStream(*context, Action::kEditCrossings);
   if (!lease.ok()) return ToGrpcStatus(lease.status());
   const auto watch = idle_->WatchStream(context, IdleStreamReaper::AtShutdown::kLetFinish);
+  PreparedStream stream(registry_, PrepareAhead());
   v1::EnrollViewRequest request;
-  for (int index = 0; reader->Read(&request); ++index) {
-    watch->Touch();
+  bool reading = true;
+  for (int index = 0;; ++index) {
+    while (reading && !stream.full()) {
+      reading = reader->Read(&request);
+      if (!reading) break;
+      watch->Touch();
+      stream.Push(std::move(request));
+    }
+    if (stream.empty()) break;
     if (context->IsCancelled()) return grpc::Status(grpc::StatusCode::CANCELLED, "cancelled");
+    PreparedStream::View view = stream.Pop();
     bool created = false;
-    absl::StatusOr<v1::EnrollViewResponse> answer = EnrollStreamedView(request, &created);
+    absl::StatusOr<v1::EnrollViewResponse> answer =
+        EnrollStreamedView(view.request, std::move(view.prepared), &created);
     response->set_crossings_created(response->crossings_created() + (created ? 1 : 0));
-    if (!answer.ok()) return EndEnrollStream(answer.status(), request, index, response->views());
+    if (!answer.ok()) return EndEnrollStream(answer.status(), view.request, index, response->views());
     switch (answer->outcome()) {
       case v1::ENROLL_OUTCOME_INVALID: {
         v1::SkippedView* skipped = response->add_skipped();
-        skipped->set_crossing(request.crossing());
-        skipped->set_heading_deg(request.heading_deg());
-        skipped->set_position(request.position());
+        skipped->set_crossing(view.request.crossing());
+        skipped->set_heading_deg(view.request.heading_deg());
+        skipped->set_position(view.request.position());
         skipped->set_index(index);
         skipped->set_reason(answer->error_message());
         break;
@@ -122,13 +187,25 @@ grpc::Status CrossingServiceImpl::StreamEnroll(
       AuthorizeStream(*context, Action::kEditCrossings);
   if (!lease.ok()) return ToGrpcStatus(lease.status());
   const auto watch = idle_->WatchStream(context, IdleStreamReaper::AtShutdown::kLetFinish);
+  PreparedStream pending(registry_, PrepareAhead());
   v1::EnrollViewRequest request;
+  bool reading = true;
   int stored = 0;
-  for (int index = 0; stream->Read(&request); ++index) {
-    watch->Touch();
+  for (int index = 0;; ++index) {
+    // Each answer is written once its view is committed; the client may send ahead of the
+    // answers (it need not wait for one before sending the next view).
+    while (reading && !pending.full()) {
+      reading = stream->Read(&request);
+      if (!reading) break;
+      watch->Touch();
+      pending.Push(std::move(request));
+    }
+    if (pending.empty()) break;
     if (context->IsCancelled()) return grpc::Status(grpc::StatusCode::CANCELLED, "cancelled");
-    absl::StatusOr<v1::EnrollViewResponse> answer = EnrollStreamedView(request, nullptr);
-    if (!answer.ok()) return EndEnrollStream(answer.status(), request, index, stored);
+    PreparedStream::View view = pending.Pop();
+    absl::StatusOr<v1::EnrollViewResponse> answer =
+        EnrollStreamedView(view.request, std::move(view.prepared), nullptr);
+    if (!answer.ok()) return EndEnrollStream(answer.status(), view.request, index, stored);
     if (answer->outcome() == v1::ENROLL_OUTCOME_STORED) ++stored;
     answer->set_index(index);
     if (!stream->Write(*answer)) break;  // the client went away; its views so far are stored
@@ -137,8 +214,21 @@ grpc::Status CrossingServiceImpl::StreamEnroll(
 }
 
 absl::StatusOr<v1::EnrollViewResponse> CrossingServiceImpl::EnrollStreamedView(
-    const v1::EnrollViewRequest& request, bool* crossing_created) {
-  absl::StatusOr<v1::EnrollViewResponse> enrolled = registry_->EnrollView(request, crossing_created);
+    const v1::EnrollViewRequest& request,
+    absl::StatusOr<CrossingRegistry::PreparedEnrollment> prepared, bool* crossing_created) {
+  const auto enroll = [&]() -> absl::StatusOr<v1::EnrollViewResponse> {
+    if (prepared.ok()) {
+      return registry_->CommitEnrollment(request, std::move(*prepared), crossing_created);
+    }
+    if (crossing_created != nullptr) *crossing_created = false;
+    // Prepared before the views ahead of it committed, one of which may create the crossing it
+    // names: enrolled again now, in stream order.
+    if (prepared.status().code() == absl::StatusCode::kNotFound) {
+      return registry_->EnrollView(request, crossing_created);
+    }
+    return prepared.status();
+  };
+  absl::StatusOr<v1::EnrollViewResponse> enrolled = enroll();
   if (enrolled.ok() || !request.skip_invalid() ||
       enrolled.status().code() != absl::StatusCode::kInvalidArgument) {
     return enrolled;

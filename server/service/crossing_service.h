@@ -60,8 +60,10 @@ class CrossingServiceImpl final : public v1::CrossingService::Service {
   // One view of a BulkEnroll or StreamEnroll stream: the registry's answer, or an INVALID answer
   // for a view rejected as INVALID_ARGUMENT when the request sets skip_invalid. Other errors end
   // the stream (EndEnrollStream says which view and how many were stored before it).
-  absl::StatusOr<v1::EnrollViewResponse> EnrollStreamedView(const v1::EnrollViewRequest& request,
-                                                            bool* crossing_created);
+  // `prepared` is the view's PrepareEnrollment, made ahead of the views before it.
+  absl::StatusOr<v1::EnrollViewResponse> EnrollStreamedView(
+      const v1::EnrollViewRequest& request,
+      absl::StatusOr<CrossingRegistry::PreparedEnrollment> prepared, bool* crossing_created);
   static grpc::Status EndEnrollStream(const absl::Status& error,
                                       const v1::EnrollViewRequest& request, int index, int stored);
 

@@ -193,14 +193,7 @@ TEST(ClusteringTest, IndexedClusteringEqualsExactQuadraticClustering) {
     }
   }
   std::vector<uint32_t> centres;
-  for (uint32_t s = 0; s < db.views().size(); ++s) {
-    std::vector<int> per_center;
-    for (uint32_t c : centres) {
-      per_center.push_back(static_cast<int>(
-          MatchViewExact(db.Descriptors(s), db.index().store(), db.spans()[c], 0.32).size()));
-    }
-    if (AssignCluster(per_center, 5) < 0) centres.push_back(s);
-  }
+  for (const ClusterEntry& c : QuadraticClusters(db, ClusterOptions{})) centres.push_back(c.center);
   const auto rebuilt = db.ComputeClusters(ClusterOptions{});
   std::vector<uint32_t> rebuilt_centres;
   for (const auto& c : rebuilt) rebuilt_centres.push_back(c.center);
