@@ -118,6 +118,22 @@ void MatchedPoints(const ImageFeatures& query, const ViewEntry& view,
   }
 }
 
+// The verified and retrieval modes' first stage: tentative matches against every view and the
+// shortlist of those with most (timed as matching).
+struct Shortlisted {
+  ViewMatches tentative;
+  std::vector<std::pair<int, uint32_t>> ranked;
+};
+Shortlisted TentativeShortlist(const ViewDatabase& db, const ImageFeatures& query,
+                               const RecognitionOptions& options, Recognition* out) {
+  const auto start = Clock::now();
+  Shortlisted s;
+  s.tentative = MatchQuery(db, query.descriptors, options.verified_ratio, false);
+  s.ranked = Shortlist(s.tentative, options.shortlist);
+  out->matching_ms = MsSince(start);
+  return s;
+}
+
 bool IsCenter(const ViewDatabase& db, uint32_t slot) {
   const ViewEntry& view = db.views()[slot];
   return view.cluster >= 0 && db.clusters()[view.cluster].center == slot;
@@ -125,12 +141,11 @@ bool IsCenter(const ViewDatabase& db, uint32_t slot) {
 
 void RecognizeVerified(const ViewDatabase& db, const ImageFeatures& query,
                        const RecognitionOptions& options, Recognition* out) {
-  auto start = Clock::now();
-  const ViewMatches tentative = MatchQuery(db, query.descriptors, options.verified_ratio, false);
-  const auto ranked = Shortlist(tentative, options.shortlist);
-  out->matching_ms = MsSince(start);
+  const Shortlisted shortlisted = TentativeShortlist(db, query, options, out);
+  const ViewMatches& tentative = shortlisted.tentative;
+  const auto& ranked = shortlisted.ranked;
 
-  start = Clock::now();
+  auto start = Clock::now();
   VerificationOptions verification;
   verification.threshold_px = options.ransac_threshold_px;
   std::vector<Candidate> list;
@@ -172,12 +187,11 @@ void RecognizeVerified(const ViewDatabase& db, const ImageFeatures& query,
 // rank the top N2, and the winner is accepted when its match set is meaningful.
 void RecognizeRetrieval(const ViewDatabase& db, const ImageFeatures& query,
                         const RecognitionOptions& options, Recognition* out) {
-  auto start = Clock::now();
-  const ViewMatches tentative = MatchQuery(db, query.descriptors, options.verified_ratio, false);
-  const auto ranked = Shortlist(tentative, options.shortlist);
-  out->matching_ms = MsSince(start);
+  const Shortlisted shortlisted = TentativeShortlist(db, query, options, out);
+  const ViewMatches& tentative = shortlisted.tentative;
+  const auto& ranked = shortlisted.ranked;
 
-  start = Clock::now();
+  auto start = Clock::now();
   VerificationOptions verification;
   verification.threshold_px = options.ransac_threshold_px;
   const cv::Size image(std::max(1, query.width), std::max(1, query.height));

@@ -35,6 +35,24 @@ ClusterProposal ViewDatabase::ProposeCluster(const cv::Mat& descriptors,
   return proposal;
 }
 
+namespace {
+
+// The paper's step for one view: it joins cluster `join`, or (join < 0) founds a new one with
+// itself as centre. Returns whether it joined.
+bool JoinOrFound(std::vector<ClusterEntry>* clusters, int join, uint32_t slot) {
+  if (join >= 0) {
+    (*clusters)[join].members.push_back(slot);
+    return true;
+  }
+  ClusterEntry cluster;
+  cluster.center = slot;
+  cluster.members.push_back(slot);
+  clusters->push_back(std::move(cluster));
+  return false;
+}
+
+}  // namespace
+
 int ViewDatabase::NewCluster(int64_t cluster_id, uint32_t center_slot) {
   ClusterEntry cluster;
   cluster.cluster_id = cluster_id;
@@ -61,15 +79,7 @@ std::vector<ClusterEntry> ViewDatabase::ComputeClusters(const ClusterOptions& op
             ? -1
             : AssignCluster(centers.CountMatches(Descriptors(slot), options.ratio),
                             options.threshold);
-    if (join >= 0) {
-      clusters[join].members.push_back(slot);
-    } else {
-      ClusterEntry cluster;
-      cluster.center = slot;
-      cluster.members.push_back(slot);
-      clusters.push_back(std::move(cluster));
-      centers.Add(views_[slot].span);
-    }
+    if (!JoinOrFound(&clusters, join, slot)) centers.Add(views_[slot].span);
   }
   return clusters;
 }
@@ -116,14 +126,7 @@ std::vector<ClusterEntry> QuadraticClusters(const ViewDatabase& db, const Cluste
               .size()));
     }
     const int join = AssignCluster(per_center, options.threshold);
-    if (join >= 0) {
-      clusters[join].members.push_back(slot);
-    } else {
-      ClusterEntry cluster;
-      cluster.center = slot;
-      cluster.members.push_back(slot);
-      clusters.push_back(std::move(cluster));
-    }
+    JoinOrFound(&clusters, join, slot);
   }
   return clusters;
 }
