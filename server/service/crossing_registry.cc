@@ -191,9 +191,12 @@ absl::Status CrossingRegistry::DeleteDatabase(const std::string& name) {
   if (it == databases_.end()) {
     return absl::NotFoundError(absl::StrCat("database \"", name, "\" not found"));
   }
-  absl::MutexLock db_lock(&it->second->mutex);
+  // The database must outlive its lock: erasing the map's entry may drop the last reference,
+  // and a mutex destroyed while held is undefined behaviour (absl aborts on it in debug checks).
+  const std::shared_ptr<Database> db = it->second;
+  absl::MutexLock db_lock(&db->mutex);
   if (absl::Status s = store_->DeleteDatabase(name); !s.ok()) return s;
-  it->second->deleted = true;
+  db->deleted = true;
   databases_.erase(it);
   return absl::OkStatus();
 }
