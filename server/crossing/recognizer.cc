@@ -123,6 +123,7 @@ void MatchedPoints(const ImageFeatures& query, const ViewEntry& view,
 struct Shortlisted {
   ViewMatches tentative;
   std::vector<std::pair<int, uint32_t>> ranked;
+  VerificationOptions verification;  // for the shortlist's RANSAC
 };
 Shortlisted TentativeShortlist(const ViewDatabase& db, const ImageFeatures& query,
                                const RecognitionOptions& options, Recognition* out) {
@@ -130,6 +131,7 @@ Shortlisted TentativeShortlist(const ViewDatabase& db, const ImageFeatures& quer
   Shortlisted s;
   s.tentative = MatchQuery(db, query.descriptors, options.verified_ratio, false);
   s.ranked = Shortlist(s.tentative, options.shortlist);
+  s.verification.threshold_px = options.ransac_threshold_px;
   out->matching_ms = MsSince(start);
   return s;
 }
@@ -142,12 +144,8 @@ bool IsCenter(const ViewDatabase& db, uint32_t slot) {
 void RecognizeVerified(const ViewDatabase& db, const ImageFeatures& query,
                        const RecognitionOptions& options, Recognition* out) {
   const Shortlisted shortlisted = TentativeShortlist(db, query, options, out);
-  const ViewMatches& tentative = shortlisted.tentative;
-  const auto& ranked = shortlisted.ranked;
-
+  const auto& [tentative, ranked, verification] = shortlisted;
   auto start = Clock::now();
-  VerificationOptions verification;
-  verification.threshold_px = options.ransac_threshold_px;
   std::vector<Candidate> list;
   std::vector<cv::Point2f> q, v;
   for (const auto& [count, slot] : ranked) {
@@ -188,12 +186,8 @@ void RecognizeVerified(const ViewDatabase& db, const ImageFeatures& query,
 void RecognizeRetrieval(const ViewDatabase& db, const ImageFeatures& query,
                         const RecognitionOptions& options, Recognition* out) {
   const Shortlisted shortlisted = TentativeShortlist(db, query, options, out);
-  const ViewMatches& tentative = shortlisted.tentative;
-  const auto& ranked = shortlisted.ranked;
-
+  const auto& [tentative, ranked, verification] = shortlisted;
   auto start = Clock::now();
-  VerificationOptions verification;
-  verification.threshold_px = options.ransac_threshold_px;
   const cv::Size image(std::max(1, query.width), std::max(1, query.height));
   // Every verified view is a test: the shortlist's size (at least 1).
   const double tests = std::max<double>(1.0, static_cast<double>(ranked.size()));
