@@ -197,14 +197,16 @@ json RunSize(int n, const std::vector<BenchView>& all_views, const std::vector<s
   out["keypoints"] = stats.keypoints();
   out["descriptor_mb"] = stats.descriptor_bytes() / 1048576.0;
 
-  // 3. Latency of RecognizeCrossing on loopback, paper and verified modes.
+  // 3. Latency of RecognizeCrossing on loopback, in each mode.
   std::vector<std::string> query_jpegs;
   for (const auto& q : queries) query_jpegs.push_back(Jpeg(Augment(cv::imread(q), 0)));
   // Half the queries revisit stored views (every database size holds the first sources).
   for (const cv::Mat& source : sources) query_jpegs.push_back(Jpeg(Revisit(source)));
   for (const auto& [mode_name, mode] :
        std::vector<std::pair<std::string, v1::RecognitionMode>>{
-           {"paper", v1::RECOGNITION_MODE_PAPER}, {"verified", v1::RECOGNITION_MODE_VERIFIED}}) {
+           {"paper", v1::RECOGNITION_MODE_PAPER},
+           {"verified", v1::RECOGNITION_MODE_VERIFIED},
+           {"retrieval", v1::RECOGNITION_MODE_RETRIEVAL}}) {
     std::vector<double> latency, extraction, matching, histogram, verification;
     int recognized = 0;
     for (int pass = 0; pass < 2; ++pass) {  // pass 0 warms up
@@ -240,6 +242,8 @@ json RunSize(int n, const std::vector<BenchView>& all_views, const std::vector<s
   // same requests (an in-process timing at another moment would add the machine's noise).
   out["paper_latency_over_sift"] = out["paper"]["latency_ms_p50"].get<double>() /
                                    out["paper"]["extraction_ms_p50"].get<double>();
+  out["retrieval_latency_over_sift"] = out["retrieval"]["latency_ms_p50"].get<double>() /
+                                       out["retrieval"]["extraction_ms_p50"].get<double>();
 
   // 4. Server memory vs descriptor bytes.
   const long rss_kb = RssKb((*server)->pid());
@@ -396,19 +400,22 @@ int main(int argc, char** argv) {
 
   std::ostringstream md;
   md << "| views | clusters | p50 ms (paper) | p99 ms | extraction | matching | histogram | "
-        "p50 / own SIFT | p50 ms (verified) | brute-force matching ms | BF / index matching | "
+        "p50 / own SIFT | p50 ms (verified) | p50 ms (retrieval) | retrieval p50 / own SIFT | "
+        "brute-force matching ms | BF / index matching | "
         "same decision as exact | server RSS MB | descriptor MB | (RSS - empty) / descriptors | "
         "rebuild clusters s |\n"
-     << "|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|\n";
+     << "|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|\n";
   const double kNaN = std::numeric_limits<double>::quiet_NaN();  // not measured in this run
   for (const auto& r : results) {
     md << fmt::format(
-        "| {} | {} | {:.1f} | {:.1f} | {:.1f} | {:.1f} | {:.1f} | {:.2f}x | {:.1f} | {:.0f} | {:.0f}x | "
+        "| {} | {} | {:.1f} | {:.1f} | {:.1f} | {:.1f} | {:.1f} | {:.2f}x | {:.1f} | {:.1f} | {:.2f}x | "
+        "{:.0f} | {:.0f}x | "
         "{:.0f} % | {:.0f} | {:.0f} | {:.2f}x | {:.1f} |\n",
         r.value("views", -1), r.value("clusters", -1), r["paper"].value("latency_ms_p50", kNaN),
         r["paper"].value("latency_ms_p99", kNaN), r["paper"].value("extraction_ms_p50", kNaN),
         r["paper"].value("matching_ms_p50", kNaN), r["paper"].value("histogram_ms_p50", kNaN),
         r.value("paper_latency_over_sift", kNaN), r["verified"].value("latency_ms_p50", kNaN),
+        r["retrieval"].value("latency_ms_p50", kNaN), r.value("retrieval_latency_over_sift", kNaN),
         r.value("bruteforce_matching_ms_p50", kNaN), r.value("bruteforce_over_index_matching", kNaN),
         100 * r.value("index_vs_exact_same_decision", kNaN), r.value("server_rss_mb", kNaN),
         r.value("descriptor_mb", kNaN), r.value("rss_growth_over_descriptors", kNaN),
