@@ -430,15 +430,14 @@ void Evaluation::VladReport(int words) {
     int queries = 0, top1 = 0, top5 = 0;
     for (const PreparedProtocol& part : g.parts) {
       cv::Mat all;
-      std::vector<cv::Mat> views;
+      std::vector<const crossing::ImageFeatures*> enrolled;
       for (const Enrollment& e : part.protocol.enroll) {
-        const crossing::ImageFeatures* f = *cache_.Get(e.path);
-        all.push_back(f->descriptors);
+        enrolled.push_back(*cache_.Get(e.path));
+        all.push_back(enrolled.back()->descriptors);
       }
       const crossing::VladVocabulary vocabulary = crossing::VladVocabulary::Train(all, words);
-      for (const Enrollment& e : part.protocol.enroll) {
-        views.push_back(vocabulary.Encode((*cache_.Get(e.path))->descriptors));
-      }
+      std::vector<cv::Mat> views;
+      for (const crossing::ImageFeatures* f : enrolled) views.push_back(vocabulary.Encode(f->descriptors));
       for (size_t q = 0; q < part.protocol.queries.size(); ++q) {
         const Query& query = part.protocol.queries[q];
         if (query.accepted.empty()) continue;

@@ -2,6 +2,8 @@
 
 #include <cmath>
 
+#include <opencv2/core.hpp>
+
 namespace waymark::crossing {
 
 VladVocabulary VladVocabulary::Train(const cv::Mat& descriptors, int words, int max_samples) {
@@ -30,22 +32,15 @@ cv::Mat VladVocabulary::Encode(const cv::Mat& descriptors) const {
   if (empty() || descriptors.rows == 0) return vlad;
   cv::Mat data;
   descriptors.convertTo(data, CV_32F);
+  // The nearest word of every descriptor in one call (OpenCV's brute-force distance kernel).
+  cv::Mat distances, nearest;
+  cv::batchDistance(data, centers_, distances, CV_32F, nearest, cv::NORM_L2SQR, 1);
   float* out = vlad.ptr<float>(0);
   for (int i = 0; i < data.rows; ++i) {
+    const int word = nearest.at<int>(i);
     const float* x = data.ptr<float>(i);
-    int best = 0;
-    double best_d = 1e300;
-    for (int w = 0; w < words(); ++w) {
-      const float* c = centers_.ptr<float>(w);
-      double s = 0;
-      for (int k = 0; k < d; ++k) s += (x[k] - c[k]) * (x[k] - c[k]);
-      if (s < best_d) {
-        best_d = s;
-        best = w;
-      }
-    }
-    const float* c = centers_.ptr<float>(best);
-    for (int k = 0; k < d; ++k) out[best * d + k] += x[k] - c[k];
+    const float* c = centers_.ptr<float>(word);
+    for (int k = 0; k < d; ++k) out[word * d + k] += x[k] - c[k];
   }
   for (int j = 0; j < words() * d; ++j) {
     out[j] = std::copysign(std::sqrt(std::abs(out[j])), out[j]);

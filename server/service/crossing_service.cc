@@ -4,6 +4,7 @@
 #include <deque>
 #include <future>
 #include <memory>
+#include <optional>
 #include <thread>
 
 #include "absl/strings/str_cat.h"
@@ -29,30 +30,39 @@ class PreparedStream {
   // Waits for the views still being prepared (their futures join on destruction).
   ~PreparedStream() = default;
 
-  bool full() const { return pending_.size() >= depth_; }
-  bool empty() const { return pending_.empty(); }
+  // The oldest view once prepared, after reading from `reader` until `depth` views are pending
+  // or the client's stream ended (each read touches `watch`); nullopt once nothing is left.
+  template <typename Reader>
+  std::optional<View> Next(Reader* reader, IdleStreamReaper::Watch& watch) {
+    v1::EnrollViewRequest request;
+    while (reading_ && pending_.size() < depth_ && (reading_ = reader->Read(&request))) {
+      watch.Touch();
+      Push(std::move(request));
+    }
+    if (pending_.empty()) return std::nullopt;
+    Pending front = std::move(pending_.front());
+    pending_.pop_front();
+    absl::StatusOr<CrossingRegistry::PreparedEnrollment> prepared = front.prepared.get();
+    // Prepared: nothing reads the request any more, so it moves out rather than copying the image.
+    return View{std::move(*front.request), std::move(prepared)};
+  }
+
+ private:
+  struct Pending {
+    std::shared_ptr<v1::EnrollViewRequest> request;
+    std::future<absl::StatusOr<CrossingRegistry::PreparedEnrollment>> prepared;
+  };
 
   void Push(v1::EnrollViewRequest request) {
-    auto shared = std::make_shared<const v1::EnrollViewRequest>(std::move(request));
+    auto shared = std::make_shared<v1::EnrollViewRequest>(std::move(request));
     pending_.push_back({shared, std::async(std::launch::async, [registry = registry_, shared] {
                           return registry->PrepareEnrollment(*shared);
                         })});
   }
 
-  // The oldest view, once prepared.
-  View Pop() {
-    Pending front = std::move(pending_.front());
-    pending_.pop_front();
-    return View{*front.request, front.prepared.get()};
-  }
-
- private:
-  struct Pending {
-    std::shared_ptr<const v1::EnrollViewRequest> request;
-    std::future<absl::StatusOr<CrossingRegistry::PreparedEnrollment>> prepared;
-  };
   CrossingRegistry* registry_;
   size_t depth_;
+  bool reading_ = true;
   std::deque<Pending> pending_;
 };
 
@@ -137,18 +147,11 @@ grpc::Status CrossingServiceImpl::BulkEnroll(grpc::ServerContext* context,
   if (!lease.ok()) return ToGrpcStatus(lease.status());
   const auto watch = idle_->WatchStream(context, IdleStreamReaper::AtShutdown::kLetFinish);
   PreparedStream stream(registry_, PrepareAhead());
-  v1::EnrollViewRequest request;
-  bool reading = true;
   for (int index = 0;; ++index) {
-    while (reading && !stream.full()) {
-      reading = reader->Read(&request);
-      if (!reading) break;
-      watch->Touch();
-      stream.Push(std::move(request));
-    }
-    if (stream.empty()) break;
+    std::optional<PreparedStream::View> next = stream.Next(reader, *watch);
+    if (!next) break;
     if (context->IsCancelled()) return grpc::Status(grpc::StatusCode::CANCELLED, "cancelled");
-    PreparedStream::View view = stream.Pop();
+    PreparedStream::View& view = *next;
     bool created = false;
     absl::StatusOr<v1::EnrollViewResponse> answer =
         EnrollStreamedView(view.request, std::move(view.prepared), &created);
@@ -188,21 +191,14 @@ grpc::Status CrossingServiceImpl::StreamEnroll(
   if (!lease.ok()) return ToGrpcStatus(lease.status());
   const auto watch = idle_->WatchStream(context, IdleStreamReaper::AtShutdown::kLetFinish);
   PreparedStream pending(registry_, PrepareAhead());
-  v1::EnrollViewRequest request;
-  bool reading = true;
   int stored = 0;
   for (int index = 0;; ++index) {
     // Each answer is written once its view is committed; the client may send ahead of the
     // answers (it need not wait for one before sending the next view).
-    while (reading && !pending.full()) {
-      reading = stream->Read(&request);
-      if (!reading) break;
-      watch->Touch();
-      pending.Push(std::move(request));
-    }
-    if (pending.empty()) break;
+    std::optional<PreparedStream::View> next = pending.Next(stream, *watch);
+    if (!next) break;
     if (context->IsCancelled()) return grpc::Status(grpc::StatusCode::CANCELLED, "cancelled");
-    PreparedStream::View view = pending.Pop();
+    PreparedStream::View& view = *next;
     absl::StatusOr<v1::EnrollViewResponse> answer =
         EnrollStreamedView(view.request, std::move(view.prepared), nullptr);
     if (!answer.ok()) return EndEnrollStream(answer.status(), view.request, index, stored);
