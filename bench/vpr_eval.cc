@@ -132,6 +132,8 @@ json OptionsJson(const RecognitionOptions& o) {
   j["ransac_threshold_px"] = o.ransac_threshold_px;
   j["shortlist"] = o.shortlist;
   j["max_log10_nfa"] = o.max_log10_nfa;
+  j["global_shortlist"] = o.global_shortlist;
+  j["global_evidence"] = o.global_evidence;
   return j;
 }
 
@@ -422,26 +424,24 @@ Run Evaluation::Execute(const std::string& label, const RecognitionOptions& opti
 
 std::vector<std::string> Evaluation::PaperSweepGroups() const { return AllGroups(); }
 
-// Global retrieval alone (VLAD over the database's own descriptors, `words` words): R@1 and R@5
-// of the cosine-nearest views, per group, no verification.
+// Global retrieval alone (VLAD of dense RootSIFT, vocabulary of `words` trained on the
+// database's views, as the retrieval mode's global stage): R@1 and R@5 of the cosine-nearest
+// views, per group, no verification.
 void Evaluation::VladReport(int words) {
   for (const Group& g : groups_) {
     if (g.name != kCorridor && g.name != kTriplets && g.name != kCorridorSegments) continue;
     int queries = 0, top1 = 0, top5 = 0;
     for (const PreparedProtocol& part : g.parts) {
-      cv::Mat all;
-      std::vector<const crossing::ImageFeatures*> enrolled;
-      for (const Enrollment& e : part.protocol.enroll) {
-        enrolled.push_back(*cache_.Get(e.path));
-        all.push_back(enrolled.back()->descriptors);
-      }
-      const crossing::VladVocabulary vocabulary = crossing::VladVocabulary::Train(all, words);
+      std::vector<cv::Mat> dense;
+      for (const Enrollment& e : part.protocol.enroll) dense.push_back((*cache_.Get(e.path))->dense);
+      const crossing::VladVocabulary vocabulary =
+          crossing::VladVocabulary::TrainOnImages(dense, words);
       std::vector<cv::Mat> views;
-      for (const crossing::ImageFeatures* f : enrolled) views.push_back(vocabulary.Encode(f->descriptors));
+      for (const cv::Mat& d : dense) views.push_back(vocabulary.Encode(d));
       for (size_t q = 0; q < part.protocol.queries.size(); ++q) {
         const Query& query = part.protocol.queries[q];
         if (query.accepted.empty()) continue;
-        const cv::Mat v = vocabulary.Encode(part.query_features[q]->descriptors);
+        const cv::Mat v = vocabulary.Encode(part.query_features[q]->dense);
         std::vector<std::pair<double, size_t>> ranked;
         for (size_t i = 0; i < views.size(); ++i) ranked.push_back({-v.dot(views[i]), i});
         std::sort(ranked.begin(), ranked.end());
@@ -543,16 +543,24 @@ void Evaluation::RunAll() {
       std::cerr << "retrieval mode, max_log10_nfa " << nfa << ":\n";
       retrieval_.push_back(Execute(absl::StrFormat("retrieval nfa %g", nfa), o, AllGroups()));
     }
+    // The global similarity as evidence too (RecognitionOptions::global_evidence).
+    o.global_evidence = true;
+    for (double nfa : {-2.0, -4.0, -6.0}) {
+      o.max_log10_nfa = nfa;
+      std::cerr << "retrieval mode with global evidence, max_log10_nfa " << nfa << ":\n";
+      retrieval_.push_back(
+          Execute(absl::StrFormat("retrieval+global nfa %g", nfa), o, AllGroups()));
+    }
   }
 
   for (const Run& r : retrieval_) {
-    if (r.options.max_log10_nfa != 0.0) continue;
+    if (r.options.max_log10_nfa != 0.0 || r.options.global_evidence) continue;
     for (double threshold : {0.8, 0.95, 0.99}) {
       sequence_.push_back(SequenceReport(r, threshold));
       std::cerr << "stream over the corridor, " << sequence_.back() << "\n";
     }
   }
-  for (int words : {16, 64}) VladReport(words);
+  for (int words : {64, 128}) VladReport(words);
   if (quick_) return;
   // The hue term of the decision can overrule the geometric evidence: the same run without it.
   {
@@ -1093,6 +1101,7 @@ int main(int argc, char** argv) {
                "experiments)");
   CLI11_PARSE(app, argc, argv);
 
+  features.global_descriptor = true;  // the retrieval mode's dense RootSIFT
   waymark::vpr::Evaluation eval(shared, features, quick);
   if (!eval.Load()) {
     std::cerr << "no data to evaluate under " << shared << "/data\n";

@@ -174,6 +174,12 @@ absl::StatusOr<PreparedProtocol> Prepare(const Protocol& protocol, FeatureCache*
                          *enrolled[i], clustering);
   }
   out.enroll_seconds = SecondsSince(start);
+  // The retrieval mode's global descriptor, as the service trains it over a database's views.
+  const auto train_start = Clock::now();
+  std::vector<cv::Mat> dense;
+  for (const ImageFeatures* f : enrolled) dense.push_back(f->dense);
+  if (!dense.empty() && !dense.front().empty()) out.db->TrainGlobal(dense);
+  out.vocabulary_seconds = SecondsSince(train_start);
   for (const Query& q : protocol.queries) {
     absl::StatusOr<const ImageFeatures*> f = cache->Get(q.path);
     if (!f.ok()) return f.status();

@@ -123,6 +123,7 @@ struct PreparedProtocol {
   std::unique_ptr<crossing::ViewDatabase> db;
   std::vector<const crossing::ImageFeatures*> query_features;
   double enroll_seconds = 0;
+  double vocabulary_seconds = 0;  // training the global vocabulary and encoding the views
 };
 
 // Enrolls every image of the protocol (views in list order, the paper's incremental clustering)

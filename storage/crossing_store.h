@@ -8,6 +8,7 @@
 #include <cstdint>
 #include <functional>
 #include <memory>
+#include <optional>
 #include <string>
 #include <vector>
 
@@ -56,6 +57,17 @@ struct ViewRecord {
   // image is stored: no two views of a database hold the same one. Empty = unknown (views enrolled
   // before schema version 5), which never counts as a duplicate.
   std::string content_sha256;
+  // The grey image at working resolution, PNG (schema v7): what the retrieval mode's global
+  // descriptor is computed from again when the database's vocabulary is retrained. Empty = not
+  // kept (views enrolled before v7).
+  std::string work_image;
+};
+
+// A database's global-descriptor vocabulary (the engine's bytes, opaque here).
+struct VocabularyRecord {
+  int64_t database_id = 0;
+  int32_t trained_views = 0;  // how many views it was trained on (the retraining schedule's)
+  std::string data;
 };
 
 // A cluster as the clustering produced it: centre first, then the other members.
@@ -151,6 +163,10 @@ class CrossingStore {
   virtual absl::StatusOr<std::string> LoadViewImage(int64_t view_id) = 0;
   // Clusters in id order, members in view id order (centre included).
   virtual absl::StatusOr<std::vector<ClusterRecord>> LoadClusters(int64_t database_id) = 0;
+  // Stores (replacing) the database's vocabulary. NOT_FOUND for an unknown database.
+  virtual absl::Status SaveVocabulary(const VocabularyRecord& vocabulary) = 0;
+  // The database's vocabulary; nullopt when none was saved.
+  virtual absl::StatusOr<std::optional<VocabularyRecord>> LoadVocabulary(int64_t database_id) = 0;
   // Replaces all clusters of the database (ids are reassigned; returned in the given order).
   virtual absl::StatusOr<std::vector<ClusterRecord>> ReplaceClusters(
       int64_t database_id, const std::vector<ClusterRecord>& clusters) = 0;

@@ -193,6 +193,20 @@ constexpr absl::string_view kV6ViewPosition = R"sql(
 ALTER TABLE view ADD COLUMN position TEXT NOT NULL DEFAULT '';
 )sql";
 
+// v7: the retrieval mode's global descriptor (issue 18). Each view keeps its grey image at working
+// resolution (PNG, lossless) so its code can be computed again under a retrained vocabulary; views
+// enrolled before have NULL and take no part in the global stage. One vocabulary per database,
+// replaced whenever it is retrained, deleted with the database.
+constexpr absl::string_view kV7GlobalDescriptor = R"sql(
+ALTER TABLE view ADD COLUMN work_image BLOB;
+CREATE TABLE crossing_vocabulary (
+  db_id INTEGER PRIMARY KEY REFERENCES crossing_db(id) ON DELETE CASCADE,
+  trained_views INTEGER NOT NULL,
+  data BLOB NOT NULL,
+  updated_at REAL NOT NULL
+);
+)sql";
+
 absl::Status TooNewError(sqlite::Connection& connection, int version, int latest) {
   return absl::FailedPreconditionError(absl::StrCat(
       "database \"", connection.path(), "\" has schema version ", version,
@@ -211,6 +225,7 @@ const std::vector<absl::string_view>& SchemaMigrations() {
       kV4VisualSessions,
       kV5ViewContentHash,
       kV6ViewPosition,
+      kV7GlobalDescriptor,
   };
   return *kSteps;
 }

@@ -14,6 +14,7 @@
 
 #include "absl/status/status.h"
 #include "absl/status/statusor.h"
+#include "absl/strings/match.h"
 #include "absl/strings/str_cat.h"
 #include "storage/crossing_store.h"
 #include "storage/migrations.h"
@@ -89,7 +90,7 @@ absl::Status CheckBlobSize(const Statement& row, int column, int64_t expected, i
 constexpr char kSelectViews[] =
     "SELECT v.id, v.crossing_id, v.heading_deg, v.width, v.height, v.keypoint_count, "
     "v.keypoints, v.descriptors, v.hue_hist, v.hue_bins, v.format_version, v.content_sha256, "
-    "v.position FROM view v JOIN crossing c ON c.id = v.crossing_id WHERE c.db_id = ? ORDER BY v.id";
+    "v.position, v.work_image FROM view v JOIN crossing c ON c.id = v.crossing_id WHERE c.db_id = ? ORDER BY v.id";
 
 absl::StatusOr<ViewRecord> ReadViewRow(const Statement& row) {
   ViewRecord view;
@@ -113,6 +114,7 @@ absl::StatusOr<ViewRecord> ReadViewRow(const Statement& row) {
   ASSIGN_OR_RETURN(view.hue_hist, row.ColumnFloatBlob(8));
   if (!row.ColumnIsNull(11)) view.content_sha256 = std::string(row.ColumnBlobView(11));
   view.position = row.ColumnText(12);
+  if (!row.ColumnIsNull(13)) view.work_image = std::string(row.ColumnBlobView(13));
   return view;
 }
 
@@ -376,6 +378,37 @@ class SqliteCrossingStore final : public CrossingStore {
     return clusters;
   }
 
+  absl::Status SaveVocabulary(const VocabularyRecord& vocabulary) override {
+    std::lock_guard<std::mutex> lock(mutex_);
+    ASSIGN_OR_RETURN(Statement upsert,
+                     connection_.Prepare("INSERT OR REPLACE INTO crossing_vocabulary (db_id, "
+                                         "trained_views, data, updated_at) VALUES (?, ?, ?, ?)"));
+    RETURN_IF_ERROR(upsert.BindInt64(1, vocabulary.database_id));
+    RETURN_IF_ERROR(upsert.BindInt64(2, vocabulary.trained_views));
+    RETURN_IF_ERROR(upsert.BindBlob(3, vocabulary.data.data(), vocabulary.data.size()));
+    RETURN_IF_ERROR(upsert.BindDouble(4, NowSeconds()));
+    absl::Status s = upsert.Run();
+    if (!s.ok() && absl::StrContains(s.message(), "FOREIGN KEY")) {
+      return absl::NotFoundError(absl::StrCat("database ", vocabulary.database_id, " not found"));
+    }
+    return s;
+  }
+
+  absl::StatusOr<std::optional<VocabularyRecord>> LoadVocabulary(int64_t database_id) override {
+    std::lock_guard<std::mutex> lock(mutex_);
+    ASSIGN_OR_RETURN(Statement select,
+                     connection_.Prepare("SELECT trained_views, data FROM crossing_vocabulary "
+                                         "WHERE db_id = ?"));
+    RETURN_IF_ERROR(select.BindInt64(1, database_id));
+    ASSIGN_OR_RETURN(StepResult step, select.Step());
+    if (step != StepResult::kRow) return std::optional<VocabularyRecord>();
+    VocabularyRecord record;
+    record.database_id = database_id;
+    record.trained_views = select.ColumnInt32(0);
+    record.data = std::string(select.ColumnBlobView(1));
+    return std::optional<VocabularyRecord>(std::move(record));
+  }
+
   absl::StatusOr<std::vector<ClusterRecord>> ReplaceClusters(
       int64_t database_id, const std::vector<ClusterRecord>& clusters) override {
     std::lock_guard<std::mutex> lock(mutex_);
@@ -503,7 +536,8 @@ class SqliteCrossingStore final : public CrossingStore {
         connection_.Prepare(
             "INSERT INTO view (crossing_id, heading_deg, width, height, keypoint_count, "
             "keypoints, descriptors, hue_hist, hue_bins, format_version, image, created_at, "
-            "content_sha256, position) VALUES (?, ?, ?, ?, ?, ?, ?, ?, ?, ?, ?, ?, ?, ?)"));
+            "content_sha256, position, work_image) VALUES (?, ?, ?, ?, ?, ?, ?, ?, ?, ?, ?, ?, ?, ?, "
+            "?)"));
     RETURN_IF_ERROR(insert.BindInt64(1, view.crossing_id));
     RETURN_IF_ERROR(insert.BindDouble(2, view.heading_deg));
     RETURN_IF_ERROR(insert.BindInt64(3, view.width));
@@ -523,6 +557,9 @@ class SqliteCrossingStore final : public CrossingStore {
                         : insert.BindBlob(13, view.content_sha256.data(),
                                           view.content_sha256.size()));
     RETURN_IF_ERROR(insert.BindText(14, view.position));
+    RETURN_IF_ERROR(view.work_image.empty()
+                        ? insert.BindNull(15)
+                        : insert.BindBlob(15, view.work_image.data(), view.work_image.size()));
     RETURN_IF_ERROR(insert.Run());
 
     AddViewResult result;

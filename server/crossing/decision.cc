@@ -4,11 +4,11 @@
 
 namespace waymark::crossing {
 
-std::vector<double> DecisionValues(const std::vector<int>& matches,
+std::vector<double> DecisionValues(const std::vector<double>& matches,
                                    const std::vector<double>& similarities, double alpha,
                                    double beta) {
   const size_t n = std::min(matches.size(), similarities.size());
-  int m_max = 0;
+  double m_max = 0;
   double s_max = 0;
   for (size_t i = 0; i < n; ++i) {
     m_max = std::max(m_max, matches[i]);
@@ -16,7 +16,7 @@ std::vector<double> DecisionValues(const std::vector<int>& matches,
   }
   std::vector<double> des(n, 0.0);
   for (size_t i = 0; i < n; ++i) {
-    if (m_max > 0) des[i] += alpha * matches[i] / static_cast<double>(m_max);
+    if (m_max > 0) des[i] += alpha * matches[i] / m_max;
     if (s_max > 0) des[i] += beta * similarities[i] / s_max;
   }
   return des;

@@ -11,7 +11,9 @@ namespace waymark::crossing {
 // prints d_i / d_max; its own tables are reproduced only by S_i / S_max, see METHODS.md.)
 // A term whose maximum is <= 0 contributes 0 (no view has matches, or every histogram is
 // disjoint from the query's), so the other term decides.
-std::vector<double> DecisionValues(const std::vector<int>& matches,
+// M is real-valued: the match count in the paper's and the verified mode, -log10 NFA in the
+// retrieval mode.
+std::vector<double> DecisionValues(const std::vector<double>& matches,
                                    const std::vector<double>& similarities, double alpha,
                                    double beta);
 

@@ -8,6 +8,7 @@
 #include <opencv2/imgproc.hpp>
 
 #include "absl/strings/str_cat.h"
+#include "server/crossing/dense_sift.h"
 #include "server/crossing/hue_histogram.h"
 #include "server/common/stopwatch.h"
 
@@ -129,6 +130,8 @@ absl::StatusOr<ImageFeatures> ExtractSift(const cv::Mat& working_bgr,
   return features;
 }
 
+cv::Mat GlobalDescriptorInput(const cv::Mat& working_gray) { return DenseRootSift(working_gray); }
+
 absl::StatusOr<ImageFeatures> ExtractFeatures(const std::string& encoded,
                                               const FeatureOptions& options,
                                               ExtractionTimings* timings) {
@@ -147,6 +150,12 @@ absl::StatusOr<ImageFeatures> ExtractFeatures(const std::string& encoded,
   start = Clock::now();
   features->hue_hist = HueHistogram(working, options.hue_bins);
   local.histogram_ms = MsSince(start);
+  if (options.global_descriptor) {
+    start = Clock::now();
+    cv::cvtColor(working, features->working_gray, cv::COLOR_BGR2GRAY);
+    features->dense = GlobalDescriptorInput(features->working_gray);
+    local.dense_ms = MsSince(start);
+  }
   if (timings != nullptr) *timings = local;
   return features;
 }

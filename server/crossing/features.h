@@ -22,6 +22,10 @@ struct ImageFeatures {
   std::vector<float> hue_hist;  // normalised
   int width = 0;                // working resolution the features were extracted at
   int height = 0;
+  // With FeatureOptions::global_descriptor: dense RootSIFT (N x 128 CV_8U) and the grey image at
+  // working resolution it was computed from (CV_8U). Empty otherwise.
+  cv::Mat dense;
+  cv::Mat working_gray;
 };
 
 // Keypoint positions (what geometric verification needs of a stored view).
@@ -45,11 +49,16 @@ void ToRootSift(cv::Mat* descriptors);
 // image. An image without texture gives zero keypoints, not an error.
 absl::StatusOr<ImageFeatures> ExtractSift(const cv::Mat& working_bgr, const FeatureOptions& options);
 
-// Decode + resize + SIFT + hue histogram, with the time each stage took.
+// Dense RootSIFT of a grey working-resolution image: what ExtractFeatures computes with
+// FeatureOptions::global_descriptor, and what re-encodes a stored view.
+cv::Mat GlobalDescriptorInput(const cv::Mat& working_gray);
+
+// Decode + resize + SIFT + hue histogram (+ dense RootSIFT), with the time each stage took.
 struct ExtractionTimings {
   double decode_ms = 0;
   double extraction_ms = 0;
   double histogram_ms = 0;
+  double dense_ms = 0;  // dense RootSIFT, with FeatureOptions::global_descriptor
 };
 absl::StatusOr<ImageFeatures> ExtractFeatures(const std::string& encoded,
                                               const FeatureOptions& options,

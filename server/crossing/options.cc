@@ -74,6 +74,10 @@ absl::Status ValidateRecognitionOptions(const RecognitionOptions& o) {
   if (o.shortlist < 1 || o.shortlist > 1000) {
     return Invalid(absl::StrCat("shortlist = ", o.shortlist, " must be in [1, 1000]"));
   }
+  if (o.global_shortlist < 0 || o.global_shortlist > 1000) {
+    return Invalid(
+        absl::StrCat("global_shortlist = ", o.global_shortlist, " must be in [0, 1000]"));
+  }
   return absl::OkStatus();
 }
 

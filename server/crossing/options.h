@@ -34,6 +34,10 @@ struct FeatureOptions {
   // RootSIFT (Arandjelovic & Zisserman 2012): each descriptor L1-normalised and square-rooted, so
   // that Euclidean distance compares them as the Hellinger kernel does (ours).
   bool root_sift = false;
+  // Also extract dense RootSIFT (dense_sift.h) for the retrieval mode's global descriptor, and
+  // keep the grey working image it came from (what a database stores to re-encode its views
+  // when its vocabulary is retrained). Off for the paper's and the verified mode's queries.
+  bool global_descriptor = false;
 };
 
 struct ClusterOptions {
@@ -66,6 +70,13 @@ struct RecognitionOptions {
   // Retrieval mode (ours): the winner is accepted when chance alone would match fewer than
   // 10^max_log10_nfa views of the shortlist as well (0: less than one; a_contrario.h).
   double max_log10_nfa = 0.0;
+  // Retrieval mode on a database with a vocabulary (ours): the views most similar by global
+  // descriptor that join the shortlist beside the `shortlist` views with most tentative matches.
+  int global_shortlist = 24;
+  // Count the global similarity as evidence in the NFA (recognizer.cc) instead of using it for
+  // the shortlist only. Off: measured at 14-20 % false accepts on the unknown sets at
+  // max_log10_nfa -2 (docs/results.md), where the geometric NFA alone has none.
+  bool global_evidence = false;
   // StreamRecognize in retrieval mode (the service, not Recognize): a crossing is recognized once
   // its posterior over the frames passes this (place_evidence.h); 0 = every frame on its own.
   double evidence_threshold = 0.95;

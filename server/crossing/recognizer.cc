@@ -1,12 +1,15 @@
 #include "server/crossing/recognizer.h"
 
 #include <algorithm>
+#include <cmath>
+#include <functional>
 
 #include "absl/strings/str_cat.h"
 #include "absl/strings/str_format.h"
 #include "server/crossing/a_contrario.h"
 #include "server/crossing/decision.h"
 #include "server/crossing/geometric_verification.h"
+#include "server/crossing/global_index.h"
 #include "server/crossing/hue_histogram.h"
 #include "server/common/stopwatch.h"
 
@@ -42,16 +45,20 @@ void SortByMatches(std::vector<Candidate>* list) {
 
 // Steps 6-9: keep the top N2, compare hue histograms, decide. Fills kept/similarity/decision and
 // returns the index into `list` of the winner.
+// `score` is the match score M of the decision (default: the match count).
 int Decide(const ViewDatabase& db, const ImageFeatures& query, const RecognitionOptions& options,
-           std::vector<Candidate>* list) {
+           std::vector<Candidate>* list,
+           const std::function<double(const Candidate&)>& score = [](const Candidate& c) {
+             return static_cast<double>(c.matches);
+           }) {
   const size_t kept = std::min<size_t>(list->size(), options.n2);
-  std::vector<int> m;
+  std::vector<double> m;
   std::vector<double> s;
   for (size_t i = 0; i < kept; ++i) {
     Candidate& c = (*list)[i];
     c.kept = true;
     c.similarity = HueSimilarity(query.hue_hist, db.views()[c.slot].hue_hist);
-    m.push_back(c.matches);
+    m.push_back(score(c));
     s.push_back(c.similarity);
   }
   const std::vector<double> des = DecisionValues(m, s, options.alpha, options.beta);
@@ -180,33 +187,110 @@ void RecognizeVerified(const ViewDatabase& db, const ImageFeatures& query,
   out->candidates = std::move(list);
 }
 
-// Retrieval mode: the verified mode's shortlist, each view's match set judged by its number of
-// false alarms (a_contrario.h), the most meaningful first; the paper's hue and decision steps
-// rank the top N2, and the winner is accepted when its match set is meaningful.
+// The retrieval mode's global stage: how much each view's global similarity stands out of the
+// query's similarities to all views. The bulk of a database is unrelated to any one query, so
+// the median and the MAD of the similarities estimate the chance model of a similarity.
+struct GlobalStage {
+  std::vector<float> similarity;  // per slot; empty without a vocabulary or dense descriptors
+  double median = 0;
+  double spread = 0;  // 1.4826 x MAD, floored
+
+  bool active() const { return !similarity.empty(); }
+  double Z(uint32_t slot) const { return (similarity[slot] - median) / spread; }
+  // log10 of the chance that an unrelated view is as similar (the Gaussian tail beyond z).
+  double Log10Tail(uint32_t slot) const {
+    const double tail = 0.5 * std::erfc(Z(slot) / std::sqrt(2.0));
+    return std::log10(std::max(tail, 1e-300));
+  }
+};
+
+double Median(std::vector<float> values) {
+  if (values.empty()) return 0;
+  const size_t mid = values.size() / 2;
+  std::nth_element(values.begin(), values.begin() + mid, values.end());
+  return values[mid];
+}
+
+GlobalStage ScoreGlobally(const ViewDatabase& db, const ImageFeatures& query) {
+  GlobalStage g;
+  if (db.global_index().empty() || query.dense.empty()) return g;
+  g.similarity = db.global_index().Similarities(QuantizeGlobal(db.vocabulary().Encode(query.dense)));
+  g.median = Median(g.similarity);
+  std::vector<float> deviation;
+  for (float s : g.similarity) deviation.push_back(std::abs(s - static_cast<float>(g.median)));
+  // A floor keeps a database of near-identical views from dividing by almost nothing.
+  g.spread = std::max(1.4826 * Median(deviation), 1e-3);
+  return g;
+}
+
+// The shortlist's views by tentative count, then the global stage's most similar views that
+// are not in it yet (their tentative count, 0 when they have no match).
+void AddGlobalShortlist(const GlobalStage& g, const ViewMatches& tentative, int size,
+                        std::vector<std::pair<int, uint32_t>>* ranked) {
+  if (!g.active()) return;
+  for (const auto& [similarity, slot] : TopSimilar(g.similarity, size)) {
+    const bool listed = std::any_of(ranked->begin(), ranked->end(),
+                                    [&](const auto& r) { return r.second == slot; });
+    if (!listed) ranked->emplace_back(CountOf(tentative, slot), slot);
+  }
+}
+
+// Retrieval mode: the verified mode's shortlist joined by the views most similar globally; each
+// view judged by its number of false alarms as the answer, the most meaningful first; the
+// paper's hue and decision steps rank the top N2 (with -log10 NFA as the match score), and the
+// winner is accepted when it is meaningful.
+//
+// A view's NFA is that of its epipolar match set over the shortlist (a_contrario.h). With
+// global_evidence it also multiplies the chance that an unrelated view is as similar globally
+// (GlobalStage), over the database's views as tests: N x P(global) x P(geometric).
 void RecognizeRetrieval(const ViewDatabase& db, const ImageFeatures& query,
                         const RecognitionOptions& options, Recognition* out) {
-  const Shortlisted shortlisted = TentativeShortlist(db, query, options, out);
-  const auto& [tentative, ranked, verification] = shortlisted;
+  Shortlisted shortlisted = TentativeShortlist(db, query, options, out);
   auto start = Clock::now();
+  const GlobalStage global = ScoreGlobally(db, query);
+  AddGlobalShortlist(global, shortlisted.tentative, options.global_shortlist, &shortlisted.ranked);
+  out->retrieval_ms = MsSince(start);
+  const auto& [tentative, ranked, verification] = shortlisted;
+  start = Clock::now();
   const cv::Size image(std::max(1, query.width), std::max(1, query.height));
-  // Every verified view is a test: the shortlist's size (at least 1).
-  const double tests = std::max<double>(1.0, static_cast<double>(ranked.size()));
+  // Without a global stage the verified views are the tests (the shortlist's size); with it,
+  // every view of the database is a candidate answer.
+  const double shortlist_tests = std::max<double>(1.0, static_cast<double>(ranked.size()));
+  const bool global_evidence = global.active() && options.global_evidence;
+  const double log10_tests =
+      global_evidence ? std::log10(static_cast<double>(db.views().size())) : 0.0;
   std::vector<Candidate> list;
   std::vector<cv::Point2f> q, v;
   for (const auto& [count, slot] : ranked) {
-    if (count < 8) continue;  // the 8-point minimum
-    MatchedPoints(query, db.views()[slot], tentative.at(slot), &q, &v);
-    const std::optional<cv::Matx33d> f = EstimateFundamental(q, v, verification);
-    if (!f) continue;
-    // The smaller support of the two images is the more conservative random-point model.
-    const cv::Size qs = MatchSupport(q, image);
-    const cv::Size vs = MatchSupport(v, image);
-    const cv::Size support = qs.area() < vs.area() ? qs : vs;
-    const EpipolarEvidence evidence =
-        AContrarioEvidence(EpipolarResiduals(*f, q, v), support, tests);
-    if (evidence.inliers == 0) continue;
-    Candidate c{slot, evidence.inliers, count, IsCenter(db, slot)};
-    c.log10_nfa = evidence.log10_nfa;
+    Candidate c{slot, 0, count, IsCenter(db, slot)};
+    // Geometric evidence: log10 of its NFA per test (0 = none: fewer than the 8-point minimum,
+    // no fundamental matrix, or no inlier).
+    double log10_geometric = 0;
+    if (count >= 8) {
+      MatchedPoints(query, db.views()[slot], tentative.at(slot), &q, &v);
+      if (const std::optional<cv::Matx33d> f = EstimateFundamental(q, v, verification)) {
+        // The smaller support of the two images is the more conservative random-point model.
+        const cv::Size qs = MatchSupport(q, image);
+        const cv::Size vs = MatchSupport(v, image);
+        const cv::Size support = qs.area() < vs.area() ? qs : vs;
+        const EpipolarEvidence evidence =
+            AContrarioEvidence(EpipolarResiduals(*f, q, v), support, shortlist_tests);
+        c.matches = evidence.inliers;
+        if (evidence.inliers > 0) {
+          log10_geometric = std::min(0.0, evidence.log10_nfa - std::log10(shortlist_tests));
+        }
+      }
+    }
+    if (global.active()) {
+      c.global_similarity = global.similarity[slot];
+      c.global_z = global.Z(slot);
+    }
+    if (global_evidence) {
+      c.log10_nfa = log10_tests + global.Log10Tail(slot) + log10_geometric;
+    } else {
+      if (c.matches == 0) continue;
+      c.log10_nfa = log10_geometric + std::log10(shortlist_tests);
+    }
     list.push_back(c);
   }
   out->verification_ms = MsSince(start);
@@ -218,16 +302,19 @@ void RecognizeRetrieval(const ViewDatabase& db, const ImageFeatures& query,
     return a.log10_nfa < b.log10_nfa;
   });
   start = Clock::now();
-  const int best = Decide(db, query, options, &list);
+  const int best = Decide(db, query, options, &list, [](const Candidate& c) {
+    return std::max(0.0, -c.log10_nfa);
+  });
   out->histogram_ms = MsSince(start);
   const Candidate& winner = list[best];
   out->decision = winner.decision;
   out->log10_nfa = winner.log10_nfa;
   if (!(winner.log10_nfa < options.max_log10_nfa)) {
     out->reason = absl::StrFormat(
-        "best view's %d inliers of %d tentative matches could be chance: 10^%.1f false alarms "
-        "expected, the limit is 10^%.1f",
-        winner.matches, winner.tentative, winner.log10_nfa, options.max_log10_nfa);
+        "best view (%d inliers of %d tentative matches, global similarity %.3f) could be "
+        "chance: 10^%.1f false alarms expected, the limit is 10^%.1f",
+        winner.matches, winner.tentative, winner.global_similarity, winner.log10_nfa,
+        options.max_log10_nfa);
   } else {
     out->recognized = true;
     out->best_slot = winner.slot;

@@ -24,7 +24,12 @@ struct Candidate {
   bool kept = false;       // among the top N2 that reached the histogram step
   double similarity = 0;   // S = 1 - Bhattacharyya distance (kept views only)
   double decision = 0;     // Des (kept views only)
-  double log10_nfa = 0;    // retrieval mode: false alarms of its match set (a_contrario.h)
+  double log10_nfa = 0;    // retrieval mode: false alarms of the view as the answer (below)
+  // Retrieval mode with a global descriptor: cosine similarity of the view's and the query's
+  // (global_index.h), and how far it stands out of the query's similarities to all views
+  // (robust z: (s - median) / (1.4826 MAD)).
+  double global_similarity = 0;
+  double global_z = 0;
 };
 
 struct Recognition {
@@ -39,6 +44,7 @@ struct Recognition {
   std::string reason;  // why not recognized
   RecognitionMode mode = RecognitionMode::kPaper;
   double matching_ms = 0;
+  double retrieval_ms = 0;  // retrieval mode: global descriptor and scan over all views
   double verification_ms = 0;
   double histogram_ms = 0;  // comparing histograms (computing the query's is in extraction)
 };

@@ -105,9 +105,26 @@ cv::Mat ViewDatabase::Descriptors(uint32_t slot) const {
   return out;
 }
 
+void ViewDatabase::SetVocabulary(VladVocabulary vocabulary) {
+  vocabulary_ = std::move(vocabulary);
+  global_.Reset(vocabulary_.empty() ? 0 : vocabulary_.words() * kDescriptorSize);
+}
+
+void ViewDatabase::EncodeGlobal(uint32_t slot, const cv::Mat& dense_descriptors) {
+  if (vocabulary_.empty()) return;
+  global_.Set(slot, QuantizeGlobal(vocabulary_.Encode(dense_descriptors)));
+}
+
+void ViewDatabase::TrainGlobal(const std::vector<cv::Mat>& dense_per_slot, int words) {
+  SetVocabulary(VladVocabulary::TrainOnImages(dense_per_slot, words));
+  for (uint32_t slot = 0; slot < dense_per_slot.size(); ++slot) {
+    EncodeGlobal(slot, dense_per_slot[slot]);
+  }
+}
+
 size_t ViewDatabase::memory_bytes() const {
-  size_t bytes =
-      index_.store().descriptor_bytes() + index_.memory_bytes() + centers_.memory_bytes();
+  size_t bytes = index_.store().descriptor_bytes() + index_.memory_bytes() +
+                 centers_.memory_bytes() + global_.memory_bytes();
   for (const ViewEntry& v : views_) {
     bytes += sizeof(ViewEntry) + v.points.capacity() * sizeof(cv::Point2f) +
              v.hue_hist.capacity() * sizeof(float);

@@ -15,8 +15,10 @@
 #include "server/crossing/center_matcher.h"
 #include "server/crossing/descriptor_index.h"
 #include "server/crossing/features.h"
+#include "server/crossing/global_index.h"
 #include "server/crossing/options.h"
 #include "server/crossing/view_matching.h"
+#include "server/crossing/vlad.h"
 
 namespace waymark::crossing {
 
@@ -76,6 +78,18 @@ class ViewDatabase {
   std::vector<ClusterEntry> ComputeClusters(const ClusterOptions& options) const;
   void SetClusters(std::vector<ClusterEntry> clusters);
 
+  // The retrieval mode's global descriptors (vlad.h, global_index.h): the vocabulary, and each
+  // view's code under it. Setting a vocabulary drops every code (they belong to the old one).
+  void SetVocabulary(VladVocabulary vocabulary);
+  void SetGlobalCode(uint32_t slot, const GlobalCode& code) { global_.Set(slot, code); }
+  // The view's code from its dense descriptors (dense_sift.h) under the current vocabulary.
+  void EncodeGlobal(uint32_t slot, const cv::Mat& dense_descriptors);
+  // Trains a vocabulary of `words` on the views' dense descriptors (one matrix per slot, in slot
+  // order) and encodes every view under it.
+  void TrainGlobal(const std::vector<cv::Mat>& dense_per_slot, int words = kVladWords);
+  const VladVocabulary& vocabulary() const { return vocabulary_; }
+  const GlobalIndex& global_index() const { return global_; }
+
   // The descriptors of a stored view as an N x 128 matrix (a copy).
   cv::Mat Descriptors(uint32_t slot) const;
 
@@ -83,7 +97,7 @@ class ViewDatabase {
   const std::vector<ClusterEntry>& clusters() const { return clusters_; }
   const DescriptorIndex& index() const { return index_; }
   const std::vector<ViewSpan>& spans() const { return spans_; }
-  size_t memory_bytes() const;  // descriptors + index + keypoints + histograms
+  size_t memory_bytes() const;  // descriptors + indexes + keypoints + histograms
 
  private:
   DescriptorIndex index_;
@@ -93,6 +107,8 @@ class ViewDatabase {
   std::vector<ViewEntry> views_;
   std::vector<ClusterEntry> clusters_;
   std::vector<ViewSpan> spans_;  // mirror of views_[i].span, the shape the matchers take
+  VladVocabulary vocabulary_;
+  GlobalIndex global_;
 };
 
 // The paper's clustering verbatim, the reference ComputeClusters is tested against: every view in

@@ -1,6 +1,11 @@
 #include "server/crossing/vlad.h"
 
+#include <algorithm>
 #include <cmath>
+#include <cstdint>
+#include <cstring>
+
+#include "absl/strings/str_cat.h"
 
 #include <opencv2/core.hpp>
 
@@ -24,6 +29,22 @@ VladVocabulary VladVocabulary::Train(const cv::Mat& descriptors, int words, int 
              cv::TermCriteria(cv::TermCriteria::COUNT + cv::TermCriteria::EPS, 20, 1e-3), 1,
              cv::KMEANS_PP_CENTERS, v.centers_);
   return v;
+}
+
+VladVocabulary VladVocabulary::TrainOnImages(const std::vector<cv::Mat>& descriptors, int words,
+                                             int max_samples) {
+  if (descriptors.empty()) return {};
+  const int per_image = std::max<int>(1, max_samples / static_cast<int>(descriptors.size()));
+  cv::Mat sample;
+  for (const cv::Mat& d : descriptors) {
+    if (d.rows <= per_image) {
+      sample.push_back(d);
+      continue;
+    }
+    const double step = static_cast<double>(d.rows) / per_image;
+    for (int i = 0; i < per_image; ++i) sample.push_back(d.row(static_cast<int>(i * step)));
+  }
+  return Train(sample, words, max_samples);
 }
 
 cv::Mat VladVocabulary::Encode(const cv::Mat& descriptors) const {
@@ -52,6 +73,51 @@ cv::Mat VladVocabulary::Encode(const cv::Mat& descriptors) const {
   const double n = cv::norm(vlad);
   if (n > 0) vlad /= n;
   return vlad;
+}
+
+namespace {
+// "WMVL", format 1, words, dimensions; then words x dimensions floats (x86-64 and ARM64 are both
+// little-endian; the header's magic would not match on a big-endian reader).
+constexpr char kMagic[4] = {'W', 'M', 'V', 'L'};
+constexpr int32_t kFormat = 1;
+constexpr size_t kHeader = sizeof(kMagic) + 3 * sizeof(int32_t);
+}  // namespace
+
+std::string VladVocabulary::Serialize() const {
+  const int32_t header[3] = {kFormat, centers_.rows, centers_.cols};
+  std::string out(kHeader + centers_.total() * sizeof(float), '\0');
+  std::memcpy(out.data(), kMagic, sizeof(kMagic));
+  std::memcpy(out.data() + sizeof(kMagic), header, sizeof(header));
+  if (!centers_.empty()) {
+    const cv::Mat c = centers_.isContinuous() ? centers_ : centers_.clone();
+    std::memcpy(out.data() + kHeader, c.ptr<float>(0), c.total() * sizeof(float));
+  }
+  return out;
+}
+
+absl::StatusOr<VladVocabulary> VladVocabulary::Deserialize(const std::string& bytes) {
+  int32_t header[3] = {0, 0, 0};
+  if (bytes.size() < kHeader || std::memcmp(bytes.data(), kMagic, sizeof(kMagic)) != 0) {
+    return absl::InvalidArgumentError("not a VLAD vocabulary (bad header)");
+  }
+  std::memcpy(header, bytes.data() + sizeof(kMagic), sizeof(header));
+  if (header[0] != kFormat) {
+    return absl::InvalidArgumentError(
+        absl::StrCat("VLAD vocabulary format ", header[0], ", this build reads ", kFormat));
+  }
+  const int64_t words = header[1], dims = header[2];
+  if (words < 0 || dims < 0 || words > 65536 || dims > 4096 ||
+      bytes.size() != kHeader + size_t(words * dims) * sizeof(float)) {
+    return absl::InvalidArgumentError(absl::StrCat("VLAD vocabulary of ", words, " x ", dims,
+                                                   " words does not fit its ", bytes.size(),
+                                                   " bytes"));
+  }
+  VladVocabulary v;
+  if (words > 0 && dims > 0) {
+    v.centers_.create(static_cast<int>(words), static_cast<int>(dims), CV_32F);
+    std::memcpy(v.centers_.ptr<float>(0), bytes.data() + kHeader, v.centers_.total() * sizeof(float));
+  }
+  return v;
 }
 
 }  // namespace waymark::crossing

@@ -6,9 +6,18 @@
 // descriptor adds its residual to the nearest of `words` centres; the per-word sums are
 // square-rooted (signed), normalised per word and then as a whole.
 
+#include <string>
+#include <vector>
+
 #include <opencv2/core.hpp>
 
+#include "absl/status/statusor.h"
+
 namespace waymark::crossing {
+
+// Words of a database's vocabulary: 128 measured best of {16, 64, 128, 256} with dense RootSIFT
+// on the corridor and the triplets (waymark-vpr-eval, docs/results.md).
+inline constexpr int kVladWords = 128;
 
 class VladVocabulary {
  public:
@@ -16,11 +25,20 @@ class VladVocabulary {
   // `max_samples` of `descriptors` (N x 128, CV_8U or CV_32F). Fewer descriptors than words:
   // an empty vocabulary.
   static VladVocabulary Train(const cv::Mat& descriptors, int words, int max_samples = 100000);
+  // The same over the descriptors of many images, at most max_samples / images rows of each
+  // (evenly spread), so every view has its say and nothing big is stacked.
+  static VladVocabulary TrainOnImages(const std::vector<cv::Mat>& descriptors, int words,
+                                      int max_samples = 50000);
 
   bool empty() const { return centers_.empty(); }
   int words() const { return centers_.rows; }
   // 1 x (words * 128) CV_32F, unit L2 norm (all zero for no descriptors).
   cv::Mat Encode(const cv::Mat& descriptors) const;
+
+  // Bytes to store with a database: a versioned header, then the words as little-endian floats.
+  std::string Serialize() const;
+  // INVALID_ARGUMENT for bytes Serialize did not write (wrong magic, version or length).
+  static absl::StatusOr<VladVocabulary> Deserialize(const std::string& bytes);
 
  private:
   cv::Mat centers_;  // words x 128, CV_32F

@@ -12,7 +12,7 @@ double Truncate2(double v) { return std::floor(v * 100 + 1e-9) / 100; }
 
 struct TableCase {
   const char* name;
-  std::vector<int> m;
+  std::vector<double> m;
   std::vector<double> s;
   std::vector<double> printed;
   std::vector<double> computed;  // METHODS.md's column (itself truncated to 3 decimals)

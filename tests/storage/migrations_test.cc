@@ -117,7 +117,7 @@ TEST(MigrationsTest, WaymarkSchemaCreatesTheCrossingTables) {
     ++fk_count;
     EXPECT_EQ(fks.ColumnText(2), "CASCADE") << fks.ColumnText(0) << " -> " << fks.ColumnText(1);
   }
-  EXPECT_EQ(fk_count, 6);  // crossing, view, cluster x2, cluster_member x2
+  EXPECT_EQ(fk_count, 7);  // crossing, view, cluster x2, cluster_member x2, crossing_vocabulary
 }
 
 }  // namespace

@@ -1,0 +1,75 @@
+#include "server/crossing/global_index.h"
+
+#include <algorithm>
+#include <cmath>
+
+namespace waymark::crossing {
+
+GlobalCode QuantizeGlobal(const cv::Mat& unit) {
+  GlobalCode code;
+  cv::Mat v;
+  unit.reshape(1, 1).convertTo(v, CV_32F);
+  double max_abs = 0;
+  cv::minMaxLoc(cv::abs(v), nullptr, &max_abs);
+  code.values.assign(v.cols, 0);
+  if (max_abs <= 0) return code;
+  // The scale keeps the direction: the norm is taken again on the integers.
+  code.scale = static_cast<float>(127.0 / max_abs);
+  const float* x = v.ptr<float>(0);
+  double norm2 = 0;
+  for (int i = 0; i < v.cols; ++i) {
+    code.values[i] = static_cast<int8_t>(std::lround(x[i] * code.scale));
+    norm2 += double(code.values[i]) * code.values[i];
+  }
+  // Stored as the reciprocal norm of the integer vector, so the similarity is a cosine.
+  code.scale = norm2 > 0 ? static_cast<float>(1.0 / std::sqrt(norm2)) : 0.f;
+  return code;
+}
+
+void GlobalIndex::Reset(int dims) {
+  dims_ = std::max(0, dims);
+  codes_.clear();
+  scales_.clear();
+}
+
+void GlobalIndex::Set(uint32_t slot, const GlobalCode& code) {
+  if (slot >= scales_.size()) {
+    scales_.resize(slot + 1, 0.f);
+    codes_.resize(scales_.size() * static_cast<size_t>(dims_), 0);
+  }
+  if (static_cast<int>(code.values.size()) != dims_) {
+    scales_[slot] = 0;
+    return;
+  }
+  std::copy(code.values.begin(), code.values.end(), codes_.begin() + size_t(slot) * dims_);
+  scales_[slot] = code.scale;
+}
+
+std::vector<float> GlobalIndex::Similarities(const GlobalCode& query) const {
+  std::vector<float> out(scales_.size(), 0.f);
+  if (static_cast<int>(query.values.size()) != dims_ || query.scale == 0) return out;
+  const int8_t* q = query.values.data();
+  for (size_t slot = 0; slot < scales_.size(); ++slot) {
+    if (scales_[slot] == 0) continue;
+    const int8_t* v = codes_.data() + slot * dims_;
+    int32_t dot = 0;
+    for (int i = 0; i < dims_; ++i) dot += int32_t(q[i]) * int32_t(v[i]);
+    out[slot] = static_cast<float>(dot) * query.scale * scales_[slot];
+  }
+  return out;
+}
+
+std::vector<std::pair<float, uint32_t>> TopSimilar(const std::vector<float>& similarities, int k) {
+  std::vector<std::pair<float, uint32_t>> ranked;
+  ranked.reserve(similarities.size());
+  for (uint32_t s = 0; s < similarities.size(); ++s) ranked.emplace_back(similarities[s], s);
+  const size_t n = std::min<size_t>(std::max(0, k), ranked.size());
+  auto better = [](const auto& a, const auto& b) {
+    return a.first != b.first ? a.first > b.first : a.second < b.second;
+  };
+  std::partial_sort(ranked.begin(), ranked.begin() + n, ranked.end(), better);
+  ranked.resize(n);
+  return ranked;
+}
+
+}  // namespace waymark::crossing
