@@ -14,7 +14,6 @@
 
 #include "absl/status/status.h"
 #include "absl/status/statusor.h"
-#include "absl/strings/match.h"
 #include "absl/strings/str_cat.h"
 #include "storage/crossing_store.h"
 #include "storage/migrations.h"
@@ -380,6 +379,8 @@ class SqliteCrossingStore final : public CrossingStore {
 
   absl::Status SaveVocabulary(const VocabularyRecord& vocabulary) override {
     std::lock_guard<std::mutex> lock(mutex_);
+    ASSIGN_OR_RETURN(Transaction txn, Transaction::Begin(connection_));
+    RETURN_IF_ERROR(DatabaseNameLocked(vocabulary.database_id).status());
     ASSIGN_OR_RETURN(Statement upsert,
                      connection_.Prepare("INSERT OR REPLACE INTO crossing_vocabulary (db_id, "
                                          "trained_views, data, updated_at) VALUES (?, ?, ?, ?)"));
@@ -387,11 +388,8 @@ class SqliteCrossingStore final : public CrossingStore {
     RETURN_IF_ERROR(upsert.BindInt64(2, vocabulary.trained_views));
     RETURN_IF_ERROR(upsert.BindBlob(3, vocabulary.data.data(), vocabulary.data.size()));
     RETURN_IF_ERROR(upsert.BindDouble(4, NowSeconds()));
-    absl::Status s = upsert.Run();
-    if (!s.ok() && absl::StrContains(s.message(), "FOREIGN KEY")) {
-      return absl::NotFoundError(absl::StrCat("database ", vocabulary.database_id, " not found"));
-    }
-    return s;
+    RETURN_IF_ERROR(upsert.Run());
+    return txn.Commit();
   }
 
   absl::StatusOr<std::optional<VocabularyRecord>> LoadVocabulary(int64_t database_id) override {

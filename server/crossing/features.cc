@@ -130,8 +130,6 @@ absl::StatusOr<ImageFeatures> ExtractSift(const cv::Mat& working_bgr,
   return features;
 }
 
-cv::Mat GlobalDescriptorInput(const cv::Mat& working_gray) { return DenseRootSift(working_gray); }
-
 absl::StatusOr<ImageFeatures> ExtractFeatures(const std::string& encoded,
                                               const FeatureOptions& options,
                                               ExtractionTimings* timings) {
@@ -153,7 +151,7 @@ absl::StatusOr<ImageFeatures> ExtractFeatures(const std::string& encoded,
   if (options.global_descriptor) {
     start = Clock::now();
     cv::cvtColor(working, features->working_gray, cv::COLOR_BGR2GRAY);
-    features->dense = GlobalDescriptorInput(features->working_gray);
+    features->dense = DenseRootSift(features->working_gray);
     local.dense_ms = MsSince(start);
   }
   if (timings != nullptr) *timings = local;

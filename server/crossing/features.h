@@ -49,10 +49,6 @@ void ToRootSift(cv::Mat* descriptors);
 // image. An image without texture gives zero keypoints, not an error.
 absl::StatusOr<ImageFeatures> ExtractSift(const cv::Mat& working_bgr, const FeatureOptions& options);
 
-// Dense RootSIFT of a grey working-resolution image: what ExtractFeatures computes with
-// FeatureOptions::global_descriptor, and what re-encodes a stored view.
-cv::Mat GlobalDescriptorInput(const cv::Mat& working_gray);
-
 // Decode + resize + SIFT + hue histogram (+ dense RootSIFT), with the time each stage took.
 struct ExtractionTimings {
   double decode_ms = 0;

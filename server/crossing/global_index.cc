@@ -13,16 +13,15 @@ GlobalCode QuantizeGlobal(const cv::Mat& unit) {
   cv::minMaxLoc(cv::abs(v), nullptr, &max_abs);
   code.values.assign(v.cols, 0);
   if (max_abs <= 0) return code;
-  // The scale keeps the direction: the norm is taken again on the integers.
-  code.scale = static_cast<float>(127.0 / max_abs);
+  const double to_int8 = 127.0 / max_abs;
   const float* x = v.ptr<float>(0);
   double norm2 = 0;
   for (int i = 0; i < v.cols; ++i) {
-    code.values[i] = static_cast<int8_t>(std::lround(x[i] * code.scale));
+    code.values[i] = static_cast<int8_t>(std::lround(x[i] * to_int8));
     norm2 += double(code.values[i]) * code.values[i];
   }
-  // Stored as the reciprocal norm of the integer vector, so the similarity is a cosine.
-  code.scale = norm2 > 0 ? static_cast<float>(1.0 / std::sqrt(norm2)) : 0.f;
+  // The reciprocal norm of the integers, so that the similarity of two codes is a cosine.
+  code.scale = static_cast<float>(1.0 / std::sqrt(norm2));
   return code;
 }
 

@@ -18,10 +18,10 @@
 
 namespace waymark::crossing {
 
-// A unit vector v stored as round(v * scale) in 8 bits, scale = 127 / max |v_i|.
+// A vector v stored as round(v * 127 / max |v_i|) in 8 bits.
 struct GlobalCode {
   std::vector<int8_t> values;
-  float scale = 0;  // 0: no code (an empty vector)
+  float scale = 0;  // 1 / |values|; 0: no code (an all-zero vector)
 };
 
 // `unit` is 1 x D CV_32F (any norm; the similarity of quantised codes is the cosine).

@@ -235,6 +235,30 @@ void AddGlobalShortlist(const GlobalStage& g, const ViewMatches& tentative, int 
   }
 }
 
+// How far chance explains a view's tentative matches (a_contrario.h): the epipolar inliers of
+// its fundamental matrix and log10 of their NFA per test, a probability (at most 0). Zero and
+// zero when no matrix fits or nothing is an inlier.
+struct GeometricEvidence {
+  int inliers = 0;
+  double log10_probability = 0;
+};
+GeometricEvidence JudgeMatchSet(const ImageFeatures& query, const ViewEntry& view,
+                                const std::vector<DescriptorMatch>& pairs,
+                                const VerificationOptions& verification, double tests,
+                                std::vector<cv::Point2f>* q, std::vector<cv::Point2f>* v) {
+  MatchedPoints(query, view, pairs, q, v);
+  const std::optional<cv::Matx33d> f = EstimateFundamental(*q, *v, verification);
+  if (!f) return {};
+  // The smaller support of the two images is the more conservative random-point model.
+  const cv::Size image(std::max(1, query.width), std::max(1, query.height));
+  const cv::Size qs = MatchSupport(*q, image);
+  const cv::Size vs = MatchSupport(*v, image);
+  const EpipolarEvidence evidence =
+      AContrarioEvidence(EpipolarResiduals(*f, *q, *v), qs.area() < vs.area() ? qs : vs, tests);
+  if (evidence.inliers == 0) return {};
+  return {evidence.inliers, std::min(0.0, evidence.log10_nfa - std::log10(tests))};
+}
+
 // Retrieval mode: the verified mode's shortlist joined by the views most similar globally; each
 // view judged by its number of false alarms as the answer, the most meaningful first; the
 // paper's hue and decision steps rank the top N2 (with -log10 NFA as the match score), and the
@@ -252,9 +276,8 @@ void RecognizeRetrieval(const ViewDatabase& db, const ImageFeatures& query,
   out->retrieval_ms = MsSince(start);
   const auto& [tentative, ranked, verification] = shortlisted;
   start = Clock::now();
-  const cv::Size image(std::max(1, query.width), std::max(1, query.height));
-  // Without a global stage the verified views are the tests (the shortlist's size); with it,
-  // every view of the database is a candidate answer.
+  // The match sets are judged over the shortlist's views as tests; with global_evidence every
+  // view of the database is a candidate answer.
   const double shortlist_tests = std::max<double>(1.0, static_cast<double>(ranked.size()));
   const bool global_evidence = global.active() && options.global_evidence;
   const double log10_tests =
@@ -262,34 +285,20 @@ void RecognizeRetrieval(const ViewDatabase& db, const ImageFeatures& query,
   std::vector<Candidate> list;
   std::vector<cv::Point2f> q, v;
   for (const auto& [count, slot] : ranked) {
-    Candidate c{slot, 0, count, IsCenter(db, slot)};
-    // Geometric evidence: log10 of its NFA per test (0 = none: fewer than the 8-point minimum,
-    // no fundamental matrix, or no inlier).
-    double log10_geometric = 0;
-    if (count >= 8) {
-      MatchedPoints(query, db.views()[slot], tentative.at(slot), &q, &v);
-      if (const std::optional<cv::Matx33d> f = EstimateFundamental(q, v, verification)) {
-        // The smaller support of the two images is the more conservative random-point model.
-        const cv::Size qs = MatchSupport(q, image);
-        const cv::Size vs = MatchSupport(v, image);
-        const cv::Size support = qs.area() < vs.area() ? qs : vs;
-        const EpipolarEvidence evidence =
-            AContrarioEvidence(EpipolarResiduals(*f, q, v), support, shortlist_tests);
-        c.matches = evidence.inliers;
-        if (evidence.inliers > 0) {
-          log10_geometric = std::min(0.0, evidence.log10_nfa - std::log10(shortlist_tests));
-        }
-      }
-    }
+    const GeometricEvidence geometric =
+        count >= 8 ? JudgeMatchSet(query, db.views()[slot], tentative.at(slot), verification,
+                                   shortlist_tests, &q, &v)
+                   : GeometricEvidence{};
+    Candidate c{slot, geometric.inliers, count, IsCenter(db, slot)};
     if (global.active()) {
       c.global_similarity = global.similarity[slot];
       c.global_z = global.Z(slot);
     }
     if (global_evidence) {
-      c.log10_nfa = log10_tests + global.Log10Tail(slot) + log10_geometric;
+      c.log10_nfa = log10_tests + global.Log10Tail(slot) + geometric.log10_probability;
     } else {
       if (c.matches == 0) continue;
-      c.log10_nfa = log10_geometric + std::log10(shortlist_tests);
+      c.log10_nfa = std::log10(shortlist_tests) + geometric.log10_probability;
     }
     list.push_back(c);
   }

@@ -56,6 +56,20 @@ class CrossingServerTest : public ::testing::Test {
     client_ = std::make_unique<Client>(server_->address());
   }
 
+  // Sends `requests` over one StreamRecognize call and returns every answer, in order; the call
+  // must end OK.
+  std::vector<v1::RecognizeResponse> StreamAll(const std::vector<v1::RecognizeRequest>& requests) {
+    auto ctx = Ctx();
+    auto stream = (*client_)->StreamRecognize(ctx.get());
+    for (const v1::RecognizeRequest& q : requests) EXPECT_TRUE(stream->Write(q));
+    stream->WritesDone();
+    std::vector<v1::RecognizeResponse> responses;
+    v1::RecognizeResponse r;
+    while (stream->Read(&r)) responses.push_back(r);
+    EXPECT_TRUE(stream->Finish().ok());
+    return responses;
+  }
+
   // Creates `name` and bulk-enrolls 12 views of each crossing.
   void EnrollAll(const std::string& name) {
     v1::CreateDatabaseRequest create;
@@ -513,26 +527,20 @@ TEST_F(CrossingServerTest, HugeImagesAreResizedAndOversizedMessagesRefused) {
 
 TEST_F(CrossingServerTest, StreamRecognizeAnswersEveryFrameAndSurvivesABadOne) {
   EnrollAll("stream");
-  auto ctx = Ctx();
-  auto stream = (*client_)->StreamRecognize(ctx.get());
   const std::vector<std::string> frames = {
       EncodeJpeg(CropView(MakePanorama(777), 0)),  // unknown place
       "corrupt frame",
       EncodeJpeg(CropView(panoramas_[0], 95)),
       EncodeJpeg(CropView(panoramas_[1], 300)),
   };
+  std::vector<v1::RecognizeRequest> requests;
   for (size_t i = 0; i < frames.size(); ++i) {
-    v1::RecognizeRequest q;
+    v1::RecognizeRequest& q = requests.emplace_back();
     q.set_database("stream");
     q.mutable_image()->set_data(frames[i]);
     q.mutable_image()->set_stamp(100.0 + i);
-    ASSERT_TRUE(stream->Write(q));
   }
-  stream->WritesDone();
-  std::vector<v1::RecognizeResponse> responses;
-  v1::RecognizeResponse r;
-  while (stream->Read(&r)) responses.push_back(r);
-  ASSERT_TRUE(stream->Finish().ok());
+  const std::vector<v1::RecognizeResponse> responses = StreamAll(requests);
   ASSERT_EQ(responses.size(), frames.size());
   for (size_t i = 0; i < responses.size(); ++i) {
     EXPECT_EQ(responses[i].frame_index(), static_cast<int64_t>(i));
@@ -551,25 +559,19 @@ TEST_F(CrossingServerTest, StreamRecognizeAnswersEveryFrameAndSurvivesABadOne) {
 // does not decide, agreeing frames do, and a robot that moves on is followed.
 TEST_F(CrossingServerTest, StreamRecognizeInRetrievalModeDecidesOnEvidenceOverFrames) {
   EnrollAll("evidence");
-  auto ctx = Ctx();
-  auto stream = (*client_)->StreamRecognize(ctx.get());
   std::vector<std::string> frames;
   for (double h : {40.0, 47.0, 54.0, 61.0}) frames.push_back(EncodeJpeg(CropView(panoramas_[0], h)));
   for (double h : {200.0, 207.0, 214.0, 221.0, 228.0}) {
     frames.push_back(EncodeJpeg(CropView(panoramas_[1], h)));
   }
+  std::vector<v1::RecognizeRequest> requests;
   for (const std::string& f : frames) {
-    v1::RecognizeRequest q;
+    v1::RecognizeRequest& q = requests.emplace_back();
     q.set_database("evidence");
     q.mutable_image()->set_data(f);
     q.mutable_params()->set_mode(v1::RECOGNITION_MODE_RETRIEVAL);
-    ASSERT_TRUE(stream->Write(q));
   }
-  stream->WritesDone();
-  std::vector<v1::RecognizeResponse> responses;
-  v1::RecognizeResponse r;
-  while (stream->Read(&r)) responses.push_back(r);
-  ASSERT_TRUE(stream->Finish().ok());
+  const std::vector<v1::RecognizeResponse> responses = StreamAll(requests);
   ASSERT_EQ(responses.size(), frames.size());
   for (const auto& answer : responses) {
     EXPECT_EQ(answer.mode(), v1::RECOGNITION_MODE_RETRIEVAL);
