@@ -174,7 +174,16 @@ class Evaluation {
   Run Execute(const std::string& label, const RecognitionOptions& options,
               const std::vector<std::string>& groups);
   std::string SequenceReport(const Run& run, double threshold) const;
-  void VladReport(int words);
+  void VladReport(int words, int sample_rows);
+ public:
+  // Every retrieval-mode candidate of every query with what an acceptance rule could use (its
+  // geometric NFA, global similarity and z, the query's similarities over all views), as CSV:
+  // the data to design and calibrate the rule on. Empty path: nothing.
+  // `vocabulary_rows` > 0: each database's vocabulary learnt again from that many dense
+  // descriptors per view first.
+  void AcceptanceDump(const std::string& path, int vocabulary_rows);
+
+ private:
   std::vector<std::string> GroupsOf(const std::string& dataset) const;
   std::vector<std::string> AllGroups() const;
   std::vector<std::string> PaperSweepGroups() const;
@@ -426,16 +435,22 @@ std::vector<std::string> Evaluation::PaperSweepGroups() const { return AllGroups
 
 // Global retrieval alone (VLAD of dense RootSIFT, vocabulary of `words` trained on the
 // database's views, as the retrieval mode's global stage): R@1 and R@5 of the cosine-nearest
-// views, per group, no verification.
-void Evaluation::VladReport(int words) {
+// views, per group, no verification. The vocabulary learns from `sample_rows` dense descriptors
+// of each view (EvenRows, what the service keeps), or from up to 50,000 spread over all (0).
+void Evaluation::VladReport(int words, int sample_rows) {
   for (const Group& g : groups_) {
     if (g.name != kCorridor && g.name != kTriplets && g.name != kCorridorSegments) continue;
     int queries = 0, top1 = 0, top5 = 0;
     for (const PreparedProtocol& part : g.parts) {
       std::vector<cv::Mat> dense;
-      for (const Enrollment& e : part.protocol.enroll) dense.push_back((*cache_.Get(e.path))->dense);
+      std::vector<cv::Mat> samples;
+      for (const Enrollment& e : part.protocol.enroll) {
+        dense.push_back((*cache_.Get(e.path))->dense);
+        samples.push_back(sample_rows > 0 ? crossing::EvenRows(dense.back(), sample_rows)
+                                          : dense.back());
+      }
       const crossing::VladVocabulary vocabulary =
-          crossing::VladVocabulary::TrainOnImages(dense, words);
+          crossing::VladVocabulary::TrainOnImages(samples, words);
       std::vector<cv::Mat> views;
       for (const cv::Mat& d : dense) views.push_back(vocabulary.Encode(d));
       for (size_t q = 0; q < part.protocol.queries.size(); ++q) {
@@ -457,10 +472,82 @@ void Evaluation::VladReport(int words) {
         }
       }
     }
-    std::cerr << absl::StrFormat("  [vlad %d] %-24s R@1 %s  R@5 %s\n", words, g.name,
+    std::cerr << absl::StrFormat("  [vlad %d, %s] %-24s R@1 %s  R@5 %s\n", words,
+                                 sample_rows > 0 ? absl::StrCat(sample_rows, " rows/view")
+                                                 : std::string("all rows"),
+                                 g.name,
                                  Pct(queries ? double(top1) / queries : NAN),
                                  Pct(queries ? double(top5) / queries : NAN));
   }
+}
+
+void Evaluation::AcceptanceDump(const std::string& path, int vocabulary_rows) {
+  if (vocabulary_rows > 0) {
+    for (Group& g : groups_) {
+      for (PreparedProtocol& part : g.parts) {
+        std::vector<cv::Mat> dense;
+        for (const Enrollment& e : part.protocol.enroll) {
+          dense.push_back((*cache_.Get(e.path))->dense);
+        }
+        part.db->TrainGlobal(dense, crossing::kVladWords, vocabulary_rows);
+      }
+    }
+  }
+  std::ofstream out(path);
+  out << "group,part,query,known,slot,place,correct,inliers,tentative,log10_nfa,global_sim,"
+         "global_z,top_sim,top_place_correct,other_place_sim,median_sim,views\n";
+  RecognitionOptions options;
+  options.mode = RecognitionMode::kRetrieval;
+  options.max_log10_nfa = 100;  // every winner: the rule is applied afterwards
+  for (const Group& g : groups_) {
+    for (size_t p = 0; p < g.parts.size(); ++p) {
+      const PreparedProtocol& part = g.parts[p];
+      const crossing::ViewDatabase& db = *part.db;
+      for (size_t q = 0; q < part.protocol.queries.size(); ++q) {
+        const Query& query = part.protocol.queries[q];
+        const crossing::ImageFeatures& f = *part.query_features[q];
+        auto is_correct = [&](int64_t place) {
+          return std::find(query.accepted.begin(), query.accepted.end(), place) !=
+                 query.accepted.end();
+        };
+        std::vector<float> sims;
+        if (!db.global_index().empty() && !f.dense.empty()) {
+          sims = db.global_index().Similarities(
+              crossing::QuantizeGlobal(db.vocabulary().Encode(f.dense)));
+        }
+        double top = 0, other = 0, median = 0;
+        int64_t top_place = -1;
+        if (!sims.empty()) {
+          const auto ranked = crossing::TopSimilar(sims, static_cast<int>(sims.size()));
+          top = ranked[0].first;
+          top_place = db.views()[ranked[0].second].crossing_id;
+          for (const auto& [sim, slot] : ranked) {
+            if (db.views()[slot].crossing_id != top_place) {
+              other = sim;
+              break;
+            }
+          }
+          median = ranked[ranked.size() / 2].first;
+        }
+        absl::StatusOr<crossing::Recognition> r = crossing::Recognize(db, f, options);
+        if (!r.ok()) continue;
+        if (r->candidates.empty()) {  // still a row: the global stage alone may answer it
+          out << absl::StrFormat("%s,%d,%d,%d,-1,-1,0,0,0,0,0,0,%.5f,%d,%.5f,%.5f,%d\n", g.name, p,
+                                 q, !query.accepted.empty(), top, is_correct(top_place), other,
+                                 median, db.views().size());
+        }
+        for (const crossing::Candidate& c : r->candidates) {
+          const int64_t place = db.views()[c.slot].crossing_id;
+          out << absl::StrFormat("%s,%d,%d,%d,%d,%d,%d,%d,%d,%.4f,%.5f,%.3f,%.5f,%d,%.5f,%.5f,%d\n",
+                                 g.name, p, q, !query.accepted.empty(), c.slot, place,
+                                 is_correct(place), c.matches, c.tentative, c.log10_nfa,
+                                 c.global_similarity, c.global_z, top, is_correct(top_place),
+                                 other, median, db.views().size());
+        }
+      }
+    }
+  }
+  std::cerr << "wrote the acceptance data to " << path << "\n";
 }
 
 // StreamRecognize's evidence filter replayed over a query traversal streamed in order: how often
@@ -560,7 +647,8 @@ void Evaluation::RunAll() {
       std::cerr << "stream over the corridor, " << sequence_.back() << "\n";
     }
   }
-  for (int words : {64, 128}) VladReport(words);
+  for (int words : {64, 128}) VladReport(words, 0);
+  VladReport(crossing::kVladWords, crossing::kVocabularySampleRows);
   if (quick_) return;
   // The hue term of the decision can overrule the geometric evidence: the same run without it.
   {
@@ -1099,6 +1187,12 @@ int main(int argc, char** argv) {
   app.add_flag("--quick", quick,
                "only the three modes at their defaults, printed, no result files (feature "
                "experiments)");
+  std::string acceptance_csv;
+  int vocabulary_rows = 0;
+  app.add_option("--dump-acceptance", acceptance_csv,
+                 "write every retrieval candidate with its evidence to this CSV and stop");
+  app.add_option("--vocabulary-rows", vocabulary_rows,
+                 "with --dump-acceptance: dense descriptors per view the vocabularies learn from");
   CLI11_PARSE(app, argc, argv);
 
   features.global_descriptor = true;  // the retrieval mode's dense RootSIFT
@@ -1106,6 +1200,10 @@ int main(int argc, char** argv) {
   if (!eval.Load()) {
     std::cerr << "no data to evaluate under " << shared << "/data\n";
     return 1;
+  }
+  if (!acceptance_csv.empty()) {
+    eval.AcceptanceDump(acceptance_csv, vocabulary_rows);
+    return 0;
   }
   eval.RunAll();
   if (quick) return 0;

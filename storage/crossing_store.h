@@ -59,8 +59,20 @@ struct ViewRecord {
   std::string content_sha256;
   // The grey image at working resolution, PNG (schema v7): what the retrieval mode's global
   // descriptor is computed from again when the database's vocabulary is retrained. Empty = not
-  // kept (views enrolled before v7).
+  // kept (views enrolled before v7). Written by AddView; LoadViews and ForEachView leave it empty
+  // (it is read back only for retraining, with LoadWorkImage).
   std::string work_image;
+  // The retrieval mode's global stage (schema v8), opaque bytes of the service: the view's code
+  // under the vocabulary it names, and the sample of its dense descriptors a retraining uses.
+  // Empty = none.
+  std::string global_code;
+  std::string global_sample;
+};
+
+// A view's global code, written when the vocabulary it belongs to is saved or later.
+struct ViewCode {
+  int64_t view_id = 0;
+  std::string code;
 };
 
 // A database's global-descriptor vocabulary (the engine's bytes, opaque here).
@@ -163,8 +175,15 @@ class CrossingStore {
   virtual absl::StatusOr<std::string> LoadViewImage(int64_t view_id) = 0;
   // Clusters in id order, members in view id order (centre included).
   virtual absl::StatusOr<std::vector<ClusterRecord>> LoadClusters(int64_t database_id) = 0;
-  // Stores (replacing) the database's vocabulary. NOT_FOUND for an unknown database.
-  virtual absl::Status SaveVocabulary(const VocabularyRecord& vocabulary) = 0;
+  // Stores (replacing) the database's vocabulary and, in the same transaction, the views' codes
+  // under it. Codes of views that are no longer in the database (deleted while the vocabulary was
+  // being trained) are skipped. NOT_FOUND for an unknown database.
+  virtual absl::Status SaveVocabulary(const VocabularyRecord& vocabulary,
+                                      const std::vector<ViewCode>& codes) = 0;
+  // Replaces the codes of views of the database (skipping views it no longer holds).
+  virtual absl::Status SaveViewCodes(int64_t database_id, const std::vector<ViewCode>& codes) = 0;
+  // The grey working image of a view (ViewRecord::work_image); NOT_FOUND when none was kept.
+  virtual absl::StatusOr<std::string> LoadWorkImage(int64_t view_id) = 0;
   // The database's vocabulary; nullopt when none was saved.
   virtual absl::StatusOr<std::optional<VocabularyRecord>> LoadVocabulary(int64_t database_id) = 0;
   // Replaces all clusters of the database (ids are reassigned; returned in the given order).

@@ -207,6 +207,14 @@ CREATE TABLE crossing_vocabulary (
 );
 )sql";
 
+// v8: each view's code under its database's vocabulary and the sample of its dense descriptors
+// the vocabulary is retrained on, so that a server loads the global stage without computing
+// anything again (both opaque to storage, NULL when the view has none).
+constexpr absl::string_view kV8GlobalCodes = R"sql(
+ALTER TABLE view ADD COLUMN global_code BLOB;
+ALTER TABLE view ADD COLUMN global_sample BLOB;
+)sql";
+
 absl::Status TooNewError(sqlite::Connection& connection, int version, int latest) {
   return absl::FailedPreconditionError(absl::StrCat(
       "database \"", connection.path(), "\" has schema version ", version,
@@ -226,6 +234,7 @@ const std::vector<absl::string_view>& SchemaMigrations() {
       kV5ViewContentHash,
       kV6ViewPosition,
       kV7GlobalDescriptor,
+      kV8GlobalCodes,
   };
   return *kSteps;
 }

@@ -89,7 +89,13 @@ absl::Status CheckBlobSize(const Statement& row, int column, int64_t expected, i
 constexpr char kSelectViews[] =
     "SELECT v.id, v.crossing_id, v.heading_deg, v.width, v.height, v.keypoint_count, "
     "v.keypoints, v.descriptors, v.hue_hist, v.hue_bins, v.format_version, v.content_sha256, "
-    "v.position, v.work_image FROM view v JOIN crossing c ON c.id = v.crossing_id WHERE c.db_id = ? ORDER BY v.id";
+    "v.position, v.global_code, v.global_sample FROM view v JOIN crossing c ON c.id = v.crossing_id WHERE c.db_id = ? ORDER BY v.id";
+
+// NULL for an empty string: the blob columns that may be absent use NULL for "none".
+absl::Status BindOptionalBlob(Statement& statement, int index, const std::string& bytes) {
+  return bytes.empty() ? statement.BindNull(index)
+                       : statement.BindBlob(index, bytes.data(), bytes.size());
+}
 
 absl::StatusOr<ViewRecord> ReadViewRow(const Statement& row) {
   ViewRecord view;
@@ -113,7 +119,8 @@ absl::StatusOr<ViewRecord> ReadViewRow(const Statement& row) {
   ASSIGN_OR_RETURN(view.hue_hist, row.ColumnFloatBlob(8));
   if (!row.ColumnIsNull(11)) view.content_sha256 = std::string(row.ColumnBlobView(11));
   view.position = row.ColumnText(12);
-  if (!row.ColumnIsNull(13)) view.work_image = std::string(row.ColumnBlobView(13));
+  if (!row.ColumnIsNull(13)) view.global_code = std::string(row.ColumnBlobView(13));
+  if (!row.ColumnIsNull(14)) view.global_sample = std::string(row.ColumnBlobView(14));
   return view;
 }
 
@@ -377,10 +384,12 @@ class SqliteCrossingStore final : public CrossingStore {
     return clusters;
   }
 
-  absl::Status SaveVocabulary(const VocabularyRecord& vocabulary) override {
+  absl::Status SaveVocabulary(const VocabularyRecord& vocabulary,
+                              const std::vector<ViewCode>& codes) override {
     std::lock_guard<std::mutex> lock(mutex_);
     ASSIGN_OR_RETURN(Transaction txn, Transaction::Begin(connection_));
     RETURN_IF_ERROR(DatabaseNameLocked(vocabulary.database_id).status());
+    RETURN_IF_ERROR(UpdateCodesLocked(vocabulary.database_id, codes));
     ASSIGN_OR_RETURN(Statement upsert,
                      connection_.Prepare("INSERT OR REPLACE INTO crossing_vocabulary (db_id, "
                                          "trained_views, data, updated_at) VALUES (?, ?, ?, ?)"));
@@ -390,6 +399,27 @@ class SqliteCrossingStore final : public CrossingStore {
     RETURN_IF_ERROR(upsert.BindDouble(4, NowSeconds()));
     RETURN_IF_ERROR(upsert.Run());
     return txn.Commit();
+  }
+
+  absl::Status SaveViewCodes(int64_t database_id, const std::vector<ViewCode>& codes) override {
+    std::lock_guard<std::mutex> lock(mutex_);
+    ASSIGN_OR_RETURN(Transaction txn, Transaction::Begin(connection_));
+    RETURN_IF_ERROR(DatabaseNameLocked(database_id).status());
+    RETURN_IF_ERROR(UpdateCodesLocked(database_id, codes));
+    return txn.Commit();
+  }
+
+  absl::StatusOr<std::string> LoadWorkImage(int64_t view_id) override {
+    std::lock_guard<std::mutex> lock(mutex_);
+    ASSIGN_OR_RETURN(Statement select,
+                     connection_.Prepare("SELECT work_image FROM view WHERE id = ?"));
+    RETURN_IF_ERROR(select.BindInt64(1, view_id));
+    ASSIGN_OR_RETURN(StepResult step, select.Step());
+    if (step == StepResult::kDone) return ViewNotFound(view_id);
+    if (select.ColumnIsNull(0)) {
+      return absl::NotFoundError(absl::StrCat("view ", view_id, " has no working image"));
+    }
+    return std::string(select.ColumnBlobView(0));
   }
 
   absl::StatusOr<std::optional<VocabularyRecord>> LoadVocabulary(int64_t database_id) override {
@@ -524,6 +554,23 @@ class SqliteCrossingStore final : public CrossingStore {
                                                  HexString(content_sha256), ")"));
   }
 
+  // Sets the codes of those views that still belong to `database_id` (within the caller's
+  // transaction).
+  absl::Status UpdateCodesLocked(int64_t database_id, const std::vector<ViewCode>& codes) {
+    if (codes.empty()) return absl::OkStatus();
+    ASSIGN_OR_RETURN(Statement update,
+                     connection_.Prepare("UPDATE view SET global_code = ? WHERE id = ? AND "
+                                         "crossing_id IN (SELECT id FROM crossing WHERE db_id = ?)"));
+    for (const ViewCode& c : codes) {
+      update.Reset();
+      RETURN_IF_ERROR(BindOptionalBlob(update, 1, c.code));
+      RETURN_IF_ERROR(update.BindInt64(2, c.view_id));
+      RETURN_IF_ERROR(update.BindInt64(3, database_id));
+      RETURN_IF_ERROR(update.Run());
+    }
+    return absl::OkStatus();
+  }
+
   // Inserts a validated view of `database_id` and its cluster membership, unless another view of
   // the database holds the same image (ALREADY_EXISTS).
   absl::StatusOr<AddViewResult> AddViewLocked(int64_t database_id, const ViewRecord& view,
@@ -534,8 +581,8 @@ class SqliteCrossingStore final : public CrossingStore {
         connection_.Prepare(
             "INSERT INTO view (crossing_id, heading_deg, width, height, keypoint_count, "
             "keypoints, descriptors, hue_hist, hue_bins, format_version, image, created_at, "
-            "content_sha256, position, work_image) VALUES (?, ?, ?, ?, ?, ?, ?, ?, ?, ?, ?, ?, ?, ?, "
-            "?)"));
+            "content_sha256, position, work_image, global_code, global_sample) VALUES (?, ?, ?, ?, "
+            "?, ?, ?, ?, ?, ?, ?, ?, ?, ?, ?, ?, ?)"));
     RETURN_IF_ERROR(insert.BindInt64(1, view.crossing_id));
     RETURN_IF_ERROR(insert.BindDouble(2, view.heading_deg));
     RETURN_IF_ERROR(insert.BindInt64(3, view.width));
@@ -555,9 +602,9 @@ class SqliteCrossingStore final : public CrossingStore {
                         : insert.BindBlob(13, view.content_sha256.data(),
                                           view.content_sha256.size()));
     RETURN_IF_ERROR(insert.BindText(14, view.position));
-    RETURN_IF_ERROR(view.work_image.empty()
-                        ? insert.BindNull(15)
-                        : insert.BindBlob(15, view.work_image.data(), view.work_image.size()));
+    RETURN_IF_ERROR(BindOptionalBlob(insert, 15, view.work_image));
+    RETURN_IF_ERROR(BindOptionalBlob(insert, 16, view.global_code));
+    RETURN_IF_ERROR(BindOptionalBlob(insert, 17, view.global_sample));
     RETURN_IF_ERROR(insert.Run());
 
     AddViewResult result;

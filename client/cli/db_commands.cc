@@ -23,6 +23,8 @@ struct CreateArgs {
   std::string mode;
   bool keep_aspect = false;
   bool root_sift = false;
+  bool global_descriptor = false;
+  CLI::Option* global_descriptor_option = nullptr;
   CLI::Option* work_width_option = nullptr;
   CLI::Option* work_height_option = nullptr;
   CLI::Option* hue_bins_option = nullptr;
@@ -45,6 +47,9 @@ v1::CreateDatabaseRequest MakeCreateRequest(const CreateArgs& args) {
   if (args.max_keypoints_option->count() > 0) params->set_max_keypoints(args.max_keypoints);
   if (args.keep_aspect) params->set_keep_aspect(true);
   if (args.root_sift) params->set_root_sift(true);
+  if (args.global_descriptor_option->count() > 0) {
+    params->set_global_descriptor(args.global_descriptor);
+  }
   if (args.mode_option->count() > 0) {
     params->mutable_recognition()->set_mode(ModeFromName(args.mode));
   }
@@ -125,6 +130,13 @@ int RunStats(CommandContext& context, const std::string& name) {
   PrintDatabase(context.out, stats->database());
   context.out << fmt::format("features     {} keypoints, {} of descriptors\n", stats->keypoints(),
                              FormatBytes(stats->descriptor_bytes()));
+  if (stats->database().params().global_descriptor()) {
+    context.out << (stats->vocabulary_views() == 0
+                        ? fmt::format("global       no vocabulary yet (learnt at 16 views)\n")
+                        : fmt::format("global       vocabulary learnt from {} views, {} views "
+                                      "coded\n",
+                                      stats->vocabulary_views(), stats->coded_views()));
+  }
   if (!stats->crossing_list().empty()) {
     context.out << "\n";
     Table crossings({{"crossing"}, {"views", true}, {"label"}});
@@ -214,6 +226,10 @@ void AddDbCommands(CLI::App& app, CommandRegistry& registry) {
                    "squeezes them to it)");
   create->add_flag("--root-sift", create_args->root_sift,
                    "RootSIFT descriptors (recommended with --mode retrieval)");
+  create_args->global_descriptor_option = create->add_flag(
+      "--global-descriptor,!--no-global-descriptor", create_args->global_descriptor,
+      "Keep a global descriptor of every view for the retrieval mode's shortlist [on with --mode "
+      "retrieval]");
   create_args->mode_option = AddModeOption(create, &create_args->mode);
   registry.Add(create, [create_args](CommandContext& c) { return RunCreate(c, *create_args); });
 

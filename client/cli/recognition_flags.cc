@@ -56,6 +56,13 @@ void RecognitionFlags::Register(CLI::App* command) {
                        "well [0]")
           ->check(CLI::Range(-10000.0, 100.0))
           ->group(group);
+  global_shortlist_option_ =
+      command
+          ->add_option("--global-shortlist", global_shortlist_,
+                       "Retrieval mode: views most similar by global descriptor that are verified "
+                       "too [24]")
+          ->check(CLI::Range(0, 1000))
+          ->group(group);
   evidence_option_ =
       command
           ->add_option("--evidence", evidence_,
@@ -77,6 +84,7 @@ v1::RecognitionParams RecognitionFlags::ToParams() const {
   if (Given(min_inliers_option_)) params.set_min_inliers(min_inliers_);
   if (Given(max_log10_nfa_option_)) params.set_max_log10_nfa(max_log10_nfa_);
   if (Given(evidence_option_)) params.set_evidence_threshold(evidence_);
+  if (Given(global_shortlist_option_)) params.set_global_shortlist(global_shortlist_);
   return params;
 }
 

@@ -32,6 +32,7 @@ class RecognitionFlags {
   int min_inliers_ = 0;
   double max_log10_nfa_ = 0;
   double evidence_ = 0;
+  int global_shortlist_ = 0;
 
   CLI::Option* mode_option_ = nullptr;
   CLI::Option* ratio_option_ = nullptr;
@@ -43,6 +44,7 @@ class RecognitionFlags {
   CLI::Option* min_inliers_option_ = nullptr;
   CLI::Option* max_log10_nfa_option_ = nullptr;
   CLI::Option* evidence_option_ = nullptr;
+  CLI::Option* global_shortlist_option_ = nullptr;
 };
 
 }  // namespace waymark::cli

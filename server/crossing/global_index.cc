@@ -2,6 +2,9 @@
 
 #include <algorithm>
 #include <cmath>
+#include <cstring>
+
+#include "absl/strings/str_cat.h"
 
 namespace waymark::crossing {
 
@@ -25,6 +28,45 @@ GlobalCode QuantizeGlobal(const cv::Mat& unit) {
   return code;
 }
 
+namespace {
+// "WMGC", then the vocabulary fingerprint, the scale, the value count and the values.
+constexpr char kCodeMagic[4] = {'W', 'M', 'G', 'C'};
+constexpr size_t kCodeHeader = sizeof(kCodeMagic) + sizeof(uint64_t) + sizeof(float) +
+                               sizeof(int32_t);
+}  // namespace
+
+std::string SerializeGlobalCode(const StoredGlobalCode& stored) {
+  const int32_t count = static_cast<int32_t>(stored.code.values.size());
+  std::string out(kCodeHeader + stored.code.values.size(), '\0');
+  char* p = out.data();
+  std::memcpy(p, kCodeMagic, sizeof(kCodeMagic));
+  std::memcpy(p += sizeof(kCodeMagic), &stored.vocabulary, sizeof(uint64_t));
+  std::memcpy(p += sizeof(uint64_t), &stored.code.scale, sizeof(float));
+  std::memcpy(p += sizeof(float), &count, sizeof(int32_t));
+  if (count > 0) std::memcpy(p + sizeof(int32_t), stored.code.values.data(), count);
+  return out;
+}
+
+absl::StatusOr<StoredGlobalCode> DeserializeGlobalCode(const std::string& bytes) {
+  if (bytes.size() < kCodeHeader || std::memcmp(bytes.data(), kCodeMagic, sizeof(kCodeMagic))) {
+    return absl::InvalidArgumentError("not a global code (bad header)");
+  }
+  StoredGlobalCode stored;
+  int32_t count = 0;
+  const char* p = bytes.data();
+  std::memcpy(&stored.vocabulary, p += sizeof(kCodeMagic), sizeof(uint64_t));
+  std::memcpy(&stored.code.scale, p += sizeof(uint64_t), sizeof(float));
+  std::memcpy(&count, p += sizeof(float), sizeof(int32_t));
+  if (count < 0 || bytes.size() != kCodeHeader + size_t(count) ||
+      !std::isfinite(stored.code.scale)) {
+    return absl::InvalidArgumentError(
+        absl::StrCat("global code of ", count, " values does not fit its ", bytes.size(), " bytes"));
+  }
+  stored.code.values.resize(count);
+  if (count > 0) std::memcpy(stored.code.values.data(), p + sizeof(int32_t), count);
+  return stored;
+}
+
 void GlobalIndex::Reset(int dims) {
   dims_ = std::max(0, dims);
   codes_.clear();
@@ -42,6 +84,20 @@ void GlobalIndex::Set(uint32_t slot, const GlobalCode& code) {
   }
   std::copy(code.values.begin(), code.values.end(), codes_.begin() + size_t(slot) * dims_);
   scales_[slot] = code.scale;
+}
+
+size_t GlobalIndex::coded() const {
+  return static_cast<size_t>(std::count_if(scales_.begin(), scales_.end(),
+                                           [](float s) { return s != 0; }));
+}
+
+GlobalCode GlobalIndex::Get(uint32_t slot) const {
+  GlobalCode code;
+  if (slot >= scales_.size() || scales_[slot] == 0) return code;
+  const auto first = codes_.begin() + size_t(slot) * dims_;
+  code.values.assign(first, first + dims_);
+  code.scale = scales_[slot];
+  return code;
 }
 
 std::vector<float> GlobalIndex::Similarities(const GlobalCode& query) const {

@@ -11,10 +11,13 @@
 // float vectors would cost 4 plus its links.
 
 #include <cstdint>
+#include <string>
 #include <utility>
 #include <vector>
 
 #include <opencv2/core.hpp>
+
+#include "absl/status/statusor.h"
 
 namespace waymark::crossing {
 
@@ -27,6 +30,16 @@ struct GlobalCode {
 // `unit` is 1 x D CV_32F (any norm; the similarity of quantised codes is the cosine).
 GlobalCode QuantizeGlobal(const cv::Mat& unit);
 
+// A code as stored with its view: the fingerprint of the vocabulary it was computed under
+// (VladVocabulary::Fingerprint), so that a code of an older vocabulary is known to be stale.
+struct StoredGlobalCode {
+  uint64_t vocabulary = 0;
+  GlobalCode code;
+};
+std::string SerializeGlobalCode(const StoredGlobalCode& stored);
+// INVALID_ARGUMENT for bytes SerializeGlobalCode did not write.
+absl::StatusOr<StoredGlobalCode> DeserializeGlobalCode(const std::string& bytes);
+
 class GlobalIndex {
  public:
   // Drops every code; the index then takes codes of `dims` values.
@@ -35,7 +48,10 @@ class GlobalIndex {
   // Sets the code of `slot` (growing the index; slots never set score 0). A code of another
   // length is ignored (the slot scores 0).
   void Set(uint32_t slot, const GlobalCode& code);
+  // The code of `slot` (empty values when it has none).
+  GlobalCode Get(uint32_t slot) const;
   size_t size() const { return scales_.size(); }
+  size_t coded() const;  // slots with a code
   bool empty() const { return dims_ == 0; }
 
   // Cosine similarity of `query` with every slot, in slot order.

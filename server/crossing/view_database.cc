@@ -115,8 +115,11 @@ void ViewDatabase::EncodeGlobal(uint32_t slot, const cv::Mat& dense_descriptors)
   global_.Set(slot, QuantizeGlobal(vocabulary_.Encode(dense_descriptors)));
 }
 
-void ViewDatabase::TrainGlobal(const std::vector<cv::Mat>& dense_per_slot, int words) {
-  SetVocabulary(VladVocabulary::TrainOnImages(dense_per_slot, words));
+void ViewDatabase::TrainGlobal(const std::vector<cv::Mat>& dense_per_slot, int words,
+                               int sample_rows) {
+  std::vector<cv::Mat> samples;
+  for (const cv::Mat& d : dense_per_slot) samples.push_back(EvenRows(d, sample_rows));
+  SetVocabulary(VladVocabulary::TrainOnImages(samples, words));
   for (uint32_t slot = 0; slot < dense_per_slot.size(); ++slot) {
     EncodeGlobal(slot, dense_per_slot[slot]);
   }
@@ -127,7 +130,7 @@ size_t ViewDatabase::memory_bytes() const {
                  centers_.memory_bytes() + global_.memory_bytes();
   for (const ViewEntry& v : views_) {
     bytes += sizeof(ViewEntry) + v.points.capacity() * sizeof(cv::Point2f) +
-             v.hue_hist.capacity() * sizeof(float);
+             v.hue_hist.capacity() * sizeof(float) + v.global_sample.total() * v.global_sample.elemSize();
   }
   return bytes;
 }

@@ -33,6 +33,9 @@ struct ViewEntry {
   std::vector<cv::Point2f> points;  // keypoint positions at working resolution
   std::vector<float> hue_hist;
   int cluster = -1;         // index into clusters()
+  // Retrieval mode: a few of the view's dense descriptors (EvenRows), what a retrained vocabulary
+  // learns from without computing them again (empty when the database keeps no global stage).
+  cv::Mat global_sample;
 };
 
 struct ClusterEntry {
@@ -82,11 +85,16 @@ class ViewDatabase {
   // view's code under it. Setting a vocabulary drops every code (they belong to the old one).
   void SetVocabulary(VladVocabulary vocabulary);
   void SetGlobalCode(uint32_t slot, const GlobalCode& code) { global_.Set(slot, code); }
+  GlobalCode global_code(uint32_t slot) const { return global_.Get(slot); }
+  void SetGlobalSample(uint32_t slot, cv::Mat sample) {
+    views_[slot].global_sample = std::move(sample);
+  }
   // The view's code from its dense descriptors (dense_sift.h) under the current vocabulary.
   void EncodeGlobal(uint32_t slot, const cv::Mat& dense_descriptors);
-  // Trains a vocabulary of `words` on the views' dense descriptors (one matrix per slot, in slot
-  // order) and encodes every view under it.
-  void TrainGlobal(const std::vector<cv::Mat>& dense_per_slot, int words = kVladWords);
+  // Trains a vocabulary of `words` on `sample_rows` of each view's dense descriptors (one matrix
+  // per slot, in slot order; EvenRows, as the service does) and encodes every view under it.
+  void TrainGlobal(const std::vector<cv::Mat>& dense_per_slot, int words = kVladWords,
+                   int sample_rows = kVocabularySampleRows);
   const VladVocabulary& vocabulary() const { return vocabulary_; }
   const GlobalIndex& global_index() const { return global_; }
 

@@ -31,20 +31,35 @@ VladVocabulary VladVocabulary::Train(const cv::Mat& descriptors, int words, int 
   return v;
 }
 
+cv::Mat EvenRows(const cv::Mat& rows, int count) {
+  if (rows.rows <= count) return rows;
+  cv::Mat out;
+  if (count <= 0) return out;
+  const double step = static_cast<double>(rows.rows) / count;
+  for (int i = 0; i < count; ++i) out.push_back(rows.row(static_cast<int>(i * step)));
+  return out;
+}
+
 VladVocabulary VladVocabulary::TrainOnImages(const std::vector<cv::Mat>& descriptors, int words,
                                              int max_samples) {
   if (descriptors.empty()) return {};
   const int per_image = std::max<int>(1, max_samples / static_cast<int>(descriptors.size()));
   cv::Mat sample;
   for (const cv::Mat& d : descriptors) {
-    if (d.rows <= per_image) {
-      sample.push_back(d);
-      continue;
-    }
-    const double step = static_cast<double>(d.rows) / per_image;
-    for (int i = 0; i < per_image; ++i) sample.push_back(d.row(static_cast<int>(i * step)));
+    if (!d.empty()) sample.push_back(EvenRows(d, per_image));
   }
   return Train(sample, words, max_samples);
+}
+
+uint64_t VladVocabulary::Fingerprint() const {
+  if (empty()) return 0;
+  const cv::Mat c = centers_.isContinuous() ? centers_ : centers_.clone();
+  const auto* bytes = c.ptr<uint8_t>(0);
+  uint64_t h = 14695981039346656037ull;
+  for (size_t i = 0; i < c.total() * c.elemSize(); ++i) {
+    h = (h ^ bytes[i]) * 1099511628211ull;
+  }
+  return h;
 }
 
 cv::Mat VladVocabulary::Encode(const cv::Mat& descriptors) const {

@@ -6,6 +6,7 @@
 // descriptor adds its residual to the nearest of `words` centres; the per-word sums are
 // square-rooted (signed), normalised per word and then as a whole.
 
+#include <cstdint>
 #include <string>
 #include <vector>
 
@@ -18,6 +19,13 @@ namespace waymark::crossing {
 // Words of a database's vocabulary: 128 measured best of {16, 64, 128, 256} with dense RootSIFT
 // on the corridor and the triplets (waymark-vpr-eval, docs/results.md).
 inline constexpr int kVladWords = 128;
+// Dense descriptors of each view a database's vocabulary learns from (EvenRows): 8 KB per view
+// kept in memory, so that a retraining needs no extraction before the k-means.
+inline constexpr int kVocabularySampleRows = 64;
+
+// At most `count` rows of `rows`, evenly spread (all of them when there are fewer): the sample of a
+// view's dense descriptors a vocabulary is trained on.
+cv::Mat EvenRows(const cv::Mat& rows, int count);
 
 class VladVocabulary {
  public:
@@ -31,6 +39,9 @@ class VladVocabulary {
                                       int max_samples = 50000);
 
   bool empty() const { return centers_.empty(); }
+  // A 64-bit hash of the words (FNV-1a over their bytes; 0 for an empty vocabulary): what a stored
+  // code names to say which vocabulary it was computed under.
+  uint64_t Fingerprint() const;
   int words() const { return centers_.rows; }
   // 1 x (words * 128) CV_32F, unit L2 norm (all zero for no descriptors).
   cv::Mat Encode(const cv::Mat& descriptors) const;

@@ -126,6 +126,7 @@ RemainingViews CopyViewsExcept(const crossing::ViewDatabase& source,
                                const crossing::IndexOptions& index_options) {
   RemainingViews remaining;
   remaining.views = std::make_unique<crossing::ViewDatabase>(index_options);
+  remaining.views->SetVocabulary(source.vocabulary());
   for (uint32_t s = 0; s < source.views().size(); ++s) {
     const crossing::ViewEntry& v = source.views()[s];
     if (drop(v)) {
@@ -137,6 +138,8 @@ RemainingViews CopyViewsExcept(const crossing::ViewDatabase& source,
         remaining.views->AddView(v.view_id, v.crossing_id, v.heading_deg, source.Descriptors(s),
                                  v.points, v.hue_hist, /*defer_indexing=*/true);
     remaining.views->SetPosition(slot, v.position);
+    remaining.views->SetGlobalSample(slot, v.global_sample);
+    remaining.views->SetGlobalCode(slot, source.global_code(s));
     remaining.keypoints += v.span.count;
   }
   remaining.views->FinishLoading();

@@ -10,6 +10,7 @@
 #include <map>
 #include <memory>
 #include <optional>
+#include <set>
 #include <string>
 #include <unordered_map>
 #include <vector>
@@ -48,6 +49,16 @@ class ViewContents {
   std::unordered_map<int64_t, std::string> hash_by_view_;
 };
 
+// The retrieval mode's global stage of a database in memory (global_stage.h runs it).
+struct GlobalStageState {
+  uint64_t vocabulary = 0;  // fingerprint of views->vocabulary(); 0 = none yet
+  int trained_views = 0;    // views it was learnt from
+  // Views that have no code under the current vocabulary but can get one (enrolled while it was
+  // being learnt, or loaded with a code of an older vocabulary).
+  std::set<int64_t> uncoded;
+  bool scheduled = false;  // queued for, or being worked on by, the global stage worker
+};
+
 struct ResidentDatabase {
   storage::DatabaseRecord record;
   v1::DatabaseParams params;  // effective values
@@ -58,6 +69,7 @@ struct ResidentDatabase {
   std::map<int64_t, int> views_per_crossing;
   ViewContents contents;
   int64_t keypoints = 0;
+  GlobalStageState global;
   bool deleted = false;  // requests that still hold a pointer get NOT_FOUND
   mutable absl::Mutex mutex;
 

@@ -73,15 +73,18 @@ v1::EnrollViewResponse DuplicateAnswer(const ResidentDatabase& db, const crossin
   return response;
 }
 
-// Puts a committed view into memory: its crossing if new, its slot, cluster and counters.
+// Puts a committed view into memory: its crossing if new, its slot, cluster, global descriptor
+// and counters.
 void InstallView(ResidentDatabase& db, const storage::AddViewResult& added, int join_cluster,
-                 const v1::EnrollViewRequest& request, const crossing::ImageFeatures& features,
-                 bool new_crossing, const std::string& content) {
+                 const v1::EnrollViewRequest& request,
+                 const CrossingRegistry::PreparedEnrollment& prepared, bool new_crossing) {
+  const crossing::ImageFeatures& features = prepared.features;
   if (new_crossing) db.AddCrossingRecord({added.crossing_id, db.record.id, request.crossing(), ""});
   const uint32_t slot = db.views->AddView(added.view_id, added.crossing_id, request.heading_deg(),
                                           features.descriptors,
                                           crossing::KeypointPositions(features), features.hue_hist);
   db.views->SetPosition(slot, request.position());
+  if (prepared.global.has_value()) InstallGlobal(db, slot, added.view_id, *prepared.global);
   if (join_cluster >= 0) {
     db.views->AddToCluster(join_cluster, slot);
   } else {
@@ -89,7 +92,7 @@ void InstallView(ResidentDatabase& db, const storage::AddViewResult& added, int 
   }
   db.views_per_crossing[added.crossing_id]++;
   db.keypoints += features.descriptors.rows;
-  db.contents.Add(added.view_id, content);
+  db.contents.Add(added.view_id, prepared.content);
 }
 
 }  // namespace
@@ -138,6 +141,11 @@ absl::StatusOr<CrossingRegistry::PreparedEnrollment> CrossingRegistry::PrepareEn
         " to be recognizable (blank, blurred or textureless image?)"));
   }
   prepared.features = std::move(*features);
+  if (db.options.features.global_descriptor) {
+    absl::StatusOr<PreparedGlobal> global = PrepareGlobal(db, prepared.features);
+    if (!global.ok()) return global.status();
+    prepared.global = *std::move(global);
+  }
   return prepared;
 }
 
@@ -168,6 +176,7 @@ absl::StatusOr<v1::EnrollViewResponse> CrossingRegistry::CommitEnrollment(
   record.content_sha256 = content;
   record.position = request.position();
   if (request.store_image()) record.image = request.image().data();
+  if (prepared.global.has_value()) FillGlobalRecord(db, *prepared.global, &record);
 
   // What `replace` deletes: the crossing's views at this heading and position and the view
   // holding this image elsewhere (DuplicateOf returned null for it).
@@ -179,9 +188,10 @@ absl::StatusOr<v1::EnrollViewResponse> CrossingRegistry::CommitEnrollment(
   const bool replaces = request.replace() &&
                         std::any_of(db.views->views().begin(), db.views->views().end(), replaced);
   absl::StatusOr<CommittedView> committed =
-      replaces ? CommitReplacingViews(db, request, record, features, new_crossing, replaced)
-               : CommitView(db, request, record, features, new_crossing);
+      replaces ? CommitReplacingViews(db, request, record, prepared, new_crossing, replaced)
+               : CommitView(db, request, record, prepared, new_crossing);
   if (!committed.ok()) return committed.status();
+  global_worker_->Schedule(*found);  // a vocabulary may be due
   if (new_crossing && crossing_created != nullptr) *crossing_created = true;
 
   v1::EnrollViewResponse response;
@@ -207,7 +217,8 @@ absl::StatusOr<v1::EnrollViewResponse> CrossingRegistry::CommitEnrollment(
 
 absl::StatusOr<CrossingRegistry::CommittedView> CrossingRegistry::CommitView(
     Database& db, const v1::EnrollViewRequest& request, const storage::ViewRecord& record,
-    const crossing::ImageFeatures& features, bool new_crossing) {
+    const PreparedEnrollment& prepared, bool new_crossing) {
+  const crossing::ImageFeatures& features = prepared.features;
   CommittedView committed;
   const auto match_start = Clock::now();
   const crossing::ClusterProposal proposal =
@@ -227,14 +238,15 @@ absl::StatusOr<CrossingRegistry::CommittedView> CrossingRegistry::CommitView(
   if (!added.ok()) return added.status();
   committed.added = *added;
   committed.new_cluster = proposal.cluster < 0;
-  InstallView(db, *added, proposal.cluster, request, features, new_crossing, record.content_sha256);
+  InstallView(db, *added, proposal.cluster, request, prepared, new_crossing);
   return committed;
 }
 
 absl::StatusOr<CrossingRegistry::CommittedView> CrossingRegistry::CommitReplacingViews(
     Database& db, const v1::EnrollViewRequest& request, const storage::ViewRecord& record,
-    const crossing::ImageFeatures& features, bool new_crossing,
+    const PreparedEnrollment& prepared, bool new_crossing,
     const std::function<bool(const crossing::ViewEntry&)>& replaced) {
+  const crossing::ImageFeatures& features = prepared.features;
   CommittedView committed;
   // The rest re-clustered in enrollment order, then the new view proposed against that: exactly
   // what RebuildClusters gives for the database after the commit.
@@ -269,8 +281,7 @@ absl::StatusOr<CrossingRegistry::CommittedView> CrossingRegistry::CommitReplacin
   committed.added = stored->added;
   committed.new_cluster = proposal.cluster < 0;
   committed.replaced_view_ids = remaining.dropped_view_ids;
-  InstallView(db, stored->added, proposal.cluster, request, features, new_crossing,
-              record.content_sha256);
+  InstallView(db, stored->added, proposal.cluster, request, prepared, new_crossing);
   return committed;
 }
 

@@ -49,7 +49,8 @@ CrossingRegistry::CrossingRegistry(std::unique_ptr<storage::CrossingStore> store
       index_options_(index),
       extraction_gate_(MaxRunning(limits), limits.max_waiting >= 0
                                                ? limits.max_waiting
-                                               : kWaitingPerRunning * MaxRunning(limits)) {}
+                                               : kWaitingPerRunning * MaxRunning(limits)),
+      global_worker_(std::make_unique<GlobalStageWorker>(store_.get())) {}
 
 absl::StatusOr<crossing::ImageFeatures> CrossingRegistry::Extract(
     const std::string& encoded, const crossing::FeatureOptions& options,
@@ -72,6 +73,7 @@ absl::StatusOr<std::unique_ptr<CrossingRegistry>> CrossingRegistry::Load(
                                                            "\": ", db.status().message()));
     }
     registry->databases_[record.name] = *db;
+    registry->global_worker_->Schedule(*db);  // codes of an older vocabulary, a due retraining
   }
   return registry;
 }
@@ -90,6 +92,10 @@ absl::StatusOr<std::shared_ptr<CrossingRegistry::Database>> CrossingRegistry::Lo
       store_->ListCrossings(record.id);
   if (!crossings.ok()) return crossings.status();
   for (const auto& c : *crossings) db->AddCrossingRecord(c);
+  absl::StatusOr<std::optional<storage::VocabularyRecord>> vocabulary =
+      store_->LoadVocabulary(record.id);
+  if (!vocabulary.ok()) return vocabulary.status();
+  LoadGlobalVocabulary(*db, *vocabulary);
 
   // One view at a time: a large database never sits in memory twice (rows and index).
   const absl::Status loaded = store_->ForEachView(record.id, [&](storage::ViewRecord&& v) {
@@ -114,6 +120,7 @@ absl::StatusOr<std::shared_ptr<CrossingRegistry::Database>> CrossingRegistry::Lo
         db->views->AddView(v.id, v.crossing_id, v.heading_deg, descriptors, std::move(points),
                            std::move(v.hue_hist), /*defer_indexing=*/true);
     db->views->SetPosition(slot, std::move(v.position));
+    LoadGlobalView(*db, slot, v);
     db->views_per_crossing[v.crossing_id]++;
     db->contents.Add(v.id, v.content_sha256);
     db->keypoints += v.keypoint_count;
@@ -211,6 +218,8 @@ absl::StatusOr<v1::DatabaseStats> CrossingRegistry::GetStats(const std::string& 
   *stats.mutable_database() = Describe(db);
   stats.set_keypoints(db.keypoints);
   stats.set_descriptor_bytes(db.keypoints * crossing::kDescriptorSize);
+  stats.set_vocabulary_views(db.global.trained_views);
+  stats.set_coded_views(static_cast<int32_t>(db.views->global_index().coded()));
   for (const auto& c : db.views->clusters()) {
     v1::ClusterInfo* info = stats.add_clusters();
     info->set_id(c.cluster_id);
@@ -343,9 +352,17 @@ absl::StatusOr<v1::RecognizeResponse> CrossingRegistry::Recognize(
   if (!options.ok()) return options.status();
   if (effective != nullptr) *effective = *options;
 
+  // The dense descriptors only when the global stage will use them.
+  crossing::FeatureOptions feature_options = db.options.features;
+  if (options->mode != crossing::RecognitionMode::kRetrieval) {
+    feature_options.global_descriptor = false;
+  } else if (feature_options.global_descriptor) {
+    absl::ReaderMutexLock lock(&db.mutex);
+    feature_options.global_descriptor = db.global.vocabulary != 0;
+  }
   crossing::ExtractionTimings timings;
   absl::StatusOr<crossing::ImageFeatures> features =
-      Extract(request.image().data(), db.options.features, &timings);
+      Extract(request.image().data(), feature_options, &timings);
   if (!features.ok()) return features.status();
 
   absl::ReaderMutexLock lock(&db.mutex);
@@ -383,6 +400,7 @@ absl::StatusOr<v1::RecognizeResponse> CrossingRegistry::Recognize(
     out->set_decision(c.decision);
     out->set_kept(c.kept);
     out->set_log10_nfa(c.log10_nfa);
+    out->set_global_similarity(c.global_similarity);
   }
   response.set_keypoints(features->descriptors.rows);
   response.set_qualifying_clusters(result->qualifying_clusters);
@@ -395,6 +413,7 @@ absl::StatusOr<v1::RecognizeResponse> CrossingRegistry::Recognize(
   t->set_matching_ms(result->matching_ms);
   t->set_histogram_ms(timings.histogram_ms + result->histogram_ms);
   t->set_verification_ms(result->verification_ms);
+  t->set_retrieval_ms(timings.dense_ms + result->retrieval_ms);
   t->set_total_ms(MsSince(start));
   return response;
 }

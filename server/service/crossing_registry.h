@@ -42,6 +42,7 @@
 #include "server/crossing/features.h"
 #include "server/crossing/view_database.h"
 #include "server/service/crossing_database.h"
+#include "server/service/global_stage.h"
 #include "server/service/params.h"
 #include "server/service/work_gate.h"
 #include "storage/crossing_store.h"
@@ -91,6 +92,7 @@ class CrossingRegistry {
     std::string content;  // SHA-256 of the image bytes
     crossing::ExtractionTimings timings;
     crossing::ImageFeatures features;
+    std::optional<PreparedGlobal> global;  // when the database keeps a global descriptor
     std::optional<v1::EnrollViewResponse> answer;  // set when nothing is left to commit
   };
   absl::StatusOr<PreparedEnrollment> PrepareEnrollment(const v1::EnrollViewRequest& request);
@@ -104,6 +106,10 @@ class CrossingRegistry {
   // under the request's overrides).
   absl::StatusOr<v1::RecognizeResponse> Recognize(
       const v1::RecognizeRequest& request, crossing::RecognitionOptions* effective = nullptr);
+
+  // Blocks until the global stage's background work (vocabularies, codes; global_stage.h) is
+  // done for every database: for tests, benchmarks and evaluations that need a settled state.
+  void WaitForGlobalStage() { global_worker_->WaitIdle(); }
 
  private:
   using Database = ResidentDatabase;
@@ -122,11 +128,10 @@ class CrossingRegistry {
   // one that replaces the views for which `replaced` is true (re-clustering the rest).
   absl::StatusOr<CommittedView> CommitView(Database& db, const v1::EnrollViewRequest& request,
                                            const storage::ViewRecord& record,
-                                           const crossing::ImageFeatures& features,
-                                           bool new_crossing);
+                                           const PreparedEnrollment& prepared, bool new_crossing);
   absl::StatusOr<CommittedView> CommitReplacingViews(
       Database& db, const v1::EnrollViewRequest& request, const storage::ViewRecord& record,
-      const crossing::ImageFeatures& features, bool new_crossing,
+      const PreparedEnrollment& prepared, bool new_crossing,
       const std::function<bool(const crossing::ViewEntry&)>& replaced);
 
   absl::StatusOr<std::shared_ptr<Database>> Find(const std::string& name);
@@ -139,6 +144,8 @@ class CrossingRegistry {
   WorkGate extraction_gate_;
   absl::Mutex mutex_;  // guards databases_ (the map, not the databases)
   std::map<std::string, std::shared_ptr<Database>> databases_;
+  // Last: destroyed first, while the store and the databases it works on still exist.
+  std::unique_ptr<GlobalStageWorker> global_worker_;
 };
 
 }  // namespace waymark::service

@@ -44,6 +44,7 @@ absl::Status Overlay(const v1::RecognitionParams& p, crossing::RecognitionOption
   if (p.has_shortlist()) options->shortlist = p.shortlist();
   if (p.has_max_log10_nfa()) options->max_log10_nfa = p.max_log10_nfa();
   if (p.has_evidence_threshold()) options->evidence_threshold = p.evidence_threshold();
+  if (p.has_global_shortlist()) options->global_shortlist = p.global_shortlist();
   return crossing::ValidateRecognitionOptions(*options);
 }
 
@@ -62,6 +63,7 @@ void FillRecognition(const crossing::RecognitionOptions& o, v1::RecognitionParam
   p->set_shortlist(o.shortlist);
   p->set_max_log10_nfa(o.max_log10_nfa);
   p->set_evidence_threshold(o.evidence_threshold);
+  p->set_global_shortlist(o.global_shortlist);
 }
 
 }  // namespace
@@ -95,6 +97,9 @@ absl::StatusOr<v1::DatabaseParams> EffectiveDatabaseParams(const v1::DatabasePar
   effective.set_max_keypoints(o.features.max_keypoints);
   effective.set_keep_aspect(o.features.keep_aspect);
   effective.set_root_sift(o.features.root_sift);
+  effective.set_global_descriptor(requested.has_global_descriptor()
+                                      ? requested.global_descriptor()
+                                      : o.recognition.mode == RecognitionMode::kRetrieval);
   effective.set_cluster_threshold(o.clustering.threshold);
   FillRecognition(o.recognition, effective.mutable_recognition());
   return effective;
@@ -108,6 +113,7 @@ DatabaseOptions ToDatabaseOptions(const v1::DatabaseParams& p) {
   o.features.max_keypoints = p.max_keypoints();
   o.features.keep_aspect = p.keep_aspect();
   o.features.root_sift = p.root_sift();
+  o.features.global_descriptor = p.global_descriptor();
   o.clustering.threshold = p.cluster_threshold();
   // Stored params were validated when the database was created.
   Overlay(p.recognition(), &o.recognition).IgnoreError();

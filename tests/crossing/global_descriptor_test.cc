@@ -162,5 +162,55 @@ TEST(GlobalIndexTest, ANewVocabularyDropsTheOldCodes) {
   EXPECT_EQ(db.global_index().size(), 0u);
 }
 
+TEST(GlobalIndexTest, StoredCodesComeBackWithTheirVocabulary) {
+  const StoredGlobalCode stored{0x0123456789abcdefull, GlobalCode{{-127, 0, 5, 127}, 0.25f}};
+  absl::StatusOr<StoredGlobalCode> back = DeserializeGlobalCode(SerializeGlobalCode(stored));
+  ASSERT_TRUE(back.ok()) << back.status();
+  EXPECT_EQ(back->vocabulary, stored.vocabulary);
+  EXPECT_EQ(back->code.values, stored.code.values);
+  EXPECT_EQ(back->code.scale, stored.code.scale);
+
+  const std::string bytes = SerializeGlobalCode(stored);
+  EXPECT_EQ(DeserializeGlobalCode("").status().code(), absl::StatusCode::kInvalidArgument);
+  EXPECT_EQ(DeserializeGlobalCode(bytes.substr(0, bytes.size() - 1)).status().code(),
+            absl::StatusCode::kInvalidArgument);
+  std::string wrong_magic = bytes;
+  wrong_magic[1] = 'x';
+  EXPECT_EQ(DeserializeGlobalCode(wrong_magic).status().code(),
+            absl::StatusCode::kInvalidArgument);
+}
+
+TEST(GlobalIndexTest, GetReturnsWhatWasSetAndCodedCountsIt) {
+  GlobalIndex index;
+  index.Reset(3);
+  index.Set(1, GlobalCode{{1, -2, 3}, 0.5f});
+  EXPECT_EQ(index.coded(), 1u);
+  EXPECT_EQ(index.Get(1).values, (std::vector<int8_t>{1, -2, 3}));
+  EXPECT_EQ(index.Get(1).scale, 0.5f);
+  EXPECT_TRUE(index.Get(0).values.empty());   // never set
+  EXPECT_TRUE(index.Get(7).values.empty());   // beyond the index
+}
+
+TEST(VladVocabularyTest, EvenRowsSpreadOverTheWholeMatrix) {
+  cv::Mat rows(100, 2, CV_8U);
+  for (int r = 0; r < rows.rows; ++r) rows.at<uint8_t>(r, 0) = static_cast<uint8_t>(r);
+  const cv::Mat four = EvenRows(rows, 4);
+  ASSERT_EQ(four.rows, 4);
+  EXPECT_EQ(four.at<uint8_t>(0, 0), 0);
+  EXPECT_EQ(four.at<uint8_t>(3, 0), 75);
+  EXPECT_EQ(EvenRows(rows, 200).rows, 100);
+  EXPECT_EQ(EvenRows(rows, 0).rows, 0);
+}
+
+TEST(VladVocabularyTest, TheFingerprintNamesTheWords) {
+  std::vector<cv::Mat> dense = {DenseRootSift(GreyView(0)), DenseRootSift(GreyView(1))};
+  const VladVocabulary a = VladVocabulary::TrainOnImages(dense, 16);
+  const VladVocabulary b = VladVocabulary::TrainOnImages(dense, 8);
+  EXPECT_NE(a.Fingerprint(), 0u);
+  EXPECT_NE(a.Fingerprint(), b.Fingerprint());
+  EXPECT_EQ(VladVocabulary::Deserialize(a.Serialize())->Fingerprint(), a.Fingerprint());
+  EXPECT_EQ(VladVocabulary().Fingerprint(), 0u);
+}
+
 }  // namespace
 }  // namespace waymark::crossing

@@ -1,6 +1,6 @@
-// The retrieval mode's stored global descriptor (schema v7, issue 18): each view's working image
-// and the database's vocabulary, loaded as saved, replaced by the next save, deleted with the
-// database.
+// The retrieval mode's stored global descriptor (schemas v7 and v8, issue 18): each view's working
+// image, code and sample, and the database's vocabulary, loaded as saved, replaced by the next
+// save, deleted with the database.
 
 #include <memory>
 #include <optional>
@@ -19,7 +19,7 @@ namespace {
 using ::waymark::storage::testing::MakeView;
 using ::waymark::storage::testing::TempDir;
 
-TEST(GlobalDescriptorStoreTest, WorkImageIsStoredAndLoadedWithTheView) {
+TEST(GlobalDescriptorStoreTest, WorkImageCodeAndSampleAreStoredWithTheView) {
   TempDir dir;
   ASSERT_OK_AND_ASSIGN(std::unique_ptr<CrossingStore> store,
                        OpenSqliteCrossingStore(dir.File("waymark.db")));
@@ -27,12 +27,45 @@ TEST(GlobalDescriptorStoreTest, WorkImageIsStoredAndLoadedWithTheView) {
   ASSERT_OK_AND_ASSIGN(CrossingRecord a, store->AddCrossing(db.id, "A", ""));
   ViewRecord kept = MakeView(a.id, 2, 1, 30);
   kept.work_image = std::string("\x89PNG\0bytes", 10);
-  ASSERT_OK(store->AddView(kept, {}));
-  ASSERT_OK(store->AddView(MakeView(a.id, 2, 2, 60), {}));  // none kept
+  kept.global_code = std::string("code\0", 5);
+  kept.global_sample = "sample";
+  ASSERT_OK_AND_ASSIGN(AddViewResult first, store->AddView(kept, {}));
+  ASSERT_OK_AND_ASSIGN(AddViewResult second, store->AddView(MakeView(a.id, 2, 2, 60), {}));
   ASSERT_OK_AND_ASSIGN(std::vector<ViewRecord> views, store->LoadViews(db.id));
   ASSERT_EQ(views.size(), 2u);
-  EXPECT_EQ(views[0].work_image, kept.work_image);
-  EXPECT_EQ(views[1].work_image, "");
+  EXPECT_EQ(views[0].global_code, kept.global_code);
+  EXPECT_EQ(views[0].global_sample, "sample");
+  EXPECT_EQ(views[0].work_image, "");  // read back only on demand
+  EXPECT_EQ(views[1].global_code, "");
+  EXPECT_EQ(views[1].global_sample, "");
+  ASSERT_OK_AND_ASSIGN(std::string work, store->LoadWorkImage(first.view_id));
+  EXPECT_EQ(work, kept.work_image);
+  EXPECT_EQ(store->LoadWorkImage(second.view_id).status().code(), absl::StatusCode::kNotFound);
+  EXPECT_EQ(store->LoadWorkImage(9999).status().code(), absl::StatusCode::kNotFound);
+}
+
+TEST(GlobalDescriptorStoreTest, CodesAreSavedWithTheVocabularyForTheDatabasesOwnViewsOnly) {
+  TempDir dir;
+  ASSERT_OK_AND_ASSIGN(std::unique_ptr<CrossingStore> store,
+                       OpenSqliteCrossingStore(dir.File("waymark.db")));
+  ASSERT_OK_AND_ASSIGN(DatabaseRecord city, store->CreateDatabase("city", "{}"));
+  ASSERT_OK_AND_ASSIGN(DatabaseRecord town, store->CreateDatabase("town", "{}"));
+  ASSERT_OK_AND_ASSIGN(CrossingRecord a, store->AddCrossing(city.id, "A", ""));
+  ASSERT_OK_AND_ASSIGN(CrossingRecord b, store->AddCrossing(town.id, "B", ""));
+  ASSERT_OK_AND_ASSIGN(AddViewResult mine, store->AddView(MakeView(a.id, 2, 1, 30), {}));
+  ASSERT_OK_AND_ASSIGN(AddViewResult theirs, store->AddView(MakeView(b.id, 2, 2, 30), {}));
+  // The code for the other database's view and one for a view that is gone are skipped.
+  ASSERT_OK(store->SaveVocabulary({city.id, 1, "words"},
+                                  {{mine.view_id, "c1"}, {theirs.view_id, "x"}, {9999, "y"}}));
+  ASSERT_OK_AND_ASSIGN(std::vector<ViewRecord> views, store->LoadViews(city.id));
+  EXPECT_EQ(views[0].global_code, "c1");
+  ASSERT_OK_AND_ASSIGN(views, store->LoadViews(town.id));
+  EXPECT_EQ(views[0].global_code, "");
+
+  ASSERT_OK(store->SaveViewCodes(city.id, {{mine.view_id, "c2"}}));
+  ASSERT_OK_AND_ASSIGN(views, store->LoadViews(city.id));
+  EXPECT_EQ(views[0].global_code, "c2");
+  EXPECT_EQ(store->SaveViewCodes(9999, {}).code(), absl::StatusCode::kNotFound);
 }
 
 TEST(GlobalDescriptorStoreTest, VocabularyIsReplacedAndSurvivesReopening) {
@@ -45,8 +78,8 @@ TEST(GlobalDescriptorStoreTest, VocabularyIsReplacedAndSurvivesReopening) {
     id = db.id;
     ASSERT_OK_AND_ASSIGN(std::optional<VocabularyRecord> none, store->LoadVocabulary(id));
     EXPECT_FALSE(none.has_value());
-    ASSERT_OK(store->SaveVocabulary({id, 4, std::string("first\0", 6)}));
-    ASSERT_OK(store->SaveVocabulary({id, 8, "second"}));
+    ASSERT_OK(store->SaveVocabulary({id, 4, std::string("first\0", 6)}, {}));
+    ASSERT_OK(store->SaveVocabulary({id, 8, "second"}, {}));
   }
   ASSERT_OK_AND_ASSIGN(std::unique_ptr<CrossingStore> store, OpenSqliteCrossingStore(path));
   ASSERT_OK_AND_ASSIGN(std::optional<VocabularyRecord> loaded, store->LoadVocabulary(id));
@@ -59,9 +92,9 @@ TEST(GlobalDescriptorStoreTest, VocabularyOfAnUnknownDatabaseIsRefusedAndGoesWit
   TempDir dir;
   ASSERT_OK_AND_ASSIGN(std::unique_ptr<CrossingStore> store,
                        OpenSqliteCrossingStore(dir.File("waymark.db")));
-  EXPECT_EQ(store->SaveVocabulary({999, 1, "x"}).code(), absl::StatusCode::kNotFound);
+  EXPECT_EQ(store->SaveVocabulary({999, 1, "x"}, {}).code(), absl::StatusCode::kNotFound);
   ASSERT_OK_AND_ASSIGN(DatabaseRecord db, store->CreateDatabase("city", "{}"));
-  ASSERT_OK(store->SaveVocabulary({db.id, 1, "x"}));
+  ASSERT_OK(store->SaveVocabulary({db.id, 1, "x"}, {}));
   ASSERT_OK(store->DeleteDatabase("city"));
   ASSERT_OK_AND_ASSIGN(DatabaseRecord again, store->CreateDatabase("city", "{}"));
   ASSERT_OK_AND_ASSIGN(std::optional<VocabularyRecord> loaded, store->LoadVocabulary(db.id));
