@@ -221,12 +221,16 @@ absl::StatusOr<std::vector<QueryOutcome>> RunQueries(const PreparedProtocol& pre
         o.evidence.emplace_back(db.views()[c.slot].crossing_id, c.log10_nfa);
       }
     }
-    if (winner >= 0) {
-      const crossing::Candidate& c = r->candidates[winner];
+    // The retrieval mode's global path may answer with a view that has no match set (so no
+    // candidate): its place is the answer all the same.
+    if (winner >= 0 || r->recognized) {
       o.has_winner = true;
-      o.winner_place = db.views()[c.slot].crossing_id;
-      o.winner_matches = c.matches;
-      o.winner_tentative = c.tentative;
+      o.winner_place = db.views()[winner >= 0 ? r->candidates[winner].slot : r->best_slot]
+                           .crossing_id;
+      if (winner >= 0) {
+        o.winner_matches = r->candidates[winner].matches;
+        o.winner_tentative = r->candidates[winner].tentative;
+      }
       o.winner_correct = Contains(q.accepted, o.winner_place);
       o.winner_nearest = o.winner_place == q.nearest;
       o.winner_bracket = Contains(q.bracket, o.winner_place);

@@ -348,15 +348,7 @@ class SqliteCrossingStore final : public CrossingStore {
   }
 
   absl::StatusOr<std::string> LoadViewImage(int64_t view_id) override {
-    std::lock_guard<std::mutex> lock(mutex_);
-    ASSIGN_OR_RETURN(Statement select, connection_.Prepare("SELECT image FROM view WHERE id = ?"));
-    RETURN_IF_ERROR(select.BindInt64(1, view_id));
-    ASSIGN_OR_RETURN(StepResult step, select.Step());
-    if (step == StepResult::kDone) return ViewNotFound(view_id);
-    if (select.ColumnIsNull(0)) {
-      return absl::NotFoundError(absl::StrCat("view ", view_id, " has no stored image"));
-    }
-    return std::string(select.ColumnBlobView(0));
+    return LoadViewBlob(view_id, "image", "stored image");
   }
 
   absl::StatusOr<std::vector<ClusterRecord>> LoadClusters(int64_t database_id) override {
@@ -410,16 +402,7 @@ class SqliteCrossingStore final : public CrossingStore {
   }
 
   absl::StatusOr<std::string> LoadWorkImage(int64_t view_id) override {
-    std::lock_guard<std::mutex> lock(mutex_);
-    ASSIGN_OR_RETURN(Statement select,
-                     connection_.Prepare("SELECT work_image FROM view WHERE id = ?"));
-    RETURN_IF_ERROR(select.BindInt64(1, view_id));
-    ASSIGN_OR_RETURN(StepResult step, select.Step());
-    if (step == StepResult::kDone) return ViewNotFound(view_id);
-    if (select.ColumnIsNull(0)) {
-      return absl::NotFoundError(absl::StrCat("view ", view_id, " has no working image"));
-    }
-    return std::string(select.ColumnBlobView(0));
+    return LoadViewBlob(view_id, "work_image", "working image");
   }
 
   absl::StatusOr<std::optional<VocabularyRecord>> LoadVocabulary(int64_t database_id) override {
@@ -552,6 +535,21 @@ class SqliteCrossingStore final : public CrossingStore {
     return absl::AlreadyExistsError(absl::StrCat("view ", select.ColumnInt64(0),
                                                  " already holds this image (SHA-256 ",
                                                  HexString(content_sha256), ")"));
+  }
+
+  // One blob column of a view (`column` is ours, never a client's); NOT_FOUND for an unknown
+  // view or a NULL blob (`what` names it in the message).
+  absl::StatusOr<std::string> LoadViewBlob(int64_t view_id, const char* column, const char* what) {
+    std::lock_guard<std::mutex> lock(mutex_);
+    ASSIGN_OR_RETURN(Statement select, connection_.Prepare(absl::StrCat(
+                                           "SELECT ", column, " FROM view WHERE id = ?")));
+    RETURN_IF_ERROR(select.BindInt64(1, view_id));
+    ASSIGN_OR_RETURN(StepResult step, select.Step());
+    if (step == StepResult::kDone) return ViewNotFound(view_id);
+    if (select.ColumnIsNull(0)) {
+      return absl::NotFoundError(absl::StrCat("view ", view_id, " has no ", what));
+    }
+    return std::string(select.ColumnBlobView(0));
   }
 
   // Sets the codes of those views that still belong to `database_id` (within the caller's

@@ -63,6 +63,13 @@ void RecognitionFlags::Register(CLI::App* command) {
                        "too [24]")
           ->check(CLI::Range(0, 1000))
           ->group(group);
+  min_global_lift_option_ =
+      command
+          ->add_option("--min-global-lift", min_global_lift_,
+                       "Retrieval mode: accept the most similar view when it stands this far "
+                       "above the median global similarity; 0 = off [0.16]")
+          ->check(CLI::Range(0.0, 2.0))
+          ->group(group);
   evidence_option_ =
       command
           ->add_option("--evidence", evidence_,
@@ -85,6 +92,7 @@ v1::RecognitionParams RecognitionFlags::ToParams() const {
   if (Given(max_log10_nfa_option_)) params.set_max_log10_nfa(max_log10_nfa_);
   if (Given(evidence_option_)) params.set_evidence_threshold(evidence_);
   if (Given(global_shortlist_option_)) params.set_global_shortlist(global_shortlist_);
+  if (Given(min_global_lift_option_)) params.set_min_global_lift(min_global_lift_);
   return params;
 }
 

@@ -33,6 +33,7 @@ class RecognitionFlags {
   double max_log10_nfa_ = 0;
   double evidence_ = 0;
   int global_shortlist_ = 0;
+  double min_global_lift_ = 0;
 
   CLI::Option* mode_option_ = nullptr;
   CLI::Option* ratio_option_ = nullptr;
@@ -45,6 +46,7 @@ class RecognitionFlags {
   CLI::Option* max_log10_nfa_option_ = nullptr;
   CLI::Option* evidence_option_ = nullptr;
   CLI::Option* global_shortlist_option_ = nullptr;
+  CLI::Option* min_global_lift_option_ = nullptr;
 };
 
 }  // namespace waymark::cli

@@ -17,10 +17,14 @@ std::string RecognitionSummary(const v1::RecognizeResponse& response) {
   }
   const std::string position =
       response.position().empty() ? "" : fmt::format(", position {}", response.position());
-  // Retrieval mode says how sure it is: the false alarms chance would give.
-  const std::string sure = response.mode() == v1::RECOGNITION_MODE_RETRIEVAL
-                               ? fmt::format(", 10^{:.1f} false alarms", response.log10_nfa())
-                               : "";
+  // Retrieval mode says how sure it is: the false alarms chance would give, or how far the
+  // view stood out globally when that accepted it.
+  std::string sure;
+  if (response.accepted_by_global()) {
+    sure = fmt::format(", global similarity {:.3f} above the median", response.global_lift());
+  } else if (response.mode() == v1::RECOGNITION_MODE_RETRIEVAL) {
+    sure = fmt::format(", 10^{:.1f} false alarms", response.log10_nfa());
+  }
   const std::string belief =
       response.has_evidence()
           ? fmt::format(", posterior {:.3f} over {} frames", response.evidence().posterior(),

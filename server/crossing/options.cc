@@ -78,6 +78,10 @@ absl::Status ValidateRecognitionOptions(const RecognitionOptions& o) {
     return Invalid(
         absl::StrCat("global_shortlist = ", o.global_shortlist, " must be in [0, 1000]"));
   }
+  if (!(o.min_global_lift >= 0 && o.min_global_lift <= 2)) {
+    return Invalid(
+        absl::StrCat("min_global_lift = ", o.min_global_lift, " must be in [0, 2] (0 = off)"));
+  }
   return absl::OkStatus();
 }
 

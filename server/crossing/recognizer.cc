@@ -196,6 +196,12 @@ struct GlobalStage {
   double spread = 0;  // 1.4826 x MAD, floored
 
   bool active() const { return !similarity.empty(); }
+  // The most similar view and how far it stands above the median.
+  uint32_t top_slot() const {
+    return static_cast<uint32_t>(
+        std::max_element(similarity.begin(), similarity.end()) - similarity.begin());
+  }
+  double lift() const { return similarity[top_slot()] - median; }
   double Z(uint32_t slot) const { return (similarity[slot] - median) / spread; }
   // log10 of the chance that an unrelated view is as similar (the Gaussian tail beyond z).
   double Log10Tail(uint32_t slot) const {
@@ -303,8 +309,25 @@ void RecognizeRetrieval(const ViewDatabase& db, const ImageFeatures& query,
     list.push_back(c);
   }
   out->verification_ms = MsSince(start);
+  // The global path: a view that stands out this far is the answer on its own.
+  const bool global_accepts = global.active() && options.min_global_lift > 0 &&
+                              global.lift() >= options.min_global_lift;
+  if (global.active()) out->global_lift = global.lift();
+  if (global_accepts) {
+    out->recognized = true;
+    out->accepted_by_global = true;
+    out->best_slot = global.top_slot();
+  }
   if (list.empty()) {
-    out->reason = "no view has geometrically consistent matches";
+    if (!global_accepts) {
+      out->reason = "no view has geometrically consistent matches";
+      if (global.active()) {
+        out->reason += absl::StrFormat(
+            ", and the most similar view stands %.3f above the median global similarity (%.3f "
+            "needed)",
+            out->global_lift, options.min_global_lift);
+      }
+    }
     return;
   }
   std::stable_sort(list.begin(), list.end(), [](const Candidate& a, const Candidate& b) {
@@ -318,7 +341,13 @@ void RecognizeRetrieval(const ViewDatabase& db, const ImageFeatures& query,
   const Candidate& winner = list[best];
   out->decision = winner.decision;
   out->log10_nfa = winner.log10_nfa;
-  if (!(winner.log10_nfa < options.max_log10_nfa)) {
+  if (global_accepts) {
+    // The answer is the global one; its own candidate's NFA, when it has one (0 otherwise).
+    out->log10_nfa = 0;
+    for (const Candidate& c : list) {
+      if (c.slot == out->best_slot) out->log10_nfa = c.log10_nfa;
+    }
+  } else if (!(winner.log10_nfa < options.max_log10_nfa)) {
     out->reason = absl::StrFormat(
         "best view (%d inliers of %d tentative matches, global similarity %.3f) could be "
         "chance: 10^%.1f false alarms expected, the limit is 10^%.1f",

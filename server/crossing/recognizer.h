@@ -39,6 +39,11 @@ struct Recognition {
   // Retrieval mode: log10 of the winner's expected number of false alarms (the lower, the
   // surer; < max_log10_nfa when recognized).
   double log10_nfa = 0;
+  // Retrieval mode with a global descriptor: the highest global similarity minus the median over
+  // all views, and whether the answer was accepted on it (RecognitionOptions::min_global_lift)
+  // rather than on its NFA.
+  double global_lift = 0;
+  bool accepted_by_global = false;
   std::vector<Candidate> candidates;  // sorted by matches, descending
   int qualifying_clusters = 0;
   std::string reason;  // why not recognized

@@ -384,6 +384,8 @@ absl::StatusOr<v1::RecognizeResponse> CrossingRegistry::Recognize(
   }
   response.set_decision(result->decision);
   response.set_log10_nfa(result->log10_nfa);
+  response.set_global_lift(result->global_lift);
+  response.set_accepted_by_global(result->accepted_by_global);
   for (const crossing::Candidate& c : result->candidates) {
     const crossing::ViewEntry& v = views[c.slot];
     v1::Candidate* out = response.add_candidates();

@@ -48,6 +48,10 @@ absl::StatusOr<crossing::GlobalCode> CodeFromWorkImage(storage::CrossingStore& s
 
 }  // namespace
 
+bool KeepsSamples(const ResidentDatabase& db) {
+  return db.global.trained_views < kLastVocabularyViews;
+}
+
 bool NeedsVocabulary(int views, int trained_views) {
   if (views < kFirstVocabularyViews) return false;
   // The last threshold (16, 32, 64, ... 512) the database has reached. A training that looked
@@ -88,7 +92,7 @@ absl::StatusOr<PreparedGlobal> PrepareGlobal(const ResidentDatabase& db,
 void FillGlobalRecord(const ResidentDatabase& db, const PreparedGlobal& prepared,
                       storage::ViewRecord* record) {
   record->work_image = prepared.work_image;
-  record->global_sample = SampleToBytes(prepared.sample);
+  if (KeepsSamples(db)) record->global_sample = SampleToBytes(prepared.sample);
   if (prepared.vocabulary != 0 && prepared.vocabulary == db.global.vocabulary) {
     record->global_code = crossing::SerializeGlobalCode({prepared.vocabulary, prepared.code});
   }
@@ -96,7 +100,7 @@ void FillGlobalRecord(const ResidentDatabase& db, const PreparedGlobal& prepared
 
 void InstallGlobal(ResidentDatabase& db, uint32_t slot, int64_t view_id,
                    const PreparedGlobal& prepared) {
-  db.views->SetGlobalSample(slot, prepared.sample);
+  if (KeepsSamples(db)) db.views->SetGlobalSample(slot, prepared.sample);
   if (db.global.vocabulary == 0) return;
   if (prepared.vocabulary == db.global.vocabulary) {
     db.views->SetGlobalCode(slot, prepared.code);
@@ -121,7 +125,7 @@ void LoadGlobalVocabulary(ResidentDatabase& db,
 }
 
 void LoadGlobalView(ResidentDatabase& db, uint32_t slot, const storage::ViewRecord& view) {
-  db.views->SetGlobalSample(slot, SampleFromBytes(view.global_sample));
+  if (KeepsSamples(db)) db.views->SetGlobalSample(slot, SampleFromBytes(view.global_sample));
   if (db.global.vocabulary == 0 || !db.options.features.global_descriptor) return;
   absl::StatusOr<crossing::StoredGlobalCode> stored =
       view.global_code.empty() ? absl::NotFoundError("none")
@@ -255,6 +259,11 @@ bool GlobalStageWorker::Round(ResidentDatabase& db) {
       if (!codes.count(v.view_id)) db.global.uncoded.insert(v.view_id);
     }
     for (int64_t id : ids) db.global.uncoded.erase(id);  // those that failed stay without
+    if (!KeepsSamples(db)) {  // the last vocabulary: the samples have done their job
+      for (uint32_t slot = 0; slot < db.views->views().size(); ++slot) {
+        db.views->SetGlobalSample(slot, cv::Mat());
+      }
+    }
   } else if (db.global.vocabulary != fingerprint) {
     return true;  // replaced meanwhile: the next round codes against the new one
   } else {

@@ -14,7 +14,8 @@
 // 2 x kLastVocabularyViews views, whatever the database grows to.
 //
 // How, without stopping recognition. The worker thread learns the words from the samples held in
-// memory (ViewEntry::global_sample), recomputes each view's code from its stored working image
+// memory (ViewEntry::global_sample: kVocabularySampleRows dense descriptors per view, dropped
+// after the last retraining), recomputes each view's code from its stored working image
 // outside the database's lock, saves the vocabulary and the codes in one transaction, and only
 // then installs both under the exclusive lock (disk first, as every write of the registry).
 // Views enrolled meanwhile got a code of the old vocabulary or none: they are `uncoded` and the
@@ -49,6 +50,10 @@ inline constexpr int kLastVocabularyViews = 512;
 // Whether a database of `views` views, with a vocabulary learnt from `trained_views` (0: none),
 // should learn a new one.
 bool NeedsVocabulary(int views, int trained_views);
+
+// Whether views keep their samples (ViewEntry::global_sample, view.global_sample): until the
+// last vocabulary is learnt (caller holds db's lock).
+bool KeepsSamples(const ResidentDatabase& db);
 
 // Whether the worker has something to do for `db` (caller holds its lock).
 bool GlobalStageHasWork(const ResidentDatabase& db);

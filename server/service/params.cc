@@ -45,6 +45,7 @@ absl::Status Overlay(const v1::RecognitionParams& p, crossing::RecognitionOption
   if (p.has_max_log10_nfa()) options->max_log10_nfa = p.max_log10_nfa();
   if (p.has_evidence_threshold()) options->evidence_threshold = p.evidence_threshold();
   if (p.has_global_shortlist()) options->global_shortlist = p.global_shortlist();
+  if (p.has_min_global_lift()) options->min_global_lift = p.min_global_lift();
   return crossing::ValidateRecognitionOptions(*options);
 }
 
@@ -64,6 +65,7 @@ void FillRecognition(const crossing::RecognitionOptions& o, v1::RecognitionParam
   p->set_max_log10_nfa(o.max_log10_nfa);
   p->set_evidence_threshold(o.evidence_threshold);
   p->set_global_shortlist(o.global_shortlist);
+  p->set_min_global_lift(o.min_global_lift);
 }
 
 }  // namespace

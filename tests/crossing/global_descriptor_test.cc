@@ -6,6 +6,8 @@
 #include <opencv2/imgproc.hpp>
 
 #include "server/crossing/dense_sift.h"
+#include "server/crossing/enrollment.h"
+#include "server/crossing/recognizer.h"
 #include "server/crossing/features.h"
 #include "server/crossing/global_index.h"
 #include "server/crossing/view_database.h"
@@ -210,6 +212,53 @@ TEST(VladVocabularyTest, TheFingerprintNamesTheWords) {
   EXPECT_NE(a.Fingerprint(), b.Fingerprint());
   EXPECT_EQ(VladVocabulary::Deserialize(a.Serialize())->Fingerprint(), a.Fingerprint());
   EXPECT_EQ(VladVocabulary().Fingerprint(), 0u);
+}
+
+// The retrieval mode's global path (RecognitionOptions::min_global_lift): with the NFA path shut,
+// a query of an enrolled place is accepted on how far its most similar view stands out, a query
+// of a place not enrolled is not, and the threshold decides.
+TEST(GlobalPathTest, TheMostSimilarViewIsTheAnswerWhenItStandsOutEnough) {
+  FeatureOptions features;
+  features.global_descriptor = true;
+  auto extract = [&](int seed, double heading) {
+    auto f = ExtractFeatures(
+        testing::EncodePng(testing::CropView(testing::MakePanorama(seed), heading)), features);
+    EXPECT_TRUE(f.ok()) << f.status();
+    return *f;
+  };
+  ViewDatabase db;
+  std::vector<cv::Mat> dense;
+  for (int place = 0; place < 6; ++place) {
+    for (int k = 0; k < 4; ++k) {
+      const ImageFeatures f = extract(500 + place, 90.0 * k);
+      EnrollView(&db, 1 + place * 4 + k, place + 1, 90.0 * k, f);
+      dense.push_back(f.dense);
+    }
+  }
+  db.TrainGlobal(dense, 32);
+
+  RecognitionOptions options;
+  options.mode = RecognitionMode::kRetrieval;
+  options.max_log10_nfa = -10000;  // only the global path can accept
+  options.min_global_lift = 0;
+  const ImageFeatures known = extract(502, 100.0);
+  const ImageFeatures unknown = extract(599, 100.0);
+  auto known_off = Recognize(db, known, options);
+  auto unknown_off = Recognize(db, unknown, options);
+  ASSERT_TRUE(known_off.ok() && unknown_off.ok());
+  EXPECT_FALSE(known_off->recognized);  // 0 = off: nothing accepts
+  EXPECT_GT(known_off->global_lift, unknown_off->global_lift + 0.02);
+
+  options.min_global_lift = (known_off->global_lift + unknown_off->global_lift) / 2;
+  auto accepted = Recognize(db, known, options);
+  ASSERT_TRUE(accepted.ok());
+  ASSERT_TRUE(accepted->recognized) << accepted->reason;
+  EXPECT_TRUE(accepted->accepted_by_global);
+  EXPECT_EQ(db.views()[accepted->best_slot].crossing_id, 3);
+  auto refused = Recognize(db, unknown, options);
+  ASSERT_TRUE(refused.ok());
+  EXPECT_FALSE(refused->recognized);
+  EXPECT_FALSE(refused->accepted_by_global);
 }
 
 }  // namespace

@@ -9,6 +9,7 @@
 #include "server/service/crossing_registry.h"
 #include "storage/crossing_store.h"
 #include "storage/sqlite.h"
+#include "tests/service/registry_on_file.h"
 #include "tests/storage/temp_dir.h"
 #include "tests/support/synthetic_scene.h"
 
@@ -29,12 +30,9 @@ class CrossingEnrollmentTest : public ::testing::Test {
   }
 
   void Load() {
-    registry_.reset();
-    auto store = storage::OpenSqliteCrossingStore(path_);
-    ASSERT_TRUE(store.ok()) << store.status();
-    auto registry = CrossingRegistry::Load(std::move(*store));
-    ASSERT_TRUE(registry.ok()) << registry.status();
-    registry_ = std::move(*registry);
+    registry_.reset();  // one registry per file at a time, as one server
+    registry_ = testing::LoadRegistry(path_);
+    ASSERT_NE(registry_, nullptr);
   }
 
   v1::EnrollViewRequest View(const std::string& crossing, double heading, double taken_at) const {

@@ -4,11 +4,13 @@
 
 #include <memory>
 #include <string>
+#include <utility>
 #include <vector>
 
 #include "gtest/gtest.h"
 #include "server/service/crossing_registry.h"
 #include "storage/crossing_store.h"
+#include "tests/service/registry_on_file.h"
 #include "tests/storage/temp_dir.h"
 #include "tests/support/synthetic_scene.h"
 
@@ -28,12 +30,9 @@ class GlobalStageTest : public ::testing::Test {
   }
 
   void Load() {
-    registry_.reset();
-    auto store = storage::OpenSqliteCrossingStore(path_);
-    ASSERT_TRUE(store.ok()) << store.status();
-    auto registry = CrossingRegistry::Load(std::move(*store));
-    ASSERT_TRUE(registry.ok()) << registry.status();
-    registry_ = std::move(*registry);
+    registry_.reset();  // one registry per file at a time, as one server
+    registry_ = testing::LoadRegistry(path_);
+    ASSERT_NE(registry_, nullptr);
   }
 
   void Create(v1::RecognitionMode mode) {
@@ -65,6 +64,13 @@ class GlobalStageTest : public ::testing::Test {
       ASSERT_TRUE(answer.ok()) << answer.status();
       ASSERT_EQ(answer->outcome(), v1::ENROLL_OUTCOME_STORED);
     }
+  }
+
+  // After the worker is done: how many views the vocabulary was learnt from, and are coded.
+  std::pair<int, int> SettledStage() {
+    registry_->WaitForGlobalStage();
+    const v1::DatabaseStats stats = Stats();
+    return {stats.vocabulary_views(), stats.coded_views()};
   }
 
   v1::DatabaseStats Stats() {
@@ -110,15 +116,11 @@ TEST(GlobalStageScheduleTest, AVocabularyIsDueAtSixteenViewsAndAtEachDoublingUpT
 TEST_F(GlobalStageTest, AVocabularyIsLearntAtSixteenViewsAndEveryLaterViewIsCodedAtOnce) {
   Create(v1::RECOGNITION_MODE_RETRIEVAL);
   EnrollViews(0, 15);
-  registry_->WaitForGlobalStage();
-  EXPECT_EQ(Stats().vocabulary_views(), 0);
-  EXPECT_EQ(Stats().coded_views(), 0);
+  EXPECT_EQ(SettledStage(), std::make_pair(0, 0));
   EXPECT_EQ(BestGlobalSimilarity(Recognize(2, 10)), 0.0);  // no global stage yet
 
   EnrollViews(15, 16);
-  registry_->WaitForGlobalStage();
-  EXPECT_EQ(Stats().vocabulary_views(), 16);
-  EXPECT_EQ(Stats().coded_views(), 16);
+  EXPECT_EQ(SettledStage(), std::make_pair(16, 16));
   // The worker is idle: a new view is coded by its own enrollment.
   EnrollViews(16, 17);
   EXPECT_EQ(Stats().coded_views(), 17);
@@ -133,15 +135,11 @@ TEST_F(GlobalStageTest, AVocabularyIsLearntAtSixteenViewsAndEveryLaterViewIsCode
 TEST_F(GlobalStageTest, TheVocabularyIsLearntAgainWhenTheViewsDoubleAndSurvivesARestart) {
   Create(v1::RECOGNITION_MODE_RETRIEVAL);
   EnrollViews(0, 32);
-  registry_->WaitForGlobalStage();
-  EXPECT_EQ(Stats().vocabulary_views(), 32);
-  EXPECT_EQ(Stats().coded_views(), 32);
+  EXPECT_EQ(SettledStage(), std::make_pair(32, 32));
   const v1::RecognizeResponse before = Recognize(5, 100);
 
   Load();
-  registry_->WaitForGlobalStage();
-  EXPECT_EQ(Stats().vocabulary_views(), 32);
-  EXPECT_EQ(Stats().coded_views(), 32);
+  EXPECT_EQ(SettledStage(), std::make_pair(32, 32));
   const v1::RecognizeResponse after = Recognize(5, 100);
   EXPECT_EQ(after.recognized(), before.recognized());
   EXPECT_EQ(after.crossing(), before.crossing());
@@ -187,10 +185,8 @@ TEST_F(GlobalStageTest, DeletingAndReplacingViewsKeepTheOthersCodes) {
 TEST_F(GlobalStageTest, ADatabaseWithoutTheGlobalDescriptorLearnsNothing) {
   Create(v1::RECOGNITION_MODE_PAPER);
   EnrollViews(0, 16);
-  registry_->WaitForGlobalStage();
+  EXPECT_EQ(SettledStage(), std::make_pair(0, 0));
   EXPECT_FALSE(Stats().database().params().global_descriptor());
-  EXPECT_EQ(Stats().vocabulary_views(), 0);
-  EXPECT_EQ(Stats().coded_views(), 0);
 }
 
 }  // namespace
