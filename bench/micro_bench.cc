@@ -4,8 +4,12 @@
 #include <random>
 
 #include <benchmark/benchmark.h>
+#include <opencv2/imgproc.hpp>
 
+#include "server/crossing/dense_sift.h"
 #include "server/crossing/descriptor_index.h"
+#include "server/crossing/global_index.h"
+#include "server/crossing/vlad.h"
 #include "server/crossing/features.h"
 #include "server/crossing/hue_histogram.h"
 #include "server/crossing/l2_distance.h"
@@ -69,6 +73,44 @@ void BM_MatchEveryViewExact(benchmark::State& state) {
   }
 }
 BENCHMARK(BM_MatchEveryViewExact)->Arg(36)->Arg(360)->Unit(benchmark::kMillisecond);
+
+// The retrieval mode's global stage per query: dense RootSIFT, VLAD encoding over 128 words, and
+// the 8-bit scan over state.range(0) views.
+cv::Mat GreyWorkingView() {
+  cv::Mat grey;
+  cv::cvtColor(testing::CropView(testing::MakePanorama(3), 90), grey, cv::COLOR_BGR2GRAY);
+  return grey;
+}
+
+void BM_DenseRootSift(benchmark::State& state) {
+  const cv::Mat grey = GreyWorkingView();
+  for (auto _ : state) benchmark::DoNotOptimize(DenseRootSift(grey));
+}
+BENCHMARK(BM_DenseRootSift)->Unit(benchmark::kMillisecond);
+
+void BM_VladEncode(benchmark::State& state) {
+  const cv::Mat dense = DenseRootSift(GreyWorkingView());
+  const VladVocabulary vocabulary = VladVocabulary::Train(dense, kVladWords);
+  for (auto _ : state) benchmark::DoNotOptimize(vocabulary.Encode(dense));
+}
+BENCHMARK(BM_VladEncode)->Unit(benchmark::kMillisecond);
+
+void BM_GlobalScan(benchmark::State& state) {
+  std::mt19937 rng(3);
+  std::normal_distribution<float> normal;
+  const int dims = kVladWords * kDescriptorSize;
+  auto random_code = [&] {
+    cv::Mat v(1, dims, CV_32F);
+    for (int i = 0; i < dims; ++i) v.at<float>(i) = normal(rng);
+    return QuantizeGlobal(v);
+  };
+  GlobalIndex index;
+  index.Reset(dims);
+  for (int slot = 0; slot < state.range(0); ++slot) index.Set(slot, random_code());
+  const GlobalCode query = random_code();
+  for (auto _ : state) benchmark::DoNotOptimize(index.Similarities(query));
+}
+BENCHMARK(BM_GlobalScan)->Arg(36)->Arg(360)->Arg(3600)->Unit(benchmark::kMillisecond);
 
 }  // namespace
 }  // namespace waymark::crossing

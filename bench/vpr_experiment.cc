@@ -1,5 +1,7 @@
 #include "bench/vpr_experiment.h"
 
+#include "server/crossing/place_evidence.h"
+
 #include <algorithm>
 #include <chrono>
 #include <cmath>
@@ -219,6 +221,11 @@ absl::StatusOr<std::vector<QueryOutcome>> RunQueries(const PreparedProtocol& pre
     if (options.mode == RecognitionMode::kRetrieval) {
       for (const crossing::Candidate& c : r->candidates) {
         o.evidence.emplace_back(db.views()[c.slot].crossing_id, c.log10_nfa);
+      }
+      if (r->accepted_by_global) {
+        const crossing::FrameEvidence e = crossing::GlobalAnswerEvidence(
+            db.views()[r->best_slot].crossing_id, crossing::EvidenceOptions());
+        o.evidence.emplace_back(e.crossing_id, e.log10_nfa);
       }
     }
     // The retrieval mode's global path may answer with a view that has no match set (so no

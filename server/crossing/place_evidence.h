@@ -49,6 +49,14 @@ struct FrameEvidence {
   double log10_nfa = 0;
 };
 
+// A frame whose answer the retrieval mode's global path accepted (Recognition::
+// accepted_by_global) has no NFA to give; it counts for its crossing as much as one frame can
+// (LR 10^max_log10_ratio): its false accepts were measured at most 3 % per frame, and one frame
+// still does not decide alone.
+inline FrameEvidence GlobalAnswerEvidence(int64_t crossing_id, const EvidenceOptions& options) {
+  return {crossing_id, -options.max_log10_ratio};
+}
+
 struct PlaceBelief {
   int64_t crossing_id = -1;  // the most probable crossing (-1: none seen yet)
   double posterior = 0;      // its probability
