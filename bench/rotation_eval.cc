@@ -7,7 +7,7 @@
 // DIR/rotation_views.png (the 12 enrolled views of one place).
 //
 //   waymark-rotation-eval --out DIR [--root /] [--fov 60,90] [--offsets 0,5,12,15,20,26]
-//                         [--sheet blender/courtyard]
+//                         [--sheet blender/courtyard] [--retrieval-features]
 
 #include <algorithm>
 #include <chrono>
@@ -50,11 +50,16 @@ struct Args {
   std::vector<double> fovs = {60, 90};
   std::vector<double> offsets = {0, 5, 12, 15, 20, 26};
   std::string sheet;  // panorama shown in the contact sheet; default: the first
+  // The retrieval mode on its own features and database (RootSIFT, aspect kept, dense RootSIFT
+  // with a vocabulary learnt from the enrolled views), as a retrieval database is created; the
+  // paper and verified modes keep the paper's features.
+  bool retrieval_features = false;
 };
 
 void Usage() {
   std::cerr << "usage: waymark-rotation-eval --out DIR [--root /] [--fov 60,90]\n"
-               "                             [--offsets 0,5,12,15,20,26] [--sheet NAME]\n";
+               "                             [--offsets 0,5,12,15,20,26] [--sheet NAME]\n"
+               "                             [--retrieval-features]\n";
 }
 
 bool ParseList(const std::string& text, std::vector<double>* out) {
@@ -88,6 +93,8 @@ bool ParseArgs(int argc, char** argv, Args* args) {
       if (!value(&v) || !ParseList(v, &args->fovs)) return false;
     } else if (a == "--offsets") {
       if (!value(&v) || !ParseList(v, &args->offsets)) return false;
+    } else if (a == "--retrieval-features") {
+      args->retrieval_features = true;
     } else {
       return false;
     }
@@ -107,16 +114,24 @@ double Median(std::vector<double> v) {
   return n % 2 ? v[n / 2] : 0.5 * (v[n / 2 - 1] + v[n / 2]);
 }
 
-wc::ImageFeatures Extract(const cv::Mat& view) {
-  const wc::FeatureOptions options;
-  const cv::Mat working = wc::ToWorkingResolution(view, options);
-  absl::StatusOr<wc::ImageFeatures> f = wc::ExtractSift(working, options);
+wc::ImageFeatures Extract(const cv::Mat& view, const wc::FeatureOptions& options = {}) {
+  std::vector<uchar> png;
+  cv::imencode(".png", view, png);
+  absl::StatusOr<wc::ImageFeatures> f =
+      wc::ExtractFeatures(std::string(png.begin(), png.end()), options);
   if (!f.ok()) {
     std::cerr << "feature extraction failed: " << f.status() << "\n";
     std::exit(1);
   }
-  f->hue_hist = wc::HueHistogram(working, options.hue_bins);
   return *std::move(f);
+}
+
+wc::FeatureOptions RetrievalFeatures() {
+  wc::FeatureOptions options;
+  options.root_sift = true;
+  options.keep_aspect = true;
+  options.global_descriptor = true;
+  return options;
 }
 
 cv::Mat Render(const Panorama& p, double heading, double fov) {
@@ -245,10 +260,17 @@ int Run(const Args& args) {
        << ", 360 x " << p.top_deg << ".." << p.bottom_deg << " deg | " << descriptions[i] << " |\n";
   }
   md << "\n";
+  if (args.retrieval_features) {
+    md << "The retrieval mode runs on its own database of the same views with RootSIFT, "
+          "aspect-kept frames and the global stage (dense RootSIFT VLAD, vocabulary learnt from "
+          "the enrolled views); paper and verified on the paper's features.\n\n";
+  }
 
   for (double fov : args.fovs) {
     std::cerr << "== field of view " << fov << " degrees\n";
     wc::ViewDatabase db;
+    wc::ViewDatabase retrieval_db;  // with --retrieval-features
+    std::vector<cv::Mat> retrieval_dense;
     int64_t next_view_id = 1;
     std::vector<double> keypoints;
     std::vector<cv::Mat> sheet_views;
@@ -258,6 +280,11 @@ int Run(const Args& args) {
         const cv::Mat view = Render(panoramas[i], heading, fov);
         const wc::ImageFeatures f = Extract(view);
         keypoints.push_back(f.keypoints.size());
+        if (args.retrieval_features) {
+          const wc::ImageFeatures rf = Extract(view, RetrievalFeatures());
+          wc::EnrollView(&retrieval_db, next_view_id, static_cast<int64_t>(i + 1), heading, rf);
+          retrieval_dense.push_back(rf.dense);
+        }
         wc::EnrollView(&db, next_view_id++, static_cast<int64_t>(i + 1), heading, f);
         if (panoramas[i].name == sheet_name && fov == args.fovs.front())
           sheet_views.push_back(view);
@@ -277,17 +304,23 @@ int Run(const Args& args) {
       }
     }
     const int clusters = static_cast<int>(db.clusters().size());
+    if (args.retrieval_features) retrieval_db.TrainGlobal(retrieval_dense);
 
     std::map<std::pair<int, double>, Cell> cells;  // (mode index, offset)
     for (double offset : args.offsets) {
       for (size_t i = 0; i < panoramas.size(); ++i) {
         for (int k = 0; k < kViewsPerCrossing; ++k) {
           const double truth = k * kStepDeg + offset;
-          const wc::ImageFeatures f = Extract(Render(panoramas[i], truth, fov));
+          const cv::Mat query = Render(panoramas[i], truth, fov);
+          const wc::ImageFeatures f = Extract(query);
+          const wc::ImageFeatures rf =
+              args.retrieval_features ? Extract(query, RetrievalFeatures()) : wc::ImageFeatures();
           for (int m = 0; m < kModes; ++m) {
             wc::RecognitionOptions options;
             options.mode = modes[m];
-            absl::StatusOr<wc::Recognition> r = wc::Recognize(db, f, options);
+            const bool own = args.retrieval_features && modes[m] == wc::RecognitionMode::kRetrieval;
+            const wc::ViewDatabase& mode_db = own ? retrieval_db : db;
+            absl::StatusOr<wc::Recognition> r = wc::Recognize(mode_db, own ? rf : f, options);
             if (!r.ok()) {
               std::cerr << "recognition failed: " << r.status() << "\n";
               return 1;
@@ -300,7 +333,7 @@ int Run(const Args& args) {
               ++cell.none;
               continue;
             }
-            const wc::ViewEntry& best = db.views()[r->best_slot];
+            const wc::ViewEntry& best = mode_db.views()[r->best_slot];
             if (best.crossing_id != static_cast<int64_t>(i + 1)) {
               ++cell.wrong;
               continue;

@@ -100,6 +100,21 @@ GlobalCode GlobalIndex::Get(uint32_t slot) const {
   return code;
 }
 
+namespace {
+
+// The scan's inner loop. On x86-64 GCC also builds an AVX2 clone and the loader picks it on CPUs
+// that have it (16 multiply-adds per instruction instead of SSE2's 8); the code stays portable.
+#if defined(__x86_64__) && defined(__GNUC__) && !defined(__clang__)
+__attribute__((target_clones("avx2", "default")))
+#endif
+int32_t DotInt8(const int8_t* a, const int8_t* b, int n) {
+  int32_t dot = 0;
+  for (int i = 0; i < n; ++i) dot += int32_t(a[i]) * int32_t(b[i]);
+  return dot;
+}
+
+}  // namespace
+
 std::vector<float> GlobalIndex::Similarities(const GlobalCode& query) const {
   std::vector<float> out(scales_.size(), 0.f);
   if (static_cast<int>(query.values.size()) != dims_ || query.scale == 0) return out;
@@ -107,8 +122,7 @@ std::vector<float> GlobalIndex::Similarities(const GlobalCode& query) const {
   for (size_t slot = 0; slot < scales_.size(); ++slot) {
     if (scales_[slot] == 0) continue;
     const int8_t* v = codes_.data() + slot * dims_;
-    int32_t dot = 0;
-    for (int i = 0; i < dims_; ++i) dot += int32_t(q[i]) * int32_t(v[i]);
+    const int32_t dot = DotInt8(q, v, dims_);
     out[slot] = static_cast<float>(dot) * query.scale * scales_[slot];
   }
   return out;

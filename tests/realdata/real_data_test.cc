@@ -9,6 +9,7 @@
 
 #include <gtest/gtest.h>
 
+#include <algorithm>
 #include <filesystem>
 #include <map>
 #include <memory>
@@ -17,6 +18,7 @@
 
 #include "bench/vpr_datasets.h"
 #include "bench/vpr_experiment.h"
+#include "server/crossing/global_index.h"
 #include "server/crossing/options.h"
 
 namespace waymark::vpr {
@@ -276,6 +278,43 @@ TEST_F(RealDataTest, RetrievalMode) {
   RecognitionOptions nfa_only = retrieval;
   nfa_only.min_global_lift = 0;
   EXPECT_LT(Run("corridor", nfa_only).accuracy(), corridor_known.accuracy() - 0.3);
+}
+
+// The global stage's 8-bit exact scan against the float vectors it quantises, on real images:
+// the corridor's 111 views and queries; the shortlist it feeds (top 24) must be the same views.
+TEST_F(RealDataTest, GlobalScanShortlistsWhatTheFloatVectorsWould) {
+  RecognitionOptions retrieval;
+  retrieval.mode = RecognitionMode::kRetrieval;
+  Prepared* prepared = PrepareAll(/*retrieval_features=*/true);
+  ASSERT_NE(prepared, nullptr);
+  const PreparedProtocol& corridor = prepared->sets.at("corridor").front();
+  const crossing::ViewDatabase& db = *corridor.db;
+  ASSERT_FALSE(db.global_index().empty());
+  std::vector<cv::Mat> views;
+  for (const Enrollment& e : corridor.protocol.enroll) {
+    absl::StatusOr<const crossing::ImageFeatures*> f = prepared->cache.Get(e.path);
+    ASSERT_TRUE(f.ok());
+    views.push_back(db.vocabulary().Encode((*f)->dense));
+  }
+  const int k = retrieval.global_shortlist;
+  double overlap = 0;
+  int same_top1 = 0;
+  for (const crossing::ImageFeatures* q : corridor.query_features) {
+    const cv::Mat query = db.vocabulary().Encode(q->dense);
+    std::vector<float> exact;
+    for (const cv::Mat& v : views) exact.push_back(static_cast<float>(query.dot(v)));
+    const auto top_exact = crossing::TopSimilar(exact, k);
+    const auto top_scan =
+        crossing::TopSimilar(db.global_index().Similarities(crossing::QuantizeGlobal(query)), k);
+    same_top1 += top_exact[0].second == top_scan[0].second;
+    for (const auto& [sim, slot] : top_scan) {
+      overlap += std::any_of(top_exact.begin(), top_exact.end(),
+                             [&](const auto& e) { return e.second == slot; });
+    }
+  }
+  const double n = static_cast<double>(corridor.query_features.size());
+  EXPECT_GE(overlap / (k * n), 0.97) << "shortlist recall of the 8-bit scan";
+  EXPECT_GE(same_top1, n - 2) << "same most similar view";
 }
 
 }  // namespace
