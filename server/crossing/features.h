@@ -54,7 +54,9 @@ struct ExtractionTimings {
   double decode_ms = 0;
   double extraction_ms = 0;
   double histogram_ms = 0;
-  double dense_ms = 0;  // dense RootSIFT, with FeatureOptions::global_descriptor
+  // Dense RootSIFT, with FeatureOptions::global_descriptor; it runs beside the SIFT extraction,
+  // so the two overlap in time.
+  double dense_ms = 0;
 };
 absl::StatusOr<ImageFeatures> ExtractFeatures(const std::string& encoded,
                                               const FeatureOptions& options,

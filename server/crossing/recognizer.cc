@@ -288,13 +288,22 @@ void RecognizeRetrieval(const ViewDatabase& db, const ImageFeatures& query,
   const bool global_evidence = global.active() && options.global_evidence;
   const double log10_tests =
       global_evidence ? std::log10(static_cast<double>(db.views().size())) : 0.0;
+  // Each view's RANSAC and NFA on OpenCV's worker threads (independent, and each seeds its own
+  // RANSAC, so the answer does not depend on the threads); a busy server runs them inline.
+  std::vector<GeometricEvidence> judged(ranked.size());
+  cv::parallel_for_(cv::Range(0, static_cast<int>(ranked.size())), [&](const cv::Range& range) {
+    std::vector<cv::Point2f> q, v;
+    for (int i = range.start; i < range.end; ++i) {
+      const auto& [count, slot] = ranked[i];
+      if (count < 8) continue;
+      judged[i] = JudgeMatchSet(query, db.views()[slot], tentative.at(slot), verification,
+                                shortlist_tests, &q, &v);
+    }
+  });
   std::vector<Candidate> list;
-  std::vector<cv::Point2f> q, v;
-  for (const auto& [count, slot] : ranked) {
-    const GeometricEvidence geometric =
-        count >= 8 ? JudgeMatchSet(query, db.views()[slot], tentative.at(slot), verification,
-                                   shortlist_tests, &q, &v)
-                   : GeometricEvidence{};
+  for (size_t i = 0; i < ranked.size(); ++i) {
+    const auto& [count, slot] = ranked[i];
+    const GeometricEvidence& geometric = judged[i];
     Candidate c{slot, geometric.inliers, count, IsCenter(db, slot)};
     if (global.active()) {
       c.global_similarity = global.similarity[slot];
