@@ -855,6 +855,7 @@ json Evaluation::ToJson() const {
   j["defaults"]["paper"] = run_json(paper_);
   j["defaults"]["verified"] = run_json(verified_);
   j["verified_inliers_only"] = run_json(verified_inliers_only_);
+  for (const Run& r : retrieval_) j["retrieval"].push_back(run_json(r));
   for (const Run& r : paper_sweep_) j["paper_ratio_sweep"].push_back(run_json(r));
   for (const Run& r : verified_sweep_) j["verified_rule_sweep"].push_back(run_json(r));
   if (chosen_index_ >= 0) {
@@ -1101,15 +1102,27 @@ std::string Evaluation::ToMarkdown() const {
       d.ratio, d.n0, d.n1, d.n2, d.alpha, d.verified_ratio, d.shortlist, d.ransac_threshold_px,
       d.min_inliers, d.min_inlier_share);
 
-  md << "## Retrieval mode (a-contrario acceptance) at several limits\n\n";
-  md << "| set | queries | " ;
+  md << "## Retrieval mode (a-contrario acceptance, global path) at several limits\n\n";
+  md << "Precision (correct / accepted) is given for the defaults (nfa 0, lift "
+     << RecognitionOptions().min_global_lift << ").\n\n";
+  md << "| set | queries | precision at the defaults | ";
   for (const Run& r : retrieval_) md << r.label << ": accuracy | false accepts | ";
-  md << "\n|---|---|";
+  md << "\n|---|---|---|";
   for (size_t i = 0; i < retrieval_.size(); ++i) md << "---|---|";
   md << "\n";
+  const Run* defaults = nullptr;
+  for (const Run& r : retrieval_) {
+    if (r.options.max_log10_nfa == RecognitionOptions().max_log10_nfa &&
+        r.options.min_global_lift == RecognitionOptions().min_global_lift && !defaults) {
+      defaults = &r;
+    }
+  }
   for (const Group& g : groups_) {
     if (retrieval_.empty() || retrieval_.front().Get(g.name) == nullptr) continue;
-    md << "| " << g.name << " | " << retrieval_.front().Get(g.name)->size() << " | ";
+    md << "| " << g.name << " | " << retrieval_.front().Get(g.name)->size() << " | "
+       << (defaults && defaults->Get(g.name) ? Pct(Summarize(*defaults->Get(g.name)).precision())
+                                             : std::string("-"))
+       << " | ";
     for (const Run& r : retrieval_) {
       const Tally t = Summarize(*r.Get(g.name));
       md << Pct(t.accuracy()) << " | " << Pct(t.false_accept_rate()) << " | ";

@@ -265,6 +265,14 @@ GeometricEvidence JudgeMatchSet(const ImageFeatures& query, const ViewEntry& vie
   return {evidence.inliers, std::min(0.0, evidence.log10_nfa - std::log10(tests))};
 }
 
+// What the global path saw, appended to a refusal's reason ("" when it is off).
+std::string GlobalRefusal(const GlobalStage& global, const RecognitionOptions& options) {
+  if (!global.active() || options.min_global_lift <= 0) return "";
+  return absl::StrFormat(
+      "; the most similar view stands %.3f above the median global similarity (%.3f needed)",
+      global.lift(), options.min_global_lift);
+}
+
 // Retrieval mode: the verified mode's shortlist joined by the views most similar globally; each
 // view judged by its number of false alarms as the answer, the most meaningful first; the
 // paper's hue and decision steps rank the top N2 (with -log10 NFA as the match score), and the
@@ -330,12 +338,7 @@ void RecognizeRetrieval(const ViewDatabase& db, const ImageFeatures& query,
   if (list.empty()) {
     if (!global_accepts) {
       out->reason = "no view has geometrically consistent matches";
-      if (global.active()) {
-        out->reason += absl::StrFormat(
-            ", and the most similar view stands %.3f above the median global similarity (%.3f "
-            "needed)",
-            out->global_lift, options.min_global_lift);
-      }
+      out->reason += GlobalRefusal(global, options);
     }
     return;
   }
@@ -362,6 +365,7 @@ void RecognizeRetrieval(const ViewDatabase& db, const ImageFeatures& query,
         "chance: 10^%.1f false alarms expected, the limit is 10^%.1f",
         winner.matches, winner.tentative, winner.global_similarity, winner.log10_nfa,
         options.max_log10_nfa);
+    out->reason += GlobalRefusal(global, options);
   } else {
     out->recognized = true;
     out->best_slot = winner.slot;

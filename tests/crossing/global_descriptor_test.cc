@@ -259,6 +259,8 @@ TEST(GlobalPathTest, TheMostSimilarViewIsTheAnswerWhenItStandsOutEnough) {
   ASSERT_TRUE(refused.ok());
   EXPECT_FALSE(refused->recognized);
   EXPECT_FALSE(refused->accepted_by_global);
+  EXPECT_NE(refused->reason.find("above the median global similarity"), std::string::npos)
+      << refused->reason;
 }
 
 }  // namespace
