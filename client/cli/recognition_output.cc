@@ -37,11 +37,14 @@ std::string RecognitionSummary(const v1::RecognizeResponse& response) {
 
 std::string RecognitionDetails(const v1::RecognizeResponse& response) {
   const v1::StageTimings& t = response.timings();
+  const std::string retrieval =
+      t.retrieval_ms() > 0 ? fmt::format(", global stage {:.1f}", t.retrieval_ms()) : "";
   return fmt::format(
       "{} mode, keypoints {}, qualifying clusters {}, server {:.1f} ms (decode {:.1f}, extraction "
-      "{:.1f}, matching {:.1f}, histogram {:.1f}, verification {:.1f})",
+      "{:.1f}, matching {:.1f}{}, histogram {:.1f}, verification {:.1f})",
       ModeName(response.mode()), response.keypoints(), response.qualifying_clusters(), t.total_ms(),
-      t.decode_ms(), t.extraction_ms(), t.matching_ms(), t.histogram_ms(), t.verification_ms());
+      t.decode_ms(), t.extraction_ms(), t.matching_ms(), retrieval, t.histogram_ms(),
+      t.verification_ms());
 }
 
 void PrintCandidateTable(std::ostream& out, const v1::RecognizeResponse& response) {
@@ -50,6 +53,9 @@ void PrintCandidateTable(std::ostream& out, const v1::RecognizeResponse& respons
     return;
   }
   const bool verified = response.mode() == v1::RECOGNITION_MODE_VERIFIED;
+  // Retrieval mode judges match sets too, and says how sure: NFA and global similarity.
+  const bool retrieval = response.mode() == v1::RECOGNITION_MODE_RETRIEVAL;
+  const bool geometric = verified || retrieval;
   // Capture positions get a column when some view has one (databases enrolled with positions).
   const bool positions =
       std::any_of(response.candidates().begin(), response.candidates().end(),
@@ -61,11 +67,15 @@ void PrintCandidateTable(std::ostream& out, const v1::RecognizeResponse& respons
                                         {"heading", true},
                                         {"cluster", true},
                                         {"centre"},
-                                        {verified ? "inliers" : "matches", true},
+                                        {geometric ? "inliers" : "matches", true},
                                         {"tentative", true},
                                         {"similarity", true},
-                                        {"decision", true},
-                                        {"best"}};
+                                        {"decision", true}};
+  if (retrieval) {
+    columns.push_back({"log10 NFA", true});
+    columns.push_back({"global", true});
+  }
+  columns.push_back({"best"});
   if (positions) columns.insert(columns.begin() + kPositionColumn, {"position"});
   Table table(std::move(columns));
   for (const v1::Candidate& c : response.candidates()) {
@@ -73,9 +83,15 @@ void PrintCandidateTable(std::ostream& out, const v1::RecognizeResponse& respons
     std::vector<std::string> row = {
         std::to_string(c.view_id()), c.crossing(), fmt::format("{:.1f}", c.heading_deg()),
         std::to_string(c.cluster_id()), c.is_center() ? "yes" : "", std::to_string(c.matches()),
-        verified ? std::to_string(c.tentative()) : "-",
+        geometric ? std::to_string(c.tentative()) : "-",
         c.kept() ? fmt::format("{:.3f}", c.similarity()) : "-",
-        c.kept() ? fmt::format("{:.3f}", c.decision()) : "-", best ? "<=" : ""};
+        c.kept() ? fmt::format("{:.3f}", c.decision()) : "-"};
+    if (retrieval) {
+      row.push_back(fmt::format("{:.1f}", c.log10_nfa()));
+      row.push_back(c.global_similarity() > 0 ? fmt::format("{:.3f}", c.global_similarity())
+                                              : "-");
+    }
+    row.push_back(best ? "<=" : "");
     if (positions) row.insert(row.begin() + kPositionColumn, c.position());
     table.AddRow(std::move(row));
   }
