@@ -23,11 +23,15 @@
 //
 // Clustering is incremental and synchronous: each enrolled view is matched against the current
 // cluster centres and joins the best one that reaches the threshold, or becomes the centre of a new
-// cluster (the paper's sequential clustering), in the enrollment's own transaction. There is no
-// background job and no window in which clusters lag behind views. RebuildClusters re-runs the same
+// cluster (the paper's sequential clustering), in the enrollment's own transaction. No background job
+// clusters and there is no window in which clusters lag behind views. RebuildClusters re-runs the same
 // sequential clustering over all views in id order, so after any interleaving of concurrent
 // enrollments it reproduces the incremental clusters exactly (the integration test checks this);
 // it is needed only after a threshold change, and DeleteCrossing re-clusters the remaining views.
+//
+// The one background job is the retrieval mode's global stage (global_stage.h): a worker thread
+// learns each database's vocabulary and codes its views outside the database's lock, then swaps
+// them in under the exclusive lock after saving them, like any other write.
 
 #include <functional>
 #include <map>
