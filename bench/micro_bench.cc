@@ -1,6 +1,7 @@
 // Micro-benchmarks of the recognition engine's hot paths (Google Benchmark). Compare within one
 // run: e.g. BM_MatchAllViews (index) against BM_MatchEveryViewExact (linear scan) at the same size.
 
+#include <numeric>
 #include <random>
 
 #include <benchmark/benchmark.h>
@@ -12,6 +13,8 @@
 #include "server/crossing/vlad.h"
 #include "server/crossing/features.h"
 #include "server/crossing/hue_histogram.h"
+#include "server/crossing/kd_forest.h"
+#include "server/crossing/descriptor_store.h"
 #include "server/crossing/l2_distance.h"
 #include "server/crossing/view_matching.h"
 #include "tests/support/random_descriptors.h"
@@ -73,6 +76,24 @@ void BM_MatchEveryViewExact(benchmark::State& state) {
   }
 }
 BENCHMARK(BM_MatchEveryViewExact)->Arg(36)->Arg(360)->Unit(benchmark::kMillisecond);
+
+// Building one k-d forest (IndexOptions' trees and leaf size) over state.range(0) descriptors:
+// what a merge of the index's levels costs, under the database's lock, during enrollment.
+void BM_BuildForest(benchmark::State& state) {
+  std::mt19937 rng(5);
+  DescriptorStore store;
+  const int n = static_cast<int>(state.range(0));
+  const cv::Mat d = RandomDescriptors(n, &rng);
+  store.Append(d.ptr<uint8_t>(), static_cast<uint32_t>(n), 0);
+  std::vector<uint32_t> ids(n);
+  std::iota(ids.begin(), ids.end(), 0u);
+  const IndexOptions options;
+  for (auto _ : state) {
+    KdForest forest(store, ids, options.trees, options.leaf_size, 1);
+    benchmark::DoNotOptimize(forest.size());
+  }
+}
+BENCHMARK(BM_BuildForest)->Arg(100000)->Unit(benchmark::kMillisecond);
 
 // The retrieval mode's global stage per query: dense RootSIFT, VLAD encoding over 128 words, and
 // the 8-bit scan over state.range(0) views.

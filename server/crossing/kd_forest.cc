@@ -65,29 +65,35 @@ uint32_t KdForest::BuildNode(Tree* tree, uint32_t first, uint32_t last, uint32_t
   tree->nodes.push_back(Node{-1, 0, first, last});
   if (last - first <= static_cast<uint32_t>(leaf_size_)) return index;
 
-  // Mean and variance per dimension over a sample of the node's descriptors.
-  std::array<double, 128> mean{}, var{};
+  // Mean and variance per dimension over a sample of the node's descriptors, in integers: sums
+  // and sums of squares (at most a few hundred samples of 255^2 fit in 32 bits) vectorise, and
+  // n * sum(d^2) - sum(d)^2 = n^2 * variance is exact, so the ranking of the dimensions is too.
+  // (This was the top of an enrollment's profile: trees are rebuilt as levels merge.)
+  std::array<int32_t, 128> sum{}, sum_sq{};
   const uint32_t count = last - first;
   const uint32_t step = std::max<uint32_t>(1, count / kVarianceSample);
   int sampled = 0;
   for (uint32_t i = first; i < last; i += step, ++sampled) {
     const uint8_t* d = store_.Get(tree->ids[i]);
-    for (int k = 0; k < 128; ++k) mean[k] += d[k];
+    for (int k = 0; k < 128; ++k) {
+      sum[k] += d[k];
+      sum_sq[k] += int32_t(d[k]) * d[k];
+    }
   }
-  for (double& m : mean) m /= sampled;
-  for (uint32_t i = first; i < last; i += step) {
-    const uint8_t* d = store_.Get(tree->ids[i]);
-    for (int k = 0; k < 128; ++k) var[k] += (d[k] - mean[k]) * (d[k] - mean[k]);
+  std::array<int64_t, 128> spread;  // sampled^2 x variance
+  for (int k = 0; k < 128; ++k) {
+    spread[k] = int64_t(sampled) * sum_sq[k] - int64_t(sum[k]) * sum[k];
   }
   std::array<int, 128> dims;
   std::iota(dims.begin(), dims.end(), 0);
   std::partial_sort(dims.begin(), dims.begin() + kRandomDims, dims.end(),
-                    [&](int a, int b) { return var[a] > var[b]; });
+                    [&](int a, int b) { return spread[a] > spread[b]; });
   const int dim = dims[NextRandom(rng) % kRandomDims];
-  if (var[dim] <= 0) return index;  // all sampled descriptors equal: keep them as one leaf
+  if (spread[dim] <= 0) return index;  // all sampled descriptors equal: keep them as one leaf
 
   // Split at the mean; descriptors with value <= split go left.
-  const uint8_t split = static_cast<uint8_t>(std::min(254.0, mean[dim]));
+  const double mean = static_cast<double>(sum[dim]) / sampled;
+  const uint8_t split = static_cast<uint8_t>(std::min(254.0, mean));
   auto middle = std::partition(tree->ids.begin() + first, tree->ids.begin() + last,
                                [&](uint32_t id) { return store_.Get(id)[dim] <= split; });
   uint32_t mid = static_cast<uint32_t>(middle - tree->ids.begin());
