@@ -75,6 +75,7 @@ class PlaceEvidenceFilter {
   // but the prediction's.
   const PlaceBelief& Update(const std::vector<FrameEvidence>& evidence);
   const PlaceBelief& belief() const { return belief_; }
+  const EvidenceOptions& options() const { return options_; }
   // The posterior of `crossing_id` (0 if never seen).
   double Posterior(int64_t crossing_id) const;
   void Reset();

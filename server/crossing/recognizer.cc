@@ -194,14 +194,10 @@ struct GlobalStage {
   std::vector<float> similarity;  // per slot; empty without a vocabulary or dense descriptors
   double median = 0;
   double spread = 0;  // 1.4826 x MAD, floored
+  uint32_t top_slot = 0;  // the most similar view
+  double lift = 0;        // how far it stands above the median
 
   bool active() const { return !similarity.empty(); }
-  // The most similar view and how far it stands above the median.
-  uint32_t top_slot() const {
-    return static_cast<uint32_t>(
-        std::max_element(similarity.begin(), similarity.end()) - similarity.begin());
-  }
-  double lift() const { return similarity[top_slot()] - median; }
   double Z(uint32_t slot) const { return (similarity[slot] - median) / spread; }
   // log10 of the chance that an unrelated view is as similar (the Gaussian tail beyond z).
   double Log10Tail(uint32_t slot) const {
@@ -222,6 +218,9 @@ GlobalStage ScoreGlobally(const ViewDatabase& db, const ImageFeatures& query) {
   if (db.global_index().empty() || query.dense.empty()) return g;
   g.similarity = db.global_index().Similarities(QuantizeGlobal(db.vocabulary().Encode(query.dense)));
   g.median = Median(g.similarity);
+  g.top_slot = static_cast<uint32_t>(
+      std::max_element(g.similarity.begin(), g.similarity.end()) - g.similarity.begin());
+  g.lift = g.similarity[g.top_slot] - g.median;
   std::vector<float> deviation;
   for (float s : g.similarity) deviation.push_back(std::abs(s - static_cast<float>(g.median)));
   // A floor keeps a database of near-identical views from dividing by almost nothing.
@@ -270,7 +269,7 @@ std::string GlobalRefusal(const GlobalStage& global, const RecognitionOptions& o
   if (!global.active() || options.min_global_lift <= 0) return "";
   return absl::StrFormat(
       "; the most similar view stands %.3f above the median global similarity (%.3f needed)",
-      global.lift(), options.min_global_lift);
+      global.lift, options.min_global_lift);
 }
 
 // Retrieval mode: the verified mode's shortlist joined by the views most similar globally; each
@@ -328,12 +327,12 @@ void RecognizeRetrieval(const ViewDatabase& db, const ImageFeatures& query,
   out->verification_ms = MsSince(start);
   // The global path: a view that stands out this far is the answer on its own.
   const bool global_accepts = global.active() && options.min_global_lift > 0 &&
-                              global.lift() >= options.min_global_lift;
-  if (global.active()) out->global_lift = global.lift();
+                              global.lift >= options.min_global_lift;
+  if (global.active()) out->global_lift = global.lift;
   if (global_accepts) {
     out->recognized = true;
     out->accepted_by_global = true;
-    out->best_slot = global.top_slot();
+    out->best_slot = global.top_slot;
   }
   if (list.empty()) {
     if (!global_accepts) {

@@ -76,7 +76,7 @@ absl::StatusOr<PreparedGlobal> PrepareGlobal(const ResidentDatabase& db,
     return absl::InternalError("could not encode the working image for the global descriptor");
   }
   prepared.work_image.assign(png.begin(), png.end());
-  prepared.sample = crossing::EvenRows(features.dense, crossing::kVocabularySampleRows).clone();
+  prepared.sample = crossing::EvenRows(features.dense, crossing::kVocabularySampleRows);
   crossing::VladVocabulary vocabulary;  // shares the words: a new vocabulary replaces, never edits
   {
     absl::ReaderMutexLock lock(&db.mutex);
@@ -127,14 +127,15 @@ void LoadGlobalVocabulary(ResidentDatabase& db,
 void LoadGlobalView(ResidentDatabase& db, uint32_t slot, const storage::ViewRecord& view) {
   if (KeepsSamples(db)) db.views->SetGlobalSample(slot, SampleFromBytes(view.global_sample));
   if (db.global.vocabulary == 0 || !db.options.features.global_descriptor) return;
-  absl::StatusOr<crossing::StoredGlobalCode> stored =
-      view.global_code.empty() ? absl::NotFoundError("none")
-                               : crossing::DeserializeGlobalCode(view.global_code);
-  if (stored.ok() && stored->vocabulary == db.global.vocabulary) {
-    db.views->SetGlobalCode(slot, stored->code);
-  } else {
-    db.global.uncoded.insert(view.id);
+  if (!view.global_code.empty()) {
+    absl::StatusOr<crossing::StoredGlobalCode> stored =
+        crossing::DeserializeGlobalCode(view.global_code);
+    if (stored.ok() && stored->vocabulary == db.global.vocabulary) {
+      db.views->SetGlobalCode(slot, stored->code);
+      return;
+    }
   }
+  db.global.uncoded.insert(view.id);  // none, unreadable, or of an older vocabulary
 }
 
 GlobalStageWorker::GlobalStageWorker(storage::CrossingStore* store)

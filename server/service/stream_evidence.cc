@@ -13,7 +13,6 @@ void StreamEvidence::Apply(const crossing::RecognitionOptions& options,
     crossing::EvidenceOptions evidence;
     evidence.threshold = options.evidence_threshold;
     filter_.emplace(evidence);
-    filter_options_ = evidence;
     threshold_ = options.evidence_threshold;
   }
   std::vector<crossing::FrameEvidence> frame;
@@ -22,7 +21,7 @@ void StreamEvidence::Apply(const crossing::RecognitionOptions& options,
     names_[c.crossing_id()] = c.crossing();
   }
   if (response->accepted_by_global()) {
-    frame.push_back(crossing::GlobalAnswerEvidence(response->crossing_id(), filter_options_));
+    frame.push_back(crossing::GlobalAnswerEvidence(response->crossing_id(), filter_->options()));
     names_[response->crossing_id()] = response->crossing();
   }
   const crossing::PlaceBelief& belief = filter_->Update(frame);

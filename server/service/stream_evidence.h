@@ -25,7 +25,6 @@ class StreamEvidence {
 
  private:
   std::optional<crossing::PlaceEvidenceFilter> filter_;
-  crossing::EvidenceOptions filter_options_;  // what filter_ was made with
   double threshold_ = -1;
   std::map<int64_t, std::string> names_;  // crossings seen in the stream's candidates
 };
