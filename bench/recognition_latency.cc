@@ -35,6 +35,7 @@
 #include "server/crossing/hue_histogram.h"
 #include "server/crossing/recognizer.h"
 #include "server/crossing/view_matching.h"
+#include "storage/postgres/pg_admin.h"
 #include "tests/support/server_process.h"
 #include "waymark/v1/crossing.grpc.pb.h"
 
@@ -143,7 +144,22 @@ struct RunFlags {
   // The database keeps the retrieval mode's global stage (DatabaseParams.global_descriptor): its
   // cost at enrollment, the vocabulary's background work and the global scan are measured too.
   bool global_descriptor = true;
+  // A PostgreSQL server (libpq URI): each size's database is a fresh PostgreSQL database on it
+  // instead of a SQLite file (issue 19: the same measurements on both backends).
+  std::string postgres;
 };
+
+// The --db of size `n`: a fresh SQLite file, or a fresh PostgreSQL database on flags.postgres.
+std::string FreshDatabase(int n, const std::string& work_dir, const RunFlags& flags) {
+  if (flags.postgres.empty()) {
+    const std::string path = fmt::format("{}/bench-{}.db", work_dir, n);
+    std::filesystem::remove(path);
+    return path;
+  }
+  auto uri = storage::pg::RecreateDatabase(flags.postgres, fmt::format("waymark_bench_{}", n));
+  if (!uri.ok()) throw std::runtime_error(uri.status().ToString());
+  return *uri;
+}
 
 // Polls the stats until the global stage has settled (every view coded under a vocabulary due for
 // the database's size); returns the seconds waited, or -1 after `timeout_s`.
@@ -171,8 +187,8 @@ json RunSize(int n, const std::vector<BenchView>& all_views, const std::vector<s
   json out;
   out["views"] = n;
   const std::vector<BenchView> views(all_views.begin(), all_views.begin() + n);
-  const std::string db_path = fmt::format("{}/bench-{}.db", work_dir, n);
-  std::filesystem::remove(db_path);
+  const std::string db_path = FreshDatabase(n, work_dir, flags);
+  out["backend"] = flags.postgres.empty() ? "sqlite" : "postgresql";
 
   // 1. Enroll through the real server.
   auto server = testing::ServerProcess::Start(testing::ServerBinary(), db_path);
@@ -403,6 +419,9 @@ int main(int argc, char** argv) {
   app.add_flag("--skip-rebuild", flags.skip_rebuild, "do not time RebuildClusters");
   app.add_flag("--global-descriptor,!--no-global-descriptor", flags.global_descriptor,
                "keep the retrieval mode's global stage in the databases [on]");
+  app.add_option("--postgres", flags.postgres,
+                 "a PostgreSQL server URI (postgresql://USER@HOST:PORT/DB): the databases are "
+                 "created there (waymark_bench_N, dropped first) instead of as SQLite files");
   CLI11_PARSE(app, argc, argv);
 
   using namespace waymark::bench;

@@ -18,6 +18,7 @@ PACKAGES=(
   build-essential cmake ninja-build ccache pkg-config git
   libgrpc++-dev protobuf-compiler-grpc libprotobuf-dev protobuf-compiler
   libopencv-dev libeigen3-dev libabsl-dev libsqlite3-dev
+  libpq-dev  # the PostgreSQL stores (storage/postgres): several servers on one database
   libceres-dev  # the laser sessions' pose graph (server/laser_slam/mapping)
   libssl-dev  # SHA-256 of token secrets and enrolled images (storage/sha256), TLS (a gRPC dependency)
   libgtest-dev libgmock-dev libbenchmark-dev
@@ -26,10 +27,12 @@ PACKAGES=(
   zlib1g-dev libbz2-dev  # compressed CARMEN laser logs (client/adapters/carmen_log)
   blender-data  # real 360-degree photos for the rotation test set (bench/rotation_set.h)
   openssl  # test certificates (tests/integration/tls_test.cc)
+  postgresql-15  # the server the PostgreSQL tests start for themselves (tests/support/postgres_server.sh)
 )
 
-# Not needed to build the binaries: the compiler cache, git, test photos and test certificates.
-NOT_FOR_BUILD=" ccache git blender-data openssl "
+# Not needed to build the binaries: the compiler cache, git, test photos, test certificates and
+# the PostgreSQL server of the tests.
+NOT_FOR_BUILD=" ccache git blender-data openssl postgresql-15 "
 if [ "$BUILD_ONLY" -eq 1 ]; then
   kept=()
   for p in "${PACKAGES[@]}"; do
@@ -59,5 +62,11 @@ if [ "$(id -u)" -ne 0 ]; then
 fi
 echo "install-deps: installing ${missing[*]}"
 export DEBIAN_FRONTEND=noninteractive
+# The tests run a PostgreSQL cluster of their own; the package's default cluster (and the server
+# its postinst would start on port 5432) is not wanted. Read by postgresql-common at install time.
+if [[ " ${missing[*]} " == *" postgresql-15 "* ]]; then
+  $SUDO mkdir -p /etc/postgresql-common/createcluster.d
+  echo "create_main_cluster = false" | $SUDO tee /etc/postgresql-common/createcluster.d/waymark.conf >/dev/null
+fi
 $SUDO apt-get update -qq
 $SUDO apt-get install -y -qq --no-install-recommends "${missing[@]}"

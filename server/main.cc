@@ -23,6 +23,7 @@
 #include <chrono>
 #include <csignal>
 #include <cstdio>
+#include <optional>
 #include <thread>
 
 #include <CLI/CLI.hpp>
@@ -47,6 +48,7 @@
 #include "server/token_admin.h"
 #include "storage/crossing_store.h"
 #include "storage/database_lock.h"
+#include "storage/open_stores.h"
 #include "storage/slam_store.h"
 #include "storage/token_store.h"
 
@@ -80,7 +82,7 @@ void HintFirstToken(waymark::storage::TokenStore& tokens, const ServerFlags& fla
       "no admin token yet: every call will be UNAUTHENTICATED until you create tokens, e.g. "
       "`waymark-server --db {} token create admin --role admin` (prints the secret once; then "
       "`waymark --token SECRET token create ROBOT --role robot`)",
-      flags.db);
+      waymark::storage::PrintableDatabase(flags.db));
 }
 
 int Run(const ServerFlags& flags) {
@@ -89,21 +91,27 @@ int Run(const ServerFlags& flags) {
     spdlog::error("{}", std::string(credentials.status().message()));
     return 2;
   }
-  // One serving process per database file: two servers would each cache the crossing views and
-  // SLAM sessions and overwrite each other's checkpoints.
-  auto db_lock = waymark::storage::DatabaseLock::Acquire(flags.db);
-  if (!db_lock.ok()) {
-    spdlog::error("{}", std::string(db_lock.status().message()));
-    return 2;
+  const std::string db_name = waymark::storage::PrintableDatabase(flags.db);
+  // One serving process per SQLite file: two servers would each cache the crossing views and SLAM
+  // sessions and overwrite each other's checkpoints. PostgreSQL is how several servers share one
+  // database (docs/scale-out.md).
+  std::optional<waymark::storage::DatabaseLock> db_lock;
+  if (!waymark::storage::IsPostgresDatabase(flags.db)) {
+    auto locked = waymark::storage::DatabaseLock::Acquire(flags.db);
+    if (!locked.ok()) {
+      spdlog::error("{}", std::string(locked.status().message()));
+      return 2;
+    }
+    db_lock.emplace(std::move(*locked));
   }
-  spdlog::info("opening database {}", flags.db);
-  auto store = waymark::storage::OpenSqliteCrossingStore(flags.db);
-  if (!store.ok()) {
-    spdlog::error("cannot open database {}: {}", flags.db, store.status().ToString());
+  spdlog::info("opening database {}", db_name);
+  auto stores = waymark::storage::OpenStores(flags.db);
+  if (!stores.ok()) {
+    spdlog::error("cannot open database {}: {}", db_name, stores.status().ToString());
     return 2;
   }
   const auto load_start = std::chrono::steady_clock::now();
-  auto registry = waymark::service::CrossingRegistry::Load(std::move(*store));
+  auto registry = waymark::service::CrossingRegistry::Load(std::move(stores->crossing));
   if (!registry.ok()) {
     spdlog::error("cannot load crossing databases: {}", registry.status().ToString());
     return 2;
@@ -117,12 +125,7 @@ int Run(const ServerFlags& flags) {
                databases->databases_size(), views,
                std::chrono::duration<double>(std::chrono::steady_clock::now() - load_start).count());
 
-  auto slam_store = waymark::storage::OpenSqliteSlamStore(flags.db);
-  if (!slam_store.ok()) {
-    spdlog::error("cannot open database {}: {}", flags.db, slam_store.status().ToString());
-    return 2;
-  }
-  auto slam_registry = waymark::service::SlamRegistry::Create(std::move(*slam_store), flags.slam);
+  auto slam_registry = waymark::service::SlamRegistry::Create(std::move(stores->slam), flags.slam);
   if (!slam_registry.ok()) {
     spdlog::error("cannot start SLAM sessions: {}", slam_registry.status().ToString());
     return 2;
@@ -132,7 +135,8 @@ int Run(const ServerFlags& flags) {
   std::unique_ptr<waymark::service::Metrics> metrics;
   if (!flags.metrics_listen.empty()) {
     auto started = waymark::service::StartMetrics(
-        flags.metrics_listen, {registry->get(), slam_registry->get(), flags.db});
+        flags.metrics_listen, {registry->get(), slam_registry->get(),
+         waymark::storage::IsPostgresDatabase(flags.db) ? std::string() : flags.db});
     if (!started.ok()) {
       spdlog::error("{}", std::string(started.status().message()));
       return 2;
@@ -140,12 +144,7 @@ int Run(const ServerFlags& flags) {
     metrics = std::move(*started);
   }
 
-  auto token_store = waymark::storage::OpenSqliteTokenStore(flags.db);
-  if (!token_store.ok()) {
-    spdlog::error("cannot open database {}: {}", flags.db, token_store.status().ToString());
-    return 2;
-  }
-  std::shared_ptr<waymark::storage::TokenStore> tokens = std::move(*token_store);
+  std::shared_ptr<waymark::storage::TokenStore> tokens = std::move(stores->token);
   std::unique_ptr<waymark::service::Authenticator> auth;
   if (flags.security.insecure_dev) {
     spdlog::warn("--insecure-dev: authentication is OFF (loopback only); do not use on a robot fleet");
@@ -225,7 +224,9 @@ int main(int argc, char** argv) {
   CLI::App app{"waymark-server: crossing recognition and SLAM sessions for robots, over gRPC"};
   app.add_option("--listen", flags.listen, "address to listen on (port 0 picks a free port)")
       ->capture_default_str();
-  app.add_option("--db", flags.db, "SQLite database file (created if missing)")
+  app.add_option("--db", flags.db, "SQLite database file (created if missing), or a PostgreSQL URI "
+                 "postgresql://USER@HOST:PORT/DBNAME shared by several servers (password from "
+                 "PGPASSWORD or PGPASSFILE, never on the command line)")
       ->capture_default_str();
   app.add_flag("--insecure-dev", flags.security.insecure_dev,
                "development only: no authentication, plaintext; refused unless --listen is loopback");

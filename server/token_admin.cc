@@ -7,6 +7,7 @@
 
 #include "absl/strings/str_cat.h"
 #include "absl/time/time.h"
+#include "storage/open_stores.h"
 #include "storage/store_util.h"
 #include "storage/token_store.h"
 
@@ -76,9 +77,10 @@ CLI::App* AddTokenAdminCommands(CLI::App& app, TokenAdminFlags* flags) {
 }
 
 int RunTokenAdmin(CLI::App* token_group, const TokenAdminFlags& flags, const std::string& db) {
-  auto store = storage::OpenSqliteTokenStore(db);
+  auto store = storage::OpenTokenStore(db);
   if (!store.ok()) {
-    std::cerr << "error: cannot open database " << db << ": " << store.status().message() << "\n";
+    std::cerr << "error: cannot open database " << storage::PrintableDatabase(db) << ": "
+              << store.status().message() << "\n";
     return 2;
   }
   if (token_group->got_subcommand("create")) return Create(**store, flags);

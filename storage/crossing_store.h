@@ -165,8 +165,8 @@ class CrossingStore {
   // Deletes views and adds the one that replaces them (ViewReplacement), with the new clusters.
   // NOT_FOUND when a replaced view is not in the database; ALREADY_EXISTS as AddView.
   virtual absl::StatusOr<ViewReplacementResult> ReplaceViews(const ViewReplacement& replacement) = 0;
-  // All views of a database in enrollment (id) order, without image bytes.
-  virtual absl::StatusOr<std::vector<ViewRecord>> LoadViews(int64_t database_id) = 0;
+  // All views of a database in enrollment (id) order, without image bytes: ForEachView, collected.
+  absl::StatusOr<std::vector<ViewRecord>> LoadViews(int64_t database_id);
   // The same, one view at a time, so a server loading thousands of views never holds all the
   // rows at once. Stops at the first error `visit` returns and returns it.
   virtual absl::Status ForEachView(int64_t database_id,

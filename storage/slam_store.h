@@ -78,8 +78,9 @@ struct SlamCheckpoint {
 // Every mutating call is one transaction: it happens entirely or not at all.
 // Errors: NOT_FOUND (unknown session), ALREADY_EXISTS (duplicate id), FAILED_PRECONDITION
 // (checkpointing a closed session), INVALID_ARGUMENT (a trajectory seq that does not continue the
-// stored one, non-finite numbers), INTERNAL (SQLite failure, message carries SQLite's text),
-// DATA_LOSS (a stored row that cannot be read back).
+// stored one, non-finite numbers), INTERNAL (database failure, message carries the database's
+// text), UNAVAILABLE (PostgreSQL unreachable: nothing was written), DATA_LOSS (a stored row that
+// cannot be read back).
 class SlamStore {
  public:
   virtual ~SlamStore() = default;

@@ -8,16 +8,15 @@
 #include <mutex>
 #include <string>
 #include <system_error>
-#include <unordered_set>
 #include <utility>
 #include <vector>
 
 #include "absl/status/status.h"
 #include "absl/status/statusor.h"
 #include "absl/strings/str_cat.h"
+#include "storage/crossing_records.h"
 #include "storage/crossing_store.h"
 #include "storage/migrations.h"
-#include "storage/sha256.h"
 #include "storage/sqlite.h"
 #include "storage/status_macros.h"
 #include "storage/store_util.h"
@@ -31,58 +30,11 @@ using sqlite::StepResult;
 using sqlite::Transaction;
 using sqlite::UniqueViolation;
 
-// Replaces the message of an ALREADY_EXISTS status (SQLite's "UNIQUE constraint failed: ..." means
-// nothing to a robot operator); other statuses pass through.
-absl::Status NameTaken(absl::Status status, const std::string& what) {
-  if (absl::IsAlreadyExists(status)) return absl::AlreadyExistsError(what + " already exists");
-  return status;
-}
-
-// Checks a view before writing it: the blob sizes must agree with the counts, or a later read
-// would misinterpret the arrays.
-absl::Status ValidateView(const ViewRecord& view) {
-  if (view.keypoint_count < 0) {
-    return absl::InvalidArgumentError(
-        absl::StrCat("keypoint_count is negative (", view.keypoint_count, ")"));
-  }
-  const int64_t count = view.keypoint_count;
-  if (static_cast<int64_t>(view.keypoints.size()) != count * kKeypointFloats) {
-    return absl::InvalidArgumentError(absl::StrCat(
-        "view has ", count, " keypoints but ", view.keypoints.size(), " keypoint floats; expected ",
-        count * kKeypointFloats, " (", kKeypointFloats, " per keypoint)"));
-  }
-  if (static_cast<int64_t>(view.descriptors.size()) != count * kDescriptorBytes) {
-    return absl::InvalidArgumentError(
-        absl::StrCat("view has ", count, " keypoints but ", view.descriptors.size(),
-                     " descriptor bytes; expected ", count * kDescriptorBytes, " (",
-                     kDescriptorBytes, " per keypoint)"));
-  }
-  if (view.width < 0 || view.height < 0) {
-    return absl::InvalidArgumentError(
-        absl::StrCat("view size ", view.width, "x", view.height, " is negative"));
-  }
-  // SQLite stores NaN as NULL, which the NOT NULL column would reject with an opaque error.
-  if (!std::isfinite(view.heading_deg)) {
-    return absl::InvalidArgumentError("view heading_deg is not a finite number");
-  }
-  if (!view.content_sha256.empty() && view.content_sha256.size() != kSha256Bytes) {
-    return absl::InvalidArgumentError(
-        absl::StrCat("view content_sha256 has ", view.content_sha256.size(), " bytes; expected ",
-                     kSha256Bytes, " (a SHA-256 digest) or none"));
-  }
-  return absl::OkStatus();
-}
-
-// Checks that a stored blob holds exactly `expected` bytes (DATA_LOSS otherwise: the file was
-// truncated, edited by hand or written by a buggy build).
+// Checks that a stored blob holds exactly `expected` bytes.
 absl::Status CheckBlobSize(const Statement& row, int column, int64_t expected, int64_t view_id,
                            const char* what) {
-  const int64_t actual = static_cast<int64_t>(row.ColumnBlobView(column).size());
-  if (actual != expected) {
-    return absl::DataLossError(absl::StrCat("view ", view_id, ": stored ", what, " blob has ",
-                                            actual, " bytes, expected ", expected));
-  }
-  return absl::OkStatus();
+  return CheckStoredBlobSize(static_cast<int64_t>(row.ColumnBlobView(column).size()), expected,
+                             view_id, what);
 }
 
 // Columns read by ReadViewRow, in order.
@@ -323,15 +275,6 @@ class SqliteCrossingStore final : public CrossingStore {
     return result;
   }
 
-  absl::StatusOr<std::vector<ViewRecord>> LoadViews(int64_t database_id) override {
-    std::vector<ViewRecord> views;
-    RETURN_IF_ERROR(ForEachView(database_id, [&views](ViewRecord&& view) {
-      views.push_back(std::move(view));
-      return absl::OkStatus();
-    }));
-    return views;
-  }
-
   absl::Status ForEachView(int64_t database_id,
                            const std::function<absl::Status(ViewRecord&&)>& visit) override {
     std::lock_guard<std::mutex> lock(mutex_);
@@ -444,14 +387,6 @@ class SqliteCrossingStore final : public CrossingStore {
     return record;
   }
 
-  static absl::Status DatabaseNotFound(int64_t database_id) {
-    return absl::NotFoundError(absl::StrCat("database ", database_id, " not found"));
-  }
-
-  static absl::Status ViewNotFound(int64_t view_id) {
-    return absl::NotFoundError(absl::StrCat("view ", view_id, " not found"));
-  }
-
   // The database's name (for messages), NOT_FOUND when the id is unknown.
   absl::StatusOr<std::string> DatabaseNameLocked(int64_t database_id) {
     ASSIGN_OR_RETURN(Statement select,
@@ -532,9 +467,7 @@ class SqliteCrossingStore final : public CrossingStore {
     RETURN_IF_ERROR(select.BindBlob(2, content_sha256.data(), content_sha256.size()));
     ASSIGN_OR_RETURN(StepResult step, select.Step());
     if (step == StepResult::kDone) return absl::OkStatus();
-    return absl::AlreadyExistsError(absl::StrCat("view ", select.ColumnInt64(0),
-                                                 " already holds this image (SHA-256 ",
-                                                 HexString(content_sha256), ")"));
+    return DuplicateImage(select.ColumnInt64(0), content_sha256);
   }
 
   // One blob column of a view (`column` is ours, never a client's); NOT_FOUND for an unknown
@@ -661,13 +594,9 @@ class SqliteCrossingStore final : public CrossingStore {
     inserted.reserve(clusters.size());
     for (size_t i = 0; i < clusters.size(); ++i) {
       const ClusterRecord& cluster = clusters[i];
-      const std::string where =
-          absl::StrCat("cluster #", i, " (centre view ", cluster.center_view_id, ")");
-      std::unordered_set<int64_t> seen;
+      RETURN_IF_ERROR(CheckClusterShape(cluster, i));
+      const std::string where = ClusterName(cluster, i);
       for (int64_t view_id : cluster.member_view_ids) {
-        if (!seen.insert(view_id).second) {
-          return absl::InvalidArgumentError(absl::StrCat(where, " lists view ", view_id, " twice"));
-        }
         view_db.Reset();
         RETURN_IF_ERROR(view_db.BindInt64(1, view_id));
         ASSIGN_OR_RETURN(StepResult step, view_db.Step());
@@ -678,10 +607,6 @@ class SqliteCrossingStore final : public CrossingStore {
           return absl::InvalidArgumentError(absl::StrCat(
               where, ": view ", view_id, " belongs to another database than ", database_id));
         }
-      }
-      if (seen.count(cluster.center_view_id) == 0) {
-        return absl::InvalidArgumentError(
-            absl::StrCat(where, ": the centre is not among the members"));
       }
       ClusterRecord record = cluster;
       ASSIGN_OR_RETURN(record.id, InsertClusterRowLocked(database_id, cluster.center_view_id));

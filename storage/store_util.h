@@ -1,7 +1,7 @@
 #ifndef WAYMARK_STORAGE_STORE_UTIL_H_
 #define WAYMARK_STORAGE_STORE_UTIL_H_
 
-// Small things every SQLite store needs the same way.
+// Small things every store needs the same way, on SQLite and on PostgreSQL.
 
 #include <chrono>
 #include <string>

@@ -46,8 +46,8 @@ struct CreatedToken {
 
 // Every mutating call is one statement or transaction. Errors: INVALID_ARGUMENT (empty name or
 // robot_id, non-finite expiry), ALREADY_EXISTS (duplicate name), NOT_FOUND (revoking an unknown
-// name), UNAUTHENTICATED (Authenticate only), INTERNAL (SQLite failure), DATA_LOSS (a stored row
-// that cannot be read back).
+// name), UNAUTHENTICATED (Authenticate only), INTERNAL (database failure), UNAVAILABLE
+// (PostgreSQL unreachable), DATA_LOSS (a stored row that cannot be read back).
 class TokenStore {
  public:
   virtual ~TokenStore() = default;

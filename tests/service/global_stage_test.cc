@@ -1,6 +1,7 @@
-// The retrieval mode's global stage in the registry (global_stage.h), on a real SQLite file without
-// gRPC: a vocabulary learnt at 16 views and again when they double, every view coded, the codes
-// kept through deleting and replacing views, and the same answers after a restart.
+// The retrieval mode's global stage in the registry (global_stage.h), on a real SQLite file and a
+// real PostgreSQL database, without gRPC: a vocabulary learnt at 16 views and again when they
+// double, every view coded, the codes kept through deleting and replacing views, the same answers
+// after a restart, and the same answers from both backends on the same views.
 
 #include <memory>
 #include <string>
@@ -11,52 +12,73 @@
 #include "server/service/crossing_registry.h"
 #include "storage/crossing_store.h"
 #include "tests/service/registry_on_file.h"
-#include "tests/storage/temp_dir.h"
+#include "tests/storage/store_backend.h"
 #include "tests/support/synthetic_scene.h"
 
 namespace waymark::service {
 namespace {
 
-using storage::testing::TempDir;
+using storage::testing::Backend;
+using storage::testing::TestDatabase;
 
 constexpr int kPlaces = 8;
 
-class GlobalStageTest : public ::testing::Test {
+std::string Name(int place) { return "P" + std::to_string(place); }
+
+// View `n` of the database "campus": places in turn, headings 45 degrees apart.
+v1::EnrollViewRequest ViewRequest(const std::vector<cv::Mat>& panoramas, int n) {
+  v1::EnrollViewRequest request;
+  request.set_database("campus");
+  request.set_crossing(Name(n % kPlaces));
+  request.set_heading_deg(45.0 * (n / kPlaces));
+  request.set_create_crossing(true);
+  request.mutable_image()->set_data(
+      testing::EncodePng(testing::CropView(panoramas[n % kPlaces], 45.0 * (n / kPlaces))));
+  return request;
+}
+
+// A retrieval-mode query of `place` at `heading`.
+v1::RecognizeRequest QueryRequest(const std::vector<cv::Mat>& panoramas, int place,
+                                  double heading) {
+  v1::RecognizeRequest request;
+  request.set_database("campus");
+  request.mutable_params()->set_mode(v1::RECOGNITION_MODE_RETRIEVAL);
+  request.mutable_image()->set_data(
+      testing::EncodePng(testing::CropView(panoramas[place], heading)));
+  return request;
+}
+
+absl::StatusOr<v1::CrossingDatabase> CreateCampus(CrossingRegistry& registry,
+                                                  v1::RecognitionMode mode) {
+  v1::CreateDatabaseRequest create;
+  create.set_name("campus");
+  create.mutable_params()->mutable_recognition()->set_mode(mode);
+  return registry.CreateDatabase(create);
+}
+
+class GlobalStageTest : public ::testing::TestWithParam<Backend> {
  protected:
+  GlobalStageTest() : database_(GetParam()) {}
+
   void SetUp() override {
-    path_ = dir_.File("waymark.db");
+    WAYMARK_SKIP_WITHOUT(database_);
     Load();
     for (int p = 0; p < kPlaces; ++p) panoramas_.push_back(testing::MakePanorama(40 + p));
   }
 
   void Load() {
     registry_.reset();  // one registry per file at a time, as one server
-    registry_ = testing::LoadRegistry(path_);
+    registry_ = testing::LoadRegistry(database_.db());
     ASSERT_NE(registry_, nullptr);
   }
 
   void Create(v1::RecognitionMode mode) {
-    v1::CreateDatabaseRequest create;
-    create.set_name("campus");
-    create.mutable_params()->mutable_recognition()->set_mode(mode);
-    absl::StatusOr<v1::CrossingDatabase> db = registry_->CreateDatabase(create);
+    absl::StatusOr<v1::CrossingDatabase> db = CreateCampus(*registry_, mode);
     ASSERT_TRUE(db.ok()) << db.status();
     EXPECT_EQ(db->params().global_descriptor(), mode == v1::RECOGNITION_MODE_RETRIEVAL);
   }
 
-  static std::string Name(int place) { return "P" + std::to_string(place); }
-
-  // View `n` of the database: places in turn, headings 45 degrees apart.
-  v1::EnrollViewRequest View(int n) const {
-    v1::EnrollViewRequest request;
-    request.set_database("campus");
-    request.set_crossing(Name(n % kPlaces));
-    request.set_heading_deg(45.0 * (n / kPlaces));
-    request.set_create_crossing(true);
-    request.mutable_image()->set_data(
-        testing::EncodePng(testing::CropView(panoramas_[n % kPlaces], 45.0 * (n / kPlaces))));
-    return request;
-  }
+  v1::EnrollViewRequest View(int n) const { return ViewRequest(panoramas_, n); }
 
   void EnrollViews(int from, int to) {
     for (int n = from; n < to; ++n) {
@@ -81,12 +103,8 @@ class GlobalStageTest : public ::testing::Test {
 
   // A query between two enrolled headings of `place`.
   v1::RecognizeResponse Recognize(int place, double heading) {
-    v1::RecognizeRequest request;
-    request.set_database("campus");
-    request.mutable_params()->set_mode(v1::RECOGNITION_MODE_RETRIEVAL);
-    request.mutable_image()->set_data(
-        testing::EncodePng(testing::CropView(panoramas_[place], heading)));
-    absl::StatusOr<v1::RecognizeResponse> answer = registry_->Recognize(request);
+    absl::StatusOr<v1::RecognizeResponse> answer =
+        registry_->Recognize(QueryRequest(panoramas_, place, heading));
     EXPECT_TRUE(answer.ok()) << answer.status();
     return answer.ok() ? *answer : v1::RecognizeResponse();
   }
@@ -97,11 +115,13 @@ class GlobalStageTest : public ::testing::Test {
     return best;
   }
 
-  TempDir dir_;
-  std::string path_;
+  TestDatabase database_;
   std::unique_ptr<CrossingRegistry> registry_;
   std::vector<cv::Mat> panoramas_;
 };
+
+INSTANTIATE_TEST_SUITE_P(Backends, GlobalStageTest, storage::testing::kBothBackends,
+                         storage::testing::BackendName);
 
 TEST(GlobalStageScheduleTest, AVocabularyIsDueAtSixteenViewsAndAtEachDoublingUpTo512) {
   EXPECT_FALSE(NeedsVocabulary(15, 0));
@@ -113,7 +133,7 @@ TEST(GlobalStageScheduleTest, AVocabularyIsDueAtSixteenViewsAndAtEachDoublingUpT
   EXPECT_FALSE(NeedsVocabulary(5000, 512));  // and the last
 }
 
-TEST_F(GlobalStageTest, AVocabularyIsLearntAtSixteenViewsAndEveryLaterViewIsCodedAtOnce) {
+TEST_P(GlobalStageTest, AVocabularyIsLearntAtSixteenViewsAndEveryLaterViewIsCodedAtOnce) {
   Create(v1::RECOGNITION_MODE_RETRIEVAL);
   EnrollViews(0, 15);
   EXPECT_EQ(SettledStage(), std::make_pair(0, 0));
@@ -132,7 +152,7 @@ TEST_F(GlobalStageTest, AVocabularyIsLearntAtSixteenViewsAndEveryLaterViewIsCode
   EXPECT_GT(answer.timings().retrieval_ms(), 0.0);
 }
 
-TEST_F(GlobalStageTest, TheVocabularyIsLearntAgainWhenTheViewsDoubleAndSurvivesARestart) {
+TEST_P(GlobalStageTest, TheVocabularyIsLearntAgainWhenTheViewsDoubleAndSurvivesARestart) {
   Create(v1::RECOGNITION_MODE_RETRIEVAL);
   EnrollViews(0, 32);
   EXPECT_EQ(SettledStage(), std::make_pair(32, 32));
@@ -153,7 +173,7 @@ TEST_F(GlobalStageTest, TheVocabularyIsLearntAgainWhenTheViewsDoubleAndSurvivesA
   EXPECT_GT(BestGlobalSimilarity(after), 0.5);
 }
 
-TEST_F(GlobalStageTest, DeletingAndReplacingViewsKeepTheOthersCodes) {
+TEST_P(GlobalStageTest, DeletingAndReplacingViewsKeepTheOthersCodes) {
   Create(v1::RECOGNITION_MODE_RETRIEVAL);
   EnrollViews(0, 24);
   registry_->WaitForGlobalStage();
@@ -182,11 +202,61 @@ TEST_F(GlobalStageTest, DeletingAndReplacingViewsKeepTheOthersCodes) {
   EXPECT_EQ(Recognize(1, 50).crossing(), Name(1));
 }
 
-TEST_F(GlobalStageTest, ADatabaseWithoutTheGlobalDescriptorLearnsNothing) {
+TEST_P(GlobalStageTest, ADatabaseWithoutTheGlobalDescriptorLearnsNothing) {
   Create(v1::RECOGNITION_MODE_PAPER);
   EnrollViews(0, 16);
   EXPECT_EQ(SettledStage(), std::make_pair(0, 0));
   EXPECT_FALSE(Stats().database().params().global_descriptor());
+}
+
+// The same views enrolled into a SQLite file and into a PostgreSQL database give the same
+// clusters, vocabulary and answers: crossing, view, decision, NFA and every candidate.
+TEST(GlobalStageBackendsTest, SqliteAndPostgresGiveTheSameAnswers) {
+  TestDatabase sqlite(Backend::kSqlite);
+  TestDatabase postgres(Backend::kPostgres);
+  WAYMARK_SKIP_WITHOUT(postgres);
+  std::vector<cv::Mat> panoramas;
+  for (int p = 0; p < kPlaces; ++p) panoramas.push_back(testing::MakePanorama(40 + p));
+  std::vector<std::unique_ptr<CrossingRegistry>> registries;
+  for (const TestDatabase* database : {&sqlite, &postgres}) {
+    registries.push_back(testing::LoadRegistry(database->db()));
+    ASSERT_NE(registries.back(), nullptr);
+    CrossingRegistry& registry = *registries.back();
+    ASSERT_TRUE(CreateCampus(registry, v1::RECOGNITION_MODE_RETRIEVAL).ok());
+    for (int n = 0; n < 24; ++n) {
+      // One enrollment at a time and the stage settled after each: the vocabulary is learnt
+      // from the same views on both.
+      ASSERT_TRUE(registry.EnrollView(ViewRequest(panoramas, n)).ok());
+      registry.WaitForGlobalStage();
+    }
+  }
+  // The PostgreSQL registry as a restarted server sees it.
+  registries[1] = testing::LoadRegistry(postgres.db());
+  ASSERT_NE(registries[1], nullptr);
+  int recognized = 0;
+  for (int place = 0; place < kPlaces; ++place) {
+    std::vector<v1::RecognizeResponse> answers;
+    for (const auto& registry : registries) {
+      absl::StatusOr<v1::RecognizeResponse> answer =
+          registry->Recognize(QueryRequest(panoramas, place, 20.0 + 3 * place));
+      ASSERT_TRUE(answer.ok()) << answer.status();
+      answers.push_back(*answer);
+    }
+    const v1::RecognizeResponse& a = answers[0];
+    const v1::RecognizeResponse& b = answers[1];
+    EXPECT_EQ(a.recognized(), b.recognized()) << "place " << place;
+    EXPECT_EQ(a.crossing(), b.crossing());
+    EXPECT_EQ(a.view_id(), b.view_id());
+    EXPECT_EQ(a.log10_nfa(), b.log10_nfa());
+    EXPECT_EQ(a.accepted_by_global(), b.accepted_by_global());
+    ASSERT_EQ(a.candidates_size(), b.candidates_size());
+    for (int i = 0; i < a.candidates_size(); ++i) {
+      EXPECT_EQ(a.candidates(i).view_id(), b.candidates(i).view_id());
+      EXPECT_EQ(a.candidates(i).global_similarity(), b.candidates(i).global_similarity());
+    }
+    recognized += a.recognized() ? 1 : 0;
+  }
+  EXPECT_GE(recognized, kPlaces / 2);  // the comparison is about answers, not refusals
 }
 
 }  // namespace

@@ -1,8 +1,8 @@
 #ifndef WAYMARK_TESTS_SERVICE_REGISTRY_ON_FILE_H_
 #define WAYMARK_TESTS_SERVICE_REGISTRY_ON_FILE_H_
 
-// A crossing registry on a SQLite file, loaded as waymark-server loads it: what the registry tests
-// restart to check that memory and disk agree.
+// A crossing registry on a SQLite file or a PostgreSQL database (a libpq URI), loaded as
+// waymark-server loads it: what the registry tests restart to check that memory and disk agree.
 
 #include <memory>
 #include <string>
@@ -10,12 +10,13 @@
 #include "gtest/gtest.h"
 #include "server/service/crossing_registry.h"
 #include "storage/crossing_store.h"
+#include "storage/open_stores.h"
 
 namespace waymark::testing {
 
-// nullptr (and a test failure) when the file cannot be opened or loaded.
+// nullptr (and a test failure) when the database cannot be opened or loaded.
 inline std::unique_ptr<service::CrossingRegistry> LoadRegistry(const std::string& path) {
-  auto store = storage::OpenSqliteCrossingStore(path);
+  auto store = storage::OpenCrossingStore(path);
   if (!store.ok()) {
     ADD_FAILURE() << store.status();
     return nullptr;

@@ -1,6 +1,6 @@
-// The SQLite CrossingStore against real files: round trips, ordering, errors, cascades, atomicity,
-// reopening, two connections, concurrent writers. Row counts are read through a separate raw
-// connection so that they show what is really in the file.
+// The CrossingStore on both backends (a SQLite file, a PostgreSQL database): round trips,
+// ordering, errors, cascades, atomicity, reopening, two connections, concurrent writers. Row
+// counts are read through a separate raw connection so that they show what is really stored.
 
 #include "storage/crossing_store.h"
 
@@ -17,8 +17,11 @@
 
 #include "gtest/gtest.h"
 #include "storage/migrations.h"
+#include "storage/open_stores.h"
+#include "storage/postgres/pg_schema.h"
 #include "storage/sqlite.h"
 #include "tests/storage/status_testing.h"
+#include "tests/storage/store_backend.h"
 #include "tests/storage/temp_dir.h"
 #include "tests/storage/view_records.h"
 
@@ -26,7 +29,9 @@ namespace waymark::storage {
 namespace {
 
 using ::waymark::storage::testing::CodeOf;
+using ::waymark::storage::testing::Backend;
 using ::waymark::storage::testing::MakeView;
+using ::waymark::storage::testing::TestDatabase;
 using ::waymark::storage::testing::TempDir;
 
 bool SameFloats(const std::vector<float>& a, const std::vector<float>& b) {
@@ -47,34 +52,27 @@ void ExpectSameFeatures(const ViewRecord& actual, const ViewRecord& expected) {
   EXPECT_EQ(actual.format_version, expected.format_version);
 }
 
-class CrossingStoreTest : public ::testing::Test {
+// The suite runs on both backends (store_backend.h): a SQLite file, a PostgreSQL database.
+class CrossingStoreTest : public ::testing::TestWithParam<Backend> {
  protected:
+  CrossingStoreTest() : database_(GetParam(), "var/lib/waymark/waymark.db") {}
+
   void SetUp() override {
-    // A nested path also checks that the parent directories are created.
-    path_ = dir_.File("var/lib/waymark/waymark.db");
-    absl::StatusOr<std::unique_ptr<CrossingStore>> store = OpenSqliteCrossingStore(path_);
+    WAYMARK_SKIP_WITHOUT(database_);
+    // On SQLite the nested path also checks that the parent directories are created.
+    absl::StatusOr<std::unique_ptr<CrossingStore>> store = OpenCrossingStore(database_.db());
     ASSERT_TRUE(store.ok()) << store.status();
     store_ = std::move(*store);
-    absl::StatusOr<sqlite::Connection> raw = sqlite::Connection::Open(path_);
-    ASSERT_TRUE(raw.ok()) << raw.status();
-    raw_ = std::make_unique<sqlite::Connection>(std::move(*raw));
   }
 
-  // Rows of `table` (optionally filtered), as the file holds them.
+  // Rows of `table` (optionally filtered), as the database holds them.
   int64_t Count(const std::string& table, const std::string& where = "") {
-    const std::string sql =
-        "SELECT COUNT(*) FROM " + table + (where.empty() ? "" : " WHERE " + where);
-    absl::StatusOr<sqlite::Statement> stmt = raw_->Prepare(sql);
-    if (!stmt.ok()) {
-      ADD_FAILURE() << stmt.status();
+    absl::StatusOr<int64_t> count = database_.CountRows(table, where);
+    if (!count.ok()) {
+      ADD_FAILURE() << count.status();
       return -1;
     }
-    absl::StatusOr<sqlite::StepResult> step = stmt->Step();
-    if (!step.ok()) {
-      ADD_FAILURE() << step.status();
-      return -1;
-    }
-    return stmt->ColumnInt64(0);
+    return *count;
   }
 
   // All row counts, to show that a failed call changed nothing.
@@ -93,18 +91,24 @@ class CrossingStoreTest : public ::testing::Test {
     return {db->id, crossing->id};
   }
 
-  TempDir dir_;
-  std::string path_;
+  TestDatabase database_;
   std::unique_ptr<CrossingStore> store_;
-  std::unique_ptr<sqlite::Connection> raw_;
 };
+
+INSTANTIATE_TEST_SUITE_P(Backends, CrossingStoreTest, testing::kBothBackends,
+                         testing::BackendName);
 
 // --- Opening and schema ----------------------------------------------------------------------
 
-TEST_F(CrossingStoreTest, OpenCreatesParentDirectoryAndMigrates) {
-  EXPECT_TRUE(std::filesystem::exists(path_));
-  ASSERT_OK_AND_ASSIGN(int version, ReadSchemaVersion(*raw_));
-  EXPECT_EQ(version, CurrentSchemaVersion());
+TEST_P(CrossingStoreTest, OpenCreatesParentDirectoryAndMigrates) {
+  if (GetParam() == Backend::kSqlite) {
+    EXPECT_TRUE(std::filesystem::exists(database_.db()));
+    ASSERT_OK_AND_ASSIGN(int64_t version, database_.QueryInt("PRAGMA user_version"));
+    EXPECT_EQ(version, CurrentSchemaVersion());
+  } else {
+    ASSERT_OK_AND_ASSIGN(int64_t version, database_.QueryInt("SELECT version FROM waymark_schema"));
+    EXPECT_EQ(version, static_cast<int64_t>(pg::PostgresMigrations().size()));
+  }
 }
 
 TEST(CrossingStoreOpenTest, InMemoryStoreWorksAndIsPrivate) {
@@ -137,7 +141,7 @@ TEST(CrossingStoreOpenTest, UncreatableDirectoryIsAnError) {
 
 // --- Databases ----------------------------------------------------------------------------------
 
-TEST_F(CrossingStoreTest, CreateGetListAndUpdateDatabases) {
+TEST_P(CrossingStoreTest, CreateGetListAndUpdateDatabases) {
   ASSERT_OK_AND_ASSIGN(DatabaseRecord zurich, store_->CreateDatabase("zurich", R"({"k":1})"));
   ASSERT_OK_AND_ASSIGN(DatabaseRecord bern, store_->CreateDatabase("bern", "{}"));
   EXPECT_GT(zurich.id, 0);
@@ -159,7 +163,7 @@ TEST_F(CrossingStoreTest, CreateGetListAndUpdateDatabases) {
   EXPECT_EQ(got.params, R"({"k":2})");
 }
 
-TEST_F(CrossingStoreTest, DuplicateDatabaseNameIsAlreadyExists) {
+TEST_P(CrossingStoreTest, DuplicateDatabaseNameIsAlreadyExists) {
   ASSERT_OK(store_->CreateDatabase("city", "{}"));
   absl::StatusOr<DatabaseRecord> again = store_->CreateDatabase("city", "{}");
   EXPECT_EQ(again.status().code(), absl::StatusCode::kAlreadyExists);
@@ -167,7 +171,7 @@ TEST_F(CrossingStoreTest, DuplicateDatabaseNameIsAlreadyExists) {
   EXPECT_EQ(Count("crossing_db"), 1);
 }
 
-TEST_F(CrossingStoreTest, UnknownDatabaseIsNotFoundEverywhere) {
+TEST_P(CrossingStoreTest, UnknownDatabaseIsNotFoundEverywhere) {
   absl::StatusOr<DatabaseRecord> get = store_->GetDatabase("foo");
   EXPECT_EQ(get.status().code(), absl::StatusCode::kNotFound);
   EXPECT_EQ(get.status().message(), "database \"foo\" not found");
@@ -182,13 +186,13 @@ TEST_F(CrossingStoreTest, UnknownDatabaseIsNotFoundEverywhere) {
   EXPECT_EQ(store_->ListCrossings(42).status().message(), "database 42 not found");
 }
 
-TEST_F(CrossingStoreTest, EmptyNamesAreInvalid) {
+TEST_P(CrossingStoreTest, EmptyNamesAreInvalid) {
   EXPECT_EQ(CodeOf(store_->CreateDatabase("", "{}")), absl::StatusCode::kInvalidArgument);
   ASSERT_OK_AND_ASSIGN(DatabaseRecord db, store_->CreateDatabase("city", "{}"));
   EXPECT_EQ(CodeOf(store_->AddCrossing(db.id, "", "")), absl::StatusCode::kInvalidArgument);
 }
 
-TEST_F(CrossingStoreTest, DeleteDatabaseCascadesToEverythingItOwns) {
+TEST_P(CrossingStoreTest, DeleteDatabaseCascadesToEverythingItOwns) {
   auto [doomed, doomed_crossing] = MakeDatabaseWithCrossing("doomed");
   auto [kept, kept_crossing] = MakeDatabaseWithCrossing("kept");
   for (int i = 0; i < 3; ++i) {
@@ -209,7 +213,7 @@ TEST_F(CrossingStoreTest, DeleteDatabaseCascadesToEverythingItOwns) {
 
 // --- Crossings ----------------------------------------------------------------------------------
 
-TEST_F(CrossingStoreTest, CrossingNamesAreUniquePerDatabase) {
+TEST_P(CrossingStoreTest, CrossingNamesAreUniquePerDatabase) {
   auto [city, first] = MakeDatabaseWithCrossing("city", "main-square");
   absl::StatusOr<CrossingRecord> again = store_->AddCrossing(city, "main-square", "");
   EXPECT_EQ(again.status().code(), absl::StatusCode::kAlreadyExists);
@@ -232,7 +236,7 @@ TEST_F(CrossingStoreTest, CrossingNamesAreUniquePerDatabase) {
 
 // --- Views --------------------------------------------------------------------------------------
 
-TEST_F(CrossingStoreTest, ViewRoundTripIsBitExact) {
+TEST_P(CrossingStoreTest, ViewRoundTripIsBitExact) {
   auto [db, crossing] = MakeDatabaseWithCrossing("city");
   ViewRecord view = MakeView(crossing, 50, 3, -123.456789);
   // Values a text or lossy encoding would alter.
@@ -256,7 +260,7 @@ TEST_F(CrossingStoreTest, ViewRoundTripIsBitExact) {
   EXPECT_EQ(image, view.image);
 }
 
-TEST_F(CrossingStoreTest, ViewWithoutKeypointsOrImage) {
+TEST_P(CrossingStoreTest, ViewWithoutKeypointsOrImage) {
   auto [db, crossing] = MakeDatabaseWithCrossing("city");
   ViewRecord empty = MakeView(crossing, 0, 1);
   empty.hue_hist.clear();
@@ -272,7 +276,7 @@ TEST_F(CrossingStoreTest, ViewWithoutKeypointsOrImage) {
             "view " + std::to_string(added.view_id + 100) + " not found");
 }
 
-TEST_F(CrossingStoreTest, LoadViewsIsInEnrollmentOrderAcrossCrossings) {
+TEST_P(CrossingStoreTest, LoadViewsIsInEnrollmentOrderAcrossCrossings) {
   auto [db, north] = MakeDatabaseWithCrossing("city", "north");
   ASSERT_OK_AND_ASSIGN(CrossingRecord south, store_->AddCrossing(db, "south", ""));
   auto [other_db, other_crossing] = MakeDatabaseWithCrossing("other");
@@ -298,7 +302,7 @@ TEST_F(CrossingStoreTest, LoadViewsIsInEnrollmentOrderAcrossCrossings) {
   EXPECT_GT(later.view_id, highest.view_id);
 }
 
-TEST_F(CrossingStoreTest, InconsistentBlobSizesAreInvalidAndWriteNothing) {
+TEST_P(CrossingStoreTest, InconsistentBlobSizesAreInvalidAndWriteNothing) {
   auto [db, crossing] = MakeDatabaseWithCrossing("city");
   const std::vector<int64_t> before = AllCounts();
 
@@ -324,25 +328,28 @@ TEST_F(CrossingStoreTest, InconsistentBlobSizesAreInvalidAndWriteNothing) {
   EXPECT_EQ(AllCounts(), before);
 }
 
-TEST_F(CrossingStoreTest, CorruptStoredBlobIsDataLoss) {
+TEST_P(CrossingStoreTest, CorruptStoredBlobIsDataLoss) {
   auto [db, crossing] = MakeDatabaseWithCrossing("city");
   ASSERT_OK_AND_ASSIGN(AddViewResult added, store_->AddView(MakeView(crossing, 2, 0), {}));
-  ASSERT_OK(raw_->Exec("UPDATE view SET descriptors = x'00' WHERE id = " +
-                       std::to_string(added.view_id)));
+  const bool sqlite = GetParam() == Backend::kSqlite;
+  const std::string id = std::to_string(added.view_id);
+  ASSERT_OK(database_.Exec(std::string("UPDATE view SET descriptors = ") +
+                           (sqlite ? "x'00'" : "'\\x00'::bytea") + " WHERE id = " + id));
   absl::StatusOr<std::vector<ViewRecord>> views = store_->LoadViews(db);
   EXPECT_EQ(views.status().code(), absl::StatusCode::kDataLoss);
   EXPECT_NE(views.status().message().find("descriptors"), absl::string_view::npos)
       << views.status();
 
-  ASSERT_OK(
-      raw_->Exec("UPDATE view SET descriptors = zeroblob(256), hue_hist = x'0000' WHERE id = " +
-                 std::to_string(added.view_id)));
+  ASSERT_OK(database_.Exec(
+      sqlite ? "UPDATE view SET descriptors = zeroblob(256), hue_hist = x'0000' WHERE id = " + id
+             : "UPDATE view SET descriptors = decode(repeat('00', 256), 'hex'), "
+               "hue_hist = '\\x0000'::bytea WHERE id = " + id));
   EXPECT_EQ(CodeOf(store_->LoadViews(db)), absl::StatusCode::kDataLoss);
 }
 
 // --- Clusters -----------------------------------------------------------------------------------
 
-TEST_F(CrossingStoreTest, AddViewCreatesOrJoinsClusters) {
+TEST_P(CrossingStoreTest, AddViewCreatesOrJoinsClusters) {
   auto [db, crossing] = MakeDatabaseWithCrossing("city");
   ASSERT_OK_AND_ASSIGN(AddViewResult a, store_->AddView(MakeView(crossing, 1, 0), {}));
   ASSERT_OK_AND_ASSIGN(AddViewResult b, store_->AddView(MakeView(crossing, 1, 1), {}));
@@ -362,7 +369,7 @@ TEST_F(CrossingStoreTest, AddViewCreatesOrJoinsClusters) {
   EXPECT_EQ(clusters[1].member_view_ids, (std::vector<int64_t>{b.view_id}));
 }
 
-TEST_F(CrossingStoreTest, FailingAddViewLeavesNothingBehind) {
+TEST_P(CrossingStoreTest, FailingAddViewLeavesNothingBehind) {
   auto [db, crossing] = MakeDatabaseWithCrossing("city");
   auto [other_db, other_crossing] = MakeDatabaseWithCrossing("other");
   ASSERT_OK_AND_ASSIGN(AddViewResult foreign, store_->AddView(MakeView(other_crossing, 1, 0), {}));
@@ -397,7 +404,7 @@ TEST_F(CrossingStoreTest, FailingAddViewLeavesNothingBehind) {
 
 // Enrolling the first view of a new crossing creates both in one transaction: a view that cannot
 // be stored leaves no empty crossing behind.
-TEST_F(CrossingStoreTest, AddViewWithNewCrossingIsAllOrNothing) {
+TEST_P(CrossingStoreTest, AddViewWithNewCrossingIsAllOrNothing) {
   auto [db, crossing] = MakeDatabaseWithCrossing("city");
   ASSERT_OK_AND_ASSIGN(AddViewResult added,
                        store_->AddViewWithNewCrossing({db, "new", "label"}, MakeView(0, 3, 1), {}));
@@ -428,7 +435,7 @@ TEST_F(CrossingStoreTest, AddViewWithNewCrossingIsAllOrNothing) {
   EXPECT_EQ(Count("crossing", "name = 'doomed'"), 0);
 }
 
-TEST_F(CrossingStoreTest, ReplaceClustersReassignsIdsAndKeepsTheGivenOrder) {
+TEST_P(CrossingStoreTest, ReplaceClustersReassignsIdsAndKeepsTheGivenOrder) {
   auto [db, crossing] = MakeDatabaseWithCrossing("city");
   std::vector<int64_t> v;
   for (int i = 0; i < 4; ++i) {
@@ -461,7 +468,7 @@ TEST_F(CrossingStoreTest, ReplaceClustersReassignsIdsAndKeepsTheGivenOrder) {
   EXPECT_EQ(Count("cluster_member"), 4);
 }
 
-TEST_F(CrossingStoreTest, InvalidReplacementKeepsTheOldClusters) {
+TEST_P(CrossingStoreTest, InvalidReplacementKeepsTheOldClusters) {
   auto [db, crossing] = MakeDatabaseWithCrossing("city");
   auto [other_db, other_crossing] = MakeDatabaseWithCrossing("other");
   ASSERT_OK_AND_ASSIGN(AddViewResult a, store_->AddView(MakeView(crossing, 1, 0), {}));
@@ -499,7 +506,7 @@ TEST_F(CrossingStoreTest, InvalidReplacementKeepsTheOldClusters) {
 
 // --- DeleteCrossing -----------------------------------------------------------------------------
 
-TEST_F(CrossingStoreTest, DeleteCrossingRemovesItsViewsAndReplacesClusters) {
+TEST_P(CrossingStoreTest, DeleteCrossingRemovesItsViewsAndReplacesClusters) {
   auto [db, doomed] = MakeDatabaseWithCrossing("city", "doomed");
   ASSERT_OK_AND_ASSIGN(CrossingRecord kept, store_->AddCrossing(db, "kept", ""));
   ASSERT_OK_AND_ASSIGN(AddViewResult d0, store_->AddView(MakeView(doomed, 1, 0), {}));
@@ -531,7 +538,7 @@ TEST_F(CrossingStoreTest, DeleteCrossingRemovesItsViewsAndReplacesClusters) {
   EXPECT_EQ(AllCounts(), (std::vector<int64_t>{1, 1, 2, 1, 2}));
 }
 
-TEST_F(CrossingStoreTest, DeleteCrossingWithBadClustersChangesNothing) {
+TEST_P(CrossingStoreTest, DeleteCrossingWithBadClustersChangesNothing) {
   auto [db, doomed] = MakeDatabaseWithCrossing("city", "doomed");
   ASSERT_OK_AND_ASSIGN(CrossingRecord kept, store_->AddCrossing(db, "kept", ""));
   ASSERT_OK_AND_ASSIGN(AddViewResult d0, store_->AddView(MakeView(doomed, 1, 0), {}));
@@ -556,7 +563,7 @@ TEST_F(CrossingStoreTest, DeleteCrossingWithBadClustersChangesNothing) {
   EXPECT_EQ(clusters[0].center_view_id, d0.view_id);
 }
 
-TEST_F(CrossingStoreTest, DeleteCrossingOfAnotherDatabaseIsNotFound) {
+TEST_P(CrossingStoreTest, DeleteCrossingOfAnotherDatabaseIsNotFound) {
   auto [db, crossing] = MakeDatabaseWithCrossing("city");
   auto [other_db, other_crossing] = MakeDatabaseWithCrossing("other");
   absl::StatusOr<int> result = store_->DeleteCrossing(db, other_crossing, {});
@@ -569,7 +576,7 @@ TEST_F(CrossingStoreTest, DeleteCrossingOfAnotherDatabaseIsNotFound) {
 
 // --- Persistence and sharing --------------------------------------------------------------------
 
-TEST_F(CrossingStoreTest, ReopeningTheFileGivesTheSameData) {
+TEST_P(CrossingStoreTest, ReopeningTheFileGivesTheSameData) {
   auto [db, crossing] = MakeDatabaseWithCrossing("city");
   std::vector<ViewRecord> written;
   for (int i = 0; i < 3; ++i) {
@@ -581,9 +588,8 @@ TEST_F(CrossingStoreTest, ReopeningTheFileGivesTheSameData) {
   }
   ASSERT_OK_AND_ASSIGN(std::vector<ClusterRecord> clusters_before, store_->LoadClusters(db));
   store_.reset();  // closes the connection (and checkpoints the WAL)
-  raw_.reset();
 
-  ASSERT_OK_AND_ASSIGN(std::unique_ptr<CrossingStore> reopened, OpenSqliteCrossingStore(path_));
+  ASSERT_OK_AND_ASSIGN(std::unique_ptr<CrossingStore> reopened, OpenCrossingStore(database_.db()));
   ASSERT_OK_AND_ASSIGN(DatabaseRecord record, reopened->GetDatabase("city"));
   EXPECT_EQ(record.id, db);
   ASSERT_OK_AND_ASSIGN(std::vector<ViewRecord> views, reopened->LoadViews(db));
@@ -602,8 +608,8 @@ TEST_F(CrossingStoreTest, ReopeningTheFileGivesTheSameData) {
   }
 }
 
-TEST_F(CrossingStoreTest, TwoStoresOnOneFileSeeEachOthersCommits) {
-  ASSERT_OK_AND_ASSIGN(std::unique_ptr<CrossingStore> second, OpenSqliteCrossingStore(path_));
+TEST_P(CrossingStoreTest, TwoStoresOnOneFileSeeEachOthersCommits) {
+  ASSERT_OK_AND_ASSIGN(std::unique_ptr<CrossingStore> second, OpenCrossingStore(database_.db()));
   auto [db, crossing] = MakeDatabaseWithCrossing("city");
   ASSERT_OK_AND_ASSIGN(AddViewResult added, store_->AddView(MakeView(crossing, 3, 0), {}));
 
@@ -620,8 +626,8 @@ TEST_F(CrossingStoreTest, TwoStoresOnOneFileSeeEachOthersCommits) {
   EXPECT_EQ(CodeOf(store_->AddCrossing(db, "from-second", "")), absl::StatusCode::kAlreadyExists);
 }
 
-TEST_F(CrossingStoreTest, ConcurrentWritersThroughOneAndTwoStoresAllSucceed) {
-  ASSERT_OK_AND_ASSIGN(std::unique_ptr<CrossingStore> second, OpenSqliteCrossingStore(path_));
+TEST_P(CrossingStoreTest, ConcurrentWritersThroughOneAndTwoStoresAllSucceed) {
+  ASSERT_OK_AND_ASSIGN(std::unique_ptr<CrossingStore> second, OpenCrossingStore(database_.db()));
   // Plain variables: C++17 lambdas cannot capture structured bindings.
   const auto [db_id, crossing_id] = MakeDatabaseWithCrossing("city");
   const int64_t db = db_id;

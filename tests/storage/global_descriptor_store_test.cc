@@ -9,7 +9,9 @@
 
 #include "gtest/gtest.h"
 #include "storage/crossing_store.h"
+#include "storage/open_stores.h"
 #include "tests/storage/status_testing.h"
+#include "tests/storage/store_backend.h"
 #include "tests/storage/temp_dir.h"
 #include "tests/storage/view_records.h"
 
@@ -17,12 +19,18 @@ namespace waymark::storage {
 namespace {
 
 using ::waymark::storage::testing::MakeView;
-using ::waymark::storage::testing::TempDir;
+using ::waymark::storage::testing::TestDatabase;
 
-TEST(GlobalDescriptorStoreTest, WorkImageCodeAndSampleAreStoredWithTheView) {
-  TempDir dir;
+// One suite, both backends (store_backend.h).
+class GlobalDescriptorStoreTest : public ::testing::TestWithParam<testing::Backend> {};
+INSTANTIATE_TEST_SUITE_P(Backends, GlobalDescriptorStoreTest, testing::kBothBackends,
+                         testing::BackendName);
+
+TEST_P(GlobalDescriptorStoreTest, WorkImageCodeAndSampleAreStoredWithTheView) {
+  TestDatabase database(GetParam());
+  WAYMARK_SKIP_WITHOUT(database);
   ASSERT_OK_AND_ASSIGN(std::unique_ptr<CrossingStore> store,
-                       OpenSqliteCrossingStore(dir.File("waymark.db")));
+                       OpenCrossingStore(database.db()));
   ASSERT_OK_AND_ASSIGN(DatabaseRecord db, store->CreateDatabase("city", "{}"));
   ASSERT_OK_AND_ASSIGN(CrossingRecord a, store->AddCrossing(db.id, "A", ""));
   ViewRecord kept = MakeView(a.id, 2, 1, 30);
@@ -44,10 +52,11 @@ TEST(GlobalDescriptorStoreTest, WorkImageCodeAndSampleAreStoredWithTheView) {
   EXPECT_EQ(store->LoadWorkImage(9999).status().code(), absl::StatusCode::kNotFound);
 }
 
-TEST(GlobalDescriptorStoreTest, CodesAreSavedWithTheVocabularyForTheDatabasesOwnViewsOnly) {
-  TempDir dir;
+TEST_P(GlobalDescriptorStoreTest, CodesAreSavedWithTheVocabularyForTheDatabasesOwnViewsOnly) {
+  TestDatabase database(GetParam());
+  WAYMARK_SKIP_WITHOUT(database);
   ASSERT_OK_AND_ASSIGN(std::unique_ptr<CrossingStore> store,
-                       OpenSqliteCrossingStore(dir.File("waymark.db")));
+                       OpenCrossingStore(database.db()));
   ASSERT_OK_AND_ASSIGN(DatabaseRecord city, store->CreateDatabase("city", "{}"));
   ASSERT_OK_AND_ASSIGN(DatabaseRecord town, store->CreateDatabase("town", "{}"));
   ASSERT_OK_AND_ASSIGN(CrossingRecord a, store->AddCrossing(city.id, "A", ""));
@@ -68,12 +77,13 @@ TEST(GlobalDescriptorStoreTest, CodesAreSavedWithTheVocabularyForTheDatabasesOwn
   EXPECT_EQ(store->SaveViewCodes(9999, {}).code(), absl::StatusCode::kNotFound);
 }
 
-TEST(GlobalDescriptorStoreTest, VocabularyIsReplacedAndSurvivesReopening) {
-  TempDir dir;
-  const std::string path = dir.File("waymark.db");
+TEST_P(GlobalDescriptorStoreTest, VocabularyIsReplacedAndSurvivesReopening) {
+  TestDatabase database(GetParam());
+  WAYMARK_SKIP_WITHOUT(database);
+  const std::string path = database.db();
   int64_t id = 0;
   {
-    ASSERT_OK_AND_ASSIGN(std::unique_ptr<CrossingStore> store, OpenSqliteCrossingStore(path));
+    ASSERT_OK_AND_ASSIGN(std::unique_ptr<CrossingStore> store, OpenCrossingStore(path));
     ASSERT_OK_AND_ASSIGN(DatabaseRecord db, store->CreateDatabase("city", "{}"));
     id = db.id;
     ASSERT_OK_AND_ASSIGN(std::optional<VocabularyRecord> none, store->LoadVocabulary(id));
@@ -81,17 +91,18 @@ TEST(GlobalDescriptorStoreTest, VocabularyIsReplacedAndSurvivesReopening) {
     ASSERT_OK(store->SaveVocabulary({id, 4, std::string("first\0", 6)}, {}));
     ASSERT_OK(store->SaveVocabulary({id, 8, "second"}, {}));
   }
-  ASSERT_OK_AND_ASSIGN(std::unique_ptr<CrossingStore> store, OpenSqliteCrossingStore(path));
+  ASSERT_OK_AND_ASSIGN(std::unique_ptr<CrossingStore> store, OpenCrossingStore(path));
   ASSERT_OK_AND_ASSIGN(std::optional<VocabularyRecord> loaded, store->LoadVocabulary(id));
   ASSERT_TRUE(loaded.has_value());
   EXPECT_EQ(loaded->trained_views, 8);
   EXPECT_EQ(loaded->data, "second");
 }
 
-TEST(GlobalDescriptorStoreTest, VocabularyOfAnUnknownDatabaseIsRefusedAndGoesWithItsDatabase) {
-  TempDir dir;
+TEST_P(GlobalDescriptorStoreTest, VocabularyOfAnUnknownDatabaseIsRefusedAndGoesWithItsDatabase) {
+  TestDatabase database(GetParam());
+  WAYMARK_SKIP_WITHOUT(database);
   ASSERT_OK_AND_ASSIGN(std::unique_ptr<CrossingStore> store,
-                       OpenSqliteCrossingStore(dir.File("waymark.db")));
+                       OpenCrossingStore(database.db()));
   EXPECT_EQ(store->SaveVocabulary({999, 1, "x"}, {}).code(), absl::StatusCode::kNotFound);
   ASSERT_OK_AND_ASSIGN(DatabaseRecord db, store->CreateDatabase("city", "{}"));
   ASSERT_OK(store->SaveVocabulary({db.id, 1, "x"}, {}));

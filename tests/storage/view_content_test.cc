@@ -10,10 +10,12 @@
 
 #include "gtest/gtest.h"
 #include "storage/crossing_store.h"
+#include "storage/open_stores.h"
 #include "storage/migrations.h"
 #include "storage/sha256.h"
 #include "storage/sqlite.h"
 #include "tests/storage/status_testing.h"
+#include "tests/storage/store_backend.h"
 #include "tests/storage/temp_dir.h"
 #include "tests/storage/view_records.h"
 
@@ -25,12 +27,16 @@ using ::waymark::storage::testing::FakeDigest;
 using ::waymark::storage::testing::MakeHashedView;
 using ::waymark::storage::testing::MakeView;
 using ::waymark::storage::testing::TempDir;
+using ::waymark::storage::testing::TestDatabase;
 
-class ViewContentTest : public ::testing::Test {
+// One suite, both backends (store_backend.h).
+class ViewContentTest : public ::testing::TestWithParam<testing::Backend> {
  protected:
+  ViewContentTest() : database_(GetParam()) {}
+
   void SetUp() override {
-    path_ = dir_.File("waymark.db");
-    ASSERT_OK_AND_ASSIGN(store_, OpenSqliteCrossingStore(path_));
+    WAYMARK_SKIP_WITHOUT(database_);
+    ASSERT_OK_AND_ASSIGN(store_, OpenCrossingStore(database_.db()));
     ASSERT_OK_AND_ASSIGN(DatabaseRecord db, store_->CreateDatabase("city", "{}"));
     db_ = db.id;
     ASSERT_OK_AND_ASSIGN(CrossingRecord a, store_->AddCrossing(db_, "A", ""));
@@ -51,8 +57,7 @@ class ViewContentTest : public ::testing::Test {
     return clusters.ok() ? *clusters : std::vector<ClusterRecord>();
   }
 
-  TempDir dir_;
-  std::string path_;
+  TestDatabase database_;
   std::unique_ptr<CrossingStore> store_;
   int64_t db_ = 0;
   int64_t a_ = 0;
@@ -65,7 +70,9 @@ TEST(Sha256Test, KnownDigest) {
             "ba7816bf8f01cfea414140de5dae2223b00361a396177a9cb410ff61f20015ad");
 }
 
-TEST_F(ViewContentTest, HashRoundTripsAndAnUnknownOneStaysEmpty) {
+INSTANTIATE_TEST_SUITE_P(Backends, ViewContentTest, testing::kBothBackends, testing::BackendName);
+
+TEST_P(ViewContentTest, HashRoundTripsAndAnUnknownOneStaysEmpty) {
   ASSERT_OK(store_->AddView(MakeHashedView(a_, 1), {}));
   ASSERT_OK(store_->AddView(MakeView(a_, 2, 7), {}));
   const std::vector<ViewRecord> views = Views();
@@ -74,7 +81,7 @@ TEST_F(ViewContentTest, HashRoundTripsAndAnUnknownOneStaysEmpty) {
   EXPECT_EQ(views[1].content_sha256, "");
 }
 
-TEST_F(ViewContentTest, TheSameImageIsStoredOncePerDatabase) {
+TEST_P(ViewContentTest, TheSameImageIsStoredOncePerDatabase) {
   ASSERT_OK_AND_ASSIGN(AddViewResult first, store_->AddView(MakeHashedView(a_, 1), {}));
 
   // Same crossing, another crossing, another heading: all the same image.
@@ -103,17 +110,17 @@ TEST_F(ViewContentTest, TheSameImageIsStoredOncePerDatabase) {
   EXPECT_EQ(Views().size(), 4u);
 }
 
-TEST_F(ViewContentTest, AHashThatIsNotADigestIsInvalid) {
+TEST_P(ViewContentTest, AHashThatIsNotADigestIsInvalid) {
   ViewRecord view = MakeView(a_, 2, 1);
   view.content_sha256 = "short";
   EXPECT_EQ(CodeOf(store_->AddView(view, {})), absl::StatusCode::kInvalidArgument);
   EXPECT_TRUE(Views().empty());
 }
 
-// Two stores on one file (two connections) and two threads on each, all adding the same image:
+// Two stores on one database (two connections) and two threads on each, all adding the same image:
 // the check and the insert are one write transaction, so exactly one wins.
-TEST_F(ViewContentTest, ConcurrentAddsOfOneImageStoreItOnce) {
-  ASSERT_OK_AND_ASSIGN(std::unique_ptr<CrossingStore> second, OpenSqliteCrossingStore(path_));
+TEST_P(ViewContentTest, ConcurrentAddsOfOneImageStoreItOnce) {
+  ASSERT_OK_AND_ASSIGN(std::unique_ptr<CrossingStore> second, OpenCrossingStore(database_.db()));
   constexpr int kThreads = 4;
   constexpr int kImages = 10;
   std::atomic<int> stored{0};
@@ -143,7 +150,7 @@ TEST_F(ViewContentTest, ConcurrentAddsOfOneImageStoreItOnce) {
   EXPECT_EQ(Views().size(), static_cast<size_t>(kImages));
 }
 
-TEST_F(ViewContentTest, ReplaceViewsSwapsViewsAndClustersInOneGo) {
+TEST_P(ViewContentTest, ReplaceViewsSwapsViewsAndClustersInOneGo) {
   ASSERT_OK_AND_ASSIGN(AddViewResult v1, store_->AddView(MakeHashedView(a_, 1, 0), {}));
   ClusterAssignment join;
   join.new_cluster = false;
@@ -191,7 +198,7 @@ TEST_F(ViewContentTest, ReplaceViewsSwapsViewsAndClustersInOneGo) {
   EXPECT_EQ(Clusters().size(), 2u);
 }
 
-TEST_F(ViewContentTest, AFailedReplacementChangesNothing) {
+TEST_P(ViewContentTest, AFailedReplacementChangesNothing) {
   ASSERT_OK_AND_ASSIGN(AddViewResult v1, store_->AddView(MakeHashedView(a_, 1, 0), {}));
   ASSERT_OK_AND_ASSIGN(AddViewResult v2, store_->AddView(MakeHashedView(a_, 2, 90), {}));
   ASSERT_OK_AND_ASSIGN(DatabaseRecord other, store_->CreateDatabase("other", "{}"));

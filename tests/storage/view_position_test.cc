@@ -7,9 +7,11 @@
 
 #include "gtest/gtest.h"
 #include "storage/crossing_store.h"
+#include "storage/open_stores.h"
 #include "storage/migrations.h"
 #include "storage/sqlite.h"
 #include "tests/storage/status_testing.h"
+#include "tests/storage/store_backend.h"
 #include "tests/storage/temp_dir.h"
 #include "tests/storage/view_records.h"
 
@@ -19,11 +21,17 @@ namespace {
 using ::waymark::storage::testing::MakeHashedView;
 using ::waymark::storage::testing::MakeView;
 using ::waymark::storage::testing::TempDir;
+using ::waymark::storage::testing::TestDatabase;
 
-TEST(ViewPositionTest, PositionIsStoredAndLoadedWithTheView) {
-  TempDir dir;
+// One suite, both backends (store_backend.h).
+class ViewPositionTest : public ::testing::TestWithParam<testing::Backend> {};
+INSTANTIATE_TEST_SUITE_P(Backends, ViewPositionTest, testing::kBothBackends, testing::BackendName);
+
+TEST_P(ViewPositionTest, PositionIsStoredAndLoadedWithTheView) {
+  TestDatabase database(GetParam());
+  WAYMARK_SKIP_WITHOUT(database);
   ASSERT_OK_AND_ASSIGN(std::unique_ptr<CrossingStore> store,
-                       OpenSqliteCrossingStore(dir.File("waymark.db")));
+                       OpenCrossingStore(database.db()));
   ASSERT_OK_AND_ASSIGN(DatabaseRecord db, store->CreateDatabase("city", "{}"));
   ASSERT_OK_AND_ASSIGN(CrossingRecord a, store->AddCrossing(db.id, "A", ""));
   ViewRecord kerb = MakeView(a.id, 2, 1, 30);

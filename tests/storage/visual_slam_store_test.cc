@@ -1,17 +1,22 @@
-// Visual sessions in the SQLite SlamStore (schema v4): the kind is accepted, 3-D trajectory poses
-// round-trip with their z and quaternion while laser rows keep NULL there, and a v3 file (laser
-// sessions only) migrates with its sessions and trajectories intact and its cascade still working.
+// Visual sessions in the SlamStore: the kind is accepted and 3-D trajectory poses round-trip with
+// their z and quaternion while laser rows keep NULL there, on both backends (a SQLite file, a
+// PostgreSQL database); and a SQLite v3 file (laser sessions only, schema v4 added visual ones)
+// migrates with its sessions and trajectories intact and its cascade still working.
 
 #include <cmath>
 #include <limits>
+#include <memory>
 #include <string>
+#include <utility>
 #include <vector>
 
 #include "gtest/gtest.h"
 #include "storage/migrations.h"
+#include "storage/open_stores.h"
 #include "storage/slam_store.h"
 #include "storage/sqlite.h"
 #include "tests/storage/status_testing.h"
+#include "tests/storage/store_backend.h"
 #include "tests/storage/temp_dir.h"
 
 namespace waymark::storage {
@@ -19,8 +24,10 @@ namespace {
 
 using sqlite::Connection;
 using sqlite::Statement;
+using ::waymark::storage::testing::Backend;
 using ::waymark::storage::testing::CodeOf;
 using ::waymark::storage::testing::TempDir;
+using ::waymark::storage::testing::TestDatabase;
 
 SlamSessionRecord MakeSession(const std::string& id, const std::string& kind) {
   SlamSessionRecord session;
@@ -52,16 +59,20 @@ TrajectoryPoseRecord Pose2(int64_t seq) {
   return pose;
 }
 
-int64_t CountNullZ(Connection& connection) {
-  absl::StatusOr<Statement> stmt =
-      connection.Prepare("SELECT COUNT(*) FROM slam_trajectory WHERE z IS NULL AND qw IS NULL");
-  if (!stmt.ok() || !stmt->Step().ok()) return -1;
-  return stmt->ColumnInt64(0);
-}
+class VisualSlamStoreTest : public ::testing::TestWithParam<Backend> {
+ protected:
+  VisualSlamStoreTest() : database_(GetParam(), "v.db") {}
 
-TEST(VisualSlamStoreTest, ThreeDimensionalPosesRoundTripBesideLaserRows) {
-  TempDir dir;
-  ASSERT_OK_AND_ASSIGN(auto store, OpenSqliteSlamStore(dir.File("v.db")));
+  void SetUp() override { WAYMARK_SKIP_WITHOUT(database_); }
+
+  TestDatabase database_;
+};
+
+INSTANTIATE_TEST_SUITE_P(Backends, VisualSlamStoreTest, testing::kBothBackends,
+                         testing::BackendName);
+
+TEST_P(VisualSlamStoreTest, ThreeDimensionalPosesRoundTripBesideLaserRows) {
+  ASSERT_OK_AND_ASSIGN(auto store, OpenSlamStore(database_.db()));
   ASSERT_OK_AND_ASSIGN(SlamSessionRecord visual, store->CreateSession(MakeSession("v", "visual")));
   EXPECT_EQ(visual.kind, "visual");
   ASSERT_OK(store->CreateSession(MakeSession("l", "laser")));
@@ -93,8 +104,9 @@ TEST(VisualSlamStoreTest, ThreeDimensionalPosesRoundTripBesideLaserRows) {
   EXPECT_EQ(got.kind, "visual");
   EXPECT_EQ(got.trajectory_length, 2);
 
-  ASSERT_OK_AND_ASSIGN(Connection connection, Connection::Open(dir.File("v.db")));
-  EXPECT_EQ(CountNullZ(connection), 1);  // the laser row only
+  ASSERT_OK_AND_ASSIGN(int64_t null_z,
+                       database_.CountRows("slam_trajectory", "z IS NULL AND qw IS NULL"));
+  EXPECT_EQ(null_z, 1);  // the laser row only
 
   SlamCheckpoint nan = checkpoint;
   nan.new_poses = {Pose3(2)};
@@ -102,7 +114,8 @@ TEST(VisualSlamStoreTest, ThreeDimensionalPosesRoundTripBesideLaserRows) {
   EXPECT_EQ(CodeOf(store->WriteCheckpoint("v", nan)), absl::StatusCode::kInvalidArgument);
 }
 
-TEST(VisualSlamStoreTest, VersionThreeFileMigratesWithItsLaserSessions) {
+// SQLite only: PostgreSQL support starts at the schema that already has visual sessions.
+TEST(VisualSlamStoreSqliteTest, VersionThreeFileMigratesWithItsLaserSessions) {
   TempDir dir;
   const std::string path = dir.File("old.db");
   {

@@ -1,0 +1,27 @@
+#ifndef WAYMARK_STORAGE_POSTGRES_PG_ADMIN_H_
+#define WAYMARK_STORAGE_POSTGRES_PG_ADMIN_H_
+
+// Creating and dropping whole PostgreSQL databases on a server: what tests and benchmarks do to
+// get an empty database of their own (the stores never create or drop databases).
+
+#include <string>
+
+#include "absl/status/status.h"
+#include "absl/status/statusor.h"
+
+namespace waymark::storage::pg {
+
+// The URI of database `name` on the server `server_uri` names (its path replaced).
+std::string DatabaseUri(const std::string& server_uri, const std::string& name);
+
+// Drops database `name` if it exists (closing its connections) and creates it empty; returns its
+// URI. `name` must be a plain identifier (letters, digits, '_'): INVALID_ARGUMENT otherwise.
+absl::StatusOr<std::string> RecreateDatabase(const std::string& server_uri,
+                                             const std::string& name);
+
+// Drops database `name` if it exists, closing its connections.
+absl::Status DropDatabase(const std::string& server_uri, const std::string& name);
+
+}  // namespace waymark::storage::pg
+
+#endif  // WAYMARK_STORAGE_POSTGRES_PG_ADMIN_H_
