@@ -24,6 +24,7 @@
 #include <csignal>
 #include <cstdio>
 #include <optional>
+#include <random>
 #include <thread>
 
 #include <CLI/CLI.hpp>
@@ -33,8 +34,10 @@
 #include <spdlog/sinks/stdout_color_sinks.h>
 #include <spdlog/spdlog.h>
 
+#include "absl/strings/str_cat.h"
 #include "server/service/authenticator.h"
 #include "server/service/call_interceptor.h"
+#include "server/service/crossing_fleet_sync.h"
 #include "server/service/crossing_registry.h"
 #include "server/service/crossing_service.h"
 #include "server/service/idle_stream_reaper.h"
@@ -62,6 +65,10 @@ struct ServerFlags {
   std::string listen = "127.0.0.1:50051";
   std::string db = "./var/waymark.db";
   std::string metrics_listen;  // "" = no metrics endpoint
+  // Where robots reach this server, named when another server redirects a robot here (a fleet on
+  // PostgreSQL); "" = the --listen address.
+  std::string advertise;
+  double session_lease_seconds = 15;
   int threads = 0;  // 0: gRPC's default (grows with load)
   int max_message_mb = 32;
   double shutdown_grace_s = 10;
@@ -83,6 +90,12 @@ void HintFirstToken(waymark::storage::TokenStore& tokens, const ServerFlags& fla
       "`waymark-server --db {} token create admin --role admin` (prints the secret once; then "
       "`waymark --token SECRET token create ROBOT --role robot`)",
       waymark::storage::PrintableDatabase(flags.db));
+}
+
+// This process's id in SLAM session leases: random, so a restarted server is a new holder.
+std::string RandomServerId() {
+  std::random_device device;
+  return absl::StrCat(absl::Hex(device(), absl::kZeroPad8), absl::Hex(device(), absl::kZeroPad8));
 }
 
 int Run(const ServerFlags& flags) {
@@ -125,7 +138,23 @@ int Run(const ServerFlags& flags) {
                databases->databases_size(), views,
                std::chrono::duration<double>(std::chrono::steady_clock::now() - load_start).count());
 
-  auto slam_registry = waymark::service::SlamRegistry::Create(std::move(stores->slam), flags.slam);
+  // With PostgreSQL, other servers may enroll into the same databases: follow them.
+  auto fleet_sync = waymark::service::CrossingFleetSync::Start(registry->get());
+  if (fleet_sync != nullptr) {
+    spdlog::info("following the other servers of {} (LISTEN/NOTIFY, and a sync every 5 s)",
+                 db_name);
+  }
+
+  waymark::service::SlamRegistryOptions slam_options = flags.slam;
+  if (waymark::storage::IsPostgresDatabase(flags.db)) {
+    // Other servers share the sessions: each is served by the one holding its lease.
+    slam_options.lease.owner = RandomServerId();
+    slam_options.lease.address = flags.advertise.empty() ? flags.listen : flags.advertise;
+    slam_options.lease.ttl_seconds = flags.session_lease_seconds;
+    spdlog::info("SLAM sessions leased as server {} at {} ({} s leases)", slam_options.lease.owner,
+                 slam_options.lease.address, slam_options.lease.ttl_seconds);
+  }
+  auto slam_registry = waymark::service::SlamRegistry::Create(std::move(stores->slam), slam_options);
   if (!slam_registry.ok()) {
     spdlog::error("cannot start SLAM sessions: {}", slam_registry.status().ToString());
     return 2;
@@ -182,6 +211,7 @@ int Run(const ServerFlags& flags) {
   server->GetHealthCheckService()->SetServingStatus("waymark.v1.SlamService", true);
   server->GetHealthCheckService()->SetServingStatus("waymark.v1.TokenService", true);
   const std::string host = flags.listen.substr(0, flags.listen.rfind(':'));
+  if (flags.advertise.empty()) (*slam_registry)->set_lease_address(absl::StrCat(host, ":", port));
   std::printf("waymark-server listening on %s:%d\n", host.c_str(), port);
   spdlog::info("{} on {}:{}; auth {}", flags.security.tls_cert.empty() ? "plaintext" : "TLS", host,
                port, flags.security.insecure_dev ? "OFF (--insecure-dev)" : "by bearer token");
@@ -273,6 +303,16 @@ int main(int argc, char** argv) {
   app.add_option("--slam-checkpoint-scans", flags.slam.checkpoint_scans,
                  "also checkpoint a SLAM session every N processed scans (0 = off)")
       ->check(CLI::NonNegativeNumber)
+      ->capture_default_str();
+  app.add_option("--advertise", flags.advertise,
+                 "HOST:PORT robots reach this server at, when several servers share a PostgreSQL "
+                 "database (another server names it to a robot whose session this one serves; "
+                 "default: the --listen address)")
+      ->envname("WAYMARK_ADVERTISE");
+  app.add_option("--session-lease-seconds", flags.session_lease_seconds,
+                 "with PostgreSQL: how long a SLAM session stays with a server that stops renewing "
+                 "its lease (a dead server's robots move to another after this)")
+      ->check(CLI::Range(1.0, 3600.0))
       ->capture_default_str();
   app.add_option("--metrics-listen", flags.metrics_listen,
                  "serve Prometheus metrics at http://IPV4:PORT/metrics (empty = off; port 0 picks one)");

@@ -29,6 +29,13 @@ struct DatabaseRecord {
   std::string name;
   std::string params;  // opaque to storage (the service stores the proto's JSON)
   double created_at = 0;  // unix seconds
+  // How servers sharing the database tell that another one changed it (docs/scale-out.md): every
+  // write to the database adds 1 to `revision`; the writes that are not appends of crossings and
+  // views (deletions, replacements, re-clustering, a vocabulary or codes, new params) also add 1
+  // to `reload_revision`, telling a server that it must load the database again rather than read
+  // the views after its newest one.
+  int64_t revision = 0;
+  int64_t reload_revision = 0;
 };
 
 struct CrossingRecord {
@@ -126,17 +133,50 @@ struct ViewReplacementResult {
   std::vector<ClusterRecord> clusters;  // `clusters` as stored (new ids), in the given order
 };
 
-// Every mutating call is one transaction: it happens entirely or not at all.
+// Held while a server writes to one crossing database (LockForWriting).
+class DatabaseWriteLock {
+ public:
+  virtual ~DatabaseWriteLock() = default;
+};
+
+// Tells a server that another one changed some crossing database (WatchChanges).
+class ChangeFeed {
+ public:
+  virtual ~ChangeFeed() = default;
+  // Waits up to `timeout_ms` for changes; true when any arrived since the last call (all of them
+  // are consumed). UNAVAILABLE when the connection is lost: changes may have been missed, so the
+  // caller looks at every database again and opens a new feed.
+  virtual absl::StatusOr<bool> Wait(int timeout_ms) = 0;
+};
+
+// Every mutating call is one transaction: it happens entirely or not at all, and adds to the
+// database's revisions as DatabaseRecord says (each call exactly 1 to `revision`; the calls marked
+// "reload" below also 1 to `reload_revision`).
 // Errors: NOT_FOUND (unknown id/name), ALREADY_EXISTS (duplicate name), INVALID_ARGUMENT (blob sizes
-// inconsistent with counts), INTERNAL (SQLite failure, message carries SQLite's text).
+// inconsistent with counts), UNAVAILABLE (the database cannot be reached, or stayed locked by
+// another writer), INTERNAL (a database failure, the message carries the database's text).
 class CrossingStore {
  public:
   virtual ~CrossingStore() = default;
+
+  // True when other servers may write to the same database (PostgreSQL): a server then takes
+  // LockForWriting around its writes and follows WatchChanges. A SQLite file has one server
+  // (storage/database_lock.h).
+  virtual bool shared() const = 0;
+  // Excludes every other holder, in this process or another, from writing to the database until
+  // the lock is destroyed: what keeps the clustering of one database consistent when servers
+  // enroll into it at once. Waits up to 30 s, then UNAVAILABLE. Where the store is not shared it
+  // excludes nothing (the caller's own locks do).
+  virtual absl::StatusOr<std::unique_ptr<DatabaseWriteLock>> LockForWriting(
+      int64_t database_id) = 0;
+  // A feed of other servers' changes; nullptr where the store is not shared.
+  virtual absl::StatusOr<std::unique_ptr<ChangeFeed>> WatchChanges() = 0;
 
   virtual absl::StatusOr<DatabaseRecord> CreateDatabase(const std::string& name,
                                                         const std::string& params) = 0;
   virtual absl::StatusOr<std::vector<DatabaseRecord>> ListDatabases() = 0;
   virtual absl::StatusOr<DatabaseRecord> GetDatabase(const std::string& name) = 0;
+  // Reload.
   virtual absl::Status UpdateDatabaseParams(int64_t database_id, const std::string& params) = 0;
   // Deletes the database with its crossings, views and clusters.
   virtual absl::Status DeleteDatabase(const std::string& name) = 0;
@@ -145,7 +185,7 @@ class CrossingStore {
                                                      const std::string& label) = 0;
   virtual absl::StatusOr<std::vector<CrossingRecord>> ListCrossings(int64_t database_id) = 0;
   // Deletes the crossing and its views, and replaces the database's clusters by `clusters`
-  // (computed by the caller over the remaining views), all in one transaction.
+  // (computed by the caller over the remaining views), all in one transaction. Reload.
   // Returns the number of views deleted.
   virtual absl::StatusOr<int> DeleteCrossing(int64_t database_id, int64_t crossing_id,
                                              const std::vector<ClusterRecord>& clusters) = 0;
@@ -163,30 +203,39 @@ class CrossingStore {
   virtual absl::StatusOr<AddViewResult> AddViewWithNewCrossing(
       const NewCrossing& crossing, const ViewRecord& view, const ClusterAssignment& assignment) = 0;
   // Deletes views and adds the one that replaces them (ViewReplacement), with the new clusters.
+  // Reload.
   // NOT_FOUND when a replaced view is not in the database; ALREADY_EXISTS as AddView.
   virtual absl::StatusOr<ViewReplacementResult> ReplaceViews(const ViewReplacement& replacement) = 0;
   // All views of a database in enrollment (id) order, without image bytes: ForEachView, collected.
   absl::StatusOr<std::vector<ViewRecord>> LoadViews(int64_t database_id);
   // The same, one view at a time, so a server loading thousands of views never holds all the
   // rows at once. Stops at the first error `visit` returns and returns it.
-  virtual absl::Status ForEachView(int64_t database_id,
-                                   const std::function<absl::Status(ViewRecord&&)>& visit) = 0;
+  absl::Status ForEachView(int64_t database_id,
+                           const std::function<absl::Status(ViewRecord&&)>& visit) {
+    return ForEachViewAfter(database_id, 0, visit);
+  }
+  // The views whose id is above `after_view_id`: what another server enrolled since this one's
+  // newest view.
+  virtual absl::Status ForEachViewAfter(
+      int64_t database_id, int64_t after_view_id,
+      const std::function<absl::Status(ViewRecord&&)>& visit) = 0;
   // Encoded image of a view, NOT_FOUND when it was not stored.
   virtual absl::StatusOr<std::string> LoadViewImage(int64_t view_id) = 0;
   // Clusters in id order, members in view id order (centre included).
   virtual absl::StatusOr<std::vector<ClusterRecord>> LoadClusters(int64_t database_id) = 0;
   // Stores (replacing) the database's vocabulary and, in the same transaction, the views' codes
   // under it. Codes of views that are no longer in the database (deleted while the vocabulary was
-  // being trained) are skipped. NOT_FOUND for an unknown database.
+  // being trained) are skipped. NOT_FOUND for an unknown database. Reload.
   virtual absl::Status SaveVocabulary(const VocabularyRecord& vocabulary,
                                       const std::vector<ViewCode>& codes) = 0;
-  // Replaces the codes of views of the database (skipping views it no longer holds).
+  // Replaces the codes of views of the database (skipping views it no longer holds). Reload.
   virtual absl::Status SaveViewCodes(int64_t database_id, const std::vector<ViewCode>& codes) = 0;
   // The grey working image of a view (ViewRecord::work_image); NOT_FOUND when none was kept.
   virtual absl::StatusOr<std::string> LoadWorkImage(int64_t view_id) = 0;
   // The database's vocabulary; nullopt when none was saved.
   virtual absl::StatusOr<std::optional<VocabularyRecord>> LoadVocabulary(int64_t database_id) = 0;
   // Replaces all clusters of the database (ids are reassigned; returned in the given order).
+  // Reload.
   virtual absl::StatusOr<std::vector<ClusterRecord>> ReplaceClusters(
       int64_t database_id, const std::vector<ClusterRecord>& clusters) = 0;
 };

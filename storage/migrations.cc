@@ -215,6 +215,24 @@ ALTER TABLE view ADD COLUMN global_code BLOB;
 ALTER TABLE view ADD COLUMN global_sample BLOB;
 )sql";
 
+// v9: revisions of each crossing database (issue 19), so that servers sharing a database tell
+// what another one changed: `revision` counts every write, `reload_revision` the writes that are
+// not appends (crossing_store.h, DatabaseRecord).
+constexpr absl::string_view kV9DatabaseRevisions = R"sql(
+ALTER TABLE crossing_db ADD COLUMN revision INTEGER NOT NULL DEFAULT 0;
+ALTER TABLE crossing_db ADD COLUMN reload_revision INTEGER NOT NULL DEFAULT 0;
+)sql";
+
+// v10: SLAM session leases (issue 19): when several servers share one database, each open session
+// is served by one of them at a time (slam_store.h, SlamLease). The holder's id, the address robots
+// reach it at, and when its lease expires (unix seconds); all NULL while nobody holds the session,
+// which is what every session stored before was.
+constexpr absl::string_view kV10SlamLeases = R"sql(
+ALTER TABLE slam_session ADD COLUMN lease_owner TEXT;
+ALTER TABLE slam_session ADD COLUMN lease_address TEXT;
+ALTER TABLE slam_session ADD COLUMN lease_expires_at REAL;
+)sql";
+
 absl::Status TooNewError(sqlite::Connection& connection, int version, int latest) {
   return absl::FailedPreconditionError(absl::StrCat(
       "database \"", connection.path(), "\" has schema version ", version,
@@ -235,6 +253,8 @@ const std::vector<absl::string_view>& SchemaMigrations() {
       kV6ViewPosition,
       kV7GlobalDescriptor,
       kV8GlobalCodes,
+      kV9DatabaseRevisions,
+      kV10SlamLeases,
   };
   return *kSteps;
 }

@@ -5,6 +5,7 @@
 #include <optional>
 
 #include "absl/strings/str_cat.h"
+#include "storage/status_macros.h"
 #include "storage/store_util.h"
 
 namespace waymark::storage {
@@ -26,6 +27,10 @@ bool IsFinitePose(const TrajectoryPoseRecord& pose) {
 
 std::string PoseContext(absl::string_view id, int64_t seq) {
   return absl::StrCat("SLAM session ", Quoted(id), ": trajectory pose ", seq);
+}
+
+absl::Status SlamSessionClosed(absl::string_view id) {
+  return absl::FailedPreconditionError(absl::StrCat("SLAM session ", Quoted(id), " is closed"));
 }
 
 }  // namespace
@@ -70,10 +75,10 @@ absl::Status CheckSlamCheckpoint(const SlamCheckpoint& checkpoint) {
 
 absl::Status CheckCheckpointApplies(const SlamSessionRecord& session,
                                     const SlamCheckpoint& checkpoint) {
-  if (session.state == SlamSessionState::kClosed) {
-    return absl::FailedPreconditionError(
-        absl::StrCat("SLAM session ", Quoted(session.id), " is closed"));
-  }
+  if (session.state == SlamSessionState::kClosed) return SlamSessionClosed(session.id);
+  // Before the seq check: a server that lost its lease is usually also behind its successor's
+  // trajectory, and what it must be told is that it lost the session.
+  RETURN_IF_ERROR(CheckLeaseFence(session, checkpoint));
   int64_t next_seq = session.trajectory_length;
   for (const TrajectoryPoseRecord& pose : checkpoint.new_poses) {
     if (pose.seq != next_seq) {
@@ -84,6 +89,40 @@ absl::Status CheckCheckpointApplies(const SlamSessionRecord& session,
     ++next_seq;
   }
   return absl::OkStatus();
+}
+
+absl::Status CheckLeaseFence(const SlamSessionRecord& session, const SlamCheckpoint& checkpoint) {
+  if (checkpoint.lease_owner.empty() || session.lease.owner == checkpoint.lease_owner) {
+    return absl::OkStatus();
+  }
+  if (session.lease.owner.empty()) {
+    // Released (or never taken): nobody took it over yet, but this server gave it up or never had
+    // it, and another may take it at any moment; its writes must not land.
+    return absl::FailedPreconditionError(
+        absl::StrCat("SLAM session ", Quoted(session.id),
+                     " is held by no server; this server's lease was lost"));
+  }
+  return absl::FailedPreconditionError(absl::StrCat(
+      "SLAM session ", Quoted(session.id), " is held by another server (", session.lease.address,
+      ") since it took the session over; this server's lease was lost"));
+}
+
+absl::Status CheckLeaseRequest(absl::string_view owner, double ttl_seconds) {
+  if (owner.empty()) return absl::InvalidArgumentError("SLAM session lease owner is empty");
+  if (!std::isfinite(ttl_seconds) || ttl_seconds <= 0) {
+    return absl::InvalidArgumentError(absl::StrCat("SLAM session lease ttl ", ttl_seconds,
+                                                   " s is not a positive finite number"));
+  }
+  return absl::OkStatus();
+}
+
+absl::StatusOr<SlamLease> LeaseAfterAcquire(const SlamSessionRecord& session,
+                                            absl::string_view owner, absl::string_view address,
+                                            double ttl_seconds, double now) {
+  if (session.state == SlamSessionState::kClosed) return SlamSessionClosed(session.id);
+  const SlamLease& held = session.lease;
+  if (!held.owner.empty() && held.owner != owner && held.expires_at >= now) return held;
+  return SlamLease{std::string(owner), std::string(address), now + ttl_seconds};
 }
 
 absl::Status SlamSessionNotFound(absl::string_view id) {
@@ -98,7 +137,8 @@ std::string SelectSlamSessions(bool with_checkpoint, absl::string_view where) {
   return absl::StrCat(
       "SELECT s.id, s.robot_id, s.name, s.kind, s.config, s.state, s.created_at, s.updated_at, "
       "s.scans_processed, s.map_revision, s.segments, s.last_scan_stamp, s.last_odometry_stamp, "
-      "s.checkpoint_at, (SELECT COUNT(*) FROM slam_trajectory t WHERE t.session_id = s.id), ",
+      "s.checkpoint_at, (SELECT COUNT(*) FROM slam_trajectory t WHERE t.session_id = s.id), "
+      "s.lease_owner, s.lease_address, s.lease_expires_at, ",
       with_checkpoint ? "s.checkpoint" : "NULL", " FROM slam_session s ", where);
 }
 
@@ -127,7 +167,11 @@ absl::StatusOr<SlamSessionRecord> ReadSlamSessionRow(const StoredRow& row) {
   session.last_odometry_stamp = row.OptionalDouble(12);
   session.checkpoint_at = row.OptionalDouble(13).value_or(0.0);
   session.trajectory_length = row.Int64(14);
-  session.checkpoint = row.Text(15);
+  // All NULL while nobody holds the session: an empty lease.
+  session.lease.owner = row.Text(15);
+  session.lease.address = row.Text(16);
+  session.lease.expires_at = row.OptionalDouble(17).value_or(0.0);
+  session.checkpoint = row.Text(18);
   return session;
 }
 

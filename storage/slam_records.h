@@ -32,11 +32,35 @@ absl::StatusOr<SlamSessionRecord> NewSlamSession(const SlamSessionRecord& sessio
 // negative counter. Checked before any transaction starts.
 absl::Status CheckSlamCheckpoint(const SlamCheckpoint& checkpoint);
 
-// Whether `checkpoint` may be written to `session` as read inside the checkpoint's transaction:
-// FAILED_PRECONDITION when the session is closed, INVALID_ARGUMENT when the new poses' seq do not
-// continue its stored trajectory (no gap, no repeat).
+// Whether `checkpoint` may be written to `session` as read inside the checkpoint's transaction
+// (after the session's row is locked, so that no other server can take the lease in between):
+// FAILED_PRECONDITION when the session is closed or the checkpoint is fenced by a lease this owner
+// no longer holds (CheckLeaseFence), INVALID_ARGUMENT when the new poses' seq do not continue its
+// stored trajectory (no gap, no repeat).
 absl::Status CheckCheckpointApplies(const SlamSessionRecord& session,
                                     const SlamCheckpoint& checkpoint);
+
+// The lease fence alone: OK for an unfenced checkpoint (empty lease_owner) or when lease_owner
+// holds `session`'s lease, expired or not; FAILED_PRECONDITION naming the holder's address else.
+absl::Status CheckLeaseFence(const SlamSessionRecord& session, const SlamCheckpoint& checkpoint);
+
+// INVALID_ARGUMENT for an AcquireLease that cannot be granted to anyone: an empty owner, a ttl
+// that is not positive and finite. Checked before any transaction starts.
+absl::Status CheckLeaseRequest(absl::string_view owner, double ttl_seconds);
+
+// The lease `session` (as read inside the lease's transaction, its row locked) holds once `owner`
+// has asked for it at `now` (the database's clock): `owner`'s, until now + ttl, when nobody holds
+// it, `owner` already does (a renewal) or the holder's lease expired before `now`; the stored one,
+// unchanged, else. The store writes it back exactly when its owner is `owner`.
+// FAILED_PRECONDITION when the session is closed.
+absl::StatusOr<SlamLease> LeaseAfterAcquire(const SlamSessionRecord& session,
+                                            absl::string_view owner, absl::string_view address,
+                                            double ttl_seconds, double now);
+
+// The SET list that gives a session's lease up (ReleaseLease, and CloseSession: a closed session
+// has no holder), in both backends' syntax.
+inline constexpr absl::string_view kClearSlamLease =
+    "lease_owner = NULL, lease_address = NULL, lease_expires_at = NULL";
 
 absl::Status SlamSessionNotFound(absl::string_view id);
 absl::Status SlamSessionAlreadyExists(absl::string_view id);

@@ -24,6 +24,17 @@ enum class SlamSessionState { kOpen, kClosed };
 // "open" / "closed", as stored.
 const char* SlamSessionStateName(SlamSessionState state);
 
+// Which server holds an open session (issue 19): when several servers share one database, a
+// session is served by at most one of them at a time. The holder renews the lease well before it
+// expires; a server that died stops renewing, and once the lease has expired another server may
+// take the session over (from its last checkpoint). Times are the database's clock, so servers'
+// clocks need not agree.
+struct SlamLease {
+  std::string owner;      // the holding server's id (random per server process); empty = nobody
+  std::string address;    // where robots reach the holder (host:port), for redirects
+  double expires_at = 0;  // unix seconds by the database's clock
+};
+
 struct SlamSessionRecord {
   std::string id;  // chosen by the caller (the service: 32 random hex digits)
   std::string robot_id;
@@ -43,6 +54,7 @@ struct SlamSessionRecord {
   std::string checkpoint;     // opaque engine state; empty = never checkpointed
   double checkpoint_at = 0;   // unix seconds; 0 = never checkpointed
   int64_t trajectory_length = 0;  // poses stored (read-only: filled by Get/List)
+  SlamLease lease;                // read-only: filled by Get/List, set by AcquireLease
 };
 
 // The rest of a 3-D pose (visual sessions): with the record's x and y, the position (x, y, z)
@@ -73,6 +85,10 @@ struct SlamCheckpoint {
   std::optional<double> last_scan_stamp;
   std::optional<double> last_odometry_stamp;
   std::vector<TrajectoryPoseRecord> new_poses;
+  // When set, the write is fenced by the lease: FAILED_PRECONDITION, and nothing written, unless
+  // this owner holds the session's lease (expired or not: what matters is that no other server
+  // has taken it over). A server that lost its lease can never overwrite its successor's work.
+  std::string lease_owner;
 };
 
 // Every mutating call is one transaction: it happens entirely or not at all.
@@ -101,6 +117,17 @@ class SlamStore {
   // The stored trajectory in seq order.
   virtual absl::StatusOr<std::vector<TrajectoryPoseRecord>> LoadTrajectory(
       const std::string& id) = 0;
+  // Takes the lease of an open session for `owner` (or renews it: the same owner) for
+  // `ttl_seconds` from now, unless another owner holds a lease that has not expired. Returns the
+  // lease as it stands after the call: its owner is `owner` exactly when it was taken. Atomic
+  // against every other server. NOT_FOUND (unknown session), FAILED_PRECONDITION (closed),
+  // INVALID_ARGUMENT (empty owner, ttl not positive and finite).
+  virtual absl::StatusOr<SlamLease> AcquireLease(const std::string& id, const std::string& owner,
+                                                 const std::string& address,
+                                                 double ttl_seconds) = 0;
+  // Gives the lease up, if `owner` holds it, so that another server may take the session at
+  // once (a server shutting down). OK when it does not hold it; NOT_FOUND (unknown session).
+  virtual absl::Status ReleaseLease(const std::string& id, const std::string& owner) = 0;
   // Deletes the session (its row holds the checkpoint) and its trajectory, in one transaction,
   // whatever its state (the service decides whether an open session may go). Returns the session
   // as it was, without checkpoint bytes; its trajectory_length is the number of poses deleted.

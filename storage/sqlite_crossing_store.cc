@@ -41,7 +41,7 @@ absl::Status CheckBlobSize(const Statement& row, int column, int64_t expected, i
 constexpr char kSelectViews[] =
     "SELECT v.id, v.crossing_id, v.heading_deg, v.width, v.height, v.keypoint_count, "
     "v.keypoints, v.descriptors, v.hue_hist, v.hue_bins, v.format_version, v.content_sha256, "
-    "v.position, v.global_code, v.global_sample FROM view v JOIN crossing c ON c.id = v.crossing_id WHERE c.db_id = ? ORDER BY v.id";
+    "v.position, v.global_code, v.global_sample FROM view v JOIN crossing c ON c.id = v.crossing_id WHERE c.db_id = ? AND v.id > ? ORDER BY v.id";
 
 // NULL for an empty string: the blob columns that may be absent use NULL for "none".
 absl::Status BindOptionalBlob(Statement& statement, int index, const std::string& bytes) {
@@ -80,6 +80,15 @@ class SqliteCrossingStore final : public CrossingStore {
  public:
   explicit SqliteCrossingStore(Connection connection) : connection_(std::move(connection)) {}
 
+  // One server per file (storage/database_lock.h): nobody else writes, nothing to watch.
+  bool shared() const override { return false; }
+  absl::StatusOr<std::unique_ptr<DatabaseWriteLock>> LockForWriting(int64_t) override {
+    return std::make_unique<DatabaseWriteLock>();
+  }
+  absl::StatusOr<std::unique_ptr<ChangeFeed>> WatchChanges() override {
+    return std::unique_ptr<ChangeFeed>();
+  }
+
   absl::StatusOr<DatabaseRecord> CreateDatabase(const std::string& name,
                                                 const std::string& params) override {
     if (name.empty()) return absl::InvalidArgumentError("database name is empty");
@@ -103,7 +112,7 @@ class SqliteCrossingStore final : public CrossingStore {
   absl::StatusOr<std::vector<DatabaseRecord>> ListDatabases() override {
     std::lock_guard<std::mutex> lock(mutex_);
     ASSIGN_OR_RETURN(Statement select,
-                     connection_.Prepare("SELECT id, name, params, created_at FROM crossing_db "
+                     connection_.Prepare("SELECT id, name, params, created_at, revision, reload_revision FROM crossing_db "
                                          "ORDER BY name"));
     std::vector<DatabaseRecord> records;
     while (true) {
@@ -117,7 +126,7 @@ class SqliteCrossingStore final : public CrossingStore {
   absl::StatusOr<DatabaseRecord> GetDatabase(const std::string& name) override {
     std::lock_guard<std::mutex> lock(mutex_);
     ASSIGN_OR_RETURN(Statement select,
-                     connection_.Prepare("SELECT id, name, params, created_at FROM crossing_db "
+                     connection_.Prepare("SELECT id, name, params, created_at, revision, reload_revision FROM crossing_db "
                                          "WHERE name = ?"));
     RETURN_IF_ERROR(select.BindText(1, name));
     ASSIGN_OR_RETURN(StepResult step, select.Step());
@@ -131,7 +140,8 @@ class SqliteCrossingStore final : public CrossingStore {
     std::lock_guard<std::mutex> lock(mutex_);
     // One statement: atomic on its own, no explicit transaction needed.
     ASSIGN_OR_RETURN(Statement update,
-                     connection_.Prepare("UPDATE crossing_db SET params = ? WHERE id = ?"));
+                     connection_.Prepare("UPDATE crossing_db SET params = ?, revision = revision + 1, "
+                                         "reload_revision = reload_revision + 1 WHERE id = ?"));
     RETURN_IF_ERROR(update.BindText(1, params));
     RETURN_IF_ERROR(update.BindInt64(2, database_id));
     RETURN_IF_ERROR(update.Run());
@@ -158,6 +168,7 @@ class SqliteCrossingStore final : public CrossingStore {
     std::lock_guard<std::mutex> lock(mutex_);
     ASSIGN_OR_RETURN(Transaction txn, Transaction::Begin(connection_));
     ASSIGN_OR_RETURN(CrossingRecord record, AddCrossingLocked({database_id, name, label}));
+    RETURN_IF_ERROR(BumpRevisionLocked(database_id, /*reload=*/false));
     RETURN_IF_ERROR(txn.Commit());
     return record;
   }
@@ -205,6 +216,7 @@ class SqliteCrossingStore final : public CrossingStore {
     RETURN_IF_ERROR(remove.BindInt64(1, crossing_id));
     RETURN_IF_ERROR(remove.Run());  // cascades to the views and their memberships
     RETURN_IF_ERROR(InsertClustersLocked(database_id, clusters).status());
+    RETURN_IF_ERROR(BumpRevisionLocked(database_id, /*reload=*/true));
     RETURN_IF_ERROR(txn.Commit());
     return deleted_views;
   }
@@ -216,6 +228,7 @@ class SqliteCrossingStore final : public CrossingStore {
     ASSIGN_OR_RETURN(Transaction txn, Transaction::Begin(connection_));
     ASSIGN_OR_RETURN(int64_t database_id, CrossingDatabaseLocked(view.crossing_id));
     ASSIGN_OR_RETURN(AddViewResult result, AddViewLocked(database_id, view, assignment));
+    RETURN_IF_ERROR(BumpRevisionLocked(database_id, /*reload=*/false));
     RETURN_IF_ERROR(txn.Commit());
     return result;
   }
@@ -231,6 +244,7 @@ class SqliteCrossingStore final : public CrossingStore {
     with_crossing.crossing_id = created.id;
     ASSIGN_OR_RETURN(AddViewResult result,
                      AddViewLocked(crossing.database_id, with_crossing, assignment));
+    RETURN_IF_ERROR(BumpRevisionLocked(crossing.database_id, /*reload=*/false));
     RETURN_IF_ERROR(txn.Commit());
     return result;
   }
@@ -271,16 +285,18 @@ class SqliteCrossingStore final : public CrossingStore {
       assignment.cluster_id = result.clusters[replacement.join_cluster].id;
     }
     ASSIGN_OR_RETURN(result.added, AddViewLocked(database_id, view, assignment));
+    RETURN_IF_ERROR(BumpRevisionLocked(database_id, /*reload=*/true));
     RETURN_IF_ERROR(txn.Commit());
     return result;
   }
 
-  absl::Status ForEachView(int64_t database_id,
-                           const std::function<absl::Status(ViewRecord&&)>& visit) override {
+  absl::Status ForEachViewAfter(int64_t database_id, int64_t after_view_id,
+                                const std::function<absl::Status(ViewRecord&&)>& visit) override {
     std::lock_guard<std::mutex> lock(mutex_);
     RETURN_IF_ERROR(DatabaseNameLocked(database_id).status());
     ASSIGN_OR_RETURN(Statement select, connection_.Prepare(kSelectViews));
     RETURN_IF_ERROR(select.BindInt64(1, database_id));
+    RETURN_IF_ERROR(select.BindInt64(2, after_view_id));
     while (true) {
       ASSIGN_OR_RETURN(StepResult step, select.Step());
       if (step == StepResult::kDone) break;
@@ -333,6 +349,7 @@ class SqliteCrossingStore final : public CrossingStore {
     RETURN_IF_ERROR(upsert.BindBlob(3, vocabulary.data.data(), vocabulary.data.size()));
     RETURN_IF_ERROR(upsert.BindDouble(4, NowSeconds()));
     RETURN_IF_ERROR(upsert.Run());
+    RETURN_IF_ERROR(BumpRevisionLocked(vocabulary.database_id, /*reload=*/true));
     return txn.Commit();
   }
 
@@ -341,6 +358,7 @@ class SqliteCrossingStore final : public CrossingStore {
     ASSIGN_OR_RETURN(Transaction txn, Transaction::Begin(connection_));
     RETURN_IF_ERROR(DatabaseNameLocked(database_id).status());
     RETURN_IF_ERROR(UpdateCodesLocked(database_id, codes));
+    RETURN_IF_ERROR(BumpRevisionLocked(database_id, /*reload=*/true));
     return txn.Commit();
   }
 
@@ -371,6 +389,7 @@ class SqliteCrossingStore final : public CrossingStore {
     RETURN_IF_ERROR(DeleteClustersLocked(database_id));
     ASSIGN_OR_RETURN(std::vector<ClusterRecord> inserted,
                      InsertClustersLocked(database_id, clusters));
+    RETURN_IF_ERROR(BumpRevisionLocked(database_id, /*reload=*/true));
     RETURN_IF_ERROR(txn.Commit());
     return inserted;
   }
@@ -384,7 +403,19 @@ class SqliteCrossingStore final : public CrossingStore {
     record.name = row.ColumnText(1);
     record.params = row.ColumnText(2);
     record.created_at = row.ColumnDouble(3);
+    record.revision = row.ColumnInt64(4);
+    record.reload_revision = row.ColumnInt64(5);
     return record;
+  }
+
+  // Adds a write to the database's revisions (DatabaseRecord), inside the caller's transaction.
+  absl::Status BumpRevisionLocked(int64_t database_id, bool reload) {
+    ASSIGN_OR_RETURN(Statement update,
+                     connection_.Prepare("UPDATE crossing_db SET revision = revision + 1, "
+                                         "reload_revision = reload_revision + ? WHERE id = ?"));
+    RETURN_IF_ERROR(update.BindInt64(1, reload ? 1 : 0));
+    RETURN_IF_ERROR(update.BindInt64(2, database_id));
+    return update.Run();
   }
 
   // The database's name (for messages), NOT_FOUND when the id is unknown.

@@ -121,6 +121,45 @@ class SqliteSlamStore final : public SlamStore {
     return poses;
   }
 
+  // "Now" is this process's clock: a SQLite file is served by one server (database_lock.h), so
+  // there is no other clock to disagree with.
+  absl::StatusOr<SlamLease> AcquireLease(const std::string& id, const std::string& owner,
+                                         const std::string& address,
+                                         double ttl_seconds) override {
+    RETURN_IF_ERROR(CheckLeaseRequest(owner, ttl_seconds));
+    std::lock_guard<std::mutex> lock(mutex_);
+    // The write transaction holds the file's write lock from the read to the commit, so another
+    // connection cannot take the lease in between.
+    ASSIGN_OR_RETURN(Transaction txn, Transaction::Begin(connection_));
+    ASSIGN_OR_RETURN(SlamSessionRecord session, GetSessionLocked(id, /*with_checkpoint=*/false));
+    ASSIGN_OR_RETURN(SlamLease lease,
+                     LeaseAfterAcquire(session, owner, address, ttl_seconds, NowSeconds()));
+    if (lease.owner != owner) return lease;  // held by another: nothing to write
+    ASSIGN_OR_RETURN(Statement update,
+                     connection_.Prepare("UPDATE slam_session SET lease_owner = ?, "
+                                         "lease_address = ?, lease_expires_at = ? WHERE id = ?"));
+    RETURN_IF_ERROR(update.BindText(1, lease.owner));
+    RETURN_IF_ERROR(update.BindText(2, lease.address));
+    RETURN_IF_ERROR(update.BindDouble(3, lease.expires_at));
+    RETURN_IF_ERROR(update.BindText(4, id));
+    RETURN_IF_ERROR(update.Run());
+    RETURN_IF_ERROR(txn.Commit());
+    return lease;
+  }
+
+  absl::Status ReleaseLease(const std::string& id, const std::string& owner) override {
+    std::lock_guard<std::mutex> lock(mutex_);
+    ASSIGN_OR_RETURN(Transaction txn, Transaction::Begin(connection_));
+    ASSIGN_OR_RETURN(SlamSessionRecord session, GetSessionLocked(id, /*with_checkpoint=*/false));
+    if (session.lease.owner != owner) return absl::OkStatus();  // not ours to give up
+    ASSIGN_OR_RETURN(Statement update,
+                     connection_.Prepare(absl::StrCat("UPDATE slam_session SET ", kClearSlamLease,
+                                                      " WHERE id = ?")));
+    RETURN_IF_ERROR(update.BindText(1, id));
+    RETURN_IF_ERROR(update.Run());
+    return txn.Commit();
+  }
+
   absl::StatusOr<SlamSessionRecord> DeleteSession(const std::string& id) override {
     std::lock_guard<std::mutex> lock(mutex_);
     // The read and the delete in one transaction, so the record returned is exactly what went.
@@ -151,11 +190,13 @@ class SqliteSlamStore final : public SlamStore {
     ASSIGN_OR_RETURN(SlamSessionRecord session, GetSessionLocked(id, false));
     RETURN_IF_ERROR(CheckCheckpointApplies(session, checkpoint));
     RETURN_IF_ERROR(InsertPosesLocked(id, checkpoint.new_poses));
+    // Closing also gives the lease up: a closed session has no holder.
     ASSIGN_OR_RETURN(Statement update,
-                     connection_.Prepare(
+                     connection_.Prepare(absl::StrCat(
                          "UPDATE slam_session SET checkpoint = ?, checkpoint_at = ?, "
                          "updated_at = ?, scans_processed = ?, map_revision = ?, segments = ?, "
-                         "last_scan_stamp = ?, last_odometry_stamp = ?, state = ? WHERE id = ?"));
+                         "last_scan_stamp = ?, last_odometry_stamp = ?, state = ?",
+                         close ? absl::StrCat(", ", kClearSlamLease) : "", " WHERE id = ?")));
     const double now = NowSeconds();
     RETURN_IF_ERROR(update.BindBlob(1, checkpoint.state.data(), checkpoint.state.size()));
     RETURN_IF_ERROR(update.BindDouble(2, now));

@@ -73,6 +73,21 @@ absl::Status ResidentDatabase::CheckAlive() const {
   return absl::OkStatus();
 }
 
+void ResidentDatabase::TakeContentsOf(ResidentDatabase&& fresh) {
+  record = std::move(fresh.record);
+  params = std::move(fresh.params);
+  options = fresh.options;
+  views = std::move(fresh.views);
+  crossings = std::move(fresh.crossings);
+  crossing_ids = std::move(fresh.crossing_ids);
+  views_per_crossing = std::move(fresh.views_per_crossing);
+  contents = std::move(fresh.contents);
+  keypoints = fresh.keypoints;
+  const bool scheduled = global.scheduled;  // the worker's bookkeeping, not the database's
+  global = std::move(fresh.global);
+  global.scheduled = scheduled;
+}
+
 void ResidentDatabase::AddCrossingRecord(const storage::CrossingRecord& c) {
   crossings[c.id] = c;
   crossing_ids[c.name] = c.id;

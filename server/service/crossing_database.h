@@ -74,6 +74,16 @@ struct ResidentDatabase {
   mutable absl::Mutex mutex;
 
   absl::Status CheckAlive() const;
+  // After a write of this server to the store (with db.mutex held exclusively): the revisions the
+  // store now has (crossing_store.h says which writes are reloads), so that the next write does
+  // not take its own changes for another server's.
+  void NoteOwnWrite(bool reload) {
+    ++record.revision;
+    if (reload) ++record.reload_revision;
+  }
+  // Takes the contents of a freshly loaded copy (db.mutex held exclusively): what a full catch-up
+  // does, so that requests holding this object keep a valid one.
+  void TakeContentsOf(ResidentDatabase&& fresh);
   void AddCrossingRecord(const storage::CrossingRecord& c);
   // The crossing's name, "" when unknown.
   std::string CrossingName(int64_t crossing_id) const;

@@ -8,6 +8,8 @@
 #include "absl/strings/str_cat.h"
 #include "server/common/stopwatch.h"
 #include "server/service/crossing_registry.h"
+
+#include "server/service/crossing_loading.h"
 #include "storage/sha256.h"
 
 namespace waymark::service {
@@ -161,6 +163,9 @@ absl::StatusOr<v1::EnrollViewResponse> CrossingRegistry::CommitEnrollment(
   if (!found.ok()) return found.status();
   Database& db = **found;
 
+  // Servers sharing the database take turns, each first reading what the others enrolled.
+  absl::StatusOr<WriteScope> writing = WriteScope::Begin(*store_, index_options_, db);
+  if (!writing.ok()) return writing.status();
   absl::MutexLock lock(&db.mutex);
   if (absl::Status s = db.CheckAlive(); !s.ok()) return s;
   // Again, in the critical section of the commit: the crossing may have been deleted, and an
@@ -236,6 +241,7 @@ absl::StatusOr<CrossingRegistry::CommittedView> CrossingRegistry::CommitView(
                                                     assignment)
                    : store_->AddView(record, assignment);
   if (!added.ok()) return added.status();
+  db.NoteOwnWrite(/*reload=*/false);
   committed.added = *added;
   committed.new_cluster = proposal.cluster < 0;
   InstallView(db, *added, proposal.cluster, request, prepared, new_crossing);
@@ -269,6 +275,7 @@ absl::StatusOr<CrossingRegistry::CommittedView> CrossingRegistry::CommitReplacin
   replacement.crossing_name = request.crossing();
   absl::StatusOr<storage::ViewReplacementResult> stored = store_->ReplaceViews(replacement);
   if (!stored.ok()) return stored.status();
+  db.NoteOwnWrite(/*reload=*/true);
 
   // Memory follows the disk: the remaining views with the stored cluster ids, then the new view.
   Database::InstallClusters(stored->clusters, remaining.views.get());

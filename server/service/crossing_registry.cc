@@ -12,6 +12,7 @@
 #include "server/crossing/features.h"
 #include "server/crossing/recognizer.h"
 #include "server/service/crossing_database.h"
+#include "server/service/crossing_loading.h"
 
 namespace waymark::service {
 namespace {
@@ -50,7 +51,7 @@ CrossingRegistry::CrossingRegistry(std::unique_ptr<storage::CrossingStore> store
       extraction_gate_(MaxRunning(limits), limits.max_waiting >= 0
                                                ? limits.max_waiting
                                                : kWaitingPerRunning * MaxRunning(limits)),
-      global_worker_(std::make_unique<GlobalStageWorker>(store_.get())) {}
+      global_worker_(std::make_unique<GlobalStageWorker>(store_.get(), index)) {}
 
 absl::StatusOr<crossing::ImageFeatures> CrossingRegistry::Extract(
     const std::string& encoded, const crossing::FeatureOptions& options,
@@ -67,7 +68,8 @@ absl::StatusOr<std::unique_ptr<CrossingRegistry>> CrossingRegistry::Load(
   absl::StatusOr<std::vector<storage::DatabaseRecord>> records = registry->store_->ListDatabases();
   if (!records.ok()) return records.status();
   for (const auto& record : *records) {
-    absl::StatusOr<std::shared_ptr<Database>> db = registry->LoadDatabase(record);
+    absl::StatusOr<std::shared_ptr<Database>> db =
+        LoadResidentDatabase(*registry->store_, registry->index_options_, record);
     if (!db.ok()) {
       return absl::Status(db.status().code(), absl::StrCat("loading database \"", record.name,
                                                            "\": ", db.status().message()));
@@ -78,60 +80,56 @@ absl::StatusOr<std::unique_ptr<CrossingRegistry>> CrossingRegistry::Load(
   return registry;
 }
 
-absl::StatusOr<std::shared_ptr<CrossingRegistry::Database>> CrossingRegistry::LoadDatabase(
-    const storage::DatabaseRecord& record) {
-  auto db = std::make_shared<Database>();
-  db->record = record;
-  absl::StatusOr<v1::DatabaseParams> params = ParamsFromJson(record.params);
-  if (!params.ok()) return params.status();
-  db->params = *params;
-  db->options = ToDatabaseOptions(db->params);
-  db->views = std::make_unique<ViewDatabase>(index_options_);
+absl::Status CrossingRegistry::Sync() {
+  if (!store_->shared()) return absl::OkStatus();
+  absl::StatusOr<std::vector<storage::DatabaseRecord>> records = store_->ListDatabases();
+  if (!records.ok()) return records.status();
+  std::map<std::string, storage::DatabaseRecord> stored;
+  for (auto& record : *records) stored[record.name] = std::move(record);
 
-  absl::StatusOr<std::vector<storage::CrossingRecord>> crossings =
-      store_->ListCrossings(record.id);
-  if (!crossings.ok()) return crossings.status();
-  for (const auto& c : *crossings) db->AddCrossingRecord(c);
-  absl::StatusOr<std::optional<storage::VocabularyRecord>> vocabulary =
-      store_->LoadVocabulary(record.id);
-  if (!vocabulary.ok()) return vocabulary.status();
-  LoadGlobalVocabulary(*db, *vocabulary);
-
-  // One view at a time: a large database never sits in memory twice (rows and index).
-  const absl::Status loaded = store_->ForEachView(record.id, [&](storage::ViewRecord&& v) {
-    const crossing::FeatureOptions& f = db->options.features;
-    // With keep_aspect a view fills the working size along one side.
-    const bool size_fits = f.keep_aspect ? (v.width <= f.work_width && v.height <= f.work_height &&
-                                            (v.width == f.work_width || v.height == f.work_height))
-                                         : (v.width == f.work_width && v.height == f.work_height);
-    if (v.format_version != storage::kFeatureFormatVersion || !size_fits) {
-      return absl::FailedPreconditionError(absl::StrCat(
-          "view ", v.id, " was extracted with format ", v.format_version, " at ", v.width, "x",
-          v.height, ", not what this server uses: re-enroll the database"));
+  // What memory holds that the store no longer does (or holds under another id: deleted and
+  // created again elsewhere), and what to catch up.
+  std::vector<std::shared_ptr<Database>> changed;
+  {
+    absl::MutexLock lock(&mutex_);
+    for (auto it = databases_.begin(); it != databases_.end();) {
+      const std::shared_ptr<Database> db = it->second;
+      auto found = stored.find(it->first);
+      absl::MutexLock db_lock(&db->mutex);
+      if (found == stored.end() || found->second.id != db->record.id) {
+        db->deleted = true;  // requests that hold it get NOT_FOUND
+        it = databases_.erase(it);
+        continue;
+      }
+      if (found->second.revision != db->record.revision ||
+          found->second.reload_revision != db->record.reload_revision) {
+        changed.push_back(db);
+      }
+      ++it;
     }
-    std::vector<cv::Point2f> points(v.keypoint_count);
-    for (int i = 0; i < v.keypoint_count; ++i) {
-      points[i] = {v.keypoints[i * storage::kKeypointFloats],
-                   v.keypoints[i * storage::kKeypointFloats + 1]};
+  }
+  absl::Status result;
+  for (const auto& db : changed) {
+    const absl::Status caught_up = CatchUp(*store_, index_options_, *db);
+    if (!caught_up.ok() && !absl::IsNotFound(caught_up)) result = caught_up;
+    global_worker_->Schedule(db);  // a vocabulary may be due, or codes of new views
+  }
+  // Databases created elsewhere, loaded outside the map's lock.
+  for (const auto& [name, record] : stored) {
+    {
+      absl::ReaderMutexLock lock(&mutex_);
+      if (databases_.count(name)) continue;
     }
-    const cv::Mat descriptors(v.keypoint_count, crossing::kDescriptorSize, CV_8U,
-                              v.descriptors.data());
-    const uint32_t slot =
-        db->views->AddView(v.id, v.crossing_id, v.heading_deg, descriptors, std::move(points),
-                           std::move(v.hue_hist), /*defer_indexing=*/true);
-    db->views->SetPosition(slot, std::move(v.position));
-    LoadGlobalView(*db, slot, v);
-    db->views_per_crossing[v.crossing_id]++;
-    db->contents.Add(v.id, v.content_sha256);
-    db->keypoints += v.keypoint_count;
-    return absl::OkStatus();
-  });
-  if (!loaded.ok()) return loaded;
-  db->views->FinishLoading();
-  absl::StatusOr<std::vector<storage::ClusterRecord>> clusters = store_->LoadClusters(record.id);
-  if (!clusters.ok()) return clusters.status();
-  Database::InstallClusters(*clusters, db->views.get());
-  return db;
+    absl::StatusOr<std::shared_ptr<Database>> db =
+        LoadResidentDatabase(*store_, index_options_, record);
+    if (!db.ok()) {
+      if (!absl::IsNotFound(db.status())) result = db.status();
+      continue;
+    }
+    absl::MutexLock lock(&mutex_);
+    if (databases_.emplace(name, *db).second) global_worker_->Schedule(*db);
+  }
+  return result;
 }
 
 absl::StatusOr<std::shared_ptr<CrossingRegistry::Database>> CrossingRegistry::Find(
@@ -242,6 +240,8 @@ absl::StatusOr<v1::Crossing> CrossingRegistry::AddCrossing(const v1::AddCrossing
   absl::StatusOr<std::shared_ptr<Database>> found = Find(request.database());
   if (!found.ok()) return found.status();
   Database& db = **found;
+  absl::StatusOr<WriteScope> writing = WriteScope::Begin(*store_, index_options_, db);
+  if (!writing.ok()) return writing.status();
   absl::MutexLock lock(&db.mutex);
   if (absl::Status s = db.CheckAlive(); !s.ok()) return s;
   if (db.crossing_ids.count(request.name())) {
@@ -252,6 +252,7 @@ absl::StatusOr<v1::Crossing> CrossingRegistry::AddCrossing(const v1::AddCrossing
   absl::StatusOr<storage::CrossingRecord> record =
       store_->AddCrossing(db.record.id, request.name(), request.label());
   if (!record.ok()) return record.status();
+  db.NoteOwnWrite(/*reload=*/false);
   db.AddCrossingRecord(*record);
   v1::Crossing out;
   out.set_id(record->id);
@@ -274,6 +275,8 @@ absl::StatusOr<v1::DeleteCrossingResponse> CrossingRegistry::DeleteCrossing(
   absl::StatusOr<std::shared_ptr<Database>> found = Find(request.database());
   if (!found.ok()) return found.status();
   Database& db = **found;
+  absl::StatusOr<WriteScope> writing = WriteScope::Begin(*store_, index_options_, db);
+  if (!writing.ok()) return writing.status();
   absl::MutexLock lock(&db.mutex);
   if (absl::Status s = db.CheckAlive(); !s.ok()) return s;
   auto id_it = db.crossing_ids.find(request.name());
@@ -292,6 +295,7 @@ absl::StatusOr<v1::DeleteCrossingResponse> CrossingRegistry::DeleteCrossing(
   absl::StatusOr<int> deleted = store_->DeleteCrossing(
       db.record.id, crossing_id, Database::ToRecords(*remaining.views, clusters));
   if (!deleted.ok()) return deleted.status();
+  db.NoteOwnWrite(/*reload=*/true);
   absl::StatusOr<std::vector<storage::ClusterRecord>> stored = store_->LoadClusters(db.record.id);
   if (!stored.ok()) return stored.status();
   Database::InstallClusters(*stored, remaining.views.get());
@@ -312,6 +316,8 @@ absl::StatusOr<v1::RebuildClustersResponse> CrossingRegistry::RebuildClusters(
   absl::StatusOr<std::shared_ptr<Database>> found = Find(request.database());
   if (!found.ok()) return found.status();
   Database& db = **found;
+  absl::StatusOr<WriteScope> writing = WriteScope::Begin(*store_, index_options_, db);
+  if (!writing.ok()) return writing.status();
   absl::MutexLock lock(&db.mutex);
   if (absl::Status s = db.CheckAlive(); !s.ok()) return s;
   crossing::ClusterOptions options = db.options.clustering;
@@ -325,12 +331,13 @@ absl::StatusOr<v1::RebuildClustersResponse> CrossingRegistry::RebuildClusters(
   absl::StatusOr<std::vector<storage::ClusterRecord>> stored =
       store_->ReplaceClusters(db.record.id, Database::ToRecords(*db.views, clusters));
   if (!stored.ok()) return stored.status();
+  db.NoteOwnWrite(/*reload=*/true);
   Database::InstallClusters(*stored, db.views.get());
   if (request.has_cluster_threshold()) {
-    if (absl::Status s = store_->UpdateDatabaseParams(db.record.id, ParamsToJson(params));
-        !s.ok()) {
-      return s;
-    }
+    const std::string json = ParamsToJson(params);
+    if (absl::Status s = store_->UpdateDatabaseParams(db.record.id, json); !s.ok()) return s;
+    db.NoteOwnWrite(/*reload=*/true);
+    db.record.params = json;
     db.params = params;
     db.options.clustering = options;
   }

@@ -111,6 +111,18 @@ class CrossingRegistry {
   absl::StatusOr<v1::RecognizeResponse> Recognize(
       const v1::RecognizeRequest& request, crossing::RecognitionOptions* effective = nullptr);
 
+  // Brings memory up to what the store holds when other servers share it (PostgreSQL,
+  // docs/scale-out.md): databases created or deleted elsewhere, and every database another
+  // server changed (crossing_loading.h, CatchUp). A server runs it when the store tells of a
+  // change and every few seconds (CrossingFleetSync); a no-op on a store nobody shares.
+  absl::Status Sync();
+  // Whether the store is shared with other servers.
+  bool shared() const { return store_->shared(); }
+  // The store's change feed (nullptr when not shared), for CrossingFleetSync.
+  absl::StatusOr<std::unique_ptr<storage::ChangeFeed>> WatchChanges() {
+    return store_->WatchChanges();
+  }
+
   // Blocks until the global stage's background work (vocabularies, codes; global_stage.h) is
   // done for every database: for tests, benchmarks and evaluations that need a settled state.
   void WaitForGlobalStage() { global_worker_->WaitIdle(); }
@@ -139,7 +151,6 @@ class CrossingRegistry {
       const std::function<bool(const crossing::ViewEntry&)>& replaced);
 
   absl::StatusOr<std::shared_ptr<Database>> Find(const std::string& name);
-  absl::StatusOr<std::shared_ptr<Database>> LoadDatabase(const storage::DatabaseRecord& record);
   // The API view of a database (caller holds its lock).
   static v1::CrossingDatabase Describe(const Database& db);
 

@@ -14,6 +14,7 @@
 #include "server/common/stopwatch.h"
 #include "server/crossing/dense_sift.h"
 #include "server/crossing/vlad.h"
+#include "server/service/crossing_loading.h"
 
 namespace waymark::service {
 namespace {
@@ -138,8 +139,9 @@ void LoadGlobalView(ResidentDatabase& db, uint32_t slot, const storage::ViewReco
   db.global.uncoded.insert(view.id);  // none, unreadable, or of an older vocabulary
 }
 
-GlobalStageWorker::GlobalStageWorker(storage::CrossingStore* store)
-    : store_(store), thread_([this] { Loop(); }) {}
+GlobalStageWorker::GlobalStageWorker(storage::CrossingStore* store,
+                                     const crossing::IndexOptions& index)
+    : store_(store), index_(index), thread_([this] { Loop(); }) {}
 
 GlobalStageWorker::~GlobalStageWorker() {
   {
@@ -237,7 +239,24 @@ bool GlobalStageWorker::Round(ResidentDatabase& db) {
     codes.emplace(id, *std::move(code));
   }
 
-  // Disk first, then memory.
+  // Disk first, then memory. Servers sharing the database take turns (crossing_loading.h), and
+  // another one may have learnt this vocabulary, or a newer one, meanwhile: then this round's
+  // work is dropped rather than saved over theirs.
+  absl::StatusOr<WriteScope> writing = WriteScope::Begin(*store_, index_, db);
+  if (!writing.ok()) {
+    if (writing.status().code() != absl::StatusCode::kNotFound) {
+      spdlog::warn("database \"{}\": {}", db.record.name, writing.status().ToString());
+    }
+    return false;
+  }
+  {
+    absl::ReaderMutexLock lock(&db.mutex);
+    const int views_now = static_cast<int>(db.views->views().size());
+    if (train ? !NeedsVocabulary(views_now, db.global.trained_views)
+              : db.global.vocabulary != fingerprint) {
+      return true;  // look again
+    }
+  }
   const absl::Status saved =
       train ? store_->SaveVocabulary({db.record.id, views, vocabulary.Serialize()}, rows)
             : store_->SaveViewCodes(db.record.id, rows);
@@ -250,6 +269,7 @@ bool GlobalStageWorker::Round(ResidentDatabase& db) {
   }
   absl::MutexLock lock(&db.mutex);
   if (db.deleted) return false;
+  db.NoteOwnWrite(/*reload=*/true);
   if (train) {
     db.views->SetVocabulary(vocabulary);
     db.global.vocabulary = fingerprint;

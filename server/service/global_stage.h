@@ -86,7 +86,8 @@ void LoadGlobalView(ResidentDatabase& db, uint32_t slot, const storage::ViewReco
 // One background thread that trains vocabularies and codes views, database after database.
 class GlobalStageWorker {
  public:
-  explicit GlobalStageWorker(storage::CrossingStore* store);
+  // `index`: how the registry indexes views, for catching a shared database up before a save.
+  GlobalStageWorker(storage::CrossingStore* store, const crossing::IndexOptions& index);
   ~GlobalStageWorker();  // stops (a round in progress is abandoned) and joins
   GlobalStageWorker(const GlobalStageWorker&) = delete;
   GlobalStageWorker& operator=(const GlobalStageWorker&) = delete;
@@ -103,6 +104,7 @@ class GlobalStageWorker {
   bool Round(ResidentDatabase& db);
 
   storage::CrossingStore* store_;
+  const crossing::IndexOptions index_;
   std::mutex mutex_;
   std::condition_variable changed_;
   std::deque<std::shared_ptr<ResidentDatabase>> queue_;

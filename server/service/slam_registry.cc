@@ -53,6 +53,8 @@ struct SlamRegistry::Session {
   bool in_flight = false;  // a worker holds a popped message
   bool stream_attached = false;
   bool closed = false;  // closing or closed: no stream, no message
+  // Set when another server took the session's lease over: what every message is answered.
+  std::optional<absl::Status> lost;
   SlamUpdateSink sink;
   std::optional<double> accepted_scan_stamp;
   std::optional<double> accepted_odometry_stamp;
@@ -266,11 +268,12 @@ absl::StatusOr<std::unique_ptr<SlamRegistry>> SlamRegistry::Create(
 
 SlamRegistry::SlamRegistry(std::unique_ptr<storage::SlamStore> store,
                            const SlamRegistryOptions& options)
-    : options_(options), store_(std::move(store)) {
+    : options_(options), store_(std::move(store)), leases_(store_.get(), options.lease) {
   int workers = options_.workers;
   if (workers == 0) workers = static_cast<int>(std::max(1u, std::thread::hardware_concurrency()));
   for (int i = 0; i < workers; ++i) workers_.emplace_back([this] { WorkerLoop(); });
   timer_ = std::thread([this] { TimerLoop(); });
+  if (leases_.enabled()) lease_thread_ = std::thread([this] { LeaseLoop(); });
 }
 
 SlamRegistry::~SlamRegistry() {
@@ -361,7 +364,12 @@ absl::StatusOr<v1::Session> SlamRegistry::StoreNewSession(const std::string& rob
                                                           bool close) {
   std::lock_guard<std::mutex> load_lock(load_mutex_);
   if (!close) {
+    // With leases the database holds every server's sessions: count this server's own.
     absl::StatusOr<int64_t> open = store_->CountSessions(storage::SlamSessionState::kOpen);
+    if (leases_.enabled()) {
+      std::lock_guard<std::mutex> lock(mutex_);
+      open = static_cast<int64_t>(sessions_.size());
+    }
     if (!open.ok()) return open.status();
     if (*open >= options_.max_sessions) {
       return absl::ResourceExhaustedError(absl::StrCat(
@@ -381,6 +389,12 @@ absl::StatusOr<v1::Session> SlamRegistry::StoreNewSession(const std::string& rob
     if (!absl::IsAlreadyExists(created.status())) break;
   }
   if (!created.ok()) return created.status();
+  if (!close) {
+    if (absl::Status s = leases_.Take(created->id); !s.ok()) {
+      (void)store_->DeleteSession(created->id);
+      return s;
+    }
+  }
   if (close) {
     // Stored closed at once, with the engine's state as its only checkpoint.
     storage::SlamCheckpoint checkpoint;
@@ -513,6 +527,8 @@ absl::StatusOr<std::shared_ptr<SlamRegistry::Session>> SlamRegistry::ResidentOrL
   absl::StatusOr<storage::SlamSessionRecord> record = store_->GetSession(id);
   if (!record.ok()) return record.status();
   if (record->state == storage::SlamSessionState::kClosed) return ClosedError(id);
+  // Served by one server at a time: the one that holds the lease.
+  if (absl::Status s = leases_.Take(id); !s.ok()) return s;
   absl::StatusOr<std::shared_ptr<Session>> session = LoadSession(*record);
   if (!session.ok()) return session.status();
   spdlog::info("SLAM session {} resumed from its checkpoint ({} scans, {} poses)", id,
@@ -587,7 +603,9 @@ absl::Status SlamRegistry::Submit(const std::shared_ptr<Session>& owner,
     absl::Status refused;
     std::optional<double>& last =
         message.is_scan ? session.accepted_scan_stamp : session.accepted_odometry_stamp;
-    if (shutting_down_) {
+    if (session.lost.has_value()) {
+      refused = *session.lost;
+    } else if (shutting_down_) {
       refused = absl::UnavailableError(
           "the server is shutting down; resume the session after it restarts");
     } else if (session.closed || !session.stream_attached) {
@@ -768,6 +786,8 @@ absl::Status SlamRegistry::Checkpoint(Session& session, bool close) {
     session.scans_since_checkpoint = 0;
     session.last_checkpoint = Clock::now();
   }
+  // Fenced: refused if another server has taken the session over.
+  checkpoint.lease_owner = leases_.owner();
   absl::Status status = close ? store_->CloseSession(session.id, checkpoint)
                               : store_->WriteCheckpoint(session.id, checkpoint);
   if (!status.ok()) {
@@ -812,6 +832,45 @@ void SlamRegistry::TimerLoop() {
     }
     lock.lock();
   }
+}
+
+void SlamRegistry::LeaseLoop() {
+  const auto period =
+      std::chrono::duration<double>(std::max(0.05, options_.lease.ttl_seconds / 3.0));
+  std::unique_lock<std::mutex> lock(timer_mutex_);
+  while (!stop_timer_) {
+    timer_cv_.wait_for(lock, period, [this] { return stop_timer_; });
+    if (stop_timer_) return;
+    lock.unlock();
+    std::vector<std::string> ids;
+    {
+      std::lock_guard<std::mutex> map_lock(mutex_);
+      for (const auto& [id, session] : sessions_) ids.push_back(id);
+    }
+    for (auto& [id, moved] : leases_.Renew(ids)) {
+      spdlog::warn("{}", std::string(moved.message()));
+      DropLost(id, moved);
+    }
+    lock.lock();
+  }
+}
+
+void SlamRegistry::DropLost(const std::string& session_id, const absl::Status& moved) {
+  std::shared_ptr<Session> session;
+  {
+    std::lock_guard<std::mutex> lock(mutex_);
+    auto it = sessions_.find(session_id);
+    if (it == sessions_.end()) return;
+    session = it->second;
+    sessions_.erase(it);
+  }
+  {
+    std::lock_guard<std::mutex> lock(session->checkpoint_mu);
+    session->finalized = true;  // never written again from here: the new holder writes it
+  }
+  std::lock_guard<std::mutex> lock(session->mu);
+  session->lost = moved;
+  session->closed = true;
 }
 
 void SlamRegistry::WaitIdle(Session& session) {
@@ -890,8 +949,10 @@ absl::Status SlamRegistry::CloseLocked(const std::string& session_id) {
       return absl::FailedPreconditionError(
           absl::StrCat("SLAM session ", Quoted(session_id), " is already closed"));
     }
-    // Not in memory: its last checkpoint is its final state.
+    // Not in memory: its last checkpoint is its final state, if no other server serves it.
+    if (absl::Status s = leases_.Take(session_id); !s.ok()) return s;
     storage::SlamCheckpoint checkpoint;
+    checkpoint.lease_owner = leases_.owner();
     checkpoint.state = record->checkpoint;
     checkpoint.scans_processed = record->scans_processed;
     checkpoint.map_revision = record->map_revision;
@@ -1065,7 +1126,10 @@ absl::Status SlamRegistry::Shutdown() {
   }
   timer_cv_.notify_all();
   if (timer_.joinable()) timer_.join();
+  if (lease_thread_.joinable()) lease_thread_.join();
   absl::Status status = CheckpointAll();
+  // Saved: another server may take the sessions over at once instead of waiting for expiry.
+  for (const std::shared_ptr<Session>& session : sessions) leases_.Release(session->id);
   {
     std::lock_guard<std::mutex> lock(pool_mutex_);
     stop_workers_ = true;

@@ -51,6 +51,14 @@
 // and nothing is stored. GetMap on a visual session is FAILED_PRECONDITION (no segment map);
 // GetTrajectory returns its poses in pose3d.
 //
+// Leases (several servers on one database, session_leases.h): a session becomes resident only on
+// the server that takes its lease (CreateSession, OpenStream, CloseSession of a session not in
+// memory); another server's OpenStream gets FAILED_PRECONDITION naming the holder's address. The
+// lease thread renews the resident sessions' leases; a session whose lease another server took
+// over meanwhile is dropped from memory unsaved (its checkpoints are fenced by the lease, so it
+// could not overwrite its successor's anyway) and its stream ends UNAVAILABLE. Shutdown
+// releases the leases after the last checkpoint, so another server can take over at once.
+//
 // Limits: `max_sessions` open sessions per server (CreateSession: RESOURCE_EXHAUSTED beyond it;
 // only open sessions are held in memory, so this also bounds memory together with the queue
 // capacity and kMaxScanBeams), robot_id and name lengths, one stream per session.
@@ -71,6 +79,7 @@
 #include "absl/status/status.h"
 #include "absl/status/statusor.h"
 #include "server/service/session_engine.h"
+#include "server/service/session_leases.h"
 #include "server/service/slam_params.h"
 #include "storage/slam_store.h"
 #include "waymark/v1/slam.pb.h"
@@ -88,6 +97,9 @@ struct SlamRegistryOptions {
   int max_batch = 8;              // messages of one session per turn of a worker
   // Decoded frames waiting per visual session (640x480 RGB-D: 1.5 MB a frame).
   size_t max_queued_frame_bytes = size_t{64} << 20;
+  // Several servers on one database (PostgreSQL): each session is served by the one holding its
+  // lease (session_leases.h). Off (owner empty) with one server per database.
+  SessionLeaseOptions lease;
   // Test hook: runs on the worker thread before each message of `session_id` is processed.
   std::function<void(const std::string& session_id)> before_process;
 };
@@ -171,6 +183,8 @@ class SlamRegistry {
   absl::Status Shutdown();
 
   const SlamRegistryOptions& options() const { return options_; }
+  // Where robots reach this server, for the leases (SlamRegistryOptions::lease), once known.
+  void set_lease_address(const std::string& address) { leases_.set_address(address); }
 
  private:
   SlamRegistry(std::unique_ptr<storage::SlamStore> store, const SlamRegistryOptions& options);
@@ -206,6 +220,10 @@ class SlamRegistry {
   void RunSession(const std::shared_ptr<Session>& session);
   void Process(Session& session, QueuedMessage& message, const SlamUpdateSink& sink);
   void TimerLoop();
+  // Renews the leases of the resident sessions every ttl/3; drops those another server took.
+  void LeaseLoop();
+  // Removes a session whose lease another server holds: no checkpoint, its stream is told.
+  void DropLost(const std::string& session_id, const absl::Status& moved);
   static void WaitIdle(Session& session);
   absl::Status Checkpoint(Session& session, bool close);
   void MaybeCheckpoint(Session& session);
@@ -229,6 +247,9 @@ class SlamRegistry {
   std::condition_variable timer_cv_;
   bool stop_timer_ = false;
   std::thread timer_;
+
+  SessionLeases leases_;
+  std::thread lease_thread_;  // with timer_mutex_/timer_cv_/stop_timer_ for stopping
 
   std::mutex shutdown_mutex_;
   bool shut_down_ = false;

@@ -6,6 +6,7 @@
 #include <optional>
 
 #include "server/service/service_call.h"
+#include "server/service/session_leases.h"
 
 namespace waymark::service {
 namespace {
@@ -78,6 +79,19 @@ grpc::Status SlamServiceImpl::CreateSession(grpc::ServerContext* context,
       });
 }
 
+namespace {
+
+// A redirect (session_leases.h) carries the holder's address in the trailing metadata too, where
+// a client reads it without parsing the message.
+grpc::Status WithSessionOwner(grpc::ServerContext& context, const absl::Status& status) {
+  if (std::optional<std::string> owner = SessionOwnerAddress(status); owner.has_value()) {
+    context.AddTrailingMetadata(std::string(kSessionOwnerMetadata), *owner);
+  }
+  return ToGrpcStatus(status);
+}
+
+}  // namespace
+
 grpc::Status SlamServiceImpl::StreamSensorData(
     grpc::ServerContext* context, grpc::ServerReaderWriter<v1::SlamUpdate, v1::SensorData>* stream) {
   absl::StatusOr<Caller> caller = auth_->Authorize(*context, Action::kSlam);
@@ -101,7 +115,7 @@ grpc::Status SlamServiceImpl::StreamSensorData(
   auto writer = std::make_shared<StreamWriter>(stream);
   absl::StatusOr<std::unique_ptr<SlamRegistry::Stream>> session = registry_->OpenStream(
       data.session_id(), [writer](const v1::SlamUpdate& update) { writer->Write(update); });
-  if (!session.ok()) return ToGrpcStatus(session.status());
+  if (!session.ok()) return WithSessionOwner(*context, session.status());
   writer->set_start((*session)->start());
 
   // The first message may carry only the session id (a hello), answered at once with the
@@ -117,6 +131,11 @@ grpc::Status SlamServiceImpl::StreamSensorData(
     watch->Touch();
     if (context->IsCancelled()) break;
     absl::Status accepted = (*session)->Submit(data);
+    if (SessionOwnerAddress(accepted).has_value()) {
+      // Another server took the session over: this stream cannot go on; the robot reconnects.
+      (*session)->Close();
+      return WithSessionOwner(*context, accepted);
+    }
     if (!accepted.ok()) {
       v1::SlamUpdate rejection;
       rejection.set_sequence(data.sequence());

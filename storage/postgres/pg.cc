@@ -262,9 +262,9 @@ absl::Status Error(const PGresult* result, PGconn* conn, absl::string_view conte
   if (state == "40001" || state == "40P01") return absl::AbortedError(text);
   if (state == "53100") return absl::ResourceExhaustedError(absl::StrCat(text, ": the disk is full"));
   // Connection exceptions, the server shutting down or starting, too many connections, a
-  // read-only standby: transient, nothing was written.
+  // read-only standby, a lock wait past lock_timeout: transient, nothing was written.
   if (absl::StartsWith(state, "08") || absl::StartsWith(state, "57P") ||
-      absl::StartsWith(state, "53") || state == "25006") {
+      absl::StartsWith(state, "53") || state == "25006" || state == "55P03") {
     return absl::UnavailableError(text);
   }
   return absl::InternalError(absl::StrCat(text, " (SQLSTATE ", state, ")"));
@@ -387,6 +387,12 @@ absl::StatusOr<std::unique_ptr<Connection>> Pool::Acquire() {
     }
   }
   return connection;
+}
+
+absl::StatusOr<Pool::Lease> Pool::Hold() {
+  absl::StatusOr<std::unique_ptr<Connection>> connection = Acquire();
+  if (!connection.ok()) return connection.status();
+  return Lease(this, *std::move(connection));
 }
 
 void Pool::Release(std::unique_ptr<Connection> connection) {

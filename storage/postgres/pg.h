@@ -160,7 +160,9 @@ absl::Status Error(const PGresult* result, PGconn* conn, absl::string_view conte
 class Pool {
  public:
   struct Options {
-    int size = 4;
+    // Enough for a server's concurrent writes: each holds one connection for its database's
+    // write lock (CrossingStore::LockForWriting) and uses another for its transaction.
+    int size = 8;
     std::chrono::milliseconds acquire_timeout{10000};
     // How often Transaction runs its body again after a serialization failure or deadlock.
     int max_retries = 5;
@@ -194,6 +196,25 @@ class Pool {
     if (!status.ok()) return status;
     return *std::move(value);
   }
+
+  // A connection held by one caller until the Lease is destroyed (e.g. for a session-level
+  // advisory lock that outlives single statements); it then goes back to the pool.
+  class Lease {
+   public:
+    Lease(Pool* pool, std::unique_ptr<Connection> connection)
+        : pool_(pool), connection_(std::move(connection)) {}
+    Lease(Lease&&) = default;
+    Lease& operator=(Lease&&) = delete;
+    ~Lease() {
+      if (connection_ != nullptr) pool_->Release(std::move(connection_));
+    }
+    Connection& connection() { return *connection_; }
+
+   private:
+    Pool* pool_;
+    std::unique_ptr<Connection> connection_;
+  };
+  absl::StatusOr<Lease> Hold();
 
   const std::string& uri() const { return uri_; }
 

@@ -22,6 +22,7 @@
 #include "storage/crossing_records.h"
 #include "storage/crossing_store.h"
 #include "storage/postgres/pg.h"
+#include "storage/postgres/pg_coordination.h"
 #include "storage/postgres/pg_schema.h"
 #include "storage/postgres/pg_stores.h"
 #include "storage/status_macros.h"
@@ -80,6 +81,8 @@ DatabaseRecord ReadDatabaseRow(const Result& rows, int r) {
   record.name = rows.Text(r, 1);
   record.params = rows.Text(r, 2);
   record.created_at = rows.Double(r, 3);
+  record.revision = rows.Int64(r, 4);
+  record.reload_revision = rows.Int64(r, 5);
   return record;
 }
 
@@ -92,6 +95,17 @@ std::string BigintArray(const std::vector<int64_t>& ids) {
 class PostgresCrossingStore final : public CrossingStore {
  public:
   explicit PostgresCrossingStore(std::shared_ptr<pg::Pool> pool) : pool_(std::move(pool)) {}
+
+  bool shared() const override { return true; }
+
+  absl::StatusOr<std::unique_ptr<DatabaseWriteLock>> LockForWriting(int64_t database_id) override {
+    return pg::HoldAdvisoryLock(*pool_, pg::kCrossingWriterLockBase + database_id,
+                                absl::StrCat("crossing database ", database_id));
+  }
+
+  absl::StatusOr<std::unique_ptr<ChangeFeed>> WatchChanges() override {
+    return pg::Listen(pool_->uri(), pg::kCrossingChannel);
+  }
 
   absl::StatusOr<DatabaseRecord> CreateDatabase(const std::string& name,
                                                 const std::string& params) override {
@@ -107,7 +121,7 @@ class PostgresCrossingStore final : public CrossingStore {
           UniqueViolation::kAlreadyExists);
       RETURN_IF_ERROR(NameTaken(inserted.status(), absl::StrCat("database ", Quoted(name))));
       record.id = inserted->Int64(0, 0);
-      return absl::OkStatus();
+      return Notify(connection, record.id);
     }));
     return record;
   }
@@ -115,7 +129,7 @@ class PostgresCrossingStore final : public CrossingStore {
   absl::StatusOr<std::vector<DatabaseRecord>> ListDatabases() override {
     std::vector<DatabaseRecord> records;
     RETURN_IF_ERROR(pool_->Run([&](Connection& connection) -> absl::Status {
-      ASSIGN_OR_RETURN(Result rows, connection.Execute("SELECT id, name, params, created_at "
+      ASSIGN_OR_RETURN(Result rows, connection.Execute("SELECT id, name, params, created_at, revision, reload_revision "
                                                        "FROM crossing_db ORDER BY name"));
       for (int r = 0; r < rows.rows(); ++r) records.push_back(ReadDatabaseRow(rows, r));
       return absl::OkStatus();
@@ -126,7 +140,7 @@ class PostgresCrossingStore final : public CrossingStore {
   absl::StatusOr<DatabaseRecord> GetDatabase(const std::string& name) override {
     DatabaseRecord record;
     RETURN_IF_ERROR(pool_->Run([&](Connection& connection) -> absl::Status {
-      ASSIGN_OR_RETURN(Result rows, connection.Execute("SELECT id, name, params, created_at "
+      ASSIGN_OR_RETURN(Result rows, connection.Execute("SELECT id, name, params, created_at, revision, reload_revision "
                                                        "FROM crossing_db WHERE name = $1",
                                                        Params().Text(name)));
       if (rows.rows() == 0) {
@@ -139,12 +153,12 @@ class PostgresCrossingStore final : public CrossingStore {
   }
 
   absl::Status UpdateDatabaseParams(int64_t database_id, const std::string& params) override {
-    return pool_->Run([&](Connection& connection) -> absl::Status {
+    return pool_->Transaction([&](Connection& connection) -> absl::Status {
       ASSIGN_OR_RETURN(Result updated,
                        connection.Execute("UPDATE crossing_db SET params = $1 WHERE id = $2",
                                           Params().Text(params).Int64(database_id)));
       if (updated.affected() == 0) return DatabaseNotFound(database_id);
-      return absl::OkStatus();
+      return BumpRevision(connection, database_id, /*reload=*/true);
     });
   }
 
@@ -157,9 +171,11 @@ class PostgresCrossingStore final : public CrossingStore {
       }
       // Waits for an enrollment into it to finish; ON DELETE CASCADE removes the rest.
       RETURN_IF_ERROR(LockDatabase(connection, found.Int64(0, 0)).status());
-      return connection.Execute("DELETE FROM crossing_db WHERE id = $1",
-                                Params().Int64(found.Int64(0, 0)))
-          .status();
+      RETURN_IF_ERROR(connection
+                          .Execute("DELETE FROM crossing_db WHERE id = $1",
+                                   Params().Int64(found.Int64(0, 0)))
+                          .status());
+      return Notify(connection, found.Int64(0, 0));
     });
   }
 
@@ -169,7 +185,7 @@ class PostgresCrossingStore final : public CrossingStore {
     RETURN_IF_ERROR(pool_->Transaction([&](Connection& connection) -> absl::Status {
       ASSIGN_OR_RETURN(std::string db_name, LockDatabase(connection, database_id));
       ASSIGN_OR_RETURN(record, InsertCrossing(connection, db_name, {database_id, name, label}));
-      return absl::OkStatus();
+      return BumpRevision(connection, database_id, /*reload=*/false);
     }));
     return record;
   }
@@ -206,7 +222,8 @@ class PostgresCrossingStore final : public CrossingStore {
                           .Execute("DELETE FROM crossing WHERE id = $1",
                                    Params().Int64(crossing_id))
                           .status());  // cascades to the views and their memberships
-      return InsertClusters(connection, database_id, clusters).status();
+      RETURN_IF_ERROR(InsertClusters(connection, database_id, clusters).status());
+      return BumpRevision(connection, database_id, /*reload=*/true);
     }));
     return deleted_views;
   }
@@ -219,7 +236,7 @@ class PostgresCrossingStore final : public CrossingStore {
       ASSIGN_OR_RETURN(int64_t database_id, CrossingDatabase(connection, view.crossing_id));
       RETURN_IF_ERROR(LockDatabase(connection, database_id).status());
       ASSIGN_OR_RETURN(result, InsertView(connection, database_id, view, assignment));
-      return absl::OkStatus();
+      return BumpRevision(connection, database_id, /*reload=*/false);
     }));
     return result;
   }
@@ -236,7 +253,7 @@ class PostgresCrossingStore final : public CrossingStore {
       with_crossing.crossing_id = created.id;
       ASSIGN_OR_RETURN(result,
                        InsertView(connection, crossing.database_id, with_crossing, assignment));
-      return absl::OkStatus();
+      return BumpRevision(connection, crossing.database_id, /*reload=*/false);
     }));
     return result;
   }
@@ -281,18 +298,18 @@ class PostgresCrossingStore final : public CrossingStore {
         assignment.cluster_id = result.clusters[replacement.join_cluster].id;
       }
       ASSIGN_OR_RETURN(result.added, InsertView(connection, database_id, view, assignment));
-      return absl::OkStatus();
+      return BumpRevision(connection, database_id, /*reload=*/true);
     }));
     return result;
   }
 
-  absl::Status ForEachView(int64_t database_id,
-                           const std::function<absl::Status(ViewRecord&&)>& visit) override {
+  absl::Status ForEachViewAfter(int64_t database_id, int64_t after_view_id,
+                                const std::function<absl::Status(ViewRecord&&)>& visit) override {
     RETURN_IF_ERROR(pool_->Run([&](Connection& connection) {
       return DatabaseName(connection, database_id).status();
     }));
     // Pages by id, each its own query: no transaction or connection is held while `visit` runs.
-    int64_t after = 0;
+    int64_t after = after_view_id;
     while (true) {
       std::vector<ViewRecord> page;
       RETURN_IF_ERROR(pool_->Run([&](Connection& connection) -> absl::Status {
@@ -347,6 +364,7 @@ class PostgresCrossingStore final : public CrossingStore {
     return pool_->Transaction([&](Connection& connection) -> absl::Status {
       RETURN_IF_ERROR(LockDatabase(connection, vocabulary.database_id).status());
       RETURN_IF_ERROR(UpdateCodes(connection, vocabulary.database_id, codes));
+      RETURN_IF_ERROR(BumpRevision(connection, vocabulary.database_id, /*reload=*/true));
       return connection
           .Execute("INSERT INTO crossing_vocabulary (db_id, trained_views, data, updated_at) "
                    "VALUES ($1, $2, $3, $4) ON CONFLICT (db_id) DO UPDATE SET "
@@ -364,7 +382,8 @@ class PostgresCrossingStore final : public CrossingStore {
   absl::Status SaveViewCodes(int64_t database_id, const std::vector<ViewCode>& codes) override {
     return pool_->Transaction([&](Connection& connection) -> absl::Status {
       RETURN_IF_ERROR(LockDatabase(connection, database_id).status());
-      return UpdateCodes(connection, database_id, codes);
+      RETURN_IF_ERROR(UpdateCodes(connection, database_id, codes));
+      return BumpRevision(connection, database_id, /*reload=*/true);
     });
   }
 
@@ -395,13 +414,31 @@ class PostgresCrossingStore final : public CrossingStore {
       RETURN_IF_ERROR(LockDatabase(connection, database_id).status());
       RETURN_IF_ERROR(DeleteClusters(connection, database_id));
       ASSIGN_OR_RETURN(inserted, InsertClusters(connection, database_id, clusters));
-      return absl::OkStatus();
+      return BumpRevision(connection, database_id, /*reload=*/true);
     }));
     return inserted;
   }
 
  private:
   // The helpers below run on the caller's connection, inside its transaction if it has one.
+
+  // Tells the other servers, when the transaction commits, that the database changed.
+  static absl::Status Notify(Connection& connection, int64_t database_id) {
+    return connection
+        .Execute("SELECT pg_notify($1, $2)",
+                 Params().Text(pg::kCrossingChannel).Text(absl::StrCat(database_id)))
+        .status();
+  }
+
+  // Adds a write to the database's revisions (DatabaseRecord) and notifies.
+  static absl::Status BumpRevision(Connection& connection, int64_t database_id, bool reload) {
+    RETURN_IF_ERROR(connection
+                        .Execute("UPDATE crossing_db SET revision = revision + 1, "
+                                 "reload_revision = reload_revision + $2 WHERE id = $1",
+                                 Params().Int64(database_id).Int64(reload ? 1 : 0))
+                        .status());
+    return Notify(connection, database_id);
+  }
 
   // The database's name (for messages), NOT_FOUND when the id is unknown.
   static absl::StatusOr<std::string> DatabaseName(Connection& connection, int64_t database_id) {

@@ -3,9 +3,9 @@
 // store (slam_records.h), so both backends accept, refuse and report the same things.
 //
 // Where SQLite's one connection serialises everything, here several servers may write at once.
-// A checkpoint and a delete therefore lock their session's row before reading it: two writers of
-// one session queue (the second then sees the first one's trajectory) instead of both appending
-// at the same seq.
+// A checkpoint, a delete and a lease change therefore lock their session's row before reading it:
+// two writers of one session queue (the second then sees the first one's trajectory, or lease)
+// instead of both appending at the same seq (or both taking the session).
 
 #include <array>
 #include <cstdint>
@@ -164,6 +164,48 @@ class PostgresSlamStore final : public SlamStore {
     });
   }
 
+  absl::StatusOr<SlamLease> AcquireLease(const std::string& id, const std::string& owner,
+                                         const std::string& address,
+                                         double ttl_seconds) override {
+    RETURN_IF_ERROR(CheckLeaseRequest(owner, ttl_seconds));
+    return pool_->Transaction<SlamLease>([&](Connection& connection) -> absl::StatusOr<SlamLease> {
+      // The row lock makes the read, the decision and the write one step against every other
+      // server: two servers asking at once queue, and the second sees the first one's lease.
+      RETURN_IF_ERROR(LockSession(connection, id));
+      ASSIGN_OR_RETURN(SlamSessionRecord session, ReadSession(connection, id, false));
+      // The database's clock, read after the lock was granted (clock_timestamp(), not the
+      // transaction's start, which may be long before): one clock for every server, so theirs
+      // need not agree.
+      ASSIGN_OR_RETURN(Result clock,
+                       connection.Execute("SELECT extract(epoch FROM clock_timestamp())::float8"));
+      ASSIGN_OR_RETURN(SlamLease lease, LeaseAfterAcquire(session, owner, address, ttl_seconds,
+                                                          clock.Double(0, 0)));
+      if (lease.owner != owner) return lease;  // held by another: nothing to write
+      RETURN_IF_ERROR(connection
+                          .Execute("UPDATE slam_session SET lease_owner = $1, lease_address = $2, "
+                                   "lease_expires_at = $3 WHERE id = $4",
+                                   Params()
+                                       .Text(lease.owner)
+                                       .Text(lease.address)
+                                       .Double(lease.expires_at)
+                                       .Text(id))
+                          .status());
+      return lease;
+    });
+  }
+
+  absl::Status ReleaseLease(const std::string& id, const std::string& owner) override {
+    return pool_->Transaction([&](Connection& connection) -> absl::Status {
+      RETURN_IF_ERROR(LockSession(connection, id));
+      ASSIGN_OR_RETURN(SlamSessionRecord session, ReadSession(connection, id, false));
+      if (session.lease.owner != owner) return absl::OkStatus();  // not ours to give up
+      return connection
+          .Execute(absl::StrCat("UPDATE slam_session SET ", kClearSlamLease, " WHERE id = $1"),
+                   Params().Text(id))
+          .status();
+    });
+  }
+
   absl::StatusOr<SlamSessionRecord> DeleteSession(const std::string& id) override {
     // The read and the delete in one transaction, so the record returned is exactly what went.
     using Deleted = absl::StatusOr<SlamSessionRecord>;
@@ -208,11 +250,14 @@ class PostgresSlamStore final : public SlamStore {
       RETURN_IF_ERROR(InsertPoses(connection, id, checkpoint.new_poses));
       const double now = NowSeconds();
       const SlamSessionState state = close ? SlamSessionState::kClosed : SlamSessionState::kOpen;
+      // Closing also gives the lease up: a closed session has no holder.
       return connection
           .Execute(
-              "UPDATE slam_session SET checkpoint = $1, checkpoint_at = $2, "
-              "updated_at = $2, scans_processed = $3, map_revision = $4, segments = $5, "
-              "last_scan_stamp = $6, last_odometry_stamp = $7, state = $8 WHERE id = $9",
+              absl::StrCat(
+                  "UPDATE slam_session SET checkpoint = $1, checkpoint_at = $2, "
+                  "updated_at = $2, scans_processed = $3, map_revision = $4, segments = $5, "
+                  "last_scan_stamp = $6, last_odometry_stamp = $7, state = $8",
+                  close ? absl::StrCat(", ", kClearSlamLease) : "", " WHERE id = $9"),
               Params()
                   .Bytes(checkpoint.state)
                   .Double(now)

@@ -4,6 +4,7 @@
 
 #include "storage/slam_store.h"
 
+#include <chrono>
 #include <cmath>
 #include <limits>
 #include <memory>
@@ -278,6 +279,193 @@ TEST_P(SlamStoreTest, RacingCheckpointsOfOneSessionAppendOnce) {
   }
   ASSERT_OK_AND_ASSIGN(auto poses, store_->LoadTrajectory("s"));
   EXPECT_EQ(poses.size(), static_cast<size_t>(kRounds * kPoses));
+}
+
+// Leases (issue 19). The expiry tests use a ttl of 0.2 s and wait 0.5 s: behaviour with generous
+// margins, not timing measurements.
+constexpr double kLongTtl = 30;
+constexpr double kShortTtl = 0.2;
+void WaitPastShortTtl() { std::this_thread::sleep_for(std::chrono::milliseconds(500)); }
+
+SlamCheckpoint Fenced(SlamCheckpoint checkpoint, const std::string& owner) {
+  checkpoint.lease_owner = owner;
+  return checkpoint;
+}
+
+TEST_P(SlamStoreTest, AnotherOwnerIsRefusedAnUnexpiredLeaseAndTheHolderRenews) {
+  ASSERT_OK(store_->CreateSession(MakeSession("s", "r")));
+  ASSERT_OK_AND_ASSIGN(SlamSessionRecord fresh, store_->GetSession("s"));
+  EXPECT_TRUE(fresh.lease.owner.empty());
+  EXPECT_TRUE(fresh.lease.address.empty());
+  EXPECT_EQ(fresh.lease.expires_at, 0);
+
+  ASSERT_OK_AND_ASSIGN(SlamLease taken, store_->AcquireLease("s", "A", "a.example:1", kLongTtl));
+  EXPECT_EQ(taken.owner, "A");
+  EXPECT_EQ(taken.address, "a.example:1");
+  EXPECT_GT(taken.expires_at, 0);
+
+  // Get and List show the lease as stored.
+  ASSERT_OK_AND_ASSIGN(SlamSessionRecord got, store_->GetSession("s"));
+  EXPECT_EQ(got.lease.owner, "A");
+  EXPECT_EQ(got.lease.address, "a.example:1");
+  EXPECT_EQ(got.lease.expires_at, taken.expires_at);
+  ASSERT_OK_AND_ASSIGN(auto listed, store_->ListSessions(""));
+  ASSERT_EQ(listed.size(), 1u);
+  EXPECT_EQ(listed[0].lease.owner, "A");
+  EXPECT_EQ(listed[0].lease.address, "a.example:1");
+  EXPECT_EQ(listed[0].lease.expires_at, taken.expires_at);
+
+  // Another owner gets the lease as it stands: A's, unchanged, so it can redirect to A.
+  ASSERT_OK_AND_ASSIGN(SlamLease refused, store_->AcquireLease("s", "B", "b.example:2", kLongTtl));
+  EXPECT_EQ(refused.owner, "A");
+  EXPECT_EQ(refused.address, "a.example:1");
+  EXPECT_EQ(refused.expires_at, taken.expires_at);
+
+  // The holder renews: a longer ttl makes the growth certain whatever the clock's resolution.
+  ASSERT_OK_AND_ASSIGN(SlamLease renewed,
+                       store_->AcquireLease("s", "A", "a.example:1", 2 * kLongTtl));
+  EXPECT_EQ(renewed.owner, "A");
+  EXPECT_GT(renewed.expires_at, taken.expires_at);
+  ASSERT_OK_AND_ASSIGN(got, store_->GetSession("s"));
+  EXPECT_EQ(got.lease.expires_at, renewed.expires_at);
+}
+
+TEST_P(SlamStoreTest, AnExpiredLeaseIsTakenOver) {
+  ASSERT_OK(store_->CreateSession(MakeSession("s", "r")));
+  ASSERT_OK_AND_ASSIGN(SlamLease first, store_->AcquireLease("s", "A", "a:1", kShortTtl));
+  ASSERT_EQ(first.owner, "A");
+  WaitPastShortTtl();
+  ASSERT_OK_AND_ASSIGN(SlamLease second, store_->AcquireLease("s", "B", "b:2", kLongTtl));
+  EXPECT_EQ(second.owner, "B");
+  EXPECT_EQ(second.address, "b:2");
+  EXPECT_GT(second.expires_at, first.expires_at);
+  // And now A is the one refused.
+  ASSERT_OK_AND_ASSIGN(SlamLease refused, store_->AcquireLease("s", "A", "a:1", kLongTtl));
+  EXPECT_EQ(refused.owner, "B");
+}
+
+TEST_P(SlamStoreTest, ReleaseLetsAnotherOwnerTakeTheSessionAtOnce) {
+  ASSERT_OK(store_->CreateSession(MakeSession("s", "r")));
+  ASSERT_OK_AND_ASSIGN(SlamLease taken, store_->AcquireLease("s", "A", "a:1", kLongTtl));
+  ASSERT_EQ(taken.owner, "A");
+  // Releasing a lease one does not hold is a no-op, not an error.
+  ASSERT_OK(store_->ReleaseLease("s", "B"));
+  ASSERT_OK_AND_ASSIGN(SlamSessionRecord got, store_->GetSession("s"));
+  EXPECT_EQ(got.lease.owner, "A");
+
+  ASSERT_OK(store_->ReleaseLease("s", "A"));
+  ASSERT_OK_AND_ASSIGN(got, store_->GetSession("s"));
+  EXPECT_TRUE(got.lease.owner.empty());
+  EXPECT_TRUE(got.lease.address.empty());
+  EXPECT_EQ(got.lease.expires_at, 0);
+  ASSERT_OK(store_->ReleaseLease("s", "A"));  // again: nothing held, still OK
+
+  ASSERT_OK_AND_ASSIGN(SlamLease next, store_->AcquireLease("s", "B", "b:2", kLongTtl));
+  EXPECT_EQ(next.owner, "B");
+  EXPECT_EQ(next.address, "b:2");
+}
+
+TEST_P(SlamStoreTest, LeaseErrors) {
+  ASSERT_OK(store_->CreateSession(MakeSession("s", "r")));
+  EXPECT_EQ(CodeOf(store_->AcquireLease("nope", "A", "a:1", kLongTtl)),
+            absl::StatusCode::kNotFound);
+  EXPECT_EQ(CodeOf(store_->ReleaseLease("nope", "A")), absl::StatusCode::kNotFound);
+  EXPECT_EQ(CodeOf(store_->AcquireLease("s", "", "a:1", kLongTtl)),
+            absl::StatusCode::kInvalidArgument);
+  for (double ttl : {0.0, -1.0, std::numeric_limits<double>::quiet_NaN(),
+                     std::numeric_limits<double>::infinity()}) {
+    EXPECT_EQ(CodeOf(store_->AcquireLease("s", "A", "a:1", ttl)),
+              absl::StatusCode::kInvalidArgument)
+        << ttl;
+  }
+  ASSERT_OK_AND_ASSIGN(SlamSessionRecord untouched, store_->GetSession("s"));
+  EXPECT_TRUE(untouched.lease.owner.empty());
+
+  ASSERT_OK(store_->CloseSession("s", Checkpoint("final", 1, 0, 1)));
+  absl::StatusOr<SlamLease> closed = store_->AcquireLease("s", "A", "a:1", kLongTtl);
+  EXPECT_EQ(CodeOf(closed), absl::StatusCode::kFailedPrecondition);
+  EXPECT_NE(closed.status().message().find("is closed"), std::string::npos) << closed.status();
+}
+
+TEST_P(SlamStoreTest, CheckpointsAreFencedByTheLease) {
+  ASSERT_OK(store_->CreateSession(MakeSession("s", "r")));
+  ASSERT_OK_AND_ASSIGN(SlamLease taken, store_->AcquireLease("s", "A", "a:1", kShortTtl));
+  ASSERT_EQ(taken.owner, "A");
+  ASSERT_OK(store_->WriteCheckpoint("s", Fenced(Checkpoint("a one", 2, 0, 2), "A")));
+  // Expired but not taken over: A's lease still fences for A.
+  WaitPastShortTtl();
+  ASSERT_OK(store_->WriteCheckpoint("s", Fenced(Checkpoint("a two", 3, 2, 1), "A")));
+
+  ASSERT_OK_AND_ASSIGN(SlamLease successor,
+                       store_->AcquireLease("s", "B", "b.example:2", kLongTtl));
+  ASSERT_EQ(successor.owner, "B");
+  // A, which lost the lease, writes nothing, and is told who has the session.
+  const absl::Status lost =
+      store_->WriteCheckpoint("s", Fenced(Checkpoint("a late", 9, 3, 2), "A"));
+  EXPECT_EQ(lost.code(), absl::StatusCode::kFailedPrecondition) << lost;
+  EXPECT_NE(lost.message().find("held by another server (b.example:2)"), std::string::npos) << lost;
+  EXPECT_NE(lost.message().find("lease was lost"), std::string::npos) << lost;
+  EXPECT_EQ(CodeOf(store_->CloseSession("s", Fenced(Checkpoint("a final", 9, 3, 0), "A"))),
+            absl::StatusCode::kFailedPrecondition);
+  ASSERT_OK_AND_ASSIGN(SlamSessionRecord session, store_->GetSession("s"));
+  EXPECT_EQ(session.state, SlamSessionState::kOpen);
+  EXPECT_EQ(session.checkpoint, "a two");
+  EXPECT_EQ(session.scans_processed, 3);
+  EXPECT_EQ(session.trajectory_length, 3);
+  EXPECT_EQ(session.lease.owner, "B");
+  ASSERT_OK_AND_ASSIGN(int64_t stored_poses, database_.CountRows("slam_trajectory"));
+  EXPECT_EQ(stored_poses, 3);
+
+  // The holder's fenced checkpoint and an unfenced one are written.
+  ASSERT_OK(store_->WriteCheckpoint("s", Fenced(Checkpoint("b one", 4, 3, 1), "B")));
+  ASSERT_OK(store_->WriteCheckpoint("s", Checkpoint("unfenced", 5, 4, 1)));
+  ASSERT_OK_AND_ASSIGN(session, store_->GetSession("s"));
+  EXPECT_EQ(session.checkpoint, "unfenced");
+  EXPECT_EQ(session.trajectory_length, 5);
+
+  // Once released, nobody holds the session: a fenced write is refused too.
+  ASSERT_OK(store_->ReleaseLease("s", "B"));
+  EXPECT_EQ(CodeOf(store_->WriteCheckpoint("s", Fenced(Checkpoint("b late", 6, 5, 1), "B"))),
+            absl::StatusCode::kFailedPrecondition);
+}
+
+TEST_P(SlamStoreTest, ClosingGivesTheLeaseUp) {
+  ASSERT_OK(store_->CreateSession(MakeSession("s", "r")));
+  ASSERT_OK_AND_ASSIGN(SlamLease taken, store_->AcquireLease("s", "A", "a:1", kLongTtl));
+  ASSERT_EQ(taken.owner, "A");
+  ASSERT_OK(store_->CloseSession("s", Fenced(Checkpoint("final", 2, 0, 2), "A")));
+  ASSERT_OK_AND_ASSIGN(SlamSessionRecord session, store_->GetSession("s"));
+  EXPECT_EQ(session.state, SlamSessionState::kClosed);
+  EXPECT_TRUE(session.lease.owner.empty());
+  EXPECT_TRUE(session.lease.address.empty());
+  EXPECT_EQ(session.lease.expires_at, 0);
+  ASSERT_OK_AND_ASSIGN(auto listed, store_->ListSessions(""));
+  ASSERT_EQ(listed.size(), 1u);
+  EXPECT_TRUE(listed[0].lease.owner.empty());
+}
+
+TEST_P(SlamStoreTest, RacingAcquiresGrantTheLeaseOnce) {
+  // Two servers (two stores, each with its own connections) ask for one session's lease at the
+  // same moment: exactly one gets it, and the other is told who did.
+  ASSERT_OK(store_->CreateSession(MakeSession("s", "r")));
+  ASSERT_OK_AND_ASSIGN(std::unique_ptr<SlamStore> other, OpenSlamStore(database_.db()));
+  constexpr int kRounds = 20;
+  for (int round = 0; round < kRounds; ++round) {
+    absl::StatusOr<SlamLease> first;
+    absl::StatusOr<SlamLease> second;
+    std::thread racer([&] { second = other->AcquireLease("s", "B", "b:2", kLongTtl); });
+    first = store_->AcquireLease("s", "A", "a:1", kLongTtl);
+    racer.join();
+    ASSERT_OK(first.status());
+    ASSERT_OK(second.status());
+    const bool a_won = first->owner == "A";
+    const bool b_won = second->owner == "B";
+    EXPECT_NE(a_won, b_won) << "round " << round;
+    const std::string winner = a_won ? "A" : "B";
+    EXPECT_EQ(first->owner, winner) << "round " << round;
+    EXPECT_EQ(second->owner, winner) << "round " << round;
+    ASSERT_OK(store_->ReleaseLease("s", winner));
+  }
 }
 
 TEST_P(SlamStoreTest, TheTrajectoryForeignKeyCascades) {

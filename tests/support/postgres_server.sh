@@ -7,12 +7,14 @@
 #
 #   tests/support/postgres_server.sh start STATE_DIR
 #   tests/support/postgres_server.sh stop STATE_DIR
+#   tests/support/postgres_server.sh restart|pause|resume STATE_DIR
+#                                        (the same cluster and port: tests of reconnecting)
 #
 # Without the binaries, `start` says so, writes no uri, and exits 0: the tests then skip with that
 # message (scripts/install-deps.sh installs postgresql-15, so CI always has them).
 set -euo pipefail
 
-usage() { echo "usage: $0 start|stop STATE_DIR" >&2; exit 2; }
+usage() { echo "usage: $0 start|stop|restart|pause|resume STATE_DIR" >&2; exit 2; }
 [ $# -eq 2 ] || usage
 ACTION=$1
 STATE=$2
@@ -38,7 +40,7 @@ stop() {
     as_owner "$bin/pg_ctl" -D "$data/cluster" -m immediate -w stop >/dev/null 2>&1 || true
   fi
   rm -rf "$data"
-  rm -f "$STATE/uri" "$STATE/data_dir"
+  rm -f "$STATE/uri" "$STATE/data_dir" "$STATE/options"
 }
 
 start() {
@@ -69,10 +71,10 @@ start() {
   local port tries=0
   while :; do
     port=$(( 20000 + RANDOM % 20000 ))
+    echo "-p $port -k $data -c listen_addresses=127.0.0.1 -c fsync=off -c synchronous_commit=off \
+-c full_page_writes=off -c max_connections=300" > "$STATE/options"
     if as_owner "$bin/pg_ctl" -D "$data/cluster" -l "$data/server.log" -w -t 60 \
-         -o "-p $port -k $data -c listen_addresses=127.0.0.1 -c fsync=off \
-             -c synchronous_commit=off -c full_page_writes=off -c max_connections=300" \
-         start >/dev/null 2>&1; then
+         -o "$(cat "$STATE/options")" start >/dev/null 2>&1; then
       break
     fi
     tries=$((tries + 1))
@@ -87,8 +89,23 @@ start() {
        "127.0.0.1:$port, cluster in $data"
 }
 
+# The same cluster on the same port, for tests of a server that goes away and comes back.
+restart() { pause; resume; }
+pause() {
+  as_owner "$(pg_bin)/pg_ctl" -D "$(cat "$STATE/data_dir")/cluster" -m fast -w -t 60 stop >/dev/null
+}
+resume() {
+  local data
+  data=$(cat "$STATE/data_dir")
+  as_owner "$(pg_bin)/pg_ctl" -D "$data/cluster" -l "$data/server.log" -w -t 60 \
+    -o "$(cat "$STATE/options")" start >/dev/null
+}
+
 case "$ACTION" in
   start) start ;;
   stop) stop ;;
+  restart) restart ;;
+  pause) pause ;;
+  resume) resume ;;
   *) usage ;;
 esac

@@ -60,7 +60,10 @@ absl::StatusOr<std::unique_ptr<ServerProcess>> ServerProcess::StartWithAuth(
     const std::string& binary, const std::string& db_path, const std::vector<std::string>& args,
     const std::string& listen, Stderr stderr_to) {
   std::unique_ptr<ServerProcess> server(new ServerProcess());
-  server->log_path_ = db_path + ".log." + std::to_string(std::rand());
+  // Beside a database file; a PostgreSQL URI is no place for a log.
+  const bool uri = db_path.rfind("postgresql://", 0) == 0 || db_path.rfind("postgres://", 0) == 0;
+  const std::string log_base = uri ? MakeTempDir("waymark-server-log") + "/server" : db_path;
+  server->log_path_ = log_base + ".log." + std::to_string(std::rand());
   ChildProcess::Options options;
   options.argv = {binary, "--listen", listen, "--db", db_path};
   options.argv.insert(options.argv.end(), args.begin(), args.end());
