@@ -5,6 +5,7 @@
 #include "client/cli/unknown_command.h"
 #include "client/cli/vo_command.h"
 #include "client/common/output.h"
+#include "client/lib/fleet_target.h"
 
 namespace waymark::cli {
 
@@ -20,7 +21,9 @@ int RunCli(int argc, const char* const* argv, std::ostream& out, std::ostream& e
   app.fallthrough();
   app.require_subcommand(1);
   app.add_option("--server", globals.server,
-                 "Server address HOST[:PORT], [IPV6][:PORT] or unix:PATH (port 50051 if omitted)")
+                 "Server address HOST[:PORT], [IPV6][:PORT] or unix:PATH (port 50051 if omitted); "
+                 "several servers sharing a PostgreSQL database as HOST[:PORT],HOST[:PORT],... "
+                 "(calls are spread over them, and go on when one is down)")
       ->envname("WAYMARK_SERVER")
       ->capture_default_str();
   app.add_flag("--json", globals.json, "Print one JSON document on stdout instead of tables");
@@ -66,6 +69,10 @@ int RunCli(int argc, const char* const* argv, std::ostream& out, std::ostream& e
   absl::StatusOr<std::string> server = WithDefaultPort(globals.server);
   if (!server.ok()) return ReportError(context, server.status(), "--server / WAYMARK_SERVER");
   globals.server = *std::move(server);
+  // Several servers: say now which one does not resolve, not later as a vague UNAVAILABLE.
+  if (absl::Status fleet = client::ParseFleetTarget(globals.server).status(); !fleet.ok()) {
+    return ReportError(context, fleet, "--server / WAYMARK_SERVER");
+  }
   if (globals.use_tls || !globals.tls.ca.empty() || !globals.tls.cert.empty()) {
     auto credentials = client::MakeTlsCredentials(globals.tls);
     if (!credentials.ok()) {

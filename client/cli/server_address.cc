@@ -79,6 +79,8 @@ absl::StatusOr<std::string> WithDefaultPort(const std::string& target) {
   } else if (absl::StartsWith(rest, "unix:") || absl::StartsWith(rest, "unix-abstract:") ||
              absl::StrContains(rest, ":/")) {
     return target;  // a socket, or a scheme of gRPC's that names no host and port
+  } else if (absl::StrContains(rest, ',')) {
+    address_list = true;  // several servers, "a:50051,b" (client/lib/fleet_target.h)
   }
   std::vector<std::string> completed;
   for (absl::string_view address :

@@ -17,7 +17,8 @@ inline constexpr int kDefaultServerPort = 50051;
 
 // `target` with kDefaultServerPort added where it names a host without a port: "10.0.0.7" ->
 // "10.0.0.7:50051", "[::1]" and "::1" -> "[::1]:50051", "dns:///robot-hub" ->
-// "dns:///robot-hub:50051" (also after the ipv4: and ipv6: schemes, to every address of a list).
+// "dns:///robot-hub:50051" (also after the ipv4: and ipv6: schemes, and in a plain comma-separated
+// list of several servers, "a,b:6000" -> "a:50051,b:6000": to every address of a list).
 // A target with a port, a unix socket ("unix:PATH", "unix-abstract:NAME") or another scheme is
 // returned as is. INVALID_ARGUMENT for an empty target, an empty host, or a port that is not in
 // 1..65535 (gRPC would dial port 0, or fail with an unhelpful message).

@@ -25,6 +25,10 @@ std::unique_ptr<client::SlamClient> CommandContext::ConnectSlam() const {
   client::SlamClientOptions options;
   options.timeout =
       globals.timeout_s > 0 ? absl::Seconds(globals.timeout_s) : absl::InfiniteDuration();
+  // A server of a fleet that names another as the session's: go there with the same settings.
+  options.connect = [channel = Channel()](const std::string& address) {
+    return std::shared_ptr<grpc::ChannelInterface>(client::MakeChannel(address, channel));
+  };
   return std::make_unique<client::SlamClient>(MakeChannel(), options);
 }
 

@@ -12,6 +12,7 @@
 
 #include "absl/strings/match.h"
 #include "absl/strings/str_cat.h"
+#include "client/lib/fleet_target.h"
 
 namespace waymark::client {
 namespace {
@@ -97,14 +98,23 @@ std::shared_ptr<grpc::Channel> MakeChannel(const std::string& address,
   args.SetInt(GRPC_ARG_INITIAL_RECONNECT_BACKOFF_MS, ToMillis(options.initial_reconnect_backoff));
   args.SetMaxSendMessageSize(options.max_message_bytes);
   args.SetMaxReceiveMessageSize(options.max_message_bytes);
+  // Several servers: one channel over all of them (fleet_target.h). A list that does not parse is
+  // handed to gRPC as it is, whose calls then fail UNAVAILABLE; the command line checks the list
+  // first (ParseFleetTarget) to say precisely what is wrong.
+  absl::StatusOr<FleetTarget> fleet = ParseFleetTarget(address);
+  const std::string target = fleet.ok() ? fleet->target : address;
+  if (fleet.ok() && fleet->round_robin) args.SetLoadBalancingPolicyName("round_robin");
   if (!options.tls_server_name.empty()) {
     args.SetSslTargetNameOverride(options.tls_server_name);
+  } else if (fleet.ok() && !fleet->authority_host.empty() && options.credentials) {
+    // An ipv4: list has no host name of its own; certificates carry the servers' names.
+    args.SetSslTargetNameOverride(fleet->authority_host);
   }
   auto credentials = options.credentials ? options.credentials : grpc::InsecureChannelCredentials();
-  if (options.bearer_token.empty()) return grpc::CreateCustomChannel(address, credentials, args);
+  if (options.bearer_token.empty()) return grpc::CreateCustomChannel(target, credentials, args);
   std::vector<std::unique_ptr<grpc::experimental::ClientInterceptorFactoryInterface>> interceptors;
   interceptors.push_back(std::make_unique<BearerTokenInterceptorFactory>(options.bearer_token));
-  return grpc::experimental::CreateCustomChannelWithInterceptors(address, credentials, args,
+  return grpc::experimental::CreateCustomChannelWithInterceptors(target, credentials, args,
                                                                  std::move(interceptors));
 }
 

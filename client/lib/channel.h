@@ -59,8 +59,9 @@ struct TlsFiles {
 // non-PEM file, or a certificate without its key.
 absl::StatusOr<std::shared_ptr<grpc::ChannelCredentials>> MakeTlsCredentials(const TlsFiles& files);
 
-// Creates a channel to `address` ("host:port", or any gRPC target URI). Connection happens lazily
-// on the first call, so this never fails; connection errors surface as UNAVAILABLE from calls.
+// Creates a channel to `address` ("host:port", or any gRPC target URI, or several comma-separated
+// "host:port" spread over with round_robin: fleet_target.h). Connection happens lazily on the
+// first call, so this never fails; connection errors surface as UNAVAILABLE from calls.
 std::shared_ptr<grpc::Channel> MakeChannel(const std::string& address,
                                            const ChannelOptions& options = {});
 

@@ -11,11 +11,30 @@ namespace waymark::client {
 
 constexpr int kResourceExhausted = 8;  // google.rpc.Code
 
+std::string SessionRoutes::Get(const std::string& session_id) const {
+  std::lock_guard<std::mutex> lock(mutex_);
+  auto it = owner_.find(session_id);
+  return it == owner_.end() ? std::string() : it->second;
+}
+
+void SessionRoutes::Set(const std::string& session_id, const std::string& address) {
+  std::lock_guard<std::mutex> lock(mutex_);
+  owner_[session_id] = address;
+}
+
+void SessionRoutes::Clear(const std::string& session_id) {
+  std::lock_guard<std::mutex> lock(mutex_);
+  owner_.erase(session_id);
+}
+
 SensorStream::SensorStream(v1::SlamService::StubInterface* stub, std::string session_id, int window,
-                           Deadline deadline, UpdateCallback on_update)
+                           Deadline deadline, UpdateCallback on_update,
+                           std::shared_ptr<SessionRoutes> routes, std::string via)
     : window_(std::max(1, window)),
       session_id_(std::move(session_id)),
-      on_update_(std::move(on_update)) {
+      on_update_(std::move(on_update)),
+      routes_(std::move(routes)),
+      via_(std::move(via)) {
   if (deadline.has_value()) context_.set_deadline(*deadline);
   stream_ = stub->StreamSensorData(&context_);
   reader_ = std::thread([this] { ReadLoop(); });
@@ -195,6 +214,17 @@ absl::Status SensorStream::Finish() {
   // The server answers every scan before it ends the stream; the reader stops at its end.
   if (reader_.joinable()) reader_.join();
   absl::Status status = ToAbslStatus(stream_->Finish());
+  const auto& trailers = context_.GetServerTrailingMetadata();
+  if (auto it = trailers.find("waymark-session-owner"); it != trailers.end()) {
+    session_owner_.assign(it->second.data(), it->second.size());
+  }
+  if (routes_ != nullptr) {
+    if (!session_owner_.empty() && session_owner_ != via_) {
+      routes_->Set(session_id_, session_owner_);  // the next stream goes there
+    } else if (!via_.empty() && !status.ok()) {
+      routes_->Clear(session_id_);  // the named server failed us: back to the fleet
+    }
+  }
   if (status.ok()) {
     std::lock_guard<std::mutex> lock(mutex_);
     if (!outstanding_scans_.empty()) {
@@ -336,12 +366,20 @@ absl::StatusOr<v1::ListSessionsResponse> SlamClient::ListSessions(const std::str
       });
 }
 
+v1::SlamService::StubInterface* SlamClient::StubAt(const std::string& address) {
+  std::lock_guard<std::mutex> lock(stubs_mutex_);
+  std::unique_ptr<v1::SlamService::StubInterface>& stub = stubs_[address];
+  if (stub == nullptr) stub = v1::SlamService::NewStub(options_.connect(address));
+  return stub.get();
+}
+
 std::unique_ptr<SensorStream> SlamClient::StreamSensorData(const std::string& session_id,
                                                            int window,
                                                            SensorStream::UpdateCallback on_update) {
-  return std::make_unique<SensorStream>(stub_.get(), session_id, window,
-                                        DeadlineAfter(options_.stream_timeout),
-                                        std::move(on_update));
+  const std::string owner = options_.connect ? routes_->Get(session_id) : std::string();
+  return std::make_unique<SensorStream>(owner.empty() ? stub_.get() : StubAt(owner), session_id,
+                                        window, DeadlineAfter(options_.stream_timeout),
+                                        std::move(on_update), routes_, owner);
 }
 
 }  // namespace waymark::client

@@ -9,6 +9,7 @@
 #include <cstdint>
 #include <functional>
 #include <memory>
+#include <unordered_map>
 #include <mutex>
 #include <optional>
 #include <string>
@@ -33,6 +34,26 @@ struct SlamClientOptions {
   // CreateSession, CloseSession, DeleteSession and ImportMap are never retried (a retry could
   // apply them twice).
   RetryOptions retry;
+  // Several servers on one database (docs/scale-out.md): a session is served by one of them, and
+  // the others refuse its stream naming that server (trailing metadata waymark-session-owner).
+  // With `connect` set, the next stream of that session goes straight there (a channel made by
+  // `connect`), and back to the channel's own servers once the named one is unreachable (dead:
+  // its lease expires and any server takes the session over). Unset: the refusal is an error the
+  // caller retries like any other.
+  std::function<std::shared_ptr<grpc::ChannelInterface>(const std::string& address)> connect;
+};
+
+// Which server serves which session, as the servers' refusals said (shared by a SlamClient and
+// its streams).
+class SessionRoutes {
+ public:
+  std::string Get(const std::string& session_id) const;
+  void Set(const std::string& session_id, const std::string& address);
+  void Clear(const std::string& session_id);
+
+ private:
+  mutable std::mutex mutex_;
+  std::unordered_map<std::string, std::string> owner_;
 };
 
 // Scans allowed in flight on one stream by default: well under the server's default session
@@ -67,8 +88,11 @@ class SensorStream {
     int max_outstanding = 0;        // the most scans ever in flight
   };
 
+  // `routes` (optional) learns from the stream's end where its session is served; `via` is the
+  // address the stream was sent to when it followed such a route ("" = the client's channel).
   SensorStream(v1::SlamService::StubInterface* stub, std::string session_id, int window,
-               Deadline deadline, UpdateCallback on_update);
+               Deadline deadline, UpdateCallback on_update,
+               std::shared_ptr<SessionRoutes> routes = nullptr, std::string via = "");
   ~SensorStream();
   SensorStream(const SensorStream&) = delete;
   SensorStream& operator=(const SensorStream&) = delete;
@@ -100,6 +124,8 @@ class SensorStream {
   void set_end_callback(std::function<void()> callback);
   // Half-closes, waits for every outstanding answer and returns the stream's final status.
   absl::Status Finish();
+  // After Finish: the server that serves the session, when this one refused it for that reason.
+  const std::string& session_owner() const { return session_owner_; }
   // Aborts from any thread.
   void Cancel();
 
@@ -134,6 +160,9 @@ class SensorStream {
   bool first_sent_ = false;
   bool finished_ = false;
   uint64_t next_sequence_ = 1;
+  std::shared_ptr<SessionRoutes> routes_;
+  const std::string via_;
+  std::string session_owner_;
 };
 
 // Typed, blocking access to waymark.v1.SlamService. Thread-safe; streams are per caller.
@@ -180,9 +209,15 @@ class SlamClient {
                                                  SensorStream::UpdateCallback on_update = {});
 
  private:
+  // The stub for a server another one named (cached: one channel per address).
+  v1::SlamService::StubInterface* StubAt(const std::string& address);
+
   std::unique_ptr<v1::SlamService::StubInterface> stub_;
   std::shared_ptr<grpc::ChannelInterface> channel_;  // null when built on a stub
   SlamClientOptions options_;
+  std::shared_ptr<SessionRoutes> routes_ = std::make_shared<SessionRoutes>();
+  std::mutex stubs_mutex_;
+  std::unordered_map<std::string, std::unique_ptr<v1::SlamService::StubInterface>> stubs_;
 };
 
 }  // namespace waymark::client

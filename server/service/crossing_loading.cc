@@ -3,6 +3,7 @@
 #include <algorithm>
 #include <optional>
 #include <set>
+#include <unordered_map>
 #include <utility>
 #include <vector>
 
@@ -145,6 +146,45 @@ absl::StatusOr<bool> StillAt(storage::CrossingStore& store, const storage::Datab
   return now->id == record.id && now->revision == record.revision;
 }
 
+// Puts the appended views into their clusters as enrollment does (a new cluster for a view that
+// is its centre, else the existing one), in id order: no rebuild of the centre index, which
+// InstallClusters would do. False, having changed nothing, when the stored clusters are not
+// this database's plus those appends (then the caller installs them whole).
+bool JoinClusters(ResidentDatabase& db, const std::vector<int64_t>& added,
+                  const std::vector<storage::ClusterRecord>& stored) {
+  std::unordered_map<int64_t, const storage::ClusterRecord*> cluster_of;
+  for (const storage::ClusterRecord& c : stored) {
+    for (int64_t id : c.member_view_ids) cluster_of[id] = &c;
+  }
+  std::unordered_map<int64_t, int> index_of;  // cluster id -> index in memory
+  for (size_t i = 0; i < db.views->clusters().size(); ++i) {
+    index_of[db.views->clusters()[i].cluster_id] = static_cast<int>(i);
+  }
+  // Check first, so that a mismatch changes nothing.
+  size_t new_clusters = 0;
+  for (int64_t id : added) {
+    auto found = cluster_of.find(id);
+    if (found == cluster_of.end()) return false;
+    if (!index_of.count(found->second->id)) {
+      if (found->second->center_view_id != id) return false;
+      ++new_clusters;
+    }
+  }
+  if (db.views->clusters().size() + new_clusters != stored.size()) return false;
+  for (int64_t id : added) {
+    const storage::ClusterRecord& cluster = *cluster_of.at(id);
+    const uint32_t slot =
+        static_cast<uint32_t>(db.FindView(id) - db.views->views().data());
+    auto known = index_of.find(cluster.id);
+    if (known != index_of.end()) {
+      db.views->AddToCluster(known->second, slot);
+    } else {
+      index_of[cluster.id] = db.views->NewCluster(cluster.id, slot);
+    }
+  }
+  return true;
+}
+
 absl::Status Apply(ResidentDatabase& db, StoredChanges changes, int64_t newest_view) {
   absl::MutexLock lock(&db.mutex);
   if (absl::Status s = db.CheckAlive(); !s.ok()) return s;
@@ -169,12 +209,16 @@ absl::Status Apply(ResidentDatabase& db, StoredChanges changes, int64_t newest_v
       }
     }
   }
+  std::vector<int64_t> added;
   for (storage::ViewRecord& v : changes.views) {
+    added.push_back(v.id);
     if (absl::Status s = AddStoredView(db, std::move(v), /*defer_indexing=*/false); !s.ok()) {
       return s;
     }
   }
-  ResidentDatabase::InstallClusters(changes.clusters, db.views.get());
+  if (!JoinClusters(db, added, changes.clusters)) {
+    ResidentDatabase::InstallClusters(changes.clusters, db.views.get());
+  }
   db.record = changes.record;
   return absl::OkStatus();
 }

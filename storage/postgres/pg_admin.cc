@@ -51,4 +51,11 @@ absl::StatusOr<std::string> RecreateDatabase(const std::string& server_uri,
   return DatabaseUri(server_uri, name);
 }
 
+absl::StatusOr<std::string> QueryText(const std::string& uri, const std::string& sql) {
+  ASSIGN_OR_RETURN(std::unique_ptr<Connection> connection, Connection::Open(uri));
+  ASSIGN_OR_RETURN(Result rows, connection->Execute(sql));
+  if (rows.rows() == 0) return absl::NotFoundError(absl::StrCat("no row: ", sql));
+  return rows.IsNull(0, 0) ? std::string() : rows.Text(0, 0);
+}
+
 }  // namespace waymark::storage::pg

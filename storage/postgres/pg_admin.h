@@ -1,8 +1,9 @@
 #ifndef WAYMARK_STORAGE_POSTGRES_PG_ADMIN_H_
 #define WAYMARK_STORAGE_POSTGRES_PG_ADMIN_H_
 
-// Creating and dropping whole PostgreSQL databases on a server: what tests and benchmarks do to
-// get an empty database of their own (the stores never create or drop databases).
+// Creating and dropping whole PostgreSQL databases on a server, and reading one value: what tests
+// and benchmarks do to get an empty database of their own and look into it (the stores never
+// create or drop databases).
 
 #include <string>
 
@@ -21,6 +22,10 @@ absl::StatusOr<std::string> RecreateDatabase(const std::string& server_uri,
 
 // Drops database `name` if it exists, closing its connections.
 absl::Status DropDatabase(const std::string& server_uri, const std::string& name);
+
+// The first column of the first row of `sql` (a text value) on database `uri`: for benchmarks
+// that look at what the servers stored. NOT_FOUND without a row; "" for NULL.
+absl::StatusOr<std::string> QueryText(const std::string& uri, const std::string& sql);
 
 }  // namespace waymark::storage::pg
 

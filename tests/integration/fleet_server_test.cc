@@ -15,6 +15,8 @@
 #include <grpcpp/grpcpp.h>
 #include <gtest/gtest.h>
 
+#include "client/lib/channel.h"
+#include "client/lib/slam_client.h"
 #include "tests/service/slam_test_world.h"
 #include "tests/storage/store_backend.h"
 #include "tests/support/crossing_test_client.h"
@@ -221,6 +223,56 @@ TEST_F(FleetServerTest, AServerThatStopsCleanlyHandsItsSessionsOverAtOnce) {
   ASSERT_TRUE(moved.start.has_value());
   EXPECT_EQ(moved.start->scans_processed(), 4u);
   EXPECT_EQ(moved.last_processed, 6u);
+}
+
+// What a robot's client does with `--server A,B` (client/lib/fleet_target.h, SlamClient): its
+// streams go wherever the fleet channel sends them, follow the server that serves the session
+// when another names it, and when that server dies keep trying the fleet until another server
+// takes the session over.
+TEST_F(FleetServerTest, AFleetClientFollowsItsSessionAndFailsOverWhenItsServerDies) {
+  ASSERT_NE(a_, nullptr);
+  ASSERT_NE(b_, nullptr);
+  v1::Session session;
+  ASSERT_TRUE(Slam(*a_)->CreateSession(Ctx().get(), TestSessionRequest("robot-3"), &session).ok());
+  const std::string id = session.session_id();  // held by A
+  client::SlamClientOptions options;
+  options.connect = [](const std::string& address) {
+    return std::shared_ptr<grpc::ChannelInterface>(client::MakeChannel(address));
+  };
+  client::SlamClient fleet(client::MakeChannel(b_->address() + "," + a_->address()), options);
+
+  // Streams until one is served (a refusal teaches the client where the session is); returns
+  // the scans the session held when the served stream started, or -1.
+  const auto stream_until_served = [&](int first, int steps) -> int {
+    for (int attempt = 0; attempt < 80; ++attempt) {
+      std::unique_ptr<client::SensorStream> stream = fleet.StreamSensorData(id);
+      absl::StatusOr<v1::StreamStart> start = stream->Hello(absl::Seconds(10));
+      if (!start.ok()) {
+        const absl::Status ended = stream->Finish();
+        EXPECT_TRUE(absl::IsFailedPrecondition(ended) || absl::IsUnavailable(ended)) << ended;
+        std::this_thread::sleep_for(std::chrono::milliseconds(250));
+        continue;
+      }
+      for (const v1::SensorData& message : Drive(first, steps, 1)) {
+        const absl::Status sent = message.has_scan() ? stream->SendScan(message.scan())
+                                                     : stream->SendOdometry(message.odometry());
+        EXPECT_TRUE(sent.ok()) << sent;
+      }
+      const absl::Status finished = stream->Finish();
+      EXPECT_TRUE(finished.ok()) << finished;
+      return static_cast<int>(start->scans_processed());
+    }
+    return -1;
+  };
+  EXPECT_EQ(stream_until_served(0, 7), 0);  // served by A, through B's redirect or directly
+  a_->Stop(SIGKILL);
+  // B serves it once A's lease expires, from the checkpoint after scan 6.
+  EXPECT_EQ(stream_until_served(6, 3), 6);
+  v1::GetTrajectoryRequest request;
+  request.set_session_id(id);
+  v1::Trajectory trajectory;
+  ASSERT_TRUE(Slam(*b_)->GetTrajectory(Ctx().get(), request, &trajectory).ok());
+  EXPECT_EQ(trajectory.poses_size(), 9);
 }
 
 }  // namespace
