@@ -31,6 +31,8 @@
 #include <fmt/format.h>
 #include <nlohmann/json.hpp>
 
+#include "absl/strings/str_split.h"
+
 #include "client/lib/channel.h"
 #include "client/lib/slam_client.h"
 #include "storage/postgres/pg_admin.h"
@@ -58,6 +60,7 @@ struct RobotResult {
   int breaks = 0;            // streams that ended before the robot stopped
   double back_after_s = -1;  // kill -> first answered scan on a new stream (broken robots)
   int64_t lost = 0;          // answered scans the resumed session did not hold
+  uint64_t answered = 0;     // the session's count in the last answer the robot had
 };
 
 // One robot: creates its session, streams until `stop`, reopening broken streams. `killed_at`
@@ -117,6 +120,7 @@ void Robot(int index, const std::string& fleet, const std::atomic<bool>& stop,
     }
     const absl::Status ended = stream->Finish();
     if (last > 0) answered = last;
+    result.answered = answered;
     if (stop) break;
     ++result.breaks;
     broken = true;
@@ -124,48 +128,107 @@ void Robot(int index, const std::string& fleet, const std::atomic<bool>& stop,
   }
 }
 
+// A fresh database, `servers` servers on it and `robots` robots streaming to them.
+struct FleetRun {
+  std::string db;
+  std::vector<std::unique_ptr<testing::ServerProcess>> servers;
+  std::atomic<bool> stop{false};
+  std::atomic<int64_t> killed_at_ns{0};  // when a server was killed (kill trials)
+  std::vector<RobotResult> results;
+  std::vector<std::thread> robots;
+
+  FleetRun(const std::string& postgres, int server_count, int robot_count, double lease) {
+    auto fresh = storage::pg::RecreateDatabase(postgres, "waymark_failover_bench");
+    if (!fresh.ok()) throw std::runtime_error(fresh.status().ToString());
+    db = *fresh;
+    std::string addresses;
+    for (int s = 0; s < server_count; ++s) {
+      auto started = testing::ServerProcess::Start(
+          testing::ServerBinary(), db,
+          {"--slam-checkpoint-scans", "5", "--slam-checkpoint-seconds", "0",
+           "--session-lease-seconds", fmt::format("{}", lease), "--max-sessions", "64"});
+      if (!started.ok()) throw std::runtime_error(started.status().ToString());
+      addresses += (s ? "," : "") + (*started)->address();
+      servers.push_back(*std::move(started));
+    }
+    results.resize(robot_count);
+    for (int r = 0; r < robot_count; ++r) {
+      robots.emplace_back(Robot, r, addresses, std::cref(stop), std::cref(killed_at_ns),
+                          std::ref(results[r]));
+    }
+  }
+  void StopRobots() {
+    stop = true;
+    for (std::thread& t : robots) t.join();
+  }
+};
+
+// The scans each session's last checkpoint holds, by session id.
+std::map<std::string, int64_t> StoredScans(const std::string& db) {
+  std::map<std::string, int64_t> stored;
+  auto rows = storage::pg::QueryText(
+      db, "SELECT string_agg(id || ':' || scans_processed, ',') FROM slam_session");
+  if (!rows.ok()) return stored;
+  for (absl::string_view pair : absl::StrSplit(*rows, ',', absl::SkipEmpty())) {
+    const size_t colon = pair.find(':');
+    stored[std::string(pair.substr(0, colon))] = std::stoll(std::string(pair.substr(colon + 1)));
+  }
+  return stored;
+}
+
+// PostgreSQL restarted under the robots (`restart` runs it): every robot should stream on
+// without a break, and once it is back every session's checkpoints resume.
+nlohmann::json RestartTrial(int trial, const std::string& postgres, int servers, int robots,
+                            double lease, const std::string& restart) {
+  FleetRun run(postgres, servers, robots, lease);
+  const std::string& db = run.db;
+  std::vector<RobotResult>& results = run.results;
+  std::this_thread::sleep_for(std::chrono::seconds(3));
+  const auto down = Clock::now();
+  const int rc = std::system(restart.c_str());
+  const double restart_s = Seconds(down, Clock::now());
+  std::this_thread::sleep_for(std::chrono::seconds(4));
+  run.StopRobots();
+  // The last scans after each session's last checkpoint are in memory only (fewer than 5).
+  const std::map<std::string, int64_t> stored = StoredScans(db);
+  int broken = 0;
+  int64_t worst_gap = 0;
+  for (const RobotResult& r : results) {
+    broken += r.breaks > 0 ? 1 : 0;
+    auto it = stored.find(r.session);
+    const int64_t have = it == stored.end() ? 0 : it->second;
+    worst_gap = std::max(worst_gap, static_cast<int64_t>(r.answered) - have);
+  }
+  std::cerr << fmt::format("restart trial {}: restart took {:.2f} s (rc {}), {} robots' streams "
+                           "broke, largest answered-but-unsaved gap {} scans\n",
+                           trial, restart_s, rc, broken, worst_gap);
+  return {{"restart_s", restart_s}, {"robots_broken", broken}, {"largest_unsaved_gap", worst_gap}};
+}
+
 nlohmann::json Trial(int trial, const std::string& postgres, int servers, int robots,
                      double lease) {
-  auto db = storage::pg::RecreateDatabase(postgres, "waymark_failover_bench");
-  if (!db.ok()) throw std::runtime_error(db.status().ToString());
-  std::vector<std::unique_ptr<testing::ServerProcess>> fleet;
-  std::string addresses;
-  for (int s = 0; s < servers; ++s) {
-    auto started = testing::ServerProcess::Start(
-        testing::ServerBinary(), *db,
-        {"--slam-checkpoint-scans", "5", "--slam-checkpoint-seconds", "0",
-         "--session-lease-seconds", fmt::format("{}", lease), "--max-sessions", "64"});
-    if (!started.ok()) throw std::runtime_error(started.status().ToString());
-    addresses += (s ? "," : "") + (*started)->address();
-    fleet.push_back(*std::move(started));
-  }
-  std::atomic<bool> stop{false};
-  std::atomic<int64_t> killed_at_ns{0};
-  std::vector<RobotResult> results(robots);
-  std::vector<std::thread> threads;
-  for (int r = 0; r < robots; ++r) {
-    threads.emplace_back(Robot, r, addresses, std::cref(stop), std::cref(killed_at_ns),
-                         std::ref(results[r]));
-  }
+  FleetRun run(postgres, servers, robots, lease);
+  const std::string& db = run.db;
+  std::vector<std::unique_ptr<testing::ServerProcess>>& fleet = run.servers;
+  std::vector<RobotResult>& results = run.results;
   std::this_thread::sleep_for(std::chrono::seconds(3));
   // The server holding the most sessions, from the leases in the database.
   auto victim_address = storage::pg::QueryText(
-      *db, "SELECT lease_address FROM slam_session GROUP BY lease_address "
+      db, "SELECT lease_address FROM slam_session GROUP BY lease_address "
            "ORDER BY COUNT(*) DESC LIMIT 1");
   int victim = 0;
   for (int s = 0; s < servers; ++s) {
     if (victim_address.ok() && fleet[s]->address() == *victim_address) victim = s;
   }
   auto held = storage::pg::QueryText(
-      *db, fmt::format("SELECT string_agg(id, ',') FROM slam_session WHERE lease_address = '{}'",
+      db, fmt::format("SELECT string_agg(id, ',') FROM slam_session WHERE lease_address = '{}'",
                        fleet[victim]->address()));
-  killed_at_ns = std::chrono::duration_cast<std::chrono::nanoseconds>(
+  run.killed_at_ns = std::chrono::duration_cast<std::chrono::nanoseconds>(
                      Clock::now().time_since_epoch())
                      .count();
   fleet[victim]->Stop(SIGKILL);
   std::this_thread::sleep_for(std::chrono::duration<double>(lease + 4.0));
-  stop = true;
-  for (std::thread& t : threads) t.join();
+  run.StopRobots();
 
   const std::string held_ids = held.ok() ? *held : "";
   std::vector<double> back;
@@ -208,7 +271,20 @@ int main(int argc, char** argv) {
   app.add_option("--trials", trials, "trials (a server killed in each)")->capture_default_str();
   app.add_option("--lease", lease, "--session-lease-seconds of the servers")->capture_default_str();
   app.add_option("--out", out_dir, "where to write failover_bench.json")->capture_default_str();
+  std::string restart;
+  app.add_option("--restart-command", restart,
+                 "instead of killing a server, run this command (restarting PostgreSQL) under "
+                 "the robots");
   CLI11_PARSE(app, argc, argv);
+  if (!restart.empty()) {
+    nlohmann::json restarts = nlohmann::json::array();
+    for (int t = 0; t < trials; ++t) {
+      restarts.push_back(waymark::bench::RestartTrial(t, postgres, servers, robots, lease, restart));
+    }
+    std::filesystem::create_directories(out_dir);
+    std::ofstream(out_dir + "/postgres_restart_bench.json") << restarts.dump(2) << "\n";
+    return 0;
+  }
   nlohmann::json runs = nlohmann::json::array();
   std::vector<double> back;
   int64_t lost = 0;

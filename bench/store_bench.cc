@@ -10,6 +10,7 @@
 
 #include <cstdlib>
 #include <memory>
+#include <optional>
 #include <random>
 #include <string>
 #include <vector>
@@ -71,19 +72,39 @@ ViewRecord RealisticView(int64_t crossing_id, int serial) {
   return view;
 }
 
-void BM_AddView(benchmark::State& state) {
+// A crossing store on a fresh database of the benchmark's backend, holding one crossing database
+// with one crossing; nullopt (and the benchmark skipped) when it cannot be had.
+struct CrossingFixture {
+  std::unique_ptr<storage::CrossingStore> store;
+  int64_t database = 0;
+  int64_t crossing = 0;
+};
+std::optional<CrossingFixture> OpenCrossingFixture(benchmark::State& state) {
   const std::string db = FreshDatabase(state);
-  if (db.empty()) return;
+  if (db.empty()) return std::nullopt;
   auto store = storage::OpenCrossingStore(db);
-  if (!store.ok()) return state.SkipWithError(std::string(store.status().message()).c_str());
-  const int64_t database = (*store)->CreateDatabase("bench", "{}")->id;
-  const int64_t crossing = (*store)->AddCrossing(database, "c", "")->id;
+  if (!store.ok()) {
+    state.SkipWithError(std::string(store.status().message()).c_str());
+    return std::nullopt;
+  }
+  CrossingFixture fixture;
+  fixture.store = *std::move(store);
+  fixture.database = fixture.store->CreateDatabase("bench", "{}")->id;
+  fixture.crossing = fixture.store->AddCrossing(fixture.database, "c", "")->id;
+  return fixture;
+}
+
+void BM_AddView(benchmark::State& state) {
+  std::optional<CrossingFixture> fixture = OpenCrossingFixture(state);
+  if (!fixture.has_value()) return;
+  auto& store = fixture->store;
+  const int64_t crossing = fixture->crossing;
   int serial = 0;
   for (auto _ : state) {
     state.PauseTiming();
     const ViewRecord view = RealisticView(crossing, serial++);
     state.ResumeTiming();
-    auto added = (*store)->AddView(view, {});
+    auto added = store->AddView(view, {});
     if (!added.ok()) return state.SkipWithError(std::string(added.status().message()).c_str());
   }
 }
@@ -91,17 +112,16 @@ BENCHMARK(BM_AddView)->Arg(0)->Arg(1)->Unit(benchmark::kMillisecond)->Iterations
 
 // Reading every view of a 500-view database, per view: what a server's start-up costs.
 void BM_LoadViewsPerView(benchmark::State& state) {
-  const std::string db = FreshDatabase(state);
-  if (db.empty()) return;
-  auto store = storage::OpenCrossingStore(db);
-  if (!store.ok()) return state.SkipWithError(std::string(store.status().message()).c_str());
-  const int64_t database = (*store)->CreateDatabase("bench", "{}")->id;
-  const int64_t crossing = (*store)->AddCrossing(database, "c", "")->id;
+  std::optional<CrossingFixture> fixture = OpenCrossingFixture(state);
+  if (!fixture.has_value()) return;
+  auto& store = fixture->store;
+  const int64_t database = fixture->database;
+  const int64_t crossing = fixture->crossing;
   constexpr int kViews = 500;
-  for (int i = 0; i < kViews; ++i) (*store)->AddView(RealisticView(crossing, i), {}).IgnoreError();
+  for (int i = 0; i < kViews; ++i) store->AddView(RealisticView(crossing, i), {}).IgnoreError();
   for (auto _ : state) {
     int seen = 0;
-    (*store)
+    store
         ->ForEachView(database, [&seen](ViewRecord&&) {
           ++seen;
           return absl::OkStatus();

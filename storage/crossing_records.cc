@@ -43,6 +43,16 @@ absl::Status ValidateView(const ViewRecord& view) {
   return absl::OkStatus();
 }
 
+absl::Status ValidateReplacement(const ViewReplacement& replacement) {
+  if (absl::Status s = ValidateView(replacement.view); !s.ok()) return s;
+  if (replacement.join_cluster >= static_cast<int>(replacement.clusters.size())) {
+    return absl::InvalidArgumentError(absl::StrCat("join_cluster ", replacement.join_cluster,
+                                                   " is not one of the ",
+                                                   replacement.clusters.size(), " clusters"));
+  }
+  return absl::OkStatus();
+}
+
 absl::Status CheckStoredBlobSize(int64_t actual, int64_t expected, int64_t view_id,
                                  const char* what) {
   if (actual != expected) {

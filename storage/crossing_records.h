@@ -17,6 +17,9 @@ namespace waymark::storage {
 // heading must be finite and the content hash a SHA-256 digest or nothing.
 absl::Status ValidateView(const ViewRecord& view);
 
+// ValidateView of the new view, and the cluster it joins one of the replacement's clusters.
+absl::Status ValidateReplacement(const ViewReplacement& replacement);
+
 // DATA_LOSS unless a stored blob holds exactly `expected` bytes (the file was truncated, edited by
 // hand or written by a buggy build).
 absl::Status CheckStoredBlobSize(int64_t actual, int64_t expected, int64_t view_id,

@@ -250,12 +250,7 @@ class SqliteCrossingStore final : public CrossingStore {
   }
 
   absl::StatusOr<ViewReplacementResult> ReplaceViews(const ViewReplacement& replacement) override {
-    RETURN_IF_ERROR(ValidateView(replacement.view));
-    if (replacement.join_cluster >= static_cast<int>(replacement.clusters.size())) {
-      return absl::InvalidArgumentError(absl::StrCat("join_cluster ", replacement.join_cluster,
-                                                     " is not one of the ",
-                                                     replacement.clusters.size(), " clusters"));
-    }
+    RETURN_IF_ERROR(ValidateReplacement(replacement));
     const int64_t database_id = replacement.database_id;
     std::lock_guard<std::mutex> lock(mutex_);
     ASSIGN_OR_RETURN(Transaction txn, Transaction::Begin(connection_));

@@ -6,6 +6,7 @@
 #include <grpcpp/support/client_interceptor.h>
 
 #include <fstream>
+#include <random>
 #include <sstream>
 #include <utility>
 #include <vector>
@@ -101,7 +102,7 @@ std::shared_ptr<grpc::Channel> MakeChannel(const std::string& address,
   // Several servers: one channel over all of them (fleet_target.h). A list that does not parse is
   // handed to gRPC as it is, whose calls then fail UNAVAILABLE; the command line checks the list
   // first (ParseFleetTarget) to say precisely what is wrong.
-  absl::StatusOr<FleetTarget> fleet = ParseFleetTarget(address);
+  absl::StatusOr<FleetTarget> fleet = ParseFleetTarget(address, std::random_device()());
   const std::string target = fleet.ok() ? fleet->target : address;
   if (fleet.ok() && fleet->round_robin) args.SetLoadBalancingPolicyName("round_robin");
   if (!options.tls_server_name.empty()) {

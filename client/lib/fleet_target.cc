@@ -4,6 +4,8 @@
 #include <netdb.h>
 #include <sys/socket.h>
 
+#include <algorithm>
+
 #include "absl/strings/match.h"
 #include "absl/strings/str_cat.h"
 #include "absl/strings/str_join.h"
@@ -52,7 +54,7 @@ absl::StatusOr<Resolved> Resolve(const std::string& host) {
 
 }  // namespace
 
-absl::StatusOr<FleetTarget> ParseFleetTarget(const std::string& address) {
+absl::StatusOr<FleetTarget> ParseFleetTarget(const std::string& address, size_t first) {
   FleetTarget fleet;
   if (absl::StartsWith(address, "ipv4:") || absl::StartsWith(address, "ipv6:")) {
     // gRPC's own address lists: spread over them too.
@@ -101,6 +103,7 @@ absl::StatusOr<FleetTarget> ParseFleetTarget(const std::string& address) {
     return absl::InvalidArgumentError(
         absl::StrCat("the servers \"", address, "\" mix IPv4 and IPv6 addresses; give one kind"));
   }
+  std::rotate(resolved.begin(), resolved.begin() + first % resolved.size(), resolved.end());
   fleet.target = absl::StrCat(v6 ? "ipv6:" : "ipv4:", absl::StrJoin(resolved, ","));
   fleet.round_robin = true;
   return fleet;

@@ -21,8 +21,10 @@ struct FleetTarget {
 
 // Resolves each host of a comma-separated list once, now (getaddrinfo), into an ipv4:/ipv6:
 // target of addresses. INVALID_ARGUMENT for an entry without a port, or a list that mixes IPv4 and
-// IPv6 servers; NOT_FOUND when a host does not resolve (naming it).
-absl::StatusOr<FleetTarget> ParseFleetTarget(const std::string& address);
+// IPv6 servers; NOT_FOUND when a host does not resolve (naming it). The list is rotated to start
+// at entry `first` (modulo its length): gRPC's round_robin starts at the first address, so robots
+// that all name "A,B,C" would all begin on A; MakeChannel rotates by a random amount.
+absl::StatusOr<FleetTarget> ParseFleetTarget(const std::string& address, size_t first = 0);
 
 }  // namespace waymark::client
 

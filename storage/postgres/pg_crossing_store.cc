@@ -259,12 +259,7 @@ class PostgresCrossingStore final : public CrossingStore {
   }
 
   absl::StatusOr<ViewReplacementResult> ReplaceViews(const ViewReplacement& replacement) override {
-    RETURN_IF_ERROR(ValidateView(replacement.view));
-    if (replacement.join_cluster >= static_cast<int>(replacement.clusters.size())) {
-      return absl::InvalidArgumentError(absl::StrCat("join_cluster ", replacement.join_cluster,
-                                                     " is not one of the ",
-                                                     replacement.clusters.size(), " clusters"));
-    }
+    RETURN_IF_ERROR(ValidateReplacement(replacement));
     const int64_t database_id = replacement.database_id;
     ViewReplacementResult result;
     RETURN_IF_ERROR(pool_->Transaction([&](Connection& connection) -> absl::Status {

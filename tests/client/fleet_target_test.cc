@@ -15,6 +15,9 @@ TEST(FleetTargetTest, AListBecomesOneRoundRobinTargetOfResolvedAddresses) {
   EXPECT_TRUE(fleet->round_robin);
   EXPECT_EQ(fleet->target, "ipv4:127.0.0.1:7001,127.0.0.1:7002");
   EXPECT_EQ(fleet->authority_host, "127.0.0.1");
+  fleet = ParseFleetTarget("127.0.0.1:7001,127.0.0.1:7002,127.0.0.1:7003", 4);  // from the 2nd
+  ASSERT_TRUE(fleet.ok()) << fleet.status();
+  EXPECT_EQ(fleet->target, "ipv4:127.0.0.1:7002,127.0.0.1:7003,127.0.0.1:7001");
   fleet = ParseFleetTarget("[::1]:7001,[::1]:7002");
   ASSERT_TRUE(fleet.ok()) << fleet.status();
   EXPECT_EQ(fleet->target, "ipv6:[::1]:7001,[::1]:7002");
