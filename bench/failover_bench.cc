@@ -12,8 +12,10 @@
 // but not in the checkpoint the session resumed from). For the others: whether their streams
 // went on without a break. Writes failover_bench.json to --out.
 
+#include <fmt/format.h>
 #include <signal.h>
 
+#include <CLI/CLI.hpp>
 #include <algorithm>
 #include <atomic>
 #include <chrono>
@@ -23,16 +25,12 @@
 #include <map>
 #include <memory>
 #include <mutex>
+#include <nlohmann/json.hpp>
 #include <string>
 #include <thread>
 #include <vector>
 
-#include <CLI/CLI.hpp>
-#include <fmt/format.h>
-#include <nlohmann/json.hpp>
-
 #include "absl/strings/str_split.h"
-
 #include "client/lib/channel.h"
 #include "client/lib/slam_client.h"
 #include "storage/postgres/pg_admin.h"
@@ -85,8 +83,7 @@ void Robot(int index, const std::string& fleet, const std::atomic<bool>& stop,
   while (!stop) {
     std::atomic<uint64_t> last{0};
     std::unique_ptr<client::SensorStream> stream = slam.StreamSensorData(
-        result.session, client::kDefaultScanWindow,
-        [&last](const v1::SlamUpdate& u) {
+        result.session, client::kDefaultScanWindow, [&last](const v1::SlamUpdate& u) {
           if (!u.has_rejection() && u.scans_processed() > 0) last = u.scans_processed();
         });
     absl::StatusOr<v1::StreamStart> start = stream->Hello(absl::Seconds(10));
@@ -96,7 +93,8 @@ void Robot(int index, const std::string& fleet, const std::atomic<bool>& stop,
       continue;
     }
     if (broken) {
-      result.lost += static_cast<int64_t>(answered) - static_cast<int64_t>(start->scans_processed());
+      result.lost +=
+          static_cast<int64_t>(answered) - static_cast<int64_t>(start->scans_processed());
       // The robot resends from the first scan the session does not hold.
       step = static_cast<int>(start->scans_processed());
     }
@@ -199,9 +197,10 @@ nlohmann::json RestartTrial(int trial, const std::string& postgres, int servers,
     const int64_t have = it == stored.end() ? 0 : it->second;
     worst_gap = std::max(worst_gap, static_cast<int64_t>(r.answered) - have);
   }
-  std::cerr << fmt::format("restart trial {}: restart took {:.2f} s (rc {}), {} robots' streams "
-                           "broke, largest answered-but-unsaved gap {} scans\n",
-                           trial, restart_s, rc, broken, worst_gap);
+  std::cerr << fmt::format(
+      "restart trial {}: restart took {:.2f} s (rc {}), {} robots' streams "
+      "broke, largest answered-but-unsaved gap {} scans\n",
+      trial, restart_s, rc, broken, worst_gap);
   return {{"restart_s", restart_s}, {"robots_broken", broken}, {"largest_unsaved_gap", worst_gap}};
 }
 
@@ -213,19 +212,19 @@ nlohmann::json Trial(int trial, const std::string& postgres, int servers, int ro
   std::vector<RobotResult>& results = run.results;
   std::this_thread::sleep_for(std::chrono::seconds(3));
   // The server holding the most sessions, from the leases in the database.
-  auto victim_address = storage::pg::QueryText(
-      db, "SELECT lease_address FROM slam_session GROUP BY lease_address "
-           "ORDER BY COUNT(*) DESC LIMIT 1");
+  auto victim_address =
+      storage::pg::QueryText(db,
+                             "SELECT lease_address FROM slam_session GROUP BY lease_address "
+                             "ORDER BY COUNT(*) DESC LIMIT 1");
   int victim = 0;
   for (int s = 0; s < servers; ++s) {
     if (victim_address.ok() && fleet[s]->address() == *victim_address) victim = s;
   }
   auto held = storage::pg::QueryText(
       db, fmt::format("SELECT string_agg(id, ',') FROM slam_session WHERE lease_address = '{}'",
-                       fleet[victim]->address()));
-  run.killed_at_ns = std::chrono::duration_cast<std::chrono::nanoseconds>(
-                     Clock::now().time_since_epoch())
-                     .count();
+                      fleet[victim]->address()));
+  run.killed_at_ns =
+      std::chrono::duration_cast<std::chrono::nanoseconds>(Clock::now().time_since_epoch()).count();
   fleet[victim]->Stop(SIGKILL);
   std::this_thread::sleep_for(std::chrono::duration<double>(lease + 4.0));
   run.StopRobots();
@@ -248,12 +247,14 @@ nlohmann::json Trial(int trial, const std::string& postgres, int servers, int ro
       ++others_broken;
     }
   }
-  std::cerr << fmt::format("trial {}: {} robots moved, back after p50 {:.2f} s (max {:.2f}), "
-                           "{} scans lost, {} others broken, {} never back\n",
-                           trial, moved, Quantile(back, 0.5), Quantile(back, 1.0), lost,
-                           others_broken, never_back);
-  return {{"robots_moved", moved},      {"back_after_s", back},
-          {"scans_lost", lost},         {"other_robots_broken", others_broken},
+  std::cerr << fmt::format(
+      "trial {}: {} robots moved, back after p50 {:.2f} s (max {:.2f}), "
+      "{} scans lost, {} others broken, {} never back\n",
+      trial, moved, Quantile(back, 0.5), Quantile(back, 1.0), lost, others_broken, never_back);
+  return {{"robots_moved", moved},
+          {"back_after_s", back},
+          {"scans_lost", lost},
+          {"other_robots_broken", others_broken},
           {"never_back", never_back}};
 }
 
@@ -279,7 +280,8 @@ int main(int argc, char** argv) {
   if (!restart.empty()) {
     nlohmann::json restarts = nlohmann::json::array();
     for (int t = 0; t < trials; ++t) {
-      restarts.push_back(waymark::bench::RestartTrial(t, postgres, servers, robots, lease, restart));
+      restarts.push_back(
+          waymark::bench::RestartTrial(t, postgres, servers, robots, lease, restart));
     }
     std::filesystem::create_directories(out_dir);
     std::ofstream(out_dir + "/postgres_restart_bench.json") << restarts.dump(2) << "\n";

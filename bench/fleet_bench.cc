@@ -10,21 +10,21 @@
 //      servers end with the same clusters.
 // Writes fleet_bench.json to --out.
 
+#include <fmt/format.h>
+#include <grpcpp/grpcpp.h>
+
+#include <CLI/CLI.hpp>
 #include <algorithm>
 #include <chrono>
 #include <filesystem>
 #include <fstream>
 #include <iostream>
 #include <memory>
+#include <nlohmann/json.hpp>
+#include <opencv2/imgcodecs.hpp>
 #include <string>
 #include <thread>
 #include <vector>
-
-#include <CLI/CLI.hpp>
-#include <fmt/format.h>
-#include <grpcpp/grpcpp.h>
-#include <nlohmann/json.hpp>
-#include <opencv2/imgcodecs.hpp>
 
 #include "bench/bench_images.h"
 #include "storage/postgres/pg_admin.h"
@@ -67,8 +67,8 @@ std::vector<View> MakeViews(const std::vector<std::string>& sources, int n) {
     const int k = i / static_cast<int>(sources.size());
     std::vector<uchar> jpeg;
     cv::imencode(".jpg", Augment(originals[i % sources.size()], k % kAugmentations), jpeg);
-    views.push_back({fmt::format("c{:04d}", i / 12), 30.0 * (i % 12),
-                     std::string(jpeg.begin(), jpeg.end())});
+    views.push_back(
+        {fmt::format("c{:04d}", i / 12), 30.0 * (i % 12), std::string(jpeg.begin(), jpeg.end())});
   }
   return views;
 }
@@ -81,8 +81,8 @@ class Server {
     process_ = *std::move(started);
     grpc::ChannelArguments args;
     args.SetMaxSendMessageSize(64 << 20);
-    stub_ = v1::CrossingService::NewStub(grpc::CreateCustomChannel(
-        process_->address(), grpc::InsecureChannelCredentials(), args));
+    stub_ = v1::CrossingService::NewStub(
+        grpc::CreateCustomChannel(process_->address(), grpc::InsecureChannelCredentials(), args));
   }
   v1::CrossingService::Stub& stub() { return *stub_; }
 
@@ -171,8 +171,7 @@ json EnrollmentRates(Server& a, Server& b, const std::vector<View>& views) {
   CreateDatabase(a, "alone");
   auto start = Clock::now();
   const int alone = BulkEnroll(a, "alone", all);
-  out["one_server"] = {{"views", alone},
-                       {"views_per_s", alone / (Ms(start, Clock::now()) / 1000)}};
+  out["one_server"] = {{"views", alone}, {"views_per_s", alone / (Ms(start, Clock::now()) / 1000)}};
 
   CreateDatabase(a, "shared");
   while (b.Views("shared") < 0) std::this_thread::sleep_for(std::chrono::milliseconds(5));
@@ -204,13 +203,17 @@ json EnrollmentRates(Server& a, Server& b, const std::vector<View>& views) {
 int main(int argc, char** argv) {
   std::string shared = "../shared", out_dir = "out/bench", postgres;
   int views = 200, visible = 50;
-  CLI::App app{"Several servers on one PostgreSQL database: enroll-to-visible delay, enrollment rate"};
-  app.add_option("--postgres", postgres, "PostgreSQL server URI (a database waymark_fleet_bench "
-                 "is created there, dropped first)")->required();
+  CLI::App app{
+      "Several servers on one PostgreSQL database: enroll-to-visible delay, enrollment rate"};
+  app.add_option("--postgres", postgres,
+                 "PostgreSQL server URI (a database waymark_fleet_bench "
+                 "is created there, dropped first)")
+      ->required();
   app.add_option("--shared", shared, "the shared data folder")->capture_default_str();
   app.add_option("--out", out_dir, "where to write fleet_bench.json")->capture_default_str();
   app.add_option("--views", views, "views per enrollment-rate run")->capture_default_str();
-  app.add_option("--visible", visible, "views timed from enrolled to visible")->capture_default_str();
+  app.add_option("--visible", visible, "views timed from enrolled to visible")
+      ->capture_default_str();
   CLI11_PARSE(app, argc, argv);
   using namespace waymark::bench;
   const auto sources = DatabaseSourceImages(shared);

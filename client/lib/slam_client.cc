@@ -10,6 +10,9 @@
 namespace waymark::client {
 
 constexpr int kResourceExhausted = 8;  // google.rpc.Code
+// The trailing metadata a server of a fleet names the session's server in (the server's
+// kSessionOwnerMetadata, server/service/session_leases.h).
+constexpr char kSessionOwnerKey[] = "waymark-session-owner";
 
 std::string SessionRoutes::Get(const std::string& session_id) const {
   std::lock_guard<std::mutex> lock(mutex_);
@@ -215,7 +218,7 @@ absl::Status SensorStream::Finish() {
   if (reader_.joinable()) reader_.join();
   absl::Status status = ToAbslStatus(stream_->Finish());
   const auto& trailers = context_.GetServerTrailingMetadata();
-  if (auto it = trailers.find("waymark-session-owner"); it != trailers.end()) {
+  if (auto it = trailers.find(kSessionOwnerKey); it != trailers.end()) {
     session_owner_.assign(it->second.data(), it->second.size());
   }
   if (routes_ != nullptr) {
@@ -336,13 +339,39 @@ absl::StatusOr<v1::Session> SlamClient::ImportMap(const std::string& robot_id,
       [&](auto* context, auto* response) { return stub_->ImportMap(context, request, response); });
 }
 
+template <typename Response, typename Call>
+absl::StatusOr<Response> SlamClient::AtSessionServer(const std::string& session_id,
+                                                     absl::Duration timeout, Call call) {
+  std::string owner;
+  const auto on = [&](v1::SlamService::StubInterface* stub) {
+    return CallUnary<Response>(timeout, options_.retry, Idempotency::kWrite,
+                               [&](grpc::ClientContext* context, Response* response) {
+                                 const grpc::Status status = call(stub, context, response);
+                                 const auto& trailers = context->GetServerTrailingMetadata();
+                                 if (auto it = trailers.find(kSessionOwnerKey);
+                                     it != trailers.end()) {
+                                   owner.assign(it->second.data(), it->second.size());
+                                 }
+                                 return status;
+                               });
+  };
+  const std::string known = options_.connect ? routes_->Get(session_id) : std::string();
+  absl::StatusOr<Response> answer = on(known.empty() ? stub_.get() : StubAt(known));
+  if (answer.ok() || owner.empty() || owner == known || !options_.connect ||
+      !absl::IsFailedPrecondition(answer.status())) {
+    return answer;
+  }
+  routes_->Set(session_id, owner);
+  return on(StubAt(owner));
+}
+
 absl::StatusOr<v1::Session> SlamClient::CloseSession(const std::string& session_id) {
   v1::CloseSessionRequest request;
   request.set_session_id(session_id);
-  return CallUnary<v1::Session>(std::max(options_.timeout, kCloseSessionTimeout), options_.retry,
-                                Idempotency::kWrite, [&](auto* context, auto* response) {
-                                  return stub_->CloseSession(context, request, response);
-                                });
+  return AtSessionServer<v1::Session>(
+      session_id, std::max(options_.timeout, kCloseSessionTimeout),
+      [&](v1::SlamService::StubInterface* stub, grpc::ClientContext* context,
+          v1::Session* response) { return stub->CloseSession(context, request, response); });
 }
 
 absl::StatusOr<v1::DeleteSessionResponse> SlamClient::DeleteSession(const std::string& session_id,
@@ -350,11 +379,12 @@ absl::StatusOr<v1::DeleteSessionResponse> SlamClient::DeleteSession(const std::s
   v1::DeleteSessionRequest request;
   request.set_session_id(session_id);
   request.set_force(force);
-  return CallUnary<v1::DeleteSessionResponse>(options_.timeout, options_.retry, Idempotency::kWrite,
-                                              [&](auto* context, auto* response) {
-                                                return stub_->DeleteSession(context, request,
-                                                                            response);
-                                              });
+  return AtSessionServer<v1::DeleteSessionResponse>(
+      session_id, options_.timeout,
+      [&](v1::SlamService::StubInterface* stub, grpc::ClientContext* context,
+          v1::DeleteSessionResponse* response) {
+        return stub->DeleteSession(context, request, response);
+      });
 }
 
 absl::StatusOr<v1::ListSessionsResponse> SlamClient::ListSessions(const std::string& robot_id) {

@@ -211,6 +211,11 @@ class SlamClient {
  private:
   // The stub for a server another one named (cached: one channel per address).
   v1::SlamService::StubInterface* StubAt(const std::string& address);
+  // A unary call on one session: on the client's channel, and once more on the server a refusal
+  // names as the session's (with options.connect), as streams do.
+  template <typename Response, typename Call>
+  absl::StatusOr<Response> AtSessionServer(const std::string& session_id, absl::Duration timeout,
+                                           Call call);
 
   std::unique_ptr<v1::SlamService::StubInterface> stub_;
   std::shared_ptr<grpc::ChannelInterface> channel_;  // null when built on a stub

@@ -4,11 +4,13 @@
 // waymark.v1.SlamService: one thin method per RPC (validate, call the registry, translate the
 // status). Sessions, queues, workers and checkpoints live in SlamRegistry.
 
+#include <optional>
 #include <string>
 
 #include "server/service/authenticator.h"
 #include "server/service/idle_stream_reaper.h"
 #include "server/service/service_call.h"
+#include "server/service/session_leases.h"
 #include "server/service/slam_registry.h"
 #include "server/service/stream_limiter.h"
 #include "waymark/v1/slam.grpc.pb.h"
@@ -56,15 +58,25 @@ class SlamServiceImpl final : public v1::SlamService::Service {
 
   // The shape of the RPCs that act on one session: authorize, check the session is the caller's,
   // then run `call()` (returning StatusOr<T>).
+  // A refusal because another server of the fleet serves the session (session_leases.h) also
+  // names that server in the trailing metadata, for the client to go there.
   template <typename T, typename Call>
-  grpc::Status ReplyForOwnSession(const grpc::ServerContext& context,
-                                  const std::string& session_id, T* response, Call&& call) {
-    return ReplyAuthorized(*auth_, context, Action::kSlam, response,
-                           [&](const Caller& caller) -> absl::StatusOr<T> {
-                             absl::Status owner = CheckSessionOwner(caller, session_id);
-                             if (!owner.ok()) return owner;
-                             return call();
-                           });
+  grpc::Status ReplyForOwnSession(grpc::ServerContext& context, const std::string& session_id,
+                                  T* response, Call&& call) {
+    absl::Status refused;
+    grpc::Status status = ReplyAuthorized(*auth_, context, Action::kSlam, response,
+                                          [&](const Caller& caller) -> absl::StatusOr<T> {
+                                            absl::Status owner =
+                                                CheckSessionOwner(caller, session_id);
+                                            if (!owner.ok()) return owner;
+                                            absl::StatusOr<T> result = call();
+                                            if (!result.ok()) refused = result.status();
+                                            return result;
+                                          });
+    if (std::optional<std::string> holder = SessionOwnerAddress(refused); holder.has_value()) {
+      context.AddTrailingMetadata(kSessionOwnerMetadata, *holder);
+    }
+    return status;
   }
 
   SlamRegistry* registry_;

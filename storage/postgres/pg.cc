@@ -91,8 +91,7 @@ std::string RedactUri(absl::string_view uri) {
       if (colon != std::string::npos && colon < at) out.replace(colon + 1, at - colon - 1, "***");
     }
   }
-  for (size_t p = out.find("password="); p != std::string::npos;
-       p = out.find("password=", p + 1)) {
+  for (size_t p = out.find("password="); p != std::string::npos; p = out.find("password=", p + 1)) {
     const size_t value = p + std::strlen("password=");
     size_t end = out.find_first_of("& ", value);
     if (end == std::string::npos) end = out.size();
@@ -108,7 +107,9 @@ Params& Params::Add(Oid type, std::string bytes, bool null) {
   return *this;
 }
 
-Params& Params::Int64(int64_t value) { return Add(kInt8, BigEndian64(static_cast<uint64_t>(value))); }
+Params& Params::Int64(int64_t value) {
+  return Add(kInt8, BigEndian64(static_cast<uint64_t>(value)));
+}
 
 Params& Params::Int32(int32_t value) {
   const uint32_t be = htobe32(static_cast<uint32_t>(value));
@@ -209,7 +210,8 @@ double Result::Double(int row, int column) const {
     std::memcpy(&f, &bits, 4);
     return f;
   }
-  if (PQftype(result_.get(), column) != Params::kFloat8) return static_cast<double>(Int64(row, column));
+  if (PQftype(result_.get(), column) != Params::kFloat8)
+    return static_cast<double>(Int64(row, column));
   uint64_t be;
   std::memcpy(&be, value, 8);
   const uint64_t bits = be64toh(be);
@@ -236,8 +238,8 @@ std::vector<uint8_t> Result::ByteVector(int row, int column) const {
 absl::StatusOr<std::vector<float>> Result::Floats(int row, int column) const {
   const absl::string_view bytes = Bytes(row, column);
   if (bytes.size() % sizeof(float) != 0) {
-    return absl::DataLossError(absl::StrCat("a float array of ", bytes.size(),
-                                            " bytes is not a whole number of floats"));
+    return absl::DataLossError(
+        absl::StrCat("a float array of ", bytes.size(), " bytes is not a whole number of floats"));
   }
   std::vector<float> values(bytes.size() / sizeof(float));
   if (!values.empty()) std::memcpy(values.data(), bytes.data(), bytes.size());
@@ -260,7 +262,8 @@ absl::Status Error(const PGresult* result, PGconn* conn, absl::string_view conte
                                                         : absl::InternalError(text);
   }
   if (state == "40001" || state == "40P01") return absl::AbortedError(text);
-  if (state == "53100") return absl::ResourceExhaustedError(absl::StrCat(text, ": the disk is full"));
+  if (state == "53100")
+    return absl::ResourceExhaustedError(absl::StrCat(text, ": the disk is full"));
   // Connection exceptions, the server shutting down or starting, too many connections, a
   // read-only standby, a lock wait past lock_timeout: transient, nothing was written.
   if (absl::StartsWith(state, "08") || absl::StartsWith(state, "57P") ||
@@ -292,8 +295,9 @@ absl::Status Connection::Reset() {
   prepared_.clear();
   PQreset(conn_);
   if (PQstatus(conn_) != CONNECTION_OK) {
-    return absl::UnavailableError(absl::StrCat(
-        "cannot reconnect to PostgreSQL: ", absl::StripTrailingAsciiWhitespace(PQerrorMessage(conn_))));
+    return absl::UnavailableError(
+        absl::StrCat("cannot reconnect to PostgreSQL: ",
+                     absl::StripTrailingAsciiWhitespace(PQerrorMessage(conn_))));
   }
   PQsetNoticeProcessor(conn_, &IgnoreNotice, nullptr);
   return absl::OkStatus();
@@ -305,8 +309,8 @@ absl::StatusOr<Result> Connection::Execute(absl::string_view sql, const Params& 
   auto it = prepared_.find(key);
   if (it == prepared_.end()) {
     const std::string name = absl::StrCat("waymark_", prepared_.size());
-    Result prepared(PQprepare(conn_, name.c_str(), key.c_str(), params.size(),
-                              params.types_.data()));
+    Result prepared(
+        PQprepare(conn_, name.c_str(), key.c_str(), params.size(), params.types_.data()));
     // A null PGresult (out of memory, connection gone) reads as a fatal status.
     if (PQresultStatus(prepared.result_.get()) != PGRES_COMMAND_OK) {
       return Error(prepared.result_.get(), conn_, absl::StrCat("preparing ", Describe(sql)));
@@ -356,11 +360,11 @@ absl::StatusOr<std::unique_ptr<Connection>> Pool::Acquire() {
     std::unique_lock<std::mutex> lock(mutex_);
     const auto deadline = std::chrono::steady_clock::now() + options_.acquire_timeout;
     while (idle_.empty() && open_ >= options_.size) {
-      if (available_.wait_until(lock, deadline) == std::cv_status::timeout &&
-          idle_.empty() && open_ >= options_.size) {
-        return absl::UnavailableError(absl::StrCat(
-            "all ", options_.size, " connections to PostgreSQL stayed busy for ",
-            options_.acquire_timeout.count(), " ms"));
+      if (available_.wait_until(lock, deadline) == std::cv_status::timeout && idle_.empty() &&
+          open_ >= options_.size) {
+        return absl::UnavailableError(absl::StrCat("all ", options_.size,
+                                                   " connections to PostgreSQL stayed busy for ",
+                                                   options_.acquire_timeout.count(), " ms"));
       }
     }
     if (!idle_.empty()) {

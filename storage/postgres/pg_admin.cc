@@ -13,7 +13,8 @@ namespace {
 // CREATE/DROP DATABASE take no parameters: the name is formatted in, so it must be harmless.
 absl::Status CheckIdentifier(const std::string& name) {
   if (name.empty() || name.size() > 63) {
-    return absl::InvalidArgumentError(absl::StrCat("database name \"", name, "\" is not 1-63 characters"));
+    return absl::InvalidArgumentError(
+        absl::StrCat("database name \"", name, "\" is not 1-63 characters"));
   }
   for (char c : name) {
     if (!absl::ascii_isalnum(static_cast<unsigned char>(c)) && c != '_') {

@@ -129,8 +129,10 @@ class PostgresCrossingStore final : public CrossingStore {
   absl::StatusOr<std::vector<DatabaseRecord>> ListDatabases() override {
     std::vector<DatabaseRecord> records;
     RETURN_IF_ERROR(pool_->Run([&](Connection& connection) -> absl::Status {
-      ASSIGN_OR_RETURN(Result rows, connection.Execute("SELECT id, name, params, created_at, revision, reload_revision "
-                                                       "FROM crossing_db ORDER BY name"));
+      ASSIGN_OR_RETURN(
+          Result rows,
+          connection.Execute("SELECT id, name, params, created_at, revision, reload_revision "
+                             "FROM crossing_db ORDER BY name"));
       for (int r = 0; r < rows.rows(); ++r) records.push_back(ReadDatabaseRow(rows, r));
       return absl::OkStatus();
     }));
@@ -140,9 +142,11 @@ class PostgresCrossingStore final : public CrossingStore {
   absl::StatusOr<DatabaseRecord> GetDatabase(const std::string& name) override {
     DatabaseRecord record;
     RETURN_IF_ERROR(pool_->Run([&](Connection& connection) -> absl::Status {
-      ASSIGN_OR_RETURN(Result rows, connection.Execute("SELECT id, name, params, created_at, revision, reload_revision "
-                                                       "FROM crossing_db WHERE name = $1",
-                                                       Params().Text(name)));
+      ASSIGN_OR_RETURN(
+          Result rows,
+          connection.Execute("SELECT id, name, params, created_at, revision, reload_revision "
+                             "FROM crossing_db WHERE name = $1",
+                             Params().Text(name)));
       if (rows.rows() == 0) {
         return absl::NotFoundError(absl::StrCat("database ", Quoted(name), " not found"));
       }
@@ -164,17 +168,18 @@ class PostgresCrossingStore final : public CrossingStore {
 
   absl::Status DeleteDatabase(const std::string& name) override {
     return pool_->Transaction([&](Connection& connection) -> absl::Status {
-      ASSIGN_OR_RETURN(Result found, connection.Execute("SELECT id FROM crossing_db WHERE name = $1",
-                                                        Params().Text(name)));
+      ASSIGN_OR_RETURN(
+          Result found,
+          connection.Execute("SELECT id FROM crossing_db WHERE name = $1", Params().Text(name)));
       if (found.rows() == 0) {
         return absl::NotFoundError(absl::StrCat("database ", Quoted(name), " not found"));
       }
       // Waits for an enrollment into it to finish; ON DELETE CASCADE removes the rest.
       RETURN_IF_ERROR(LockDatabase(connection, found.Int64(0, 0)).status());
-      RETURN_IF_ERROR(connection
-                          .Execute("DELETE FROM crossing_db WHERE id = $1",
-                                   Params().Int64(found.Int64(0, 0)))
-                          .status());
+      RETURN_IF_ERROR(
+          connection
+              .Execute("DELETE FROM crossing_db WHERE id = $1", Params().Int64(found.Int64(0, 0)))
+              .status());
       return Notify(connection, found.Int64(0, 0));
     });
   }
@@ -218,10 +223,10 @@ class PostgresCrossingStore final : public CrossingStore {
       deleted_views = static_cast<int>(count.Int64(0, 0));
       // Clusters first: the new ones are validated against the views that remain.
       RETURN_IF_ERROR(DeleteClusters(connection, database_id));
-      RETURN_IF_ERROR(connection
-                          .Execute("DELETE FROM crossing WHERE id = $1",
-                                   Params().Int64(crossing_id))
-                          .status());  // cascades to the views and their memberships
+      RETURN_IF_ERROR(
+          connection.Execute("DELETE FROM crossing WHERE id = $1",
+                             Params().Int64(crossing_id))
+              .status());  // cascades to the views and their memberships
       RETURN_IF_ERROR(InsertClusters(connection, database_id, clusters).status());
       return BumpRevision(connection, database_id, /*reload=*/true);
     }));
@@ -280,9 +285,9 @@ class PostgresCrossingStore final : public CrossingStore {
                        InsertClusters(connection, database_id, replacement.clusters));
       ViewRecord view = replacement.view;
       if (replacement.create_crossing) {
-        ASSIGN_OR_RETURN(CrossingRecord created,
-                         InsertCrossing(connection, db_name,
-                                        {database_id, replacement.crossing_name, ""}));
+        ASSIGN_OR_RETURN(
+            CrossingRecord created,
+            InsertCrossing(connection, db_name, {database_id, replacement.crossing_name, ""}));
         view.crossing_id = created.id;
       } else {
         RETURN_IF_ERROR(CheckCrossingOf(connection, database_id, db_name, view.crossing_id));
@@ -300,17 +305,17 @@ class PostgresCrossingStore final : public CrossingStore {
 
   absl::Status ForEachViewAfter(int64_t database_id, int64_t after_view_id,
                                 const std::function<absl::Status(ViewRecord&&)>& visit) override {
-    RETURN_IF_ERROR(pool_->Run([&](Connection& connection) {
-      return DatabaseName(connection, database_id).status();
-    }));
+    RETURN_IF_ERROR(pool_->Run(
+        [&](Connection& connection) { return DatabaseName(connection, database_id).status(); }));
     // Pages by id, each its own query: no transaction or connection is held while `visit` runs.
     int64_t after = after_view_id;
     while (true) {
       std::vector<ViewRecord> page;
       RETURN_IF_ERROR(pool_->Run([&](Connection& connection) -> absl::Status {
-        ASSIGN_OR_RETURN(Result rows,
-                         connection.Execute(kSelectViewPage,
-                                            Params().Int64(database_id).Int64(after).Int64(kViewPage)));
+        ASSIGN_OR_RETURN(
+            Result rows,
+            connection.Execute(kSelectViewPage,
+                               Params().Int64(database_id).Int64(after).Int64(kViewPage)));
         for (int r = 0; r < rows.rows(); ++r) {
           ASSIGN_OR_RETURN(ViewRecord view, ReadViewRow(rows, r));
           page.push_back(std::move(view));
@@ -361,15 +366,16 @@ class PostgresCrossingStore final : public CrossingStore {
       RETURN_IF_ERROR(UpdateCodes(connection, vocabulary.database_id, codes));
       RETURN_IF_ERROR(BumpRevision(connection, vocabulary.database_id, /*reload=*/true));
       return connection
-          .Execute("INSERT INTO crossing_vocabulary (db_id, trained_views, data, updated_at) "
-                   "VALUES ($1, $2, $3, $4) ON CONFLICT (db_id) DO UPDATE SET "
-                   "trained_views = EXCLUDED.trained_views, data = EXCLUDED.data, "
-                   "updated_at = EXCLUDED.updated_at",
-                   Params()
-                       .Int64(vocabulary.database_id)
-                       .Int32(vocabulary.trained_views)
-                       .Bytes(vocabulary.data)
-                       .Double(NowSeconds()))
+          .Execute(
+              "INSERT INTO crossing_vocabulary (db_id, trained_views, data, updated_at) "
+              "VALUES ($1, $2, $3, $4) ON CONFLICT (db_id) DO UPDATE SET "
+              "trained_views = EXCLUDED.trained_views, data = EXCLUDED.data, "
+              "updated_at = EXCLUDED.updated_at",
+              Params()
+                  .Int64(vocabulary.database_id)
+                  .Int32(vocabulary.trained_views)
+                  .Bytes(vocabulary.data)
+                  .Double(NowSeconds()))
           .status();
     });
   }
@@ -531,7 +537,8 @@ class PostgresCrossingStore final : public CrossingStore {
     result.view_id = inserted.Int64(0, 0);
     result.crossing_id = view.crossing_id;
     if (assignment.new_cluster) {
-      ASSIGN_OR_RETURN(result.cluster_id, InsertClusterRow(connection, database_id, result.view_id));
+      ASSIGN_OR_RETURN(result.cluster_id,
+                       InsertClusterRow(connection, database_id, result.view_id));
     } else {
       ASSIGN_OR_RETURN(Result cluster, connection.Execute("SELECT db_id FROM cluster WHERE id = $1",
                                                           Params().Int64(assignment.cluster_id)));
@@ -595,18 +602,20 @@ class PostgresCrossingStore final : public CrossingStore {
               absl::StrCat(ClusterName(cluster, i), ": view ", view_id, " not found"));
         }
         if (owner->second != database_id) {
-          return absl::InvalidArgumentError(absl::StrCat(ClusterName(cluster, i), ": view ",
-                                                         view_id, " belongs to another database than ",
-                                                         database_id));
+          return absl::InvalidArgumentError(
+              absl::StrCat(ClusterName(cluster, i), ": view ", view_id,
+                           " belongs to another database than ", database_id));
         }
       }
       ClusterRecord record = cluster;
-      ASSIGN_OR_RETURN(record.id, InsertClusterRow(connection, database_id, cluster.center_view_id));
-      RETURN_IF_ERROR(connection
-                          .Execute("INSERT INTO cluster_member (cluster_id, view_id) "
-                                   "SELECT $1, unnest($2::text::bigint[])",
-                                   Params().Int64(record.id).Text(BigintArray(cluster.member_view_ids)))
-                          .status());
+      ASSIGN_OR_RETURN(record.id,
+                       InsertClusterRow(connection, database_id, cluster.center_view_id));
+      RETURN_IF_ERROR(
+          connection
+              .Execute("INSERT INTO cluster_member (cluster_id, view_id) "
+                       "SELECT $1, unnest($2::text::bigint[])",
+                       Params().Int64(record.id).Text(BigintArray(cluster.member_view_ids)))
+              .status());
       inserted.push_back(std::move(record));
     }
     return inserted;
@@ -616,11 +625,12 @@ class PostgresCrossingStore final : public CrossingStore {
   static absl::Status UpdateCodes(Connection& connection, int64_t database_id,
                                   const std::vector<ViewCode>& codes) {
     for (const ViewCode& c : codes) {
-      RETURN_IF_ERROR(connection
-                          .Execute("UPDATE view SET global_code = $1 WHERE id = $2 AND crossing_id "
-                                   "IN (SELECT id FROM crossing WHERE db_id = $3)",
-                                   Params().OptionalBytes(c.code).Int64(c.view_id).Int64(database_id))
-                          .status());
+      RETURN_IF_ERROR(
+          connection
+              .Execute("UPDATE view SET global_code = $1 WHERE id = $2 AND crossing_id "
+                       "IN (SELECT id FROM crossing WHERE db_id = $3)",
+                       Params().OptionalBytes(c.code).Int64(c.view_id).Int64(database_id))
+              .status());
     }
     return absl::OkStatus();
   }
@@ -630,9 +640,9 @@ class PostgresCrossingStore final : public CrossingStore {
   absl::StatusOr<std::string> LoadViewBlob(int64_t view_id, const char* column, const char* what) {
     std::string blob;
     RETURN_IF_ERROR(pool_->Run([&](Connection& connection) -> absl::Status {
-      ASSIGN_OR_RETURN(Result rows,
-                       connection.Execute(absl::StrCat("SELECT ", column, " FROM view WHERE id = $1"),
-                                          Params().Int64(view_id)));
+      ASSIGN_OR_RETURN(Result rows, connection.Execute(
+                                        absl::StrCat("SELECT ", column, " FROM view WHERE id = $1"),
+                                        Params().Int64(view_id)));
       if (rows.rows() == 0) return ViewNotFound(view_id);
       if (rows.IsNull(0, 0)) {
         return absl::NotFoundError(absl::StrCat("view ", view_id, " has no ", what));

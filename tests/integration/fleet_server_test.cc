@@ -3,6 +3,8 @@
 // time (the others name it), and when the server holding a session is killed another takes the
 // session over from its last checkpoint once the lease expires.
 
+#include <grpcpp/grpcpp.h>
+#include <gtest/gtest.h>
 #include <signal.h>
 
 #include <chrono>
@@ -11,9 +13,6 @@
 #include <string>
 #include <thread>
 #include <vector>
-
-#include <grpcpp/grpcpp.h>
-#include <gtest/gtest.h>
 
 #include "client/lib/channel.h"
 #include "client/lib/slam_client.h"
@@ -44,7 +43,7 @@ std::unique_ptr<grpc::ClientContext> Ctx(int seconds = 60) {
 
 struct StreamResult {
   std::optional<v1::StreamStart> start;
-  int scans = 0;            // processed-scan answers
+  int scans = 0;  // processed-scan answers
   uint64_t last_processed = 0;
   grpc::Status status;
   std::string owner;  // the waymark-session-owner trailer of a redirect
@@ -68,7 +67,8 @@ StreamResult RunStream(v1::SlamService::Stub* stub, const std::string& session_i
   std::thread reader([&] {
     v1::SlamUpdate update;
     while (stream->Read(&update)) {
-      if (!result.start.has_value() && update.has_stream_start()) result.start = update.stream_start();
+      if (!result.start.has_value() && update.has_stream_start())
+        result.start = update.stream_start();
       if (!update.has_rejection() && update.scans_processed() > 0) {
         ++result.scans;
         result.last_processed = update.scans_processed();
@@ -273,6 +273,31 @@ TEST_F(FleetServerTest, AFleetClientFollowsItsSessionAndFailsOverWhenItsServerDi
   v1::Trajectory trajectory;
   ASSERT_TRUE(Slam(*b_)->GetTrajectory(Ctx().get(), request, &trajectory).ok());
   EXPECT_EQ(trajectory.poses_size(), 9);
+}
+
+// Closing a session through a server that does not serve it: the refusal names the server that
+// does, and the client closes it there.
+TEST_F(FleetServerTest, AClientClosesASessionAtTheServerThatServesIt) {
+  ASSERT_NE(a_, nullptr);
+  ASSERT_NE(b_, nullptr);
+  v1::Session session;
+  ASSERT_TRUE(Slam(*a_)->CreateSession(Ctx().get(), TestSessionRequest("robot-4"), &session).ok());
+  client::SlamClientOptions options;
+  options.connect = [](const std::string& address) {
+    return std::shared_ptr<grpc::ChannelInterface>(client::MakeChannel(address));
+  };
+  client::SlamClient through_b(client::MakeChannel(b_->address()), options);
+  absl::StatusOr<v1::Session> closed = through_b.CloseSession(session.session_id());
+  ASSERT_TRUE(closed.ok()) << closed.status();
+  EXPECT_EQ(closed->state(), v1::Session::CLOSED);
+  // Without following, the same call is the refusal naming A.
+  client::SlamClient plain(client::MakeChannel(b_->address()));
+  v1::Session other;
+  ASSERT_TRUE(Slam(*a_)->CreateSession(Ctx().get(), TestSessionRequest("robot-5"), &other).ok());
+  absl::StatusOr<v1::Session> refused = plain.CloseSession(other.session_id());
+  EXPECT_EQ(refused.status().code(), absl::StatusCode::kFailedPrecondition);
+  EXPECT_NE(refused.status().message().find(a_->address()), absl::string_view::npos)
+      << refused.status();
 }
 
 }  // namespace
