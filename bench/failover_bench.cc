@@ -16,6 +16,7 @@
 #include <signal.h>
 
 #include <CLI/CLI.hpp>
+#include <grpcpp/grpcpp.h>
 #include <algorithm>
 #include <atomic>
 #include <chrono>
@@ -36,6 +37,8 @@
 #include "storage/postgres/pg_admin.h"
 #include "tests/service/slam_test_world.h"
 #include "tests/support/server_process.h"
+#include "tests/support/synthetic_scene.h"
+#include "waymark/v1/crossing.grpc.pb.h"
 
 namespace waymark::bench {
 namespace {
@@ -174,19 +177,79 @@ std::map<std::string, int64_t> StoredScans(const std::string& db) {
   return stored;
 }
 
-// PostgreSQL restarted under the robots (`restart` runs it): every robot should stream on
-// without a break, and once it is back every session's checkpoints resume.
+// Enrolls views into database "restart" through the fleet until `stop`, as a mapper would, and
+// counts the answers by code; `stored` gets the ids of the views answered STORED.
+struct EnrollCounts {
+  int ok = 0;
+  int unavailable = 0;
+  int other = 0;
+  std::vector<int64_t> stored;
+};
+void Enroller(const std::string& fleet, const std::atomic<bool>& stop, EnrollCounts& counts) {
+  auto stub = v1::CrossingService::NewStub(client::MakeChannel(fleet));
+  for (int n = 0; !stop; ++n) {
+    v1::EnrollViewRequest request;
+    request.set_database("restart");
+    request.set_crossing(fmt::format("c{}", n));
+    request.set_heading_deg(0);
+    request.set_create_crossing(true);
+    request.mutable_image()->set_data(
+        testing::EncodePng(testing::CropView(testing::MakePanorama(1000 + n), 0)));
+    grpc::ClientContext context;
+    context.set_deadline(std::chrono::system_clock::now() + std::chrono::seconds(30));
+    v1::EnrollViewResponse response;
+    const grpc::Status status = stub->EnrollView(&context, request, &response);
+    if (status.ok()) {
+      ++counts.ok;
+      counts.stored.push_back(response.view_id());
+    } else if (status.error_code() == grpc::StatusCode::UNAVAILABLE) {
+      ++counts.unavailable;
+      std::this_thread::sleep_for(std::chrono::milliseconds(100));  // as the CLI's retry would
+    } else {
+      ++counts.other;
+      std::cerr << "enroll: " << status.error_message() << "\n";
+    }
+  }
+}
+
+// PostgreSQL restarted under the robots and an enrolling client (`restart` runs it): every robot
+// should stream on without a break, once it is back every session's checkpoints resume,
+// enrollments meanwhile are answered UNAVAILABLE (never anything else), and every enrollment
+// answered STORED is in the database.
 nlohmann::json RestartTrial(int trial, const std::string& postgres, int servers, int robots,
                             double lease, const std::string& restart) {
   FleetRun run(postgres, servers, robots, lease);
   const std::string& db = run.db;
   std::vector<RobotResult>& results = run.results;
+  {
+    v1::CreateDatabaseRequest create;
+    create.set_name("restart");
+    v1::CrossingDatabase created;
+    grpc::ClientContext context;
+    v1::CrossingService::NewStub(client::MakeChannel(run.servers[0]->address()))
+        ->CreateDatabase(&context, create, &created);
+  }
+  std::string fleet_addresses;
+  for (const auto& server : run.servers) {
+    fleet_addresses += (fleet_addresses.empty() ? "" : ",") + server->address();
+  }
+  std::atomic<bool> stop_enrolling{false};
+  EnrollCounts enrolled;
+  std::thread enroller(Enroller, fleet_addresses, std::cref(stop_enrolling), std::ref(enrolled));
   std::this_thread::sleep_for(std::chrono::seconds(3));
   const auto down = Clock::now();
   const int rc = std::system(restart.c_str());
   const double restart_s = Seconds(down, Clock::now());
   std::this_thread::sleep_for(std::chrono::seconds(4));
   run.StopRobots();
+  stop_enrolling = true;
+  enroller.join();
+  // Every view answered STORED is in the database (nothing committed lost).
+  std::string ids;
+  for (int64_t id : enrolled.stored) ids += (ids.empty() ? "" : ",") + std::to_string(id);
+  auto present = storage::pg::QueryText(
+      db, "SELECT COUNT(*)::text FROM view WHERE id = ANY('{" + ids + "}'::bigint[])");
+  const int stored_present = present.ok() ? std::stoi(*present) : -1;
   // The last scans after each session's last checkpoint are in memory only (fewer than 5).
   const std::map<std::string, int64_t> stored = StoredScans(db);
   int broken = 0;
@@ -198,10 +261,18 @@ nlohmann::json RestartTrial(int trial, const std::string& postgres, int servers,
     worst_gap = std::max(worst_gap, static_cast<int64_t>(r.answered) - have);
   }
   std::cerr << fmt::format(
-      "restart trial {}: restart took {:.2f} s (rc {}), {} robots' streams "
-      "broke, largest answered-but-unsaved gap {} scans\n",
-      trial, restart_s, rc, broken, worst_gap);
-  return {{"restart_s", restart_s}, {"robots_broken", broken}, {"largest_unsaved_gap", worst_gap}};
+      "restart trial {}: restart took {:.2f} s (rc {}), {} robots' streams broke, largest "
+      "answered-but-unsaved gap {} scans; enrollments {} stored ({} of them in the database), "
+      "{} UNAVAILABLE, {} other\n",
+      trial, restart_s, rc, broken, worst_gap, enrolled.ok, stored_present, enrolled.unavailable,
+      enrolled.other);
+  return {{"restart_s", restart_s},
+          {"robots_broken", broken},
+          {"largest_unsaved_gap", worst_gap},
+          {"enrolled_stored", enrolled.ok},
+          {"stored_in_database", stored_present},
+          {"enroll_unavailable", enrolled.unavailable},
+          {"enroll_other_errors", enrolled.other}};
 }
 
 nlohmann::json Trial(int trial, const std::string& postgres, int servers, int robots,
