@@ -2,6 +2,7 @@
 // session commands (list, map, import-map, trajectory, close, delete) here.
 #include <fmt/format.h>
 
+#include <algorithm>
 #include <filesystem>
 #include <memory>
 #include <optional>
@@ -51,12 +52,22 @@ int RunList(CommandContext& context, const std::string& robot) {
     PrintJson(context.out, ProtoToJson(*sessions));
     return kExitOk;
   }
-  Table table({{"session"}, {"robot"}, {"state"}, {"scans", true}, {"segments", true},
-               {"rejected", true}, {"resident"}, {"name"}});
+  // A fleet on PostgreSQL: which server serves each session (a column only then).
+  const bool fleet = std::any_of(sessions->sessions().begin(), sessions->sessions().end(),
+                                 [](const v1::Session& s) { return !s.served_by().empty(); });
+  std::vector<Table::Column> columns = {{"session"}, {"robot"}, {"state"}, {"scans", true},
+                                        {"segments", true}, {"rejected", true}, {"resident"},
+                                        {"name"}};
+  if (fleet) columns.insert(columns.end() - 1, {"served by"});
+  Table table(columns);
   for (const v1::Session& s : sessions->sessions()) {
-    table.AddRow({s.session_id(), s.robot_id(), StateName(s.state()),
-                  std::to_string(s.scans_processed()), std::to_string(s.segments()),
-                  std::to_string(s.messages_rejected()), s.resident() ? "yes" : "no", s.name()});
+    std::vector<std::string> row = {s.session_id(), s.robot_id(), StateName(s.state()),
+                                    std::to_string(s.scans_processed()),
+                                    std::to_string(s.segments()),
+                                    std::to_string(s.messages_rejected()),
+                                    s.resident() ? "yes" : "no", s.name()};
+    if (fleet) row.insert(row.end() - 1, s.served_by().empty() ? "-" : s.served_by());
+    table.AddRow(row);
   }
   if (table.empty()) {
     context.out << "no sessions\n";

@@ -982,6 +982,11 @@ v1::Session SlamRegistry::Describe(const storage::SlamSessionRecord& record, Ses
   out.set_created_at_unix(static_cast<int64_t>(record.created_at));
   out.set_updated_at_unix(static_cast<int64_t>(record.updated_at));
   out.set_checkpoint_at_unix(static_cast<int64_t>(record.checkpoint_at));
+  // This server's clock against the database's: close enough to tell a live lease from one long
+  // expired, which is what an operator asks.
+  if (!record.lease.owner.empty() && record.lease.expires_at > UnixNow()) {
+    out.set_served_by(record.lease.address);
+  }
   if (resident != nullptr) {
     out.set_resident(true);
     {

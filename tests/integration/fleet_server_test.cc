@@ -172,7 +172,13 @@ TEST_F(FleetServerTest, AKilledServersSessionMovesToAnotherFromItsLastCheckpoint
   ASSERT_TRUE(first.status.ok()) << first.status.error_message();
   ASSERT_EQ(first.scans, 7);
 
-  // While A holds it, B names A.
+  // While A holds it, B names A: in its list, and when asked to serve it.
+  const auto served_by = [&](v1::SlamService::Stub* stub) {
+    v1::ListSessionsResponse list;
+    EXPECT_TRUE(stub->ListSessions(Ctx().get(), v1::ListSessionsRequest(), &list).ok());
+    return list.sessions_size() == 1 ? list.sessions(0).served_by() : std::string("?");
+  };
+  EXPECT_EQ(served_by(on_b.get()), a_->address());
   StreamResult refused = RunStream(on_b.get(), id, Drive(7, 1, 100));
   EXPECT_EQ(refused.status.error_code(), grpc::StatusCode::FAILED_PRECONDITION);
   EXPECT_EQ(refused.owner, a_->address()) << refused.status.error_message();
@@ -205,6 +211,7 @@ TEST_F(FleetServerTest, AKilledServersSessionMovesToAnotherFromItsLastCheckpoint
   v1::Trajectory trajectory;
   ASSERT_TRUE(on_b->GetTrajectory(Ctx().get(), request, &trajectory).ok());
   EXPECT_EQ(trajectory.poses_size(), 9);
+  EXPECT_EQ(served_by(on_b.get()), b_->address());
 }
 
 TEST_F(FleetServerTest, AServerThatStopsCleanlyHandsItsSessionsOverAtOnce) {
