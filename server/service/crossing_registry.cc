@@ -87,28 +87,39 @@ absl::Status CrossingRegistry::Sync() {
   std::map<std::string, storage::DatabaseRecord> stored;
   for (auto& record : *records) stored[record.name] = std::move(record);
 
-  // What memory holds that the store no longer does (or holds under another id: deleted and
-  // created again elsewhere), and what to catch up.
-  std::vector<std::shared_ptr<Database>> changed;
+  // What memory holds that the list did not (or held under another id: deleted and created again
+  // elsewhere), and what to catch up.
+  std::vector<std::shared_ptr<Database>> changed, missing;
   {
-    absl::MutexLock lock(&mutex_);
-    for (auto it = databases_.begin(); it != databases_.end();) {
-      const std::shared_ptr<Database> db = it->second;
-      auto found = stored.find(it->first);
-      absl::MutexLock db_lock(&db->mutex);
+    absl::ReaderMutexLock lock(&mutex_);
+    for (const auto& [name, db] : databases_) {
+      auto found = stored.find(name);
+      absl::ReaderMutexLock db_lock(&db->mutex);
       if (found == stored.end() || found->second.id != db->record.id) {
-        db->deleted = true;  // requests that hold it get NOT_FOUND
-        it = databases_.erase(it);
-        continue;
-      }
-      if (found->second.revision != db->record.revision ||
-          found->second.reload_revision != db->record.reload_revision) {
+        missing.push_back(db);
+      } else if (found->second.revision != db->record.revision ||
+                 found->second.reload_revision != db->record.reload_revision) {
         changed.push_back(db);
       }
-      ++it;
     }
   }
   absl::Status result;
+  // A database this server created after the list was read is missing from it too: only what
+  // the store says now is gone is dropped.
+  for (const auto& db : missing) {
+    absl::StatusOr<storage::DatabaseRecord> now = store_->GetDatabase(db->record.name);
+    if (now.ok() && now->id == db->record.id) continue;
+    if (!now.ok() && !absl::IsNotFound(now.status())) {
+      result = now.status();
+      continue;
+    }
+    absl::MutexLock lock(&mutex_);
+    auto it = databases_.find(db->record.name);
+    if (it == databases_.end() || it->second != db) continue;
+    absl::MutexLock db_lock(&db->mutex);
+    db->deleted = true;  // requests that hold it get NOT_FOUND
+    databases_.erase(it);
+  }
   for (const auto& db : changed) {
     const absl::Status caught_up = CatchUp(*store_, index_options_, *db);
     if (!caught_up.ok() && !absl::IsNotFound(caught_up)) result = caught_up;
@@ -126,6 +137,9 @@ absl::Status CrossingRegistry::Sync() {
       if (!absl::IsNotFound(db.status())) result = db.status();
       continue;
     }
+    // Deleted (here or elsewhere) while it was loading: not installed.
+    absl::StatusOr<storage::DatabaseRecord> now = store_->GetDatabase(name);
+    if (!now.ok() || now->id != record.id) continue;
     absl::MutexLock lock(&mutex_);
     if (databases_.emplace(name, *db).second) global_worker_->Schedule(*db);
   }
