@@ -66,7 +66,8 @@ start() {
   echo "$data" > "$STATE/data_dir"
   # Trust authentication on loopback only: a throwaway cluster for tests. fsync off: nothing here
   # must survive a power loss, and the suite runs on slow shared disks.
-  as_owner "$bin/initdb" -D "$data/cluster" -U waymark -A trust -E UTF8 --no-sync \
+  # --no-locale: a minimal machine (CI) may set LANG to a locale it has not generated.
+  as_owner "$bin/initdb" -D "$data/cluster" -U waymark -A trust -E UTF8 --no-locale --no-sync \
     >"$data/initdb.log" 2>&1 || { cat "$data/initdb.log" >&2; exit 1; }
   local port tries=0
   while :; do
