@@ -14,6 +14,13 @@ constexpr int kResourceExhausted = 8;  // google.rpc.Code
 // kSessionOwnerMetadata, server/service/session_leases.h).
 constexpr char kSessionOwnerKey[] = "waymark-session-owner";
 
+// The server a finished call's refusal names as its session's ("" when none).
+std::string SessionOwnerOf(const grpc::ClientContext& context) {
+  const auto& trailers = context.GetServerTrailingMetadata();
+  auto it = trailers.find(kSessionOwnerKey);
+  return it == trailers.end() ? std::string() : std::string(it->second.data(), it->second.size());
+}
+
 std::string SessionRoutes::Get(const std::string& session_id) const {
   std::lock_guard<std::mutex> lock(mutex_);
   auto it = owner_.find(session_id);
@@ -217,10 +224,7 @@ absl::Status SensorStream::Finish() {
   // The server answers every scan before it ends the stream; the reader stops at its end.
   if (reader_.joinable()) reader_.join();
   absl::Status status = ToAbslStatus(stream_->Finish());
-  const auto& trailers = context_.GetServerTrailingMetadata();
-  if (auto it = trailers.find(kSessionOwnerKey); it != trailers.end()) {
-    session_owner_.assign(it->second.data(), it->second.size());
-  }
+  session_owner_ = SessionOwnerOf(context_);
   if (routes_ != nullptr) {
     if (!session_owner_.empty() && session_owner_ != via_) {
       routes_->Set(session_id_, session_owner_);  // the next stream goes there
@@ -347,11 +351,7 @@ absl::StatusOr<Response> SlamClient::AtSessionServer(const std::string& session_
     return CallUnary<Response>(timeout, options_.retry, Idempotency::kWrite,
                                [&](grpc::ClientContext* context, Response* response) {
                                  const grpc::Status status = call(stub, context, response);
-                                 const auto& trailers = context->GetServerTrailingMetadata();
-                                 if (auto it = trailers.find(kSessionOwnerKey);
-                                     it != trailers.end()) {
-                                   owner.assign(it->second.data(), it->second.size());
-                                 }
+                                 owner = SessionOwnerOf(*context);
                                  return status;
                                });
   };

@@ -12,14 +12,20 @@
 namespace waymark::service {
 namespace {
 
-absl::Status HeldElsewhere(const std::string& session_id, const storage::SlamLease& lease) {
-  absl::Status status = absl::FailedPreconditionError(absl::StrCat(
-      "SLAM session \"", session_id, "\" is served by another server, at ", lease.address,
-      ": connect there; if that server is gone, its lease expires within about ",
-      std::ceil(std::max(0.0, lease.expires_at - storage::NowSeconds())),
-      " s and any server takes the session over"));
-  status.SetPayload(kSessionOwnerPayload, absl::Cord(lease.address));
+// `status` carrying the holder's address (SessionOwnerAddress reads it back).
+absl::Status Naming(absl::Status status, const std::string& address) {
+  status.SetPayload(kSessionOwnerPayload, absl::Cord(address));
   return status;
+}
+
+absl::Status HeldElsewhere(const std::string& session_id, const storage::SlamLease& lease) {
+  return Naming(absl::FailedPreconditionError(absl::StrCat(
+                    "SLAM session \"", session_id, "\" is served by another server, at ",
+                    lease.address, ": connect there; if that server is gone, its lease expires "
+                    "within about ",
+                    std::ceil(std::max(0.0, lease.expires_at - storage::NowSeconds())),
+                    " s and any server takes the session over")),
+                lease.address);
 }
 
 }  // namespace
@@ -51,12 +57,13 @@ std::vector<std::pair<std::string, absl::Status>> SessionLeases::Renew(
   for (const std::string& id : session_ids) {
     const absl::Status taken = Take(id);
     if (std::optional<std::string> holder = SessionOwnerAddress(taken); holder.has_value()) {
-      absl::Status moved = absl::UnavailableError(absl::StrCat(
-          "SLAM session \"", id, "\" was taken over by the server at ", *holder,
-          " (this server could not renew its lease in time): reconnect there; the session "
-          "resumes from its last checkpoint"));
-      moved.SetPayload(kSessionOwnerPayload, absl::Cord(*holder));
-      lost.emplace_back(id, std::move(moved));
+      lost.emplace_back(id, Naming(absl::UnavailableError(absl::StrCat(
+                                       "SLAM session \"", id, "\" was taken over by the server at ",
+                                       *holder,
+                                       " (this server could not renew its lease in time): "
+                                       "reconnect there; the session resumes from its last "
+                                       "checkpoint")),
+                                   *holder));
     } else if (!taken.ok() && !absl::IsFailedPrecondition(taken)) {
       spdlog::warn("SLAM session {}: renewing its lease failed (kept; retried): {}", id,
                    taken.ToString());

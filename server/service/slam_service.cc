@@ -81,16 +81,18 @@ grpc::Status SlamServiceImpl::CreateSession(grpc::ServerContext* context,
 
 namespace {
 
-// A redirect (session_leases.h) carries the holder's address in the trailing metadata too, where
-// a client reads it without parsing the message.
 grpc::Status WithSessionOwner(grpc::ServerContext& context, const absl::Status& status) {
-  if (std::optional<std::string> owner = SessionOwnerAddress(status); owner.has_value()) {
-    context.AddTrailingMetadata(std::string(kSessionOwnerMetadata), *owner);
-  }
+  AddSessionOwnerTrailer(context, status);
   return ToGrpcStatus(status);
 }
 
 }  // namespace
+
+void AddSessionOwnerTrailer(grpc::ServerContext& context, const absl::Status& status) {
+  if (std::optional<std::string> owner = SessionOwnerAddress(status); owner.has_value()) {
+    context.AddTrailingMetadata(kSessionOwnerMetadata, *owner);
+  }
+}
 
 grpc::Status SlamServiceImpl::StreamSensorData(
     grpc::ServerContext* context, grpc::ServerReaderWriter<v1::SlamUpdate, v1::SensorData>* stream) {

@@ -4,18 +4,20 @@
 // waymark.v1.SlamService: one thin method per RPC (validate, call the registry, translate the
 // status). Sessions, queues, workers and checkpoints live in SlamRegistry.
 
-#include <optional>
 #include <string>
 
 #include "server/service/authenticator.h"
 #include "server/service/idle_stream_reaper.h"
 #include "server/service/service_call.h"
-#include "server/service/session_leases.h"
 #include "server/service/slam_registry.h"
 #include "server/service/stream_limiter.h"
 #include "waymark/v1/slam.grpc.pb.h"
 
 namespace waymark::service {
+
+// A refusal naming the server that serves the session (session_leases.h) carries its address in
+// the trailing metadata too, where a client reads it without parsing the message.
+void AddSessionOwnerTrailer(grpc::ServerContext& context, const absl::Status& status);
 
 class SlamServiceImpl final : public v1::SlamService::Service {
  public:
@@ -58,8 +60,8 @@ class SlamServiceImpl final : public v1::SlamService::Service {
 
   // The shape of the RPCs that act on one session: authorize, check the session is the caller's,
   // then run `call()` (returning StatusOr<T>).
-  // A refusal because another server of the fleet serves the session (session_leases.h) also
-  // names that server in the trailing metadata, for the client to go there.
+  // A refusal because another server of the fleet serves the session also names that server in
+  // the trailing metadata (AddSessionOwnerTrailer), for the client to go there.
   template <typename T, typename Call>
   grpc::Status ReplyForOwnSession(grpc::ServerContext& context, const std::string& session_id,
                                   T* response, Call&& call) {
@@ -73,9 +75,7 @@ class SlamServiceImpl final : public v1::SlamService::Service {
                                             if (!result.ok()) refused = result.status();
                                             return result;
                                           });
-    if (std::optional<std::string> holder = SessionOwnerAddress(refused); holder.has_value()) {
-      context.AddTrailingMetadata(kSessionOwnerMetadata, *holder);
-    }
+    AddSessionOwnerTrailer(context, refused);
     return status;
   }
 
