@@ -11,7 +11,11 @@
 #   (mapper) and recognize (robot) through the container -> the example robot service (simulator)
 #   runs a SLAM session -> metrics answer -> restart: data still there -> server re-created with
 #   TLS on the same volume: data still there, TLS client works, plaintext client refused ->
-#   `docker stop` is graceful (exit 0, "stopped" logged) -> teardown.
+#   `docker stop` is graceful (exit 0, "stopped" logged) -> the scale-out profile (`--profile
+#   fleet`): PostgreSQL 15 and three servers healthy -> enroll on one server, recognize on another
+#   and through the client's server list -> the example robot streams a SLAM session over the
+#   fleet, the server serving it is SIGKILLed, the same session goes on on another server and the
+#   robot ends normally -> teardown.
 #
 # Everything it started is stopped and removed on exit, success or not (trap EXIT); packages it
 # installed stay installed. Logs are kept in out/docker-test/. Run as root on Debian 12.
@@ -75,7 +79,7 @@ cleanup() {
     for cid in $(docker ps -aq --filter "label=com.docker.compose.project=$PROJECT" 2>/dev/null); do
       docker logs -t "$cid" > "$LOG_DIR/container-$(docker inspect -f '{{.Name}}' "$cid" | tr -d /).log" 2>&1
     done
-    compose --profile robot down -v --remove-orphans > "$LOG_DIR/compose-down.log" 2>&1 ||
+    compose down -v --remove-orphans > "$LOG_DIR/compose-down.log" 2>&1 ||
       info "compose down failed (see $LOG_DIR/compose-down.log)"
     if [ "$OWN_ENGINE" -eq 1 ]; then
       cid=$(docker ps -aq)
@@ -152,7 +156,11 @@ stop_engine() {
 # ---- helpers -------------------------------------------------------------------------------------
 # Debian's docker client (/usr/bin/docker), whatever else is on PATH; talks to $DOCKER_HOST.
 docker() { /usr/bin/docker "$@"; }
-compose() { docker-compose -f "$REPO/docker/compose.yaml" -p "$PROJECT" "$@"; }
+# Every profile is on: services start only when named (or as a named one's dependency).
+compose() {
+  docker-compose -f "$REPO/docker/compose.yaml" -p "$PROJECT" --profile robot --profile fleet \
+    --profile fleet-robot "$@"
+}
 
 # A TCP port nobody listens on (the containers use the host network).
 free_port() {
@@ -177,39 +185,40 @@ apt_uris() {
 }
 
 # run_waymark [docker run options...] -- ARGS...: the image's `waymark` CLI as a client container on
-# the host network, with the photos mounted at /images and the TLS folder at /tls.
+# the host network, with the photos mounted at /images and the TLS folder at /tls. It calls
+# $TARGET (default: the single server).
 run_waymark() {
   local opts=()
   while [ "$1" != "--" ]; do opts+=("$1"); shift; done
   shift
   docker run --rm --network host -v "$WORK/images:/images:ro" -v "$WORK/tls:/tls:ro" \
-    -e WAYMARK_SERVER="127.0.0.1:$PORT" "${opts[@]}" --entrypoint waymark "$IMAGE" "$@"
+    -e WAYMARK_SERVER="${TARGET:-127.0.0.1:$PORT}" "${opts[@]}" --entrypoint waymark "$IMAGE" "$@"
 }
 as_admin() { WAYMARK_TOKEN=$ADMIN_TOKEN run_waymark -e WAYMARK_TOKEN "$@"; }
 as_mapper() { WAYMARK_TOKEN=$MAPPER_TOKEN run_waymark -e WAYMARK_TOKEN "$@"; }
 as_robot() { WAYMARK_TOKEN=$ROBOT_TOKEN run_waymark -e WAYMARK_TOKEN "$@"; }
 
-server_cid() { compose ps -q server; }
+server_cid() { compose ps -q "${1:-server}"; }
 
-# Waits until the server container is healthy (its HEALTHCHECK runs `waymark health`); fails with
-# its logs if it exits, turns unhealthy or takes longer than $1 seconds.
+# Waits until a service's container (default: server) is healthy (the servers' HEALTHCHECK runs
+# `waymark health`); fails with its logs if it exits, turns unhealthy or takes longer than $1 s.
 wait_healthy() {
-  local limit=$1 cid status running
-  cid=$(server_cid)
-  [ -n "$cid" ] || fail "no server container"
+  local limit=$1 service=${2:-server} cid status running
+  cid=$(server_cid "$service")
+  [ -n "$cid" ] || fail "no $service container"
   for ((i = 0; i < limit; i++)); do
     status=$(docker inspect -f '{{if .State.Health}}{{.State.Health.Status}}{{else}}none{{end}}' "$cid")
     running=$(docker inspect -f '{{.State.Running}}' "$cid")
-    if [ "$status" = healthy ]; then info "server healthy after ${i}s"; return 0; fi
+    if [ "$status" = healthy ]; then info "$service healthy after ${i}s"; return 0; fi
     if [ "$running" != true ] || [ "$status" = unhealthy ] || [ "$status" = none ]; then
       docker logs --tail 30 "$cid" >&2
       docker inspect -f '{{json .State}}' "$cid" >&2
-      fail "server container is $status (running=$running)"
+      fail "$service container is $status (running=$running)"
     fi
     sleep 1
   done
   docker logs --tail 30 "$cid" >&2
-  fail "server not healthy within ${limit}s (status: $status)"
+  fail "$service not healthy within ${limit}s (status: $status)"
 }
 
 # The recognition result of one image (JSON), checked for crossing and heading (or rejection).
@@ -418,9 +427,10 @@ fi
 step "docker build ($IMAGE, docker/Dockerfile)"
 BUILD_ARGS=()
 [ -z "${http_proxy:-}" ] || BUILD_ARGS+=(--build-arg "http_proxy=$http_proxy")
-# The build's exit status goes through a file: the pipe to the log filter would hide it.
+# build_image TAG DOCKERFILE CONTEXT. The build's exit status goes through a file: the pipe to the
+# log filter would hide it.
 build_image() {
-  { docker build --network host "${BUILD_ARGS[@]}" -f "$REPO/docker/Dockerfile" -t "$IMAGE" "$REPO" &&
+  { docker build --network host "${BUILD_ARGS[@]}" -f "$2" -t "$1" "$3" &&
       echo 0 > "$WORK/build.rc" || echo $? > "$WORK/build.rc"; } 2>&1 |
     while IFS= read -r line; do
       printf '%(%H:%M:%S)T %s\n' -1 "$line" >> "$LOG_DIR/build.log"
@@ -432,17 +442,23 @@ build_image() {
     done
   build_rc=$(cat "$WORK/build.rc")
 }
-build_image
 # A download that failed (mirror hiccup) gets one more try; the layers already built are cached.
-if [ "$build_rc" -ne 0 ] &&
-   grep -qE 'Failed to fetch|Temporary failure resolving|Could not (connect|resolve)|Connection (timed out|refused|reset)|Hash Sum mismatch' \
-     <<<"$(tail -60 "$LOG_DIR/build.log")"; then
-  tail -5 "$LOG_DIR/build.log" | sed "s/^/$(stamp)    /"
-  info "the build failed downloading packages; retrying once"
-  build_image
-fi
-[ "$build_rc" -eq 0 ] || { tail -40 "$LOG_DIR/build.log" >&2; fail "docker build (see $LOG_DIR/build.log)"; }
+build_with_retry() {
+  build_image "$@"
+  if [ "$build_rc" -ne 0 ] &&
+     grep -qE 'Failed to fetch|Temporary failure resolving|Could not (connect|resolve)|Connection (timed out|refused|reset)|Hash Sum mismatch' \
+       <<<"$(tail -60 "$LOG_DIR/build.log")"; then
+    tail -5 "$LOG_DIR/build.log" | sed "s/^/$(stamp)    /"
+    info "the build failed downloading packages; retrying once"
+    build_image "$@"
+  fi
+  [ "$build_rc" -eq 0 ] || { tail -40 "$LOG_DIR/build.log" >&2; fail "docker build $1 (see $LOG_DIR/build.log)"; }
+}
+build_with_retry "$IMAGE" "$REPO/docker/Dockerfile" "$REPO"
 info "image $IMAGE: $(docker image inspect -f '{{.Size}}' "$IMAGE" | awk '{printf "%.0f MB", $1 / 1e6}')"
+PG_IMAGE=waymark-postgres:local
+build_with_retry "$PG_IMAGE" "$REPO/docker/postgres/Dockerfile" "$REPO/docker/postgres"
+info "image $PG_IMAGE: $(docker image inspect -f '{{.Size}}' "$PG_IMAGE" | awk '{printf "%.0f MB", $1 / 1e6}')"
 check "runs as the non-root user waymark" \
   test "$(docker run --rm --entrypoint id "$IMAGE" -un)" = waymark
 
@@ -450,7 +466,8 @@ check "runs as the non-root user waymark" \
 step "compose up server"
 PORT=$(free_port)
 METRICS_PORT=$(free_port)
-export WAYMARK_PORT=$PORT WAYMARK_METRICS_LISTEN="127.0.0.1:$METRICS_PORT" WAYMARK_IMAGE=$IMAGE
+export WAYMARK_PORT=$PORT WAYMARK_METRICS_LISTEN="127.0.0.1:$METRICS_PORT" WAYMARK_IMAGE=$IMAGE \
+  WAYMARK_POSTGRES_IMAGE=$PG_IMAGE
 compose config -q || fail "docker/compose.yaml does not parse"
 compose up -d --no-build server 2>&1 | sed "s/^/$(stamp)    compose: /" || fail "compose up server"
 info "server on 127.0.0.1:$PORT, metrics on 127.0.0.1:$METRICS_PORT"
@@ -491,9 +508,9 @@ expect_rejected as_robot "/images/unknown/$STRANGER"
 
 step "example robot service (simulator, SLAM session)"
 WAYMARK_ROBOT_TOKEN=$ROBOT_TOKEN WAYMARK_ROBOT_DURATION=20 WAYMARK_ROBOT_FLAGS="--sim-speed 4" \
-  WAYMARK_ROBOT_SERVER="127.0.0.1:$PORT" compose --profile robot up -d --no-build robot 2>&1 |
+  WAYMARK_ROBOT_SERVER="127.0.0.1:$PORT" compose up -d --no-build robot 2>&1 |
   sed "s/^/$(stamp)    compose: /" || fail "compose up robot"
-ROBOT_CID=$(compose --profile robot ps -q robot)
+ROBOT_CID=$(compose ps -q robot)
 [ -n "$ROBOT_CID" ] || fail "no robot container"
 ROBOT_EXIT=$(timeout 120 /usr/bin/docker wait "$ROBOT_CID") || fail "robot did not finish in 120 s"
 docker logs "$ROBOT_CID" > "$LOG_DIR/robot.log" 2>&1
@@ -561,5 +578,109 @@ EXIT_CODE=$(docker inspect -f '{{.State.ExitCode}}' "$CID")
 [ "$EXIT_CODE" = 0 ] || { docker logs --tail 20 "$CID" >&2; fail "server exit code $EXIT_CODE after docker stop (137 = killed)"; }
 check "exit code 0 and \"stopped\" logged, in $((SECONDS - STOP_START)) s" \
   sh -c "docker logs $CID 2>&1 | tail -3 | grep -q '\] stopped$'"
+
+# ---- 10. scale-out: PostgreSQL and three servers -------------------------------------------------
+step "fleet: PostgreSQL 15 and three servers (--profile fleet)"
+PG_PORT=$(free_port)
+FLEET_PORTS=("$(free_port)" "$(free_port)" "$(free_port)")
+export WAYMARK_PG_PORT=$PG_PORT WAYMARK_PG_PASSWORD="smoke-$(openssl rand -hex 12)" \
+  WAYMARK_FLEET_PORT_1=${FLEET_PORTS[0]} WAYMARK_FLEET_PORT_2=${FLEET_PORTS[1]} \
+  WAYMARK_FLEET_PORT_3=${FLEET_PORTS[2]} WAYMARK_FLEET_METRICS_1=$(free_port) \
+  WAYMARK_FLEET_METRICS_2=$(free_port) WAYMARK_FLEET_METRICS_3=$(free_port) \
+  WAYMARK_FLEET_FLAGS="--session-lease-seconds 5 --slam-checkpoint-seconds 2"
+FLEET_ADDRESSES=("127.0.0.1:${FLEET_PORTS[0]}" "127.0.0.1:${FLEET_PORTS[1]}" "127.0.0.1:${FLEET_PORTS[2]}")
+FLEET_LIST=$(IFS=,; echo "${FLEET_ADDRESSES[*]}")
+compose up -d --no-build fleet-1 fleet-2 fleet-3 2>&1 | sed "s/^/$(stamp)    compose: /" ||
+  fail "compose up fleet-1 fleet-2 fleet-3"
+info "PostgreSQL on 127.0.0.1:$PG_PORT, servers on $FLEET_LIST"
+wait_healthy 60 postgres
+for n in 1 2 3; do wait_healthy 120 "fleet-$n"; done
+check "the servers use PostgreSQL (\"postgresql://waymark@...\" logged, no password)" sh -c \
+  "docker logs $(server_cid fleet-1) 2>&1 | grep -q 'postgresql://waymark@127.0.0.1:$PG_PORT/waymark' &&
+   ! docker logs $(server_cid fleet-1) 2>&1 | grep -qF '$WAYMARK_PG_PASSWORD'"
+
+FLEET_CID=$(server_cid fleet-1)
+fleet_token() {
+  local secret
+  secret=$(docker exec "$FLEET_CID" waymark-server token create "$@" 2>/dev/null) ||
+    fail "token create $* (fleet)"
+  [[ "$secret" == wm_* ]] || fail "token create $* (fleet): unexpected output"
+  echo "$secret"
+}
+ADMIN_TOKEN=$(fleet_token smoke-admin --role admin)
+MAPPER_TOKEN=$(fleet_token smoke-mapper --role mapper)
+ROBOT_TOKEN=$(fleet_token smoke-robot --role robot --robot-id robot-1)
+info "admin, mapper and robot (robot-1) tokens created in the fleet's database (exec fleet-1)"
+
+step "fleet: enroll on one server, recognize on the others"
+TARGET=${FLEET_ADDRESSES[0]} check "db create smoke on fleet-1" as_mapper -- db create smoke
+out=$(TARGET=${FLEET_ADDRESSES[0]} as_mapper -- enroll smoke /images/enroll 2>&1) || { echo "$out" >&2; fail "enroll on fleet-1"; }
+grep -q "10 views of 5 crossings into smoke: 10 stored" <<<"$out" || { echo "$out" >&2; fail "enroll on fleet-1: expected 10 stored"; }
+ENROLLED=$SECONDS
+info "ok: fleet-1: $(grep "views of" <<<"$out")"
+# docs/scale-out.md: visible elsewhere within milliseconds (a notification), at most the 5 s sync.
+until out=$(TARGET=${FLEET_ADDRESSES[1]} as_robot -- --json recognize smoke "/images/enroll/$QUERY_PLACE/$QUERY" 2>&1) &&
+      grep -q '"recognized": true' <<<"$out"; do
+  [ $((SECONDS - ENROLLED)) -le 6 ] || { echo "$out" | head -30 >&2; fail "fleet-2 does not recognize what fleet-1 enrolled"; }
+  sleep 0.5
+done
+TARGET=${FLEET_ADDRESSES[1]} expect_recognized as_robot "/images/enroll/$QUERY_PLACE/$QUERY" "$QUERY_PLACE" 180.0
+TARGET=${FLEET_ADDRESSES[2]} expect_recognized as_robot "/images/enroll/$QUERY_PLACE/$QUERY" "$QUERY_PLACE" 180.0
+TARGET=$FLEET_LIST expect_rejected as_robot "/images/unknown/$STRANGER"
+
+step "fleet: the server serving a SLAM session dies, the session goes on"
+# slam_state: "SESSION SERVED_BY SCANS" of robot-1's open session, asked of server $1.
+slam_state() {
+  local json
+  json=$(TARGET=$1 as_admin -- --json slam list --robot robot-1 2>/dev/null) || return 0
+  field() { grep -oE "\"$1\": (\"[^\"]*\"|[0-9]+)" <<<"$json" | head -1 | cut -d' ' -f2- | tr -d '"'; }
+  [ "$(grep -c '"session_id"' <<<"$json")" -eq 1 ] && [ "$(field state)" = open ] &&
+    [ -n "$(field served_by)" ] && echo "$(field session_id) $(field served_by) $(field scans_processed)"
+  return 0
+}
+WAYMARK_ROBOT_TOKEN=$ROBOT_TOKEN WAYMARK_ROBOT_DURATION=240 WAYMARK_ROBOT_FLAGS="--sim-speed 4" \
+  WAYMARK_ROBOT_SERVER=$FLEET_LIST compose up -d --no-build fleet-robot 2>&1 |
+  sed "s/^/$(stamp)    compose: /" || fail "compose up fleet-robot"
+ROBOT_CID=$(compose ps -q fleet-robot)
+[ -n "$ROBOT_CID" ] || fail "no fleet-robot container"
+STATE=""
+for ((i = 0; i < 60; i++)); do
+  STATE=$(slam_state "${FLEET_ADDRESSES[0]}")
+  [ -n "$STATE" ] && [ "$(cut -d' ' -f3 <<<"$STATE")" -ge 20 ] && break
+  sleep 1
+done
+[ -n "$STATE" ] || { docker logs --tail 20 "$ROBOT_CID" >&2; fail "no open session of robot-1 served by a fleet server"; }
+read -r SESSION OWNER SCANS_BEFORE <<<"$STATE"
+OWNER_SERVICE=""
+for n in 0 1 2; do [ "${FLEET_ADDRESSES[$n]}" = "$OWNER" ] && OWNER_SERVICE=fleet-$((n + 1)) && SURVIVOR=${FLEET_ADDRESSES[$(((n + 1) % 3))]}; done
+[ -n "$OWNER_SERVICE" ] || fail "session $SESSION is served by $OWNER, not one of $FLEET_LIST"
+info "session $SESSION served by $OWNER ($OWNER_SERVICE), $SCANS_BEFORE scans"
+docker kill "$(server_cid "$OWNER_SERVICE")" > /dev/null
+KILLED=$SECONDS
+info "SIGKILLed $OWNER_SERVICE"
+MOVED=""
+while [ $((SECONDS - KILLED)) -le 60 ]; do
+  STATE=$(slam_state "$SURVIVOR")
+  read -r S NEW_OWNER SCANS <<<"${STATE:-none none 0}"
+  if [ "$S" = "$SESSION" ] && [ "$NEW_OWNER" != "$OWNER" ] && [ "$SCANS" -gt "$SCANS_BEFORE" ]; then
+    MOVED=1; break
+  fi
+  sleep 0.5
+done
+[ -n "$MOVED" ] || { docker logs --tail 30 "$ROBOT_CID" >&2; fail "session $SESSION did not go on on another server within 60 s (last: ${STATE:-none})"; }
+info "ok: session $SESSION goes on on $NEW_OWNER after $((SECONDS - KILLED)) s ($SCANS scans; lease 5 s)"
+ROBOT_EXIT=$(timeout 240 /usr/bin/docker wait "$ROBOT_CID") || fail "fleet robot did not finish in 240 s"
+docker logs "$ROBOT_CID" > "$LOG_DIR/fleet-robot.log" 2>&1
+[ "$ROBOT_EXIT" = 0 ] || { tail -20 "$LOG_DIR/fleet-robot.log" >&2; fail "fleet robot exited with $ROBOT_EXIT"; }
+LAST=$(grep -E '^stopped: session' "$LOG_DIR/fleet-robot.log" | tail -1)
+grep -q "^stopped: session $SESSION (closed)" <<<"$LAST" ||
+  { tail -20 "$LOG_DIR/fleet-robot.log" >&2; fail "the robot did not end its own session $SESSION: $LAST"; }
+[ "$(grep -oE '[0-9]+ reconnects' <<<"$LAST" | cut -d' ' -f1)" -ge 1 ] ||
+  fail "the robot did not reconnect: $LAST"
+info "ok: robot exited 0: $LAST"
+SESSIONS=$(TARGET=$SURVIVOR as_admin -- --json slam list --robot robot-1 2>&1) || { echo "$SESSIONS" >&2; fail "slam list"; }
+[ "$(grep -c '"session_id"' <<<"$SESSIONS")" -eq 1 ] ||
+  { echo "$SESSIONS" >&2; fail "robot-1 has more than its one session"; }
+info "ok: robot-1 has exactly one session"
 
 end_step

@@ -257,6 +257,7 @@ int main(int argc, char** argv) {
   app.add_option("--db", flags.db, "SQLite database file (created if missing), or a PostgreSQL URI "
                  "postgresql://USER@HOST:PORT/DBNAME shared by several servers (password from "
                  "PGPASSWORD or PGPASSFILE, never on the command line)")
+      ->envname("WAYMARK_DB")
       ->capture_default_str();
   app.add_flag("--insecure-dev", flags.security.insecure_dev,
                "development only: no authentication, plaintext; refused unless --listen is loopback");

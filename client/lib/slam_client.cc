@@ -297,10 +297,17 @@ SlamClient::SlamClient(std::unique_ptr<v1::SlamService::StubInterface> stub,
     : stub_(std::move(stub)), options_(std::move(options)) {}
 
 absl::StatusOr<v1::Session> SlamClient::CreateSession(const v1::CreateSessionRequest& request) {
-  return CallUnary<v1::Session>(options_.timeout, options_.retry, Idempotency::kWrite,
-                                [&](auto* context, auto* response) {
-                                  return stub_->CreateSession(context, request, response);
-                                });
+  absl::StatusOr<v1::Session> session =
+      CallUnary<v1::Session>(options_.timeout, options_.retry, Idempotency::kWrite,
+                             [&](auto* context, auto* response) {
+                               return stub_->CreateSession(context, request, response);
+                             });
+  // In a fleet the server that created the session serves it: its stream goes there, not to
+  // whichever server the balancer picks next (which would only redirect it).
+  if (session.ok() && options_.connect && !session->served_by().empty()) {
+    routes_->Set(session->session_id(), session->served_by());
+  }
+  return session;
 }
 
 absl::StatusOr<v1::SegmentMap> SlamClient::GetMap(const std::string& session_id) {

@@ -50,6 +50,10 @@ class SessionLeases {
     std::lock_guard<std::mutex> lock(mutex_);
     address_ = address;
   }
+  std::string address() {
+    std::lock_guard<std::mutex> lock(mutex_);
+    return address_;
+  }
   // The owner to fence checkpoints with ("" when leases are off).
   const std::string& owner() const { return options_.owner; }
 

@@ -420,7 +420,10 @@ absl::StatusOr<v1::Session> SlamRegistry::StoreNewSession(const std::string& rob
     std::lock_guard<std::mutex> lock(mutex_);
     sessions_[session->id] = session;
   }
-  return Describe(*created, session.get());
+  v1::Session described = Describe(*created, session.get());
+  // This server holds the new session's lease: a fleet client opens its stream here at once.
+  if (leases_.enabled()) described.set_served_by(leases_.address());
+  return described;
 }
 
 absl::StatusOr<std::unique_ptr<SessionEngine>> SlamRegistry::EngineOf(

@@ -282,6 +282,30 @@ TEST_F(FleetServerTest, AFleetClientFollowsItsSessionAndFailsOverWhenItsServerDi
   EXPECT_EQ(trajectory.poses_size(), 9);
 }
 
+// A session created through a fleet client is served by the server that created it, and the
+// client opens its streams there at once. Without that, the balancer alternates between A and B
+// and one of the streams below would be a refusal naming the creator.
+TEST_F(FleetServerTest, AFleetClientStreamsANewSessionToTheServerThatCreatedIt) {
+  ASSERT_NE(a_, nullptr);
+  ASSERT_NE(b_, nullptr);
+  client::SlamClientOptions options;
+  options.connect = [](const std::string& address) {
+    return std::shared_ptr<grpc::ChannelInterface>(client::MakeChannel(address));
+  };
+  client::SlamClient fleet(client::MakeChannel(a_->address() + "," + b_->address()), options);
+  absl::StatusOr<v1::Session> created = fleet.CreateSession(TestSessionRequest("robot-6"));
+  ASSERT_TRUE(created.ok()) << created.status();
+  EXPECT_TRUE(created->served_by() == a_->address() || created->served_by() == b_->address())
+      << created->served_by();
+  for (int i = 0; i < 4; ++i) {
+    std::unique_ptr<client::SensorStream> stream = fleet.StreamSensorData(created->session_id());
+    absl::StatusOr<v1::StreamStart> start = stream->Hello(absl::Seconds(10));
+    ASSERT_TRUE(start.ok()) << "stream " << i << ": " << start.status() << " / "
+                            << stream->Finish();
+    EXPECT_TRUE(stream->Finish().ok());
+  }
+}
+
 // Closing a session through a server that does not serve it: the refusal names the server that
 // does, and the client closes it there.
 TEST_F(FleetServerTest, AClientClosesASessionAtTheServerThatServesIt) {
