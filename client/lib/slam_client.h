@@ -126,6 +126,9 @@ class SensorStream {
   absl::Status Finish();
   // After Finish: the server that serves the session, when this one refused it for that reason.
   const std::string& session_owner() const { return session_owner_; }
+  // The server this stream was sent to because the session is served there ("" = the client's
+  // own channel).
+  const std::string& routed_to() const { return via_; }
   // Aborts from any thread.
   void Cancel();
 

@@ -100,7 +100,12 @@ class RobotLoop::Impl {
         }
         Event(fmt::format("reconnecting within {:.1f} s", backoff));
         WaitForServer(backoff, stop);
-        backoff = std::min(2 * backoff, absl::ToDoubleSeconds(options_.reconnect_max));
+        // A session changing servers (refused with its owner's address, or its owner gone) is
+        // served again as soon as the old lease expires: keep trying at the first pace rather
+        // than backing off past the lease, as for a server that is down.
+        backoff = handing_over_
+                      ? absl::ToDoubleSeconds(options_.reconnect_initial)
+                      : std::min(2 * backoff, absl::ToDoubleSeconds(options_.reconnect_max));
         std::lock_guard<std::mutex> lock(mutex_);
         ++reconnects_;
       } else if (answered_since_open_) {
@@ -283,6 +288,8 @@ class RobotLoop::Impl {
     absl::Status finished = stream->Finish();
     std::lock_guard<std::mutex> lock(mutex_);
     scans_sent_before_ += stream->stats().scans_sent;
+    handing_over_ = !finished.ok() &&
+                    (!stream->session_owner().empty() || !stream->routed_to().empty());
     if (!finished.ok()) {
       status_.server_error = Text(finished);
       if (client::SessionIsGone(finished)) session_gone_ = finished;
@@ -495,6 +502,8 @@ class RobotLoop::Impl {
   std::unique_ptr<client::SensorStream> stream_;  // reset by the loop thread only
   std::atomic<bool> closing_{false};              // the loop itself is ending the current stream
   std::atomic<bool> end_seen_{false};             // the current stream's break has stopped the base
+  // The last stream ended because its session is moving between servers (fleet).
+  bool handing_over_ = false;        // written by the loop under mutex_
   uint64_t reconnects_ = 0;         // written by the loop under mutex_ (Snapshot reads it)
   uint64_t scans_sent_before_ = 0;  // by streams already finished
   double last_odometry_stamp_ = -1e300;

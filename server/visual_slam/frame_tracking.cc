@@ -13,10 +13,26 @@
 namespace waymark::visual_slam {
 namespace {
 
-// Whether the pair of match k may shape the motion model: the paper samples only pairs outside
-// every box (eq 9); the plain baseline samples all.
 bool OutsideBoxes(const TrackingInputs& in, const DescriptorMatch& match) {
   return !(*in.current_in_box)[match.query];
+}
+
+ReferenceRole RoleOf(const TrackingInputs& in, const DescriptorMatch& match) {
+  return in.reference_roles != nullptr ? (*in.reference_roles)[match.train]
+                                       : ReferenceRole::kMapped;
+}
+
+// Whether the pair of match k may shape the motion model: the paper samples only pairs outside
+// every box (eq 9); the plain baseline samples all; kProven also samples features proven static.
+bool Samplable(const TrackingInputs& in, const VisualOdometryOptions& options,
+               const DescriptorMatch& match) {
+  if (options.filter == DynamicFilter::kNone) return true;
+  switch (RoleOf(in, match)) {
+    case ReferenceRole::kProven: return true;
+    case ReferenceRole::kCandidate: return false;
+    case ReferenceRole::kMapped: return OutsideBoxes(in, match);
+  }
+  return false;
 }
 
 // Whether a static pair may take part in tracking under the filter: the full method tracks on
@@ -54,7 +70,7 @@ std::optional<Hypothesis> SampleMotion(const MotionSolver& solver, const Trackin
   std::vector<int> candidates;
   std::vector<double> eta;
   for (size_t k = 0; k < out.matches.size(); ++k) {
-    if (options.filter != DynamicFilter::kNone && !OutsideBoxes(in, out.matches[k])) continue;
+    if (!Samplable(in, options, out.matches[k])) continue;
     if (!solver.Samplable(static_cast<int>(k))) continue;
     candidates.push_back(static_cast<int>(k));
     // Prior inlier probability from the descriptor distance: a close match is likelier right.
@@ -77,7 +93,8 @@ void ClassifyPairs(const TrackingInputs& in, const VisualOdometryOptions& option
                    TrackingOutcome& out) {
   StaticTestOptions test;
   test.distance_px = options.static_distance_px;
-  test.max_hamming = options.delta / 2;
+  // floor: the paper's delta / 2 exactly at the default 0.5.
+  test.max_hamming = static_cast<int>(std::floor(options.static_hamming_fraction * options.delta));
   test.focal_px = in.focal_px;
   out.is_static = StaticTest(out.correspondences, out.motion, test);
   out.tested.assign(out.matches.size(), true);

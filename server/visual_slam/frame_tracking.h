@@ -7,6 +7,7 @@
 // essential matrix, eq 14-15), the static test on every pair (eq 17) and the final pose from every
 // static pair the filter allows.
 
+#include <cstdint>
 #include <optional>
 #include <string>
 #include <vector>
@@ -32,10 +33,19 @@ struct TrackingOutcome {
   double matching_ms = 0, sampling_ms = 0, pose_ms = 0;
 };
 
+// What a reference feature may do (the kProven filter; every feature is kMapped otherwise).
+enum class ReferenceRole : uint8_t {
+  kMapped,     // outside every box when it was found: shapes the motion model (eq 9, 18)
+  kCandidate,  // found inside a box: matched and tested, tracked when static, never sampled
+  kProven,     // a candidate static for proven_static_frames frames in a row: like kMapped,
+               // also where it is inside a box now
+};
+
 struct TrackingInputs {
   const FrameFeatures* reference = nullptr;
   const FrameFeatures* current = nullptr;
   const std::vector<bool>* current_in_box = nullptr;  // eq 7, per current feature
+  const std::vector<ReferenceRole>* reference_roles = nullptr;  // null = every one kMapped
   // The coarse matches of current to reference when already computed (the pipeline matches the
   // newest keyframe while the detector runs); null = match here.
   const std::vector<DescriptorMatch>* matches = nullptr;

@@ -37,6 +37,8 @@ absl::Status VisualOdometryOptions::Validate() const {
       InRange("delta", delta, 1, 256),
       InRange("match_ratio", match_ratio, 0.1, 1.0),
       Positive("static_distance_px", static_distance_px),
+      InRange("static_hamming_fraction", static_hamming_fraction, 0.01, 1),
+      InRange("proven_static_frames", proven_static_frames, 1, 1000),
       Positive("inlier_threshold_px", inlier_threshold_px),
       Positive("depth_scale", depth_scale),
       Positive("min_depth", min_depth),

@@ -17,6 +17,10 @@ enum class DynamicFilter {
   kBoxesOnly,  // every feature inside a box is dropped, static or not
   kFull,       // the paper: boxes split (eq 7), motion from features outside boxes (eq 10-15),
                // static test on all (eq 17), tracking on all static, mapping outside boxes (eq 18)
+  kProven,     // beyond the paper: as kFull, but boxed features stay in the reference as
+               // candidates, are matched and tested every frame, and once static for
+               // proven_static_frames frames in a row shape the motion model and are mapped like
+               // features outside boxes (a parked car helps instead of being thrown away)
 };
 
 struct OrbOptions {
@@ -59,6 +63,11 @@ struct VisualOdometryOptions {
   // eq 17: a feature is static when its predicted position is within d pixels of its match and
   // its Hamming distance is below delta / 2.
   double static_distance_px = 3.0;
+  // eq 17's descriptor half as a fraction of delta: static needs hamming < this * delta. The
+  // paper's 0.5; 1.0 leaves only the geometric half (every coarse match is already < delta).
+  double static_hamming_fraction = 0.5;
+  // kProven: consecutive frames a boxed feature must pass eq 17 before it counts as mapped.
+  int proven_static_frames = 3;
   // Inlier threshold of the motion hypotheses (reprojection or Sampson distance), pixels.
   double inlier_threshold_px = 2.0;
   // Depth: metres = value / depth_scale (TUM and Bonn: 5000). Readings outside

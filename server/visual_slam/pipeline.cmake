@@ -6,5 +6,6 @@ target_sources(waymark_visual_slam PRIVATE
   frame_validation.cc
   coarse_matching.cc
   frame_tracking.cc
+  bundle_adjustment.cc
   visual_odometry.cc
 )

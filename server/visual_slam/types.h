@@ -73,6 +73,7 @@ struct FeatureCounts {
   int dynamic = 0;              // failed the static test (eq 17)
   int tracked = 0;              // static features the pose was computed from
   int mapped = 0;               // static features outside boxes added to the map (eq 18)
+  int proven = 0;  // kProven: boxed features static long enough to count as mapped (this frame)
 };
 
 // Milliseconds spent per stage of one frame.

@@ -26,6 +26,10 @@ struct Reference {
   double stamp = 0;
   Pose pose;
   FrameFeatures features;
+  // Per feature (kProven; all kMapped otherwise): its role, and for boxed ones the frames in a
+  // row it has passed the static test.
+  std::vector<ReferenceRole> roles;
+  std::vector<int> static_run;
   // Static pairs of the first frame tracked against this keyframe: the yardstick of the
   // "tracking got weak" keyframe rule (most map points are never matched at all, so the map size
   // is not).
@@ -61,6 +65,15 @@ FrameFeatures Subset(const FrameFeatures& features, const std::vector<bool>& kee
     out.normalized.push_back(features.normalized[i]);
     out.depth.push_back(features.depth[i]);
     out.descriptors.push_back(features.descriptors.row(i));
+  }
+  return out;
+}
+
+template <typename T>
+std::vector<T> Subset(const std::vector<T>& values, const std::vector<bool>& keep) {
+  std::vector<T> out;
+  for (size_t i = 0; i < values.size(); ++i) {
+    if (keep[i]) out.push_back(values[i]);
   }
   return out;
 }
@@ -174,6 +187,7 @@ absl::StatusOr<FrameResult> VisualOdometry::ProcessFrame(const FrameInput& frame
     in.reference = &candidate.features;
     in.current = &features;
     in.current_in_box = &in_box;
+    if (!candidate.roles.empty()) in.reference_roles = &candidate.roles;
     in.focal_px = focal;
     if (&candidate == &s.keyframes.front()) {
       in.matches = &newest_matches;
@@ -213,6 +227,26 @@ absl::StatusOr<FrameResult> VisualOdometry::ProcessFrame(const FrameInput& frame
     }
   }
   result.counts.matched = static_cast<int>(outcome.matches.size());
+
+  // kProven: the frames in a row each boxed feature has been static. The reference's own count
+  // moves too (an RGB-D keyframe is tested by every frame tracked against it, and promotes its
+  // candidates in place); the current feature inherits it for when it joins the next reference.
+  const bool proving = options_.filter == DynamicFilter::kProven;
+  std::vector<int> static_run(features.size(), 0);
+  if (proving && reference != nullptr && !reference->roles.empty()) {
+    for (size_t k = 0; k < outcome.matches.size(); ++k) {
+      if (k >= outcome.tested.size() || !outcome.tested[k]) continue;
+      const int q = outcome.matches[k].query;
+      const int t = outcome.matches[k].train;
+      const int run = outcome.is_static[k] ? reference->static_run[t] + 1 : 0;
+      reference->static_run[t] = run;
+      if (run >= options_.proven_static_frames &&
+          reference->roles[t] == ReferenceRole::kCandidate) {
+        reference->roles[t] = ReferenceRole::kProven;
+      }
+      static_run[q] = run;
+    }
+  }
 
   stage = Clock::now();
   Pose pose = predicted_pose.value_or(Pose{});
@@ -265,10 +299,17 @@ absl::StatusOr<FrameResult> VisualOdometry::ProcessFrame(const FrameInput& frame
     }
   }
   if (make_keyframe) {
-    // eq 18: the map takes static features outside boxes (with depth, RGB-D).
+    // eq 18: the map takes static features outside boxes (with depth, RGB-D). kProven also keeps
+    // the boxed ones not found dynamic: as candidates, or as mapped once proven static.
     std::vector<bool> keep(features.size(), false);
+    std::vector<ReferenceRole> roles(features.size(), ReferenceRole::kMapped);
     for (int i = 0; i < features.size(); ++i) {
-      if (dynamic[i] || (use_boxes && in_box[i])) continue;
+      if (dynamic[i]) continue;
+      if (use_boxes && in_box[i]) {
+        if (!proving) continue;
+        roles[i] = static_run[i] >= options_.proven_static_frames ? ReferenceRole::kProven
+                                                                  : ReferenceRole::kCandidate;
+      }
       if (rgbd ? features.depth[i].has_value() : true) keep[i] = true;
     }
     Reference keyframe;
@@ -276,7 +317,16 @@ absl::StatusOr<FrameResult> VisualOdometry::ProcessFrame(const FrameInput& frame
     keyframe.pose = pose;
     if (!rgbd) features.depth = mono_depth;
     keyframe.features = Subset(features, keep);
-    result.counts.mapped = keyframe.features.size();
+    if (proving) {
+      keyframe.roles = Subset(roles, keep);
+      keyframe.static_run = Subset(static_run, keep);
+    }
+    result.counts.mapped = 0;
+    for (int i = 0; i < features.size(); ++i) {
+      if (!keep[i]) continue;
+      if (roles[i] == ReferenceRole::kProven) ++result.counts.proven;
+      if (roles[i] != ReferenceRole::kCandidate) ++result.counts.mapped;
+    }
     result.keyframe = true;
     s.keyframes.push_front(std::move(keyframe));
     const size_t keep_count = rgbd ? static_cast<size_t>(options_.local_map_keyframes) : 1;
