@@ -90,6 +90,14 @@ int Run(int argc, char** argv) {
   app.add_option("--static-hamming", base.static_hamming_fraction,
                  "eq 17's descriptor half as a fraction of delta (paper 0.5)")
       ->capture_default_str();
+  app.add_option("--bundle-window", base.bundle_window,
+                 "local bundle adjustment over this many keyframes (0 = off, the paper)")
+      ->capture_default_str();
+  app.add_flag("--bundle-wait", base.bundle_wait,
+               "apply each adjustment before the next frame (deterministic)");
+  app.add_option("--prior-direction", base.prior_direction_deg,
+                 "monocular motion prior: max degrees from the predicted direction (0 = off)")
+      ->capture_default_str();
   app.add_option("--proven-frames", base.proven_static_frames,
                  "proven filter: frames in a row a boxed feature must be static")
       ->capture_default_str();
@@ -108,7 +116,7 @@ int Run(int argc, char** argv) {
       return 1;
     }
     std::fprintf(per_frame, "config,seed,frame,state,total,boxed,matched,dynamic,tracked,mapped,"
-                            "proven,boxes\n");
+                            "proven,boxes,bundle_ms,tx,ty,tz,r00,r01,r02,r10,r11,r12,r20,r21,r22\n");
   }
   if (threads >= 0) cv::setNumThreads(threads);
 
@@ -200,9 +208,15 @@ int Run(int argc, char** argv) {
         }
         if (per_frame != nullptr) {
           const vs::FeatureCounts& c = r->counts;
-          std::fprintf(per_frame, "%s,%d,%d,%d,%d,%d,%d,%d,%d,%d,%d,%zu\n", text.c_str(), seed,
-                       frame_index, static_cast<int>(r->state), c.total, c.potentially_dynamic,
-                       c.matched, c.dynamic, c.tracked, c.mapped, c.proven, r->boxes.size());
+          const vs::Pose& p = r->pose;
+          std::fprintf(per_frame,
+                       "%s,%d,%d,%d,%d,%d,%d,%d,%d,%d,%d,%zu,%.2f,%.6f,%.6f,%.6f,%.9f,%.9f,%.9f,%.9f,"
+                       "%.9f,%.9f,%.9f,%.9f,%.9f\n",
+                       text.c_str(), seed, frame_index, static_cast<int>(r->state), c.total,
+                       c.potentially_dynamic, c.matched, c.dynamic, c.tracked, c.mapped, c.proven,
+                       r->boxes.size(), r->timings.bundle_ms, p.t.x(), p.t.y(), p.t.z(), p.R(0, 0),
+                       p.R(0, 1), p.R(0, 2), p.R(1, 0), p.R(1, 1), p.R(1, 2), p.R(2, 0), p.R(2, 1),
+                       p.R(2, 2));
         }
         ++frames_run;
         lost += r->state == vs::TrackingState::kLost;

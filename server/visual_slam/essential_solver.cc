@@ -125,6 +125,12 @@ Motion RefineOnSampson(const Motion& start, const std::vector<Correspondence>& c
 
 }  // namespace
 
+Motion PolishOnSampson(const Motion& start, const std::vector<Correspondence>& c,
+                       const std::vector<int>& indices) {
+  if (indices.size() < 5 || !InRange(c, indices)) return start;
+  return RefineOnSampson(start, c, indices);
+}
+
 std::vector<Motion> FivePoint(const std::vector<Correspondence>& c,
                               const std::vector<int>& sample) {
   if (sample.size() != 5 || !InRange(c, sample)) return {};

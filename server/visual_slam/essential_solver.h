@@ -51,6 +51,13 @@ class EssentialSolver : public MotionSolver {
 // pairs are not 5, out of range or degenerate.
 std::vector<Motion> FivePoint(const std::vector<Correspondence>& c, const std::vector<int>& sample);
 
+// A local Levenberg-Marquardt polish of `start` on the Sampson errors of `indices` (Huber at about
+// 1 px): it stays in the basin of `start`, unlike a solution from scratch, which matters where far
+// points leave two motions almost equally consistent. `start` itself for fewer than 5 pairs or an
+// index out of range.
+Motion PolishOnSampson(const Motion& start, const std::vector<Correspondence>& c,
+                       const std::vector<int>& indices);
+
 // E from >= 8 pairs (least squares over all of them), projected onto the essential manifold
 // (Frobenius norm sqrt(2)); nullopt when the pairs do not determine E (the constraint matrix has
 // more than a one-dimensional null space: fewer than 8 distinct pairs, degenerate structure or

@@ -7,6 +7,7 @@
 #include "server/common/stopwatch.h"
 #include "server/visual_slam/essential_solver.h"
 #include "server/visual_slam/pnp_solver.h"
+#include "server/visual_slam/pose_algebra.h"
 #include "server/visual_slam/sequential_sampler.h"
 #include "server/visual_slam/static_test.h"
 
@@ -88,6 +89,55 @@ std::optional<Hypothesis> SampleMotion(const MotionSolver& solver, const Trackin
   return result.best[result.chosen];
 }
 
+double AngleDeg(const Eigen::Vector3d& a, const Eigen::Vector3d& b) {
+  const double c = a.normalized().dot(b.normalized());
+  return std::acos(std::clamp(c, -1.0, 1.0)) * 180 / 3.14159265358979323846;
+}
+
+// Whether `motion` turns or heads too far from the prediction (options.prior_*).
+bool FarFromPrediction(const Motion& motion, const Motion& predicted,
+                       const VisualOdometryOptions& options) {
+  if (predicted.t.norm() < 1e-9) return false;  // no prediction of a direction
+  const double turn = RotationAngle(predicted.R.transpose() * motion.R) * 180 / 3.14159265358979323846;
+  return AngleDeg(motion.t, predicted.t) > options.prior_direction_deg ||
+         turn > options.prior_rotation_deg;
+}
+
+// The monocular motion prior: a chosen motion far from the constant-velocity prediction gives
+// way to the prediction polished on the samplable pairs it explains, when that is about as
+// consistent with them.
+void ApplyMotionPrior(const MotionSolver& solver, const TrackingInputs& in,
+                      const VisualOdometryOptions& options, const TrackingOutcome& out,
+                      Hypothesis& chosen) {
+  if (options.prior_direction_deg <= 0 || !in.predicted ||
+      !FarFromPrediction(chosen.motion, *in.predicted, options)) {
+    return;
+  }
+  std::vector<int> samplable;
+  for (size_t k = 0; k < out.matches.size(); ++k) {
+    if (Samplable(in, options, out.matches[k]) && solver.Samplable(static_cast<int>(k))) {
+      samplable.push_back(static_cast<int>(k));
+    }
+  }
+  const auto inliers_of = [&](const Motion& motion) {
+    std::vector<double> errors;
+    solver.ErrorsPx(motion, samplable, &errors);
+    std::vector<int> inliers;
+    for (size_t i = 0; i < samplable.size(); ++i) {
+      if (errors[i] <= options.inlier_threshold_px) inliers.push_back(samplable[i]);
+    }
+    return inliers;
+  };
+  std::vector<int> inliers = inliers_of(*in.predicted);
+  if (inliers.size() < options.prior_inlier_fraction * chosen.inliers.size()) return;
+  // Polished locally from the prediction (a fit from scratch would slide back to the far motion);
+  // a polish that wanders off leaves the prediction itself.
+  Motion motion = PolishOnSampson(*in.predicted, out.correspondences, inliers);
+  if (FarFromPrediction(motion, *in.predicted, options)) motion = *in.predicted;
+  chosen.motion = motion;
+  chosen.inliers = inliers_of(motion);
+}
+
 // eq 17 on every pair, then the set the final pose uses.
 void ClassifyPairs(const TrackingInputs& in, const VisualOdometryOptions& options,
                    TrackingOutcome& out) {
@@ -148,6 +198,7 @@ TrackingOutcome TrackMonocular(const TrackingInputs& in, const VisualOdometryOpt
   EssentialSolver solver(out.correspondences, in.focal_px);
   std::optional<Hypothesis> chosen = SampleMotion(solver, in, options, out);
   if (!chosen) return out;
+  ApplyMotionPrior(solver, in, options, out, *chosen);
 
   const Clock::time_point start = Clock::now();
   // The sampler already polished its hypotheses on their inliers; a least-squares refit over
@@ -173,7 +224,12 @@ TrackingOutcome TrackMonocular(const TrackingInputs& in, const VisualOdometryOpt
     return sum;
   };
   absl::StatusOr<Motion> refit = EssentialFromInliers(out.correspondences, fit_set);
-  if (refit.ok() && cost(*refit) < cost(out.motion)) out.motion = *refit;
+  // With the motion prior on, a refit may not take the motion far from the prediction.
+  const bool refit_allowed =
+      refit.ok() && (options.prior_direction_deg <= 0 || !in.predicted ||
+                     !FarFromPrediction(*refit, *in.predicted, options) ||
+                     FarFromPrediction(out.motion, *in.predicted, options));
+  if (refit_allowed && cost(*refit) < cost(out.motion)) out.motion = *refit;
   out.pose_ms = MsSince(start);
   out.ok = true;
   return out;

@@ -48,9 +48,18 @@ absl::Status VisualOdometryOptions::Validate() const {
       Positive("keyframe_distance", keyframe_distance),
       Positive("keyframe_angle", keyframe_angle),
       InRange("local_map_keyframes", local_map_keyframes, 1, 50),
+      InRange("bundle_window", bundle_window, 0, 50),
+      InRange("prior_direction_deg", prior_direction_deg, 0, 180),
+      InRange("prior_rotation_deg", prior_rotation_deg, 0, 180),
+      InRange("prior_inlier_fraction", prior_inlier_fraction, 0, 10),
   };
   for (const absl::Status& status : checks) {
     if (!status.ok()) return status;
+  }
+  if (bundle_window > 0 && bundle_window < 3) {
+    return absl::InvalidArgumentError(absl::StrCat(
+        "bundle_window must be 0 (off) or at least 3 (two keyframes fix a monocular gauge), got ",
+        bundle_window));
   }
   if (min_depth >= max_depth) {
     return absl::InvalidArgumentError(

@@ -84,6 +84,22 @@ struct VisualOdometryOptions {
   double keyframe_angle = 0.17;  // 10 degrees
   // Keyframes kept in the local map; tracking falls back to older ones when the newest fails.
   int local_map_keyframes = 5;
+  // Beyond the paper: a monocular motion heading more than prior_direction_deg, or turning more
+  // than prior_rotation_deg, away from the constant-velocity prediction is replaced by the
+  // prediction polished on the pairs it explains, when those are at least prior_inlier_fraction
+  // of the chosen motion's inliers. Far points leave a sideways or backwards motion almost as
+  // consistent as the true one (on KITTI 06 a few frames per 50 came out 75-178 degrees off); a
+  // vehicle does not turn that way in 0.1 s. 0 = off (the paper).
+  double prior_direction_deg = 0;
+  double prior_rotation_deg = 5;
+  double prior_inlier_fraction = 0.7;
+  // Beyond the paper: after each new keyframe, a bundle adjustment of the last bundle_window
+  // keyframes and the points they share (local_map.h) runs on a background thread; 0 = off (the
+  // paper). Monocular sessions make every tracked frame a keyframe, so the window is frames.
+  int bundle_window = 0;
+  // Apply each adjustment before the next frame, waiting for it if needed: deterministic answers
+  // (tests, benchmarks) at the cost of the next frame's latency. Off: applied once finished.
+  bool bundle_wait = false;
 
   absl::Status Validate() const;
 };

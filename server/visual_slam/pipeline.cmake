@@ -7,5 +7,6 @@ target_sources(waymark_visual_slam PRIVATE
   coarse_matching.cc
   frame_tracking.cc
   bundle_adjustment.cc
+  local_map.cc
   visual_odometry.cc
 )

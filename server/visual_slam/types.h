@@ -86,6 +86,10 @@ struct StageTimings {
   double pose_ms = 0;
   double mapping_ms = 0;
   double total_ms = 0;
+  // The local bundle adjustment applied before this frame (0 when none): its own time, on the
+  // session's background thread, and how long this frame waited for it (bundle_wait only).
+  double bundle_ms = 0;
+  double bundle_wait_ms = 0;
 };
 
 enum class TrackingState {

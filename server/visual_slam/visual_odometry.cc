@@ -4,6 +4,7 @@
 #include <cmath>
 #include <deque>
 #include <future>
+#include <map>
 #include <utility>
 
 #include <opencv2/imgproc.hpp>
@@ -14,6 +15,7 @@
 #include "server/visual_slam/frame_features.h"
 #include "server/visual_slam/frame_tracking.h"
 #include "server/visual_slam/frame_validation.h"
+#include "server/visual_slam/local_map.h"
 #include "server/visual_slam/pose_algebra.h"
 #include "server/visual_slam/two_view.h"
 
@@ -23,6 +25,7 @@ namespace waymark::visual_slam {
 // (static features outside boxes with depth, eq 18). Monocular: the last tracked frame, with the
 // depth of its features triangulated at the session's scale (for the next frame's scale).
 struct Reference {
+  int64_t id = 0;  // keyframe id (the local map's)
   double stamp = 0;
   Pose pose;
   FrameFeatures features;
@@ -30,16 +33,38 @@ struct Reference {
   // row it has passed the static test.
   std::vector<ReferenceRole> roles;
   std::vector<int> static_run;
+  // Per feature: its track in the local map (bundle adjustment on; empty otherwise).
+  std::vector<int64_t> tracks;
   // Static pairs of the first frame tracked against this keyframe: the yardstick of the
   // "tracking got weak" keyframe rule (most map points are never matched at all, so the map size
   // is not).
   int first_tracked = 0;
 };
 
+// A frame's pose as its keyframe's pose and the motion from there: when an adjustment moves the
+// keyframe, the frame moves with it.
+struct Anchor {
+  int64_t keyframe = -1;
+  Motion motion;  // keyframe -> frame
+};
+
+struct BundleOutcome {
+  BundleJob job;
+  absl::StatusOr<BundleResult> result;
+  double ms = 0;
+};
+
 struct VisualOdometry::State {
   explicit State(const VisualOdometryOptions& options, const CameraModel& camera)
       : extractor(options.orb, camera) {}
   OrbExtractor extractor;
+  int64_t next_keyframe_id = 0;
+  // Bundle adjustment (options.bundle_window > 0): the window, the job running in the background,
+  // the poses of the keyframes an adjustment may still move, and every frame's anchor.
+  std::optional<LocalMap> local_map;
+  std::future<BundleOutcome> bundle;
+  std::map<int64_t, Pose> keyframe_poses;
+  std::vector<Anchor> anchors;  // parallel to the trajectory
   std::optional<bool> with_depth;  // fixed by the first frame
   std::optional<double> last_stamp;
   std::deque<Reference> keyframes;  // newest first (RGB-D local map); monocular: one entry
@@ -100,6 +125,9 @@ absl::StatusOr<std::unique_ptr<VisualOdometry>> VisualOdometry::Create(
 
 void VisualOdometry::ResetAt(const TimedPose& pose) {
   State& s = *state_;
+  if (s.bundle.valid()) s.bundle.wait();  // its keyframes are gone: its answer is dropped
+  s.bundle = {};
+  s.local_map.reset();  // made again at the next keyframe
   s.keyframes.clear();
   s.last_pose = pose.pose;
   s.previous_pose.reset();
@@ -115,6 +143,7 @@ absl::StatusOr<FrameResult> VisualOdometry::ProcessFrame(const FrameInput& frame
   }
   FrameResult result;
   result.stamp = frame.stamp;
+  ApplyBundle(options_.bundle_wait, &result.timings);
 
   // The detector runs on its own thread while this one extracts ORB features and matches them
   // to the newest keyframe: the two are independent until the box split, and on a 2-core robot
@@ -228,6 +257,15 @@ absl::StatusOr<FrameResult> VisualOdometry::ProcessFrame(const FrameInput& frame
   }
   result.counts.matched = static_cast<int>(outcome.matches.size());
 
+  // Bundle adjustment: a feature tracked from the reference continues the reference feature's
+  // track (the same scene point, seen again).
+  std::vector<int64_t> tracks(features.size(), -1);
+  if (reference != nullptr && !reference->tracks.empty()) {
+    for (int k : outcome.tracking_set) {
+      tracks[outcome.matches[k].query] = reference->tracks[outcome.matches[k].train];
+    }
+  }
+
   // kProven: the frames in a row each boxed feature has been static. The reference's own count
   // moves too (an RGB-D keyframe is tested by every frame tracked against it, and promotes its
   // candidates in place); the current feature inherits it for when it joins the next reference.
@@ -313,10 +351,24 @@ absl::StatusOr<FrameResult> VisualOdometry::ProcessFrame(const FrameInput& frame
       if (rgbd ? features.depth[i].has_value() : true) keep[i] = true;
     }
     Reference keyframe;
+    keyframe.id = s.next_keyframe_id++;
     keyframe.stamp = frame.stamp;
     keyframe.pose = pose;
     if (!rgbd) features.depth = mono_depth;
     keyframe.features = Subset(features, keep);
+    if (options_.bundle_window > 0) {
+      if (!s.local_map) {
+        LocalMapOptions map_options;
+        map_options.window = options_.bundle_window;
+        map_options.bundle.focal_px = focal;
+        s.local_map.emplace(map_options, /*monocular=*/!rgbd);
+      }
+      std::vector<bool> in_map(features.size());
+      for (int i = 0; i < features.size(); ++i) in_map[i] = roles[i] != ReferenceRole::kCandidate;
+      keyframe.tracks = s.local_map->AddKeyframe(keyframe.id, pose, keyframe.features,
+                                                 Subset(tracks, keep), Subset(in_map, keep));
+      s.keyframe_poses[keyframe.id] = pose;
+    }
     if (proving) {
       keyframe.roles = Subset(roles, keep);
       keyframe.static_run = Subset(static_run, keep);
@@ -331,6 +383,7 @@ absl::StatusOr<FrameResult> VisualOdometry::ProcessFrame(const FrameInput& frame
     s.keyframes.push_front(std::move(keyframe));
     const size_t keep_count = rgbd ? static_cast<size_t>(options_.local_map_keyframes) : 1;
     while (s.keyframes.size() > keep_count) s.keyframes.pop_back();
+    if (options_.bundle_window > 0) StartBundle();
   }
   result.timings.mapping_ms = MsSince(stage);
 
@@ -339,8 +392,95 @@ absl::StatusOr<FrameResult> VisualOdometry::ProcessFrame(const FrameInput& frame
   s.last_pose = pose;
   s.last_stamp = frame.stamp;
   trajectory_.push_back({frame.stamp, pose});
+  if (options_.bundle_window > 0) {
+    Anchor anchor;
+    if (result.keyframe) {
+      anchor.keyframe = s.keyframes.front().id;
+    } else if (reference != nullptr) {
+      anchor.keyframe = reference->id;
+      anchor.motion = MotionBetween(reference->pose, pose);
+    }
+    s.anchors.push_back(anchor);
+  }
   result.timings.total_ms = MsSince(start);
   return result;
+}
+
+void VisualOdometry::StartBundle() {
+  State& s = *state_;
+  if (!s.local_map || s.bundle.valid()) return;  // one adjustment at a time
+  std::optional<BundleJob> job = s.local_map->MakeJob();
+  if (!job) return;
+  s.bundle = std::async(std::launch::async, [job = *std::move(job),
+                                             bundle = s.local_map->bundle_options()]() mutable {
+    const Clock::time_point start = Clock::now();
+    BundleOutcome outcome;
+    outcome.result = BundleAdjust(job.problem, bundle);
+    outcome.job = std::move(job);
+    outcome.ms = MsSince(start);
+    return outcome;
+  });
+}
+
+namespace {
+
+// `pose` moved the way `anchor` moved from `before` to `after`.
+Pose MovedWith(const Pose& pose, const Pose& before, const Pose& after) {
+  return PoseAfter(after, MotionBetween(before, pose));
+}
+
+}  // namespace
+
+void VisualOdometry::ApplyBundle(bool wait, StageTimings* timings) {
+  State& s = *state_;
+  if (!s.bundle.valid()) return;
+  const Clock::time_point start = Clock::now();
+  if (!wait && s.bundle.wait_for(std::chrono::seconds(0)) != std::future_status::ready) return;
+  BundleOutcome outcome = s.bundle.get();
+  timings->bundle_wait_ms = MsSince(start);
+  timings->bundle_ms = outcome.ms;
+  if (!outcome.result.ok() || !s.local_map) return;  // a bad window is skipped, not fatal
+  const std::unordered_map<int64_t, Pose> moved = s.local_map->Apply(outcome.job, *outcome.result);
+  // Keyframes made while it ran move with the newest keyframe it adjusted.
+  const int64_t oldest = outcome.job.keyframe_ids.front();
+  const int64_t newest = outcome.job.keyframe_ids.back();
+  const Pose newest_before = s.keyframe_poses.at(newest);
+  const Pose newest_after = moved.at(newest);
+  for (auto& [id, pose] : s.keyframe_poses) {
+    if (auto it = moved.find(id); it != moved.end()) {
+      pose = it->second;
+    } else if (id > newest) {
+      pose = MovedWith(pose, newest_before, newest_after);
+    }
+  }
+  // Older keyframes never move again: the next adjustment holds them or has dropped them.
+  s.keyframe_poses.erase(s.keyframe_poses.begin(), s.keyframe_poses.lower_bound(oldest));
+  const bool monocular = s.with_depth && !*s.with_depth;
+  for (Reference& reference : s.keyframes) {
+    auto it = s.keyframe_poses.find(reference.id);
+    if (it == s.keyframe_poses.end()) continue;
+    reference.pose = it->second;
+    if (!monocular || reference.tracks.empty()) continue;
+    // Monocular scale comes from the reference's depths: take them from the adjusted points.
+    for (int i = 0; i < reference.features.size(); ++i) {
+      std::optional<Eigen::Vector3d> point = s.local_map->Point(reference.tracks[i]);
+      if (!point) continue;
+      const double z = (reference.pose.R.transpose() * (*point - reference.pose.t)).z();
+      if (z > 0) reference.features.depth[i] = z;
+    }
+  }
+  // Every frame anchored to a keyframe that moved follows it.
+  for (size_t i = trajectory_.size(); i-- > 0;) {
+    const Anchor& anchor = s.anchors[i];
+    if (anchor.keyframe < oldest) break;
+    auto it = s.keyframe_poses.find(anchor.keyframe);
+    if (it != s.keyframe_poses.end()) trajectory_[i].pose = PoseAfter(it->second, anchor.motion);
+  }
+  if (!trajectory_.empty() && s.last_pose) s.last_pose = trajectory_.back().pose;
+  if (trajectory_.size() >= 2 && s.previous_pose) {
+    s.previous_pose = trajectory_[trajectory_.size() - 2].pose;
+    if (monocular) s.mono_speed = (s.last_pose->t - s.previous_pose->t).norm();
+  }
 }
 
 }  // namespace waymark::visual_slam

@@ -51,6 +51,11 @@ class VisualOdometry {
   struct State;
   VisualOdometry(const VisualOdometryOptions& options, const CameraModel& camera,
                  std::unique_ptr<ObjectDetector> detector);
+  // The local bundle adjustment: starts one on the window after a new keyframe (if none runs),
+  // and applies a finished one (waiting for it when `wait`) to keyframes, references, the
+  // trajectory and the motion model.
+  void StartBundle();
+  void ApplyBundle(bool wait, StageTimings* timings);
 
   VisualOdometryOptions options_;
   CameraModel camera_;

@@ -53,6 +53,12 @@ TEST(VisualOdometryTest, RefusesBadCameraAndOptions) {
   odometry = VisualOdometry::Create(options, SyntheticCamera(), nullptr);
   EXPECT_EQ(odometry.status().code(), absl::StatusCode::kInvalidArgument);
   EXPECT_NE(odometry.status().message().find("delta"), std::string::npos);
+
+  options = {};
+  options.bundle_window = 2;  // too small for a monocular gauge (two held keyframes)
+  odometry = VisualOdometry::Create(options, SyntheticCamera(), nullptr);
+  EXPECT_EQ(odometry.status().code(), absl::StatusCode::kInvalidArgument);
+  EXPECT_NE(odometry.status().message().find("bundle_window"), std::string::npos);
 }
 
 TEST(VisualOdometryTest, RejectsBadFramesAndKeepsTheSession) {
@@ -287,6 +293,37 @@ TEST(RealSequenceTest, KittiMonocular) {
               summary.ate_rmse);
   EXPECT_EQ(summary.frames, 51);
   EXPECT_LT(summary.ate_rmse, 4.0);  // measured 2.81 m over the 60 m drive (Sim(3)), seed 1
+}
+
+// Beyond the paper on the same window: the monocular motion prior and the local bundle
+// adjustment (applied before the next frame, so the run is deterministic). Seed 1 measured: the
+// paper's full method 5.08 m, with both 1.20 m (docs/visual-odometry.md has the 5-seed table).
+testing::RunSummary RunKitti(const cli::ImageSequence& kitti, VisualOdometryOptions options) {
+  options.filter = DynamicFilter::kFull;
+  absl::StatusOr<std::unique_ptr<VisualOdometry>> odometry = VisualOdometry::Create(
+      options, testing::SequenceCamera(kitti, ""), testing::SharedYolo());
+  EXPECT_TRUE(odometry.ok()) << odometry.status();
+  if (!odometry.ok()) return {};
+  return testing::RunAndEvaluate(**odometry, kitti, /*with_depth=*/false, /*with_scale=*/true);
+}
+
+TEST(RealSequenceTest, KittiMotionPriorAndBundleAdjustmentKeepTheParkedCarsWindowOnTrack) {
+  const std::optional<cli::ImageSequence> kitti = testing::KittiSequence();
+  if (!kitti) GTEST_SKIP() << "../shared/data/vslam not present";
+  if (testing::SharedYolo() == nullptr) GTEST_SKIP() << "../shared/models not present";
+  const testing::RunSummary paper = RunKitti(*kitti, {});
+  VisualOdometryOptions better;
+  better.prior_direction_deg = 30;
+  better.bundle_window = 5;
+  better.bundle_wait = true;
+  const testing::RunSummary improved = RunKitti(*kitti, better);
+  const testing::RunSummary again = RunKitti(*kitti, better);
+  std::printf("kitti full method: paper %.3f m, motion prior + bundle adjustment %.3f m (Sim3)\n",
+              paper.ate_rmse, improved.ate_rmse);
+  EXPECT_EQ(improved.frames, 51);
+  EXPECT_LT(improved.ate_rmse, 2.0);  // measured 1.20 m (seed 1)
+  EXPECT_LT(improved.ate_rmse, 0.5 * paper.ate_rmse);
+  EXPECT_EQ(again.ate_rmse, improved.ate_rmse);  // bundle_wait: the same answers every run
 }
 
 }  // namespace
