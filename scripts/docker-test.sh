@@ -478,16 +478,22 @@ check "tini is PID 1, waymark-server its child" \
   docker exec "$CID" sh -c 'grep -qx tini /proc/1/comm && grep -qx waymark-server /proc/[0-9]*/comm' 
 
 step "tokens (docker exec waymark-server token create)"
-token() {
-  local secret
-  secret=$(docker exec "$CID" waymark-server --db /var/lib/waymark/waymark.db token create "$@" 2>/dev/null) ||
-    fail "token create $*"
-  [[ "$secret" == wm_* ]] || fail "token create $*: unexpected output"
-  echo "$secret"
+# make_tokens CONTAINER [waymark-server options]: sets ADMIN_TOKEN, MAPPER_TOKEN and ROBOT_TOKEN
+# (robot-1), made with the server's own command line inside the container.
+make_tokens() {
+  local cid=$1
+  shift
+  token() {
+    local secret
+    secret=$(docker exec "$cid" waymark-server "$@" 2>/dev/null) || fail "waymark-server $*"
+    [[ "$secret" == wm_* ]] || fail "waymark-server $*: unexpected output"
+    echo "$secret"
+  }
+  ADMIN_TOKEN=$(token "$@" token create smoke-admin --role admin)
+  MAPPER_TOKEN=$(token "$@" token create smoke-mapper --role mapper)
+  ROBOT_TOKEN=$(token "$@" token create smoke-robot --role robot --robot-id robot-1)
 }
-ADMIN_TOKEN=$(token smoke-admin --role admin)
-MAPPER_TOKEN=$(token smoke-mapper --role mapper)
-ROBOT_TOKEN=$(token smoke-robot --role robot --robot-id robot-1)
+make_tokens "$CID" --db /var/lib/waymark/waymark.db
 info "admin, mapper and robot (robot-1) tokens created"
 check "token list shows them" sh -c \
   "docker exec $CID waymark-server --db /var/lib/waymark/waymark.db token list | grep -c smoke- | grep -qx 3"
@@ -599,17 +605,7 @@ check "the servers use PostgreSQL (\"postgresql://waymark@...\" logged, no passw
   "docker logs $(server_cid fleet-1) 2>&1 | grep -q 'postgresql://waymark@127.0.0.1:$PG_PORT/waymark' &&
    ! docker logs $(server_cid fleet-1) 2>&1 | grep -qF '$WAYMARK_PG_PASSWORD'"
 
-FLEET_CID=$(server_cid fleet-1)
-fleet_token() {
-  local secret
-  secret=$(docker exec "$FLEET_CID" waymark-server token create "$@" 2>/dev/null) ||
-    fail "token create $* (fleet)"
-  [[ "$secret" == wm_* ]] || fail "token create $* (fleet): unexpected output"
-  echo "$secret"
-}
-ADMIN_TOKEN=$(fleet_token smoke-admin --role admin)
-MAPPER_TOKEN=$(fleet_token smoke-mapper --role mapper)
-ROBOT_TOKEN=$(fleet_token smoke-robot --role robot --robot-id robot-1)
+make_tokens "$(server_cid fleet-1)"  # the container's WAYMARK_DB: the fleet's database
 info "admin, mapper and robot (robot-1) tokens created in the fleet's database (exec fleet-1)"
 
 step "fleet: enroll on one server, recognize on the others"
