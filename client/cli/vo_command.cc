@@ -39,10 +39,20 @@ void AddVoCommands(CLI::App& app, CommandRegistry& registry) {
                   "yolo:CFG,WEIGHTS (darknet) or yolo:MODEL.onnx; model files are uploaded")
       ->capture_default_str();
   run->add_option("--filter", args->filter,
-                  "Dynamic-point filter: full (boxes + static test), boxes (drop features in "
-                  "boxes) or none (plain ORB VO)")
-      ->check(CLI::IsMember({"full", "boxes", "none"}))
+                  "Dynamic-point filter: full (the paper: boxes + static test), boxes (drop "
+                  "features in boxes), none (plain ORB VO) or proven (full, and boxed features "
+                  "static over several frames are used like the rest)")
+      ->check(CLI::IsMember({"full", "boxes", "none", "proven"}))
       ->capture_default_str();
+  run->add_option("--prior-direction", args->prior_direction_deg,
+                  "Monocular motion prior: a motion this many degrees off the constant-velocity "
+                  "prediction gives way to it when the pairs cannot tell them apart (30 measured "
+                  "best on KITTI; default off, the paper)")
+      ->check(CLI::Range(0.0, 180.0));
+  run->add_option("--bundle-window", args->bundle_window,
+                  "Local bundle adjustment over this many keyframes, in the background (0 or "
+                  "unset = off, the paper; 5-10 measured on KITTI)")
+      ->check(CLI::Range(0, 50));
   run->add_option("--movable", args->movable,
                   "Movable classes, comma-separated (default: the server's person,car,bus,truck,"
                   "bicycle,motorbike)");

@@ -116,8 +116,9 @@ absl::StatusOr<v1::VisualSlamConfig::DynamicFilter> FilterFromName(const std::st
   if (name == "full") return v1::VisualSlamConfig::FILTER_FULL;
   if (name == "boxes") return v1::VisualSlamConfig::FILTER_BOXES_ONLY;
   if (name == "none") return v1::VisualSlamConfig::FILTER_NONE;
+  if (name == "proven") return v1::VisualSlamConfig::FILTER_PROVEN;
   return absl::InvalidArgumentError(
-      absl::StrCat("--filter '", name, "': expected full, boxes or none"));
+      absl::StrCat("--filter '", name, "': expected full, boxes, none or proven"));
 }
 
 absl::StatusOr<v1::CreateSessionRequest> VoSessionRequest(const VoArgs& args,
@@ -150,6 +151,9 @@ absl::StatusOr<v1::CreateSessionRequest> VoSessionRequest(const VoArgs& args,
   if (args.depth && camera.depth_scale > 0) config->set_depth_scale(camera.depth_scale);
   *config->mutable_detector() = *std::move(detector);
   config->set_filter(*filter);
+  v1::VisualSlamParams* params = config->mutable_params();
+  if (args.prior_direction_deg) params->set_prior_direction_deg(*args.prior_direction_deg);
+  if (args.bundle_window) params->set_bundle_window(static_cast<uint32_t>(*args.bundle_window));
   return request;
 }
 

@@ -19,7 +19,10 @@ namespace waymark::cli {
 struct VoArgs {
   std::string sequence;
   std::string detector = "none";  // none | hog | yolo:CFG,WEIGHTS | yolo:MODEL.onnx
-  std::string filter = "full";    // full | boxes | none
+  std::string filter = "full";    // full | boxes | none | proven
+  // Beyond the paper (unset = the server's default: off).
+  std::optional<double> prior_direction_deg;  // monocular motion prior, degrees
+  std::optional<int> bundle_window;           // local bundle adjustment, keyframes
   std::string movable;            // comma-separated classes; empty = the server's default
   bool depth = false;
   std::string camera;  // preset name; empty = calib.txt or --fx ...

@@ -123,7 +123,8 @@ absl::StatusOr<v1::VisualSlamConfig> EffectiveVisualConfig(const v1::VisualSlamC
   if (absl::Status s = CheckDetector(config.detector()); !s.ok()) return s;
   if (!v1::VisualSlamConfig::DynamicFilter_IsValid(config.filter())) {
     return absl::InvalidArgumentError(absl::StrCat(
-        "filter ", config.filter(), " is unknown (FILTER_FULL, FILTER_BOXES_ONLY, FILTER_NONE)"));
+        "filter ", config.filter(),
+        " is unknown (FILTER_FULL, FILTER_BOXES_ONLY, FILTER_NONE, FILTER_PROVEN)"));
   }
   v1::VisualSlamConfig out = config;
   if (!out.has_depth_scale()) out.set_depth_scale(kDefaultDepthScale);
@@ -166,6 +167,13 @@ absl::StatusOr<v1::VisualSlamConfig> EffectiveVisualConfig(const v1::VisualSlamC
   if (!p->has_keyframe_distance()) p->set_keyframe_distance(d.keyframe_distance);
   if (!p->has_keyframe_angle()) p->set_keyframe_angle(d.keyframe_angle);
   if (!p->has_local_map_keyframes()) p->set_local_map_keyframes(d.local_map_keyframes);
+  if (!p->has_static_hamming_fraction()) p->set_static_hamming_fraction(d.static_hamming_fraction);
+  if (!p->has_proven_static_frames()) p->set_proven_static_frames(d.proven_static_frames);
+  if (!p->has_prior_direction_deg()) p->set_prior_direction_deg(d.prior_direction_deg);
+  if (!p->has_prior_rotation_deg()) p->set_prior_rotation_deg(d.prior_rotation_deg);
+  if (!p->has_prior_inlier_fraction()) p->set_prior_inlier_fraction(d.prior_inlier_fraction);
+  if (!p->has_bundle_window()) p->set_bundle_window(d.bundle_window);
+  if (!p->has_bundle_wait()) p->set_bundle_wait(d.bundle_wait);
   // The engine's own validation names the option; the whole conversion runs once here so that a
   // config that is stored is one that loads.
   absl::StatusOr<VisualSessionOptions> options = ToVisualSessionOptions(out);
@@ -196,6 +204,9 @@ absl::StatusOr<VisualSessionOptions> ToVisualSessionOptions(const v1::VisualSlam
     case v1::VisualSlamConfig::FILTER_NONE:
       o.filter = vs::DynamicFilter::kNone;
       break;
+    case v1::VisualSlamConfig::FILTER_PROVEN:
+      o.filter = vs::DynamicFilter::kProven;
+      break;
     default:
       o.filter = vs::DynamicFilter::kFull;
   }
@@ -224,6 +235,13 @@ absl::StatusOr<VisualSessionOptions> ToVisualSessionOptions(const v1::VisualSlam
   if (p.has_keyframe_distance()) o.keyframe_distance = p.keyframe_distance();
   if (p.has_keyframe_angle()) o.keyframe_angle = p.keyframe_angle();
   if (p.has_local_map_keyframes()) o.local_map_keyframes = ClampToInt(p.local_map_keyframes());
+  if (p.has_static_hamming_fraction()) o.static_hamming_fraction = p.static_hamming_fraction();
+  if (p.has_proven_static_frames()) o.proven_static_frames = ClampToInt(p.proven_static_frames());
+  if (p.has_prior_direction_deg()) o.prior_direction_deg = p.prior_direction_deg();
+  if (p.has_prior_rotation_deg()) o.prior_rotation_deg = p.prior_rotation_deg();
+  if (p.has_prior_inlier_fraction()) o.prior_inlier_fraction = p.prior_inlier_fraction();
+  if (p.has_bundle_window()) o.bundle_window = ClampToInt(p.bundle_window());
+  if (p.has_bundle_wait()) o.bundle_wait = p.bundle_wait();
   if (absl::Status s = o.Validate(); !s.ok()) {
     return absl::InvalidArgumentError(absl::StrCat("params.", s.message()));
   }

@@ -181,6 +181,17 @@ TEST(VoSessionTest, RequestCarriesCameraDetectorAndFilter) {
   EXPECT_EQ(request->visual().detector().kind(), v1::DetectorConfig::HOG);
   EXPECT_EQ(request->visual().camera().distortion_size(), 0);  // undistorted: none sent
   EXPECT_FALSE(request->visual().has_depth_scale());           // monocular run
+  EXPECT_FALSE(request->visual().params().has_bundle_window());  // the server's default: off
+  EXPECT_FALSE(request->visual().params().has_prior_direction_deg());
+
+  args.filter = "proven";
+  args.prior_direction_deg = 30;
+  args.bundle_window = 8;
+  request = VoSessionRequest(args, *CameraPreset("tum3"), 640, 480);
+  ASSERT_TRUE(request.ok()) << request.status();
+  EXPECT_EQ(request->visual().filter(), v1::VisualSlamConfig::FILTER_PROVEN);
+  EXPECT_EQ(request->visual().params().prior_direction_deg(), 30.0);
+  EXPECT_EQ(request->visual().params().bundle_window(), 8u);
 }
 
 }  // namespace

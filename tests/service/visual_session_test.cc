@@ -124,11 +124,26 @@ TEST_F(VisualSessionTest, CreateEchoesTheConfigWithDefaultsAndKind) {
   EXPECT_EQ(session.visual().params().orb_features(), 500u);  // as asked
   EXPECT_EQ(session.visual().params().delta(), 64u);          // the engine default
   EXPECT_EQ(session.visual().detector().kind(), v1::DetectorConfig::HOG);
+  // Beyond the paper: off unless asked for, and echoed either way.
+  EXPECT_EQ(session.visual().params().bundle_window(), 0u);
+  EXPECT_EQ(session.visual().params().prior_direction_deg(), 0.0);
+  EXPECT_DOUBLE_EQ(session.visual().params().static_hamming_fraction(), 0.5);
+  v1::CreateSessionRequest better = VisualRequest("cam");
+  better.mutable_visual()->set_filter(v1::VisualSlamConfig::FILTER_PROVEN);
+  better.mutable_visual()->mutable_params()->set_bundle_window(6);
+  better.mutable_visual()->mutable_params()->set_prior_direction_deg(30);
+  ASSERT_OK_AND_ASSIGN(v1::Session improved, registry->CreateSession(better));
+  EXPECT_EQ(improved.visual().filter(), v1::VisualSlamConfig::FILTER_PROVEN);
+  EXPECT_EQ(improved.visual().params().bundle_window(), 6u);
+  EXPECT_EQ(improved.visual().params().prior_direction_deg(), 30.0);
+  EXPECT_EQ(improved.visual().params().proven_static_frames(), 3u);
 
   ASSERT_OK_AND_ASSIGN(v1::ListSessionsResponse list, registry->ListSessions("cam"));
-  ASSERT_EQ(list.sessions_size(), 1);
+  ASSERT_EQ(list.sessions_size(), 2);
   EXPECT_EQ(list.sessions(0).kind(), "visual");
-  EXPECT_EQ(list.sessions(0).visual().params().orb_features(), 500u);
+  EXPECT_EQ(list.sessions(0).visual().params().orb_features() +
+                list.sessions(1).visual().params().orb_features(),
+            500u + 1000u);  // as asked, and the default
 
   // A laser session says so too.
   ASSERT_OK_AND_ASSIGN(v1::Session laser, registry->CreateSession(TestSessionRequest("r")));
@@ -204,6 +219,12 @@ TEST_F(VisualSessionTest, CreateRefusesBadConfigsAndStoresNothing) {
   v1::CreateSessionRequest bad_param = VisualRequest("cam");
   bad_param.mutable_visual()->mutable_params()->set_b1(2.0);  // a probability step
   EXPECT_EQ(CodeOf(registry->CreateSession(bad_param)), absl::StatusCode::kInvalidArgument);
+  v1::CreateSessionRequest small_window = VisualRequest("cam");
+  small_window.mutable_visual()->mutable_params()->set_bundle_window(2);  // no monocular gauge
+  refused = registry->CreateSession(small_window);
+  EXPECT_EQ(CodeOf(refused), absl::StatusCode::kInvalidArgument);
+  EXPECT_NE(refused.status().message().find("params.bundle_window"), std::string::npos)
+      << refused.status();
 
   ASSERT_OK_AND_ASSIGN(v1::ListSessionsResponse list, registry->ListSessions(""));
   EXPECT_EQ(list.sessions_size(), 0);

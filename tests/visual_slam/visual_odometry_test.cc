@@ -236,15 +236,22 @@ TEST(VisualOdometryTest, ResetAtContinuesFromTheGivenPose) {
 
 // ATE floors set from measurement (docs/visual-odometry.md); they catch a broken pipeline, not
 // small regressions. Skipped without ../shared.
-testing::RunSummary RunBonn(const cli::ImageSequence& bonn, DynamicFilter filter, bool detector) {
-  VisualOdometryOptions options;
-  options.filter = filter;
+// One run over a real window: RGB-D windows are scored rigidly, monocular ones with scale.
+testing::RunSummary RunWindow(const cli::ImageSequence& sequence, const std::string& preset,
+                              const VisualOdometryOptions& options, bool detector, bool depth) {
   absl::StatusOr<std::unique_ptr<VisualOdometry>> odometry =
-      VisualOdometry::Create(options, testing::SequenceCamera(bonn, "bonn"),
+      VisualOdometry::Create(options, testing::SequenceCamera(sequence, preset),
                              detector ? testing::SharedYolo() : nullptr);
   EXPECT_TRUE(odometry.ok()) << odometry.status();
   if (!odometry.ok()) return {};
-  return testing::RunAndEvaluate(**odometry, bonn, /*with_depth=*/true, /*with_scale=*/false);
+  return testing::RunAndEvaluate(**odometry, sequence, /*with_depth=*/depth,
+                                 /*with_scale=*/!depth);
+}
+
+testing::RunSummary RunBonn(const cli::ImageSequence& bonn, DynamicFilter filter, bool detector) {
+  VisualOdometryOptions options;
+  options.filter = filter;
+  return RunWindow(bonn, "bonn", options, detector, /*depth=*/true);
 }
 
 TEST(RealSequenceTest, BonnCrowdWindowRgbd) {
@@ -300,11 +307,7 @@ TEST(RealSequenceTest, KittiMonocular) {
 // paper's full method 5.08 m, with both 1.20 m (docs/visual-odometry.md has the 5-seed table).
 testing::RunSummary RunKitti(const cli::ImageSequence& kitti, VisualOdometryOptions options) {
   options.filter = DynamicFilter::kFull;
-  absl::StatusOr<std::unique_ptr<VisualOdometry>> odometry = VisualOdometry::Create(
-      options, testing::SequenceCamera(kitti, ""), testing::SharedYolo());
-  EXPECT_TRUE(odometry.ok()) << odometry.status();
-  if (!odometry.ok()) return {};
-  return testing::RunAndEvaluate(**odometry, kitti, /*with_depth=*/false, /*with_scale=*/true);
+  return RunWindow(kitti, "", options, /*detector=*/true, /*depth=*/false);
 }
 
 TEST(RealSequenceTest, KittiMotionPriorAndBundleAdjustmentKeepTheParkedCarsWindowOnTrack) {
