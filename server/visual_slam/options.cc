@@ -49,6 +49,7 @@ absl::Status VisualOdometryOptions::Validate() const {
       Positive("keyframe_angle", keyframe_angle),
       InRange("local_map_keyframes", local_map_keyframes, 1, 50),
       InRange("bundle_window", bundle_window, 0, 50),
+      InRange("relocalization_keyframes", relocalization_keyframes, 0, 1000),
       InRange("prior_direction_deg", prior_direction_deg, 0, 180),
       InRange("prior_rotation_deg", prior_rotation_deg, 0, 180),
       InRange("prior_inlier_fraction", prior_inlier_fraction, 0, 10),

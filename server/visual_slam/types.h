@@ -103,6 +103,8 @@ struct FrameResult {
   Pose pose;
   TrackingState state = TrackingState::kInitializing;
   bool keyframe = false;  // this frame became the new reference
+  // Tracked against a keyframe that had left the local map (relocalization_keyframes).
+  bool relocalized = false;
   FeatureCounts counts;
   StageTimings timings;
   std::vector<Box> boxes;  // the boxes this frame was split with

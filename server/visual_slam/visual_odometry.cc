@@ -68,6 +68,7 @@ struct VisualOdometry::State {
   std::optional<bool> with_depth;  // fixed by the first frame
   std::optional<double> last_stamp;
   std::deque<Reference> keyframes;  // newest first (RGB-D local map); monocular: one entry
+  std::deque<Reference> archive;    // keyframes gone from the local map, newest first
   std::optional<Pose> last_pose;
   std::optional<Pose> previous_pose;  // the frame before last_pose (constant-velocity model)
   double mono_speed = 1.0;            // monocular: length of the last frame-to-frame translation
@@ -239,6 +240,11 @@ absl::StatusOr<FrameResult> VisualOdometry::ProcessFrame(const FrameInput& frame
     }
     if (!rgbd) break;  // monocular keeps one reference
   }
+  if (reference == nullptr && rgbd && !s.archive.empty() &&
+      features.size() >= options_.min_tracked) {
+    reference = Relocalize(features, in_box, focal, &outcome, &result.timings);
+    result.relocalized = reference != nullptr;
+  }
 
   // Label the current features from the pairs.
   std::vector<bool> dynamic(features.size(), false);
@@ -382,7 +388,17 @@ absl::StatusOr<FrameResult> VisualOdometry::ProcessFrame(const FrameInput& frame
     result.keyframe = true;
     s.keyframes.push_front(std::move(keyframe));
     const size_t keep_count = rgbd ? static_cast<size_t>(options_.local_map_keyframes) : 1;
-    while (s.keyframes.size() > keep_count) s.keyframes.pop_back();
+    while (s.keyframes.size() > keep_count) {
+      // Kept for relocalisation when asked for and it has enough to track against.
+      if (options_.relocalization_keyframes > 0 &&
+          s.keyframes.back().features.size() >= options_.min_tracked) {
+        s.archive.push_front(std::move(s.keyframes.back()));
+        while (static_cast<int>(s.archive.size()) > options_.relocalization_keyframes) {
+          s.archive.pop_back();
+        }
+      }
+      s.keyframes.pop_back();
+    }
     if (options_.bundle_window > 0) StartBundle();
   }
   result.timings.mapping_ms = MsSince(stage);
@@ -396,7 +412,7 @@ absl::StatusOr<FrameResult> VisualOdometry::ProcessFrame(const FrameInput& frame
     Anchor anchor;
     if (result.keyframe) {
       anchor.keyframe = s.keyframes.front().id;
-    } else if (reference != nullptr) {
+    } else if (reference != nullptr) {  // no keyframe made: still in the local map
       anchor.keyframe = reference->id;
       anchor.motion = MotionBetween(reference->pose, pose);
     }
@@ -481,6 +497,48 @@ void VisualOdometry::ApplyBundle(bool wait, StageTimings* timings) {
     s.previous_pose = trajectory_[trajectory_.size() - 2].pose;
     if (monocular) s.mono_speed = (s.last_pose->t - s.previous_pose->t).norm();
   }
+}
+
+Reference* VisualOdometry::Relocalize(const FrameFeatures& features,
+                                      const std::vector<bool>& in_box, double focal_px,
+                                      TrackingOutcome* outcome, StageTimings* timings) {
+  State& s = *state_;
+  const Clock::time_point start = Clock::now();
+  // A cheap vote first: a sample of this frame's descriptors against each archived keyframe.
+  // Only the best few are tracked in full, so a long loss costs a bounded time per frame.
+  constexpr int kSample = 150;
+  constexpr int kCandidates = 3;
+  const int step = std::max(1, features.size() / kSample);
+  cv::Mat sample;
+  for (int i = 0; i < features.size(); i += step) sample.push_back(features.descriptors.row(i));
+  std::vector<std::pair<int, Reference*>> votes;
+  for (Reference& candidate : s.archive) {
+    const int matches = static_cast<int>(
+        CoarseMatch(sample, candidate.features.descriptors, options_.delta, options_.match_ratio)
+            .size());
+    if (matches >= options_.min_tracked / 2) votes.push_back({matches, &candidate});
+  }
+  std::stable_sort(votes.begin(), votes.end(),
+                   [](const auto& a, const auto& b) { return a.first > b.first; });
+  if (votes.size() > kCandidates) votes.resize(kCandidates);
+  timings->matching_ms += MsSince(start);
+  for (const auto& [count, candidate] : votes) {
+    TrackingInputs in;
+    in.reference = &candidate->features;
+    in.current = &features;
+    in.current_in_box = &in_box;
+    if (!candidate->roles.empty()) in.reference_roles = &candidate->roles;
+    in.focal_px = focal_px;  // no prediction: the guess is what failed
+    TrackingOutcome attempt = TrackWithDepth(in, options_);
+    timings->matching_ms += attempt.matching_ms;
+    timings->sampling_ms += attempt.sampling_ms;
+    timings->pose_ms += attempt.pose_ms;
+    if (attempt.ok) {
+      *outcome = std::move(attempt);
+      return candidate;
+    }
+  }
+  return nullptr;
 }
 
 }  // namespace waymark::visual_slam

@@ -24,6 +24,10 @@
 
 namespace waymark::visual_slam {
 
+struct FrameFeatures;
+struct Reference;
+struct TrackingOutcome;
+
 class VisualOdometry {
  public:
   // INVALID_ARGUMENT for bad options or a camera without positive focal lengths and size.
@@ -56,6 +60,10 @@ class VisualOdometry {
   // trajectory and the motion model.
   void StartBundle();
   void ApplyBundle(bool wait, StageTimings* timings);
+  // RGB-D relocalisation: tracks `features` against the archived keyframes they match best;
+  // returns the one it tracked against (with its outcome in *outcome), or null.
+  Reference* Relocalize(const FrameFeatures& features, const std::vector<bool>& in_box,
+                        double focal_px, TrackingOutcome* outcome, StageTimings* timings);
 
   VisualOdometryOptions options_;
   CameraModel camera_;

@@ -131,6 +131,53 @@ TEST(VisualOdometryTest, RecoversAKnownSidewaysMotionWithDepth) {
   }
 }
 
+// A forced loss: the camera slides along the wall, sees nothing but grey for eight frames (every
+// keyframe of the local map is pushed out by the lost frames' empty ones), then looks at the wall
+// again from where it was at frame 3. With relocalisation it finds itself against a keyframe it
+// had made there; without (the paper) it goes on from its constant-velocity guess.
+TEST(VisualOdometryTest, RelocalisesAgainstAnOldKeyframeAfterAForcedLoss) {
+  const cv::Mat texture = RandomTexture(1400, 480, 12);
+  const int shift = 5;
+  const double depth = 2.0;
+  const auto run = [&](int relocalization_keyframes) {
+    VisualOdometryOptions options;
+    options.relocalization_keyframes = relocalization_keyframes;
+    std::unique_ptr<VisualOdometry> odometry = Make(options);
+    EXPECT_NE(odometry, nullptr);
+    double stamp = 0;
+    for (int k = 0; k < 12; ++k) {
+      FrameInput frame = SlidingFrame(texture, k, shift, depth);
+      stamp = frame.stamp;
+      EXPECT_TRUE(odometry->ProcessFrame(frame).ok());
+    }
+    for (int k = 0; k < 8; ++k) {
+      FrameInput blank = SlidingFrame(texture, 0, shift, depth);
+      blank.image = cv::Mat(480, 640, CV_8UC3, cv::Scalar(128, 128, 128));
+      blank.stamp = stamp += 0.1;
+      absl::StatusOr<FrameResult> lost = odometry->ProcessFrame(blank);
+      EXPECT_TRUE(lost.ok());
+      if (lost.ok()) EXPECT_EQ(lost->state, TrackingState::kLost);
+    }
+    FrameInput back = SlidingFrame(texture, 3, shift, depth);
+    back.stamp = stamp + 0.1;
+    absl::StatusOr<FrameResult> result = odometry->ProcessFrame(back);
+    EXPECT_TRUE(result.ok()) << result.status();
+    return result.ok() ? *result : FrameResult{};
+  };
+  const double truth_x = 3 * shift * depth / 500.0;  // 0.06 m
+  const FrameResult found = run(50);
+  EXPECT_TRUE(found.relocalized);
+  EXPECT_EQ(found.state, TrackingState::kTracking);
+  EXPECT_NEAR(found.pose.t.x(), truth_x, 0.01);
+  EXPECT_NEAR(found.pose.t.y(), 0, 0.01);
+  EXPECT_NEAR(found.pose.t.z(), 0, 0.02);
+
+  const FrameResult paper = run(0);
+  EXPECT_FALSE(paper.relocalized);
+  EXPECT_EQ(paper.state, TrackingState::kLost);
+  EXPECT_GT(std::abs(paper.pose.t.x() - truth_x), 0.1);  // the guess ran on
+}
+
 // The camera pans about its y axis by `degrees_per_frame` in front of a wall at depth 2 m: each
 // frame is the first one warped by the homography K R K^-1, and its depth comes from the wall.
 FrameInput PanningFrame(const cv::Mat& texture, int k, double degrees_per_frame,
