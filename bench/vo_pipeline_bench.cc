@@ -95,6 +95,9 @@ int Run(int argc, char** argv) {
       ->capture_default_str();
   app.add_flag("--bundle-wait", base.bundle_wait,
                "apply each adjustment before the next frame (deterministic)");
+  app.add_option("--relocalize", base.relocalization_keyframes,
+                 "RGB-D: archived keyframes to relocalise against (0 = off)")
+      ->capture_default_str();
   app.add_option("--prior-direction", base.prior_direction_deg,
                  "monocular motion prior: max degrees from the predicted direction (0 = off)")
       ->capture_default_str();
@@ -171,6 +174,7 @@ int Run(int argc, char** argv) {
       return 1;
     }
     std::vector<double> orb, det, match, sample, pose, map, total, ates, rpes_t, rpes_r, losts;
+    std::vector<double> state_bytes;  // the session's checkpoint (its map) at the end of a run
     double cpu_ms = 0;
     int frames_run = 0;
     for (int seed = 1; seed <= seeds; ++seed) {
@@ -229,6 +233,7 @@ int Run(int argc, char** argv) {
         total.push_back(r->timings.total_ms);
       }
       cpu_ms += ProcessCpuMs() - cpu_start;
+      state_bytes.push_back(static_cast<double>((*odometry)->SerializeState().size()));
       losts.push_back(lost);
       if (groundtruth.ok()) {
         std::vector<cli::StampedPose3> estimate;
@@ -256,6 +261,8 @@ int Run(int argc, char** argv) {
                 Percentile(match, 0.5), Percentile(sample, 0.5), Percentile(pose, 0.5),
                 Percentile(map, 0.5), Percentile(total, 0.5), Percentile(total, 0.9),
                 cpu_per_frame);
+    std::printf("%-12s checkpoint state at the end: %.0f KB\n", "",
+                Percentile(state_bytes, 0.5) / 1024);
     if (ates.size() > 1) {
       std::printf("%-12s ATE over %zu seeds: min %.4f max %.4f\n", "", ates.size(),
                   *std::min_element(ates.begin(), ates.end()),

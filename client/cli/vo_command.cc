@@ -53,6 +53,10 @@ void AddVoCommands(CLI::App& app, CommandRegistry& registry) {
                   "Local bundle adjustment over this many keyframes, in the background (0 or "
                   "unset = off, the paper; 5-10 measured on KITTI)")
       ->check(CLI::Range(0, 50));
+  run->add_option("--relocalize", args->relocalize,
+                  "RGB-D: keep this many keyframes that left the local map and relocalise a "
+                  "frame that cannot be tracked against them (0 or unset = off, the paper)")
+      ->check(CLI::Range(0, 1000));
   run->add_option("--movable", args->movable,
                   "Movable classes, comma-separated (default: the server's person,car,bus,truck,"
                   "bicycle,motorbike)");

@@ -154,6 +154,7 @@ absl::StatusOr<v1::CreateSessionRequest> VoSessionRequest(const VoArgs& args,
   v1::VisualSlamParams* params = config->mutable_params();
   if (args.prior_direction_deg) params->set_prior_direction_deg(*args.prior_direction_deg);
   if (args.bundle_window) params->set_bundle_window(static_cast<uint32_t>(*args.bundle_window));
+  if (args.relocalize) params->set_relocalization_keyframes(static_cast<uint32_t>(*args.relocalize));
   return request;
 }
 

@@ -23,6 +23,7 @@ struct VoArgs {
   // Beyond the paper (unset = the server's default: off).
   std::optional<double> prior_direction_deg;  // monocular motion prior, degrees
   std::optional<int> bundle_window;           // local bundle adjustment, keyframes
+  std::optional<int> relocalize;              // RGB-D: old keyframes kept to relocalise
   std::string movable;            // comma-separated classes; empty = the server's default
   bool depth = false;
   std::string camera;  // preset name; empty = calib.txt or --fx ...

@@ -7,7 +7,7 @@
 #include <Eigen/LU>
 
 #include "server/common/stopwatch.h"
-#include "server/laser_slam/binary_io.h"
+#include "server/common/binary_io.h"
 #include "server/laser_slam/exploration/exploration_planner.h"
 #include "server/laser_slam/geometry.h"
 #include "server/laser_slam/line_extraction.h"

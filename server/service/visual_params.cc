@@ -174,6 +174,9 @@ absl::StatusOr<v1::VisualSlamConfig> EffectiveVisualConfig(const v1::VisualSlamC
   if (!p->has_prior_inlier_fraction()) p->set_prior_inlier_fraction(d.prior_inlier_fraction);
   if (!p->has_bundle_window()) p->set_bundle_window(d.bundle_window);
   if (!p->has_bundle_wait()) p->set_bundle_wait(d.bundle_wait);
+  if (!p->has_relocalization_keyframes()) {
+    p->set_relocalization_keyframes(static_cast<uint32_t>(d.relocalization_keyframes));
+  }
   // The engine's own validation names the option; the whole conversion runs once here so that a
   // config that is stored is one that loads.
   absl::StatusOr<VisualSessionOptions> options = ToVisualSessionOptions(out);
@@ -242,6 +245,9 @@ absl::StatusOr<VisualSessionOptions> ToVisualSessionOptions(const v1::VisualSlam
   if (p.has_prior_inlier_fraction()) o.prior_inlier_fraction = p.prior_inlier_fraction();
   if (p.has_bundle_window()) o.bundle_window = ClampToInt(p.bundle_window());
   if (p.has_bundle_wait()) o.bundle_wait = p.bundle_wait();
+  if (p.has_relocalization_keyframes()) {
+    o.relocalization_keyframes = ClampToInt(p.relocalization_keyframes());
+  }
   if (absl::Status s = o.Validate(); !s.ok()) {
     return absl::InvalidArgumentError(absl::StrCat("params.", s.message()));
   }

@@ -2,6 +2,7 @@
 
 #include <utility>
 
+#include "absl/strings/match.h"
 #include "absl/strings/str_cat.h"
 #include "server/service/visual_frame_decoder.h"
 #include "server/visual_slam/detector_factory.h"
@@ -12,9 +13,11 @@ namespace vs = visual_slam;
 
 namespace {
 
-// Checkpoint bytes: only a version marker (see the header). A later build that stores keyframes
-// bumps it and still reads this one.
+// Checkpoint bytes. v1 (older builds): only this marker; the session resumes at its last stored
+// pose with an empty map. v2: this marker, then the engine's map (VisualOdometry::SerializeState):
+// the session resumes tracking against the keyframes it had.
 constexpr char kStateV1[] = "waymark visual odometry checkpoint v1";
+constexpr absl::string_view kStateV2 = "waymark visual odometry checkpoint v2\n";
 
 struct FrameInput final : EngineInput {
   DecodedFrame frame;
@@ -61,7 +64,8 @@ absl::StatusOr<std::unique_ptr<VisualSessionEngine>> VisualSessionEngine::Create
 absl::StatusOr<std::unique_ptr<VisualSessionEngine>> VisualSessionEngine::Resume(
     const v1::VisualSlamConfig& config, const std::string& state,
     std::vector<storage::TrajectoryPoseRecord> stored) {
-  if (state != kStateV1) {
+  const bool with_map = absl::StartsWith(state, kStateV2);
+  if (state != kStateV1 && !with_map) {
     return absl::DataLossError(absl::StrCat(
         "the visual checkpoint (", state.size(), " bytes) is not one this build reads"));
   }
@@ -73,7 +77,12 @@ absl::StatusOr<std::unique_ptr<VisualSessionEngine>> VisualSessionEngine::Resume
   }
   absl::StatusOr<std::unique_ptr<VisualSessionEngine>> engine = Create(config);
   if (!engine.ok()) return engine.status();
-  if (!stored.empty()) {
+  if (with_map) {
+    if (absl::Status s = (*engine)->odometry_->RestoreState(state.substr(kStateV2.size()));
+        !s.ok()) {
+      return absl::DataLossError(absl::StrCat("the visual checkpoint's map: ", s.message()));
+    }
+  } else if (!stored.empty()) {
     const storage::TrajectoryPoseRecord& last = stored.back();
     v1::Pose3D pose;
     pose.set_x(last.x);
@@ -122,7 +131,9 @@ absl::StatusOr<std::optional<v1::SlamUpdate>> VisualSessionEngine::Process(Engin
   return std::optional<v1::SlamUpdate>(std::move(update));
 }
 
-std::string VisualSessionEngine::SerializeState() const { return kStateV1; }
+std::string VisualSessionEngine::SerializeState() const {
+  return absl::StrCat(kStateV2, odometry_->SerializeState());
+}
 
 int64_t VisualSessionEngine::trajectory_size() const {
   return static_cast<int64_t>(resumed_.size() + odometry_->trajectory().size());

@@ -5,10 +5,11 @@
 // checked at admission, visual_frame_decoder.h), VisualOdometry in between, 3-D camera poses with
 // feature counts and stage timings out.
 //
-// Checkpoints hold no engine state beyond a version marker: the trajectory (stored row by row)
-// is the session's record, and a resumed session restarts tracking at its last stored pose
-// (VisualOdometry::ResetAt). Keyframes and the local map are not kept across a restart; the
-// first frame after it becomes a keyframe at that pose.
+// Checkpoints hold the engine's map (VisualOdometry::SerializeState: the local map's keyframes,
+// the archived ones kept for relocalisation, the motion model); the trajectory is stored row by
+// row beside it. A resumed session tracks its next frame against the keyframes it had. A v1
+// checkpoint (older builds: a version marker only) resumes at the last stored pose with an empty
+// map (VisualOdometry::ResetAt), the first frame after it becoming a keyframe there.
 
 #include <memory>
 #include <string>
@@ -29,8 +30,9 @@ class VisualSessionEngine final : public SessionEngine {
   // detector: INVALID_ARGUMENT "detector: ..." for a model OpenCV cannot load.
   static absl::StatusOr<std::unique_ptr<VisualSessionEngine>> Create(
       const v1::VisualSlamConfig& config);
-  // A session resumed after a restart: `stored` is its stored trajectory; tracking restarts at
-  // its last pose. DATA_LOSS for a checkpoint this build does not know.
+  // A session resumed after a restart: `stored` is its stored trajectory; tracking goes on from
+  // the checkpoint's map (v1: restarts at the last stored pose). DATA_LOSS for a checkpoint this
+  // build does not know or a corrupt map.
   static absl::StatusOr<std::unique_ptr<VisualSessionEngine>> Resume(
       const v1::VisualSlamConfig& config, const std::string& state,
       std::vector<storage::TrajectoryPoseRecord> stored);

@@ -10,6 +10,7 @@
 #include <opencv2/imgproc.hpp>
 
 #include "absl/strings/str_cat.h"
+#include "server/common/binary_io.h"
 #include "server/common/stopwatch.h"
 #include "server/visual_slam/box_split.h"
 #include "server/visual_slam/frame_features.h"
@@ -539,6 +540,175 @@ Reference* VisualOdometry::Relocalize(const FrameFeatures& features,
     }
   }
   return nullptr;
+}
+
+namespace {
+
+constexpr uint32_t kStateMagic = 0x4f56574d;  // "MWVO"
+constexpr uint32_t kStateVersion = 1;
+constexpr uint32_t kMaxStoredFeatures = 100000;
+constexpr uint32_t kMaxStoredKeyframes = 10000;
+
+void PutPose(BinaryWriter& out, const Pose& pose) {
+  for (int i = 0; i < 9; ++i) out.Put<double>(pose.R(i / 3, i % 3));
+  for (int i = 0; i < 3; ++i) out.Put<double>(pose.t(i));
+}
+
+bool GetPose(BinaryReader& in, Pose* pose) {
+  for (int i = 0; i < 9; ++i) {
+    if (!in.Get(&pose->R(i / 3, i % 3))) return false;
+  }
+  for (int i = 0; i < 3; ++i) {
+    if (!in.Get(&pose->t(i))) return false;
+  }
+  return pose->R.allFinite() && pose->t.allFinite();
+}
+
+void PutOptionalPose(BinaryWriter& out, const std::optional<Pose>& pose) {
+  out.Put<uint8_t>(pose.has_value());
+  if (pose) PutPose(out, *pose);
+}
+
+bool GetOptionalPose(BinaryReader& in, std::optional<Pose>* pose) {
+  uint8_t has = 0;
+  if (!in.Get(&has)) return false;
+  if (!has) return true;
+  Pose p;
+  if (!GetPose(in, &p)) return false;
+  *pose = p;
+  return true;
+}
+
+void PutReference(BinaryWriter& out, const Reference& r) {
+  out.Put<int64_t>(r.id);
+  out.Put<double>(r.stamp);
+  PutPose(out, r.pose);
+  out.Put<int32_t>(r.first_tracked);
+  const FrameFeatures& f = r.features;
+  out.Put<uint32_t>(static_cast<uint32_t>(f.size()));
+  for (int i = 0; i < f.size(); ++i) {
+    out.Put<float>(f.pixels[i].x);
+    out.Put<float>(f.pixels[i].y);
+    out.Put<double>(f.normalized[i].x());
+    out.Put<double>(f.normalized[i].y());
+    out.Put<uint8_t>(f.depth[i].has_value());
+    out.Put<double>(f.depth[i].value_or(0));
+    for (int b = 0; b < 32; ++b) out.Put<uint8_t>(f.descriptors.at<uint8_t>(i, b));
+  }
+  out.Put<uint8_t>(!r.roles.empty());
+  if (!r.roles.empty()) {
+    for (int i = 0; i < f.size(); ++i) {
+      out.Put<uint8_t>(static_cast<uint8_t>(r.roles[i]));
+      out.Put<int32_t>(r.static_run[i]);
+    }
+  }
+}
+
+bool GetReference(BinaryReader& in, Reference* r) {
+  uint32_t n = 0;
+  if (!in.Get(&r->id) || !in.Get(&r->stamp) || !GetPose(in, &r->pose) ||
+      !in.Get(&r->first_tracked) || !in.Get(&n) || n > kMaxStoredFeatures) {
+    return false;
+  }
+  FrameFeatures& f = r->features;
+  f.descriptors = cv::Mat(static_cast<int>(n), 32, CV_8U);
+  for (uint32_t i = 0; i < n; ++i) {
+    float px = 0, py = 0;
+    double nx = 0, ny = 0, depth = 0;
+    uint8_t has_depth = 0;
+    if (!in.Get(&px) || !in.Get(&py) || !in.Get(&nx) || !in.Get(&ny) || !in.Get(&has_depth) ||
+        !in.Get(&depth) || !std::isfinite(nx) || !std::isfinite(ny) ||
+        (has_depth && !(std::isfinite(depth) && depth > 0))) {
+      return false;
+    }
+    f.pixels.emplace_back(px, py);
+    f.normalized.emplace_back(nx, ny);
+    f.depth.push_back(has_depth ? std::optional<double>(depth) : std::nullopt);
+    for (int b = 0; b < 32; ++b) {
+      if (!in.Get(&f.descriptors.at<uint8_t>(static_cast<int>(i), b))) return false;
+    }
+  }
+  uint8_t has_roles = 0;
+  if (!in.Get(&has_roles)) return false;
+  if (has_roles) {
+    for (uint32_t i = 0; i < n; ++i) {
+      uint8_t role = 0;
+      int32_t run = 0;
+      if (!in.Get(&role) || !in.Get(&run) || role > static_cast<uint8_t>(ReferenceRole::kProven)) {
+        return false;
+      }
+      r->roles.push_back(static_cast<ReferenceRole>(role));
+      r->static_run.push_back(run);
+    }
+  }
+  return true;
+}
+
+}  // namespace
+
+std::string VisualOdometry::SerializeState() const {
+  const State& s = *state_;
+  BinaryWriter out;
+  out.Put<uint32_t>(kStateMagic);
+  out.Put<uint32_t>(kStateVersion);
+  out.Put<uint8_t>(s.with_depth.has_value());
+  out.Put<uint8_t>(s.with_depth.value_or(false));
+  out.Put<uint8_t>(s.last_stamp.has_value());
+  out.Put<double>(s.last_stamp.value_or(0));
+  PutOptionalPose(out, s.last_pose);
+  PutOptionalPose(out, s.previous_pose);
+  out.Put<double>(s.mono_speed);
+  out.Put<int64_t>(s.next_keyframe_id);
+  for (const std::deque<Reference>* list : {&s.keyframes, &s.archive}) {
+    out.Put<uint32_t>(static_cast<uint32_t>(list->size()));
+    for (const Reference& r : *list) PutReference(out, r);
+  }
+  return out.Take();
+}
+
+absl::Status VisualOdometry::RestoreState(const std::string& bytes) {
+  const auto lost = [] {
+    return absl::DataLossError("not a visual odometry state this build reads (truncated or corrupt)");
+  };
+  BinaryReader in(bytes);
+  uint32_t magic = 0, version = 0;
+  if (!in.Get(&magic) || magic != kStateMagic || !in.Get(&version) || version != kStateVersion) {
+    return lost();
+  }
+  uint8_t has_depth = 0, with_depth = 0, has_stamp = 0;
+  double stamp = 0, mono_speed = 1;
+  int64_t next_id = 0;
+  std::optional<Pose> last, previous;
+  if (!in.Get(&has_depth) || !in.Get(&with_depth) || !in.Get(&has_stamp) || !in.Get(&stamp) ||
+      !GetOptionalPose(in, &last) || !GetOptionalPose(in, &previous) || !in.Get(&mono_speed) ||
+      !in.Get(&next_id) || !std::isfinite(stamp) || !std::isfinite(mono_speed)) {
+    return lost();
+  }
+  std::deque<Reference> lists[2];
+  for (std::deque<Reference>& list : lists) {
+    uint32_t n = 0;
+    if (!in.Get(&n) || n > kMaxStoredKeyframes) return lost();
+    for (uint32_t i = 0; i < n; ++i) {
+      Reference r;
+      if (!GetReference(in, &r)) return lost();
+      list.push_back(std::move(r));
+    }
+  }
+  if (!in.done()) return lost();
+  State& s = *state_;
+  if (s.bundle.valid()) s.bundle.wait();
+  s.bundle = {};
+  s.local_map.reset();
+  s.keyframe_poses.clear();
+  s.with_depth = has_depth ? std::optional<bool>(with_depth != 0) : std::nullopt;
+  s.last_stamp = has_stamp ? std::optional<double>(stamp) : std::nullopt;
+  s.last_pose = last;
+  s.previous_pose = previous;
+  s.mono_speed = mono_speed;
+  s.next_keyframe_id = next_id;
+  s.keyframes = std::move(lists[0]);
+  s.archive = std::move(lists[1]);
+  return absl::OkStatus();
 }
 
 }  // namespace waymark::visual_slam

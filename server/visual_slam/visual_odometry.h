@@ -15,6 +15,7 @@
 // Not thread-safe: one caller (the session's strand) at a time.
 
 #include <memory>
+#include <string>
 #include <vector>
 
 #include "absl/status/statusor.h"
@@ -47,6 +48,13 @@ class VisualOdometry {
   // Restarts tracking from `pose` (after a server restart the service resumes a session from its
   // last stored pose: the next frame becomes a keyframe at that pose).
   void ResetAt(const TimedPose& pose);
+  // The session's map for a checkpoint: the local map's keyframes and the archived ones (their
+  // features, poses, roles), the motion model and the last stamp. The bundle adjustment's window
+  // and points are not kept: they start again from the next keyframe.
+  std::string SerializeState() const;
+  // Puts a session made with the same options and camera back where SerializeState left it.
+  // DATA_LOSS for bytes that are not such a state (the session is then unchanged).
+  absl::Status RestoreState(const std::string& bytes);
 
   const VisualOdometryOptions& options() const { return options_; }
   const CameraModel& camera() const { return camera_; }

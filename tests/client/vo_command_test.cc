@@ -187,8 +187,10 @@ TEST(VoSessionTest, RequestCarriesCameraDetectorAndFilter) {
   args.filter = "proven";
   args.prior_direction_deg = 30;
   args.bundle_window = 8;
+  args.relocalize = 40;
   request = VoSessionRequest(args, *CameraPreset("tum3"), 640, 480);
   ASSERT_TRUE(request.ok()) << request.status();
+  EXPECT_EQ(request->visual().params().relocalization_keyframes(), 40u);
   EXPECT_EQ(request->visual().filter(), v1::VisualSlamConfig::FILTER_PROVEN);
   EXPECT_EQ(request->visual().params().prior_direction_deg(), 30.0);
   EXPECT_EQ(request->visual().params().bundle_window(), 8u);

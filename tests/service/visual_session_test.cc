@@ -137,6 +137,7 @@ TEST_F(VisualSessionTest, CreateEchoesTheConfigWithDefaultsAndKind) {
   EXPECT_EQ(improved.visual().params().bundle_window(), 6u);
   EXPECT_EQ(improved.visual().params().prior_direction_deg(), 30.0);
   EXPECT_EQ(improved.visual().params().proven_static_frames(), 3u);
+  EXPECT_EQ(improved.visual().params().relocalization_keyframes(), 0u);
 
   ASSERT_OK_AND_ASSIGN(v1::ListSessionsResponse list, registry->ListSessions("cam"));
   ASSERT_EQ(list.sessions_size(), 2);
@@ -338,9 +339,9 @@ TEST_F(VisualSessionTest, GetMapIsRefusedResidentOrNot) {
   EXPECT_EQ(CodeOf(registry->GetMap(session.session_id())), absl::StatusCode::kFailedPrecondition);
 }
 
-TEST_F(VisualSessionTest, CheckpointAndRestartResumeAtTheLastPose) {
+TEST_F(VisualSessionTest, CheckpointAndRestartResumeWithTheMap) {
   std::string id;
-  v1::Trajectory before;
+  v1::Trajectory before, uninterrupted;
   {
     auto registry = MakeRegistry();
     ASSERT_OK_AND_ASSIGN(v1::Session session, registry->CreateSession(VisualRequest("cam")));
@@ -351,6 +352,15 @@ TEST_F(VisualSessionTest, CheckpointAndRestartResumeAtTheLastPose) {
     stream->Close();
     ASSERT_EQ(answers.Get().size(), 5u);
     ASSERT_OK_AND_ASSIGN(before, registry->GetTrajectory(id));
+    // Its twin gets the same frames and two more without a restart.
+    ASSERT_OK_AND_ASSIGN(v1::Session twin, registry->CreateSession(VisualRequest("cam")));
+    Answers twin_answers;
+    ASSERT_OK_AND_ASSIGN(auto twin_stream,
+                         registry->OpenStream(twin.session_id(), twin_answers.Sink()));
+    StreamTexture(*twin_stream, 0, 7);
+    twin_stream->Close();
+    ASSERT_EQ(twin_answers.Get().size(), 7u);
+    ASSERT_OK_AND_ASSIGN(uninterrupted, registry->GetTrajectory(twin.session_id()));
     ASSERT_OK(registry->Shutdown());  // the final checkpoint
   }
   ASSERT_EQ(before.poses_size(), 5);
@@ -372,30 +382,37 @@ TEST_F(VisualSessionTest, CheckpointAndRestartResumeAtTheLastPose) {
   // Time order survives the restart.
   EXPECT_EQ(stream->Submit(Frame(5, 1.4, TexturePng(4))).code(),
             absl::StatusCode::kInvalidArgument);
-  ASSERT_OK(stream->Submit(Frame(6, 1.45, TexturePng(4))));  // the view of the last stored pose
-  StreamTexture(*stream, 5, 2);  // frames k = 5, 6 at 1.5 and 1.6
+  StreamTexture(*stream, 5, 2);  // the next views, k = 5, 6 at 1.5 and 1.6
   stream->Close();
   const std::vector<v1::SlamUpdate> updates = answers.Get();
-  ASSERT_EQ(updates.size(), 3u);
+  ASSERT_EQ(updates.size(), 2u);
   for (const v1::SlamUpdate& update : updates) {
     ASSERT_FALSE(update.has_rejection()) << update.rejection().message();
   }
-  // The first frame after the restart restarts tracking at the last stored pose.
+  // The checkpoint kept the map: the first frame after the restart is tracked against the
+  // reference the session had (a v1 checkpoint would make it a new keyframe at the last pose).
+  EXPECT_EQ(updates[0].visual().state(), v1::VisualFrameInfo::TRACKING);
+  EXPECT_GT(updates[0].visual().counts().tracked(), 50u);
+  // And it answers what the session that never stopped answered.
+  ASSERT_EQ(uninterrupted.poses_size(), 7);
+  for (int i = 0; i < 2; ++i) {
+    const v1::Pose3D& resumed = updates[i].pose3d();
+    const v1::Pose3D& twin = uninterrupted.poses(5 + i).pose3d();
+    EXPECT_NEAR(resumed.x(), twin.x(), 1e-9);
+    EXPECT_NEAR(resumed.y(), twin.y(), 1e-9);
+    EXPECT_NEAR(resumed.z(), twin.z(), 1e-9);
+    EXPECT_NEAR(resumed.qw(), twin.qw(), 1e-9);
+  }
   const v1::Pose3D& last = before.poses(4).pose3d();
-  const v1::Pose3D& resumed = updates[0].pose3d();
-  EXPECT_NEAR(resumed.x(), last.x(), 1e-9);
-  EXPECT_NEAR(resumed.y(), last.y(), 1e-9);
-  EXPECT_NEAR(resumed.z(), last.z(), 1e-9);
-  EXPECT_NEAR(std::abs(resumed.qw()), std::abs(last.qw()), 1e-9);
   EXPECT_EQ(updates[0].scans_processed(), 6u);  // counts continue
 
   ASSERT_OK_AND_ASSIGN(v1::Trajectory after, registry->GetTrajectory(id));
-  ASSERT_EQ(after.poses_size(), 8);
+  ASSERT_EQ(after.poses_size(), 7);
   EXPECT_DOUBLE_EQ(after.poses(4).pose3d().x(), last.x());
-  EXPECT_DOUBLE_EQ(after.poses(5).stamp(), 1.45);
+  EXPECT_DOUBLE_EQ(after.poses(5).stamp(), 1.5);
   ASSERT_OK(registry->CloseSession(id).status());
   ASSERT_OK_AND_ASSIGN(v1::Trajectory closed, registry->GetTrajectory(id));
-  EXPECT_EQ(closed.poses_size(), 8);
+  EXPECT_EQ(closed.poses_size(), 7);
 }
 
 TEST_F(VisualSessionTest, LaserSessionWorksBesideAVisualOne) {

@@ -131,6 +131,57 @@ TEST(VisualOdometryTest, RecoversAKnownSidewaysMotionWithDepth) {
   }
 }
 
+// A checkpoint keeps the map: a session restored from SerializeState answers the next frame exactly
+// as the one that went on; bytes that are not a state are refused and change nothing.
+TEST(VisualOdometryTest, ASavedStateResumesTrackingWithItsMap) {
+  const cv::Mat texture = RandomTexture(1400, 480, 13);
+  VisualOdometryOptions options;
+  options.relocalization_keyframes = 10;  // the archive travels too
+  for (const bool with_depth : {true, false}) {
+    SCOPED_TRACE(with_depth ? "RGB-D" : "monocular");
+    const auto frame = [&](int k) {
+      FrameInput f = SlidingFrame(texture, k, 5, 2.0);
+      if (!with_depth) f.depth = cv::Mat();
+      return f;
+    };
+    std::unique_ptr<VisualOdometry> original = Make(options);
+    ASSERT_NE(original, nullptr);
+    for (int k = 0; k < 30; ++k) ASSERT_TRUE(original->ProcessFrame(frame(k)).ok());
+    const std::string state = original->SerializeState();
+
+    std::unique_ptr<VisualOdometry> restored = Make(options);
+    ASSERT_NE(restored, nullptr);
+    ASSERT_TRUE(restored->RestoreState(state).ok());
+    EXPECT_EQ(restored->SerializeState(), state);
+    absl::StatusOr<FrameResult> went_on = original->ProcessFrame(frame(30));
+    absl::StatusOr<FrameResult> resumed = restored->ProcessFrame(frame(30));
+    ASSERT_TRUE(went_on.ok() && resumed.ok());
+    EXPECT_EQ(resumed->state, TrackingState::kTracking);
+    EXPECT_EQ(resumed->counts.tracked, went_on->counts.tracked);
+    EXPECT_NEAR((resumed->pose.t - went_on->pose.t).norm(), 0, 1e-12);
+    // A stamp before the saved one is still refused: time order survives too.
+    EXPECT_EQ(restored->ProcessFrame(frame(2)).status().code(),
+              absl::StatusCode::kInvalidArgument);
+  }
+
+  const std::string state = [&] {
+    std::unique_ptr<VisualOdometry> odometry = Make(options);
+    for (int k = 0; k < 3; ++k) EXPECT_TRUE(odometry->ProcessFrame(SlidingFrame(texture, k, 5, 2.0)).ok());
+    return odometry->SerializeState();
+  }();
+  std::unique_ptr<VisualOdometry> fresh = Make(options);
+  ASSERT_NE(fresh, nullptr);
+  EXPECT_EQ(fresh->RestoreState(state.substr(0, state.size() / 2)).code(),
+            absl::StatusCode::kDataLoss);
+  EXPECT_EQ(fresh->RestoreState("not a state").code(), absl::StatusCode::kDataLoss);
+  std::string flipped = state;
+  flipped[0] ^= 0x5a;
+  EXPECT_EQ(fresh->RestoreState(flipped).code(), absl::StatusCode::kDataLoss);
+  absl::StatusOr<FrameResult> first = fresh->ProcessFrame(SlidingFrame(texture, 0, 5, 2.0));
+  ASSERT_TRUE(first.ok());
+  EXPECT_EQ(first->state, TrackingState::kInitializing);  // unchanged by the refusals
+}
+
 // A forced loss: the camera slides along the wall, sees nothing but grey for eight frames (every
 // keyframe of the local map is pushed out by the lost frames' empty ones), then looks at the wall
 // again from where it was at frame 3. With relocalisation it finds itself against a keyframe it

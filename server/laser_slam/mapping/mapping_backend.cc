@@ -5,7 +5,7 @@
 
 #include "absl/strings/str_cat.h"
 #include "server/common/stopwatch.h"
-#include "server/laser_slam/binary_io.h"
+#include "server/common/binary_io.h"
 #include "server/laser_slam/geometry.h"
 #include "server/laser_slam/mapping/correlative_matcher.h"
 

@@ -1,8 +1,9 @@
-#ifndef WAYMARK_SERVER_LASER_SLAM_BINARY_IO_H_
-#define WAYMARK_SERVER_LASER_SLAM_BINARY_IO_H_
+#ifndef WAYMARK_SERVER_COMMON_BINARY_IO_H_
+#define WAYMARK_SERVER_COMMON_BINARY_IO_H_
 
-// Little helpers for the session checkpoint format: fixed-width little-endian fields appended to a
-// string, and a reader that fails (instead of reading past the end) on truncated input.
+// Little helpers for the sessions' checkpoint formats (laser and visual): fixed-width
+// little-endian fields appended to a string, and a reader that fails (instead of reading past the
+// end) on truncated input.
 
 #include <cstdint>
 #include <algorithm>
@@ -11,7 +12,7 @@
 
 #include "absl/strings/string_view.h"
 
-namespace waymark::laser_slam {
+namespace waymark {
 
 class BinaryWriter {
  public:
@@ -47,6 +48,6 @@ class BinaryReader {
   absl::string_view in_;
 };
 
-}  // namespace waymark::laser_slam
+}  // namespace waymark
 
-#endif  // WAYMARK_SERVER_LASER_SLAM_BINARY_IO_H_
+#endif  // WAYMARK_SERVER_COMMON_BINARY_IO_H_
