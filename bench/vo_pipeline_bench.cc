@@ -175,6 +175,7 @@ int Run(int argc, char** argv) {
     }
     std::vector<double> orb, det, match, sample, pose, map, total, ates, rpes_t, rpes_r, losts;
     std::vector<double> state_bytes;  // the session's checkpoint (its map) at the end of a run
+    std::vector<double> bundle, bundle_wait;  // per adjustment applied: its time, the frame's wait
     double cpu_ms = 0;
     int frames_run = 0;
     for (int seed = 1; seed <= seeds; ++seed) {
@@ -231,6 +232,10 @@ int Run(int argc, char** argv) {
         pose.push_back(r->timings.pose_ms);
         map.push_back(r->timings.mapping_ms);
         total.push_back(r->timings.total_ms);
+        if (r->timings.bundle_ms > 0) {
+          bundle.push_back(r->timings.bundle_ms);
+          bundle_wait.push_back(r->timings.bundle_wait_ms);
+        }
       }
       cpu_ms += ProcessCpuMs() - cpu_start;
       state_bytes.push_back(static_cast<double>((*odometry)->SerializeState().size()));
@@ -263,6 +268,12 @@ int Run(int argc, char** argv) {
                 cpu_per_frame);
     std::printf("%-12s checkpoint state at the end: %.0f KB\n", "",
                 Percentile(state_bytes, 0.5) / 1024);
+    if (!bundle.empty()) {
+      std::printf("%-12s bundle adjustments: %zu, ms each median %.1f p90 %.1f (background); "
+                  "frames waited median %.1f p90 %.1f ms\n",
+                  "", bundle.size(), Percentile(bundle, 0.5), Percentile(bundle, 0.9),
+                  Percentile(bundle_wait, 0.5), Percentile(bundle_wait, 0.9));
+    }
     if (ates.size() > 1) {
       std::printf("%-12s ATE over %zu seeds: min %.4f max %.4f\n", "", ates.size(),
                   *std::min_element(ates.begin(), ates.end()),
