@@ -56,6 +56,8 @@ nlohmann::json FrameSummary(const std::vector<VoFrameRecord>& records) {
   uint64_t processed = 0, rejected = 0, unanswered = 0, lost = 0, keyframes = 0;
   uint64_t total = 0, potentially_dynamic = 0, matched = 0, dynamic = 0, tracked = 0, mapped = 0;
   std::vector<std::vector<double>> stage_ms(kVoStages.size());
+  std::vector<double> bundle_ms;  // per adjustment applied
+  uint64_t relocalized = 0;
   for (const VoFrameRecord& r : records) {
     if (!r.answered) {
       ++unanswered;
@@ -75,6 +77,8 @@ nlohmann::json FrameSummary(const std::vector<VoFrameRecord>& records) {
     tracked += r.tracked;
     mapped += r.mapped;
     for (size_t s = 0; s < kVoStages.size(); ++s) stage_ms[s].push_back(r.stage_ms[s]);
+    if (r.bundle_ms > 0) bundle_ms.push_back(r.bundle_ms);
+    if (r.relocalized) ++relocalized;
   }
   nlohmann::json json = {
       {"frames", records.size()},    {"processed", processed},
@@ -83,6 +87,8 @@ nlohmann::json FrameSummary(const std::vector<VoFrameRecord>& records) {
       {"features_total", total},     {"features_potentially_dynamic", potentially_dynamic},
       {"features_matched", matched}, {"features_dynamic", dynamic},
       {"features_tracked", tracked}, {"features_mapped", mapped},
+      {"relocalized_frames", relocalized}, {"bundle_adjustments", bundle_ms.size()},
+      {"bundle_ms_median", Quantile(bundle_ms, 0.5)}, {"bundle_ms_p90", Quantile(bundle_ms, 0.9)},
   };
   for (size_t s = 0; s < kVoStages.size(); ++s) {
     json[fmt::format("{}_ms_median", kVoStages[s])] = Quantile(stage_ms[s], 0.5);

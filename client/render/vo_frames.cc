@@ -86,7 +86,10 @@ VoFrameRecord RecordFromUpdate(const v1::SlamUpdate& update, size_t index, doubl
   record.mapped = c.mapped();
   const v1::VisualTimings& t = info.timings();
   record.stage_ms = {t.decode_ms(),   t.orb_ms(),  t.detector_ms(), t.matching_ms(),
-                     t.sampling_ms(), t.pose_ms(), t.mapping_ms(),  t.total_ms()};
+                     t.sampling_ms(), t.pose_ms(), t.mapping_ms(),  t.total_ms(),
+                     t.bundle_wait_ms()};
+  record.bundle_ms = t.bundle_ms();
+  record.relocalized = info.relocalized();
   for (const v1::BoundingBox& b : info.boxes()) {
     record.boxes.push_back({b.x(), b.y(), b.width(), b.height(), b.label(), b.confidence()});
   }

@@ -40,8 +40,9 @@ struct VoBox {
 };
 
 // Stages of the engine, in the order of VisualTimings (per-stage medians in the summary).
-inline constexpr std::array<const char*, 8> kVoStages = {"decode",   "orb",  "detector", "matching",
-                                                         "sampling", "pose", "mapping",  "total"};
+// bundle_wait: what the frame waited for a bundle adjustment (bundle_wait; 0 otherwise).
+inline constexpr std::array<const char*, 9> kVoStages = {
+    "decode", "orb", "detector", "matching", "sampling", "pose", "mapping", "total", "bundle_wait"};
 
 struct VoFrameRecord {
   size_t index = 0;  // in the sequence as sent (0-based)
@@ -60,6 +61,8 @@ struct VoFrameRecord {
   uint32_t dynamic = 0;
   uint32_t tracked = 0;
   uint32_t mapped = 0;
+  bool relocalized = false;
+  double bundle_ms = 0;  // the bundle adjustment applied before this frame (background), 0 = none
   std::array<double, kVoStages.size()> stage_ms{};
   std::vector<VoBox> boxes;
   std::vector<VoFeature> features;  // only for frames that asked (want_features)

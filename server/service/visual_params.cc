@@ -390,6 +390,8 @@ void FillVisualUpdate(const vs::FrameResult& result, bool want_features, double 
   counts->set_dynamic(Count(result.counts.dynamic));
   counts->set_tracked(Count(result.counts.tracked));
   counts->set_mapped(Count(result.counts.mapped));
+  counts->set_proven(Count(result.counts.proven));
+  info->set_relocalized(result.relocalized);
   v1::VisualTimings* timings = info->mutable_timings();
   timings->set_decode_ms(decode_ms);
   timings->set_orb_ms(result.timings.orb_ms);
@@ -400,6 +402,8 @@ void FillVisualUpdate(const vs::FrameResult& result, bool want_features, double 
   timings->set_mapping_ms(result.timings.mapping_ms);
   timings->set_total_ms(result.timings.total_ms + decode_ms);
   timings->set_queue_ms(queue_ms);
+  timings->set_bundle_ms(result.timings.bundle_ms);
+  timings->set_bundle_wait_ms(result.timings.bundle_wait_ms);
   for (const vs::Box& box : result.boxes) *info->add_boxes() = ToProtoBox(box);
   if (want_features) {
     const size_t n = std::min(result.keypoints.size(), result.labels.size());

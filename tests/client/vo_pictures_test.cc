@@ -172,6 +172,9 @@ TEST(VoSummaryTest, FrameSummaryCountsAndStages) {
     records[i].stage_ms[1] = 10.0 * (i + 1);  // orb
   }
   records[0].keyframe = true;
+  records[1].bundle_ms = 12.0;  // an adjustment applied before frames 1 and 2
+  records[2].bundle_ms = 20.0;
+  records[2].relocalized = true;
   records[2].state = "lost";
   records[3].rejected = true;  // not counted as processed
   VoFrameRecord unanswered;
@@ -187,6 +190,10 @@ TEST(VoSummaryTest, FrameSummaryCountsAndStages) {
   EXPECT_EQ(s["features_dynamic"], 3);
   EXPECT_DOUBLE_EQ(s["orb_ms_median"].get<double>(), 20.0);
   EXPECT_DOUBLE_EQ(s["orb_ms_p90"].get<double>(), 28.0);
+  EXPECT_EQ(s["bundle_adjustments"], 2);  // over the frames that had one, not every frame
+  EXPECT_DOUBLE_EQ(s["bundle_ms_median"].get<double>(), 16.0);
+  EXPECT_EQ(s["relocalized_frames"], 1);
+  EXPECT_DOUBLE_EQ(s["bundle_wait_ms_median"].get<double>(), 0.0);
   EXPECT_EQ(ProcessedPoses(records).size(), 3u);
 }
 
@@ -205,6 +212,9 @@ TEST(VoFramesTest, RecordFromUpdate) {
   info->mutable_counts()->set_dynamic(12);
   info->mutable_timings()->set_orb_ms(4.5);
   info->mutable_timings()->set_total_ms(20);
+  info->mutable_timings()->set_bundle_ms(14);
+  info->mutable_timings()->set_bundle_wait_ms(3);
+  info->set_relocalized(true);
   v1::BoundingBox* box = info->add_boxes();
   box->set_x(5);
   box->set_width(10);
@@ -222,6 +232,9 @@ TEST(VoFramesTest, RecordFromUpdate) {
   EXPECT_EQ(r.dynamic, 12u);
   EXPECT_DOUBLE_EQ(r.stage_ms[1], 4.5);
   EXPECT_DOUBLE_EQ(r.stage_ms[7], 20);
+  EXPECT_DOUBLE_EQ(r.stage_ms[8], 3);  // bundle_wait
+  EXPECT_DOUBLE_EQ(r.bundle_ms, 14);
+  EXPECT_TRUE(r.relocalized);
   EXPECT_DOUBLE_EQ(r.pose.stamp, 1.5);
   EXPECT_DOUBLE_EQ(r.pose.translation.z(), 2);
   EXPECT_NEAR(RotationAngle(r.pose.rotation), 0.5, 1e-12);
