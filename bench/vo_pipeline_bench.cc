@@ -175,6 +175,7 @@ int Run(int argc, char** argv) {
     }
     std::vector<double> orb, det, match, sample, pose, map, total, ates, rpes_t, rpes_r, losts;
     std::vector<double> state_bytes;  // the session's checkpoint (its map) at the end of a run
+    std::vector<double> session_mb;   // resident memory the session added by the end of a run
     std::vector<double> bundle, bundle_wait;  // per adjustment applied: its time, the frame's wait
     double cpu_ms = 0;
     int frames_run = 0;
@@ -185,6 +186,7 @@ int Run(int argc, char** argv) {
         choice.yolo.cfg = ReadFileBytes(fs::path(models) / "yolo-fastest-1.1-xl.cfg");
         choice.yolo.weights = ReadFileBytes(fs::path(models) / "yolo-fastest-1.1-xl.weights");
       }
+      const double resident_before = ResidentMb();
       absl::StatusOr<std::unique_ptr<vs::ObjectDetector>> detector = vs::MakeDetector(choice);
       if (!detector.ok()) {
         std::fprintf(stderr, "%s: %s\n", text.c_str(), detector.status().ToString().c_str());
@@ -239,6 +241,7 @@ int Run(int argc, char** argv) {
       }
       cpu_ms += ProcessCpuMs() - cpu_start;
       state_bytes.push_back(static_cast<double>((*odometry)->SerializeState().size()));
+      session_mb.push_back(ResidentMb() - resident_before);
       losts.push_back(lost);
       if (groundtruth.ok()) {
         std::vector<cli::StampedPose3> estimate;
@@ -266,8 +269,9 @@ int Run(int argc, char** argv) {
                 Percentile(match, 0.5), Percentile(sample, 0.5), Percentile(pose, 0.5),
                 Percentile(map, 0.5), Percentile(total, 0.5), Percentile(total, 0.9),
                 cpu_per_frame);
-    std::printf("%-12s checkpoint state at the end: %.0f KB\n", "",
-                Percentile(state_bytes, 0.5) / 1024);
+    std::printf("%-12s checkpoint state at the end: %.0f KB; the session added %.1f MB resident "
+                "(detector included; median over runs)\n",
+                "", Percentile(state_bytes, 0.5) / 1024, Percentile(session_mb, 0.5));
     if (!bundle.empty()) {
       std::printf("%-12s bundle adjustments: %zu, ms each median %.1f p90 %.1f (background); "
                   "frames waited median %.1f p90 %.1f ms\n",
