@@ -96,6 +96,25 @@ FrameFeatures Subset(const FrameFeatures& features, const std::vector<bool>& kee
   return out;
 }
 
+// What tracking the current frame against `reference` needs (no prediction, matching to do).
+TrackingInputs InputsFor(const Reference& reference, const FrameFeatures& features,
+                         const std::vector<bool>& in_box, double focal_px) {
+  TrackingInputs in;
+  in.reference = &reference.features;
+  in.current = &features;
+  in.current_in_box = &in_box;
+  if (!reference.roles.empty()) in.reference_roles = &reference.roles;
+  in.focal_px = focal_px;
+  return in;
+}
+
+// Adds an attempt's stage times to the frame's.
+void AddTimes(const TrackingOutcome& attempt, StageTimings* timings) {
+  timings->matching_ms += attempt.matching_ms;
+  timings->sampling_ms += attempt.sampling_ms;
+  timings->pose_ms += attempt.pose_ms;
+}
+
 template <typename T>
 std::vector<T> Subset(const std::vector<T>& values, const std::vector<bool>& keep) {
   std::vector<T> out;
@@ -214,12 +233,7 @@ absl::StatusOr<FrameResult> VisualOdometry::ProcessFrame(const FrameInput& frame
   TrackingOutcome outcome;
   Reference* reference = nullptr;
   for (Reference& candidate : s.keyframes) {
-    TrackingInputs in;
-    in.reference = &candidate.features;
-    in.current = &features;
-    in.current_in_box = &in_box;
-    if (!candidate.roles.empty()) in.reference_roles = &candidate.roles;
-    in.focal_px = focal;
+    TrackingInputs in = InputsFor(candidate, features, in_box, focal);
     if (&candidate == &s.keyframes.front()) {
       in.matches = &newest_matches;
       result.timings.matching_ms += newest_matching_ms;
@@ -230,9 +244,7 @@ absl::StatusOr<FrameResult> VisualOdometry::ProcessFrame(const FrameInput& frame
       in.predicted = predicted;
     }
     TrackingOutcome attempt = rgbd ? TrackWithDepth(in, options_) : TrackMonocular(in, options_);
-    result.timings.matching_ms += attempt.matching_ms;
-    result.timings.sampling_ms += attempt.sampling_ms;
-    result.timings.pose_ms += attempt.pose_ms;
+    AddTimes(attempt, &result.timings);
     const bool ok = attempt.ok;
     outcome = std::move(attempt);
     if (ok) {
@@ -524,16 +536,10 @@ Reference* VisualOdometry::Relocalize(const FrameFeatures& features,
   if (votes.size() > kCandidates) votes.resize(kCandidates);
   timings->matching_ms += MsSince(start);
   for (const auto& [count, candidate] : votes) {
-    TrackingInputs in;
-    in.reference = &candidate->features;
-    in.current = &features;
-    in.current_in_box = &in_box;
-    if (!candidate->roles.empty()) in.reference_roles = &candidate->roles;
-    in.focal_px = focal_px;  // no prediction: the guess is what failed
-    TrackingOutcome attempt = TrackWithDepth(in, options_);
-    timings->matching_ms += attempt.matching_ms;
-    timings->sampling_ms += attempt.sampling_ms;
-    timings->pose_ms += attempt.pose_ms;
+    // No prediction: the guess is what failed.
+    TrackingOutcome attempt =
+        TrackWithDepth(InputsFor(*candidate, features, in_box, focal_px), options_);
+    AddTimes(attempt, timings);
     if (attempt.ok) {
       *outcome = std::move(attempt);
       return candidate;
