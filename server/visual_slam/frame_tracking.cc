@@ -63,17 +63,26 @@ void MatchFrames(const TrackingInputs& in, const VisualOdometryOptions& options,
   out.matching_ms = MsSince(start);
 }
 
+// The pairs allowed to shape the motion model (the filter's rule and the solver's).
+std::vector<int> SamplablePairs(const MotionSolver& solver, const TrackingInputs& in,
+                                const VisualOdometryOptions& options, const TrackingOutcome& out) {
+  std::vector<int> pairs;
+  for (size_t k = 0; k < out.matches.size(); ++k) {
+    if (Samplable(in, options, out.matches[k]) && solver.Samplable(static_cast<int>(k))) {
+      pairs.push_back(static_cast<int>(k));
+    }
+  }
+  return pairs;
+}
+
 // Runs the sampler over the pairs allowed to shape the model; returns the chosen hypothesis.
 std::optional<Hypothesis> SampleMotion(const MotionSolver& solver, const TrackingInputs& in,
                                        const VisualOdometryOptions& options,
                                        TrackingOutcome& out) {
   const Clock::time_point start = Clock::now();
-  std::vector<int> candidates;
+  const std::vector<int> candidates = SamplablePairs(solver, in, options, out);
   std::vector<double> eta;
-  for (size_t k = 0; k < out.matches.size(); ++k) {
-    if (!Samplable(in, options, out.matches[k])) continue;
-    if (!solver.Samplable(static_cast<int>(k))) continue;
-    candidates.push_back(static_cast<int>(k));
+  for (int k : candidates) {
     // Prior inlier probability from the descriptor distance: a close match is likelier right.
     eta.push_back(std::clamp(1.0 - out.matches[k].distance / static_cast<double>(options.delta),
                              0.05, 1.0));
@@ -89,16 +98,18 @@ std::optional<Hypothesis> SampleMotion(const MotionSolver& solver, const Trackin
   return result.best[result.chosen];
 }
 
+constexpr double kDegreesPerRadian = 180 / 3.14159265358979323846;
+
 double AngleDeg(const Eigen::Vector3d& a, const Eigen::Vector3d& b) {
   const double c = a.normalized().dot(b.normalized());
-  return std::acos(std::clamp(c, -1.0, 1.0)) * 180 / 3.14159265358979323846;
+  return std::acos(std::clamp(c, -1.0, 1.0)) * kDegreesPerRadian;
 }
 
 // Whether `motion` turns or heads too far from the prediction (options.prior_*).
 bool FarFromPrediction(const Motion& motion, const Motion& predicted,
                        const VisualOdometryOptions& options) {
   if (predicted.t.norm() < 1e-9) return false;  // no prediction of a direction
-  const double turn = RotationAngle(predicted.R.transpose() * motion.R) * 180 / 3.14159265358979323846;
+  const double turn = RotationAngle(predicted.R.transpose() * motion.R) * kDegreesPerRadian;
   return AngleDeg(motion.t, predicted.t) > options.prior_direction_deg ||
          turn > options.prior_rotation_deg;
 }
@@ -113,12 +124,7 @@ void ApplyMotionPrior(const MotionSolver& solver, const TrackingInputs& in,
       !FarFromPrediction(chosen.motion, *in.predicted, options)) {
     return;
   }
-  std::vector<int> samplable;
-  for (size_t k = 0; k < out.matches.size(); ++k) {
-    if (Samplable(in, options, out.matches[k]) && solver.Samplable(static_cast<int>(k))) {
-      samplable.push_back(static_cast<int>(k));
-    }
-  }
+  const std::vector<int> samplable = SamplablePairs(solver, in, options, out);
   const auto inliers_of = [&](const Motion& motion) {
     std::vector<double> errors;
     solver.ErrorsPx(motion, samplable, &errors);

@@ -4,6 +4,8 @@
 #include <cmath>
 #include <map>
 
+#include "server/visual_slam/pose_algebra.h"
+
 namespace waymark::visual_slam {
 namespace {
 
@@ -129,15 +131,21 @@ std::optional<BundleJob> LocalMap::MakeJob() const {
   return job;
 }
 
-std::unordered_map<int64_t, Pose> LocalMap::Apply(const BundleJob& job,
-                                                  const BundleResult& result) {
-  std::unordered_map<int64_t, Pose> moved;
+void LocalMap::Apply(const BundleJob& job, const BundleResult& result) {
   std::unordered_map<int64_t, Keyframe*> by_id;
   for (Keyframe& keyframe : keyframes_) by_id[keyframe.id] = &keyframe;
   for (size_t c = 0; c < job.keyframe_ids.size(); ++c) {
-    moved[job.keyframe_ids[c]] = result.cameras[c];
     if (auto it = by_id.find(job.keyframe_ids[c]); it != by_id.end()) {
       it->second->pose = result.cameras[c];
+    }
+  }
+  // Keyframes made while it ran were placed from the newest one it adjusted: they follow it.
+  const int64_t newest = job.keyframe_ids.back();
+  const Pose& newest_before = job.problem.cameras.back().pose;
+  const Pose& newest_after = result.cameras.back();
+  for (Keyframe& keyframe : keyframes_) {
+    if (keyframe.id > newest) {
+      keyframe.pose = PoseAfter(newest_after, MotionBetween(newest_before, keyframe.pose));
     }
   }
   // A track with an outlier observation loses that observation; its point is kept only when most
@@ -160,7 +168,13 @@ std::unordered_map<int64_t, Pose> LocalMap::Apply(const BundleJob& job,
       points_.erase(job.point_tracks[p]);
     }
   }
-  return moved;
+}
+
+std::optional<Pose> LocalMap::PoseOf(int64_t id) const {
+  for (const Keyframe& keyframe : keyframes_) {
+    if (keyframe.id == id) return keyframe.pose;
+  }
+  return std::nullopt;
 }
 
 std::optional<Eigen::Vector3d> LocalMap::Point(int64_t track) const {

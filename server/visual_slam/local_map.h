@@ -60,10 +60,13 @@ class LocalMap {
   // gauge or has too few points.
   std::optional<BundleJob> MakeJob() const;
 
-  // Applies an adjustment: keyframes still in the window take their new poses, tracks their
-  // points, outlier observations leave their tracks. Returns the new pose of every keyframe of
-  // the job still known here.
-  std::unordered_map<int64_t, Pose> Apply(const BundleJob& job, const BundleResult& result);
+  // Applies an adjustment: keyframes still in the window take their new poses, those added while
+  // it ran move the way its newest keyframe moved, tracks take their points, and outlier
+  // observations leave their tracks.
+  void Apply(const BundleJob& job, const BundleResult& result);
+
+  // The pose of a keyframe still in the window.
+  std::optional<Pose> PoseOf(int64_t id) const;
 
   // The adjusted world point of a track, once it has one.
   std::optional<Eigen::Vector3d> Point(int64_t track) const;

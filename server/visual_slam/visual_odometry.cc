@@ -4,7 +4,6 @@
 #include <cmath>
 #include <deque>
 #include <future>
-#include <map>
 #include <utility>
 
 #include <opencv2/imgproc.hpp>
@@ -60,11 +59,10 @@ struct VisualOdometry::State {
       : extractor(options.orb, camera) {}
   OrbExtractor extractor;
   int64_t next_keyframe_id = 0;
-  // Bundle adjustment (options.bundle_window > 0): the window, the job running in the background,
-  // the poses of the keyframes an adjustment may still move, and every frame's anchor.
+  // Bundle adjustment (options.bundle_window > 0): the window (which holds the poses an
+  // adjustment may still move), the job running in the background, and every frame's anchor.
   std::optional<LocalMap> local_map;
   std::future<BundleOutcome> bundle;
-  std::map<int64_t, Pose> keyframe_poses;
   std::vector<Anchor> anchors;  // parallel to the trajectory
   std::optional<bool> with_depth;  // fixed by the first frame
   std::optional<double> last_stamp;
@@ -386,7 +384,6 @@ absl::StatusOr<FrameResult> VisualOdometry::ProcessFrame(const FrameInput& frame
       for (int i = 0; i < features.size(); ++i) in_map[i] = roles[i] != ReferenceRole::kCandidate;
       keyframe.tracks = s.local_map->AddKeyframe(keyframe.id, pose, keyframe.features,
                                                  Subset(tracks, keep), Subset(in_map, keep));
-      s.keyframe_poses[keyframe.id] = pose;
     }
     if (proving) {
       keyframe.roles = Subset(roles, keep);
@@ -451,15 +448,6 @@ void VisualOdometry::StartBundle() {
   });
 }
 
-namespace {
-
-// `pose` moved the way `anchor` moved from `before` to `after`.
-Pose MovedWith(const Pose& pose, const Pose& before, const Pose& after) {
-  return PoseAfter(after, MotionBetween(before, pose));
-}
-
-}  // namespace
-
 void VisualOdometry::ApplyBundle(bool wait, StageTimings* timings) {
   State& s = *state_;
   if (!s.bundle.valid()) return;
@@ -469,26 +457,15 @@ void VisualOdometry::ApplyBundle(bool wait, StageTimings* timings) {
   timings->bundle_wait_ms = MsSince(start);
   timings->bundle_ms = outcome.ms;
   if (!outcome.result.ok() || !s.local_map) return;  // a bad window is skipped, not fatal
-  const std::unordered_map<int64_t, Pose> moved = s.local_map->Apply(outcome.job, *outcome.result);
-  // Keyframes made while it ran move with the newest keyframe it adjusted.
+  s.local_map->Apply(outcome.job, *outcome.result);
+  // Keyframes older than the job never move again: the next adjustment holds them or has
+  // dropped them.
   const int64_t oldest = outcome.job.keyframe_ids.front();
-  const int64_t newest = outcome.job.keyframe_ids.back();
-  const Pose newest_before = s.keyframe_poses.at(newest);
-  const Pose newest_after = moved.at(newest);
-  for (auto& [id, pose] : s.keyframe_poses) {
-    if (auto it = moved.find(id); it != moved.end()) {
-      pose = it->second;
-    } else if (id > newest) {
-      pose = MovedWith(pose, newest_before, newest_after);
-    }
-  }
-  // Older keyframes never move again: the next adjustment holds them or has dropped them.
-  s.keyframe_poses.erase(s.keyframe_poses.begin(), s.keyframe_poses.lower_bound(oldest));
   const bool monocular = s.with_depth && !*s.with_depth;
   for (Reference& reference : s.keyframes) {
-    auto it = s.keyframe_poses.find(reference.id);
-    if (it == s.keyframe_poses.end()) continue;
-    reference.pose = it->second;
+    std::optional<Pose> adjusted = s.local_map->PoseOf(reference.id);
+    if (!adjusted) continue;
+    reference.pose = *adjusted;
     if (!monocular || reference.tracks.empty()) continue;
     // Monocular scale comes from the reference's depths: take them from the adjusted points.
     for (int i = 0; i < reference.features.size(); ++i) {
@@ -502,8 +479,9 @@ void VisualOdometry::ApplyBundle(bool wait, StageTimings* timings) {
   for (size_t i = trajectory_.size(); i-- > 0;) {
     const Anchor& anchor = s.anchors[i];
     if (anchor.keyframe < oldest) break;
-    auto it = s.keyframe_poses.find(anchor.keyframe);
-    if (it != s.keyframe_poses.end()) trajectory_[i].pose = PoseAfter(it->second, anchor.motion);
+    if (std::optional<Pose> keyframe = s.local_map->PoseOf(anchor.keyframe)) {
+      trajectory_[i].pose = PoseAfter(*keyframe, anchor.motion);
+    }
   }
   if (!trajectory_.empty() && s.last_pose) s.last_pose = trajectory_.back().pose;
   if (trajectory_.size() >= 2 && s.previous_pose) {
@@ -705,7 +683,6 @@ absl::Status VisualOdometry::RestoreState(const std::string& bytes) {
   if (s.bundle.valid()) s.bundle.wait();
   s.bundle = {};
   s.local_map.reset();
-  s.keyframe_poses.clear();
   s.with_depth = has_depth ? std::optional<bool>(with_depth != 0) : std::nullopt;
   s.last_stamp = has_stamp ? std::optional<double>(stamp) : std::nullopt;
   s.last_pose = last;
