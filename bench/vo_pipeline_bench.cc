@@ -18,11 +18,13 @@
 #include <time.h>
 
 #include <algorithm>
+#include <chrono>
 #include <cstdio>
 #include <filesystem>
 #include <fstream>
 #include <iterator>
 #include <string>
+#include <thread>
 #include <vector>
 
 #include <CLI/CLI.hpp>
@@ -107,6 +109,10 @@ int Run(int argc, char** argv) {
   int seeds = 1;
   app.add_option("--seeds", seeds, "runs per config with sampler seeds 1..N; ATE/RPE/lost are "
                  "the median over runs, ATE's min-max is printed")->capture_default_str();
+  bool realtime = false;
+  app.add_flag("--realtime", realtime,
+               "feed frames at the sequence's own rate (its stamps), as a camera does, instead of "
+               "back to back; an adjustment applied when done then lags as it would on a robot");
   std::string per_frame_path;
   app.add_option("--per-frame", per_frame_path,
                  "CSV of every frame's feature counts and state (config, seed, frame, ...)");
@@ -205,7 +211,13 @@ int Run(int argc, char** argv) {
       int lost = 0;
       int frame_index = -1;
       const double cpu_start = ProcessCpuMs();
+      const auto run_start = std::chrono::steady_clock::now();
       for (const Decoded& f : frames) {
+        if (realtime) {
+          std::this_thread::sleep_until(
+              run_start + std::chrono::duration_cast<std::chrono::steady_clock::duration>(
+                              std::chrono::duration<double>(f.stamp - frames[0].stamp)));
+        }
         vs::FrameInput input{f.stamp, f.image, f.depth, std::nullopt};
         absl::StatusOr<vs::FrameResult> r = (*odometry)->ProcessFrame(input);
         ++frame_index;

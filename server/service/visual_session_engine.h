@@ -6,7 +6,8 @@
 // feature counts and stage timings out.
 //
 // Checkpoints hold the engine's map (VisualOdometry::SerializeState: the local map's keyframes,
-// the archived ones kept for relocalisation, the motion model); the trajectory is stored row by
+// the archived ones kept for relocalisation, the bundle adjustment's window and points, the
+// motion model); the trajectory is stored row by
 // row beside it. A resumed session tracks its next frame against the keyframes it had. A v1
 // checkpoint (older builds: a version marker only) resumes at the last stored pose with an empty
 // map (VisualOdometry::ResetAt), the first frame after it becoming a keyframe there.

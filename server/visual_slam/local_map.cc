@@ -5,11 +5,16 @@
 #include <map>
 
 #include "server/visual_slam/pose_algebra.h"
+#include "server/visual_slam/pose_io.h"
 
 namespace waymark::visual_slam {
 namespace {
 
 constexpr double kPi = 3.14159265358979323846;
+// Bounds on what Load accepts (far above any real window).
+constexpr uint32_t kMaxSavedKeyframes = 1000;
+constexpr uint32_t kMaxSavedFeatures = 100000;
+constexpr uint32_t kMaxSavedPoints = 1000000;
 
 // The point closest to two rays (midpoint method), or nullopt for near-parallel rays.
 std::optional<Eigen::Vector3d> Midpoint(const Eigen::Vector3d& o1, const Eigen::Vector3d& d1,
@@ -181,6 +186,79 @@ std::optional<Eigen::Vector3d> LocalMap::Point(int64_t track) const {
   auto it = points_.find(track);
   if (it == points_.end()) return std::nullopt;
   return it->second;
+}
+
+
+void LocalMap::Save(BinaryWriter& out) const {
+  out.Put<int64_t>(next_track_);
+  out.Put<uint32_t>(static_cast<uint32_t>(keyframes_.size()));
+  for (const Keyframe& k : keyframes_) {
+    out.Put<int64_t>(k.id);
+    PutPose(out, k.pose);
+    out.Put<uint32_t>(static_cast<uint32_t>(k.normalized.size()));
+    for (size_t i = 0; i < k.normalized.size(); ++i) {
+      out.Put<double>(k.normalized[i].x());
+      out.Put<double>(k.normalized[i].y());
+      out.Put<uint8_t>(k.depth[i].has_value());
+      out.Put<double>(k.depth[i].value_or(0));
+      out.Put<int64_t>(k.track[i]);
+    }
+  }
+  // Sorted by track, so that equal maps save to equal bytes.
+  std::map<int64_t, Eigen::Vector3d> sorted(points_.begin(), points_.end());
+  out.Put<uint32_t>(static_cast<uint32_t>(sorted.size()));
+  for (const auto& [track, point] : sorted) {
+    out.Put<int64_t>(track);
+    for (int i = 0; i < 3; ++i) out.Put<double>(point(i));
+  }
+}
+
+bool LocalMap::Load(BinaryReader& in) {
+  int64_t next_track = 0;
+  uint32_t count = 0;
+  if (!in.Get(&next_track) || next_track < 0 || !in.Get(&count) || count > kMaxSavedKeyframes) {
+    return false;
+  }
+  std::deque<Keyframe> keyframes;
+  for (uint32_t k = 0; k < count; ++k) {
+    Keyframe keyframe;
+    uint32_t n = 0;
+    if (!in.Get(&keyframe.id) || !GetPose(in, &keyframe.pose) || !in.Get(&n) ||
+        n > kMaxSavedFeatures) {
+      return false;
+    }
+    for (uint32_t i = 0; i < n; ++i) {
+      double x = 0, y = 0, depth = 0;
+      uint8_t has_depth = 0;
+      int64_t track = 0;
+      if (!in.Get(&x) || !in.Get(&y) || !in.Get(&has_depth) || !in.Get(&depth) ||
+          !in.Get(&track) || !std::isfinite(x) || !std::isfinite(y) ||
+          (has_depth && !(std::isfinite(depth) && depth > 0)) || track < -1 ||
+          track >= next_track) {
+        return false;
+      }
+      keyframe.normalized.emplace_back(x, y);
+      keyframe.depth.push_back(has_depth ? std::optional<double>(depth) : std::nullopt);
+      keyframe.track.push_back(track);
+    }
+    keyframes.push_back(std::move(keyframe));
+  }
+  if (!in.Get(&count) || count > kMaxSavedPoints) return false;
+  std::unordered_map<int64_t, Eigen::Vector3d> points;
+  for (uint32_t p = 0; p < count; ++p) {
+    int64_t track = 0;
+    Eigen::Vector3d point;
+    if (!in.Get(&track) || !in.Get(&point.x()) || !in.Get(&point.y()) || !in.Get(&point.z()) ||
+        track < 0 || track >= next_track || !point.allFinite()) {
+      return false;
+    }
+    points[track] = point;
+  }
+  next_track_ = next_track;
+  keyframes_ = std::move(keyframes);
+  while (static_cast<int>(keyframes_.size()) > options_.window) keyframes_.pop_front();
+  points_ = std::move(points);
+  return true;
 }
 
 }  // namespace waymark::visual_slam

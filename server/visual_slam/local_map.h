@@ -22,6 +22,7 @@
 
 #include <Eigen/Core>
 
+#include "server/common/binary_io.h"
 #include "server/visual_slam/bundle_adjustment.h"
 #include "server/visual_slam/frame_features.h"
 #include "server/visual_slam/types.h"
@@ -73,6 +74,12 @@ class LocalMap {
   int keyframes() const { return static_cast<int>(keyframes_.size()); }
   const BundleOptions& bundle_options() const { return options_.bundle; }
   int points() const { return static_cast<int>(points_.size()); }
+
+  // The window and its points for the session's checkpoint, and back: Load replaces this map
+  // with the saved one and returns false (leaving this map unchanged) on truncated, oversized or
+  // non-finite input.
+  void Save(BinaryWriter& out) const;
+  bool Load(BinaryReader& in);
 
  private:
   struct Keyframe {

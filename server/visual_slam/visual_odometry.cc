@@ -17,6 +17,7 @@
 #include "server/visual_slam/frame_validation.h"
 #include "server/visual_slam/local_map.h"
 #include "server/visual_slam/pose_algebra.h"
+#include "server/visual_slam/pose_io.h"
 #include "server/visual_slam/two_view.h"
 
 namespace waymark::visual_slam {
@@ -146,7 +147,8 @@ void VisualOdometry::ResetAt(const TimedPose& pose) {
   State& s = *state_;
   if (s.bundle.valid()) s.bundle.wait();  // its keyframes are gone: its answer is dropped
   s.bundle = {};
-  s.local_map.reset();  // made again at the next keyframe
+  s.local_map.reset();
+  s.anchors.clear();  // made again at the next keyframe
   s.keyframes.clear();
   s.last_pose = pose.pose;
   s.previous_pose.reset();
@@ -375,10 +377,7 @@ absl::StatusOr<FrameResult> VisualOdometry::ProcessFrame(const FrameInput& frame
     keyframe.features = Subset(features, keep);
     if (options_.bundle_window > 0) {
       if (!s.local_map) {
-        LocalMapOptions map_options;
-        map_options.window = options_.bundle_window;
-        map_options.bundle.focal_px = focal;
-        s.local_map.emplace(map_options, /*monocular=*/!rgbd);
+        s.local_map.emplace(NewLocalMap(/*monocular=*/!rgbd));
       }
       std::vector<bool> in_map(features.size());
       for (int i = 0; i < features.size(); ++i) in_map[i] = roles[i] != ReferenceRole::kCandidate;
@@ -432,6 +431,13 @@ absl::StatusOr<FrameResult> VisualOdometry::ProcessFrame(const FrameInput& frame
   return result;
 }
 
+LocalMap VisualOdometry::NewLocalMap(bool monocular) const {
+  LocalMapOptions map_options;
+  map_options.window = options_.bundle_window;
+  map_options.bundle.focal_px = 0.5 * (camera_.fx + camera_.fy);
+  return LocalMap(map_options, monocular);
+}
+
 void VisualOdometry::StartBundle() {
   State& s = *state_;
   if (!s.local_map || s.bundle.valid()) return;  // one adjustment at a time
@@ -475,9 +481,11 @@ void VisualOdometry::ApplyBundle(bool wait, StageTimings* timings) {
       if (z > 0) reference.features.depth[i] = z;
     }
   }
-  // Every frame anchored to a keyframe that moved follows it.
-  for (size_t i = trajectory_.size(); i-- > 0;) {
-    const Anchor& anchor = s.anchors[i];
+  // Every frame anchored to a keyframe that moved follows it. The anchors are those of the last
+  // frames (none before a reset or a restore).
+  const size_t first_anchored = trajectory_.size() - std::min(trajectory_.size(), s.anchors.size());
+  for (size_t i = trajectory_.size(); i-- > first_anchored;) {
+    const Anchor& anchor = s.anchors[i - first_anchored];
     if (anchor.keyframe < oldest) break;
     if (std::optional<Pose> keyframe = s.local_map->PoseOf(anchor.keyframe)) {
       trajectory_[i].pose = PoseAfter(*keyframe, anchor.motion);
@@ -529,24 +537,11 @@ Reference* VisualOdometry::Relocalize(const FrameFeatures& features,
 namespace {
 
 constexpr uint32_t kStateMagic = 0x4f56574d;  // "MWVO"
-constexpr uint32_t kStateVersion = 1;
+// v1: keyframes and archive. v2 adds each keyframe's tracks and the bundle adjustment's window
+// with its points.
+constexpr uint32_t kStateVersion = 2;
 constexpr uint32_t kMaxStoredFeatures = 100000;
 constexpr uint32_t kMaxStoredKeyframes = 10000;
-
-void PutPose(BinaryWriter& out, const Pose& pose) {
-  for (int i = 0; i < 9; ++i) out.Put<double>(pose.R(i / 3, i % 3));
-  for (int i = 0; i < 3; ++i) out.Put<double>(pose.t(i));
-}
-
-bool GetPose(BinaryReader& in, Pose* pose) {
-  for (int i = 0; i < 9; ++i) {
-    if (!in.Get(&pose->R(i / 3, i % 3))) return false;
-  }
-  for (int i = 0; i < 3; ++i) {
-    if (!in.Get(&pose->t(i))) return false;
-  }
-  return pose->R.allFinite() && pose->t.allFinite();
-}
 
 void PutOptionalPose(BinaryWriter& out, const std::optional<Pose>& pose) {
   out.Put<uint8_t>(pose.has_value());
@@ -586,9 +581,11 @@ void PutReference(BinaryWriter& out, const Reference& r) {
       out.Put<int32_t>(r.static_run[i]);
     }
   }
+  out.Put<uint8_t>(!r.tracks.empty());
+  for (int64_t track : r.tracks) out.Put<int64_t>(track);
 }
 
-bool GetReference(BinaryReader& in, Reference* r) {
+bool GetReference(BinaryReader& in, uint32_t version, Reference* r) {
   uint32_t n = 0;
   if (!in.Get(&r->id) || !in.Get(&r->stamp) || !GetPose(in, &r->pose) ||
       !in.Get(&r->first_tracked) || !in.Get(&n) || n > kMaxStoredFeatures) {
@@ -625,13 +622,27 @@ bool GetReference(BinaryReader& in, Reference* r) {
       r->static_run.push_back(run);
     }
   }
+  if (version < 2) return true;
+  uint8_t has_tracks = 0;
+  if (!in.Get(&has_tracks)) return false;
+  if (has_tracks) {
+    for (uint32_t i = 0; i < n; ++i) {
+      int64_t track = 0;
+      if (!in.Get(&track) || track < -1) return false;
+      r->tracks.push_back(track);
+    }
+  }
   return true;
 }
 
 }  // namespace
 
-std::string VisualOdometry::SerializeState() const {
-  const State& s = *state_;
+std::string VisualOdometry::SerializeState() {
+  State& s = *state_;
+  // A running adjustment is finished and applied first, as the next frame would, so that the
+  // checkpoint holds it.
+  StageTimings unused;
+  ApplyBundle(/*wait=*/true, &unused);
   BinaryWriter out;
   out.Put<uint32_t>(kStateMagic);
   out.Put<uint32_t>(kStateVersion);
@@ -647,6 +658,8 @@ std::string VisualOdometry::SerializeState() const {
     out.Put<uint32_t>(static_cast<uint32_t>(list->size()));
     for (const Reference& r : *list) PutReference(out, r);
   }
+  out.Put<uint8_t>(s.local_map.has_value());
+  if (s.local_map) s.local_map->Save(out);
   return out.Take();
 }
 
@@ -656,7 +669,8 @@ absl::Status VisualOdometry::RestoreState(const std::string& bytes) {
   };
   BinaryReader in(bytes);
   uint32_t magic = 0, version = 0;
-  if (!in.Get(&magic) || magic != kStateMagic || !in.Get(&version) || version != kStateVersion) {
+  if (!in.Get(&magic) || magic != kStateMagic || !in.Get(&version) || version < 1 ||
+      version > kStateVersion) {
     return lost();
   }
   uint8_t has_depth = 0, with_depth = 0, has_stamp = 0;
@@ -674,15 +688,33 @@ absl::Status VisualOdometry::RestoreState(const std::string& bytes) {
     if (!in.Get(&n) || n > kMaxStoredKeyframes) return lost();
     for (uint32_t i = 0; i < n; ++i) {
       Reference r;
-      if (!GetReference(in, &r)) return lost();
+      if (!GetReference(in, version, &r)) return lost();
       list.push_back(std::move(r));
     }
   }
+  std::optional<LocalMap> local_map;
+  uint8_t has_local_map = 0;
+  if (version >= 2) {
+    if (!in.Get(&has_local_map)) return lost();
+    if (has_local_map) {
+      local_map.emplace(NewLocalMap(/*monocular=*/has_depth && !with_depth));
+      if (!local_map->Load(in)) return lost();
+    }
+  }
   if (!in.done()) return lost();
+  // A map saved by a session without the adjustment, or the reverse: tracks only mean something
+  // with their window.
+  if (options_.bundle_window <= 0) local_map.reset();
+  if (!local_map) {
+    for (std::deque<Reference>& list : lists) {
+      for (Reference& r : list) r.tracks.clear();
+    }
+  }
   State& s = *state_;
   if (s.bundle.valid()) s.bundle.wait();
   s.bundle = {};
-  s.local_map.reset();
+  s.local_map = std::move(local_map);
+  s.anchors.clear();
   s.with_depth = has_depth ? std::optional<bool>(with_depth != 0) : std::nullopt;
   s.last_stamp = has_stamp ? std::optional<double>(stamp) : std::nullopt;
   s.last_pose = last;

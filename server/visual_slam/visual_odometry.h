@@ -29,6 +29,8 @@ struct FrameFeatures;
 struct Reference;
 struct TrackingOutcome;
 
+class LocalMap;
+
 class VisualOdometry {
  public:
   // INVALID_ARGUMENT for bad options or a camera without positive focal lengths and size.
@@ -49,9 +51,10 @@ class VisualOdometry {
   // last stored pose: the next frame becomes a keyframe at that pose).
   void ResetAt(const TimedPose& pose);
   // The session's map for a checkpoint: the local map's keyframes and the archived ones (their
-  // features, poses, roles), the motion model and the last stamp. The bundle adjustment's window
-  // and points are not kept: they start again from the next keyframe.
-  std::string SerializeState() const;
+  // features, poses, roles, tracks), the bundle adjustment's window and points, the motion model
+  // and the last stamp. An adjustment still running is waited for and applied first (as the next
+  // frame would apply it), so a restored session answers as the uninterrupted one.
+  std::string SerializeState();
   // Puts a session made with the same options and camera back where SerializeState left it.
   // DATA_LOSS for bytes that are not such a state (the session is then unchanged).
   absl::Status RestoreState(const std::string& bytes);
@@ -67,6 +70,7 @@ class VisualOdometry {
   // and applies a finished one (waiting for it when `wait`) to keyframes, references, the
   // trajectory and the motion model.
   void StartBundle();
+  LocalMap NewLocalMap(bool monocular) const;
   void ApplyBundle(bool wait, StageTimings* timings);
   // RGB-D relocalisation: tracks `features` against the archived keyframes they match best;
   // returns the one it tracked against (with its outcome in *outcome), or null.
