@@ -10,6 +10,7 @@
 #include "server/visual_slam/pose_algebra.h"
 #include "server/visual_slam/sequential_sampler.h"
 #include "server/visual_slam/static_test.h"
+#include "server/visual_slam/two_view.h"
 
 namespace waymark::visual_slam {
 namespace {
@@ -87,8 +88,13 @@ std::optional<Hypothesis> SampleMotion(const MotionSolver& solver, const Trackin
     eta.push_back(std::clamp(1.0 - out.matches[k].distance / static_cast<double>(options.delta),
                              0.05, 1.0));
   }
+  SamplerOptions sampler = options.sampler;
+  // No velocity yet (the first motion, or after a reset) predicts no motion at all: exactly zero.
+  if (!in.predicted || in.predicted->t.norm() == 0) {
+    sampler.hypotheses_per_round *= sampler.unpredicted_factor;
+  }
   SamplerResult result = SequentialSample(solver, candidates, eta, in.predicted,
-                                          options.inlier_threshold_px, options.sampler);
+                                          options.inlier_threshold_px, sampler);
   out.hypotheses = result.hypotheses;
   out.sampling_ms = MsSince(start);
   if (result.chosen < 0) {
@@ -204,6 +210,13 @@ TrackingOutcome TrackMonocular(const TrackingInputs& in, const VisualOdometryOpt
   EssentialSolver solver(out.correspondences, in.focal_px);
   std::optional<Hypothesis> chosen = SampleMotion(solver, in, options, out);
   if (!chosen) return out;
+  // Which of E's decompositions (the sign of t, the twisted pair) is decided by every inlier, not
+  // the sample's five: with far points, five can put the camera going backwards, and the motion
+  // model would carry that on.
+  if (const std::optional<Decomposition> d =
+          DecomposeEssential(EssentialOf(chosen->motion), out.correspondences, chosen->inliers)) {
+    chosen->motion = d->motion;
+  }
   ApplyMotionPrior(solver, in, options, out, *chosen);
 
   const Clock::time_point start = Clock::now();

@@ -34,6 +34,7 @@ absl::Status VisualOdometryOptions::Validate() const {
       InRange("sampler.tie_break_fraction", sampler.tie_break_fraction, 0, 1),
       InRange("sampler.max_rounds", sampler.max_rounds, 1, 100),
       InRange("sampler.hypotheses_per_round", sampler.hypotheses_per_round, 1, 10000),
+      InRange("sampler.unpredicted_factor", sampler.unpredicted_factor, 1, 100),
       InRange("delta", delta, 1, 256),
       InRange("match_ratio", match_ratio, 0.1, 1.0),
       Positive("static_distance_px", static_distance_px),
