@@ -109,6 +109,9 @@ int Run(int argc, char** argv) {
   int seeds = 1;
   app.add_option("--seeds", seeds, "runs per config with sampler seeds 1..N; ATE/RPE/lost are "
                  "the median over runs, ATE's min-max is printed")->capture_default_str();
+  int yolo_input = 0;
+  app.add_option("--yolo-input", yolo_input,
+                 "YOLO network input side in pixels, a multiple of 32 (0 = the cfg's, 320)");
   bool realtime = false;
   app.add_flag("--realtime", realtime,
                "feed frames at the sequence's own rate (its stamps), as a camera does, instead of "
@@ -191,6 +194,7 @@ int Run(int argc, char** argv) {
       if (config.detector == vs::DetectorChoice::kYolo) {
         choice.yolo.cfg = ReadFileBytes(fs::path(models) / "yolo-fastest-1.1-xl.cfg");
         choice.yolo.weights = ReadFileBytes(fs::path(models) / "yolo-fastest-1.1-xl.weights");
+        choice.yolo.input_size = yolo_input;
       }
       const double resident_before = ResidentMb();
       absl::StatusOr<std::unique_ptr<vs::ObjectDetector>> detector = vs::MakeDetector(choice);

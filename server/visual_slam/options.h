@@ -98,10 +98,10 @@ struct VisualOdometryOptions {
   double prior_direction_deg = 0;
   double prior_rotation_deg = 5;
   double prior_inlier_fraction = 0.7;
-  // Beyond the paper (RGB-D): keyframes that leave the local map are kept, up to this many, and a
-  // frame the local map cannot track is tried against the few of them its features match best
-  // before it is declared lost (the paper: a constant-velocity guess and a new keyframe there).
-  // 0 = off.
+  // Beyond the paper: keyframes that leave the local map are kept, up to this many (monocular:
+  // one tracked frame in five, with the depths that carry the session's scale), and a frame the
+  // local map cannot track is tried against the few of them its features match best before it is
+  // declared lost (the paper: a constant-velocity guess and a new keyframe there). 0 = off.
   int relocalization_keyframes = 0;
   // Beyond the paper: after each new keyframe, a bundle adjustment of the last bundle_window
   // keyframes and the points they share (local_map.h) runs on a background thread; 0 = off (the

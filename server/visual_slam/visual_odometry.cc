@@ -55,6 +55,9 @@ struct BundleOutcome {
   double ms = 0;
 };
 
+// Monocular sessions archive one reference (tracked frame) in this many for relocalisation.
+constexpr int64_t kMonoArchiveSpacing = 5;
+
 struct VisualOdometry::State {
   explicit State(const VisualOdometryOptions& options, const CameraModel& camera)
       : extractor(options.orb, camera) {}
@@ -253,9 +256,8 @@ absl::StatusOr<FrameResult> VisualOdometry::ProcessFrame(const FrameInput& frame
     }
     if (!rgbd) break;  // monocular keeps one reference
   }
-  if (reference == nullptr && rgbd && !s.archive.empty() &&
-      features.size() >= options_.min_tracked) {
-    reference = Relocalize(features, in_box, focal, &outcome, &result.timings);
+  if (reference == nullptr && !s.archive.empty() && features.size() >= options_.min_tracked) {
+    reference = Relocalize(features, in_box, focal, rgbd, &outcome, &result.timings);
     result.relocalized = reference != nullptr;
   }
 
@@ -398,9 +400,14 @@ absl::StatusOr<FrameResult> VisualOdometry::ProcessFrame(const FrameInput& frame
     s.keyframes.push_front(std::move(keyframe));
     const size_t keep_count = rgbd ? static_cast<size_t>(options_.local_map_keyframes) : 1;
     while (s.keyframes.size() > keep_count) {
-      // Kept for relocalisation when asked for and it has enough to track against.
-      if (options_.relocalization_keyframes > 0 &&
-          s.keyframes.back().features.size() >= options_.min_tracked) {
+      // Kept for relocalisation when asked for and it has enough to track against. Monocular
+      // references are every tracked frame: one in kMonoArchiveSpacing is kept, so that the
+      // archive spans a longer stretch of the path.
+      const Reference& leaving = s.keyframes.back();
+      const bool spaced = rgbd || s.archive.empty() ||
+                          leaving.id >= s.archive.front().id + kMonoArchiveSpacing;
+      if (options_.relocalization_keyframes > 0 && spaced &&
+          leaving.features.size() >= options_.min_tracked) {
         s.archive.push_front(std::move(s.keyframes.back()));
         while (static_cast<int>(s.archive.size()) > options_.relocalization_keyframes) {
           s.archive.pop_back();
@@ -413,7 +420,9 @@ absl::StatusOr<FrameResult> VisualOdometry::ProcessFrame(const FrameInput& frame
   result.timings.mapping_ms = MsSince(stage);
 
   result.pose = pose;
-  s.previous_pose = s.last_pose;
+  // The velocity across a loss is unknown: after a relocalised frame the next is predicted to
+  // stand still (and sampled as a first motion).
+  s.previous_pose = result.relocalized ? std::nullopt : s.last_pose;
   s.last_pose = pose;
   s.last_stamp = frame.stamp;
   trajectory_.push_back({frame.stamp, pose});
@@ -499,7 +508,7 @@ void VisualOdometry::ApplyBundle(bool wait, StageTimings* timings) {
 }
 
 Reference* VisualOdometry::Relocalize(const FrameFeatures& features,
-                                      const std::vector<bool>& in_box, double focal_px,
+                                      const std::vector<bool>& in_box, double focal_px, bool rgbd,
                                       TrackingOutcome* outcome, StageTimings* timings) {
   State& s = *state_;
   const Clock::time_point start = Clock::now();
@@ -523,8 +532,9 @@ Reference* VisualOdometry::Relocalize(const FrameFeatures& features,
   timings->matching_ms += MsSince(start);
   for (const auto& [count, candidate] : votes) {
     // No prediction: the guess is what failed.
-    TrackingOutcome attempt =
-        TrackWithDepth(InputsFor(*candidate, features, in_box, focal_px), options_);
+    // Monocular: the archived frame's depths (at the session's scale) give the scale.
+    const TrackingInputs in = InputsFor(*candidate, features, in_box, focal_px);
+    TrackingOutcome attempt = rgbd ? TrackWithDepth(in, options_) : TrackMonocular(in, options_);
     AddTimes(attempt, timings);
     if (attempt.ok) {
       *outcome = std::move(attempt);

@@ -72,10 +72,12 @@ class VisualOdometry {
   void StartBundle();
   LocalMap NewLocalMap(bool monocular) const;
   void ApplyBundle(bool wait, StageTimings* timings);
-  // RGB-D relocalisation: tracks `features` against the archived keyframes they match best;
-  // returns the one it tracked against (with its outcome in *outcome), or null.
+  // Relocalisation: tracks `features` against the archived keyframes (monocular: archived
+  // frames) they match best; returns the one it tracked against (with its outcome in *outcome),
+  // or null.
   Reference* Relocalize(const FrameFeatures& features, const std::vector<bool>& in_box,
-                        double focal_px, TrackingOutcome* outcome, StageTimings* timings);
+                        double focal_px, bool rgbd, TrackingOutcome* outcome,
+                        StageTimings* timings);
 
   VisualOdometryOptions options_;
   CameraModel camera_;

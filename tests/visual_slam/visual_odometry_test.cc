@@ -201,48 +201,61 @@ TEST(VisualOdometryTest, ASavedStateResumesTrackingWithItsMap) {
 // A forced loss: the camera slides along the wall, sees nothing but grey for eight frames (every
 // keyframe of the local map is pushed out by the lost frames' empty ones), then looks at the wall
 // again from where it was at frame 3. With relocalisation it finds itself against a keyframe it
-// had made there; without (the paper) it goes on from its constant-velocity guess.
+// had made there; without (the paper) it goes on from its constant-velocity guess. Monocular
+// sessions relocalise against the frames they archived, at the session's own scale.
 TEST(VisualOdometryTest, RelocalisesAgainstAnOldKeyframeAfterAForcedLoss) {
   const cv::Mat texture = RandomTexture(1400, 480, 12);
   const int shift = 5;
   const double depth = 2.0;
-  const auto run = [&](int relocalization_keyframes) {
-    VisualOdometryOptions options;
-    options.relocalization_keyframes = relocalization_keyframes;
-    std::unique_ptr<VisualOdometry> odometry = Make(options);
-    EXPECT_NE(odometry, nullptr);
-    double stamp = 0;
-    for (int k = 0; k < 12; ++k) {
-      FrameInput frame = SlidingFrame(texture, k, shift, depth);
-      stamp = frame.stamp;
-      EXPECT_TRUE(odometry->ProcessFrame(frame).ok());
-    }
-    for (int k = 0; k < 8; ++k) {
-      FrameInput blank = SlidingFrame(texture, 0, shift, depth);
-      blank.image = cv::Mat(480, 640, CV_8UC3, cv::Scalar(128, 128, 128));
-      blank.stamp = stamp += 0.1;
-      absl::StatusOr<FrameResult> lost = odometry->ProcessFrame(blank);
-      EXPECT_TRUE(lost.ok());
-      if (lost.ok()) EXPECT_EQ(lost->state, TrackingState::kLost);
-    }
-    FrameInput back = SlidingFrame(texture, 3, shift, depth);
-    back.stamp = stamp + 0.1;
-    absl::StatusOr<FrameResult> result = odometry->ProcessFrame(back);
-    EXPECT_TRUE(result.ok()) << result.status();
-    return result.ok() ? *result : FrameResult{};
-  };
-  const double truth_x = 3 * shift * depth / 500.0;  // 0.06 m
-  const FrameResult found = run(50);
-  EXPECT_TRUE(found.relocalized);
-  EXPECT_EQ(found.state, TrackingState::kTracking);
-  EXPECT_NEAR(found.pose.t.x(), truth_x, 0.01);
-  EXPECT_NEAR(found.pose.t.y(), 0, 0.01);
-  EXPECT_NEAR(found.pose.t.z(), 0, 0.02);
+  for (const bool with_depth : {true, false}) {
+    SCOPED_TRACE(with_depth ? "RGB-D" : "monocular");
+    Pose seen_before;  // the session's own pose of frame 3
+    const auto run = [&](int relocalization_keyframes) {
+      VisualOdometryOptions options;
+      options.relocalization_keyframes = relocalization_keyframes;
+      std::unique_ptr<VisualOdometry> odometry = Make(options);
+      EXPECT_NE(odometry, nullptr);
+      const auto frame = [&](int k) {
+        FrameInput f = SlidingFrame(texture, k, shift, depth);
+        if (!with_depth) f.depth = cv::Mat();
+        return f;
+      };
+      double stamp = 0;
+      for (int k = 0; k < 12; ++k) {
+        FrameInput f = frame(k);
+        stamp = f.stamp;
+        absl::StatusOr<FrameResult> tracked = odometry->ProcessFrame(f);
+        EXPECT_TRUE(tracked.ok());
+        if (tracked.ok() && k == 3) seen_before = tracked->pose;
+      }
+      for (int k = 0; k < 8; ++k) {
+        FrameInput blank = frame(0);
+        blank.image = cv::Mat(480, 640, CV_8UC3, cv::Scalar(128, 128, 128));
+        blank.stamp = stamp += 0.1;
+        absl::StatusOr<FrameResult> lost = odometry->ProcessFrame(blank);
+        EXPECT_TRUE(lost.ok());
+        if (lost.ok()) EXPECT_EQ(lost->state, TrackingState::kLost);
+      }
+      FrameInput back = frame(3);
+      back.stamp = stamp + 0.1;
+      absl::StatusOr<FrameResult> result = odometry->ProcessFrame(back);
+      EXPECT_TRUE(result.ok()) << result.status();
+      return result.ok() ? *result : FrameResult{};
+    };
+    const FrameResult found = run(50);
+    EXPECT_TRUE(found.relocalized);
+    EXPECT_EQ(found.state, TrackingState::kTracking);
+    // Where the session had put frame 3 (RGB-D: also the truth, 0.06 m along x).
+    const double mono_step = seen_before.t.norm() / 3;  // a frame's step at the session's scale
+    if (with_depth) EXPECT_NEAR(seen_before.t.x(), 3 * shift * depth / 500.0, 0.01);
+    EXPECT_LT((found.pose.t - seen_before.t).norm(), with_depth ? 0.02 : 0.3 * mono_step);
 
-  const FrameResult paper = run(0);
-  EXPECT_FALSE(paper.relocalized);
-  EXPECT_EQ(paper.state, TrackingState::kLost);
-  EXPECT_GT(std::abs(paper.pose.t.x() - truth_x), 0.1);  // the guess ran on
+    const FrameResult paper = run(0);
+    EXPECT_FALSE(paper.relocalized);
+    EXPECT_EQ(paper.state, TrackingState::kLost);
+    // The guess ran on: more than 10 cm (RGB-D), more than five frames' steps (monocular).
+    EXPECT_GT((paper.pose.t - seen_before.t).norm(), with_depth ? 0.1 : 5 * mono_step);
+  }
 }
 
 // The camera pans about its y axis by `degrees_per_frame` in front of a wall at depth 2 m: each
