@@ -54,9 +54,18 @@ void AddVoCommands(CLI::App& app, CommandRegistry& registry) {
                   "unset = off, the paper; 5-10 measured on KITTI)")
       ->check(CLI::Range(0, 50));
   run->add_option("--relocalize", args->relocalize,
-                  "RGB-D: keep this many keyframes that left the local map and relocalise a "
-                  "frame that cannot be tracked against them (0 or unset = off, the paper)")
+                  "Keep this many keyframes (monocular: one frame in five) that left the local "
+                  "map and relocalise a frame that cannot be tracked against them (0 or unset = "
+                  "off, the paper)")
       ->check(CLI::Range(0, 1000));
+  run->add_option("--static-hamming", args->static_hamming,
+                  "The static test's descriptor half as a fraction of delta (0.5 or unset = the "
+                  "paper; 1.0 = geometry only, measured best with --filter proven)")
+      ->check(CLI::Range(0.01, 1.0));
+  run->add_option("--proven-frames", args->proven_frames,
+                  "--filter proven: frames in a row a boxed feature must be static before it is "
+                  "used like the rest (server default 3; 2 measured best)")
+      ->check(CLI::Range(1, 1000));
   run->add_option("--movable", args->movable,
                   "Movable classes, comma-separated (default: the server's person,car,bus,truck,"
                   "bicycle,motorbike)");

@@ -155,6 +155,10 @@ absl::StatusOr<v1::CreateSessionRequest> VoSessionRequest(const VoArgs& args,
   if (args.prior_direction_deg) params->set_prior_direction_deg(*args.prior_direction_deg);
   if (args.bundle_window) params->set_bundle_window(static_cast<uint32_t>(*args.bundle_window));
   if (args.relocalize) params->set_relocalization_keyframes(static_cast<uint32_t>(*args.relocalize));
+  if (args.static_hamming) params->set_static_hamming_fraction(*args.static_hamming);
+  if (args.proven_frames) {
+    params->set_proven_static_frames(static_cast<uint32_t>(*args.proven_frames));
+  }
   return request;
 }
 

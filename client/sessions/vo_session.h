@@ -23,7 +23,9 @@ struct VoArgs {
   // Beyond the paper (unset = the server's default: off).
   std::optional<double> prior_direction_deg;  // monocular motion prior, degrees
   std::optional<int> bundle_window;           // local bundle adjustment, keyframes
-  std::optional<int> relocalize;              // RGB-D: old keyframes kept to relocalise
+  std::optional<int> relocalize;              // old keyframes kept to relocalise
+  std::optional<double> static_hamming;       // eq 17's descriptor half, fraction of delta
+  std::optional<int> proven_frames;           // filter proven: frames static before mapped
   std::string movable;            // comma-separated classes; empty = the server's default
   bool depth = false;
   std::string camera;  // preset name; empty = calib.txt or --fx ...

@@ -183,8 +183,12 @@ TEST(VoSessionTest, RequestCarriesCameraDetectorAndFilter) {
   EXPECT_FALSE(request->visual().has_depth_scale());           // monocular run
   EXPECT_FALSE(request->visual().params().has_bundle_window());  // the server's default: off
   EXPECT_FALSE(request->visual().params().has_prior_direction_deg());
+  EXPECT_FALSE(request->visual().params().has_static_hamming_fraction());
+  EXPECT_FALSE(request->visual().params().has_proven_static_frames());
 
   args.filter = "proven";
+  args.static_hamming = 1.0;
+  args.proven_frames = 2;
   args.prior_direction_deg = 30;
   args.bundle_window = 8;
   args.relocalize = 40;
@@ -194,6 +198,8 @@ TEST(VoSessionTest, RequestCarriesCameraDetectorAndFilter) {
   EXPECT_EQ(request->visual().filter(), v1::VisualSlamConfig::FILTER_PROVEN);
   EXPECT_EQ(request->visual().params().prior_direction_deg(), 30.0);
   EXPECT_EQ(request->visual().params().bundle_window(), 8u);
+  EXPECT_EQ(request->visual().params().static_hamming_fraction(), 1.0);
+  EXPECT_EQ(request->visual().params().proven_static_frames(), 2u);
 }
 
 }  // namespace
