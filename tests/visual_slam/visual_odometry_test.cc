@@ -344,6 +344,51 @@ TEST(VisualOdometryTest, FullFilterDropsAMovingObjectInABox) {
   EXPECT_GT(dynamic, 20);
 }
 
+// A parked "car" (a box over part of the wall, moving with it) and a "person" (a patch walking
+// down, across the epipolar lines of the sideways camera) in boxes, monocular (every frame a
+// keyframe). The proven filter maps the car's features once they have been static for 2 frames;
+// the person's never, and the paper's full filter none at all.
+TEST(VisualOdometryTest, ProvenFilterMapsAStaticBoxedObjectButNotAMovingOne) {
+  const cv::Mat wall = RandomTexture(1400, 480, 23);
+  const cv::Mat person = RandomTexture(120, 160, 98);
+  const int shift = 5;
+  const auto run = [&](DynamicFilter filter, bool with_car) {
+    VisualOdometryOptions options;
+    options.filter = filter;
+    options.proven_static_frames = 2;
+    std::unique_ptr<VisualOdometry> odometry = Make(options);
+    EXPECT_NE(odometry, nullptr);
+    int proven = 0;
+    for (int k = 0; k < 12 && odometry != nullptr; ++k) {
+      FrameInput frame = SlidingFrame(wall, k, shift, 2.0);
+      frame.depth = cv::Mat();
+      const cv::Rect walking(420, 20 + 10 * k, person.cols, person.rows);
+      person.copyTo(frame.image(walking));
+      std::vector<Box> boxes = {{static_cast<float>(walking.x - 5),
+                                 static_cast<float>(walking.y - 5),
+                                 static_cast<float>(walking.width + 10),
+                                 static_cast<float>(walking.height + 10), "person", 0.9f}};
+      // The car is part of the wall: its box slides with the wall's image.
+      if (with_car) boxes.push_back({60.f - shift * k, 120.f, 220.f, 200.f, "car", 0.9f});
+      frame.boxes = boxes;
+      absl::StatusOr<FrameResult> result = odometry->ProcessFrame(frame);
+      EXPECT_TRUE(result.ok()) << result.status();
+      if (!result.ok()) break;
+      if (k > 0) EXPECT_EQ(result->state, TrackingState::kTracking) << "frame " << k;
+      proven += result->counts.proven;
+    }
+    return proven;
+  };
+  const int car = run(DynamicFilter::kProven, /*with_car=*/true);
+  const int person_only = run(DynamicFilter::kProven, /*with_car=*/false);
+  const int paper = run(DynamicFilter::kFull, /*with_car=*/true);
+  std::printf("proven boxed features over 12 frames: car and person %d, person only %d, paper %d\n",
+              car, person_only, paper);
+  EXPECT_GT(car, 100);          // the car's features, mapped frame after frame
+  EXPECT_LT(person_only, 10);   // a stray corner at the box's edge at most
+  EXPECT_EQ(paper, 0);
+}
+
 TEST(VisualOdometryTest, ResetAtContinuesFromTheGivenPose) {
   std::unique_ptr<VisualOdometry> odometry = Make();
   ASSERT_NE(odometry, nullptr);
@@ -429,31 +474,40 @@ TEST(RealSequenceTest, KittiMonocular) {
   EXPECT_LT(summary.ate_rmse, 4.0);  // measured 2.81 m over the 60 m drive (Sim(3)), seed 1
 }
 
-// Beyond the paper on the same window: the monocular motion prior and the local bundle
-// adjustment (applied before the next frame, so the run is deterministic). Seed 1 measured: the
-// paper's full method 5.08 m, with both 1.20 m (docs/visual-odometry.md has the 5-seed table).
-testing::RunSummary RunKitti(const cli::ImageSequence& kitti, VisualOdometryOptions options) {
-  options.filter = DynamicFilter::kFull;
-  return RunWindow(kitti, "", options, /*detector=*/true, /*depth=*/false);
+// Beyond the paper on the same window, the configuration docs/visual-odometry.md recommends:
+// the proven-static filter without eq 17's Hamming half, the monocular motion prior and a local
+// bundle adjustment (applied before the next frame, so the run is deterministic). Seed 1
+// measured: the paper's full method 4.19-5.08 m; the recommended one 0.855 m, plain ORB with the
+// same additions 0.775 m (5 seeds: 0.81 against 0.83).
+testing::RunSummary RunKitti(const cli::ImageSequence& kitti, DynamicFilter filter,
+                             VisualOdometryOptions options) {
+  options.filter = filter;
+  return RunWindow(kitti, "", options, /*detector=*/filter != DynamicFilter::kNone,
+                   /*depth=*/false);
 }
 
-TEST(RealSequenceTest, KittiMotionPriorAndBundleAdjustmentKeepTheParkedCarsWindowOnTrack) {
+TEST(RealSequenceTest, KittiProvenFilterKeepsTheParkedCarsAndMatchesPlain) {
   const std::optional<cli::ImageSequence> kitti = testing::KittiSequence();
   if (!kitti) GTEST_SKIP() << "../shared/data/vslam not present";
   if (testing::SharedYolo() == nullptr) GTEST_SKIP() << "../shared/models not present";
-  const testing::RunSummary paper = RunKitti(*kitti, {});
-  VisualOdometryOptions better;
-  better.prior_direction_deg = 30;
-  better.bundle_window = 5;
-  better.bundle_wait = true;
-  const testing::RunSummary improved = RunKitti(*kitti, better);
-  const testing::RunSummary again = RunKitti(*kitti, better);
-  std::printf("kitti full method: paper %.3f m, motion prior + bundle adjustment %.3f m (Sim3)\n",
-              paper.ate_rmse, improved.ate_rmse);
-  EXPECT_EQ(improved.frames, 51);
-  EXPECT_LT(improved.ate_rmse, 2.0);  // measured 1.20 m (seed 1)
-  EXPECT_LT(improved.ate_rmse, 0.5 * paper.ate_rmse);
-  EXPECT_EQ(again.ate_rmse, improved.ate_rmse);  // bundle_wait: the same answers every run
+  const testing::RunSummary paper = RunKitti(*kitti, DynamicFilter::kFull, {});
+  VisualOdometryOptions best;
+  best.static_hamming_fraction = 1.0;
+  best.proven_static_frames = 2;
+  best.prior_direction_deg = 30;
+  best.bundle_window = 10;
+  best.bundle_wait = true;
+  const testing::RunSummary proven = RunKitti(*kitti, DynamicFilter::kProven, best);
+  const testing::RunSummary again = RunKitti(*kitti, DynamicFilter::kProven, best);
+  const testing::RunSummary plain = RunKitti(*kitti, DynamicFilter::kNone, best);
+  std::printf("kitti: paper's full method %.3f m; proven + prior + bundle adjustment %.3f m; "
+              "plain with the same %.3f m (Sim3)\n",
+              paper.ate_rmse, proven.ate_rmse, plain.ate_rmse);
+  EXPECT_EQ(proven.frames, 51);
+  EXPECT_LT(proven.ate_rmse, 1.5);  // the target for the dynamic filter
+  EXPECT_LT(proven.ate_rmse, 0.5 * paper.ate_rmse);
+  EXPECT_LT(proven.ate_rmse, 1.25 * plain.ate_rmse);  // no real loss where the cars are parked
+  EXPECT_EQ(again.ate_rmse, proven.ate_rmse);  // bundle_wait: the same answers every run
 }
 
 }  // namespace
