@@ -17,25 +17,24 @@
 #include <stdlib.h>
 #include <time.h>
 
+#include <CLI/CLI.hpp>
 #include <algorithm>
 #include <chrono>
 #include <cstdio>
 #include <filesystem>
 #include <fstream>
 #include <iterator>
+#include <opencv2/core.hpp>
+#include <opencv2/imgcodecs.hpp>
 #include <string>
 #include <thread>
 #include <vector>
 
-#include <CLI/CLI.hpp>
-#include <opencv2/core.hpp>
-#include <opencv2/imgcodecs.hpp>
-
 #include "absl/strings/str_split.h"
+#include "bench/bench_timing.h"
 #include "client/datasets/image_sequence.h"
 #include "client/eval/trajectory_metrics.h"
-#include "bench/bench_timing.h"
-#include "server/visual_slam/detector_factory.h"
+#include "server/visual_slam/detectors/detector_factory.h"
 #include "server/visual_slam/visual_odometry.h"
 
 namespace waymark::bench {
@@ -53,16 +52,25 @@ struct Config {
 bool ParseConfig(const std::string& text, Config& out) {
   std::vector<std::string> parts = absl::StrSplit(text, ':');
   out.name = text;
-  if (parts[0] == "none") out.filter = vs::DynamicFilter::kNone;
-  else if (parts[0] == "boxes") out.filter = vs::DynamicFilter::kBoxesOnly;
-  else if (parts[0] == "full") out.filter = vs::DynamicFilter::kFull;
-  else if (parts[0] == "proven") out.filter = vs::DynamicFilter::kProven;
-  else return false;
+  if (parts[0] == "none")
+    out.filter = vs::DynamicFilter::kNone;
+  else if (parts[0] == "boxes")
+    out.filter = vs::DynamicFilter::kBoxesOnly;
+  else if (parts[0] == "full")
+    out.filter = vs::DynamicFilter::kFull;
+  else if (parts[0] == "proven")
+    out.filter = vs::DynamicFilter::kProven;
+  else
+    return false;
   const std::string detector = parts.size() > 1 ? parts[1] : "none";
-  if (detector == "none") out.detector = vs::DetectorChoice::kNone;
-  else if (detector == "yolo") out.detector = vs::DetectorChoice::kYolo;
-  else if (detector == "hog") out.detector = vs::DetectorChoice::kHog;
-  else return false;
+  if (detector == "none")
+    out.detector = vs::DetectorChoice::kNone;
+  else if (detector == "yolo")
+    out.detector = vs::DetectorChoice::kYolo;
+  else if (detector == "hog")
+    out.detector = vs::DetectorChoice::kHog;
+  else
+    return false;
   return parts.size() <= 2;
 }
 
@@ -107,8 +115,10 @@ int Run(int argc, char** argv) {
                  "proven filter: frames in a row a boxed feature must be static")
       ->capture_default_str();
   int seeds = 1;
-  app.add_option("--seeds", seeds, "runs per config with sampler seeds 1..N; ATE/RPE/lost are "
-                 "the median over runs, ATE's min-max is printed")->capture_default_str();
+  app.add_option("--seeds", seeds,
+                 "runs per config with sampler seeds 1..N; ATE/RPE/lost are "
+                 "the median over runs, ATE's min-max is printed")
+      ->capture_default_str();
   int yolo_input = 0;
   app.add_option("--yolo-input", yolo_input,
                  "YOLO network input side in pixels, a multiple of 32 (0 = the cfg's, 320)");
@@ -127,8 +137,9 @@ int Run(int argc, char** argv) {
       std::fprintf(stderr, "cannot write %s\n", per_frame_path.c_str());
       return 1;
     }
-    std::fprintf(per_frame, "config,seed,frame,state,total,boxed,matched,dynamic,tracked,mapped,"
-                            "proven,boxes,bundle_ms,tx,ty,tz,r00,r01,r02,r10,r11,r12,r20,r21,r22\n");
+    std::fprintf(per_frame,
+                 "config,seed,frame,state,total,boxed,matched,dynamic,tracked,mapped,"
+                 "proven,boxes,bundle_ms,tx,ty,tz,r00,r01,r02,r10,r11,r12,r20,r21,r22\n");
   }
   if (threads >= 0) cv::setNumThreads(threads);
 
@@ -232,14 +243,15 @@ int Run(int argc, char** argv) {
         if (per_frame != nullptr) {
           const vs::FeatureCounts& c = r->counts;
           const vs::Pose& p = r->pose;
-          std::fprintf(per_frame,
-                       "%s,%d,%d,%d,%d,%d,%d,%d,%d,%d,%d,%zu,%.2f,%.6f,%.6f,%.6f,%.9f,%.9f,%.9f,%.9f,"
-                       "%.9f,%.9f,%.9f,%.9f,%.9f\n",
-                       text.c_str(), seed, frame_index, static_cast<int>(r->state), c.total,
-                       c.potentially_dynamic, c.matched, c.dynamic, c.tracked, c.mapped, c.proven,
-                       r->boxes.size(), r->timings.bundle_ms, p.t.x(), p.t.y(), p.t.z(), p.R(0, 0),
-                       p.R(0, 1), p.R(0, 2), p.R(1, 0), p.R(1, 1), p.R(1, 2), p.R(2, 0), p.R(2, 1),
-                       p.R(2, 2));
+          std::fprintf(
+              per_frame,
+              "%s,%d,%d,%d,%d,%d,%d,%d,%d,%d,%d,%zu,%.2f,%.6f,%.6f,%.6f,%.9f,%.9f,%.9f,%.9f,"
+              "%.9f,%.9f,%.9f,%.9f,%.9f\n",
+              text.c_str(), seed, frame_index, static_cast<int>(r->state), c.total,
+              c.potentially_dynamic, c.matched, c.dynamic, c.tracked, c.mapped, c.proven,
+              r->boxes.size(), r->timings.bundle_ms, p.t.x(), p.t.y(), p.t.z(), p.R(0, 0),
+              p.R(0, 1), p.R(0, 2), p.R(1, 0), p.R(1, 1), p.R(1, 2), p.R(2, 0), p.R(2, 1),
+              p.R(2, 2));
         }
         ++frames_run;
         lost += r->state == vs::TrackingState::kLost;
@@ -280,19 +292,21 @@ int Run(int argc, char** argv) {
     const double rpe_t = rpes_t.empty() ? -1 : Percentile(rpes_t, 0.5);
     const double rpe_r = rpes_r.empty() ? -1 : Percentile(rpes_r, 0.5);
     const int lost = static_cast<int>(Percentile(losts, 0.5));
-    std::printf("%-12s %8.4f %8.4f %8.3f %5d | %17.1f %6.1f %6.1f %6.1f %6.1f %6.1f %6.1f | %9.1f %5.1f\n",
-                text.c_str(), ate, rpe_t, rpe_r, lost, Percentile(orb, 0.5), Percentile(det, 0.5),
-                Percentile(match, 0.5), Percentile(sample, 0.5), Percentile(pose, 0.5),
-                Percentile(map, 0.5), Percentile(total, 0.5), Percentile(total, 0.9),
-                cpu_per_frame);
-    std::printf("%-12s checkpoint state at the end: %.0f KB; the session added %.1f MB resident "
-                "(detector included; median over runs)\n",
-                "", Percentile(state_bytes, 0.5) / 1024, Percentile(session_mb, 0.5));
+    std::printf(
+        "%-12s %8.4f %8.4f %8.3f %5d | %17.1f %6.1f %6.1f %6.1f %6.1f %6.1f %6.1f | %9.1f %5.1f\n",
+        text.c_str(), ate, rpe_t, rpe_r, lost, Percentile(orb, 0.5), Percentile(det, 0.5),
+        Percentile(match, 0.5), Percentile(sample, 0.5), Percentile(pose, 0.5),
+        Percentile(map, 0.5), Percentile(total, 0.5), Percentile(total, 0.9), cpu_per_frame);
+    std::printf(
+        "%-12s checkpoint state at the end: %.0f KB; the session added %.1f MB resident "
+        "(detector included; median over runs)\n",
+        "", Percentile(state_bytes, 0.5) / 1024, Percentile(session_mb, 0.5));
     if (!bundle.empty()) {
-      std::printf("%-12s bundle adjustments: %zu, ms each median %.1f p90 %.1f (background); "
-                  "frames waited median %.1f p90 %.1f ms\n",
-                  "", bundle.size(), Percentile(bundle, 0.5), Percentile(bundle, 0.9),
-                  Percentile(bundle_wait, 0.5), Percentile(bundle_wait, 0.9));
+      std::printf(
+          "%-12s bundle adjustments: %zu, ms each median %.1f p90 %.1f (background); "
+          "frames waited median %.1f p90 %.1f ms\n",
+          "", bundle.size(), Percentile(bundle, 0.5), Percentile(bundle, 0.9),
+          Percentile(bundle_wait, 0.5), Percentile(bundle_wait, 0.9));
     }
     if (ates.size() > 1) {
       std::printf("%-12s ATE over %zu seeds: min %.4f max %.4f\n", "", ates.size(),

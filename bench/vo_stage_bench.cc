@@ -15,6 +15,7 @@
 #include <stdlib.h>
 #include <time.h>
 
+#include <CLI/CLI.hpp>
 #include <algorithm>
 #include <chrono>
 #include <cstdio>
@@ -22,16 +23,14 @@
 #include <fstream>
 #include <iterator>
 #include <memory>
+#include <opencv2/core.hpp>
+#include <opencv2/imgcodecs.hpp>
 #include <string>
 #include <thread>
 #include <vector>
 
-#include <CLI/CLI.hpp>
-#include <opencv2/core.hpp>
-#include <opencv2/imgcodecs.hpp>
-
 #include "bench/bench_timing.h"
-#include "server/visual_slam/detector_factory.h"
+#include "server/visual_slam/detectors/detector_factory.h"
 
 namespace waymark::bench {
 namespace {

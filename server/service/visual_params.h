@@ -10,7 +10,7 @@
 
 #include "absl/status/status.h"
 #include "absl/status/statusor.h"
-#include "server/visual_slam/detector_factory.h"
+#include "server/visual_slam/detectors/detector_factory.h"
 #include "server/visual_slam/options.h"
 #include "server/visual_slam/types.h"
 #include "waymark/v1/slam.pb.h"
@@ -48,8 +48,8 @@ v1::BoundingBox ToProtoBox(const visual_slam::Box& box);
 
 // Fills pose3d and visual (state, keyframe, counts, timings, boxes; the features when
 // `want_features`) of `update`. decode_ms and queue_ms come from the service.
-void FillVisualUpdate(const visual_slam::FrameResult& result, bool want_features,
-                      double decode_ms, double queue_ms, v1::SlamUpdate* update);
+void FillVisualUpdate(const visual_slam::FrameResult& result, bool want_features, double decode_ms,
+                      double queue_ms, v1::SlamUpdate* update);
 
 }  // namespace waymark::service
 

@@ -5,7 +5,7 @@
 #include "absl/strings/match.h"
 #include "absl/strings/str_cat.h"
 #include "server/service/visual_frame_decoder.h"
-#include "server/visual_slam/detector_factory.h"
+#include "server/visual_slam/detectors/detector_factory.h"
 
 namespace waymark::service {
 
@@ -37,8 +37,7 @@ storage::TrajectoryPoseRecord ToRecord(int64_t seq, const vs::TimedPose& pose) {
 }  // namespace
 
 absl::Status NoSegmentMapError() {
-  return absl::FailedPreconditionError(
-      "visual sessions have no segment map; use GetTrajectory");
+  return absl::FailedPreconditionError("visual sessions have no segment map; use GetTrajectory");
 }
 
 VisualSessionEngine::VisualSessionEngine(v1::VisualSlamConfig config, VisualSessionOptions options,
@@ -49,7 +48,8 @@ absl::StatusOr<std::unique_ptr<VisualSessionEngine>> VisualSessionEngine::Create
     const v1::VisualSlamConfig& config) {
   absl::StatusOr<VisualSessionOptions> options = ToVisualSessionOptions(config);
   if (!options.ok()) return options.status();
-  absl::StatusOr<std::unique_ptr<vs::ObjectDetector>> detector = vs::MakeDetector(options->detector);
+  absl::StatusOr<std::unique_ptr<vs::ObjectDetector>> detector =
+      vs::MakeDetector(options->detector);
   if (!detector.ok()) {
     return absl::Status(detector.status().code(),
                         absl::StrCat("detector: ", detector.status().message()));
@@ -66,8 +66,8 @@ absl::StatusOr<std::unique_ptr<VisualSessionEngine>> VisualSessionEngine::Resume
     std::vector<storage::TrajectoryPoseRecord> stored) {
   const bool with_map = absl::StartsWith(state, kStateV2);
   if (state != kStateV1 && !with_map) {
-    return absl::DataLossError(absl::StrCat(
-        "the visual checkpoint (", state.size(), " bytes) is not one this build reads"));
+    return absl::DataLossError(absl::StrCat("the visual checkpoint (", state.size(),
+                                            " bytes) is not one this build reads"));
   }
   for (const storage::TrajectoryPoseRecord& pose : stored) {
     if (!pose.pose3.has_value()) {
@@ -152,7 +152,8 @@ void VisualSessionEngine::AppendTrajectory(v1::Trajectory* out) const {
   const int64_t first = static_cast<int64_t>(resumed_.size());
   const std::vector<vs::TimedPose>& poses = odometry_->trajectory();
   for (size_t i = 0; i < poses.size(); ++i) {
-    *out->add_poses() = TrajectoryPoseFromRecord(ToRecord(first + static_cast<int64_t>(i), poses[i]));
+    *out->add_poses() =
+        TrajectoryPoseFromRecord(ToRecord(first + static_cast<int64_t>(i), poses[i]));
   }
 }
 

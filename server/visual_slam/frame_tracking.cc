@@ -5,12 +5,12 @@
 
 #include "absl/strings/str_cat.h"
 #include "server/common/stopwatch.h"
-#include "server/visual_slam/essential_solver.h"
-#include "server/visual_slam/pnp_solver.h"
-#include "server/visual_slam/pose_algebra.h"
-#include "server/visual_slam/sequential_sampler.h"
-#include "server/visual_slam/static_test.h"
-#include "server/visual_slam/two_view.h"
+#include "server/visual_slam/geometry/essential_solver.h"
+#include "server/visual_slam/geometry/pnp_solver.h"
+#include "server/visual_slam/geometry/pose_algebra.h"
+#include "server/visual_slam/geometry/sequential_sampler.h"
+#include "server/visual_slam/geometry/static_test.h"
+#include "server/visual_slam/geometry/two_view.h"
 
 namespace waymark::visual_slam {
 namespace {
@@ -30,9 +30,12 @@ bool Samplable(const TrackingInputs& in, const VisualOdometryOptions& options,
                const DescriptorMatch& match) {
   if (options.filter == DynamicFilter::kNone) return true;
   switch (RoleOf(in, match)) {
-    case ReferenceRole::kProven: return true;
-    case ReferenceRole::kCandidate: return false;
-    case ReferenceRole::kMapped: return OutsideBoxes(in, match);
+    case ReferenceRole::kProven:
+      return true;
+    case ReferenceRole::kCandidate:
+      return false;
+    case ReferenceRole::kMapped:
+      return OutsideBoxes(in, match);
   }
   return false;
 }
@@ -50,8 +53,8 @@ void MatchFrames(const TrackingInputs& in, const VisualOdometryOptions& options,
   const Clock::time_point start = Clock::now();
   out.matches = in.matches != nullptr
                     ? *in.matches
-                    : CoarseMatch(in.current->descriptors, in.reference->descriptors,
-                                  options.delta, options.match_ratio);
+                    : CoarseMatch(in.current->descriptors, in.reference->descriptors, options.delta,
+                                  options.match_ratio);
   out.correspondences.reserve(out.matches.size());
   for (const DescriptorMatch& m : out.matches) {
     Correspondence c;
@@ -78,23 +81,22 @@ std::vector<int> SamplablePairs(const MotionSolver& solver, const TrackingInputs
 
 // Runs the sampler over the pairs allowed to shape the model; returns the chosen hypothesis.
 std::optional<Hypothesis> SampleMotion(const MotionSolver& solver, const TrackingInputs& in,
-                                       const VisualOdometryOptions& options,
-                                       TrackingOutcome& out) {
+                                       const VisualOdometryOptions& options, TrackingOutcome& out) {
   const Clock::time_point start = Clock::now();
   const std::vector<int> candidates = SamplablePairs(solver, in, options, out);
   std::vector<double> eta;
   for (int k : candidates) {
     // Prior inlier probability from the descriptor distance: a close match is likelier right.
-    eta.push_back(std::clamp(1.0 - out.matches[k].distance / static_cast<double>(options.delta),
-                             0.05, 1.0));
+    eta.push_back(
+        std::clamp(1.0 - out.matches[k].distance / static_cast<double>(options.delta), 0.05, 1.0));
   }
   SamplerOptions sampler = options.sampler;
   // No velocity yet (the first motion, or after a reset) predicts no motion at all: exactly zero.
   if (!in.predicted || in.predicted->t.norm() == 0) {
     sampler.hypotheses_per_round *= sampler.unpredicted_factor;
   }
-  SamplerResult result = SequentialSample(solver, candidates, eta, in.predicted,
-                                          options.inlier_threshold_px, sampler);
+  SamplerResult result =
+      SequentialSample(solver, candidates, eta, in.predicted, options.inlier_threshold_px, sampler);
   out.hypotheses = result.hypotheses;
   out.sampling_ms = MsSince(start);
   if (result.chosen < 0) {
@@ -244,10 +246,9 @@ TrackingOutcome TrackMonocular(const TrackingInputs& in, const VisualOdometryOpt
   };
   absl::StatusOr<Motion> refit = EssentialFromInliers(out.correspondences, fit_set);
   // With the motion prior on, a refit may not take the motion far from the prediction.
-  const bool refit_allowed =
-      refit.ok() && (options.prior_direction_deg <= 0 || !in.predicted ||
-                     !FarFromPrediction(*refit, *in.predicted, options) ||
-                     FarFromPrediction(out.motion, *in.predicted, options));
+  const bool refit_allowed = refit.ok() && (options.prior_direction_deg <= 0 || !in.predicted ||
+                                            !FarFromPrediction(*refit, *in.predicted, options) ||
+                                            FarFromPrediction(out.motion, *in.predicted, options));
   if (refit_allowed && cost(*refit) < cost(out.motion)) out.motion = *refit;
   out.pose_ms = MsSince(start);
   out.ok = true;

@@ -13,8 +13,8 @@
 #include <vector>
 
 #include "server/visual_slam/coarse_matching.h"
-#include "server/visual_slam/correspondence.h"
 #include "server/visual_slam/frame_features.h"
+#include "server/visual_slam/geometry/correspondence.h"
 #include "server/visual_slam/options.h"
 #include "server/visual_slam/types.h"
 
@@ -26,8 +26,8 @@ struct TrackingOutcome {
   Motion motion;        // reference -> current; unit translation when monocular
   std::vector<DescriptorMatch> matches;
   std::vector<Correspondence> correspondences;  // one per match
-  std::vector<bool> tested;     // per match: the static test ran on it
-  std::vector<bool> is_static;  // per match: passed eq 17 (only meaningful when tested)
+  std::vector<bool> tested;                     // per match: the static test ran on it
+  std::vector<bool> is_static;    // per match: passed eq 17 (only meaningful when tested)
   std::vector<int> tracking_set;  // matches the final pose was computed from
   int hypotheses = 0;
   double matching_ms = 0, sampling_ms = 0, pose_ms = 0;
@@ -44,7 +44,7 @@ enum class ReferenceRole : uint8_t {
 struct TrackingInputs {
   const FrameFeatures* reference = nullptr;
   const FrameFeatures* current = nullptr;
-  const std::vector<bool>* current_in_box = nullptr;  // eq 7, per current feature
+  const std::vector<bool>* current_in_box = nullptr;            // eq 7, per current feature
   const std::vector<ReferenceRole>* reference_roles = nullptr;  // null = every one kMapped
   // The coarse matches of current to reference when already computed (the pipeline matches the
   // newest keyframe while the detector runs); null = match here.

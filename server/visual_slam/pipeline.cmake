@@ -6,7 +6,5 @@ target_sources(waymark_visual_slam PRIVATE
   frame_validation.cc
   coarse_matching.cc
   frame_tracking.cc
-  bundle_adjustment.cc
-  local_map.cc
   visual_odometry.cc
 )

@@ -4,21 +4,20 @@
 #include <cmath>
 #include <deque>
 #include <future>
-#include <utility>
-
 #include <opencv2/imgproc.hpp>
+#include <utility>
 
 #include "absl/strings/str_cat.h"
 #include "server/common/binary_io.h"
 #include "server/common/stopwatch.h"
-#include "server/visual_slam/box_split.h"
 #include "server/visual_slam/frame_features.h"
 #include "server/visual_slam/frame_tracking.h"
 #include "server/visual_slam/frame_validation.h"
-#include "server/visual_slam/local_map.h"
-#include "server/visual_slam/pose_algebra.h"
+#include "server/visual_slam/geometry/box_split.h"
+#include "server/visual_slam/geometry/pose_algebra.h"
+#include "server/visual_slam/geometry/two_view.h"
+#include "server/visual_slam/mapping/local_map.h"
 #include "server/visual_slam/pose_io.h"
-#include "server/visual_slam/two_view.h"
 
 namespace waymark::visual_slam {
 
@@ -67,7 +66,7 @@ struct VisualOdometry::State {
   // adjustment may still move), the job running in the background, and every frame's anchor.
   std::optional<LocalMap> local_map;
   std::future<BundleOutcome> bundle;
-  std::vector<Anchor> anchors;  // parallel to the trajectory
+  std::vector<Anchor> anchors;     // parallel to the trajectory
   std::optional<bool> with_depth;  // fixed by the first frame
   std::optional<double> last_stamp;
   std::deque<Reference> keyframes;  // newest first (RGB-D local map); monocular: one entry
@@ -142,8 +141,7 @@ absl::StatusOr<std::unique_ptr<VisualOdometry>> VisualOdometry::Create(
     std::unique_ptr<ObjectDetector> detector) {
   if (absl::Status status = options.Validate(); !status.ok()) return status;
   if (absl::Status status = ValidateCamera(camera); !status.ok()) return status;
-  return std::unique_ptr<VisualOdometry>(
-      new VisualOdometry(options, camera, std::move(detector)));
+  return std::unique_ptr<VisualOdometry>(new VisualOdometry(options, camera, std::move(detector)));
 }
 
 void VisualOdometry::ResetAt(const TimedPose& pose) {
@@ -176,9 +174,8 @@ absl::StatusOr<FrameResult> VisualOdometry::ProcessFrame(const FrameInput& frame
   std::future<absl::StatusOr<std::vector<Box>>> detection;
   Clock::time_point detector_start = Clock::now();
   if (!frame.boxes && detector_ != nullptr) {
-    detection = std::async(std::launch::async, [this, &frame] {
-      return detector_->Detect(frame.image);
-    });
+    detection =
+        std::async(std::launch::async, [this, &frame] { return detector_->Detect(frame.image); });
   }
 
   Clock::time_point stage = Clock::now();
@@ -201,9 +198,8 @@ absl::StatusOr<FrameResult> VisualOdometry::ProcessFrame(const FrameInput& frame
     absl::StatusOr<std::vector<Box>> boxes = detection.get();
     result.timings.detector_ms = MsSince(detector_start);
     if (!boxes.ok()) {
-      return absl::Status(boxes.status().code(),
-                          absl::StrCat("detector ", detector_->name(), ": ",
-                                       boxes.status().message()));
+      return absl::Status(boxes.status().code(), absl::StrCat("detector ", detector_->name(), ": ",
+                                                              boxes.status().message()));
     }
     result.boxes = *std::move(boxes);
   }
@@ -404,8 +400,8 @@ absl::StatusOr<FrameResult> VisualOdometry::ProcessFrame(const FrameInput& frame
       // references are every tracked frame: one in kMonoArchiveSpacing is kept, so that the
       // archive spans a longer stretch of the path.
       const Reference& leaving = s.keyframes.back();
-      const bool spaced = rgbd || s.archive.empty() ||
-                          leaving.id >= s.archive.front().id + kMonoArchiveSpacing;
+      const bool spaced =
+          rgbd || s.archive.empty() || leaving.id >= s.archive.front().id + kMonoArchiveSpacing;
       if (options_.relocalization_keyframes > 0 && spaced &&
           leaving.features.size() >= options_.min_tracked) {
         s.archive.push_front(std::move(s.keyframes.back()));
@@ -452,15 +448,15 @@ void VisualOdometry::StartBundle() {
   if (!s.local_map || s.bundle.valid()) return;  // one adjustment at a time
   std::optional<BundleJob> job = s.local_map->MakeJob();
   if (!job) return;
-  s.bundle = std::async(std::launch::async, [job = *std::move(job),
-                                             bundle = s.local_map->bundle_options()]() mutable {
-    const Clock::time_point start = Clock::now();
-    BundleOutcome outcome;
-    outcome.result = BundleAdjust(job.problem, bundle);
-    outcome.job = std::move(job);
-    outcome.ms = MsSince(start);
-    return outcome;
-  });
+  s.bundle = std::async(std::launch::async,
+                        [job = *std::move(job), bundle = s.local_map->bundle_options()]() mutable {
+                          const Clock::time_point start = Clock::now();
+                          BundleOutcome outcome;
+                          outcome.result = BundleAdjust(job.problem, bundle);
+                          outcome.job = std::move(job);
+                          outcome.ms = MsSince(start);
+                          return outcome;
+                        });
 }
 
 void VisualOdometry::ApplyBundle(bool wait, StageTimings* timings) {
@@ -675,7 +671,8 @@ std::string VisualOdometry::SerializeState() {
 
 absl::Status VisualOdometry::RestoreState(const std::string& bytes) {
   const auto lost = [] {
-    return absl::DataLossError("not a visual odometry state this build reads (truncated or corrupt)");
+    return absl::DataLossError(
+        "not a visual odometry state this build reads (truncated or corrupt)");
   };
   BinaryReader in(bytes);
   uint32_t magic = 0, version = 0;

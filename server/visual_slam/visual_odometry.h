@@ -19,7 +19,7 @@
 #include <vector>
 
 #include "absl/status/statusor.h"
-#include "server/visual_slam/object_detector.h"
+#include "server/visual_slam/detectors/object_detector.h"
 #include "server/visual_slam/options.h"
 #include "server/visual_slam/types.h"
 

@@ -1,9 +1,9 @@
-#include "server/visual_slam/box_split.h"
+#include "server/visual_slam/geometry/box_split.h"
+
+#include <gtest/gtest.h>
 
 #include <cmath>
 #include <vector>
-
-#include <gtest/gtest.h>
 
 namespace waymark::visual_slam {
 namespace {
@@ -17,13 +17,13 @@ Box MakeBox(float x, float y, float w, float h) {
 TEST(InsideAnyBox, InsideEdgeAndOutsideOfOneBox) {
   const std::vector<Box> boxes = {MakeBox(10, 20, 30, 40)};  // x in [10, 40], y in [20, 60]
   const std::vector<cv::Point2f> pixels = {
-      {25, 40},    // inside
-      {10, 20},    // top-left corner
-      {40, 60},    // bottom-right corner
-      {40, 35},    // right edge
-      {9.9f, 40},  // just left
-      {25, 60.1f}, // just below
-      {100, 100},  // far outside
+      {25, 40},     // inside
+      {10, 20},     // top-left corner
+      {40, 60},     // bottom-right corner
+      {40, 35},     // right edge
+      {9.9f, 40},   // just left
+      {25, 60.1f},  // just below
+      {100, 100},   // far outside
   };
   EXPECT_EQ(InsideAnyBox(pixels, boxes),
             (std::vector<bool>{true, true, true, true, false, false, false}));

@@ -3,11 +3,11 @@
 // (poses and points); the adjustment must bring it back, keep the fixed cameras exactly where they
 // are (the gauge), resist gross outliers (Huber) and name them.
 
-#include "server/visual_slam/bundle_adjustment.h"
-
-#include <random>
+#include "server/visual_slam/mapping/bundle_adjustment.h"
 
 #include <gtest/gtest.h>
+
+#include <random>
 
 #include "tests/visual_slam/synthetic_two_view.h"
 
@@ -65,10 +65,9 @@ void Perturb(BundleProblem& problem, uint32_t seed) {
   for (BundleCamera& camera : problem.cameras) {
     if (camera.fixed) continue;
     camera.pose.t += Eigen::Vector3d(position(rng), position(rng), position(rng));
-    camera.pose.R = camera.pose.R *
-                    (Eigen::AngleAxisd(angle(rng), Eigen::Vector3d::UnitX()) *
-                     Eigen::AngleAxisd(angle(rng), Eigen::Vector3d::UnitY()))
-                        .toRotationMatrix();
+    camera.pose.R = camera.pose.R * (Eigen::AngleAxisd(angle(rng), Eigen::Vector3d::UnitX()) *
+                                     Eigen::AngleAxisd(angle(rng), Eigen::Vector3d::UnitY()))
+                                        .toRotationMatrix();
   }
   for (Eigen::Vector3d& point : problem.points) {
     point += Eigen::Vector3d(position(rng), position(rng), 3 * position(rng));

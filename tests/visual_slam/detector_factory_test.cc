@@ -1,14 +1,14 @@
 // MakeDetector builds what the session chose, or nothing, or the chosen detector's error.
 
-#include "server/visual_slam/detector_factory.h"
+#include "server/visual_slam/detectors/detector_factory.h"
+
+#include <gmock/gmock.h>
+#include <gtest/gtest.h>
 
 #include <filesystem>
 #include <fstream>
 #include <iterator>
 #include <string>
-
-#include <gmock/gmock.h>
-#include <gtest/gtest.h>
 
 namespace waymark::visual_slam {
 namespace {

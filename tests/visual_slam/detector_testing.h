@@ -4,16 +4,16 @@
 // Helpers the detector tests share: skipping without ../shared, and unwrapping a factory's or
 // Detect()'s StatusOr into a test failure instead of a crash.
 
+#include <gtest/gtest.h>
+
 #include <filesystem>
 #include <memory>
+#include <opencv2/core.hpp>
 #include <utility>
 #include <vector>
 
-#include <gtest/gtest.h>
-#include <opencv2/core.hpp>
-
 #include "absl/status/statusor.h"
-#include "server/visual_slam/object_detector.h"
+#include "server/visual_slam/detectors/object_detector.h"
 #include "server/visual_slam/types.h"
 
 // Ends the test as skipped when `path` (under ../shared) is absent.

@@ -1,19 +1,19 @@
-#include "server/visual_slam/essential_solver.h"
+#include "server/visual_slam/geometry/essential_solver.h"
+
+#include <gtest/gtest.h>
 
 #include <limits>
 #include <numeric>
 #include <vector>
 
-#include <gtest/gtest.h>
-
-#include "server/visual_slam/two_view.h"
+#include "server/visual_slam/geometry/two_view.h"
 #include "tests/visual_slam/synthetic_two_view.h"
 
 namespace waymark::visual_slam {
 namespace {
 
-using testing::kFocal;
 using testing::AllIndices;
+using testing::kFocal;
 using testing::MakeMotion;
 using testing::Scene;
 using testing::SceneMaker;

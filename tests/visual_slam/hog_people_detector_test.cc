@@ -1,18 +1,18 @@
 // HogPeopleDetector on real frames against boxes judged by eye (frame pixels), the downscaling of
 // wide frames, and bad options.
 
-#include "server/visual_slam/hog_people_detector.h"
+#include "server/visual_slam/detectors/hog_people_detector.h"
+
+#include <gmock/gmock.h>
+#include <gtest/gtest.h>
 
 #include <algorithm>
 #include <cmath>
 #include <filesystem>
-#include <string>
-#include <vector>
-
-#include <gmock/gmock.h>
-#include <gtest/gtest.h>
 #include <opencv2/imgcodecs.hpp>
 #include <opencv2/imgproc.hpp>
+#include <string>
+#include <vector>
 
 #include "tests/visual_slam/detector_testing.h"
 

@@ -1,9 +1,9 @@
-#include "server/visual_slam/pnp_solver.h"
+#include "server/visual_slam/geometry/pnp_solver.h"
+
+#include <gtest/gtest.h>
 
 #include <limits>
 #include <vector>
-
-#include <gtest/gtest.h>
 
 #include "tests/visual_slam/synthetic_two_view.h"
 
@@ -42,8 +42,8 @@ TEST(PnpSolver, ErrorIsReprojectionDistanceInPixels) {
   c[0].current = Eigen::Vector2d(0, 0);
   c[1].reference_point = Eigen::Vector3d(0.2, 0, 2);
   c[1].current = Eigen::Vector2d(0.1 + 3 / kFocal, 4 / kFocal);  // 5 px off
-  c[2].reference_point = Eigen::Vector3d(0, 0, 2);                 // behind after the motion
-  c[3].current = Eigen::Vector2d(0, 0);                              // no depth
+  c[2].reference_point = Eigen::Vector3d(0, 0, 2);               // behind after the motion
+  c[3].current = Eigen::Vector2d(0, 0);                          // no depth
   PnpSolver solver(c, kFocal);
   const Motion identity;
   EXPECT_NEAR(solver.ErrorPx(identity, 0), 0, 1e-12);

@@ -1,16 +1,16 @@
 #include "tests/visual_slam/sequence_fixture.h"
 
+#include <gtest/gtest.h>
+
 #include <cstdio>
 #include <cstdlib>
 #include <filesystem>
-
-#include <gtest/gtest.h>
 #include <opencv2/imgcodecs.hpp>
 #include <opencv2/imgproc.hpp>
 
 #include "client/common/read_file.h"
 #include "client/eval/trajectory_metrics.h"
-#include "server/visual_slam/detector_factory.h"
+#include "server/visual_slam/detectors/detector_factory.h"
 
 namespace waymark::visual_slam::testing {
 namespace {
@@ -113,12 +113,13 @@ RunSummary RunAndEvaluate(VisualOdometry& odometry, const cli::ImageSequence& se
     summary.potentially_dynamic += result->counts.potentially_dynamic;
     if (debug) {
       const FeatureCounts& c = result->counts;
-      std::printf("%3zu %s kf=%d total=%d pdyn=%d matched=%d dyn=%d tracked=%d mapped=%d "
-                  "t=(%.3f %.3f %.3f) rot=%.2f ms=%.1f\n",
-                  i, TrackingStateName(result->state), result->keyframe, c.total,
-                  c.potentially_dynamic, c.matched, c.dynamic, c.tracked, c.mapped,
-                  result->pose.t.x(), result->pose.t.y(), result->pose.t.z(),
-                  Eigen::AngleAxisd(result->pose.R).angle() * 57.2958, result->timings.total_ms);
+      std::printf(
+          "%3zu %s kf=%d total=%d pdyn=%d matched=%d dyn=%d tracked=%d mapped=%d "
+          "t=(%.3f %.3f %.3f) rot=%.2f ms=%.1f\n",
+          i, TrackingStateName(result->state), result->keyframe, c.total, c.potentially_dynamic,
+          c.matched, c.dynamic, c.tracked, c.mapped, result->pose.t.x(), result->pose.t.y(),
+          result->pose.t.z(), Eigen::AngleAxisd(result->pose.R).angle() * 57.2958,
+          result->timings.total_ms);
     }
   }
   absl::StatusOr<std::vector<cli::StampedPose3>> groundtruth =

@@ -10,7 +10,7 @@
 #include <string>
 
 #include "client/datasets/image_sequence.h"
-#include "server/visual_slam/object_detector.h"
+#include "server/visual_slam/detectors/object_detector.h"
 #include "server/visual_slam/types.h"
 #include "server/visual_slam/visual_odometry.h"
 

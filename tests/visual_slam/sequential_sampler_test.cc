@@ -1,29 +1,29 @@
-#include "server/visual_slam/sequential_sampler.h"
+#include "server/visual_slam/geometry/sequential_sampler.h"
+
+#include <gtest/gtest.h>
 
 #include <limits>
 #include <numeric>
 #include <optional>
 #include <vector>
 
-#include <gtest/gtest.h>
-
-#include "server/visual_slam/essential_solver.h"
-#include "server/visual_slam/pnp_solver.h"
+#include "server/visual_slam/geometry/essential_solver.h"
+#include "server/visual_slam/geometry/pnp_solver.h"
 #include "tests/visual_slam/synthetic_two_view.h"
 
 namespace waymark::visual_slam {
 namespace {
 
-using testing::kFocal;
 using testing::AllIndices;
+using testing::kFocal;
 using testing::MakeMotion;
 using testing::Scene;
 using testing::SceneMaker;
 
 struct InlierQuality {
-  int true_found = 0;   // true inliers in the found set
-  int true_total = 0;   // true inliers in the scene
-  int outliers = 0;     // outliers in the found set
+  int true_found = 0;  // true inliers in the found set
+  int true_total = 0;  // true inliers in the scene
+  int outliers = 0;    // outliers in the found set
   int found = 0;
 };
 
@@ -249,8 +249,8 @@ TEST_F(TieBreak, FarSmallerHypothesisNeverWinsOnMotionAlone) {
   const int n = static_cast<int>(c_.size());
   SamplerOptions options;
   options.tie_break_fraction = 0.95;  // B has 90 % of A's support: not enough
-  const SamplerResult r = SequentialSample(solver, AllIndices(n), std::vector<double>(n, 0.5), b_,
-                                           2.0, options);
+  const SamplerResult r =
+      SequentialSample(solver, AllIndices(n), std::vector<double>(n, 0.5), b_, 2.0, options);
   ASSERT_EQ(r.chosen, 0);
   EXPECT_GT(Purity(r.best[0].inliers, 0), 0.95);
 }
@@ -285,15 +285,15 @@ std::vector<int> Range(int from, int to) {
 
 TEST(KeepHypothesis, KeepsThreeDistinctMostInliersFirst) {
   std::vector<Hypothesis> best;
-  EXPECT_TRUE(KeepHypothesis(H(Range(0, 10), 1), &best));    // A: 10
-  EXPECT_TRUE(KeepHypothesis(H(Range(100, 120), 2), &best)); // B: 20 enters at M1, A shifts down
+  EXPECT_TRUE(KeepHypothesis(H(Range(0, 10), 1), &best));     // A: 10
+  EXPECT_TRUE(KeepHypothesis(H(Range(100, 120), 2), &best));  // B: 20 enters at M1, A shifts down
   ASSERT_EQ(best.size(), 2u);
   EXPECT_EQ(best[0].motion.t.x(), 2);
   EXPECT_EQ(best[1].motion.t.x(), 1);
-  EXPECT_FALSE(KeepHypothesis(H(Range(0, 10), 9), &best));  // same inlier set as A: not twice
-  EXPECT_FALSE(KeepHypothesis(H(Range(0, 8), 9), &best));   // A again, fewer inliers
-  EXPECT_TRUE(KeepHypothesis(H(Range(200, 215), 3), &best)); // C: 15, between B and A
-  EXPECT_TRUE(KeepHypothesis(H(Range(300, 330), 4), &best)); // D: 30 enters at M1, A dropped
+  EXPECT_FALSE(KeepHypothesis(H(Range(0, 10), 9), &best));    // same inlier set as A: not twice
+  EXPECT_FALSE(KeepHypothesis(H(Range(0, 8), 9), &best));     // A again, fewer inliers
+  EXPECT_TRUE(KeepHypothesis(H(Range(200, 215), 3), &best));  // C: 15, between B and A
+  EXPECT_TRUE(KeepHypothesis(H(Range(300, 330), 4), &best));  // D: 30 enters at M1, A dropped
   ASSERT_EQ(best.size(), 3u);
   EXPECT_EQ(best[0].motion.t.x(), 4);
   EXPECT_EQ(best[1].motion.t.x(), 2);
@@ -311,9 +311,9 @@ TEST(KeepHypothesis, KeepsThreeDistinctMostInliersFirst) {
 TEST(ReferenceHypothesis, TheKeptHypothesisHoldingMostOfTheSample) {
   const std::vector<Hypothesis> best = {H(Range(0, 20)), H(Range(15, 30)), H(Range(50, 60))};
   EXPECT_EQ(ReferenceHypothesis(best, {1, 2, 3}), 0);
-  EXPECT_EQ(ReferenceHypothesis(best, {25, 2, 27}), 1);    // 2 of 3 in M2
-  EXPECT_EQ(ReferenceHypothesis(best, {16, 17, 18}), 0);   // in M1 and M2: the better-ranked
-  EXPECT_EQ(ReferenceHypothesis(best, {1, 40, 41}), -1);   // no hypothesis holds half of it
+  EXPECT_EQ(ReferenceHypothesis(best, {25, 2, 27}), 1);   // 2 of 3 in M2
+  EXPECT_EQ(ReferenceHypothesis(best, {16, 17, 18}), 0);  // in M1 and M2: the better-ranked
+  EXPECT_EQ(ReferenceHypothesis(best, {1, 40, 41}), -1);  // no hypothesis holds half of it
   EXPECT_EQ(ReferenceHypothesis({}, {1, 2, 3}), -1);
 }
 
@@ -331,8 +331,8 @@ TEST(SequentialSample, TooFewOrNoSamplableCandidates) {
   Scene s = maker.Make(30, 0.0, 0.0, truth);
   EssentialSolver essential(s.c, kFocal);
   ASSERT_EQ(essential.SampleSize(), 5);
-  SamplerResult r = SequentialSample(essential, {0, 1, 2, 3}, {}, std::nullopt, 2.0,
-                                     SamplerOptions());
+  SamplerResult r =
+      SequentialSample(essential, {0, 1, 2, 3}, {}, std::nullopt, 2.0, SamplerOptions());
   EXPECT_EQ(r.chosen, -1);
   EXPECT_TRUE(r.best.empty());
   EXPECT_EQ(r.eta.size(), 4u);

@@ -1,11 +1,11 @@
-#include "server/visual_slam/static_test.h"
+#include "server/visual_slam/geometry/static_test.h"
+
+#include <gtest/gtest.h>
 
 #include <cmath>
 #include <vector>
 
-#include <gtest/gtest.h>
-
-#include "server/visual_slam/two_view.h"
+#include "server/visual_slam/geometry/two_view.h"
 #include "tests/visual_slam/synthetic_two_view.h"
 
 namespace waymark::visual_slam {

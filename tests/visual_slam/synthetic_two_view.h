@@ -6,6 +6,8 @@
 // a known motion, with pixel noise and a fraction of outliers (current positions anywhere in the
 // image).
 
+#include <Eigen/Core>
+#include <Eigen/Geometry>
 #include <algorithm>
 #include <cmath>
 #include <cstdint>
@@ -13,10 +15,7 @@
 #include <random>
 #include <vector>
 
-#include <Eigen/Core>
-#include <Eigen/Geometry>
-
-#include "server/visual_slam/correspondence.h"
+#include "server/visual_slam/geometry/correspondence.h"
 #include "server/visual_slam/types.h"
 
 namespace waymark::visual_slam::testing {
@@ -65,7 +64,7 @@ inline std::vector<int> AllIndices(int n) {
 
 struct Scene {
   std::vector<Correspondence> c;
-  std::vector<bool> inlier;  // true for pairs that follow the motion
+  std::vector<bool> inlier;             // true for pairs that follow the motion
   std::vector<Eigen::Vector3d> points;  // true 3-D point in the reference camera (inliers)
 };
 
@@ -73,7 +72,9 @@ class SceneMaker {
  public:
   explicit SceneMaker(uint32_t seed) : rng_(seed) {}
 
-  double Uniform(double lo, double hi) { return std::uniform_real_distribution<double>(lo, hi)(rng_); }
+  double Uniform(double lo, double hi) {
+    return std::uniform_real_distribution<double>(lo, hi)(rng_);
+  }
   double Gauss(double sigma) { return std::normal_distribution<double>(0, sigma)(rng_); }
 
   // A random point in the reference camera that both cameras see under `motion`.
@@ -104,7 +105,8 @@ class SceneMaker {
   Correspondence Outlier(const Eigen::Vector3d& X) {
     Correspondence c;
     c.reference = Project(X);
-    c.current = Eigen::Vector2d(Uniform(-kHalfWidth, kHalfWidth), Uniform(-kHalfHeight, kHalfHeight));
+    c.current =
+        Eigen::Vector2d(Uniform(-kHalfWidth, kHalfWidth), Uniform(-kHalfHeight, kHalfHeight));
     c.reference_point = X;
     c.hamming = 10;
     return c;

@@ -1,9 +1,9 @@
-#include "server/visual_slam/two_view.h"
+#include "server/visual_slam/geometry/two_view.h"
+
+#include <gtest/gtest.h>
 
 #include <cmath>
 #include <limits>
-
-#include <gtest/gtest.h>
 
 #include "tests/visual_slam/synthetic_two_view.h"
 
@@ -61,7 +61,8 @@ TEST(Triangulate, RejectsParallelRaysAndPointsBehind) {
   const Eigen::Vector3d far(2, 1, 3000);
   EXPECT_FALSE(Triangulate(kTruth, Project(far), Project(kTruth.R * far + kTruth.t)).has_value());
   // ... but accepted with no parallax threshold.
-  EXPECT_TRUE(Triangulate(kTruth, Project(far), Project(kTruth.R * far + kTruth.t), 0.0).has_value());
+  EXPECT_TRUE(
+      Triangulate(kTruth, Project(far), Project(kTruth.R * far + kTruth.t), 0.0).has_value());
   // The mirrored translation puts the point behind the cameras.
   Motion flipped = kTruth;
   flipped.t = -kTruth.t;
@@ -78,14 +79,14 @@ TEST(EpipolarGeometry, SampsonAndLineDistances) {
   const Eigen::Matrix3d E = EssentialOf(sideways);
   EXPECT_TRUE(E.isApprox(Skew(sideways.t)));
   // Horizontal epipolar lines: the line distance is the vertical offset.
-  EXPECT_NEAR(EpipolarLineDistance(E, Eigen::Vector2d(0.1, 0.2), Eigen::Vector2d(-0.3, 0.25)),
-              0.05, 1e-12);
+  EXPECT_NEAR(EpipolarLineDistance(E, Eigen::Vector2d(0.1, 0.2), Eigen::Vector2d(-0.3, 0.25)), 0.05,
+              1e-12);
   EXPECT_NEAR(SampsonDistance(E, Eigen::Vector2d(0.1, 0.2), Eigen::Vector2d(-0.3, 0.2)), 0, 1e-12);
   // Zero E: undefined.
-  EXPECT_TRUE(std::isinf(SampsonDistance(Eigen::Matrix3d::Zero(), Eigen::Vector2d(0, 0),
-                                         Eigen::Vector2d(0, 0))));
-  EXPECT_TRUE(std::isinf(EpipolarLineDistance(Eigen::Matrix3d::Zero(), Eigen::Vector2d(0, 0),
-                                              Eigen::Vector2d(0, 0))));
+  EXPECT_TRUE(std::isinf(
+      SampsonDistance(Eigen::Matrix3d::Zero(), Eigen::Vector2d(0, 0), Eigen::Vector2d(0, 0))));
+  EXPECT_TRUE(std::isinf(
+      EpipolarLineDistance(Eigen::Matrix3d::Zero(), Eigen::Vector2d(0, 0), Eigen::Vector2d(0, 0))));
 }
 
 TEST(PairDepths, DepthsInBothCameras) {

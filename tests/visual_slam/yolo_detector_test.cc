@@ -2,7 +2,10 @@
 // boxes judged by eye on the frames (coordinates below, in the frame's pixels), plus the ONNX
 // path on a hand-encoded network whose output is known exactly, and bad model bytes.
 
-#include "server/visual_slam/yolo_detector.h"
+#include "server/visual_slam/detectors/yolo_detector.h"
+
+#include <gmock/gmock.h>
+#include <gtest/gtest.h>
 
 #include <algorithm>
 #include <cstdint>
@@ -10,18 +13,15 @@
 #include <fstream>
 #include <iterator>
 #include <limits>
+#include <opencv2/imgcodecs.hpp>
+#include <opencv2/imgproc.hpp>
 #include <random>
 #include <set>
 #include <sstream>
 #include <string>
 #include <vector>
 
-#include <gmock/gmock.h>
-#include <gtest/gtest.h>
-#include <opencv2/imgcodecs.hpp>
-#include <opencv2/imgproc.hpp>
-
-#include "server/visual_slam/coco_classes.h"
+#include "server/visual_slam/detectors/coco_classes.h"
 #include "tests/visual_slam/detector_testing.h"
 
 namespace waymark::visual_slam {
