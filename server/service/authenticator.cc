@@ -94,6 +94,13 @@ absl::StatusOr<storage::TokenRecord> Authenticator::Lookup(const std::string& se
   return record;
 }
 
+std::function<absl::Status()> Authenticator::Revalidation(const grpc::ServerContextBase& context) {
+  if (auth_off()) return nullptr;
+  absl::StatusOr<std::string> secret = BearerSecret(context);
+  if (!secret.ok()) return nullptr;  // not authorized in the first place
+  return [this, secret = *std::move(secret)] { return Lookup(secret, options_.now()).status(); };
+}
+
 void Authenticator::Forget() {
   std::lock_guard<std::mutex> lock(mutex_);
   cache_.clear();

@@ -51,6 +51,13 @@ class Authenticator {
   // Drops cached tokens so a revocation is seen by the next call.
   void Forget();
 
+  // A check of the token `context` was authorized with, to ask again later while its stream is
+  // open (IdleStreamReaper): UNAUTHENTICATED once the token is revoked or expired (within the
+  // cache's cache_seconds for a revocation made elsewhere; at once through this server's
+  // TokenService or for expiry). It copies what it needs and may outlive the call, not this
+  // Authenticator. Null with auth off.
+  std::function<absl::Status()> Revalidation(const grpc::ServerContextBase& context);
+
  private:
   Authenticator(std::shared_ptr<storage::TokenStore> store, AuthenticatorOptions options);
   absl::StatusOr<Caller> Authenticate(const grpc::ServerContextBase& context);

@@ -145,7 +145,8 @@ grpc::Status CrossingServiceImpl::BulkEnroll(grpc::ServerContext* context,
   absl::StatusOr<std::unique_ptr<StreamLimiter::Lease>> lease =
       AuthorizeStream(*context, Action::kEditCrossings);
   if (!lease.ok()) return ToGrpcStatus(lease.status());
-  const auto watch = idle_->WatchStream(context, IdleStreamReaper::AtShutdown::kLetFinish);
+  const auto watch = idle_->WatchStream(context, IdleStreamReaper::AtShutdown::kLetFinish,
+                                        auth_->Revalidation(*context));
   PreparedStream stream(registry_, PrepareAhead());
   for (int index = 0;; ++index) {
     std::optional<PreparedStream::View> next = stream.Next(reader, *watch);
@@ -189,7 +190,8 @@ grpc::Status CrossingServiceImpl::StreamEnroll(
   absl::StatusOr<std::unique_ptr<StreamLimiter::Lease>> lease =
       AuthorizeStream(*context, Action::kEditCrossings);
   if (!lease.ok()) return ToGrpcStatus(lease.status());
-  const auto watch = idle_->WatchStream(context, IdleStreamReaper::AtShutdown::kLetFinish);
+  const auto watch = idle_->WatchStream(context, IdleStreamReaper::AtShutdown::kLetFinish,
+                                        auth_->Revalidation(*context));
   PreparedStream pending(registry_, PrepareAhead());
   int stored = 0;
   for (int index = 0;; ++index) {
@@ -269,7 +271,8 @@ grpc::Status CrossingServiceImpl::StreamRecognize(
   absl::StatusOr<std::unique_ptr<StreamLimiter::Lease>> lease =
       AuthorizeStream(*context, Action::kRecognize);
   if (!lease.ok()) return ToGrpcStatus(lease.status());
-  const auto watch = idle_->WatchStream(context);
+  const auto watch =
+      idle_->WatchStream(context, IdleStreamReaper::AtShutdown::kEnd, auth_->Revalidation(*context));
   v1::RecognizeRequest request;
   int64_t frame = 0;
   StreamEvidence evidence;  // retrieval mode: the belief over the stream's frames

@@ -4,11 +4,16 @@
 #include <spdlog/spdlog.h>
 
 #include <algorithm>
+#include <utility>
+#include <vector>
+
+#include "absl/strings/str_cat.h"
 
 namespace waymark::service {
 
-IdleStreamReaper::IdleStreamReaper(double idle_seconds) : idle_seconds_(idle_seconds) {
-  if (idle_seconds_ > 0) thread_ = std::thread([this] { Loop(); });
+IdleStreamReaper::IdleStreamReaper(double idle_seconds, double revalidate_seconds)
+    : idle_seconds_(idle_seconds), revalidate_seconds_(revalidate_seconds) {
+  if (idle_seconds_ > 0 || revalidate_seconds_ > 0) thread_ = std::thread([this] { Loop(); });
 }
 
 IdleStreamReaper::~IdleStreamReaper() {
@@ -21,10 +26,11 @@ IdleStreamReaper::~IdleStreamReaper() {
 }
 
 std::unique_ptr<IdleStreamReaper::Watch> IdleStreamReaper::WatchStream(
-    grpc::ServerContextBase* context, AtShutdown at_shutdown) {
+    grpc::ServerContextBase* context, AtShutdown at_shutdown, Revalidation revalidate) {
   std::unique_ptr<Watch> watch(new Watch(this, context));
   std::lock_guard<std::mutex> lock(mutex_);
-  watched_[watch.get()] = Entry{Clock::now(), false, at_shutdown};
+  watched_[watch.get()] =
+      Entry{Clock::now(), false, at_shutdown, std::move(revalidate), next_serial_++};
   // A robot reconnecting during the shutdown.
   if (ending_all_ && at_shutdown == AtShutdown::kEnd) EndLocked(watch.get());
   return watch;
@@ -48,12 +54,16 @@ void IdleStreamReaper::EndAll(grpc::StatusCode code, const std::string& message)
 }
 
 void IdleStreamReaper::EndLocked(const Watch* watch) {
+  EndWithStatusLocked(watch, end_code_, end_message_);
+}
+
+void IdleStreamReaper::EndWithStatusLocked(const Watch* watch, grpc::StatusCode code,
+                                           const std::string& message) {
   // Under the lock: the watch (and so its call) cannot end while it is being cancelled. A
   // server-side cancel with a status sends that status to the client (TryCancel would send
   // CANCELLED, which says nothing of why).
-  grpc_call_cancel_with_status(watch->context_->c_call(),
-                               static_cast<grpc_status_code>(end_code_), end_message_.c_str(),
-                               nullptr);
+  grpc_call_cancel_with_status(watch->context_->c_call(), static_cast<grpc_status_code>(code),
+                               message.c_str(), nullptr);
 }
 
 IdleStreamReaper::Watch::~Watch() {
@@ -74,22 +84,69 @@ bool IdleStreamReaper::Watch::reaped() const {
 }
 
 void IdleStreamReaper::Loop() {
-  const auto limit = std::chrono::duration_cast<Clock::duration>(
-      std::chrono::duration<double>(idle_seconds_));
-  // Checking four times per limit ends an idle stream within 1.25 limits.
-  const auto period = std::max<Clock::duration>(limit / 4, std::chrono::milliseconds(50));
+  const auto seconds = [](double s) {
+    return std::chrono::duration_cast<Clock::duration>(std::chrono::duration<double>(s));
+  };
+  // Checking four times per idle limit ends an idle stream within 1.25 limits.
+  Clock::duration period = std::chrono::hours(1);
+  if (idle_seconds_ > 0) period = std::min(period, seconds(idle_seconds_) / 4);
+  if (revalidate_seconds_ > 0) period = std::min(period, seconds(revalidate_seconds_));
+  period = std::max<Clock::duration>(period, std::chrono::milliseconds(50));
+  Clock::time_point next_revalidation = Clock::now();
   std::unique_lock<std::mutex> lock(mutex_);
   while (!stopping_) {
     wake_.wait_for(lock, period, [this] { return stopping_; });
+    if (stopping_) break;
     const Clock::time_point now = Clock::now();
-    for (auto& [watch, entry] : watched_) {
-      if (entry.reaped || now - entry.last_activity < limit) continue;
-      entry.reaped = true;
-      spdlog::info("stream from {} sent nothing for {:.0f} s: ending it (--stream-idle-seconds)",
-                   watch->context_->peer(), idle_seconds_);
-      // Under the lock: the watch (and so its call) cannot end while it is being cancelled.
-      watch->context_->TryCancel();
+    if (idle_seconds_ > 0) ReapIdleLocked(now);
+    if (revalidate_seconds_ > 0 && now >= next_revalidation) {
+      next_revalidation = now + seconds(revalidate_seconds_);
+      RevalidateUnlocked(lock);
     }
+  }
+}
+
+void IdleStreamReaper::ReapIdleLocked(Clock::time_point now) {
+  const auto limit = std::chrono::duration_cast<Clock::duration>(
+      std::chrono::duration<double>(idle_seconds_));
+  for (auto& [watch, entry] : watched_) {
+    if (entry.reaped || now - entry.last_activity < limit) continue;
+    entry.reaped = true;
+    spdlog::info("stream from {} sent nothing for {:.0f} s: ending it (--stream-idle-seconds)",
+                 watch->context_->peer(), idle_seconds_);
+    // Under the lock: the watch (and so its call) cannot end while it is being cancelled.
+    watch->context_->TryCancel();
+  }
+}
+
+void IdleStreamReaper::RevalidateUnlocked(std::unique_lock<std::mutex>& lock) {
+  struct Asked {
+    const Watch* watch;
+    uint64_t serial;
+    Revalidation revalidate;
+    absl::Status status;
+  };
+  std::vector<Asked> asked;
+  for (const auto& [watch, entry] : watched_) {
+    if (!entry.reaped && entry.revalidate) asked.push_back({watch, entry.serial, entry.revalidate});
+  }
+  if (asked.empty()) return;
+  lock.unlock();
+  for (Asked& a : asked) a.status = a.revalidate();
+  lock.lock();
+  for (const Asked& a : asked) {
+    // Only a refusal of the token ends the stream; a database that cannot answer does not.
+    if (a.status.code() != absl::StatusCode::kUnauthenticated) continue;
+    // The stream may have ended while unlocked (and another been watched at the same address).
+    const auto found = watched_.find(a.watch);
+    if (found == watched_.end() || found->second.serial != a.serial || found->second.reaped) {
+      continue;
+    }
+    found->second.reaped = true;
+    spdlog::info("stream from {} ended: {}", a.watch->context_->peer(),
+                 std::string(a.status.message()));
+    EndWithStatusLocked(a.watch, grpc::StatusCode::UNAUTHENTICATED,
+                        absl::StrCat(a.status.message(), " (since the stream opened)"));
   }
 }
 

@@ -98,7 +98,8 @@ grpc::Status SlamServiceImpl::StreamSensorData(
     grpc::ServerContext* context, grpc::ServerReaderWriter<v1::SlamUpdate, v1::SensorData>* stream) {
   absl::StatusOr<Caller> caller = auth_->Authorize(*context, Action::kSlam);
   if (!caller.ok()) return ToGrpcStatus(caller.status());
-  const auto watch = idle_->WatchStream(context);
+  const auto watch =
+      idle_->WatchStream(context, IdleStreamReaper::AtShutdown::kEnd, auth_->Revalidation(*context));
   v1::SensorData data;
   if (!stream->Read(&data)) return grpc::Status::OK;  // the client sent nothing
   if (data.session_id().empty()) {

@@ -11,6 +11,7 @@
 #include <map>
 #include <memory>
 #include <string>
+#include <thread>
 #include <vector>
 
 #include "client/lib/channel.h"
@@ -421,6 +422,80 @@ TEST_F(AuthTest, AdminManagesTokensThroughTheApiAndRevocationIsImmediate) {
   testing::CommandResult after = testing::RunBinary("waymark", as_new + " db list");
   EXPECT_EQ(after.code, 1);
   EXPECT_THAT(after.output, HasSubstr("UNAUTHENTICATED"));
+}
+
+// A stream opened with a token that is then revoked (through this server's API, or in the
+// database by another process) or that expires is ended by the server with UNAUTHENTICATED. The
+// client's deadline is far beyond the server's checks: a stream the server leaves open ends with
+// DEADLINE_EXCEEDED instead, and the test fails.
+TEST_F(AuthTest, OpenStreamsEndWhenTheirTokenIsRevokedOrExpires) {
+  auto store = storage::OpenSqliteTokenStore(*db_);
+  ASSERT_TRUE(store.ok()) << store.status();
+  const auto open_stream = [&](const std::string& secret, grpc::ClientContext* ctx) {
+    v1::SlamService::Stub slam(WithSecret(secret));
+    v1::Session session;
+    EXPECT_TRUE(slam.CreateSession(Ctx().get(), testing::TestSessionRequest(""), &session).ok());
+    auto stream = slam.StreamSensorData(ctx);
+    // A malformed message's rejection proves the stream is past its admission.
+    v1::SensorData bad;
+    bad.set_session_id(session.session_id());
+    bad.set_sequence(1);
+    bad.mutable_odometry()->set_stamp(std::numeric_limits<double>::quiet_NaN());
+    EXPECT_TRUE(stream->Write(bad));
+    v1::SlamUpdate rejection;
+    EXPECT_TRUE(stream->Read(&rejection));
+    EXPECT_TRUE(rejection.has_rejection());
+    return stream;
+  };
+  const auto ended_status = [](auto& stream) {
+    v1::SlamUpdate update;
+    while (stream->Read(&update)) {
+    }
+    return stream->Finish();
+  };
+  const auto long_ctx = [] {
+    auto ctx = std::make_unique<grpc::ClientContext>();
+    ctx->set_deadline(std::chrono::system_clock::now() + std::chrono::seconds(60));
+    return ctx;
+  };
+  v1::TokenService::Stub admin(As("a1"));
+
+  {  // Revoked through the API.
+    auto created = (*store)->CreateToken("stream-api", "robot-71", TokenRole::kRobot, std::nullopt);
+    ASSERT_TRUE(created.ok()) << created.status();
+    auto ctx = long_ctx();
+    auto stream = open_stream(created->secret, ctx.get());
+    v1::RevokeTokenRequest revoke;
+    revoke.set_name("stream-api");
+    v1::Token revoked;
+    ASSERT_TRUE(admin.RevokeToken(Ctx().get(), revoke, &revoked).ok());
+    const grpc::Status status = ended_status(stream);
+    EXPECT_EQ(status.error_code(), grpc::StatusCode::UNAUTHENTICATED) << status.error_message();
+  }
+  {  // Revoked in the database by another process (the server's cache holds it for 5 s).
+    auto created = (*store)->CreateToken("stream-db", "robot-72", TokenRole::kRobot, std::nullopt);
+    ASSERT_TRUE(created.ok()) << created.status();
+    auto ctx = long_ctx();
+    auto stream = open_stream(created->secret, ctx.get());
+    ASSERT_TRUE((*store)->RevokeToken("stream-db").ok());
+    const grpc::Status status = ended_status(stream);
+    EXPECT_EQ(status.error_code(), grpc::StatusCode::UNAUTHENTICATED) << status.error_message();
+  }
+  {  // Expired while streaming.
+    auto created = (*store)->CreateToken("stream-expiring", "robot-73", TokenRole::kRobot,
+                                         storage::NowSeconds() + 2);
+    ASSERT_TRUE(created.ok()) << created.status();
+    auto ctx = long_ctx();
+    auto stream = open_stream(created->secret, ctx.get());
+    const grpc::Status status = ended_status(stream);
+    EXPECT_EQ(status.error_code(), grpc::StatusCode::UNAUTHENTICATED) << status.error_message();
+  }
+  // A token still valid keeps its stream: it ends when the client ends it, with OK.
+  auto ctx = long_ctx();
+  auto stream = open_stream(secrets_->at("r2"), ctx.get());
+  std::this_thread::sleep_for(std::chrono::milliseconds(1500));  // past a revalidation
+  stream->WritesDone();
+  EXPECT_TRUE(ended_status(stream).ok());
 }
 
 TEST_F(AuthTest, ServerTokenCommandWorksOnTheDatabaseWhileServing) {
