@@ -129,8 +129,15 @@ class CallInterceptor final : public grpc::experimental::Interceptor {
     if (IsPlausibleRequestId(id)) request_id_ = std::string(id);
   }
 
-  void Finish(const grpc::Status& status) {
+  void Finish(const grpc::Status& sent) {
     if (finished_.exchange(true)) return;
+    // A call the client cancelled ends with CANCELLED on the client whatever the handler says:
+    // gRPC's health Watch answers a cancelled watch with UNKNOWN "OnCancel()", which would be
+    // logged and counted as a server failure every time a load balancer stops watching.
+    const grpc::Status status =
+        sent.error_code() == grpc::StatusCode::UNKNOWN && context_->IsCancelled()
+            ? grpc::Status(grpc::StatusCode::CANCELLED, "cancelled by the client")
+            : sent;
     const double seconds =
         std::chrono::duration<double>(std::chrono::steady_clock::now() - start_).count();
     if (metrics_ != nullptr) {
@@ -161,6 +168,7 @@ class CallInterceptor final : public grpc::experimental::Interceptor {
         level = spdlog::level::warn;
         break;
       case grpc::StatusCode::OK:
+      case grpc::StatusCode::CANCELLED:
         if (absl::StartsWith(method_, kHealthPrefix)) level = spdlog::level::debug;
         break;
       default:

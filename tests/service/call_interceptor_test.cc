@@ -15,10 +15,13 @@
 #include <mutex>
 #include <optional>
 #include <string>
+#include <thread>
 #include <vector>
 
 #include "absl/strings/match.h"
 #include "absl/strings/str_cat.h"
+#include "gmock/gmock.h"
+#include "grpc/health/v1/health.grpc.pb.h"
 #include "gtest/gtest.h"
 #include "server/service/call_identity.h"
 #include "server/service/metrics.h"
@@ -385,6 +388,39 @@ TEST_F(CallInterceptorTest, ServerFailuresAreLoggedAsWarnings) {
   ASSERT_EQ(lines.size(), 2u);
   EXPECT_TRUE(absl::StartsWith(lines[0], "warning rpc ")) << lines[0];
   EXPECT_TRUE(absl::StartsWith(lines[1], "info rpc ")) << lines[1];
+}
+
+// A load balancer's health watch ends when it cancels it: gRPC's health service then answers
+// UNKNOWN "OnCancel()". That is the client's doing, not a server failure: logged CANCELLED at
+// debug level, counted CANCELLED.
+TEST_F(CallInterceptorTest, ACancelledHealthWatchIsNotAServerFailure) {
+  grpc::EnableDefaultHealthCheckService(true);  // read when a server is built: this one only
+  StartServer();
+  grpc::EnableDefaultHealthCheckService(false);
+  grpc::health::v1::Health::Stub health(channel_);
+  grpc::ClientContext ctx;
+  grpc::health::v1::HealthCheckRequest request;
+  auto watch = health.Watch(&ctx, request);
+  grpc::health::v1::HealthCheckResponse response;
+  ASSERT_TRUE(watch->Read(&response));  // the first answer: SERVING
+  ctx.TryCancel();
+  while (watch->Read(&response)) {
+  }
+  EXPECT_EQ(watch->Finish().error_code(), grpc::StatusCode::CANCELLED);
+  // The server logs the call when its status is sent, after the client saw the cancel.
+  std::string line;
+  for (int i = 0; i < 500 && line.empty(); ++i) {
+    for (const std::string& l : sink_->Lines()) {
+      if (absl::StrContains(l, "grpc.health.v1.Health/Watch")) line = l;
+    }
+    if (line.empty()) std::this_thread::sleep_for(std::chrono::milliseconds(10));
+  }
+  ASSERT_FALSE(line.empty()) << "the watch was never logged";
+  EXPECT_TRUE(absl::StartsWith(line, "debug rpc ")) << line;
+  EXPECT_TRUE(absl::StrContains(line, " code=CANCELLED ")) << line;
+  EXPECT_FALSE(absl::StrContains(line, "OnCancel")) << line;
+  EXPECT_THAT(Scrape(), ::testing::Not(::testing::HasSubstr(
+                            "code=\"UNKNOWN\",method=\"/grpc.health.v1.Health/Watch\"")));
 }
 
 TEST_F(CallInterceptorTest, TheCallsRobotIdIsTakenWhenItEnds) {
