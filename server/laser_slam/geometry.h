@@ -52,6 +52,9 @@ Vec3<T> Invert(const Vec3<T>& a) {
 }
 
 inline Eigen::Vector3d ToVector(const Pose2& p) { return Eigen::Vector3d(p.x, p.y, p.theta); }
+inline bool FinitePose(const Pose2& p) {
+  return std::isfinite(p.x) && std::isfinite(p.y) && std::isfinite(p.theta);
+}
 inline Pose2 ToPose(const Eigen::Vector3d& v) { return Pose2{v(0), v(1), NormalizeAngle(v(2))}; }
 
 // Pose2 versions: angles of the result are normalised.

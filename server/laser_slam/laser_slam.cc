@@ -10,6 +10,7 @@
 #include "server/common/binary_io.h"
 #include "server/laser_slam/exploration/exploration_planner.h"
 #include "server/laser_slam/geometry.h"
+#include "server/laser_slam/input_bounds.h"
 #include "server/laser_slam/line_extraction.h"
 #include "server/laser_slam/mapping/point_cloud.h"
 #include "server/laser_slam/motion.h"
@@ -114,6 +115,10 @@ absl::StatusOr<ScanUpdate> LaserSlam::AddScan(const LaserScan& scan) {
   Impl& s = *impl_;
   const auto start = Clock::now();
   if (!std::isfinite(scan.stamp)) return absl::InvalidArgumentError("scan stamp must be finite");
+  if (std::abs(scan.stamp) > kMaxAbsStampS) {
+    return absl::InvalidArgumentError(
+        absl::StrCat("scan stamp ", scan.stamp, " s is not a time (|stamp| <= ", kMaxAbsStampS, ")"));
+  }
   if (s.have_scan && scan.stamp <= s.last_scan_stamp) {
     return absl::InvalidArgumentError(
         absl::StrCat("scan stamp ", scan.stamp, " is not after the previous scan's (",
@@ -128,7 +133,11 @@ absl::StatusOr<ScanUpdate> LaserSlam::AddScan(const LaserScan& scan) {
   // Motion since the last update, from odometry interpolated at the scan stamp.
   const auto predict_start = Clock::now();
   const Pose2 odom = s.odometry.At(scan.stamp).value_or(s.odometry_at_last_update);
-  const Pose2 u = s.have_scan ? Relative(s.odometry_at_last_update, odom) : Pose2{};
+  Pose2 u = s.have_scan ? Relative(s.odometry_at_last_update, odom) : Pose2{};
+  if (std::hypot(u.x, u.y) > kMaxOdometryStepM) {
+    update.odometry_reset = true;
+    u = Pose2{};
+  }
   const bool too_little_motion = s.have_scan && std::hypot(u.x, u.y) < s.options.ekf.min_travel &&
                                  std::abs(u.theta) < s.options.ekf.min_turn;
   s.have_scan = true;
@@ -140,6 +149,10 @@ absl::StatusOr<ScanUpdate> LaserSlam::AddScan(const LaserScan& scan) {
     update.pose = s.Current(scan.stamp);
     update.pose.pose = Compose(update.pose.pose, u);
   } else {
+    // The filter as it was, to go back to if this scan would leave it non-finite (bounded
+    // inputs should never; an answer with NaN or inf must not leave the server either way).
+    const SegmentEkf before = s.ekf;
+    const Pose2 odometry_before = s.odometry_at_last_update;
     if (s.scans > 1) s.ekf.Predict(u, IncrementNoise(u, s.options.odometry));
     s.odometry_at_last_update = odom;
     update.timings.prediction = MsSince(predict_start);
@@ -155,8 +168,17 @@ absl::StatusOr<ScanUpdate> LaserSlam::AddScan(const LaserScan& scan) {
       update.timings.update += MsSince(merge_start);
       changed = changed || update.merged > 0;
     }
-    if (changed) ++s.revision;
     update.pose = s.Current(scan.stamp);
+    if (!FinitePose(update.pose.pose) || !update.pose.covariance.allFinite() ||
+        !s.ekf.state().cov().diagonal().allFinite()) {
+      s.ekf = before;
+      s.odometry_at_last_update = odometry_before;
+      --s.scans;
+      return absl::InvalidArgumentError(
+          "the scan would leave the filter with non-finite values; it was not applied and the "
+          "session keeps its previous state");
+    }
+    if (changed) ++s.revision;
     if (s.backend || s.localizer) {
       const PointCloud points = ScanToPoints(scan, s.options.laser_pose,
                                              s.options.extraction.min_range,

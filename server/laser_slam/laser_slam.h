@@ -43,6 +43,9 @@ struct StageMs {
 struct ScanUpdate {
   PoseEstimate pose;
   bool skipped = false;       // too little motion since the last processed scan (options)
+  // The odometry jumped more than kMaxOdometryStepM since the last processed scan: taken for a
+  // reset of the base's odometry, so no motion was applied (input_bounds.h).
+  bool odometry_reset = false;
   int observed = 0;           // segments extracted from the scan
   int matched = 0;            // ... that matched a map segment
   int added = 0;              // ... added as new map segments

@@ -5,6 +5,7 @@
 
 #include "absl/strings/str_cat.h"
 #include "server/laser_slam/geometry.h"
+#include "server/laser_slam/input_bounds.h"
 
 namespace waymark::laser_slam {
 
@@ -12,6 +13,18 @@ absl::Status OdometryBuffer::Add(const OdometryReading& reading) {
   if (!std::isfinite(reading.stamp) || !std::isfinite(reading.pose.x) ||
       !std::isfinite(reading.pose.y) || !std::isfinite(reading.pose.theta)) {
     return absl::InvalidArgumentError("odometry stamp and pose must be finite");
+  }
+  if (std::abs(reading.stamp) > kMaxAbsStampS) {
+    return absl::InvalidArgumentError(absl::StrCat("odometry stamp ", reading.stamp,
+                                                   " s is not a time (|stamp| <= ", kMaxAbsStampS,
+                                                   ")"));
+  }
+  if (std::abs(reading.pose.x) > kMaxAbsOdometryM || std::abs(reading.pose.y) > kMaxAbsOdometryM ||
+      std::abs(reading.pose.theta) > kMaxAbsOdometryRad) {
+    return absl::InvalidArgumentError(absl::StrCat(
+        "odometry pose (", reading.pose.x, ", ", reading.pose.y, ", ", reading.pose.theta,
+        ") is out of range: |x|, |y| <= ", kMaxAbsOdometryM, " m, |theta| <= ",
+        kMaxAbsOdometryRad, " rad"));
   }
   if (!readings_.empty() && reading.stamp <= readings_.back().stamp) {
     return absl::InvalidArgumentError(

@@ -3,14 +3,12 @@
 #include <cmath>
 
 #include "absl/strings/str_cat.h"
+#include "server/laser_slam/geometry.h"
 #include "server/laser_slam/option_checks.h"
 
 namespace waymark::laser_slam {
 namespace {
 
-bool FinitePose(const Pose2& pose) {
-  return std::isfinite(pose.x) && std::isfinite(pose.y) && std::isfinite(pose.theta);
-}
 
 }  // namespace
 

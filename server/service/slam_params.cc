@@ -302,6 +302,7 @@ void FillSlamUpdate(const ls::ScanUpdate& scan_update, v1::SlamUpdate* update) {
   update->set_matched_segments(count(scan_update.matched));
   update->set_added_segments(count(scan_update.added));
   update->set_skipped(scan_update.skipped);
+  update->set_odometry_reset(scan_update.odometry_reset);
   v1::SlamTimings* t = update->mutable_timings();
   t->set_extraction_ms(scan_update.timings.extraction);
   t->set_prediction_ms(scan_update.timings.prediction);

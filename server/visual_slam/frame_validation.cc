@@ -1,18 +1,33 @@
 #include "server/visual_slam/frame_validation.h"
 
+#include <algorithm>
 #include <cmath>
 
 #include "absl/strings/str_cat.h"
 
 namespace waymark::visual_slam {
+namespace {
+
+// Bounds beyond which a number is a corrupt message, not a camera: a focal length this many
+// times the image's larger side (a field of view under 0.6 degrees), a distortion coefficient
+// this large (lenses measure below 10), a stamp past about 3000 years, a box this many image
+// sides from the image.
+constexpr double kMaxFocalPerSide = 100;
+constexpr double kMaxDistortion = 1000;
+constexpr double kMaxAbsStampS = 1e11;
+constexpr double kMaxBoxSides = 10;
+
+}  // namespace
 
 absl::Status ValidateCamera(const CameraModel& camera) {
   const bool finite = std::isfinite(camera.fx) && std::isfinite(camera.fy) &&
                       std::isfinite(camera.cx) && std::isfinite(camera.cy);
-  if (!finite || camera.fx <= 0 || camera.fy <= 0) {
+  const double max_focal = kMaxFocalPerSide * std::max(camera.width, camera.height);
+  if (!finite || camera.fx <= 0 || camera.fy <= 0 || camera.fx > max_focal ||
+      camera.fy > max_focal) {
     return absl::InvalidArgumentError(absl::StrCat(
-        "camera: focal lengths must be positive and finite, got fx=", camera.fx,
-        " fy=", camera.fy));
+        "camera: focal lengths must be positive, finite and at most ", kMaxFocalPerSide,
+        " times the image's larger side, got fx=", camera.fx, " fy=", camera.fy));
   }
   if (camera.width < 16 || camera.height < 16 || camera.width > 8192 || camera.height > 8192) {
     return absl::InvalidArgumentError(absl::StrCat("camera: image size must be 16..8192 pixels, got ",
@@ -25,15 +40,21 @@ absl::Status ValidateCamera(const CameraModel& camera) {
         camera.width, "x", camera.height, " image"));
   }
   for (double k : camera.distortion) {
-    if (!std::isfinite(k)) return absl::InvalidArgumentError("camera: distortion must be finite");
+    if (!std::isfinite(k) || std::abs(k) > kMaxDistortion) {
+      return absl::InvalidArgumentError(absl::StrCat(
+          "camera: distortion coefficients must be finite and within +-", kMaxDistortion, ", got ",
+          k));
+    }
   }
   return absl::OkStatus();
 }
 
 absl::Status ValidateFrame(const FrameInput& frame, const CameraModel& camera,
                            std::optional<double> last_stamp, std::optional<bool> with_depth) {
-  if (!std::isfinite(frame.stamp)) {
-    return absl::InvalidArgumentError("frame stamp must be finite");
+  if (!std::isfinite(frame.stamp) || std::abs(frame.stamp) > kMaxAbsStampS) {
+    return absl::InvalidArgumentError(absl::StrCat(
+        "frame stamp must be a finite time (|stamp| <= ", kMaxAbsStampS, " s), got ",
+        frame.stamp));
   }
   if (last_stamp && !(frame.stamp > *last_stamp)) {
     return absl::InvalidArgumentError(absl::StrCat("frame stamp ", frame.stamp,
@@ -67,12 +88,14 @@ absl::Status ValidateFrame(const FrameInput& frame, const CameraModel& camera,
                       "add depth later");
   }
   if (frame.boxes) {
+    const double reach = kMaxBoxSides * std::max(camera.width, camera.height);
     for (const Box& box : *frame.boxes) {
       if (!std::isfinite(box.x) || !std::isfinite(box.y) || !std::isfinite(box.w) ||
-          !std::isfinite(box.h) || box.w < 0 || box.h < 0) {
-        return absl::InvalidArgumentError(
-            absl::StrCat("box (", box.x, ", ", box.y, ", ", box.w, ", ", box.h,
-                         ") must be finite with a non-negative size"));
+          !std::isfinite(box.h) || box.w < 0 || box.h < 0 || std::abs(box.x) > reach ||
+          std::abs(box.y) > reach || box.w > reach || box.h > reach) {
+        return absl::InvalidArgumentError(absl::StrCat(
+            "box (", box.x, ", ", box.y, ", ", box.w, ", ", box.h,
+            ") must be finite with a non-negative size, within ", reach, " pixels of the image"));
       }
     }
   }

@@ -353,6 +353,18 @@ absl::StatusOr<FrameResult> VisualOdometry::ProcessFrame(const FrameInput& frame
       make_keyframe = true;  // monocular tracks frame to frame
     }
   }
+  if (!pose.R.allFinite() || !pose.t.allFinite()) {
+    // No non-finite pose leaves the engine (a degenerate solve): the frame counts as lost, at the
+    // constant-velocity guess, and starts a keyframe there as any lost frame does.
+    result.state = TrackingState::kLost;
+    result.counts.tracked = 0;
+    const bool guess_finite =
+        predicted_pose && predicted_pose->R.allFinite() && predicted_pose->t.allFinite();
+    pose = guess_finite ? *predicted_pose : s.last_pose.value_or(Pose{});
+    mono_depth.assign(features.size(), std::nullopt);
+    reference = nullptr;
+    make_keyframe = true;
+  }
   if (make_keyframe) {
     // eq 18: the map takes static features outside boxes (with depth, RGB-D). kProven also keeps
     // the boxed ones not found dynamic: as candidates, or as mapped once proven static.

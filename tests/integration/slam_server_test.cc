@@ -151,11 +151,14 @@ TEST_F(SlamServerTest, BadMessagesAreRejectedAndTheStreamGoesOn) {
   m.push_back(nan_stamp);
   m.push_back(Odom(12, 3.0, 0.2, 0, 0));
   m.push_back(RoomScan(13, 3.0, 0.2, 0, 0));  // good messages after all that are answered
+  m.push_back(Odom(14, 3.5, 1e300, 1e300, 0));  // finite, but no robot's odometry
+  m.push_back(Odom(15, 4.0, 0.3, 0, 0));
+  m.push_back(RoomScan(16, 4.0, 0.3, 0, 0));  // answered, and finite
 
   StreamResult r = RunStream(stub_.get(), id, m);
   ASSERT_TRUE(r.status.ok()) << r.status.error_message();
   const std::map<uint64_t, int> rejected = {{3, 3}, {4, 3}, {5, 3}, {6, 3},
-                                            {7, 3}, {8, 3}, {11, 3}};
+                                            {7, 3}, {8, 3}, {11, 3}, {14, 3}};
   for (const auto& [seq, code] : rejected) {
     ASSERT_EQ(r.by_sequence.count(seq), 1u) << "no answer for " << seq;
     const v1::SlamUpdate& u = r.by_sequence[seq];
@@ -169,26 +172,33 @@ TEST_F(SlamServerTest, BadMessagesAreRejectedAndTheStreamGoesOn) {
       << r.by_sequence[3].rejection().message();
   EXPECT_NE(r.by_sequence[6].rejection().message().find("100 ranges"), std::string::npos);
   EXPECT_NE(r.by_sequence[7].rejection().message().find("50000 ranges"), std::string::npos);
-  ASSERT_EQ(r.scans.size(), 3u);
+  EXPECT_NE(r.by_sequence[14].rejection().message().find("out of range"), std::string::npos)
+      << r.by_sequence[14].rejection().message();
+  ASSERT_EQ(r.scans.size(), 4u);
   EXPECT_EQ(r.scans[0].sequence(), 2u);
   EXPECT_EQ(r.scans[1].sequence(), 10u);
   EXPECT_EQ(r.scans[2].sequence(), 13u);
   EXPECT_EQ(r.scans[2].scans_processed(), 3u);
   EXPECT_NEAR(r.scans[2].pose().x(), 0.2, 0.1);
-  EXPECT_EQ(r.answers, 10);  // odometry is not answered unless rejected
+  EXPECT_NEAR(r.scans[3].pose().x(), 0.3, 0.1);
+  for (double c : r.scans[3].covariance()) EXPECT_TRUE(std::isfinite(c) && std::abs(c) < 1);
+  EXPECT_EQ(r.answers, 12);  // odometry is not answered unless rejected
 
   v1::GetTrajectoryRequest request;
   request.set_session_id(id);
   v1::Trajectory trajectory;
   ASSERT_TRUE(stub_->GetTrajectory(Ctx().get(), request, &trajectory).ok());
-  EXPECT_EQ(trajectory.poses_size(), 3);
+  EXPECT_EQ(trajectory.poses_size(), 4);
+  for (const auto& pose : trajectory.poses()) {
+    EXPECT_TRUE(std::isfinite(pose.pose().x()) && std::isfinite(pose.pose().y()));
+  }
   v1::ListSessionsRequest list_request;
   list_request.set_robot_id("robot-1");
   v1::ListSessionsResponse list;
   ASSERT_TRUE(stub_->ListSessions(Ctx().get(), list_request, &list).ok());
   ASSERT_EQ(list.sessions_size(), 1);
-  EXPECT_EQ(list.sessions(0).messages_rejected(), 7u);
-  EXPECT_EQ(list.sessions(0).scans_processed(), 3u);
+  EXPECT_EQ(list.sessions(0).messages_rejected(), 8u);
+  EXPECT_EQ(list.sessions(0).scans_processed(), 4u);
 }
 
 TEST_F(SlamServerTest, StreamLevelErrorsEndTheStreamWithTheirStatus) {

@@ -169,6 +169,51 @@ TEST(LaserSlamTest, BadInputIsRejectedAndLeavesTheSessionUnchanged) {
   EXPECT_EQ(slam.scans_processed(), 6u);
 }
 
+// Numbers no robot measures are refused at the engine's boundary, and a jump of the odometry is
+// taken for a reset of the base's counters: every answer stays finite (a 1e300 odometry used to
+// be accepted and fill the pose and covariance with inf and NaN).
+TEST(LaserSlamTest, OutOfRangeNumbersAreRefusedAndAnOdometryJumpIsAReset) {
+  const std::vector<Step> steps = ShortDrive();
+  LaserSlam slam{SlamOptions{}};
+  for (int i = 0; i < 5; ++i) {
+    ASSERT_TRUE(slam.AddOdometry({steps[i].scan.stamp, steps[i].odometry}).ok());
+    ASSERT_TRUE(slam.AddScan(steps[i].scan).ok());
+  }
+  const double t = steps[5].scan.stamp;
+  for (const Pose2& absurd : {Pose2{1e300, 1e300, 0}, Pose2{0, -2e6, 0}, Pose2{0, 0, 1e5}}) {
+    EXPECT_EQ(slam.AddOdometry({t, absurd}).code(), absl::StatusCode::kInvalidArgument);
+  }
+  EXPECT_EQ(slam.AddOdometry({1e300, steps[5].odometry}).code(),
+            absl::StatusCode::kInvalidArgument);
+  LaserScan far_future = steps[5].scan;
+  far_future.stamp = 1e300;
+  EXPECT_EQ(slam.AddScan(far_future).status().code(), absl::StatusCode::kInvalidArgument);
+  EXPECT_EQ(slam.scans_processed(), 5u);
+
+  // The base's odometry jumps 1000 km (within the bounds, beyond any motion between two scans).
+  Pose2 jumped = steps[5].odometry;
+  jumped.x += 999000;
+  ASSERT_TRUE(slam.AddOdometry({t, jumped}).ok());
+  const PoseEstimate before = slam.CurrentPose();
+  absl::StatusOr<ScanUpdate> reset = slam.AddScan(steps[5].scan);
+  ASSERT_TRUE(reset.ok()) << reset.status();
+  EXPECT_TRUE(reset->odometry_reset);
+  EXPECT_TRUE(FinitePose(reset->pose.pose) && reset->pose.covariance.allFinite());
+  EXPECT_LT(std::hypot(reset->pose.pose.x - before.pose.x, reset->pose.pose.y - before.pose.y),
+            0.5);  // no motion applied, only the scan's correction
+  EXPECT_LT(reset->pose.covariance.trace(), 1.0);
+  // Driving on from the new odometry origin works as before.
+  for (int i = 6; i < static_cast<int>(steps.size()) && i < 10; ++i) {
+    Pose2 odometry = steps[i].odometry;
+    odometry.x += 999000;
+    ASSERT_TRUE(slam.AddOdometry({steps[i].scan.stamp, odometry}).ok());
+    absl::StatusOr<ScanUpdate> update = slam.AddScan(steps[i].scan);
+    ASSERT_TRUE(update.ok()) << update.status();
+    EXPECT_FALSE(update->odometry_reset);
+    EXPECT_TRUE(FinitePose(update->pose.pose) && update->pose.covariance.allFinite());
+  }
+}
+
 TEST(LaserSlamTest, CheckpointResumesExactly) {
   const std::vector<Step> steps = ShortDrive();
   const SlamOptions options;

@@ -50,6 +50,15 @@ TEST(VisualOdometryTest, RefusesBadCameraAndOptions) {
   camera.cx = 5000;
   EXPECT_EQ(VisualOdometry::Create({}, camera, nullptr).status().code(),
             absl::StatusCode::kInvalidArgument);
+  // Finite but not a camera: a focal length of 1e300 pixels, a distortion of 1e9.
+  camera = SyntheticCamera();
+  camera.fx = 1e300;
+  EXPECT_EQ(VisualOdometry::Create({}, camera, nullptr).status().code(),
+            absl::StatusCode::kInvalidArgument);
+  camera = SyntheticCamera();
+  camera.distortion = {1e9, 0, 0, 0, 0};
+  EXPECT_EQ(VisualOdometry::Create({}, camera, nullptr).status().code(),
+            absl::StatusCode::kInvalidArgument);
 
   VisualOdometryOptions options;
   options.delta = 0;
@@ -102,6 +111,13 @@ TEST(VisualOdometryTest, RejectsBadFramesAndKeepsTheSession) {
   FrameInput nan_box = SlidingFrame(texture, 1, 4, 2.0);
   nan_box.boxes = std::vector<Box>{{0, 0, std::nanf(""), 10, "person", 1}};
   EXPECT_EQ(odometry->ProcessFrame(nan_box).status().code(), absl::StatusCode::kInvalidArgument);
+  FrameInput huge_box = SlidingFrame(texture, 1, 4, 2.0);
+  huge_box.boxes = std::vector<Box>{{-3e38f, 0, 3e38f, 10, "person", 1}};
+  EXPECT_EQ(odometry->ProcessFrame(huge_box).status().code(), absl::StatusCode::kInvalidArgument);
+  FrameInput far_future = SlidingFrame(texture, 1, 4, 2.0);
+  far_future.stamp = 1e300;
+  EXPECT_EQ(odometry->ProcessFrame(far_future).status().code(),
+            absl::StatusCode::kInvalidArgument);
 
   EXPECT_EQ(odometry->trajectory().size(), 1u);  // nothing above changed the session
   absl::StatusOr<FrameResult> next = odometry->ProcessFrame(SlidingFrame(texture, 1, 4, 2.0));
