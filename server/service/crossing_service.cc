@@ -72,6 +72,17 @@ size_t PrepareAhead() { return std::max(1u, std::thread::hardware_concurrency())
 
 }  // namespace
 
+CrossingServiceImpl::CrossingServiceImpl(CrossingRegistry* registry, Authenticator* auth,
+                                         StreamLimiter* streams, IdleStreamReaper* idle)
+    : registry_(registry), auth_(auth), streams_(streams), idle_(idle) {
+  MarkMethodStreamed(MethodIndex<v1::CrossingService>("BulkEnroll"),
+                     ParsedHandler(this, &CrossingServiceImpl::ServeBulkEnroll));
+  MarkMethodStreamed(MethodIndex<v1::CrossingService>("StreamEnroll"),
+                     ParsedHandler(this, &CrossingServiceImpl::ServeStreamEnroll));
+  MarkMethodStreamed(MethodIndex<v1::CrossingService>("StreamRecognize"),
+                     ParsedHandler(this, &CrossingServiceImpl::ServeStreamRecognize));
+}
+
 absl::StatusOr<std::unique_ptr<StreamLimiter::Lease>> CrossingServiceImpl::AuthorizeStream(
     const grpc::ServerContext& context, Action action) {
   absl::StatusOr<Caller> caller = auth_->Authorize(context, action);
@@ -139,9 +150,19 @@ grpc::Status CrossingServiceImpl::EnrollView(grpc::ServerContext* context,
                          [&](const Caller&) { return registry_->EnrollView(*request); });
 }
 
-grpc::Status CrossingServiceImpl::BulkEnroll(grpc::ServerContext* context,
-                                             grpc::ServerReader<v1::EnrollViewRequest>* reader,
-                                             v1::BulkEnrollResponse* response) {
+grpc::Status CrossingServiceImpl::ServeBulkEnroll(grpc::ServerContext* context,
+                                                  BulkEnrollStream* stream) {
+  // A client stream answered once: the response goes out only with an OK end (a stream that
+  // ended at an unparsable message ends with its INVALID_ARGUMENT, ParsedHandler).
+  v1::BulkEnrollResponse response;
+  grpc::Status status = BulkEnrollInto(context, stream, &response);
+  if (status.ok() && !stream->unparsed()) stream->Write(response);
+  return status;
+}
+
+grpc::Status CrossingServiceImpl::BulkEnrollInto(grpc::ServerContext* context,
+                                                 BulkEnrollStream* reader,
+                                                 v1::BulkEnrollResponse* response) {
   absl::StatusOr<std::unique_ptr<StreamLimiter::Lease>> lease =
       AuthorizeStream(*context, Action::kEditCrossings);
   if (!lease.ok()) return ToGrpcStatus(lease.status());
@@ -184,9 +205,8 @@ grpc::Status CrossingServiceImpl::BulkEnroll(grpc::ServerContext* context,
   return grpc::Status::OK;
 }
 
-grpc::Status CrossingServiceImpl::StreamEnroll(
-    grpc::ServerContext* context,
-    grpc::ServerReaderWriter<v1::EnrollViewResponse, v1::EnrollViewRequest>* stream) {
+grpc::Status CrossingServiceImpl::ServeStreamEnroll(grpc::ServerContext* context,
+                                                    EnrollStream* stream) {
   absl::StatusOr<std::unique_ptr<StreamLimiter::Lease>> lease =
       AuthorizeStream(*context, Action::kEditCrossings);
   if (!lease.ok()) return ToGrpcStatus(lease.status());
@@ -265,9 +285,8 @@ grpc::Status CrossingServiceImpl::RecognizeCrossing(grpc::ServerContext* context
                          [&](const Caller&) { return registry_->Recognize(*request); });
 }
 
-grpc::Status CrossingServiceImpl::StreamRecognize(
-    grpc::ServerContext* context,
-    grpc::ServerReaderWriter<v1::RecognizeResponse, v1::RecognizeRequest>* stream) {
+grpc::Status CrossingServiceImpl::ServeStreamRecognize(grpc::ServerContext* context,
+                                                       RecognizeStream* stream) {
   absl::StatusOr<std::unique_ptr<StreamLimiter::Lease>> lease =
       AuthorizeStream(*context, Action::kRecognize);
   if (!lease.ok()) return ToGrpcStatus(lease.status());

@@ -9,6 +9,7 @@
 #include "server/service/authenticator.h"
 #include "server/service/crossing_registry.h"
 #include "server/service/idle_stream_reaper.h"
+#include "server/service/parsed_stream.h"
 #include "server/service/stream_limiter.h"
 #include "waymark/v1/crossing.grpc.pb.h"
 
@@ -19,9 +20,11 @@ class CrossingServiceImpl final : public v1::CrossingService::Service {
   // Every RPC first checks the caller's token with `auth` (access_policy.h has the table); streams
   // count against the caller's robot in `streams` and end when silent for `idle`'s limit. None is
   // owned.
+  // The client streams (BulkEnroll, StreamEnroll, StreamRecognize) are served on raw bytes
+  // parsed here (parsed_stream.h): a message that does not parse ends its stream with
+  // INVALID_ARGUMENT instead of looking like the stream's end.
   CrossingServiceImpl(CrossingRegistry* registry, Authenticator* auth, StreamLimiter* streams,
-                      IdleStreamReaper* idle)
-      : registry_(registry), auth_(auth), streams_(streams), idle_(idle) {}
+                      IdleStreamReaper* idle);
 
   grpc::Status CreateDatabase(grpc::ServerContext*, const v1::CreateDatabaseRequest* request,
                               v1::CrossingDatabase* response) override;
@@ -39,20 +42,23 @@ class CrossingServiceImpl final : public v1::CrossingService::Service {
                               v1::DeleteCrossingResponse* response) override;
   grpc::Status EnrollView(grpc::ServerContext*, const v1::EnrollViewRequest* request,
                           v1::EnrollViewResponse* response) override;
-  grpc::Status BulkEnroll(grpc::ServerContext*, grpc::ServerReader<v1::EnrollViewRequest>* reader,
-                          v1::BulkEnrollResponse* response) override;
-  grpc::Status StreamEnroll(
-      grpc::ServerContext* context,
-      grpc::ServerReaderWriter<v1::EnrollViewResponse, v1::EnrollViewRequest>* stream) override;
   grpc::Status RebuildClusters(grpc::ServerContext*, const v1::RebuildClustersRequest* request,
                                v1::RebuildClustersResponse* response) override;
   grpc::Status RecognizeCrossing(grpc::ServerContext*, const v1::RecognizeRequest* request,
                                  v1::RecognizeResponse* response) override;
-  grpc::Status StreamRecognize(
-      grpc::ServerContext* context,
-      grpc::ServerReaderWriter<v1::RecognizeResponse, v1::RecognizeRequest>* stream) override;
+
+  // The client streams, on messages parsed by this server.
+  using BulkEnrollStream = ParsedStream<v1::BulkEnrollResponse, v1::EnrollViewRequest>;
+  using EnrollStream = ParsedStream<v1::EnrollViewResponse, v1::EnrollViewRequest>;
+  using RecognizeStream = ParsedStream<v1::RecognizeResponse, v1::RecognizeRequest>;
+  grpc::Status ServeBulkEnroll(grpc::ServerContext* context, BulkEnrollStream* stream);
+  grpc::Status ServeStreamEnroll(grpc::ServerContext* context, EnrollStream* stream);
+  grpc::Status ServeStreamRecognize(grpc::ServerContext* context, RecognizeStream* stream);
 
  private:
+  // BulkEnroll's views into `response`.
+  grpc::Status BulkEnrollInto(grpc::ServerContext* context, BulkEnrollStream* stream,
+                              v1::BulkEnrollResponse* response);
   // Authorizes a streaming call and takes a stream slot of the caller's robot (a null lease when
   // auth is off).
   absl::StatusOr<std::unique_ptr<StreamLimiter::Lease>> AuthorizeStream(

@@ -16,8 +16,7 @@ namespace {
 // The first answer, whichever it is, carries the stream's StreamStart.
 class StreamWriter {
  public:
-  explicit StreamWriter(grpc::ServerReaderWriter<v1::SlamUpdate, v1::SensorData>* stream)
-      : stream_(stream) {}
+  explicit StreamWriter(SlamServiceImpl::SensorStream* stream) : stream_(stream) {}
   // Before the first Write.
   void set_start(const v1::StreamStart& start) {
     std::lock_guard<std::mutex> lock(mutex_);
@@ -39,7 +38,7 @@ class StreamWriter {
   }
 
  private:
-  grpc::ServerReaderWriter<v1::SlamUpdate, v1::SensorData>* stream_;
+  SlamServiceImpl::SensorStream* stream_;
   std::mutex mutex_;
   std::optional<v1::StreamStart> start_;
   bool broken_ = false;
@@ -94,8 +93,15 @@ void AddSessionOwnerTrailer(grpc::ServerContext& context, const absl::Status& st
   }
 }
 
-grpc::Status SlamServiceImpl::StreamSensorData(
-    grpc::ServerContext* context, grpc::ServerReaderWriter<v1::SlamUpdate, v1::SensorData>* stream) {
+SlamServiceImpl::SlamServiceImpl(SlamRegistry* registry, Authenticator* auth,
+                                 StreamLimiter* streams, IdleStreamReaper* idle)
+    : registry_(registry), auth_(auth), streams_(streams), idle_(idle) {
+  MarkMethodStreamed(MethodIndex<v1::SlamService>("StreamSensorData"),
+                     ParsedHandler(this, &SlamServiceImpl::ServeStreamSensorData));
+}
+
+grpc::Status SlamServiceImpl::ServeStreamSensorData(grpc::ServerContext* context,
+                                                    SensorStream* stream) {
   absl::StatusOr<Caller> caller = auth_->Authorize(*context, Action::kSlam);
   if (!caller.ok()) return ToGrpcStatus(caller.status());
   const auto watch =

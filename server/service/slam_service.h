@@ -8,6 +8,7 @@
 
 #include "server/service/authenticator.h"
 #include "server/service/idle_stream_reaper.h"
+#include "server/service/parsed_stream.h"
 #include "server/service/service_call.h"
 #include "server/service/slam_registry.h"
 #include "server/service/stream_limiter.h"
@@ -24,9 +25,10 @@ class SlamServiceImpl final : public v1::SlamService::Service {
   // Every RPC first checks the caller's token with `auth`; a robot sees and feeds only its own
   // sessions (another robot's: PERMISSION_DENIED); sensor streams count against the session's
   // robot in `streams` and end when silent for `idle`'s limit. None is owned.
+  // StreamSensorData is served on raw bytes parsed here (parsed_stream.h): a message that does
+  // not parse ends the stream with INVALID_ARGUMENT instead of looking like its end.
   SlamServiceImpl(SlamRegistry* registry, Authenticator* auth, StreamLimiter* streams,
-                  IdleStreamReaper* idle)
-      : registry_(registry), auth_(auth), streams_(streams), idle_(idle) {}
+                  IdleStreamReaper* idle);
 
   grpc::Status CreateSession(grpc::ServerContext*, const v1::CreateSessionRequest* request,
                              v1::Session* response) override;
@@ -35,9 +37,8 @@ class SlamServiceImpl final : public v1::SlamService::Service {
   // the first message, unknown or closed session, another stream on the session) end the stream
   // with their status. After the client half-closes, waits until every accepted message has been
   // processed and answered, then returns OK.
-  grpc::Status StreamSensorData(
-      grpc::ServerContext* context,
-      grpc::ServerReaderWriter<v1::SlamUpdate, v1::SensorData>* stream) override;
+  using SensorStream = ParsedStream<v1::SlamUpdate, v1::SensorData>;
+  grpc::Status ServeStreamSensorData(grpc::ServerContext* context, SensorStream* stream);
   grpc::Status GetMap(grpc::ServerContext*, const v1::GetMapRequest* request,
                       v1::SegmentMap* response) override;
   grpc::Status GetTrajectory(grpc::ServerContext*, const v1::GetTrajectoryRequest* request,

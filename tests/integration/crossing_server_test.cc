@@ -15,6 +15,7 @@
 #include <opencv2/imgproc.hpp>
 
 #include "tests/support/crossing_test_client.h"
+#include "tests/support/raw_stream.h"
 #include "tests/support/server_process.h"
 #include "tests/support/synthetic_scene.h"
 #include "waymark/v1/crossing.grpc.pb.h"
@@ -328,6 +329,57 @@ TEST_F(CrossingServerTest, BulkEnrollSkipsInvalidViewsOnlyWhenAsked) {
   v1::DatabaseStats stats;
   ASSERT_TRUE((*client_)->GetDatabaseStats(Ctx().get(), stats_request, &stats).ok());
   EXPECT_EQ(stats.database().views(), 5);
+}
+
+// Issue 21: a message that does not parse in the middle of a client stream ends the stream with
+// INVALID_ARGUMENT naming it, after the messages before it were answered. It used to end the
+// stream with OK, exactly like the client's own end, and the messages after it were lost.
+TEST_F(CrossingServerTest, AnUnparsableMessageEndsAClientStreamWithInvalidArgument) {
+  EnrollAll("unparsable");
+  const auto channel =
+      grpc::CreateChannel(server_->address(), grpc::InsecureChannelCredentials());
+  {
+    testing::RawStream stream(channel, "/waymark.v1.CrossingService/StreamRecognize");
+    const cv::Mat query = CropView(panoramas_[0], 30.0);
+    for (int i = 0; i < 5; ++i) ASSERT_TRUE(stream.Write(RecognizeRequest("unparsable", query)));
+    ASSERT_TRUE(stream.WriteBytes(testing::UnparsableMessage()));
+    for (int i = 0; i < 5; ++i) stream.Write(RecognizeRequest("unparsable", query));
+    std::vector<v1::RecognizeResponse> answers;
+    const grpc::Status status = stream.Finish(&answers);
+    EXPECT_EQ(status.error_code(), grpc::StatusCode::INVALID_ARGUMENT) << status.error_message();
+    EXPECT_NE(status.error_message().find("message 6 of the stream"), std::string::npos)
+        << status.error_message();
+    EXPECT_EQ(answers.size(), 5u);
+  }
+  for (const std::string method : {"BulkEnroll", "StreamEnroll"}) {
+    SCOPED_TRACE(method);
+    v1::GetDatabaseStatsRequest stats_request;
+    stats_request.set_name("unparsable");
+    v1::DatabaseStats before;
+    ASSERT_TRUE((*client_)->GetDatabaseStats(Ctx().get(), stats_request, &before).ok());
+    testing::RawStream stream(channel, "/waymark.v1.CrossingService/" + method, 300);
+    const double offset = method == "BulkEnroll" ? 7.0 : 11.0;  // new images for each stream
+    for (int k = 0; k < 3; ++k) {
+      v1::EnrollViewRequest view = EnrollRequest("unparsable", 1, offset + 30.0 * k, panoramas_[1]);
+      view.set_skip_invalid(true);
+      ASSERT_TRUE(stream.Write(view));
+    }
+    ASSERT_TRUE(stream.WriteBytes(testing::UnparsableMessage()));
+    for (int k = 3; k < 6; ++k) {
+      v1::EnrollViewRequest view = EnrollRequest("unparsable", 1, offset + 30.0 * k, panoramas_[1]);
+      view.set_skip_invalid(true);
+      stream.Write(view);
+    }
+    std::vector<v1::EnrollViewResponse> answers;  // StreamEnroll: one per view taken
+    const grpc::Status status = stream.Finish(&answers);
+    EXPECT_EQ(status.error_code(), grpc::StatusCode::INVALID_ARGUMENT) << status.error_message();
+    EXPECT_NE(status.error_message().find("message 4 of the stream"), std::string::npos)
+        << status.error_message();
+    if (method == "StreamEnroll") EXPECT_EQ(answers.size(), 3u);
+    v1::DatabaseStats after;
+    ASSERT_TRUE((*client_)->GetDatabaseStats(Ctx().get(), stats_request, &after).ok());
+    EXPECT_EQ(after.database().views(), before.database().views() + 3);  // those before it
+  }
 }
 
 // Issue 15: enrolling the same images again (a re-run of `waymark enroll`) stores nothing, over

@@ -18,6 +18,7 @@
 #include <gtest/gtest.h>
 
 #include "tests/service/slam_test_world.h"
+#include "tests/support/raw_stream.h"
 #include "tests/support/server_process.h"
 #include "waymark/v1/slam.grpc.pb.h"
 
@@ -199,6 +200,32 @@ TEST_F(SlamServerTest, BadMessagesAreRejectedAndTheStreamGoesOn) {
   ASSERT_EQ(list.sessions_size(), 1);
   EXPECT_EQ(list.sessions(0).messages_rejected(), 8u);
   EXPECT_EQ(list.sessions(0).scans_processed(), 4u);
+}
+
+// Issue 21: a message that does not parse ends the sensor stream with INVALID_ARGUMENT naming
+// it; every message before it was processed and answered. It used to end with OK, and the scans
+// after it were silently never answered.
+TEST_F(SlamServerTest, AnUnparsableMessageEndsTheStreamWithInvalidArgument) {
+  const std::string id = CreateSession("robot-1");
+  std::vector<v1::SensorData> before = Drive(0, 30, 1.0);  // 60 messages
+  before[0].set_session_id(id);
+  testing::RawStream stream(channel_, "/waymark.v1.SlamService/StreamSensorData");
+  for (const v1::SensorData& m : before) ASSERT_TRUE(stream.Write(m));
+  ASSERT_TRUE(stream.WriteBytes(testing::UnparsableMessage()));
+  for (const v1::SensorData& m : Drive(30, 30, 1.0, 61)) stream.Write(m);
+  std::vector<v1::SlamUpdate> answers;
+  const grpc::Status status = stream.Finish(&answers);
+  EXPECT_EQ(status.error_code(), grpc::StatusCode::INVALID_ARGUMENT) << status.error_message();
+  EXPECT_NE(status.error_message().find("message 61 of the stream"), std::string::npos)
+      << status.error_message();
+  ASSERT_EQ(answers.size(), 30u);  // every scan before it (odometry is not answered)
+  EXPECT_EQ(answers.back().sequence(), 60u);
+  v1::ListSessionsRequest list_request;
+  list_request.set_robot_id("robot-1");
+  v1::ListSessionsResponse list;
+  ASSERT_TRUE(stub_->ListSessions(Ctx().get(), list_request, &list).ok());
+  ASSERT_EQ(list.sessions_size(), 1);
+  EXPECT_EQ(list.sessions(0).scans_processed(), 30u);
 }
 
 TEST_F(SlamServerTest, StreamLevelErrorsEndTheStreamWithTheirStatus) {
