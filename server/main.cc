@@ -41,6 +41,7 @@
 #include "server/service/crossing_registry.h"
 #include "server/service/crossing_service.h"
 #include "server/service/idle_stream_reaper.h"
+#include "server/service/memory_trimmer.h"
 #include "server/service/metrics.h"
 #include "server/service/slam_registry.h"
 #include "server/service/server_channel.h"
@@ -184,6 +185,7 @@ int Run(const ServerFlags& flags) {
   }
   waymark::service::StreamLimiter streams(flags.max_streams_per_robot);
   waymark::service::IdleStreamReaper idle_streams(flags.stream_idle_seconds);
+  waymark::service::MemoryTrimmer memory_trimmer;  // freed heap back to the system after bursts
 
   waymark::service::CrossingServiceImpl crossing_service(registry->get(), auth.get(), &streams,
                                                         &idle_streams);
