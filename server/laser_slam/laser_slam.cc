@@ -482,13 +482,20 @@ absl::StatusOr<std::unique_ptr<LaserSlam>> LaserSlam::FromCheckpoint(
   }
   SpState& st = s.ekf.state();
   std::uint32_t segments = 0;
-  if (!GetPose(r, &st.robot) || !r.Get(&segments)) return corrupt("robot");
+  // Every count is checked against the bytes left before anything is allocated for it (a
+  // corrupt count used to allocate gigabytes and abort; found by tests/fuzz). A stored segment
+  // takes more than 8 bytes, a frozen one more than 48.
+  if (!GetPose(r, &st.robot) || !r.Get(&segments) || segments > r.remaining() / 8) {
+    return corrupt("robot");
+  }
   std::vector<SegmentEntity> entities(segments);
   for (SegmentEntity& e : entities) {
     if (!GetSegment(r, &e)) return corrupt("segment");
   }
   std::uint32_t frozen = 0;
-  if (!r.Get(&frozen) || frozen > 10000000) return corrupt("frozen segments");
+  if (!r.Get(&frozen) || frozen > 10000000 || frozen > r.remaining() / 48) {
+    return corrupt("frozen segments");
+  }
   std::vector<FrozenSegment> frozen_segments(frozen);
   for (FrozenSegment& f : frozen_segments) {
     if (!GetSegment(r, &f.entity)) return corrupt("frozen segment");
@@ -498,7 +505,10 @@ absl::StatusOr<std::unique_ptr<LaserSlam>> LaserSlam::FromCheckpoint(
     if (!r.Get(&f.left_variance) || !r.Get(&f.right_variance)) return corrupt("frozen segment");
   }
   std::int32_t n = 0;
-  if (!r.Get(&n) || n < 3 || n > 1000000) return corrupt("state size");
+  if (!r.Get(&n) || n < 3 || n > 1000000 ||
+      r.remaining() / sizeof(double) < static_cast<size_t>(n) * (static_cast<size_t>(n) + 1) / 2) {
+    return corrupt("state size");
+  }
   for (const SegmentEntity& e : entities) {
     for (int k = 0; k < 4; ++k) {
       const bool needed = k < 2 || (k == 2 ? e.left_type : e.right_type) == EndpointType::kReal;

@@ -1,0 +1,113 @@
+#include "tests/fuzz/fuzz_targets.h"
+
+#include <memory>
+#include <string>
+
+#include "client/datasets/carmen_log.h"
+#include "client/datasets/pgm_image.h"
+#include "client/datasets/pose_file.h"
+#include "server/laser_slam/laser_slam.h"
+#include "server/visual_slam/visual_odometry.h"
+
+namespace waymark::fuzz {
+namespace {
+
+std::string Text(const uint8_t* data, size_t size) {
+  return std::string(reinterpret_cast<const char*>(data), size);
+}
+
+// --- CARMEN log lines (waymark slam replay, the laser bench) ----------------------------------
+void CarmenLine(const uint8_t* data, size_t size) {
+  adapters::CarmenRecord record;
+  (void)adapters::ParseCarmenLine(Text(data, size), 1, &record);
+}
+std::vector<std::string> CarmenSeeds() {
+  return {"ODOM 1.0 2.0 0.5 0.1 0.0 0.0 12.5 host 12.5",
+          "FLASER 5 1.0 2.0 3.0 4.0 5.0 0.1 0.2 0.3 0.1 0.2 0.3 12.6 host 12.6",
+          "ROBOTLASER1 0 -1.5708 3.1416 0.7854 81.9 0.01 0 5 1.0 1.5 2.0 2.5 3.0 0 0.1 0.2 0.3 "
+          "0.1 0.2 0.3 0.1 0.1 0 0 0 0 12.7 host 12.7",
+          "PARAM robot_front_laser_max 81.9", "# comment"};
+}
+
+// --- TUM / KITTI pose files and KITTI times.txt (vo run, eval ate) -----------------------------
+void PoseText(const uint8_t* data, size_t size) {
+  const std::string text = Text(data, size);
+  (void)cli::ParsePoseText(text);
+  (void)cli::ParseStampList(text);
+}
+std::vector<std::string> PoseSeeds() {
+  return {"# timestamp tx ty tz qx qy qz qw\n1.0 0 0 0 0 0 0 1\n1.1 0.1 0 0 0 0 0.0499792 0.99875\n",
+          "1 0 0 0 0 1 0 0 0 0 1 0\n1 0 0 0.5 0 1 0 0 0 0 1 1.2\n", "0.0\n0.1\n0.2\n"};
+}
+
+// --- PGM images (map import) ------------------------------------------------------------------
+void Pgm(const uint8_t* data, size_t size) {
+  (void)cli::ParsePgm(std::string_view(reinterpret_cast<const char*>(data), size), "fuzz");
+}
+std::vector<std::string> PgmSeeds() {
+  return {std::string("P5\n4 2\n255\n") + std::string("\x00\x7f\xff\x10\x20\x30\x40\x50", 8),
+          "P2\n# c\n3 1\n255\n0 128 255\n"};
+}
+
+// --- Laser SLAM checkpoints read back from storage ---------------------------------------------
+laser_slam::LaserScan FuzzScan(double stamp) {
+  laser_slam::LaserScan scan;
+  scan.stamp = stamp;
+  scan.geometry.angle_min = -1.5707963;
+  scan.geometry.angle_increment = 3.1415926 / 180;
+  scan.geometry.beam_count = 181;
+  for (int i = 0; i < 181; ++i) scan.ranges.push_back(i < 90 ? 2.0f : 3.0f);
+  return scan;
+}
+void LaserCheckpoint(const uint8_t* data, size_t size) {
+  auto slam = laser_slam::LaserSlam::FromCheckpoint(laser_slam::SlamOptions{}, Text(data, size), {});
+  if (slam.ok()) (void)(*slam)->AddScan(FuzzScan(1e6));
+}
+std::vector<std::string> LaserSeeds() {
+  laser_slam::LaserSlam slam{laser_slam::SlamOptions{}};
+  std::vector<std::string> seeds = {slam.SerializeState()};
+  for (int k = 0; k < 3; ++k) {
+    (void)slam.AddOdometry({1.0 + k, laser_slam::Pose2{0.2 * k, 0, 0}});
+    (void)slam.AddScan(FuzzScan(1.0 + k));
+  }
+  seeds.push_back(slam.SerializeState());
+  return seeds;
+}
+
+// --- Visual odometry states (a visual session's checkpoint) ------------------------------------
+std::unique_ptr<visual_slam::VisualOdometry> FuzzOdometry() {
+  visual_slam::CameraModel camera;
+  camera.fx = camera.fy = 500;
+  camera.cx = 320;
+  camera.cy = 240;
+  camera.width = 640;
+  camera.height = 480;
+  visual_slam::VisualOdometryOptions options;
+  options.bundle_window = 5;
+  options.relocalization_keyframes = 5;
+  auto odometry = visual_slam::VisualOdometry::Create(options, camera, nullptr);
+  return odometry.ok() ? std::move(*odometry) : nullptr;
+}
+void VisualState(const uint8_t* data, size_t size) {
+  std::unique_ptr<visual_slam::VisualOdometry> odometry = FuzzOdometry();
+  if (odometry && odometry->RestoreState(Text(data, size)).ok()) (void)odometry->SerializeState();
+}
+std::vector<std::string> VisualSeeds() {
+  std::unique_ptr<visual_slam::VisualOdometry> odometry = FuzzOdometry();
+  return {odometry->SerializeState()};
+}
+
+}  // namespace
+
+const std::vector<FuzzTarget>& Targets() {
+  static const std::vector<FuzzTarget> targets = {
+      {"carmen_line", CarmenLine, CarmenSeeds},
+      {"pose_text", PoseText, PoseSeeds},
+      {"pgm", Pgm, PgmSeeds},
+      {"laser_checkpoint", LaserCheckpoint, LaserSeeds},
+      {"visual_state", VisualState, VisualSeeds},
+  };
+  return targets;
+}
+
+}  // namespace waymark::fuzz

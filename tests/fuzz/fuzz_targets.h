@@ -1,0 +1,26 @@
+#ifndef WAYMARK_TESTS_FUZZ_FUZZ_TARGETS_H_
+#define WAYMARK_TESTS_FUZZ_FUZZ_TARGETS_H_
+
+// Parsers and decoders that read robot or file input, as fuzz targets: each takes any bytes and
+// must neither crash, hang nor read out of bounds, whatever it answers. Seeds are made by each
+// target from valid inputs (so none of ../shared is copied into the repository), plus the small
+// files in corpus/<name>/.
+
+#include <cstddef>
+#include <cstdint>
+#include <string>
+#include <vector>
+
+namespace waymark::fuzz {
+
+struct FuzzTarget {
+  const char* name;
+  void (*run)(const uint8_t* data, size_t size);
+  std::vector<std::string> (*seeds)();
+};
+
+const std::vector<FuzzTarget>& Targets();
+
+}  // namespace waymark::fuzz
+
+#endif  // WAYMARK_TESTS_FUZZ_FUZZ_TARGETS_H_
