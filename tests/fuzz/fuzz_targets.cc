@@ -1,11 +1,15 @@
 #include "tests/fuzz/fuzz_targets.h"
 
 #include <memory>
+#include <optional>
 #include <string>
 
 #include "client/datasets/carmen_log.h"
 #include "client/datasets/pgm_image.h"
 #include "client/datasets/pose_file.h"
+#include "client/devices/lms200_telegram.h"
+#include "client/devices/p2os_packet.h"
+#include "client/devices/p2os_sip.h"
 #include "server/laser_slam/laser_slam.h"
 #include "server/visual_slam/visual_odometry.h"
 
@@ -47,6 +51,49 @@ void Pgm(const uint8_t* data, size_t size) {
 std::vector<std::string> PgmSeeds() {
   return {std::string("P5\n4 2\n255\n") + std::string("\x00\x7f\xff\x10\x20\x30\x40\x50", 8),
           "P2\n# c\n3 1\n255\n0 128 255\n"};
+}
+
+// --- Serial byte streams: the Pioneer's P2OS packets and the LMS200's telegrams -----------------
+std::string Bytes(const std::vector<std::uint8_t>& bytes) {
+  return std::string(bytes.begin(), bytes.end());
+}
+void P2osStream(const uint8_t* data, size_t size) {
+  adapters::P2osParser parser;
+  // Fed in two reads, as a serial port delivers: a packet may straddle them.
+  parser.Feed(data, size / 2);
+  parser.Feed(data + size / 2, size - size / 2);
+  while (std::optional<adapters::P2osPacket> packet = parser.Next()) {
+    (void)adapters::DecodeStandardSip(*packet);
+  }
+}
+std::vector<std::string> P2osSeeds() {
+  adapters::StandardSip sip;
+  std::vector<std::string> seeds;
+  auto packet = adapters::EncodeP2osPacket(0x32, adapters::EncodeStandardSipPayload(sip));
+  if (packet.ok()) seeds.push_back(Bytes(*packet) + Bytes(*packet));
+  auto command = adapters::EncodeP2osCommand(11, 300);
+  if (command.ok()) seeds.push_back(Bytes(*command));
+  return seeds;
+}
+void Lms200Stream(const uint8_t* data, size_t size) {
+  adapters::Lms200Parser parser;
+  parser.Feed(data, size / 3);
+  parser.Feed(data + size / 3, size - size / 3);
+  while (std::optional<adapters::Lms200Telegram> telegram = parser.Next()) {
+    (void)adapters::DecodeLms200Scan(*telegram);
+  }
+}
+std::vector<std::string> Lms200Seeds() {
+  // A scan reply: command 0xB0, count word 361 values in cm, then the values.
+  std::vector<std::uint8_t> reply = {0xB0, 0x69, 0x01};
+  for (int i = 0; i < 361; ++i) {
+    reply.push_back(static_cast<std::uint8_t>(200 + i % 50));
+    reply.push_back(0x00);
+  }
+  std::vector<std::string> seeds;
+  auto telegram = adapters::EncodeLms200Telegram(reply, 0x80);
+  if (telegram.ok()) seeds.push_back(std::string("\x06") + Bytes(*telegram));
+  return seeds;
 }
 
 // --- Laser SLAM checkpoints read back from storage ---------------------------------------------
@@ -104,6 +151,8 @@ const std::vector<FuzzTarget>& Targets() {
       {"carmen_line", CarmenLine, CarmenSeeds},
       {"pose_text", PoseText, PoseSeeds},
       {"pgm", Pgm, PgmSeeds},
+      {"p2os_stream", P2osStream, P2osSeeds},
+      {"lms200_stream", Lms200Stream, Lms200Seeds},
       {"laser_checkpoint", LaserCheckpoint, LaserSeeds},
       {"visual_state", VisualState, VisualSeeds},
   };
