@@ -11,6 +11,9 @@
 #include "client/devices/p2os_packet.h"
 #include "client/devices/p2os_sip.h"
 #include "server/laser_slam/laser_slam.h"
+#include "server/service/slam_params.h"
+#include "server/service/visual_frame_decoder.h"
+#include "server/service/visual_params.h"
 #include "server/visual_slam/visual_odometry.h"
 
 namespace waymark::fuzz {
@@ -96,6 +99,69 @@ std::vector<std::string> Lms200Seeds() {
   return seeds;
 }
 
+// --- Request messages: a robot's SensorData (odometry, scans, camera frames with their image
+// decoding and admission) and a session's configuration, parsed and checked as the server does -
+void SensorData(const uint8_t* data, size_t size) {
+  v1::SensorData message;
+  if (!message.ParseFromArray(data, static_cast<int>(size))) return;
+  laser_slam::ScanGeometry geometry;
+  geometry.angle_min = -1.5707963;
+  geometry.angle_increment = 3.1415926 / 180;
+  geometry.beam_count = 181;
+  visual_slam::CameraModel camera;
+  camera.fx = camera.fy = 100;
+  camera.cx = 32;
+  camera.cy = 24;
+  camera.width = 64;
+  camera.height = 48;
+  if (message.has_odometry()) (void)service::ToOdometryReading(message.odometry());
+  if (message.has_scan()) (void)service::ToLaserScan(message.scan(), geometry);
+  if (message.has_frame()) (void)service::DecodeFrame(message.frame(), message.sequence(), camera);
+}
+std::vector<std::string> SensorSeeds() {
+  v1::SensorData odometry;
+  odometry.set_sequence(1);
+  odometry.mutable_odometry()->set_stamp(1.5);
+  odometry.mutable_odometry()->mutable_pose()->set_x(0.5);
+  v1::SensorData scan;
+  scan.set_sequence(2);
+  scan.mutable_scan()->set_stamp(1.6);
+  for (int i = 0; i < 181; ++i) scan.mutable_scan()->add_ranges(2.0f);
+  v1::SensorData frame;
+  frame.set_sequence(3);
+  frame.mutable_frame()->set_stamp(1.7);
+  // A 2x2 PNG: the decoder's size check refuses it, the decoding runs.
+  frame.mutable_frame()->set_image(std::string(
+      "\x89PNG\r\n\x1a\n\0\0\0\rIHDR\0\0\0\x02\0\0\0\x02\x08\x00\0\0\0W\xdd"
+      "R\xf8\0\0\0\x0eIDATx\x9cc\xf8\xcf\xc0\xf0\x1f\0\x05\xfe\x02\xfe\xa7\x8d"
+      "\xa8\x8f\0\0\0\0IEND\xaeB`\x82",
+      75));
+  auto* box = frame.mutable_frame()->add_boxes();
+  box->set_x(1);
+  box->set_width(10);
+  box->set_height(10);
+  return {odometry.SerializeAsString(), scan.SerializeAsString(), frame.SerializeAsString()};
+}
+void SessionConfig(const uint8_t* data, size_t size) {
+  v1::CreateSessionRequest request;
+  if (!request.ParseFromArray(data, static_cast<int>(size))) return;
+  if (request.has_laser()) (void)service::ToLaserSessionOptions(request.laser());
+  if (request.has_visual()) (void)service::ToVisualSessionOptions(request.visual());
+}
+std::vector<std::string> SessionSeeds() {
+  v1::CreateSessionRequest laser;
+  laser.mutable_laser()->mutable_params();
+  v1::CreateSessionRequest visual;
+  visual.mutable_visual()->mutable_camera()->set_fx(500);
+  visual.mutable_visual()->mutable_camera()->set_fy(500);
+  visual.mutable_visual()->mutable_camera()->set_cx(320);
+  visual.mutable_visual()->mutable_camera()->set_cy(240);
+  visual.mutable_visual()->mutable_camera()->set_width(640);
+  visual.mutable_visual()->mutable_camera()->set_height(480);
+  visual.mutable_visual()->mutable_params()->set_bundle_window(5);
+  return {laser.SerializeAsString(), visual.SerializeAsString()};
+}
+
 // --- Laser SLAM checkpoints read back from storage ---------------------------------------------
 laser_slam::LaserScan FuzzScan(double stamp) {
   laser_slam::LaserScan scan;
@@ -153,6 +219,8 @@ const std::vector<FuzzTarget>& Targets() {
       {"pgm", Pgm, PgmSeeds},
       {"p2os_stream", P2osStream, P2osSeeds},
       {"lms200_stream", Lms200Stream, Lms200Seeds},
+      {"sensor_data", SensorData, SensorSeeds},
+      {"session_config", SessionConfig, SessionSeeds},
       {"laser_checkpoint", LaserCheckpoint, LaserSeeds},
       {"visual_state", VisualState, VisualSeeds},
   };
