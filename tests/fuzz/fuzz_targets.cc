@@ -60,14 +60,19 @@ std::vector<std::string> PgmSeeds() {
 std::string Bytes(const std::vector<std::uint8_t>& bytes) {
   return std::string(bytes.begin(), bytes.end());
 }
+// Feeds a serial parser in two reads split at `split` (as a serial port delivers: an item may
+// straddle them) and decodes every item it yields.
+template <class Parser, class Decode>
+void FeedInTwoReads(const uint8_t* data, size_t size, size_t split, Decode decode) {
+  Parser parser;
+  parser.Feed(data, split);
+  parser.Feed(data + split, size - split);
+  while (auto item = parser.Next()) decode(*item);
+}
 void P2osStream(const uint8_t* data, size_t size) {
-  adapters::P2osParser parser;
-  // Fed in two reads, as a serial port delivers: a packet may straddle them.
-  parser.Feed(data, size / 2);
-  parser.Feed(data + size / 2, size - size / 2);
-  while (std::optional<adapters::P2osPacket> packet = parser.Next()) {
-    (void)adapters::DecodeStandardSip(*packet);
-  }
+  FeedInTwoReads<adapters::P2osParser>(data, size, size / 2, [](const adapters::P2osPacket& p) {
+    (void)adapters::DecodeStandardSip(p);
+  });
 }
 std::vector<std::string> P2osSeeds() {
   adapters::StandardSip sip;
@@ -79,12 +84,9 @@ std::vector<std::string> P2osSeeds() {
   return seeds;
 }
 void Lms200Stream(const uint8_t* data, size_t size) {
-  adapters::Lms200Parser parser;
-  parser.Feed(data, size / 3);
-  parser.Feed(data + size / 3, size - size / 3);
-  while (std::optional<adapters::Lms200Telegram> telegram = parser.Next()) {
-    (void)adapters::DecodeLms200Scan(*telegram);
-  }
+  FeedInTwoReads<adapters::Lms200Parser>(
+      data, size, size / 3,
+      [](const adapters::Lms200Telegram& t) { (void)adapters::DecodeLms200Scan(t); });
 }
 std::vector<std::string> Lms200Seeds() {
   // A scan reply: command 0xB0, count word 361 values in cm, then the values.
