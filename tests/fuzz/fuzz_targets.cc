@@ -10,6 +10,9 @@
 #include "client/devices/lms200_telegram.h"
 #include "client/devices/p2os_packet.h"
 #include "client/devices/p2os_sip.h"
+#include "client/eval/relations_metric.h"
+#include "client/sim/sim_builtin_worlds.h"
+#include "client/sim/sim_world.h"
 #include "server/laser_slam/laser_slam.h"
 #include "server/service/slam_params.h"
 #include "server/service/visual_frame_decoder.h"
@@ -54,6 +57,21 @@ void Pgm(const uint8_t* data, size_t size) {
 std::vector<std::string> PgmSeeds() {
   return {std::string("P5\n4 2\n255\n") + std::string("\x00\x7f\xff\x10\x20\x30\x40\x50", 8),
           "P2\n# c\n3 1\n255\n0 128 255\n"};
+}
+
+// --- Relations files (the laser benchmarks' ground truth) and simulator world files -------------
+void Relations(const uint8_t* data, size_t size) { (void)cli::ParseRelations(Text(data, size)); }
+std::vector<std::string> RelationsSeeds() {
+  return {"1.0 2.0 0.5 0.0 0 0.1\n2.0 3.5 0.4 0.1 0 -0.05\n",
+          "# comment\n10.5 20.25 -1.0 0.25 0 3.1\n"};
+}
+void World(const uint8_t* data, size_t size) { (void)adapters::ParseWorld(Text(data, size)); }
+std::vector<std::string> WorldSeeds() {
+  std::vector<std::string> seeds;
+  for (const char* name : {"corridor", "office", "cluttered"}) {
+    if (const char* text = adapters::BuiltinWorldText(name)) seeds.push_back(text);
+  }
+  return seeds;
 }
 
 // --- Serial byte streams: the Pioneer's P2OS packets and the LMS200's telegrams -----------------
@@ -221,6 +239,8 @@ const std::vector<FuzzTarget>& Targets() {
       {"pgm", Pgm, PgmSeeds},
       {"p2os_stream", P2osStream, P2osSeeds},
       {"lms200_stream", Lms200Stream, Lms200Seeds},
+      {"relations", Relations, RelationsSeeds},
+      {"world", World, WorldSeeds},
       {"sensor_data", SensorData, SensorSeeds},
       {"session_config", SessionConfig, SessionSeeds},
       {"laser_checkpoint", LaserCheckpoint, LaserSeeds},
