@@ -17,6 +17,8 @@
 #include <string>
 #include <vector>
 
+#include "server/common/process_memory.h"
+
 namespace waymark::bench {
 
 inline std::string ReadFileBytes(const std::filesystem::path& path) {
@@ -32,12 +34,7 @@ inline double ProcessCpuMs() {
 }
 
 // Resident memory of the process now, in MB (0 when /proc is not there).
-inline double ResidentMb() {
-  std::ifstream statm("/proc/self/statm");
-  long pages = 0, resident = 0;
-  if (!(statm >> pages >> resident)) return 0;
-  return resident * static_cast<double>(sysconf(_SC_PAGESIZE)) / (1024.0 * 1024.0);
-}
+inline double ResidentMb() { return std::max(0.0, waymark::ResidentMegabytes()); }
 
 // The q-quantile (0..1, nearest rank) of `values`; 0 for none.
 inline double Percentile(std::vector<double> values, double q) {

@@ -1,7 +1,7 @@
 // waymark-memory-burst: a burst of large, useless requests against a running server, as a
 // robustness campaign sends them (issue 21: the server's resident memory stayed at the burst's
 // peak for good), and the server's resident memory before, at the end of the burst and after it
-// went idle, read from /proc/PID/status.
+// went idle (VmRSS, client/load/server_usage.h).
 //
 //   waymark-memory-burst --server HOST:PORT --pid PID [--clients 8] [--requests 40] [--mb 8]
 //                        [--idle-seconds 20]
@@ -13,31 +13,22 @@
 
 #include <grpcpp/grpcpp.h>
 
+#include <CLI/CLI.hpp>
 #include <chrono>
 #include <cstdio>
-#include <fstream>
 #include <random>
 #include <string>
 #include <thread>
 #include <vector>
 
-#include <CLI/CLI.hpp>
-
+#include "client/load/server_usage.h"
 #include "waymark/v1/crossing.grpc.pb.h"
 
 namespace {
 
 double ResidentMb(int pid) {
-  std::ifstream status("/proc/" + std::to_string(pid) + "/status");
-  std::string key;
-  while (status >> key) {
-    if (key == "VmRSS:") {
-      double kb = 0;
-      status >> kb;
-      return kb / 1024;
-    }
-  }
-  return -1;
+  absl::StatusOr<waymark::cli::ProcessMemory> memory = waymark::cli::ReadProcessMemory(pid);
+  return memory.ok() ? static_cast<double>(memory->rss_bytes) / (1 << 20) : -1;
 }
 
 }  // namespace
@@ -87,8 +78,9 @@ int main(int argc, char** argv) {
   const double idle = ResidentMb(pid);
   int total_refused = 0;
   for (int r : refused) total_refused += r;
-  std::printf("resident MB: start %.0f, after the burst %.0f, after %.0f s idle %.0f "
-              "(%d clients x %d requests x %d MiB, %d refused)\n",
-              start, burst, idle_seconds, idle, clients, requests, mb, total_refused);
+  std::printf(
+      "resident MB: start %.0f, after the burst %.0f, after %.0f s idle %.0f "
+      "(%d clients x %d requests x %d MiB, %d refused)\n",
+      start, burst, idle_seconds, idle, clients, requests, mb, total_refused);
   return 0;
 }

@@ -1,13 +1,13 @@
 #include "server/laser_slam/laser_slam.h"
 
+#include <Eigen/LU>
 #include <algorithm>
 #include <cmath>
+#include <utility>
 
 #include "absl/strings/str_cat.h"
-#include <Eigen/LU>
-
-#include "server/common/stopwatch.h"
 #include "server/common/binary_io.h"
+#include "server/common/stopwatch.h"
 #include "server/laser_slam/exploration/exploration_planner.h"
 #include "server/laser_slam/geometry.h"
 #include "server/laser_slam/input_bounds.h"
@@ -115,9 +115,9 @@ absl::StatusOr<ScanUpdate> LaserSlam::AddScan(const LaserScan& scan) {
   Impl& s = *impl_;
   const auto start = Clock::now();
   if (!std::isfinite(scan.stamp)) return absl::InvalidArgumentError("scan stamp must be finite");
-  if (std::abs(scan.stamp) > kMaxAbsStampS) {
-    return absl::InvalidArgumentError(
-        absl::StrCat("scan stamp ", scan.stamp, " s is not a time (|stamp| <= ", kMaxAbsStampS, ")"));
+  if (!PlausibleStamp(scan.stamp)) {
+    return absl::InvalidArgumentError(absl::StrCat(
+        "scan stamp ", scan.stamp, " s is not a time (|stamp| <= ", kMaxAbsStampS, ")"));
   }
   if (s.have_scan && scan.stamp <= s.last_scan_stamp) {
     return absl::InvalidArgumentError(
@@ -125,10 +125,14 @@ absl::StatusOr<ScanUpdate> LaserSlam::AddScan(const LaserScan& scan) {
                      s.last_scan_stamp, "): scans must arrive in time order"));
   }
   ScanUpdate update;
-  absl::StatusOr<std::vector<ObservedSegment>> observed = ExtractSegments(scan, s.options.extraction);
+  absl::StatusOr<std::vector<ObservedSegment>> observed =
+      ExtractSegments(scan, s.options.extraction);
   if (!observed.ok()) return observed.status();
   update.timings.extraction = MsSince(start);
-  s.last_scan = scan;
+  // What this scan changes outside the filter, to put back if it is refused below.
+  LaserScan previous_scan = std::exchange(s.last_scan, scan);
+  const bool had_scan = s.have_scan;
+  const double previous_stamp = s.last_scan_stamp;
 
   // Motion since the last update, from odometry interpolated at the scan stamp.
   const auto predict_start = Clock::now();
@@ -173,6 +177,9 @@ absl::StatusOr<ScanUpdate> LaserSlam::AddScan(const LaserScan& scan) {
         !s.ekf.state().cov().diagonal().allFinite()) {
       s.ekf = before;
       s.odometry_at_last_update = odometry_before;
+      s.last_scan = std::move(previous_scan);
+      s.have_scan = had_scan;
+      s.last_scan_stamp = previous_stamp;
       --s.scans;
       return absl::InvalidArgumentError(
           "the scan would leave the filter with non-finite values; it was not applied and the "
@@ -180,9 +187,9 @@ absl::StatusOr<ScanUpdate> LaserSlam::AddScan(const LaserScan& scan) {
     }
     if (changed) ++s.revision;
     if (s.backend || s.localizer) {
-      const PointCloud points = ScanToPoints(scan, s.options.laser_pose,
-                                             s.options.extraction.min_range,
-                                             s.options.mapping.point_range);
+      const PointCloud points =
+          ScanToPoints(scan, s.options.laser_pose, s.options.extraction.min_range,
+                       s.options.mapping.point_range);
       if (s.backend) s.backend->AddScan(s.scans, scan.stamp, update.pose.pose, points);
       if (s.localizer) {
         update.localization = s.localizer->AddScan(s.scans, scan.stamp, update.pose.pose, points);
@@ -461,9 +468,8 @@ absl::StatusOr<std::unique_ptr<LaserSlam>> LaserSlam::FromCheckpoint(
   std::uint32_t magic = 0, version = 0;
   if (!r.Get(&magic) || magic != kMagic) return corrupt("not a checkpoint");
   if (!r.Get(&version) || version < 1 || version > kVersion) {
-    return absl::FailedPreconditionError(
-        absl::StrCat("laser SLAM checkpoint version ", version, " is not supported (expected ",
-                     kVersion, ")"));
+    return absl::FailedPreconditionError(absl::StrCat(
+        "laser SLAM checkpoint version ", version, " is not supported (expected ", kVersion, ")"));
   }
   std::uint8_t have_scan = 0;
   std::uint64_t next_id = 0;

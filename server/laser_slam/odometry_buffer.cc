@@ -14,17 +14,16 @@ absl::Status OdometryBuffer::Add(const OdometryReading& reading) {
       !std::isfinite(reading.pose.y) || !std::isfinite(reading.pose.theta)) {
     return absl::InvalidArgumentError("odometry stamp and pose must be finite");
   }
-  if (std::abs(reading.stamp) > kMaxAbsStampS) {
-    return absl::InvalidArgumentError(absl::StrCat("odometry stamp ", reading.stamp,
-                                                   " s is not a time (|stamp| <= ", kMaxAbsStampS,
-                                                   ")"));
+  if (!PlausibleStamp(reading.stamp)) {
+    return absl::InvalidArgumentError(absl::StrCat(
+        "odometry stamp ", reading.stamp, " s is not a time (|stamp| <= ", kMaxAbsStampS, ")"));
   }
   if (std::abs(reading.pose.x) > kMaxAbsOdometryM || std::abs(reading.pose.y) > kMaxAbsOdometryM ||
       std::abs(reading.pose.theta) > kMaxAbsOdometryRad) {
-    return absl::InvalidArgumentError(absl::StrCat(
-        "odometry pose (", reading.pose.x, ", ", reading.pose.y, ", ", reading.pose.theta,
-        ") is out of range: |x|, |y| <= ", kMaxAbsOdometryM, " m, |theta| <= ",
-        kMaxAbsOdometryRad, " rad"));
+    return absl::InvalidArgumentError(
+        absl::StrCat("odometry pose (", reading.pose.x, ", ", reading.pose.y, ", ",
+                     reading.pose.theta, ") is out of range: |x|, |y| <= ", kMaxAbsOdometryM,
+                     " m, |theta| <= ", kMaxAbsOdometryRad, " rad"));
   }
   if (!readings_.empty() && reading.stamp <= readings_.back().stamp) {
     return absl::InvalidArgumentError(
@@ -40,9 +39,8 @@ std::optional<Pose2> OdometryBuffer::At(double stamp) const {
   if (readings_.empty()) return std::nullopt;
   if (stamp <= readings_.front().stamp) return readings_.front().pose;
   if (stamp >= readings_.back().stamp) return readings_.back().pose;
-  auto after = std::lower_bound(
-      readings_.begin(), readings_.end(), stamp,
-      [](const OdometryReading& r, double t) { return r.stamp < t; });
+  auto after = std::lower_bound(readings_.begin(), readings_.end(), stamp,
+                                [](const OdometryReading& r, double t) { return r.stamp < t; });
   auto before = after - 1;
   const double w = (stamp - before->stamp) / (after->stamp - before->stamp);
   const Pose2& a = before->pose;

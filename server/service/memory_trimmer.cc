@@ -2,21 +2,13 @@
 
 #include <malloc.h>
 #include <spdlog/spdlog.h>
-#include <unistd.h>
 
 #include <algorithm>
 #include <chrono>
-#include <fstream>
+
+#include "server/common/process_memory.h"
 
 namespace waymark::service {
-
-double ResidentMegabytes() {
-  std::ifstream statm("/proc/self/statm");
-  long pages_total = 0, pages_resident = 0;
-  if (!(statm >> pages_total >> pages_resident)) return -1;
-  return static_cast<double>(pages_resident) * static_cast<double>(sysconf(_SC_PAGESIZE)) /
-         (1024.0 * 1024.0);
-}
 
 MemoryTrimmer::MemoryTrimmer(MemoryTrimmerOptions options) : options_(options) {
   if (options_.period_seconds > 0) thread_ = std::thread([this] { Loop(); });
@@ -44,8 +36,7 @@ double MemoryTrimmer::CheckOnce() {
   const double after = ResidentMegabytes();
   baseline_mb_ = after;
   ++trims_;
-  spdlog::debug("memory: resident {:.0f} MB, {:.0f} MB after returning free heap", resident,
-                after);
+  spdlog::debug("memory: resident {:.0f} MB, {:.0f} MB after returning free heap", resident, after);
   return after;
 }
 

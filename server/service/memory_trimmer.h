@@ -42,9 +42,6 @@ class MemoryTrimmer {
   std::thread thread_;
 };
 
-// The process's resident set size in MB (/proc/self/statm), or -1 when unreadable.
-double ResidentMegabytes();
-
 }  // namespace waymark::service
 
 #endif  // WAYMARK_SERVER_SERVICE_MEMORY_TRIMMER_H_

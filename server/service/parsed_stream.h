@@ -11,14 +11,13 @@
 // Responses stay typed (only requests are raw), so the call interceptor and the client see the
 // same messages as before.
 
+#include <google/protobuf/descriptor.h>
 #include <grpcpp/grpcpp.h>
 #include <grpcpp/support/method_handler.h>
 
 #include <cstdint>
 #include <optional>
 #include <string>
-
-#include <google/protobuf/descriptor.h>
 
 #include "absl/strings/str_cat.h"
 
@@ -39,12 +38,11 @@ class ParsedStream {
     ++messages_;
     const grpc::Status parsed = grpc::SerializationTraits<Request>::Deserialize(&bytes, request);
     if (!parsed.ok()) {
-      unparsed_ = grpc::Status(
-          grpc::StatusCode::INVALID_ARGUMENT,
-          absl::StrCat("message ", messages_, " of the stream is not a ",
-                       Request::descriptor()->full_name(),
-                       " (it does not parse); the stream ends there, the ", messages_ - 1,
-                       " before it were taken"));
+      unparsed_ = grpc::Status(grpc::StatusCode::INVALID_ARGUMENT,
+                               absl::StrCat("message ", messages_, " of the stream is not a ",
+                                            Request::descriptor()->full_name(),
+                                            " (it does not parse); the stream ends there, the ",
+                                            messages_ - 1, " before it were taken"));
       return false;
     }
     return true;
@@ -53,8 +51,6 @@ class ParsedStream {
 
   // Set once a message did not parse.
   const std::optional<grpc::Status>& unparsed() const { return unparsed_; }
-  // Messages read so far, the unparsable one included.
-  int64_t messages() const { return messages_; }
 
  private:
   Raw* raw_;
@@ -79,8 +75,8 @@ int MethodIndex(const std::string& method) {
 // ended it with an error of its own.
 template <class Impl, class Response, class Request>
 grpc::internal::MethodHandler* ParsedHandler(
-    Impl* service, grpc::Status (Impl::*method)(grpc::ServerContext*,
-                                                ParsedStream<Response, Request>*)) {
+    Impl* service,
+    grpc::Status (Impl::*method)(grpc::ServerContext*, ParsedStream<Response, Request>*)) {
   return new grpc::internal::BidiStreamingHandler<Impl, grpc::ByteBuffer, Response>(
       [method](Impl* impl, grpc::ServerContext* context,
                grpc::ServerReaderWriter<Response, grpc::ByteBuffer>* raw) {

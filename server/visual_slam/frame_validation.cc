@@ -4,17 +4,17 @@
 #include <cmath>
 
 #include "absl/strings/str_cat.h"
+#include "server/common/input_bounds.h"
 
 namespace waymark::visual_slam {
 namespace {
 
 // Bounds beyond which a number is a corrupt message, not a camera: a focal length this many
 // times the image's larger side (a field of view under 0.6 degrees), a distortion coefficient
-// this large (lenses measure below 10), a stamp past about 3000 years, a box this many image
-// sides from the image.
+// this large (lenses measure below 10), a box this many image sides from the image. Stamps:
+// server/common/input_bounds.h.
 constexpr double kMaxFocalPerSide = 100;
 constexpr double kMaxDistortion = 1000;
-constexpr double kMaxAbsStampS = 1e11;
 constexpr double kMaxBoxSides = 10;
 
 }  // namespace
@@ -30,20 +30,20 @@ absl::Status ValidateCamera(const CameraModel& camera) {
         " times the image's larger side, got fx=", camera.fx, " fy=", camera.fy));
   }
   if (camera.width < 16 || camera.height < 16 || camera.width > 8192 || camera.height > 8192) {
-    return absl::InvalidArgumentError(absl::StrCat("camera: image size must be 16..8192 pixels, got ",
-                                                   camera.width, "x", camera.height));
+    return absl::InvalidArgumentError(absl::StrCat(
+        "camera: image size must be 16..8192 pixels, got ", camera.width, "x", camera.height));
   }
   if (!(camera.cx >= 0 && camera.cx <= camera.width && camera.cy >= 0 &&
         camera.cy <= camera.height)) {
-    return absl::InvalidArgumentError(absl::StrCat(
-        "camera: principal point (", camera.cx, ", ", camera.cy, ") lies outside the ",
-        camera.width, "x", camera.height, " image"));
+    return absl::InvalidArgumentError(absl::StrCat("camera: principal point (", camera.cx, ", ",
+                                                   camera.cy, ") lies outside the ", camera.width,
+                                                   "x", camera.height, " image"));
   }
   for (double k : camera.distortion) {
     if (!std::isfinite(k) || std::abs(k) > kMaxDistortion) {
-      return absl::InvalidArgumentError(absl::StrCat(
-          "camera: distortion coefficients must be finite and within +-", kMaxDistortion, ", got ",
-          k));
+      return absl::InvalidArgumentError(
+          absl::StrCat("camera: distortion coefficients must be finite and within +-",
+                       kMaxDistortion, ", got ", k));
     }
   }
   return absl::OkStatus();
@@ -51,10 +51,9 @@ absl::Status ValidateCamera(const CameraModel& camera) {
 
 absl::Status ValidateFrame(const FrameInput& frame, const CameraModel& camera,
                            std::optional<double> last_stamp, std::optional<bool> with_depth) {
-  if (!std::isfinite(frame.stamp) || std::abs(frame.stamp) > kMaxAbsStampS) {
+  if (!PlausibleStamp(frame.stamp)) {
     return absl::InvalidArgumentError(absl::StrCat(
-        "frame stamp must be a finite time (|stamp| <= ", kMaxAbsStampS, " s), got ",
-        frame.stamp));
+        "frame stamp must be a finite time (|stamp| <= ", kMaxAbsStampS, " s), got ", frame.stamp));
   }
   if (last_stamp && !(frame.stamp > *last_stamp)) {
     return absl::InvalidArgumentError(absl::StrCat("frame stamp ", frame.stamp,
@@ -63,8 +62,7 @@ absl::Status ValidateFrame(const FrameInput& frame, const CameraModel& camera,
   }
   const cv::Mat& image = frame.image;
   if (image.empty() || image.depth() != CV_8U || (image.channels() != 1 && image.channels() != 3)) {
-    return absl::InvalidArgumentError(
-        "frame image must be 8-bit gray or 3-channel colour");
+    return absl::InvalidArgumentError("frame image must be 8-bit gray or 3-channel colour");
   }
   if (image.cols != camera.width || image.rows != camera.height) {
     return absl::InvalidArgumentError(absl::StrCat("frame image is ", image.cols, "x", image.rows,

@@ -21,7 +21,7 @@ inline bool GetPose(BinaryReader& in, Pose* pose) {
   for (int i = 0; i < 3; ++i) {
     if (!in.Get(&pose->t(i))) return false;
   }
-  return pose->R.allFinite() && pose->t.allFinite();
+  return IsFinite(*pose);
 }
 
 }  // namespace waymark::visual_slam

@@ -4,14 +4,13 @@
 // Value types shared by the visual odometry engine (METHODS.md section 3): camera model, detector
 // boxes, rigid motions and the per-frame result. Plain C++, OpenCV and Eigen; no gRPC, no SQL.
 
+#include <Eigen/Core>
+#include <Eigen/Geometry>
 #include <array>
+#include <opencv2/core.hpp>
 #include <optional>
 #include <string>
 #include <vector>
-
-#include <Eigen/Core>
-#include <Eigen/Geometry>
-#include <opencv2/core.hpp>
 
 namespace waymark::visual_slam {
 
@@ -42,6 +41,8 @@ struct Pose {
   Eigen::Matrix3d R = Eigen::Matrix3d::Identity();
   Eigen::Vector3d t = Eigen::Vector3d::Zero();
 };
+
+inline bool IsFinite(const Pose& pose) { return pose.R.allFinite() && pose.t.allFinite(); }
 
 struct TimedPose {
   double stamp = 0;

@@ -353,14 +353,13 @@ absl::StatusOr<FrameResult> VisualOdometry::ProcessFrame(const FrameInput& frame
       make_keyframe = true;  // monocular tracks frame to frame
     }
   }
-  if (!pose.R.allFinite() || !pose.t.allFinite()) {
+  if (!IsFinite(pose)) {
     // No non-finite pose leaves the engine (a degenerate solve): the frame counts as lost, at the
     // constant-velocity guess, and starts a keyframe there as any lost frame does.
     result.state = TrackingState::kLost;
     result.counts.tracked = 0;
-    const bool guess_finite =
-        predicted_pose && predicted_pose->R.allFinite() && predicted_pose->t.allFinite();
-    pose = guess_finite ? *predicted_pose : s.last_pose.value_or(Pose{});
+    pose = predicted_pose && IsFinite(*predicted_pose) ? *predicted_pose
+                                                       : s.last_pose.value_or(Pose{});
     mono_depth.assign(features.size(), std::nullopt);
     reference = nullptr;
     make_keyframe = true;

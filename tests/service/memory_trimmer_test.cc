@@ -3,11 +3,13 @@
 // until the trimmer's check, which returns them.
 #include "server/service/memory_trimmer.h"
 
+#include <gtest/gtest.h>
+
 #include <cstdlib>
 #include <cstring>
 #include <vector>
 
-#include <gtest/gtest.h>
+#include "server/common/process_memory.h"
 
 namespace waymark::service {
 namespace {

@@ -73,8 +73,6 @@ struct DisparityResidual {
   double inverse_depth, bf;
 };
 
-bool Finite(const Pose& pose) { return pose.R.allFinite() && pose.t.allFinite(); }
-
 }  // namespace
 
 double ReprojectionErrorPx(const Pose& camera, const Eigen::Vector3d& point,
@@ -90,7 +88,7 @@ absl::StatusOr<BundleResult> BundleAdjust(const BundleProblem& problem,
   const int points = static_cast<int>(problem.points.size());
   bool any_fixed = false;
   for (const BundleCamera& camera : problem.cameras) {
-    if (!Finite(camera.pose)) return absl::InvalidArgumentError("a camera pose is not finite");
+    if (!IsFinite(camera.pose)) return absl::InvalidArgumentError("a camera pose is not finite");
     any_fixed |= camera.fixed;
   }
   if (!any_fixed) {
