@@ -5,6 +5,7 @@
 //                  [--max-message-mb 32] [--max-streams-per-robot 8] [--stream-idle-seconds 300]
 //                  [--metrics-listen HOST:PORT] [--slam-queue 64]
 //                  [--slam-workers N] [--slam-checkpoint-seconds 30] [--max-sessions 64]
+//                  [--slam-journal true] [--slam-checkpoint-journal-mb 64]
 //   waymark-server --db FILE token create NAME --role admin|mapper|robot [--robot-id ID]
 //   waymark-server --db FILE token list | token revoke NAME
 //
@@ -77,6 +78,7 @@ struct ServerFlags {
   double stream_idle_seconds = 300;
   waymark::service::SecurityOptions security;
   waymark::service::SlamRegistryOptions slam;
+  int slam_checkpoint_journal_mb = 64;
 };
 
 // With auth on and no live admin token, nobody can manage tokens over the API: say how to start.
@@ -147,6 +149,7 @@ int Run(const ServerFlags& flags) {
   }
 
   waymark::service::SlamRegistryOptions slam_options = flags.slam;
+  slam_options.checkpoint_journal_bytes = size_t(flags.slam_checkpoint_journal_mb) << 20;
   if (waymark::storage::IsPostgresDatabase(flags.db)) {
     // Other servers share the sessions: each is served by the one holding its lease.
     slam_options.lease.owner = RandomServerId();
@@ -306,6 +309,16 @@ int main(int argc, char** argv) {
   app.add_option("--slam-checkpoint-scans", flags.slam.checkpoint_scans,
                  "also checkpoint a SLAM session every N processed scans (0 = off)")
       ->check(CLI::NonNegativeNumber)
+      ->capture_default_str();
+  app.add_option("--slam-journal", flags.slam.journal,
+                 "store every accepted SLAM message before processing it, so that a session "
+                 "resumed after a crash has everything the server answered (false: it goes back "
+                 "to its last checkpoint)")
+      ->capture_default_str();
+  app.add_option("--slam-checkpoint-journal-mb", flags.slam_checkpoint_journal_mb,
+                 "also checkpoint a SLAM session once its journal since the last checkpoint "
+                 "holds this many MB (bounds the replay after a crash)")
+      ->check(CLI::Range(1, 65536))
       ->capture_default_str();
   app.add_option("--advertise", flags.advertise,
                  "HOST:PORT robots reach this server at, when several servers share a PostgreSQL "

@@ -233,6 +233,20 @@ ALTER TABLE slam_session ADD COLUMN lease_address TEXT;
 ALTER TABLE slam_session ADD COLUMN lease_expires_at REAL;
 )sql";
 
+// v11: the SLAM journal (issue 21): every accepted message of an open session since its last
+// checkpoint, so that a session resumed after a crash has everything the server answered
+// (slam_store.h, SlamJournalEntry). `journal_through` is the last journal seq a checkpoint
+// includes; the rows up to it are deleted with the checkpoint.
+constexpr absl::string_view kV11SlamJournal = R"sql(
+ALTER TABLE slam_session ADD COLUMN journal_through INTEGER NOT NULL DEFAULT 0;
+CREATE TABLE slam_journal (
+  session_id TEXT NOT NULL REFERENCES slam_session(id) ON DELETE CASCADE,
+  seq INTEGER NOT NULL,
+  message BLOB NOT NULL,
+  PRIMARY KEY (session_id, seq)
+);
+)sql";
+
 absl::Status TooNewError(sqlite::Connection& connection, int version, int latest) {
   return absl::FailedPreconditionError(absl::StrCat(
       "database \"", connection.path(), "\" has schema version ", version,
@@ -255,6 +269,7 @@ const std::vector<absl::string_view>& SchemaMigrations() {
       kV8GlobalCodes,
       kV9DatabaseRevisions,
       kV10SlamLeases,
+      kV11SlamJournal,
   };
   return *kSteps;
 }

@@ -67,8 +67,22 @@ absl::Status CheckSlamCheckpoint(const SlamCheckpoint& checkpoint) {
           absl::StrCat("trajectory pose ", pose.seq, " has a non-finite stamp or pose"));
     }
   }
-  if (checkpoint.scans_processed < 0 || checkpoint.map_revision < 0 || checkpoint.segments < 0) {
+  if (checkpoint.scans_processed < 0 || checkpoint.map_revision < 0 || checkpoint.segments < 0 ||
+      checkpoint.journal_through < 0) {
     return absl::InvalidArgumentError("checkpoint counters must be >= 0");
+  }
+  return absl::OkStatus();
+}
+
+absl::Status CheckJournalEntries(const std::vector<SlamJournalEntry>& entries) {
+  for (const SlamJournalEntry& entry : entries) {
+    if (entry.session_id.empty()) {
+      return absl::InvalidArgumentError("journal entry without a session id");
+    }
+    if (entry.seq < 1) {
+      return absl::InvalidArgumentError(absl::StrCat("SLAM session ", Quoted(entry.session_id),
+                                                     ": journal seq ", entry.seq, " is below 1"));
+    }
   }
   return absl::OkStatus();
 }
@@ -79,6 +93,11 @@ absl::Status CheckCheckpointApplies(const SlamSessionRecord& session,
   // Before the seq check: a server that lost its lease is usually also behind its successor's
   // trajectory, and what it must be told is that it lost the session.
   RETURN_IF_ERROR(CheckLeaseFence(session, checkpoint));
+  if (checkpoint.journal_through < session.journal_through) {
+    return absl::InvalidArgumentError(absl::StrCat(
+        "SLAM session ", Quoted(session.id), ": checkpoint includes the journal up to ",
+        checkpoint.journal_through, " but the stored one already up to ", session.journal_through));
+  }
   int64_t next_seq = session.trajectory_length;
   for (const TrajectoryPoseRecord& pose : checkpoint.new_poses) {
     if (pose.seq != next_seq) {
@@ -138,7 +157,7 @@ std::string SelectSlamSessions(bool with_checkpoint, absl::string_view where) {
       "SELECT s.id, s.robot_id, s.name, s.kind, s.config, s.state, s.created_at, s.updated_at, "
       "s.scans_processed, s.map_revision, s.segments, s.last_scan_stamp, s.last_odometry_stamp, "
       "s.checkpoint_at, (SELECT COUNT(*) FROM slam_trajectory t WHERE t.session_id = s.id), "
-      "s.lease_owner, s.lease_address, s.lease_expires_at, ",
+      "s.lease_owner, s.lease_address, s.lease_expires_at, s.journal_through, ",
       with_checkpoint ? "s.checkpoint" : "NULL", " FROM slam_session s ", where);
 }
 
@@ -171,7 +190,8 @@ absl::StatusOr<SlamSessionRecord> ReadSlamSessionRow(const StoredRow& row) {
   session.lease.owner = row.Text(15);
   session.lease.address = row.Text(16);
   session.lease.expires_at = row.OptionalDouble(17).value_or(0.0);
-  session.checkpoint = row.Text(18);
+  session.journal_through = row.Int64(18);
+  session.checkpoint = row.Text(19);
   return session;
 }
 

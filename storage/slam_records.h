@@ -9,6 +9,7 @@
 #include <cstddef>
 #include <cstdint>
 #include <string>
+#include <vector>
 
 #include "absl/status/status.h"
 #include "absl/status/statusor.h"
@@ -32,11 +33,14 @@ absl::StatusOr<SlamSessionRecord> NewSlamSession(const SlamSessionRecord& sessio
 // negative counter. Checked before any transaction starts.
 absl::Status CheckSlamCheckpoint(const SlamCheckpoint& checkpoint);
 
+// INVALID_ARGUMENT for journal entries that cannot be stored: an empty session id, a seq below 1.
+absl::Status CheckJournalEntries(const std::vector<SlamJournalEntry>& entries);
+
 // Whether `checkpoint` may be written to `session` as read inside the checkpoint's transaction
 // (after the session's row is locked, so that no other server can take the lease in between):
 // FAILED_PRECONDITION when the session is closed or the checkpoint is fenced by a lease this owner
 // no longer holds (CheckLeaseFence), INVALID_ARGUMENT when the new poses' seq do not continue its
-// stored trajectory (no gap, no repeat).
+// stored trajectory (no gap, no repeat) or its journal_through is behind the stored one.
 absl::Status CheckCheckpointApplies(const SlamSessionRecord& session,
                                     const SlamCheckpoint& checkpoint);
 

@@ -53,6 +53,9 @@ struct SlamSessionRecord {
   std::optional<double> last_odometry_stamp;
   std::string checkpoint;     // opaque engine state; empty = never checkpointed
   double checkpoint_at = 0;   // unix seconds; 0 = never checkpointed
+  // The journal seq of the last accepted message the checkpoint includes (SlamJournalEntry);
+  // journal rows after it are replayed on resume. 0 = none.
+  int64_t journal_through = 0;
   int64_t trajectory_length = 0;  // poses stored (read-only: filled by Get/List)
   SlamLease lease;                // read-only: filled by Get/List, set by AcquireLease
 };
@@ -85,10 +88,22 @@ struct SlamCheckpoint {
   std::optional<double> last_scan_stamp;
   std::optional<double> last_odometry_stamp;
   std::vector<TrajectoryPoseRecord> new_poses;
+  // The journal seq of the last message `state` includes: the journal rows up to it are deleted
+  // in the same transaction (all of them when the session is closed). It never goes back.
+  int64_t journal_through = 0;
   // When set, the write is fenced by the lease: FAILED_PRECONDITION, and nothing written, unless
   // this owner holds the session's lease (expired or not: what matters is that no other server
   // has taken it over). A server that lost its lease can never overwrite its successor's work.
   std::string lease_owner;
+};
+
+// One accepted message of an open session, kept until a checkpoint includes it (issue 21: what
+// the server answered survives a crash). seq numbers a session's accepted messages 1, 2, 3, ... in
+// the order they were accepted; `message` is opaque (the service stores the client's SensorData).
+struct SlamJournalEntry {
+  std::string session_id;
+  int64_t seq = 0;
+  std::string message;
 };
 
 // Every mutating call is one transaction: it happens entirely or not at all.
@@ -114,6 +129,14 @@ class SlamStore {
   // Writes the final checkpoint and marks the session closed, in one transaction.
   // FAILED_PRECONDITION when it is already closed.
   virtual absl::Status CloseSession(const std::string& id, const SlamCheckpoint& checkpoint) = 0;
+  // Appends accepted messages of any sessions, in one transaction. Entries of a session that is
+  // closed, unknown (deleted meanwhile) or, when `lease_owner` is set, leased by another owner are
+  // skipped (that server's successor serves it from its own journal; the lease loop drops it
+  // here). INVALID_ARGUMENT for a seq below 1; ALREADY_EXISTS for a seq stored before.
+  virtual absl::Status AppendJournal(const std::vector<SlamJournalEntry>& entries,
+                                     const std::string& lease_owner) = 0;
+  // The session's journal after its checkpoint (seq > journal_through), in seq order.
+  virtual absl::StatusOr<std::vector<SlamJournalEntry>> LoadJournal(const std::string& id) = 0;
   // The stored trajectory in seq order.
   virtual absl::StatusOr<std::vector<TrajectoryPoseRecord>> LoadTrajectory(
       const std::string& id) = 0;
@@ -128,7 +151,7 @@ class SlamStore {
   // Gives the lease up, if `owner` holds it, so that another server may take the session at
   // once (a server shutting down). OK when it does not hold it; NOT_FOUND (unknown session).
   virtual absl::Status ReleaseLease(const std::string& id, const std::string& owner) = 0;
-  // Deletes the session (its row holds the checkpoint) and its trajectory, in one transaction,
+  // Deletes the session (its row holds the checkpoint), its trajectory and journal, in one transaction,
   // whatever its state (the service decides whether an open session may go). Returns the session
   // as it was, without checkpoint bytes; its trajectory_length is the number of poses deleted.
   virtual absl::StatusOr<SlamSessionRecord> DeleteSession(const std::string& id) = 0;

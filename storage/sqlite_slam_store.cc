@@ -100,6 +100,48 @@ class SqliteSlamStore final : public SlamStore {
     return CheckpointLocked(id, checkpoint, /*close=*/true);
   }
 
+  absl::Status AppendJournal(const std::vector<SlamJournalEntry>& entries,
+                             const std::string& lease_owner) override {
+    RETURN_IF_ERROR(CheckJournalEntries(entries));
+    if (entries.empty()) return absl::OkStatus();
+    std::lock_guard<std::mutex> lock(mutex_);
+    ASSIGN_OR_RETURN(Transaction txn, Transaction::Begin(connection_));
+    // Skips a closed, deleted or (when fenced) leased-away session instead of failing the batch,
+    // which holds other sessions' messages too.
+    ASSIGN_OR_RETURN(Statement insert,
+                     connection_.Prepare(
+                         "INSERT INTO slam_journal (session_id, seq, message) "
+                         "SELECT ?1, ?2, ?3 WHERE EXISTS (SELECT 1 FROM slam_session "
+                         "WHERE id = ?1 AND state = 'open' AND (?4 = '' OR lease_owner = ?4))"));
+    for (const SlamJournalEntry& entry : entries) {
+      insert.Reset();
+      RETURN_IF_ERROR(insert.BindText(1, entry.session_id));
+      RETURN_IF_ERROR(insert.BindInt64(2, entry.seq));
+      RETURN_IF_ERROR(insert.BindBlob(3, entry.message.data(), entry.message.size()));
+      RETURN_IF_ERROR(insert.BindText(4, lease_owner));
+      RETURN_IF_ERROR(insert.Run(UniqueViolation::kAlreadyExists));
+    }
+    return txn.Commit();
+  }
+
+  absl::StatusOr<std::vector<SlamJournalEntry>> LoadJournal(const std::string& id) override {
+    std::lock_guard<std::mutex> lock(mutex_);
+    ASSIGN_OR_RETURN(SlamSessionRecord session, GetSessionLocked(id, false));
+    ASSIGN_OR_RETURN(Statement stmt,
+                     connection_.Prepare("SELECT seq, message FROM slam_journal "
+                                         "WHERE session_id = ? AND seq > ? ORDER BY seq"));
+    RETURN_IF_ERROR(stmt.BindText(1, id));
+    RETURN_IF_ERROR(stmt.BindInt64(2, session.journal_through));
+    std::vector<SlamJournalEntry> entries;
+    while (true) {
+      ASSIGN_OR_RETURN(StepResult step, stmt.Step());
+      if (step == StepResult::kDone) break;
+      SqliteRow row(stmt);
+      entries.push_back(SlamJournalEntry{id, row.Int64(0), std::string(row.Bytes(1))});
+    }
+    return entries;
+  }
+
   absl::StatusOr<std::vector<TrajectoryPoseRecord>> LoadTrajectory(const std::string& id) override {
     std::lock_guard<std::mutex> lock(mutex_);
     ASSIGN_OR_RETURN(SlamSessionRecord session, GetSessionLocked(id, false));
@@ -195,7 +237,8 @@ class SqliteSlamStore final : public SlamStore {
                      connection_.Prepare(absl::StrCat(
                          "UPDATE slam_session SET checkpoint = ?, checkpoint_at = ?, "
                          "updated_at = ?, scans_processed = ?, map_revision = ?, segments = ?, "
-                         "last_scan_stamp = ?, last_odometry_stamp = ?, state = ?",
+                         "last_scan_stamp = ?, last_odometry_stamp = ?, state = ?, "
+                         "journal_through = ?",
                          close ? absl::StrCat(", ", kClearSlamLease) : "", " WHERE id = ?")));
     const double now = NowSeconds();
     RETURN_IF_ERROR(update.BindBlob(1, checkpoint.state.data(), checkpoint.state.size()));
@@ -208,8 +251,16 @@ class SqliteSlamStore final : public SlamStore {
     RETURN_IF_ERROR(update.BindOptionalDouble(8, checkpoint.last_odometry_stamp));
     RETURN_IF_ERROR(update.BindText(
         9, SlamSessionStateName(close ? SlamSessionState::kClosed : SlamSessionState::kOpen)));
-    RETURN_IF_ERROR(update.BindText(10, id));
+    RETURN_IF_ERROR(update.BindInt64(10, checkpoint.journal_through));
+    RETURN_IF_ERROR(update.BindText(11, id));
     RETURN_IF_ERROR(update.Run());
+    // The journal the checkpoint includes goes with it; a closed session keeps none.
+    ASSIGN_OR_RETURN(Statement trim,
+                     connection_.Prepare(absl::StrCat("DELETE FROM slam_journal WHERE session_id = ?",
+                                                      close ? "" : " AND seq <= ?")));
+    RETURN_IF_ERROR(trim.BindText(1, id));
+    if (!close) RETURN_IF_ERROR(trim.BindInt64(2, checkpoint.journal_through));
+    RETURN_IF_ERROR(trim.Run());
     return txn.Commit();
   }
 

@@ -18,6 +18,7 @@
 #include "server/common/stopwatch.h"
 #include "server/service/laser_session_engine.h"
 #include "server/service/session_engine.h"
+#include "server/service/slam_journal.h"
 #include "server/service/visual_params.h"
 #include "server/service/visual_session_engine.h"
 
@@ -34,6 +35,9 @@ struct QueuedMessage {
   size_t bytes = 0;
   std::unique_ptr<EngineInput> input;
   Clock::time_point accepted;
+  int64_t journal_seq = 0;     // the session's journal seq (1, 2, 3, ...)
+  uint64_t journal_ticket = 0;  // SlamJournal::WaitStored before processing; 0 = no journal
+  size_t journal_bytes = 0;     // the stored message's size
 };
 
 struct SlamRegistry::Session {
@@ -58,6 +62,7 @@ struct SlamRegistry::Session {
   SlamUpdateSink sink;
   std::optional<double> accepted_scan_stamp;
   std::optional<double> accepted_odometry_stamp;
+  int64_t journal_last = 0;  // journal seq of the last accepted message
   uint64_t rejected = 0;
   uint64_t dropped = 0;
 
@@ -72,6 +77,8 @@ struct SlamRegistry::Session {
   std::optional<double> processed_odometry_stamp;
   bool dirty = false;  // processed work not in the last checkpoint
   int scans_since_checkpoint = 0;
+  int64_t journal_processed = 0;  // journal seq of the last processed message
+  size_t journal_bytes_since_checkpoint = 0;
   Clock::time_point last_checkpoint = Clock::now();
   double updated_at = 0;
   double checkpoint_at = 0;
@@ -269,6 +276,9 @@ absl::StatusOr<std::unique_ptr<SlamRegistry>> SlamRegistry::Create(
 SlamRegistry::SlamRegistry(std::unique_ptr<storage::SlamStore> store,
                            const SlamRegistryOptions& options)
     : options_(options), store_(std::move(store)), leases_(store_.get(), options.lease) {
+  if (options_.journal) {
+    journal_ = std::make_unique<SlamJournal>(store_.get(), [this] { return leases_.owner(); });
+  }
   int workers = options_.workers;
   if (workers == 0) workers = static_cast<int>(std::max(1u, std::thread::hardware_concurrency()));
   for (int i = 0; i < workers; ++i) workers_.emplace_back([this] { WorkerLoop(); });
@@ -514,11 +524,51 @@ absl::StatusOr<std::shared_ptr<SlamRegistry::Session>> SlamRegistry::LoadSession
   session->processed_scan_stamp = session->accepted_scan_stamp = record.last_scan_stamp;
   session->processed_odometry_stamp = session->accepted_odometry_stamp =
       record.last_odometry_stamp;
+  session->journal_last = session->journal_processed = record.journal_through;
   if (record.state == storage::SlamSessionState::kClosed) {
     session->closed = true;
     session->finalized = true;
+    return session;
+  }
+  if (absl::Status s = ReplayJournal(*session); !s.ok()) {
+    return absl::Status(s.code(), absl::StrCat("SLAM session ", Quoted(record.id),
+                                               ": cannot replay its journal: ", s.message()));
   }
   return session;
+}
+
+absl::Status SlamRegistry::ReplayJournal(Session& session) {
+  absl::StatusOr<std::vector<storage::SlamJournalEntry>> journal = store_->LoadJournal(session.id);
+  if (!journal.ok()) return journal.status();
+  if (journal->empty()) return absl::OkStatus();
+  const Clock::time_point started = Clock::now();
+  int replayed = 0;
+  // The session is not shared yet: no locks. Each message was admitted and put in time order
+  // when it was accepted; what the engine refused then it refuses again (it is deterministic).
+  for (storage::SlamJournalEntry& entry : *journal) {
+    session.journal_last = entry.seq;
+    v1::SensorData data;
+    if (!data.ParseFromString(entry.message)) {
+      return absl::DataLossError(
+          absl::StrCat("journal message ", entry.seq, " is not a waymark.v1.SensorData"));
+    }
+    absl::StatusOr<AdmittedMessage> admitted = session.engine->Admit(data);
+    if (!admitted.ok()) {
+      // Only a newer build that admits less could get here; say so and go on without it.
+      spdlog::warn("SLAM session {}: journal message {} is no longer admitted: {}", session.id,
+                   entry.seq, admitted.status().ToString());
+      session.journal_processed = entry.seq;
+      continue;
+    }
+    (admitted->answered ? session.accepted_scan_stamp : session.accepted_odometry_stamp) =
+        admitted->stamp;
+    (void)Apply(session, *admitted->input, admitted->answered, admitted->stamp, entry.seq,
+                entry.message.size(), 0.0);
+    ++replayed;
+  }
+  spdlog::info("SLAM session {}: replayed {} journaled messages after its checkpoint in {:.0f} ms",
+               session.id, replayed, MsSince(started));
+  return absl::OkStatus();
 }
 
 absl::StatusOr<std::shared_ptr<SlamRegistry::Session>> SlamRegistry::ResidentOrLoad(
@@ -534,8 +584,8 @@ absl::StatusOr<std::shared_ptr<SlamRegistry::Session>> SlamRegistry::ResidentOrL
   if (absl::Status s = leases_.Take(id); !s.ok()) return s;
   absl::StatusOr<std::shared_ptr<Session>> session = LoadSession(*record);
   if (!session.ok()) return session.status();
-  spdlog::info("SLAM session {} resumed from its checkpoint ({} scans, {} poses)", id,
-               (*session)->scans_processed, (*session)->stored_poses);
+  spdlog::info("SLAM session {} resumed from its checkpoint and journal ({} scans, {} poses)", id,
+               (*session)->scans_processed, (*session)->engine->trajectory_size());
   if (loaded != nullptr) *loaded = true;
   std::lock_guard<std::mutex> lock(mutex_);
   sessions_[id] = *session;
@@ -592,6 +642,9 @@ absl::Status SlamRegistry::Submit(const std::shared_ptr<Session>& owner,
   // The engine is fixed once the session is built, and Admit reads only its fixed part: no lock.
   absl::StatusOr<AdmittedMessage> admitted = session.engine->Admit(data);
   if (!admitted.ok()) return reject(admitted.status());
+  // Serialized outside the session's lock (a camera frame's bytes); dropped if it is refused.
+  std::string journal_bytes;
+  if (journal_ != nullptr) journal_bytes = data.SerializeAsString();
   QueuedMessage message;
   message.sequence = data.sequence();
   message.is_scan = admitted->answered;
@@ -637,6 +690,13 @@ absl::Status SlamRegistry::Submit(const std::shared_ptr<Session>& owner,
     }
     last = stamp;
     message.accepted = Clock::now();
+    // Journaled under the session's lock, so that its journal seqs are in acceptance order.
+    message.journal_seq = ++session.journal_last;
+    if (journal_ != nullptr) {
+      message.journal_bytes = journal_bytes.size();
+      message.journal_ticket = journal_->Append(
+          storage::SlamJournalEntry{session.id, message.journal_seq, std::move(journal_bytes)});
+    }
     session.queued_bytes += message.bytes;
     session.queue.push_back(std::move(message));
     if (!session.scheduled) {
@@ -702,43 +762,65 @@ void SlamRegistry::RunSession(const std::shared_ptr<Session>& session) {
   Schedule(session);  // more waiting: go to the back of the line
 }
 
-void SlamRegistry::Process(Session& session, QueuedMessage& message, const SlamUpdateSink& sink) {
-  if (options_.before_process) options_.before_process(session.id);
-  const double queue_ms = MsSince(message.accepted);
-  absl::Status error;
-  std::optional<v1::SlamUpdate> answer;
-  {
-    std::lock_guard<std::mutex> lock(session.engine_mu);
-    try {
-      absl::StatusOr<std::optional<v1::SlamUpdate>> result =
-          session.engine->Process(*message.input, queue_ms);
-      if (result.ok()) {
-        if (message.is_scan) {
-          ++session.scans_processed;
-          ++session.scans_since_checkpoint;
-          session.processed_scan_stamp = message.stamp;
-        } else {
-          session.processed_odometry_stamp = message.stamp;
-        }
-        session.dirty = true;
-        session.updated_at = UnixNow();
-        if (result->has_value()) {
-          v1::SlamUpdate& update = **result;
-          update.set_sequence(message.sequence);
-          update.set_scans_processed(static_cast<uint64_t>(session.scans_processed));
-          if (message.is_scan) {
-            session.map_revision = update.map_revision();
-            session.segments = static_cast<int>(update.segments());
-          }
-          answer = std::move(update);
-        }
-      } else {
-        error = result.status();
-      }
-    } catch (const std::exception& e) {
-      error = absl::InternalError(absl::StrCat("the SLAM engine failed on this message: ", e.what()));
+absl::StatusOr<std::optional<v1::SlamUpdate>> SlamRegistry::Apply(Session& session,
+                                                                    EngineInput& input,
+                                                                    bool is_scan, double stamp,
+                                                                    int64_t journal_seq,
+                                                                    size_t journal_bytes,
+                                                                    double queue_ms) {
+  // Handled either way: a checkpoint after it includes its journal row (an engine error would
+  // refuse it again on a replay).
+  session.journal_processed = journal_seq;
+  session.journal_bytes_since_checkpoint += journal_bytes;
+  absl::StatusOr<std::optional<v1::SlamUpdate>> result;
+  try {
+    result = session.engine->Process(input, queue_ms);
+  } catch (const std::exception& e) {
+    return absl::InternalError(absl::StrCat("the SLAM engine failed on this message: ", e.what()));
+  }
+  if (!result.ok()) return result.status();
+  if (is_scan) {
+    ++session.scans_processed;
+    ++session.scans_since_checkpoint;
+    session.processed_scan_stamp = stamp;
+  } else {
+    session.processed_odometry_stamp = stamp;
+  }
+  session.dirty = true;
+  session.updated_at = UnixNow();
+  if (result->has_value()) {
+    v1::SlamUpdate& update = **result;
+    update.set_scans_processed(static_cast<uint64_t>(session.scans_processed));
+    if (is_scan) {
+      session.map_revision = update.map_revision();
+      session.segments = static_cast<int>(update.segments());
     }
   }
+  return result;
+}
+
+void SlamRegistry::Process(Session& session, QueuedMessage& message, const SlamUpdateSink& sink) {
+  if (options_.before_process) options_.before_process(session.id);
+  // Processed (and answered) only once stored: what a client was answered survives a crash.
+  absl::Status error =
+      journal_ != nullptr ? journal_->WaitStored(message.journal_ticket) : absl::OkStatus();
+  const double queue_ms = MsSince(message.accepted);
+  std::optional<v1::SlamUpdate> answer;
+  if (error.ok()) {
+    std::lock_guard<std::mutex> lock(session.engine_mu);
+    absl::StatusOr<std::optional<v1::SlamUpdate>> result =
+        Apply(session, *message.input, message.is_scan, message.stamp, message.journal_seq,
+              message.journal_bytes, queue_ms);
+    if (result.ok()) {
+      answer = *std::move(result);
+    } else {
+      error = result.status();
+    }
+  } else {
+    std::lock_guard<std::mutex> lock(session.engine_mu);
+    session.journal_processed = message.journal_seq;  // never stored: nothing to replay
+  }
+  if (answer.has_value()) answer->set_sequence(message.sequence);
   if (!error.ok()) {
     {
       std::lock_guard<std::mutex> lock(session.mu);
@@ -757,6 +839,8 @@ void SlamRegistry::MaybeCheckpoint(Session& session) {
     if (!session.dirty) return;
     due = (options_.checkpoint_scans > 0 &&
            session.scans_since_checkpoint >= options_.checkpoint_scans) ||
+          (journal_ != nullptr &&
+           session.journal_bytes_since_checkpoint >= options_.checkpoint_journal_bytes) ||
           (options_.checkpoint_seconds > 0 &&
            std::chrono::duration<double>(Clock::now() - session.last_checkpoint).count() >=
                options_.checkpoint_seconds);
@@ -781,12 +865,14 @@ absl::Status SlamRegistry::Checkpoint(Session& session, bool close) {
     checkpoint.segments = session.segments;
     checkpoint.last_scan_stamp = session.processed_scan_stamp;
     checkpoint.last_odometry_stamp = session.processed_odometry_stamp;
+    checkpoint.journal_through = session.journal_processed;
     trajectory_size = session.engine->trajectory_size();
     for (int64_t seq = session.stored_poses; seq < trajectory_size; ++seq) {
       checkpoint.new_poses.push_back(session.engine->PoseRecord(seq));
     }
     session.dirty = false;
     session.scans_since_checkpoint = 0;
+    session.journal_bytes_since_checkpoint = 0;
     session.last_checkpoint = Clock::now();
   }
   // Fenced: refused if another server has taken the session over.
@@ -952,8 +1038,16 @@ absl::Status SlamRegistry::CloseLocked(const std::string& session_id) {
       return absl::FailedPreconditionError(
           absl::StrCat("SLAM session ", Quoted(session_id), " is already closed"));
     }
-    // Not in memory: its last checkpoint is its final state, if no other server serves it.
+    // Not in memory (a server that stopped without a final checkpoint): its last checkpoint and
+    // its journal are its final state, if no other server serves it.
     if (absl::Status s = leases_.Take(session_id); !s.ok()) return s;
+    if (absl::StatusOr<std::shared_ptr<Session>> loaded = LoadSession(*record); loaded.ok()) {
+      (*loaded)->engine->Finish();
+      return Checkpoint(**loaded, /*close=*/true);
+    } else {
+      spdlog::warn("SLAM session {}: closing at its last checkpoint without its journal: {}",
+                   session_id, loaded.status().ToString());
+    }
     storage::SlamCheckpoint checkpoint;
     checkpoint.lease_owner = leases_.owner();
     checkpoint.state = record->checkpoint;
@@ -962,6 +1056,7 @@ absl::Status SlamRegistry::CloseLocked(const std::string& session_id) {
     checkpoint.segments = record->segments;
     checkpoint.last_scan_stamp = record->last_scan_stamp;
     checkpoint.last_odometry_stamp = record->last_odometry_stamp;
+    checkpoint.journal_through = record->journal_through;
     if (absl::Status s = store_->CloseSession(session_id, checkpoint); !s.ok()) return s;
   }
   return absl::OkStatus();
@@ -1145,6 +1240,15 @@ absl::Status SlamRegistry::Shutdown() {
   pool_cv_.notify_all();
   for (std::thread& worker : workers_) {
     if (worker.joinable()) worker.join();
+  }
+  if (journal_ != nullptr) {
+    journal_->Stop();
+    const SlamJournalStats stats = journal_->stats();
+    spdlog::info("SLAM journal: {} messages ({:.1f} MB) in {} transactions, {:.2f} ms each on "
+                 "average, {} failed",
+                 stats.messages, stats.bytes / 1e6, stats.batches,
+                 stats.batches > 0 ? stats.write_ms / static_cast<double>(stats.batches) : 0.0,
+                 stats.failed_batches);
   }
   spdlog::info("SLAM: stopped; {} sessions in memory were saved", sessions.size());
   return status;

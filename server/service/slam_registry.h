@@ -41,10 +41,18 @@
 // visual sessions store 3-D poses and resume tracking at the last one, visual_session_engine.h):
 // after every `checkpoint_scans` processed scans, when `checkpoint_seconds` have passed since the
 // last checkpoint of a session with unsaved work (checked after each scan and by a timer for idle
-// sessions), on CloseSession and on Shutdown. After a restart, OpenStream on an open session that
-// is not in memory loads it from its checkpoint and the stored trajectory; messages accepted
-// after the last checkpoint are lost with the process, and the client may resend them (their
-// stamps are newer than the restored ones).
+// sessions), when the journal since the last checkpoint holds `checkpoint_journal_bytes`, on
+// CloseSession and on Shutdown.
+//
+// Journal (slam_journal.h): every accepted message is stored (one transaction for whatever all
+// sessions accepted meanwhile) before it is processed, so before it is answered. After a restart,
+// OpenStream on an open session that is not in memory loads it from its checkpoint and the stored
+// trajectory and replays the journal after the checkpoint: the session holds every message the
+// server accepted, as if it had not stopped (the engines are deterministic; a laser session's
+// background optimisation is applied where it lands, so its corrections may differ slightly). A
+// message the journal cannot store (the database fails `attempts` times) is answered with that
+// error and not processed. `journal = false` gives the old behaviour: messages accepted after the
+// last checkpoint are lost with the process, and the client may resend them.
 //
 // CreateSession takes exactly one of a laser and a visual config (neither: a laser session with
 // the defaults); a visual session's detector is built there, so a bad model is INVALID_ARGUMENT
@@ -80,6 +88,7 @@
 #include "absl/status/statusor.h"
 #include "server/service/session_engine.h"
 #include "server/service/session_leases.h"
+#include "server/service/slam_journal.h"
 #include "server/service/slam_params.h"
 #include "storage/slam_store.h"
 #include "waymark/v1/slam.pb.h"
@@ -95,6 +104,11 @@ struct SlamRegistryOptions {
   int checkpoint_scans = 500;     // 0 = no count-based checkpoints
   int max_sessions = 64;          // open sessions per server
   int max_batch = 8;              // messages of one session per turn of a worker
+  // Store every accepted message before processing it (see Journal above).
+  bool journal = true;
+  // Checkpoint once the journal since the last checkpoint holds this many bytes (camera frames:
+  // 30 s of 30 Hz RGB-D is several hundred MB), which bounds the replay after a crash.
+  size_t checkpoint_journal_bytes = size_t{64} << 20;
   // Decoded frames waiting per visual session (640x480 RGB-D: 1.5 MB a frame).
   size_t max_queued_frame_bytes = size_t{64} << 20;
   // Several servers on one database (PostgreSQL): each session is served by the one holding its
@@ -219,6 +233,14 @@ class SlamRegistry {
   void WorkerLoop();
   void RunSession(const std::shared_ptr<Session>& session);
   void Process(Session& session, QueuedMessage& message, const SlamUpdateSink& sink);
+  // Processes one admitted message on the session's engine and counts it (engine_mu held, or the
+  // session not shared yet); the update without its sequence, or the engine's error.
+  absl::StatusOr<std::optional<v1::SlamUpdate>> Apply(Session& session, EngineInput& input,
+                                                     bool is_scan, double stamp,
+                                                     int64_t journal_seq, size_t journal_bytes,
+                                                     double queue_ms);
+  // Replays the journal after the session's checkpoint (LoadSession).
+  absl::Status ReplayJournal(Session& session);
   void TimerLoop();
   // Renews the leases of the resident sessions every ttl/3; drops those another server took.
   void LeaseLoop();
@@ -249,6 +271,7 @@ class SlamRegistry {
   std::thread timer_;
 
   SessionLeases leases_;
+  std::unique_ptr<SlamJournal> journal_;  // null when options_.journal is off
   std::thread lease_thread_;  // with timer_mutex_/timer_cv_/stop_timer_ for stopping
 
   std::mutex shutdown_mutex_;

@@ -121,10 +121,21 @@ CREATE TABLE tokens (
 );
 )sql";
 
+// v2: the SLAM journal, as SQLite's version 11 (storage/migrations.cc, kV11SlamJournal).
+constexpr absl::string_view kV2SlamJournal = R"sql(
+ALTER TABLE slam_session ADD COLUMN journal_through BIGINT NOT NULL DEFAULT 0;
+CREATE TABLE slam_journal (
+  session_id TEXT NOT NULL REFERENCES slam_session(id) ON DELETE CASCADE,
+  seq BIGINT NOT NULL,
+  message BYTEA NOT NULL,
+  PRIMARY KEY (session_id, seq)
+);
+)sql";
+
 }  // namespace
 
 const std::vector<absl::string_view>& PostgresMigrations() {
-  static const auto* const kSteps = new std::vector<absl::string_view>{kV1Tables};
+  static const auto* const kSteps = new std::vector<absl::string_view>{kV1Tables, kV2SlamJournal};
   return *kSteps;
 }
 

@@ -9,6 +9,8 @@
 
 #include <array>
 #include <cstdint>
+#include <limits>
+#include <map>
 #include <memory>
 #include <optional>
 #include <string>
@@ -136,6 +138,56 @@ class PostgresSlamStore final : public SlamStore {
     });
   }
 
+  absl::Status AppendJournal(const std::vector<SlamJournalEntry>& entries,
+                             const std::string& lease_owner) override {
+    RETURN_IF_ERROR(CheckJournalEntries(entries));
+    if (entries.empty()) return absl::OkStatus();
+    // One statement per session of the batch (arrays of its seqs and messages).
+    std::map<std::string, std::pair<std::vector<int64_t>, std::vector<absl::string_view>>> by_session;
+    for (const SlamJournalEntry& entry : entries) {
+      auto& [seqs, messages] = by_session[entry.session_id];
+      seqs.push_back(entry.seq);
+      messages.push_back(entry.message);
+    }
+    return pool_->Transaction([&](Connection& connection) -> absl::Status {
+      for (const auto& [id, columns] : by_session) {
+        // Skips a closed, deleted or (when fenced) leased-away session, as SQLite does.
+        RETURN_IF_ERROR(connection
+                            .Execute("INSERT INTO slam_journal (session_id, seq, message) "
+                                     "SELECT $1, e.seq, e.message "
+                                     "FROM unnest($2::bigint[], $3::bytea[]) AS e(seq, message) "
+                                     "WHERE EXISTS (SELECT 1 FROM slam_session WHERE id = $1 "
+                                     "AND state = 'open' AND ($4 = '' OR lease_owner = $4))",
+                                     Params()
+                                         .Text(id)
+                                         .Int64Array(columns.first)
+                                         .BytesArray(columns.second)
+                                         .Text(lease_owner),
+                                     UniqueViolation::kAlreadyExists)
+                            .status());
+      }
+      return absl::OkStatus();
+    });
+  }
+
+  absl::StatusOr<std::vector<SlamJournalEntry>> LoadJournal(const std::string& id) override {
+    using Entries = std::vector<SlamJournalEntry>;
+    return pool_->Run<Entries>([&](Connection& connection) -> absl::StatusOr<Entries> {
+      ASSIGN_OR_RETURN(SlamSessionRecord session, ReadSession(connection, id, false));
+      ASSIGN_OR_RETURN(Result rows,
+                       connection.Execute("SELECT seq, message FROM slam_journal "
+                                          "WHERE session_id = $1 AND seq > $2 ORDER BY seq",
+                                          Params().Text(id).Int64(session.journal_through)));
+      Entries entries;
+      entries.reserve(static_cast<size_t>(rows.rows()));
+      for (int row = 0; row < rows.rows(); ++row) {
+        PgRow stored(rows, row);
+        entries.push_back(SlamJournalEntry{id, stored.Int64(0), std::string(stored.Bytes(1))});
+      }
+      return entries;
+    });
+  }
+
   absl::Status WriteCheckpoint(const std::string& id, const SlamCheckpoint& checkpoint) override {
     return Checkpoint(id, checkpoint, /*close=*/false);
   }
@@ -250,13 +302,21 @@ class PostgresSlamStore final : public SlamStore {
       RETURN_IF_ERROR(InsertPoses(connection, id, checkpoint.new_poses));
       const double now = NowSeconds();
       const SlamSessionState state = close ? SlamSessionState::kClosed : SlamSessionState::kOpen;
+      // The journal the checkpoint includes goes with it; a closed session keeps none.
+      RETURN_IF_ERROR(connection
+                          .Execute("DELETE FROM slam_journal WHERE session_id = $1 AND seq <= $2",
+                                   Params().Text(id).Int64(
+                                       close ? std::numeric_limits<int64_t>::max()
+                                             : checkpoint.journal_through))
+                          .status());
       // Closing also gives the lease up: a closed session has no holder.
       return connection
           .Execute(
               absl::StrCat(
                   "UPDATE slam_session SET checkpoint = $1, checkpoint_at = $2, "
                   "updated_at = $2, scans_processed = $3, map_revision = $4, segments = $5, "
-                  "last_scan_stamp = $6, last_odometry_stamp = $7, state = $8",
+                  "last_scan_stamp = $6, last_odometry_stamp = $7, state = $8, "
+                  "journal_through = $10",
                   close ? absl::StrCat(", ", kClearSlamLease) : "", " WHERE id = $9"),
               Params()
                   .Bytes(checkpoint.state)
@@ -267,7 +327,8 @@ class PostgresSlamStore final : public SlamStore {
                   .OptionalDouble(checkpoint.last_scan_stamp)
                   .OptionalDouble(checkpoint.last_odometry_stamp)
                   .Text(SlamSessionStateName(state))
-                  .Text(id))
+                  .Text(id)
+                  .Int64(checkpoint.journal_through))
           .status();
     });
   }

@@ -396,11 +396,61 @@ TEST_F(SlamServerTest, SessionsCheckpointAndResumeAfterAServerRestart) {
   EXPECT_EQ(refused.status.error_code(), grpc::StatusCode::FAILED_PRECONDITION);
 }
 
-TEST_F(SlamServerTest, AfterACrashTheSessionResumesFromItsLastPeriodicCheckpoint) {
-  // Count-based checkpoints only, so what survives the crash does not depend on timing.
+// Issue 21: every message the server answered is in its journal, so a session resumed after a
+// SIGKILL holds all of them, and goes on exactly as a session that was never interrupted.
+TEST_F(SlamServerTest, AfterACrashTheSessionHasEveryAnsweredScanAndEqualsAnUninterruptedOne) {
+  // Count-based checkpoints only (after scans 3 and 6), so what the journal must add is known.
+  const std::vector<std::string> flags = {"--slam-workers", "2", "--slam-checkpoint-scans", "3",
+                                          "--slam-checkpoint-seconds", "0"};
   server_.reset();
-  StartServer({"--slam-workers", "2", "--slam-checkpoint-scans", "3",
-               "--slam-checkpoint-seconds", "0"});
+  StartServer(flags);
+  const std::string uninterrupted = CreateSession("robot-1");
+  ASSERT_TRUE(RunStream(stub_.get(), uninterrupted, Drive(0, 10, 1.0)).status.ok());
+  const std::string id = CreateSession("robot-2");
+  StreamResult before = RunStream(stub_.get(), id, Drive(0, 7, 1.0));
+  ASSERT_TRUE(before.status.ok()) << before.status.error_message();
+  ASSERT_EQ(before.scans.size(), 7u);
+  stub_.reset();
+  channel_.reset();
+  server_->Stop(SIGKILL);  // no shutdown checkpoint
+  StartServer(flags);
+
+  // The 7th scan was answered after the last checkpoint (6): the journal has it.
+  StreamResult after = RunStream(stub_.get(), id, Drive(7, 3, 1.0, 100));
+  ASSERT_TRUE(after.status.ok()) << after.status.error_message();
+  ASSERT_TRUE(after.start.has_value());
+  EXPECT_TRUE(after.start->from_checkpoint());
+  EXPECT_EQ(after.start->scans_processed(), 7u);
+  EXPECT_EQ(after.start->last_scan_stamp(), 7.0);
+  ASSERT_EQ(after.scans.size(), 3u);
+  EXPECT_EQ(after.scans.back().scans_processed(), 10u);
+  for (size_t i = 0; i < after.scans.size(); ++i) EXPECT_FALSE(after.scans[i].has_rejection());
+
+  v1::GetTrajectoryRequest request;
+  request.set_session_id(id);
+  v1::Trajectory resumed;
+  ASSERT_TRUE(stub_->GetTrajectory(Ctx().get(), request, &resumed).ok());
+  request.set_session_id(uninterrupted);
+  v1::Trajectory reference;
+  ASSERT_TRUE(stub_->GetTrajectory(Ctx().get(), request, &reference).ok());
+  ASSERT_EQ(resumed.poses_size(), 10);
+  ASSERT_EQ(reference.poses_size(), 10);
+  for (int i = 0; i < 10; ++i) {
+    EXPECT_EQ(resumed.poses(i).stamp(), reference.poses(i).stamp()) << "pose " << i;
+    EXPECT_EQ(resumed.poses(i).pose().x(), reference.poses(i).pose().x()) << "pose " << i;
+    EXPECT_EQ(resumed.poses(i).pose().y(), reference.poses(i).pose().y()) << "pose " << i;
+    EXPECT_EQ(resumed.poses(i).pose().theta(), reference.poses(i).pose().theta()) << "pose " << i;
+  }
+}
+
+// Without the journal (--slam-journal=false) a crash goes back to the last checkpoint; the
+// stream's first answer says where, so the robot can resend what was lost.
+TEST_F(SlamServerTest, WithoutTheJournalACrashGoesBackToTheLastPeriodicCheckpoint) {
+  server_.reset();
+  const std::vector<std::string> flags = {"--slam-workers", "2", "--slam-checkpoint-scans", "3",
+                                          "--slam-checkpoint-seconds", "0", "--slam-journal",
+                                          "false"};
+  StartServer(flags);
   const std::string id = CreateSession("robot-1");
   StreamResult before = RunStream(stub_.get(), id, Drive(0, 7, 1.0));
   ASSERT_TRUE(before.status.ok()) << before.status.error_message();
@@ -408,15 +458,14 @@ TEST_F(SlamServerTest, AfterACrashTheSessionResumesFromItsLastPeriodicCheckpoint
   stub_.reset();
   channel_.reset();
   server_->Stop(SIGKILL);  // no shutdown checkpoint
-  StartServer();
+  StartServer(flags);
 
   v1::ListSessionsResponse list;
   ASSERT_TRUE(stub_->ListSessions(Ctx().get(), v1::ListSessionsRequest(), &list).ok());
   ASSERT_EQ(list.sessions_size(), 1);
   EXPECT_EQ(list.sessions(0).scans_processed(), 6u);  // checkpoints after scans 3 and 6
   EXPECT_EQ(list.sessions(0).last_scan_stamp(), 6.0);
-  // The robot resends from the first scan the server does not have (stamp 7) and goes on. The
-  // stream's first answer says where the session resumed, so the robot can tell what it lost.
+  // The robot resends from the first scan the server does not have (stamp 7) and goes on.
   StreamResult after = RunStream(stub_.get(), id, Drive(6, 3, 1.0, 100));
   ASSERT_TRUE(after.status.ok()) << after.status.error_message();
   ASSERT_TRUE(after.start.has_value());

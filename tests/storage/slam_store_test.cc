@@ -508,5 +508,80 @@ TEST_P(SlamStoreTest, SurvivesReopenAndSharesTheDatabaseWithTheCrossingStore) {
   EXPECT_EQ(dbs.size(), 1u);
 }
 
+// The journal (issue 21): accepted messages kept until a checkpoint includes them.
+std::vector<SlamJournalEntry> Journal(const std::string& id, int64_t first, int count) {
+  std::vector<SlamJournalEntry> entries;
+  for (int64_t seq = first; seq < first + count; ++seq) {
+    entries.push_back({id, seq, std::string("message\0", 8) + std::to_string(seq)});
+  }
+  return entries;
+}
+
+std::vector<int64_t> SeqsOf(const std::vector<SlamJournalEntry>& entries) {
+  std::vector<int64_t> seqs;
+  for (const SlamJournalEntry& entry : entries) seqs.push_back(entry.seq);
+  return seqs;
+}
+
+TEST_P(SlamStoreTest, TheJournalKeepsWhatNoCheckpointIncludesAndGoesWithTheSession) {
+  ASSERT_OK(store_->CreateSession(MakeSession("s", "r")));
+  ASSERT_OK(store_->CreateSession(MakeSession("t", "r")));
+  // One batch holds several sessions' messages.
+  std::vector<SlamJournalEntry> batch = Journal("s", 1, 4);
+  for (const SlamJournalEntry& entry : Journal("t", 1, 2)) batch.push_back(entry);
+  ASSERT_OK(store_->AppendJournal(batch, ""));
+  ASSERT_OK_AND_ASSIGN(auto journal, store_->LoadJournal("s"));
+  EXPECT_EQ(SeqsOf(journal), (std::vector<int64_t>{1, 2, 3, 4}));
+  EXPECT_EQ(journal[2].message, std::string("message\0", 8) + "3");  // bytes as given
+  EXPECT_EQ(journal[2].session_id, "s");
+
+  // A checkpoint that includes messages 1-3 takes them with it, in its transaction.
+  SlamCheckpoint checkpoint = Checkpoint("one", 2, 0, 2);
+  checkpoint.journal_through = 3;
+  ASSERT_OK(store_->WriteCheckpoint("s", checkpoint));
+  ASSERT_OK_AND_ASSIGN(SlamSessionRecord session, store_->GetSession("s"));
+  EXPECT_EQ(session.journal_through, 3);
+  ASSERT_OK_AND_ASSIGN(journal, store_->LoadJournal("s"));
+  EXPECT_EQ(SeqsOf(journal), (std::vector<int64_t>{4}));
+  ASSERT_OK_AND_ASSIGN(int64_t rows, database_.CountRows("slam_journal"));
+  EXPECT_EQ(rows, 3);  // s: 4; t: 1, 2
+  // A checkpoint never goes back in the journal; a seq is stored once.
+  checkpoint = Checkpoint("older", 3, 2, 1);
+  checkpoint.journal_through = 2;
+  EXPECT_EQ(CodeOf(store_->WriteCheckpoint("s", checkpoint)), absl::StatusCode::kInvalidArgument);
+  EXPECT_EQ(CodeOf(store_->AppendJournal(Journal("s", 4, 1), "")),
+            absl::StatusCode::kAlreadyExists);
+  EXPECT_EQ(CodeOf(store_->AppendJournal(Journal("s", 0, 1), "")),
+            absl::StatusCode::kInvalidArgument);
+  EXPECT_EQ(CodeOf(store_->LoadJournal("nope")), absl::StatusCode::kNotFound);
+
+  // Closing keeps no journal; appending to a closed or unknown session stores nothing and does
+  // not fail the batch's other messages.
+  SlamCheckpoint final_checkpoint = Checkpoint("final", 3, 2, 1);
+  final_checkpoint.journal_through = 3;  // message 4 was never processed: closing drops it too
+  ASSERT_OK(store_->CloseSession("s", final_checkpoint));
+  std::vector<SlamJournalEntry> late = Journal("s", 5, 1);
+  late.push_back({"gone", 1, "x"});
+  late.push_back({"t", 3, "y"});
+  ASSERT_OK(store_->AppendJournal(late, ""));
+  ASSERT_OK_AND_ASSIGN(rows, database_.CountRows("slam_journal"));
+  EXPECT_EQ(rows, 3);  // t: 1, 2, 3
+  // Deleting a session deletes its journal.
+  ASSERT_OK(store_->DeleteSession("t").status());
+  ASSERT_OK_AND_ASSIGN(rows, database_.CountRows("slam_journal"));
+  EXPECT_EQ(rows, 0);
+}
+
+TEST_P(SlamStoreTest, TheJournalIsFencedByTheLease) {
+  ASSERT_OK(store_->CreateSession(MakeSession("s", "r")));
+  ASSERT_OK_AND_ASSIGN(SlamLease taken, store_->AcquireLease("s", "A", "a:1", kLongTtl));
+  ASSERT_EQ(taken.owner, "A");
+  ASSERT_OK(store_->AppendJournal(Journal("s", 1, 2), "A"));
+  ASSERT_OK(store_->AppendJournal(Journal("s", 3, 1), "B"));  // not B's: skipped
+  ASSERT_OK(store_->AppendJournal(Journal("s", 4, 1), ""));   // unfenced
+  ASSERT_OK_AND_ASSIGN(auto journal, store_->LoadJournal("s"));
+  EXPECT_EQ(SeqsOf(journal), (std::vector<int64_t>{1, 2, 4}));
+}
+
 }  // namespace
 }  // namespace waymark::storage
