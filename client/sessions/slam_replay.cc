@@ -42,15 +42,6 @@ std::string StatusText(const absl::Status& status) {
   return absl::StrCat(absl::StatusCodeToString(status.code()), ": ", status.message());
 }
 
-v1::LaserGeometry GeometryOf(const CarmenLaser& laser) {
-  v1::LaserGeometry geometry;
-  geometry.set_angle_min(laser.angle_min);
-  geometry.set_angle_increment(laser.angle_increment);
-  geometry.set_beam_count(static_cast<uint32_t>(laser.ranges.size()));
-  geometry.set_no_return_range(laser.no_return_range);
-  return geometry;
-}
-
 void PrintReadProblems(CommandContext& context, CarmenLogReader& reader) {
   if (reader.malformed_lines() == 0) return;
   context.err << "warning: skipped " << reader.malformed_lines() << " malformed line(s)";
@@ -89,26 +80,6 @@ std::string BrokenStampsWarning(const CarmenLaserFeed& feed) {
       "{:g} Hz, or --rate HZ).\n",
       skipped, feed.laser_lines(), 100.0 * static_cast<double>(skipped) / feed.laser_lines(),
       fmt::join(why, "; "), feed.laser_lines() - skipped, adapters::kDefaultRestampRateHz);
-}
-
-v1::CreateSessionRequest SessionRequest(const ReplayArgs& args, const CarmenLaser& first) {
-  v1::CreateSessionRequest create;
-  create.set_robot_id(args.robot_id);
-  create.set_name(args.name.empty() ? "replay of " + LogName(args.log) : args.name);
-  v1::LaserSlamConfig* config = create.mutable_laser();
-  *config->mutable_laser() = GeometryOf(first);
-  const Pose2 mount = LaserMount(first);
-  config->mutable_laser_pose()->set_x(mount.x);
-  config->mutable_laser_pose()->set_y(mount.y);
-  config->mutable_laser_pose()->set_theta(mount.theta);
-  v1::LaserSlamParams* params = config->mutable_params();
-  if (args.max_range) params->set_max_range(*args.max_range);
-  if (args.odom_xy_per_m) params->set_odom_xy_per_m(*args.odom_xy_per_m);
-  if (args.odom_theta_per_rad) params->set_odom_theta_per_rad(*args.odom_theta_per_rad);
-  if (args.odom_theta_per_m) params->set_odom_theta_per_m(*args.odom_theta_per_m);
-  if (args.match_chi2) params->set_match_chi2(*args.match_chi2);
-  if (args.localize) *config->mutable_localize() = *args.localize;
-  return create;
 }
 
 // What the stream's answers say, gathered on its reader thread; read once the stream finished.
@@ -308,6 +279,45 @@ std::string LogName(const std::string& path) {
   return name.empty() ? "log" : name.string();
 }
 
+v1::LaserGeometry GeometryOf(const CarmenLaser& laser) {
+  v1::LaserGeometry geometry;
+  geometry.set_angle_min(laser.angle_min);
+  geometry.set_angle_increment(laser.angle_increment);
+  geometry.set_beam_count(static_cast<uint32_t>(laser.ranges.size()));
+  geometry.set_no_return_range(laser.no_return_range);
+  return geometry;
+}
+
+ReplayStep ReplayStepOf(const CarmenLaser& laser) {
+  ReplayStep step;
+  step.odometry.set_stamp(laser.stamp);
+  *step.odometry.mutable_pose() = ToProto(laser.odom_pose);
+  step.scan.set_stamp(laser.stamp);
+  *step.scan.mutable_geometry() = GeometryOf(laser);
+  step.scan.mutable_ranges()->Assign(laser.ranges.begin(), laser.ranges.end());
+  return step;
+}
+
+v1::CreateSessionRequest SessionRequest(const ReplayArgs& args, const CarmenLaser& first) {
+  v1::CreateSessionRequest create;
+  create.set_robot_id(args.robot_id);
+  create.set_name(args.name.empty() ? "replay of " + LogName(args.log) : args.name);
+  v1::LaserSlamConfig* config = create.mutable_laser();
+  *config->mutable_laser() = GeometryOf(first);
+  const Pose2 mount = LaserMount(first);
+  config->mutable_laser_pose()->set_x(mount.x);
+  config->mutable_laser_pose()->set_y(mount.y);
+  config->mutable_laser_pose()->set_theta(mount.theta);
+  v1::LaserSlamParams* params = config->mutable_params();
+  if (args.max_range) params->set_max_range(*args.max_range);
+  if (args.odom_xy_per_m) params->set_odom_xy_per_m(*args.odom_xy_per_m);
+  if (args.odom_theta_per_rad) params->set_odom_theta_per_rad(*args.odom_theta_per_rad);
+  if (args.odom_theta_per_m) params->set_odom_theta_per_m(*args.odom_theta_per_m);
+  if (args.match_chi2) params->set_match_chi2(*args.match_chi2);
+  if (args.localize) *config->mutable_localize() = *args.localize;
+  return create;
+}
+
 int RunSlamReplay(CommandContext& context, const ReplayArgs& args, const StopRequested& stop) {
   auto opened = OpenFeed(args.log, args.restamp, args.rate_hz);
   if (!opened.ok()) return ReportError(context, opened.status());
@@ -359,14 +369,10 @@ int RunSlamReplay(CommandContext& context, const ReplayArgs& args, const StopReq
       report.end = ReplayEnd::kInterrupted;
       break;
     }
-    v1::Odometry odometry;
-    odometry.set_stamp(record.laser.stamp);
-    *odometry.mutable_pose() = ToProto(record.laser.odom_pose);
-    v1::LaserScan scan;
-    scan.set_stamp(record.laser.stamp);
-    *scan.mutable_geometry() = GeometryOf(record.laser);
-    scan.mutable_ranges()->Assign(record.laser.ranges.begin(), record.laser.ranges.end());
-    if (failure = stream->SendOdometry(odometry); failure.ok()) failure = stream->SendScan(scan);
+    const ReplayStep step = ReplayStepOf(record.laser);
+    if (failure = stream->SendOdometry(step.odometry); failure.ok()) {
+      failure = stream->SendScan(step.scan);
+    }
     if (!failure.ok()) {
       report.end = ReplayEnd::kFailed;
       break;

@@ -70,6 +70,16 @@ struct ReplayArgs {
   std::optional<v1::LocalizationConfig> localize;
 };
 
+// One laser line as a replay sends it: the odometry pose at its stamp, then the scan.
+struct ReplayStep {
+  v1::Odometry odometry;
+  v1::LaserScan scan;
+};
+ReplayStep ReplayStepOf(const adapters::CarmenLaser& laser);
+v1::LaserGeometry GeometryOf(const adapters::CarmenLaser& laser);
+// The CreateSession a replay sends for a log whose first laser line is `first`.
+v1::CreateSessionRequest SessionRequest(const ReplayArgs& args, const adapters::CarmenLaser& first);
+
 int RunSlamReplay(CommandContext& context, const ReplayArgs& args,
                   const StopRequested& stop = {});
 

@@ -160,7 +160,7 @@ TEST_F(FleetServerTest, AViewEnrolledOnOneServerIsRecognizedOnTheOther) {
   EXPECT_EQ(answer.crossing(), "north-gate");
 }
 
-TEST_F(FleetServerTest, AKilledServersSessionMovesToAnotherFromItsLastCheckpoint) {
+TEST_F(FleetServerTest, AKilledServersSessionMovesToAnotherWithEverythingItAnswered) {
   ASSERT_NE(a_, nullptr);
   ASSERT_NE(b_, nullptr);
   auto on_a = Slam(*a_);
@@ -190,11 +190,12 @@ TEST_F(FleetServerTest, AKilledServersSessionMovesToAnotherFromItsLastCheckpoint
 
   on_a.reset();
   a_->Stop(SIGKILL);  // no shutdown checkpoint, no lease released
-  // Once the lease expires B takes the session over, from the checkpoint after scan 6; the
-  // robot resends from scan 7. Bounded so that a lease that never expires ends the test.
+  // Once the lease expires B takes the session over, from the checkpoint after scan 6 and A's
+  // journal (scan 7); the robot goes on from scan 8. Bounded so that a lease that never expires
+  // ends the test.
   StreamResult moved;
   for (int attempt = 0; attempt < 60; ++attempt) {
-    moved = RunStream(on_b.get(), id, Drive(6, 3, 200));
+    moved = RunStream(on_b.get(), id, Drive(7, 3, 200));
     if (moved.status.ok()) break;
     ASSERT_EQ(moved.status.error_code(), grpc::StatusCode::FAILED_PRECONDITION)
         << moved.status.error_message();
@@ -203,14 +204,14 @@ TEST_F(FleetServerTest, AKilledServersSessionMovesToAnotherFromItsLastCheckpoint
   ASSERT_TRUE(moved.status.ok()) << moved.status.error_message();
   ASSERT_TRUE(moved.start.has_value());
   EXPECT_TRUE(moved.start->from_checkpoint());
-  EXPECT_EQ(moved.start->scans_processed(), 6u);
+  EXPECT_EQ(moved.start->scans_processed(), 7u);
   EXPECT_EQ(moved.scans, 3);
-  EXPECT_EQ(moved.last_processed, 9u);
+  EXPECT_EQ(moved.last_processed, 10u);
   v1::GetTrajectoryRequest request;
   request.set_session_id(id);
   v1::Trajectory trajectory;
   ASSERT_TRUE(on_b->GetTrajectory(Ctx().get(), request, &trajectory).ok());
-  EXPECT_EQ(trajectory.poses_size(), 9);
+  EXPECT_EQ(trajectory.poses_size(), 10);
   EXPECT_EQ(served_by(on_b.get()), b_->address());
 }
 
@@ -273,13 +274,13 @@ TEST_F(FleetServerTest, AFleetClientFollowsItsSessionAndFailsOverWhenItsServerDi
   };
   EXPECT_EQ(stream_until_served(0, 7), 0);  // served by A, through B's redirect or directly
   a_->Stop(SIGKILL);
-  // B serves it once A's lease expires, from the checkpoint after scan 6.
-  EXPECT_EQ(stream_until_served(6, 3), 6);
+  // B serves it once A's lease expires, from the checkpoint after scan 6 and A's journal.
+  EXPECT_EQ(stream_until_served(7, 3), 7);
   v1::GetTrajectoryRequest request;
   request.set_session_id(id);
   v1::Trajectory trajectory;
   ASSERT_TRUE(Slam(*b_)->GetTrajectory(Ctx().get(), request, &trajectory).ok());
-  EXPECT_EQ(trajectory.poses_size(), 9);
+  EXPECT_EQ(trajectory.poses_size(), 10);
 }
 
 // A session created through a fleet client is served by the server that created it, and the
