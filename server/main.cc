@@ -344,6 +344,14 @@ int main(int argc, char** argv) {
   // a request thread per call that grows the heap well past what the databases hold. Two arenas
   // are plenty for the request threads of a 2-8 core server.
   mallopt(M_ARENA_MAX, 2);
+  // glibc serves a block of 128 KB or more with its own mmap, but after the first such block is
+  // freed it raises that threshold to the block's size (up to 32 MB) and serves the next ones
+  // from the arenas, which keep them: after a burst of large requests (8 clients x 24 MiB
+  // images) the server stayed 25-50 MB above its idle size for good. A fixed threshold keeps
+  // every large buffer (request bytes, decoded images, checkpoints) in its own mapping, which
+  // goes back to the system the moment it is freed; measured with waymark-memory-burst
+  // (docs/operations.md, "Memory").
+  mallopt(M_MMAP_THRESHOLD, 256 * 1024);
   // Logs go to stderr; stdout carries only the "listening on" line that scripts wait for.
   spdlog::set_default_logger(spdlog::stderr_color_mt("waymark"));
   return Run(flags);

@@ -70,6 +70,8 @@ class SegmentEkf {
   void ApplyToCovariance(const std::vector<int>& dofs, const Eigen::MatrixXd& q);
   void TransformColumns(const std::vector<Transform>& transforms);
   void ApplyTransforms(const std::vector<Transform>& transforms);
+  // Copies the covariance's lower triangle onto its upper one (exact symmetry).
+  void MirrorLower();
   // Moves the frame back to the midpoint when it drifted far; returns the shift (0 = none).
   double MidpointShift(SegmentEntity& segment);
   void Recentre(SegmentEntity& segment);
