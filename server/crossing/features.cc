@@ -11,6 +11,7 @@
 #include "absl/strings/str_cat.h"
 #include "server/crossing/dense_sift.h"
 #include "server/crossing/hue_histogram.h"
+#include "server/common/image_header.h"
 #include "server/common/stopwatch.h"
 
 namespace waymark::crossing {
@@ -51,6 +52,16 @@ std::vector<cv::Point2f> KeypointPositions(const ImageFeatures& features) {
 absl::StatusOr<cv::Mat> DecodeImage(const std::string& bytes) {
   if (bytes.empty()) return absl::InvalidArgumentError("image data is empty: send JPEG or PNG bytes");
   if (absl::Status s = CheckComplete(bytes); !s.ok()) return s;
+  // The size is checked on the header, before the decoder allocates what the header claims.
+  const std::optional<ImageHeader> header = ReadImageHeader(bytes);
+  if (!header.has_value()) {
+    return absl::InvalidArgumentError(absl::StrCat(
+        "image data (", bytes.size(), " bytes) is not a JPEG or PNG image (no readable header)"));
+  }
+  if (static_cast<double>(header->width) * header->height > kMaxDecodedPixels) {
+    return absl::InvalidArgumentError(absl::StrCat("image is ", header->width, "x",
+                                                   header->height, ": more than 64 megapixels"));
+  }
   cv::Mat image;
   try {
     const cv::Mat buffer(1, static_cast<int>(bytes.size()), CV_8U,

@@ -207,6 +207,22 @@ TEST(RecognizerEmptyTest, EmptyDatabaseIsFailedPrecondition) {
   EXPECT_EQ(Recognize(empty, f, {}).status().code(), absl::StatusCode::kFailedPrecondition);
 }
 
+// Issue 21: a PNG's header may claim any size, and a decoder allocates what it claims (a 1 MB PNG
+// of 20000 x 20000 zeros took the server to 1.2 GB before its size check). The size is refused on
+// the header, before decoding: this one's pixel data is not even there, so a decoder would have
+// failed with another message.
+TEST(FeaturesTest, AnImageClaimingTooManyPixelsIsRefusedOnItsHeaderBeforeDecoding) {
+  std::string png = testing::EncodePng(testing::MakePanorama(1, 64, 48));
+  const unsigned char claimed[8] = {0, 0, 0x75, 0x30, 0, 0, 0x75, 0x30};  // 30000 x 30000
+  png.replace(16, 8, reinterpret_cast<const char*>(claimed), 8);
+  const absl::Status refused = ExtractFeatures(png, FeatureOptions()).status();
+  EXPECT_EQ(refused.code(), absl::StatusCode::kInvalidArgument);
+  EXPECT_NE(refused.message().find("30000x30000: more than 64 megapixels"), std::string::npos)
+      << refused;
+  const absl::Status headless = ExtractFeatures(std::string(200, 'x') + "IEND", {}).status();
+  EXPECT_NE(headless.message().find("not a JPEG or PNG image"), std::string::npos) << headless;
+}
+
 TEST(FeaturesTest, CorruptAndTinyImagesAreInvalidArgument) {
   FeatureOptions options;
   EXPECT_EQ(ExtractFeatures("", options).status().code(), absl::StatusCode::kInvalidArgument);
