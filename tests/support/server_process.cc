@@ -5,6 +5,7 @@
 #include <sys/wait.h>
 #include <unistd.h>
 
+#include <atomic>
 #include <chrono>
 #include <cstdio>
 #include <cstdlib>
@@ -63,7 +64,12 @@ absl::StatusOr<std::unique_ptr<ServerProcess>> ServerProcess::StartWithAuth(
   // Beside a database file; a PostgreSQL URI is no place for a log.
   const bool uri = db_path.rfind("postgresql://", 0) == 0 || db_path.rfind("postgres://", 0) == 0;
   const std::string log_base = uri ? MakeTempDir("waymark-server-log") + "/server" : db_path;
-  server->log_path_ = log_base + ".log." + std::to_string(std::rand());
+  // A name no earlier server of any process used, and no file there yet: the child truncates it
+  // only once it runs, and a stale "listening on" line read before that named a dead server (a
+  // benchmark's second run in the same folder: std::rand() repeats across processes).
+  static std::atomic<int> started{0};
+  server->log_path_ = absl::StrCat(log_base, ".log.", getpid(), ".", started++);
+  std::remove(server->log_path_.c_str());
   ChildProcess::Options options;
   options.argv = {binary, "--listen", listen, "--db", db_path};
   options.argv.insert(options.argv.end(), args.begin(), args.end());
