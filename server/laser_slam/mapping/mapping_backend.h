@@ -147,7 +147,7 @@ class MappingBackend {
   void FreezeSubmapLocked(int index);
   // Pyramids of recently matched submaps (least recently used first).
   std::deque<std::pair<int, std::shared_ptr<const SearchPyramid>>> pyramid_cache_;
-  std::mutex search_mu_;  // one search / optimisation at a time
+  mutable std::mutex search_mu_;  // one search / optimisation at a time (Serialize waits too)
   std::thread worker_;
 };
 
