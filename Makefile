@@ -6,7 +6,7 @@ LISTEN ?= 127.0.0.1:50051
 DB ?= ./var/waymark.db
 CTEST_ARGS ?=
 
-.PHONY: all deps configure build run test bench demo docker-test clean
+.PHONY: all deps configure build run test bench demo docker-test fuzz clean
 
 all: build
 
@@ -46,6 +46,12 @@ demo: build
 # Build the Docker image and smoke-test it with its own dockerd (root, Debian 12; docker/README.md).
 docker-test:
 	BUILD_DIR=$(BUILD_DIR) ./scripts/docker-test.sh
+
+# Fuzzing with the sanitizers (docs/operations.md): waymark-fuzz alone, built with clang 14,
+# AddressSanitizer, UndefinedBehaviorSanitizer and libFuzzer in its own directory (FUZZ_DIR,
+# default build-fuzz), then every target coverage-guided for FUZZ_SECONDS (default 30) each.
+fuzz: deps
+	./scripts/fuzz.sh
 
 clean:
 	rm -rf $(BUILD_DIR)

@@ -235,7 +235,7 @@ void AddGlobalShortlist(const GlobalStage& g, const ViewMatches& tentative, int 
   if (!g.active()) return;
   for (const auto& [similarity, slot] : TopSimilar(g.similarity, size)) {
     const bool listed = std::any_of(ranked->begin(), ranked->end(),
-                                    [&](const auto& r) { return r.second == slot; });
+                                    [slot = slot](const auto& r) { return r.second == slot; });
     if (!listed) ranked->emplace_back(CountOf(tentative, slot), slot);
   }
 }
@@ -287,7 +287,11 @@ void RecognizeRetrieval(const ViewDatabase& db, const ImageFeatures& query,
   const GlobalStage global = ScoreGlobally(db, query);
   AddGlobalShortlist(global, shortlisted.tentative, options.global_shortlist, &shortlisted.ranked);
   out->retrieval_ms = MsSince(start);
-  const auto& [tentative, ranked, verification] = shortlisted;
+  // References, not a structured binding: the lambda below captures them, which C++17 allows
+  // for variables only (GCC also takes bindings, clang does not).
+  const ViewMatches& tentative = shortlisted.tentative;
+  const auto& ranked = shortlisted.ranked;
+  const auto& verification = shortlisted.verification;
   start = Clock::now();
   // The match sets are judged over the shortlist's views as tests; with global_evidence every
   // view of the database is a candidate answer.

@@ -4,11 +4,15 @@
 // duplicated runs, truncation, splices of two seeds, "interesting" numbers written over bytes).
 // The count of runs is fixed, not the time, so a loaded machine runs the same inputs, only slower.
 //
-//   waymark-fuzz --target NAME [--corpus DIR] [--runs N] [--seed S]
+//   waymark-fuzz --target NAME [--corpus DIR] [--runs N] [--seed S] [--max-memory-mb M]
 //   waymark-fuzz --list
 //
 // A crash is a crash of this process (ctest reports it); the input that caused it is written to
 // ./fuzz-crash-<target> first, so it can be replayed (--replay FILE) and kept in the corpus.
+// Memory is a crash too: the process may map at most --max-memory-mb (2048) beyond what it had
+// at start, so an input that makes a parser allocate gigabytes (a corrupt count) ends in
+// std::bad_alloc and an abort, as libFuzzer's malloc limit ends `make fuzz`, instead of passing
+// slowly on a machine with the memory to spare.
 
 #include <cstdio>
 #include <cstring>
@@ -18,6 +22,10 @@
 #include <random>
 #include <string>
 #include <vector>
+
+#include <fcntl.h>
+#include <sys/resource.h>
+#include <unistd.h>
 
 #include "tests/fuzz/fuzz_targets.h"
 
@@ -87,11 +95,50 @@ std::string Mutate(const std::vector<std::string>& seeds, std::mt19937_64& rando
   return input;
 }
 
-void Run(const FuzzTarget& target, const std::string& input) {
-  // Written before the run: if the target crashes, the input is there to replay.
-  {
-    std::ofstream(std::string("fuzz-crash-") + target.name, std::ios::binary) << input;
+// The process's mapped size now (VmSize, /proc/self/statm's first field in pages).
+size_t MappedBytes() {
+  std::ifstream statm("/proc/self/statm");
+  size_t pages = 0;
+  statm >> pages;
+  return pages * static_cast<size_t>(sysconf(_SC_PAGESIZE));
+}
+
+void LimitMemory(long extra_mb) {
+  rlimit limit{};
+  limit.rlim_cur = limit.rlim_max = MappedBytes() + (static_cast<size_t>(extra_mb) << 20);
+  if (setrlimit(RLIMIT_AS, &limit) != 0) std::perror("setrlimit(RLIMIT_AS)");
+}
+
+// ./fuzz-crash-<target>, holding the input being run: written before each run, so that whatever
+// ends the process (a crash, an abort, ctest killing a hang) leaves the input there to replay.
+// Overwritten in place rather than truncated to nothing and rewritten, which ext4 flushes to disk
+// on every close (that cost more than most targets' own work).
+class CrashFile {
+ public:
+  explicit CrashFile(const std::string& target)
+      : path_("fuzz-crash-" + target), fd_(open(path_.c_str(), O_WRONLY | O_CREAT, 0644)) {
+    if (fd_ < 0) std::perror(path_.c_str());
   }
+  ~CrashFile() {
+    if (fd_ >= 0) close(fd_);
+  }
+  void Keep(const std::string& input) {
+    if (fd_ < 0) return;
+    if (pwrite(fd_, input.data(), input.size(), 0) != static_cast<ssize_t>(input.size()) ||
+        ftruncate(fd_, static_cast<off_t>(input.size())) != 0) {
+      std::perror(path_.c_str());
+    }
+  }
+  // After a run without a crash.
+  void Remove() { fs::remove(path_); }
+
+ private:
+  std::string path_;
+  int fd_;
+};
+
+void Run(const FuzzTarget& target, CrashFile& crash_file, const std::string& input) {
+  crash_file.Keep(input);
   target.run(reinterpret_cast<const uint8_t*>(input.data()), input.size());
 }
 
@@ -100,6 +147,7 @@ void Run(const FuzzTarget& target, const std::string& input) {
 int main(int argc, char** argv) {
   std::string name, corpus, replay;
   long runs = 10000;
+  long max_memory_mb = 2048;
   unsigned long long seed = 1;
   bool list = false;
   for (int i = 1; i < argc; ++i) {
@@ -110,6 +158,7 @@ int main(int argc, char** argv) {
     else if (arg == "--runs") runs = std::stol(value());
     else if (arg == "--seed") seed = std::stoull(value());
     else if (arg == "--replay") replay = value();
+    else if (arg == "--max-memory-mb") max_memory_mb = std::stol(value());
     else if (arg == "--list") list = true;
     else {
       std::fprintf(stderr, "unknown argument %s\n", arg.c_str());
@@ -128,20 +177,23 @@ int main(int argc, char** argv) {
     std::fprintf(stderr, "no target '%s' (--list names them)\n", name.c_str());
     return 2;
   }
+  LimitMemory(max_memory_mb);
   if (!replay.empty()) {
-    Run(*target, ReadFile(replay));
+    const std::string input = ReadFile(replay);
+    target->run(reinterpret_cast<const uint8_t*>(input.data()), input.size());
     return 0;
   }
+  CrashFile crash_file(target->name);
   std::vector<std::string> seeds = target->seeds();
   if (!corpus.empty() && fs::is_directory(corpus)) {
     for (const auto& entry : fs::directory_iterator(corpus)) {
       if (entry.is_regular_file()) seeds.push_back(ReadFile(entry.path()));
     }
   }
-  for (const std::string& s : seeds) Run(*target, s);
+  for (const std::string& s : seeds) Run(*target, crash_file, s);
   std::mt19937_64 random(seed);
-  for (long r = 0; r < runs; ++r) Run(*target, Mutate(seeds, random));
-  fs::remove(std::string("fuzz-crash-") + target->name);
+  for (long r = 0; r < runs; ++r) Run(*target, crash_file, Mutate(seeds, random));
+  crash_file.Remove();
   std::printf("%s: %zu seeds and %ld mutated inputs, no crash\n", target->name, seeds.size(), runs);
   return 0;
 }

@@ -4,6 +4,8 @@
 #include <optional>
 #include <string>
 
+#include <opencv2/imgproc.hpp>
+
 #include "client/datasets/carmen_log.h"
 #include "client/datasets/pgm_image.h"
 #include "client/datasets/pose_file.h"
@@ -12,12 +14,16 @@
 #include "client/devices/p2os_sip.h"
 #include "client/eval/relations_metric.h"
 #include "client/sim/sim_builtin_worlds.h"
+#include "client/sim/sim_scene.h"
 #include "client/sim/sim_world.h"
+#include "server/crossing/features.h"
 #include "server/laser_slam/laser_slam.h"
+#include "server/laser_slam/mapping/localizer.h"
 #include "server/service/slam_params.h"
 #include "server/service/visual_frame_decoder.h"
 #include "server/service/visual_params.h"
 #include "server/visual_slam/visual_odometry.h"
+#include "tests/fuzz/fuzz_images.h"
 
 namespace waymark::fuzz {
 namespace {
@@ -119,6 +125,44 @@ std::vector<std::string> Lms200Seeds() {
   return seeds;
 }
 
+// The camera of the targets that admit frames: the size of FuzzView's images.
+visual_slam::CameraModel FuzzCamera() {
+  visual_slam::CameraModel camera;
+  camera.fx = camera.fy = 100;
+  camera.cx = kViewWidth / 2.0;
+  camera.cy = kViewHeight / 2.0;
+  camera.width = kViewWidth;
+  camera.height = kViewHeight;
+  return camera;
+}
+
+// --- Image decoding: any bytes as a crossing view (decoding, the working resolution, SIFT, the
+// hue histogram), as a visual session's camera image and as its 16-bit depth image -------------
+void ImageDecoding(const uint8_t* data, size_t size) {
+  const std::string bytes = Text(data, size);
+  crossing::FeatureOptions options;
+  options.work_width = kViewWidth;
+  options.work_height = kViewHeight;
+  // Two of the options that change the path, picked by the input's length so both are fuzzed.
+  options.keep_aspect = (size & 1) != 0;
+  options.global_descriptor = (size & 2) != 0;
+  (void)crossing::ExtractFeatures(bytes, options, nullptr);
+  v1::ImageFrame frame;
+  frame.set_stamp(1);
+  frame.set_image(bytes);
+  (void)service::DecodeFrame(frame, 1, FuzzCamera());
+  static const std::string* const image = new std::string(adapters::EncodeJpeg(FuzzView(3, 0)));
+  frame.set_image(*image);
+  frame.set_depth(bytes);
+  (void)service::DecodeFrame(frame, 2, FuzzCamera());
+}
+std::vector<std::string> ImageSeeds() {
+  cv::Mat gray;
+  cv::cvtColor(FuzzView(4, 90), gray, cv::COLOR_BGR2GRAY);
+  return {adapters::EncodeJpeg(FuzzView(4, 0)), adapters::EncodePng(FuzzView(4, 180)),
+          adapters::EncodePng(gray), adapters::EncodePng(FuzzDepth())};
+}
+
 // --- Request messages: a robot's SensorData (odometry, scans, camera frames with their image
 // decoding and admission) and a session's configuration, parsed and checked as the server does -
 void SensorData(const uint8_t* data, size_t size) {
@@ -128,15 +172,9 @@ void SensorData(const uint8_t* data, size_t size) {
   geometry.angle_min = -1.5707963;
   geometry.angle_increment = 3.1415926 / 180;
   geometry.beam_count = 181;
-  visual_slam::CameraModel camera;
-  camera.fx = camera.fy = 100;
-  camera.cx = 32;
-  camera.cy = 24;
-  camera.width = 64;
-  camera.height = 48;
   if (message.has_odometry()) (void)service::ToOdometryReading(message.odometry());
   if (message.has_scan()) (void)service::ToLaserScan(message.scan(), geometry);
-  if (message.has_frame()) (void)service::DecodeFrame(message.frame(), message.sequence(), camera);
+  if (message.has_frame()) (void)service::DecodeFrame(message.frame(), message.sequence(), FuzzCamera());
 }
 std::vector<std::string> SensorSeeds() {
   v1::SensorData odometry;
@@ -150,12 +188,9 @@ std::vector<std::string> SensorSeeds() {
   v1::SensorData frame;
   frame.set_sequence(3);
   frame.mutable_frame()->set_stamp(1.7);
-  // A 2x2 PNG: the decoder's size check refuses it, the decoding runs.
-  frame.mutable_frame()->set_image(std::string(
-      "\x89PNG\r\n\x1a\n\0\0\0\rIHDR\0\0\0\x02\0\0\0\x02\x08\x00\0\0\0W\xdd"
-      "R\xf8\0\0\0\x0eIDATx\x9cc\xf8\xcf\xc0\xf0\x1f\0\x05\xfe\x02\xfe\xa7\x8d"
-      "\xa8\x8f\0\0\0\0IEND\xaeB`\x82",
-      75));
+  // An image of the camera's size, so that it is decoded (made by code: a literal PNG here was
+  // cut short by escapes like "\x9cc", which read as one out-of-range character).
+  frame.mutable_frame()->set_image(adapters::EncodePng(FuzzView(3, 0)));
   auto* box = frame.mutable_frame()->add_boxes();
   box->set_x(1);
   box->set_width(10);
@@ -192,18 +227,36 @@ laser_slam::LaserScan FuzzScan(double stamp) {
   for (int i = 0; i < 181; ++i) scan.ranges.push_back(i < 90 ? 2.0f : 3.0f);
   return scan;
 }
+// A localization session's localizer, on a map of one wall: what a localization checkpoint is
+// restored with.
+std::unique_ptr<laser_slam::MapLocalizer> FuzzLocalizer() {
+  laser_slam::PointCloud wall;
+  for (int i = 0; i < 40; ++i) wall.emplace_back(2.0f, -1.0f + 0.05f * i);
+  auto localizer = laser_slam::MapLocalizer::Create(laser_slam::LocalizationOptions{}, wall);
+  return localizer.ok() ? std::move(*localizer) : nullptr;
+}
 void LaserCheckpoint(const uint8_t* data, size_t size) {
-  auto slam = laser_slam::LaserSlam::FromCheckpoint(laser_slam::SlamOptions{}, Text(data, size), {});
+  const std::string state = Text(data, size);
+  auto slam = laser_slam::LaserSlam::FromCheckpoint(laser_slam::SlamOptions{}, state, {});
+  // A localization session's checkpoint is refused without its localizer: read it with one.
+  if (absl::IsFailedPrecondition(slam.status())) {
+    slam = laser_slam::LaserSlam::FromCheckpoint(laser_slam::SlamOptions{}, state, {},
+                                                 FuzzLocalizer());
+  }
   if (slam.ok()) (void)(*slam)->AddScan(FuzzScan(1e6));
 }
 std::vector<std::string> LaserSeeds() {
   laser_slam::LaserSlam slam{laser_slam::SlamOptions{}};
-  std::vector<std::string> seeds = {slam.SerializeState()};
+  laser_slam::LaserSlam localizing{laser_slam::SlamOptions{}, FuzzLocalizer()};
+  std::vector<std::string> seeds = {slam.SerializeState(), localizing.SerializeState()};
   for (int k = 0; k < 3; ++k) {
-    (void)slam.AddOdometry({1.0 + k, laser_slam::Pose2{0.2 * k, 0, 0}});
-    (void)slam.AddScan(FuzzScan(1.0 + k));
+    for (laser_slam::LaserSlam* s : {&slam, &localizing}) {
+      (void)s->AddOdometry({1.0 + k, laser_slam::Pose2{0.2 * k, 0, 0}});
+      (void)s->AddScan(FuzzScan(1.0 + k));
+    }
   }
   seeds.push_back(slam.SerializeState());
+  seeds.push_back(localizing.SerializeState());
   return seeds;
 }
 
@@ -245,6 +298,10 @@ const std::vector<FuzzTarget>& Targets() {
       {"session_config", SessionConfig, SessionSeeds},
       {"laser_checkpoint", LaserCheckpoint, LaserSeeds},
       {"visual_state", VisualState, VisualSeeds},
+      {"image_decoding", ImageDecoding, ImageSeeds},
+      CrossingRequestsTarget(),
+      SlamRequestsTarget(),
+      TokenRequestsTarget(),
   };
   return targets;
 }

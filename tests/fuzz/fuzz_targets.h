@@ -21,6 +21,12 @@ struct FuzzTarget {
 
 const std::vector<FuzzTarget>& Targets();
 
+// The targets of the RPCs' requests, each in a file of its own (service_calls.h says what they
+// share): CrossingService, SlamService and TokenService with the authorization metadata.
+FuzzTarget CrossingRequestsTarget();
+FuzzTarget SlamRequestsTarget();
+FuzzTarget TokenRequestsTarget();
+
 }  // namespace waymark::fuzz
 
 #endif  // WAYMARK_TESTS_FUZZ_FUZZ_TARGETS_H_
