@@ -329,6 +329,34 @@ TEST(MapLocalizerTest, AKnownStartIsFixedOnceFiveScansAreInAndTheStateSurvivesAC
             absl::StatusCode::kFailedPrecondition);
 }
 
+// A checkpoint is read back from storage: a correction beyond any map is corrupt bytes, refused
+// like the pose graph's (input_bounds.h).
+TEST(MapLocalizerTest, ACheckpointWithACorrectionBeyondAnyMapIsRefused) {
+  LocalizationOptions options;
+  const Pose2 start{7.5, 1.0, 2.0};
+  options.initial_pose = Pose2{7.3, 1.2, 1.9};
+  absl::StatusOr<std::unique_ptr<MapLocalizer>> localizer = MapLocalizer::Create(options, LRoomMap());
+  ASSERT_TRUE(localizer.ok());
+  for (int i = 0; i < 5; ++i) {
+    const Pose2 local{0.3 * i, 0.0, 0.0};
+    (*localizer)->AddScan(i + 1, i, local, PointsFrom(LRoom(), Compose(start, local)));
+  }
+  const std::string bytes = (*localizer)->Serialize();
+  // Magic and version (4 bytes each), two flags, the last node's pose, two travels and a stamp
+  // (8 bytes each), the fixes and the count (4 each); then the first correction's scan number
+  // and its x.
+  constexpr size_t kFirstCorrectionX = 4 + 4 + 2 + 6 * 8 + 4 + 4 + 8;
+  ASSERT_GE(bytes.size(), kFirstCorrectionX + sizeof(double));
+  const auto restore_with_x = [&](double x) {
+    std::string changed = bytes;
+    changed.replace(kFirstCorrectionX, sizeof(x), reinterpret_cast<const char*>(&x), sizeof(x));
+    absl::StatusOr<std::unique_ptr<MapLocalizer>> resumed = MapLocalizer::Create(options, LRoomMap());
+    return resumed.ok() ? (*resumed)->Restore(changed).code() : resumed.status().code();
+  };
+  EXPECT_EQ(restore_with_x(1e300), absl::StatusCode::kDataLoss);
+  EXPECT_EQ(restore_with_x(7.0), absl::StatusCode::kOk);  // the offset is the correction's x
+}
+
 // ---- the back end in a session ---------------------------------------------------------------
 
 TEST(MappingBackendTest, NodesFollowTheTravelAndTheCheckpointRestoresTheGraph) {
@@ -355,6 +383,34 @@ TEST(MappingBackendTest, NodesFollowTheTravelAndTheCheckpointRestoresTheGraph) {
             absl::StatusCode::kDataLoss);
   EXPECT_EQ(MappingBackend::Deserialize(options, "garbage").status().code(),
             absl::StatusCode::kDataLoss);
+}
+
+// A checkpoint is read back from storage: a number beyond any map is corrupt bytes, refused, not a
+// place. A stored scan point of -5e37 m made the loop search turn it into a grid index beyond the
+// integers' range (undefined behaviour; found by make fuzz).
+TEST(MappingBackendTest, ACheckpointWithAPointOrPoseBeyondAnyMapIsRefused) {
+  MappingOptions options;
+  options.submap_nodes = 3;
+  MappingBackend backend(options);
+  const PointCloud points = PointsFrom(LRoom(), Pose2{2, 2, 0});
+  for (int i = 0; i < 20; ++i) backend.AddScan(i + 1, i, Pose2{0.05 * i, 0, 0}, points);
+  const std::string bytes = backend.Serialize();
+  // The first node follows the magic, the version and the node count (4 bytes each): its scan
+  // number, stamp and travel, its local and global poses (8 bytes each), its point count (4),
+  // then its points (two floats each).
+  constexpr size_t kNode = 12;
+  constexpr size_t kGlobalX = kNode + 3 * 8 + 3 * 8;
+  constexpr size_t kFirstPoint = kNode + 9 * 8 + 4;
+  const auto deserialize_with = [&](size_t at, auto value) {
+    std::string changed = bytes;
+    changed.replace(at, sizeof(value), reinterpret_cast<const char*>(&value), sizeof(value));
+    return MappingBackend::Deserialize(options, changed).status().code();
+  };
+  EXPECT_EQ(deserialize_with(kFirstPoint, -5e37f), absl::StatusCode::kDataLoss);
+  EXPECT_EQ(deserialize_with(kGlobalX, 1e300), absl::StatusCode::kDataLoss);
+  // The offsets are right: plausible values there load.
+  EXPECT_EQ(deserialize_with(kFirstPoint, -5.0f), absl::StatusCode::kOk);
+  EXPECT_EQ(deserialize_with(kGlobalX, 3.0), absl::StatusCode::kOk);
 }
 
 // Version 2 stores the newest node processed (nodes still waiting for the thread are processed

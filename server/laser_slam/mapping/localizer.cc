@@ -7,6 +7,7 @@
 #include "server/common/stopwatch.h"
 #include "server/common/binary_io.h"
 #include "server/laser_slam/geometry.h"
+#include "server/laser_slam/input_bounds.h"
 #include "server/laser_slam/mapping/correlative_matcher.h"
 #include "server/laser_slam/option_checks.h"
 
@@ -217,16 +218,21 @@ absl::Status MapLocalizer::Restore(absl::string_view bytes) {
     return corrupt("header");
   }
   if (!r.Get(&localized) || !r.Get(&have_node) || !r.Get(&last_node_local_.x) ||
-      !r.Get(&last_node_local_.y) || !r.Get(&last_node_local_.theta) || !r.Get(&travel_) ||
+      !r.Get(&last_node_local_.y) || !r.Get(&last_node_local_.theta) ||
+      !PlausibleMapPose(last_node_local_) || !r.Get(&travel_) ||
       !r.Get(&fix_travel_) || !r.Get(&last_.last_fix_stamp) || !r.Get(&fixes) || fixes < 0 ||
-      !r.Get(&count) || count > 100000000) {
+      !r.Get(&count) || count > 100000000 ||
+      // Checked against the bytes left before allocating (a scan number and a pose each), as
+      // the pose graph's counts are (mapping_backend.cc).
+      count > r.remaining() / (sizeof(std::uint64_t) + 3 * sizeof(double))) {
     return corrupt("state");
   }
   corrections_.resize(count);
   std::uint64_t previous = 0;
   for (auto& [scan, c] : corrections_) {
+    // Within a map's bounds (input_bounds.h), as the pose graph's poses are.
     if (!r.Get(&scan) || !r.Get(&c.x) || !r.Get(&c.y) || !r.Get(&c.theta) || scan < previous ||
-        !std::isfinite(c.x) || !std::isfinite(c.y) || !std::isfinite(c.theta)) {
+        !PlausibleMapPose(c)) {
       return corrupt("correction");
     }
     previous = scan;

@@ -7,6 +7,7 @@
 #include "server/common/stopwatch.h"
 #include "server/common/binary_io.h"
 #include "server/laser_slam/geometry.h"
+#include "server/laser_slam/input_bounds.h"
 #include "server/laser_slam/mapping/correlative_matcher.h"
 
 namespace waymark::laser_slam {
@@ -385,9 +386,9 @@ void PutPose(BinaryWriter& w, const Pose2& p) {
   w.Put(p.theta);
 }
 
+// A stored pose, within the bounds of a map (input_bounds.h).
 bool GetPose(BinaryReader& r, Pose2* p) {
-  return r.Get(&p->x) && r.Get(&p->y) && r.Get(&p->theta) && std::isfinite(p->x) &&
-         std::isfinite(p->y) && std::isfinite(p->theta);
+  return r.Get(&p->x) && r.Get(&p->y) && r.Get(&p->theta) && PlausibleMapPose(*p);
 }
 
 }  // namespace
@@ -479,7 +480,7 @@ absl::StatusOr<std::unique_ptr<MappingBackend>> MappingBackend::Deserialize(
     PointCloud cloud(points);
     for (Eigen::Vector2f& p : cloud) {
       float x = 0, y = 0;
-      if (!r.Get(&x) || !r.Get(&y) || !std::isfinite(x) || !std::isfinite(y)) {
+      if (!r.Get(&x) || !r.Get(&y) || !PlausibleRobotPoint(x, y)) {
         return corrupt("node points");
       }
       p = Eigen::Vector2f(x, y);
