@@ -1,6 +1,7 @@
 #include "server/service/crossing_service.h"
 
 #include <algorithm>
+#include <cmath>
 #include <deque>
 #include <future>
 #include <memory>
@@ -183,7 +184,9 @@ grpc::Status CrossingServiceImpl::BulkEnrollInto(grpc::ServerContext* context,
       case v1::ENROLL_OUTCOME_INVALID: {
         v1::SkippedView* skipped = response->add_skipped();
         skipped->set_crossing(view.request.crossing());
-        skipped->set_heading_deg(view.request.heading_deg());
+        if (std::isfinite(view.request.heading_deg())) {
+          skipped->set_heading_deg(view.request.heading_deg());
+        }
         skipped->set_position(view.request.position());
         skipped->set_index(index);
         skipped->set_reason(answer->error_message());
@@ -254,7 +257,8 @@ absl::StatusOr<v1::EnrollViewResponse> CrossingServiceImpl::EnrollStreamedView(
   v1::EnrollViewResponse invalid;
   invalid.set_outcome(v1::ENROLL_OUTCOME_INVALID);
   invalid.set_crossing(request.crossing());
-  invalid.set_heading_deg(request.heading_deg());
+  // Echoed only when finite: no NaN or inf leaves the server.
+  if (std::isfinite(request.heading_deg())) invalid.set_heading_deg(request.heading_deg());
   invalid.set_position(request.position());
   invalid.set_error_code(static_cast<int32_t>(enrolled.status().code()));
   invalid.set_error_message(std::string(enrolled.status().message()));
@@ -265,10 +269,10 @@ grpc::Status CrossingServiceImpl::EndEnrollStream(const absl::Status& error,
                                                   const v1::EnrollViewRequest& request, int index,
                                                   int stored) {
   // Views before this one are committed; say which one failed and how many made it.
-  return grpc::Status(static_cast<grpc::StatusCode>(error.code()),
-                      absl::StrCat("view ", index + 1, " (crossing \"", request.crossing(),
-                                   "\", heading ", request.heading_deg(), "): ", error.message(),
-                                   " [", stored, " views before it were stored]"));
+  return ToGrpcStatus(absl::Status(
+      error.code(), absl::StrCat("view ", index + 1, " [", stored,
+                                 " views before it were stored] (crossing \"", request.crossing(),
+                                 "\", heading ", request.heading_deg(), "): ", error.message())));
 }
 
 grpc::Status CrossingServiceImpl::RebuildClusters(grpc::ServerContext* context,
@@ -313,7 +317,7 @@ grpc::Status CrossingServiceImpl::ServeStreamRecognize(grpc::ServerContext* cont
       response.set_error_code(static_cast<int32_t>(result.status().code()));
       response.set_error_message(std::string(result.status().message()));
       response.set_reason(absl::StrCat("frame rejected: ", result.status().message()));
-      response.set_stamp(request.image().stamp());
+      if (std::isfinite(request.image().stamp())) response.set_stamp(request.image().stamp());
     }
     response.set_frame_index(frame++);
     if (!stream->Write(response)) break;  // the client went away

@@ -35,6 +35,8 @@ absl::StatusOr<storage::TokenRole> FromProto(v1::TokenRole role) {
   }
 }
 
+constexpr size_t kMaxTokenFieldBytes = 128;
+
 absl::StatusOr<v1::CreatedToken> Create(storage::TokenStore& store,
                                         const v1::CreateTokenRequest& request) {
   absl::StatusOr<storage::TokenRole> role = FromProto(request.role());
@@ -45,6 +47,15 @@ absl::StatusOr<v1::CreatedToken> Create(storage::TokenStore& store,
   }
   std::optional<double> expires_at;
   if (request.expires_in_seconds() > 0) expires_at = storage::NowSeconds() + request.expires_in_seconds();
+  // Names and robot ids are listed, logged and compared on every call: bounded like a SLAM
+  // session's robot id (an 8 MiB name made ListTokens answer 230 MB, refused by gRPC).
+  for (const auto& [field, value] : {std::pair<const char*, const std::string*>{"name", &request.name()},
+                                     {"robot_id", &request.robot_id()}}) {
+    if (value->size() > kMaxTokenFieldBytes) {
+      return absl::InvalidArgumentError(absl::StrCat(field, " is ", value->size(),
+                                                     " bytes long; at most ", kMaxTokenFieldBytes));
+    }
+  }
   const std::string robot_id = request.robot_id().empty() ? request.name() : request.robot_id();
   absl::StatusOr<storage::CreatedToken> created =
       store.CreateToken(request.name(), robot_id, *role, expires_at);

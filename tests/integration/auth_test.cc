@@ -260,6 +260,25 @@ TEST_F(AuthTest, EachRoleGetsExactlyItsRpcs) {
   }
 }
 
+// Issue 21 campaign: token names of any length were stored (an 8 MiB one made ListTokens answer
+// 230 MB, which gRPC refused to send).
+TEST_F(AuthTest, TokenNamesAndRobotIdsAreBounded) {
+  v1::TokenService::Stub admin(As("a1"));
+  v1::CreateTokenRequest request;
+  request.set_name(std::string(129, 't'));
+  request.set_role(v1::ROBOT);
+  v1::CreatedToken created;
+  grpc::Status status = admin.CreateToken(Ctx().get(), request, &created);
+  EXPECT_EQ(status.error_code(), grpc::StatusCode::INVALID_ARGUMENT) << status.error_message();
+  EXPECT_NE(status.error_message().find("name is 129 bytes long"), std::string::npos);
+  request.set_name("bounded");
+  request.set_robot_id(std::string(200, 'r'));
+  status = admin.CreateToken(Ctx().get(), request, &created);
+  EXPECT_EQ(status.error_code(), grpc::StatusCode::INVALID_ARGUMENT) << status.error_message();
+  request.set_robot_id("robot-9");
+  EXPECT_TRUE(admin.CreateToken(Ctx().get(), request, &created).ok());
+}
+
 TEST_F(AuthTest, HealthNeedsNoToken) {
   auto status = client::CheckHealth(As(""), "", absl::Seconds(10));
   ASSERT_TRUE(status.ok()) << status.status();

@@ -607,6 +607,29 @@ TEST_F(CrossingServerTest, StreamRecognizeAnswersEveryFrameAndSurvivesABadOne) {
   EXPECT_EQ(responses[3].crossing(), "crossing-1");
 }
 
+// Issue 21 campaign: a refusal quoting a client's 8 MiB name went out in the status message and
+// the client refused the headers (RESOURCE_EXHAUSTED, connection closed); a bad frame's NaN stamp
+// was echoed. The code now arrives, with a message cut to 1 KiB, and no NaN leaves the server.
+TEST_F(CrossingServerTest, HugeNamesInRefusalsAndNonFiniteStampsDoNotReachTheClientAsSuch) {
+  v1::CreateDatabaseRequest create;
+  create.set_name(std::string(8 << 20, 'n'));
+  v1::CrossingDatabase db;
+  const grpc::Status refused = (*client_)->CreateDatabase(Ctx().get(), create, &db);
+  EXPECT_EQ(Code(refused), grpc::StatusCode::INVALID_ARGUMENT) << refused.error_message().size();
+  EXPECT_LT(refused.error_message().size(), 1200u);
+  EXPECT_NE(refused.error_message().find("more bytes cut"), std::string::npos);
+
+  EnrollAll("nan-stamps");
+  v1::RecognizeRequest bad;
+  bad.set_database("nan-stamps");
+  bad.mutable_image()->set_data("corrupt frame");
+  bad.mutable_image()->set_stamp(std::nan(""));
+  const std::vector<v1::RecognizeResponse> responses = StreamAll({bad});
+  ASSERT_EQ(responses.size(), 1u);
+  EXPECT_EQ(responses[0].error_code(), static_cast<int>(grpc::StatusCode::INVALID_ARGUMENT));
+  EXPECT_TRUE(std::isfinite(responses[0].stamp()));
+}
+
 // Retrieval mode over a stream: the answer is the belief over the frames so far; one frame
 // does not decide, agreeing frames do, and a robot that moves on is followed.
 TEST_F(CrossingServerTest, StreamRecognizeInRetrievalModeDecidesOnEvidenceOverFrames) {
