@@ -8,6 +8,7 @@
 #   FUZZ_SECONDS  seconds per target                   [30]
 #   FUZZ_TARGETS  space-separated subset               [all: WAYMARK_FUZZ_TARGET=list]
 #   FUZZ_JOBS     compile jobs                         [2]
+#   FUZZ_CXX      the compiler, on the first build     [clang++-14]
 #
 # Each target's corpus grows in $FUZZ_DIR/fuzz/<target>/corpus (kept between runs, so a second
 # run starts where the first stopped) from its code-made seeds and tests/fuzz/corpus/<target>/
@@ -33,6 +34,7 @@ if [ ! -f "$FUZZ_DIR/build.ninja" ]; then
     -DWAYMARK_LIBFUZZER=ON
 fi
 cmake --build "$FUZZ_DIR" -j "$FUZZ_JOBS" --target waymark-fuzz
+BUILT_AFTER=$SECONDS
 
 BIN="$FUZZ_DIR/tests/fuzz/waymark-fuzz"
 TARGETS=${FUZZ_TARGETS:-$(WAYMARK_FUZZ_TARGET=list "$BIN")}
@@ -56,8 +58,7 @@ for target in $TARGETS; do
   status=0
   WAYMARK_FUZZ_TARGET="$target" WAYMARK_FUZZ_SEEDS="$work/corpus" \
     "$BIN" -max_total_time="$FUZZ_SECONDS" -timeout=10 -rss_limit_mb=2048 -detect_leaks=0 \
-    -print_final_stats=1 \
-    -artifact_prefix="$work/" "${corpora[@]}" >"$work/log" 2>&1 || status=$?
+    -print_final_stats=1 -artifact_prefix="$work/" "${corpora[@]}" >"$work/log" 2>&1 || status=$?
   # The last status line: "#N  DONE  cov: C ft: F corp: K/S ... exec/s: E ..." (or before a crash).
   last=$(grep -E '^#[0-9]+.*cov: ' "$work/log" | tail -n 1 || true)
   field() { sed -nE "s|.*$1 ([0-9]+).*|\\1|p" <<<"$last"; }
@@ -72,6 +73,7 @@ for target in $TARGETS; do
   printf '%-18s %12s %8s %7s %7s %7s  %s\n' "$target" "${runs:-?}" "$(field 'exec/s:')" \
     "$(field 'cov:')" "$(field 'ft:')" "$(field 'corp:')" "$result" | tee -a "$SUMMARY"
 done
+echo "configure and build: ${BUILT_AFTER} s, fuzzing: $((SECONDS - BUILT_AFTER)) s" >>"$SUMMARY"
 echo
 cat "$SUMMARY"
 exit "$failed"
