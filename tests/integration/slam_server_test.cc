@@ -109,6 +109,17 @@ class SlamServerTest : public ::testing::Test {
     ASSERT_EQ(server_->Stop(SIGTERM), 0);
     StartServer();
   }
+  // Streams the first 7 steps into `id` (all answered), SIGKILLs the server (no shutdown
+  // checkpoint) and starts it again with `flags`.
+  void SevenScansThenKill(const std::string& id, const std::vector<std::string>& flags) {
+    StreamResult before = RunStream(stub_.get(), id, Drive(0, 7, 1.0));
+    ASSERT_TRUE(before.status.ok()) << before.status.error_message();
+    ASSERT_EQ(before.scans.size(), 7u);
+    stub_.reset();
+    channel_.reset();
+    server_->Stop(SIGKILL);
+    StartServer(flags);
+  }
   std::string CreateSession(const std::string& robot) {
     v1::Session session;
     const grpc::Status status =
@@ -407,13 +418,7 @@ TEST_F(SlamServerTest, AfterACrashTheSessionHasEveryAnsweredScanAndEqualsAnUnint
   const std::string uninterrupted = CreateSession("robot-1");
   ASSERT_TRUE(RunStream(stub_.get(), uninterrupted, Drive(0, 10, 1.0)).status.ok());
   const std::string id = CreateSession("robot-2");
-  StreamResult before = RunStream(stub_.get(), id, Drive(0, 7, 1.0));
-  ASSERT_TRUE(before.status.ok()) << before.status.error_message();
-  ASSERT_EQ(before.scans.size(), 7u);
-  stub_.reset();
-  channel_.reset();
-  server_->Stop(SIGKILL);  // no shutdown checkpoint
-  StartServer(flags);
+  ASSERT_NO_FATAL_FAILURE(SevenScansThenKill(id, flags));
 
   // The 7th scan was answered after the last checkpoint (6): the journal has it.
   StreamResult after = RunStream(stub_.get(), id, Drive(7, 3, 1.0, 100));
@@ -452,13 +457,7 @@ TEST_F(SlamServerTest, WithoutTheJournalACrashGoesBackToTheLastPeriodicCheckpoin
                                           "false"};
   StartServer(flags);
   const std::string id = CreateSession("robot-1");
-  StreamResult before = RunStream(stub_.get(), id, Drive(0, 7, 1.0));
-  ASSERT_TRUE(before.status.ok()) << before.status.error_message();
-  ASSERT_EQ(before.scans.size(), 7u);
-  stub_.reset();
-  channel_.reset();
-  server_->Stop(SIGKILL);  // no shutdown checkpoint
-  StartServer(flags);
+  ASSERT_NO_FATAL_FAILURE(SevenScansThenKill(id, flags));
 
   v1::ListSessionsResponse list;
   ASSERT_TRUE(stub_->ListSessions(Ctx().get(), v1::ListSessionsRequest(), &list).ok());
