@@ -93,9 +93,13 @@ class CallInterceptor final : public grpc::experimental::Interceptor {
     if (methods->QueryInterceptionHookPoint(InterceptionHookPoints::POST_RECV_INITIAL_METADATA)) {
       ReadClientMetadata(methods);
     }
-    if (methods->QueryInterceptionHookPoint(InterceptionHookPoints::POST_RECV_MESSAGE) &&
-        methods->GetRecvMessage() != nullptr) {  // null: the client's end of stream
-      received_.fetch_add(1, std::memory_order_relaxed);
+    if (methods->QueryInterceptionHookPoint(InterceptionHookPoints::POST_RECV_MESSAGE)) {
+      if (methods->GetRecvMessage() != nullptr) {
+        received_.fetch_add(1, std::memory_order_relaxed);
+      } else if (!streaming_) {
+        // A unary request that did not parse (for streams null is the client's end of stream).
+        unparsable_request_ = true;
+      }
     }
     if (methods->QueryInterceptionHookPoint(InterceptionHookPoints::PRE_SEND_INITIAL_METADATA)) {
       if (auto* metadata = methods->GetSendInitialMetadata(); metadata != nullptr) {
@@ -112,7 +116,17 @@ class CallInterceptor final : public grpc::experimental::Interceptor {
       }
     }
     if (methods->QueryInterceptionHookPoint(InterceptionHookPoints::PRE_SEND_STATUS)) {
-      Finish(methods->GetSendStatus());
+      grpc::Status status = methods->GetSendStatus();
+      // gRPC's generated unary handler answers a request that does not parse with INTERNAL, a
+      // server fault to the client (130,000 of them in the issue 21 campaign): it is the
+      // client's, and says so.
+      if (unparsable_request_ && status.error_code() == grpc::StatusCode::INTERNAL) {
+        status = grpc::Status(grpc::StatusCode::INVALID_ARGUMENT,
+                              absl::StrCat("the request to ", method_,
+                                           " does not parse as that method's request message"));
+        methods->ModifySendStatus(status);
+      }
+      Finish(status);
     }
     methods->Proceed();
   }
@@ -187,6 +201,7 @@ class CallInterceptor final : public grpc::experimental::Interceptor {
   std::string peer_;
   // A bidirectional stream may read on one thread while another writes.
   std::atomic<int64_t> received_{0};
+  bool unparsable_request_ = false;  // a unary call whose request did not parse
   std::atomic<int64_t> sent_{0};
   std::atomic<bool> finished_{false};
 };
