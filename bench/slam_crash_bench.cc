@@ -261,7 +261,6 @@ int Run(int argc, char** argv) {
   int64_t answered_before = 0;
   size_t next = 0;
   for (int trial = 0; trial <= kills; ++trial) {
-    const Clock::time_point opened = Clock::now();
     client::SlamClient slam(client::MakeChannel((*server)->address()));
     std::atomic<int64_t> answered{0};
     auto stream = slam.StreamSensorData(id, client::kDefaultScanWindow, [&](const v1::SlamUpdate& u) {
@@ -283,7 +282,6 @@ int Run(int argc, char** argv) {
           result.restart_s, result.server_start_s);
       next = FirstAfter(steps, start->last_scan_stamp());
     }
-    (void)opened;
     if (trial == kills) {
       // The rest of the log, then the final state.
       for (size_t i = next; i < steps.size(); ++i) {

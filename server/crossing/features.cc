@@ -79,11 +79,7 @@ absl::StatusOr<cv::Mat> DecodeImage(const std::string& bytes) {
                                                    ": at least ", kMinImageSide, "x",
                                                    kMinImageSide, " pixels are needed"));
   }
-  if (static_cast<double>(image.cols) * image.rows > kMaxDecodedPixels) {
-    return absl::InvalidArgumentError(absl::StrCat("image is ", image.cols, "x", image.rows,
-                                                   ": more than 64 megapixels"));
-  }
-  return image;
+  return image;  // its size was checked on the header
 }
 
 cv::Size WorkingSize(cv::Size image, const FeatureOptions& options) {

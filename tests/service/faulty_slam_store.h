@@ -25,7 +25,7 @@ class FaultySlamStore final : public storage::SlamStore {
     failures_left_ = count;
     failure_ = std::move(status);
   }
-  // AppendJournal waits at its start until Release(); Held() waits until a call is waiting.
+  // AppendJournal waits at its start until Release(); WaitHeld() waits until a call is waiting.
   void Hold() {
     std::lock_guard<std::mutex> lock(mu_);
     held_ = true;
