@@ -367,7 +367,12 @@ void PutPose(BinaryWriter& w, const Pose2& p) {
   w.Put(p.y);
   w.Put(p.theta);
 }
-bool GetPose(BinaryReader& r, Pose2* p) { return r.Get(&p->x) && r.Get(&p->y) && r.Get(&p->theta); }
+// Every stored pose (the robot's, the trajectory's, a segment's frame) is within the map's bounds
+// (input_bounds.h): a robot pose of 1e300 m, read unchecked, reached the loop search as an
+// infinite scan point (undefined behaviour; found by make fuzz).
+bool GetPose(BinaryReader& r, Pose2* p) {
+  return r.Get(&p->x) && r.Get(&p->y) && r.Get(&p->theta) && PlausibleMapPose(*p);
+}
 
 void PutSegment(BinaryWriter& w, const SegmentEntity& e) {
   w.Put(e.id);
@@ -386,6 +391,7 @@ bool GetSegment(BinaryReader& r, SegmentEntity* e) {
   std::uint8_t lt = 0, rt = 0;
   std::int32_t obs = 0;
   if (!r.Get(&e->id) || !GetPose(r, &e->frame) || !r.Get(&e->left) || !r.Get(&e->right) ||
+      !(std::abs(e->left) <= kMaxAbsMapM) || !(std::abs(e->right) <= kMaxAbsMapM) ||
       !r.Get(&lt) || !r.Get(&rt) || lt > 1 || rt > 1) {
     return false;
   }
@@ -474,7 +480,8 @@ absl::StatusOr<std::unique_ptr<LaserSlam>> LaserSlam::FromCheckpoint(
   std::uint8_t have_scan = 0;
   std::uint64_t next_id = 0;
   std::uint32_t readings = 0;
-  if (!r.Get(&have_scan) || !r.Get(&s.last_scan_stamp) || !GetPose(r, &s.odometry_at_last_update) ||
+  if (!r.Get(&have_scan) || !r.Get(&s.last_scan_stamp) || !PlausibleStamp(s.last_scan_stamp) ||
+      !GetPose(r, &s.odometry_at_last_update) ||
       !r.Get(&s.revision) || !r.Get(&s.scans) || !r.Get(&next_id) || !r.Get(&readings) ||
       readings > OdometryBuffer::kCapacity) {
     return corrupt("header");

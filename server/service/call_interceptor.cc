@@ -69,6 +69,8 @@ class CallInterceptor final : public grpc::experimental::Interceptor {
       : context_(info->server_context()),
         method_(info->method() != nullptr ? info->method() : "unknown"),
         streaming_(info->type() != ServerRpcInfo::Type::UNARY),
+        single_request_(info->type() == ServerRpcInfo::Type::UNARY ||
+                        info->type() == ServerRpcInfo::Type::SERVER_STREAMING),
         metrics_(metrics),
         start_(std::chrono::steady_clock::now()),
         request_id_(NewRequestId()) {
@@ -96,8 +98,9 @@ class CallInterceptor final : public grpc::experimental::Interceptor {
     if (methods->QueryInterceptionHookPoint(InterceptionHookPoints::POST_RECV_MESSAGE)) {
       if (methods->GetRecvMessage() != nullptr) {
         received_.fetch_add(1, std::memory_order_relaxed);
-      } else if (!streaming_) {
-        // A unary request that did not parse (for streams null is the client's end of stream).
+      } else if (single_request_) {
+        // A unary or server-streaming call's request that did not parse (for a client stream
+        // null is the client's end of stream).
         unparsable_request_ = true;
       }
     }
@@ -120,7 +123,12 @@ class CallInterceptor final : public grpc::experimental::Interceptor {
       // gRPC's generated unary handler answers a request that does not parse with INTERNAL, a
       // server fault to the client (130,000 of them in the issue 21 campaign): it is the
       // client's, and says so.
-      if (unparsable_request_ && status.error_code() == grpc::StatusCode::INTERNAL) {
+      // gRPC's health service reads its request itself and answers Watch's with INTERNAL "could
+      // not parse request" (Check's with INVALID_ARGUMENT).
+      const bool health_parse_failure = absl::StartsWith(method_, kHealthPrefix) &&
+                                        status.error_message() == "could not parse request";
+      if ((unparsable_request_ || health_parse_failure) &&
+          status.error_code() == grpc::StatusCode::INTERNAL) {
         status = grpc::Status(grpc::StatusCode::INVALID_ARGUMENT,
                               absl::StrCat("the request to ", method_,
                                            " does not parse as that method's request message"));
@@ -194,6 +202,7 @@ class CallInterceptor final : public grpc::experimental::Interceptor {
   const grpc::ServerContextBase* const context_;
   const std::string method_;
   const bool streaming_;
+  const bool single_request_;  // unary or server streaming: exactly one request
   Metrics* const metrics_;
   bool recognition_answers_ = false;  // only with metrics
   const std::chrono::steady_clock::time_point start_;
@@ -201,7 +210,7 @@ class CallInterceptor final : public grpc::experimental::Interceptor {
   std::string peer_;
   // A bidirectional stream may read on one thread while another writes.
   std::atomic<int64_t> received_{0};
-  bool unparsable_request_ = false;  // a unary call whose request did not parse
+  bool unparsable_request_ = false;  // a single request that did not parse
   std::atomic<int64_t> sent_{0};
   std::atomic<bool> finished_{false};
 };

@@ -56,6 +56,10 @@ struct SlamRegistry::Session {
   bool scheduled = false;  // on the run queue or being run by a worker
   bool in_flight = false;  // a worker holds a popped message
   bool stream_attached = false;
+  // The attached stream has stopped accepting (its client half-closed, cancelled or vanished):
+  // the next stream takes the session over once the queue is idle (OpenStream).
+  bool stream_stopping = false;
+  uint64_t stream_epoch = 0;  // counts the streams attached so far; the attached one's number
   bool closed = false;  // closing or closed: no stream, no message
   // Set when another server took the session's lease over: what every message is answered.
   std::optional<absl::Status> lost;
@@ -227,17 +231,30 @@ SlamRegistry::Stream::~Stream() { Close(); }
 const std::string& SlamRegistry::Stream::session_id() const { return session_->id; }
 
 absl::Status SlamRegistry::Stream::Submit(const v1::SensorData& data) {
-  if (closed_) return absl::FailedPreconditionError("the stream is closed");
+  if (stopped_) return absl::FailedPreconditionError("the stream is closed");
   return registry_->Submit(session_, data);
+}
+
+void SlamRegistry::Stream::StopAccepting() {
+  if (stopped_) return;
+  stopped_ = true;
+  std::lock_guard<std::mutex> lock(session_->mu);
+  if (session_->stream_epoch == epoch_) session_->stream_stopping = true;
+  // A stream waiting to take over (OpenStream) may be able to at once: the queue may be idle.
+  session_->idle_cv.notify_all();
 }
 
 void SlamRegistry::Stream::Close() {
   if (closed_) return;
+  StopAccepting();
   closed_ = true;
   WaitIdle(*session_);
   std::lock_guard<std::mutex> lock(session_->mu);
+  if (session_->stream_epoch != epoch_) return;  // another stream has taken the session over
   session_->sink = nullptr;
   session_->stream_attached = false;
+  session_->stream_stopping = false;
+  session_->idle_cv.notify_all();
 }
 
 // ---------------------------------------------------------------------------------------------
@@ -601,17 +618,33 @@ absl::StatusOr<std::unique_ptr<SlamRegistry::Stream>> SlamRegistry::OpenStream(
   bool loaded = false;
   absl::StatusOr<std::shared_ptr<Session>> session = ResidentOrLoad(session_id, &loaded);
   if (!session.ok()) return session.status();
+  uint64_t epoch = 0;
   {
-    std::lock_guard<std::mutex> lock((*session)->mu);
-    if ((*session)->closed) return ClosedError(session_id);
-    if ((*session)->stream_attached) {
+    Session& s = **session;
+    std::unique_lock<std::mutex> lock(s.mu);
+    if (s.closed) return ClosedError(session_id);
+    if (s.stream_attached && !s.stream_stopping) {
       return absl::FailedPreconditionError(absl::StrCat(
           "SLAM session ", Quoted(session_id),
           " already has an open stream (one stream per session): end the other stream first; a "
           "stream whose connection died is noticed by keepalive within about a minute"));
     }
-    (*session)->stream_attached = true;
-    (*session)->sink = std::move(sink);
+    // The previous stream has ended (a robot reconnecting after cancelling it): it hands the
+    // session over once the messages it accepted are answered, which this waits for, briefly.
+    // The issue 21 campaign's reconnects were refused for this interval.
+    const auto handed_over = [&s] {
+      return s.closed || !s.stream_attached || (s.queue.empty() && !s.in_flight);
+    };
+    if (!s.idle_cv.wait_for(lock, options_.stream_handover_wait, handed_over)) {
+      return absl::UnavailableError(absl::StrCat(
+          "SLAM session ", Quoted(session_id), ": its previous stream has ended but the messages "
+          "it sent are still being processed (", s.queue.size(), " queued); try again shortly"));
+    }
+    if (s.closed) return ClosedError(session_id);
+    s.stream_attached = true;
+    s.stream_stopping = false;
+    epoch = ++s.stream_epoch;
+    s.sink = std::move(sink);
   }
   // The previous stream has drained the queue before it detached: this is all the session has.
   v1::StreamStart start;
@@ -622,7 +655,7 @@ absl::StatusOr<std::unique_ptr<SlamRegistry::Stream>> SlamRegistry::OpenStream(
     start.set_last_scan_stamp((*session)->processed_scan_stamp.value_or(0));
     start.set_checkpoint_at_unix(static_cast<int64_t>((*session)->checkpoint_at));
   }
-  return std::unique_ptr<Stream>(new Stream(this, *session, std::move(start)));
+  return std::unique_ptr<Stream>(new Stream(this, *session, epoch, std::move(start)));
 }
 
 absl::Status SlamRegistry::Submit(const std::shared_ptr<Session>& owner,

@@ -72,6 +72,7 @@
 // capacity and kMaxScanBeams), robot_id and name lengths, one stream per session.
 
 #include <atomic>
+#include <chrono>
 #include <condition_variable>
 #include <cstdint>
 #include <optional>
@@ -111,6 +112,10 @@ struct SlamRegistryOptions {
   size_t checkpoint_journal_bytes = size_t{64} << 20;
   // Decoded frames waiting per visual session (640x480 RGB-D: 1.5 MB a frame).
   size_t max_queued_frame_bytes = size_t{64} << 20;
+  // A stream opened while the session's previous stream is ending (the robot reconnected after
+  // cancelling it) waits this long for that stream's accepted messages to be answered, then
+  // takes the session over; UNAVAILABLE after it. A stream still reading is refused at once.
+  std::chrono::milliseconds stream_handover_wait{10000};
   // Several servers on one database (PostgreSQL): each session is served by the one holding its
   // lease (session_leases.h). Off (owner empty) with one server per database.
   SessionLeaseOptions lease;
@@ -144,17 +149,25 @@ class SlamRegistry {
     // OK: the message is queued and, if it is a scan, will be answered through the sink.
     // Otherwise the message was rejected (see the admission rules above) and the status says why.
     absl::Status Submit(const v1::SensorData& data);
-    // Waits until every accepted message has been processed and answered, then detaches the
-    // sink and frees the session for another stream. Idempotent.
+    // Ends the stream's input without waiting: Submit is refused from now on, and another
+    // stream's OpenStream takes the session over as soon as the messages this one accepted are
+    // processed and answered (through this stream's sink). Idempotent.
+    void StopAccepting();
+    // StopAccepting, then waits until every accepted message has been processed and answered,
+    // then detaches the sink (unless another stream has taken the session over). Idempotent.
     void Close();
 
    private:
     friend class SlamRegistry;
-    Stream(SlamRegistry* registry, std::shared_ptr<Session> session, v1::StreamStart start)
-        : registry_(registry), session_(std::move(session)), start_(std::move(start)) {}
+    Stream(SlamRegistry* registry, std::shared_ptr<Session> session, uint64_t epoch,
+           v1::StreamStart start)
+        : registry_(registry), session_(std::move(session)), epoch_(epoch),
+          start_(std::move(start)) {}
     SlamRegistry* registry_;
     std::shared_ptr<Session> session_;
+    const uint64_t epoch_;  // which of the session's streams this is (Session::stream_epoch)
     v1::StreamStart start_;
+    bool stopped_ = false;
     bool closed_ = false;
   };
 
@@ -166,8 +179,9 @@ class SlamRegistry {
 
   absl::StatusOr<v1::Session> CreateSession(const v1::CreateSessionRequest& request);
   // Attaches a stream to an open session, loading it from its checkpoint when it is not in memory.
-  // NOT_FOUND (unknown id), FAILED_PRECONDITION (closed, or another stream is attached),
-  // UNAVAILABLE (shutting down), DATA_LOSS (unreadable checkpoint).
+  // NOT_FOUND (unknown id), FAILED_PRECONDITION (closed, or another stream is attached and still
+  // accepting), UNAVAILABLE (shutting down, or an ended stream's messages not answered within
+  // stream_handover_wait), DATA_LOSS (unreadable checkpoint).
   absl::StatusOr<std::unique_ptr<Stream>> OpenStream(const std::string& session_id,
                                                      SlamUpdateSink sink);
   // Final checkpoint, then CLOSED. FAILED_PRECONDITION when a stream is attached or it is closed.

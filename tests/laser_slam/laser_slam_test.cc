@@ -258,5 +258,29 @@ TEST(LaserSlamTest, CheckpointResumesExactly) {
             absl::StatusCode::kDataLoss);
 }
 
+// A checkpoint's robot pose beyond any map, or a stamp that is no time, is corrupt: a robot at
+// 1e300 m resumed, and its next scan reached the loop search as an infinite point (make fuzz).
+TEST(LaserSlamTest, ACheckpointWithAPoseBeyondAnyMapIsRefused) {
+  const SlamOptions options;
+  const std::string bytes = LaserSlam(options).SerializeState();
+  // A new session: the magic and version (4 bytes each), have_scan (1), the last scan's stamp (8),
+  // the odometry at the last update (3 x 8), revision, scans and the next segment id (8 each),
+  // no odometry readings (a count of 4 bytes), then the robot's pose.
+  constexpr size_t kStamp = 9;
+  constexpr size_t kRobotX = kStamp + 8 + 3 * 8 + 3 * 8 + 4;
+  const auto resume_with = [&](size_t at, double value) {
+    std::string changed = bytes;
+    changed.replace(at, sizeof(value), reinterpret_cast<const char*>(&value), sizeof(value));
+    return LaserSlam::FromCheckpoint(options, changed, {}).status().code();
+  };
+  EXPECT_EQ(resume_with(kRobotX, 1e300), absl::StatusCode::kDataLoss);
+  EXPECT_EQ(resume_with(kRobotX, std::nan("")), absl::StatusCode::kDataLoss);
+  EXPECT_EQ(resume_with(kStamp, std::numeric_limits<double>::infinity()),
+            absl::StatusCode::kDataLoss);
+  // The offsets are right: plausible values there load.
+  EXPECT_EQ(resume_with(kRobotX, 3.0), absl::StatusCode::kOk);
+  EXPECT_EQ(resume_with(kStamp, 12.5), absl::StatusCode::kOk);
+}
+
 }  // namespace
 }  // namespace waymark::laser_slam

@@ -4,6 +4,7 @@
 
 #include "server/service/slam_registry.h"
 
+#include <chrono>
 #include <cmath>
 #include <limits>
 #include <memory>
@@ -225,6 +226,76 @@ TEST_F(SlamRegistryTest, OneStreamPerSessionAndClosedSessionsStayReadable) {
   EXPECT_EQ(list.sessions(0).state(), v1::Session::CLOSED);
   EXPECT_EQ(CodeOf(registry->GetMap("0123456789abcdef0123456789abcdef")),
             absl::StatusCode::kNotFound);
+}
+
+// A robot that cancels its stream and reconnects at once gets the session as soon as the old
+// stream's accepted scans are answered (it used to be refused "already has an open stream" while
+// they were processed); the old stream's answers still reach the old sink, and the old stream's
+// Close does not detach the new one.
+TEST_F(SlamRegistryTest, ANewStreamTakesOverOnceTheEndedStreamsMessagesAreAnswered) {
+  Gate gate;
+  SlamRegistryOptions options;
+  options.workers = 1;
+  options.before_process = [&gate](const std::string&) { gate.Enter(); };
+  auto registry = MakeRegistry(options);
+  ASSERT_OK_AND_ASSIGN(v1::Session session, registry->CreateSession(TestSessionRequest("r1")));
+  const std::string id = session.session_id();
+  Answers old_answers, new_answers;
+  ASSERT_OK_AND_ASSIGN(auto old_stream, registry->OpenStream(id, old_answers.Sink()));
+  ASSERT_OK(old_stream->Submit(RoomScan(1, 1.0, 0, 0, 0)));
+  gate.WaitEntered(1);  // the worker holds scan 1
+  ASSERT_OK(old_stream->Submit(RoomScan(2, 2.0, 0, 0, 0)));
+  ASSERT_OK(old_stream->Submit(RoomScan(3, 3.0, 0, 0, 0)));
+  old_stream->StopAccepting();
+  EXPECT_EQ(old_stream->Submit(RoomScan(4, 4.0, 0, 0, 0)).code(),
+            absl::StatusCode::kFailedPrecondition);
+
+  std::thread opener([&gate] {
+    std::this_thread::sleep_for(std::chrono::milliseconds(100));
+    gate.Open();  // whenever it happens, the takeover waits for it (within 10 s)
+  });
+  absl::StatusOr<std::unique_ptr<SlamRegistry::Stream>> new_stream =
+      registry->OpenStream(id, new_answers.Sink());
+  opener.join();
+  ASSERT_OK(new_stream);
+  EXPECT_EQ((*new_stream)->start().scans_processed(), 3u);  // all the old stream accepted
+  EXPECT_EQ(old_answers.Get().size(), 3u);
+  old_stream->Close();  // returns at once and leaves the new stream attached
+  ASSERT_OK((*new_stream)->Submit(RoomScan(4, 4.0, 0, 0, 0)));
+  (*new_stream)->Close();
+  ASSERT_EQ(new_answers.Get().size(), 1u);
+  EXPECT_EQ(new_answers.Get()[0].sequence(), 4u);
+  ASSERT_OK_AND_ASSIGN(v1::Session after, registry->GetSession(id));
+  EXPECT_EQ(after.scans_processed(), 4u);
+}
+
+// The takeover waits at most stream_handover_wait; a stream still reading is refused at once.
+TEST_F(SlamRegistryTest, ATakeoverThatWaitsTooLongIsUnavailable) {
+  Gate gate;
+  SlamRegistryOptions options;
+  options.workers = 1;
+  options.stream_handover_wait = std::chrono::milliseconds(50);
+  options.before_process = [&gate](const std::string&) { gate.Enter(); };
+  auto registry = MakeRegistry(options);
+  ASSERT_OK_AND_ASSIGN(v1::Session session, registry->CreateSession(TestSessionRequest("r1")));
+  const std::string id = session.session_id();
+  Answers answers;
+  ASSERT_OK_AND_ASSIGN(auto stream, registry->OpenStream(id, answers.Sink()));
+  ASSERT_OK(stream->Submit(RoomScan(1, 1.0, 0, 0, 0)));
+  gate.WaitEntered(1);
+  ASSERT_OK(stream->Submit(RoomScan(2, 2.0, 0, 0, 0)));
+  absl::StatusOr<std::unique_ptr<SlamRegistry::Stream>> refused =
+      registry->OpenStream(id, answers.Sink());
+  ASSERT_EQ(CodeOf(refused), absl::StatusCode::kFailedPrecondition);  // still reading
+  stream->StopAccepting();
+  absl::StatusOr<std::unique_ptr<SlamRegistry::Stream>> late =
+      registry->OpenStream(id, answers.Sink());
+  ASSERT_EQ(CodeOf(late), absl::StatusCode::kUnavailable);
+  EXPECT_NE(late.status().message().find("still being processed (1 queued)"), std::string::npos)
+      << late.status();
+  gate.Open();
+  stream->Close();
+  ASSERT_OK(registry->OpenStream(id, answers.Sink()));
 }
 
 TEST_F(SlamRegistryTest, DeleteTakesClosedSessionsAndRefusesOpenOnesWithoutForce) {

@@ -27,7 +27,11 @@ PointCloud ThinPoints(const PointCloud& points, double cell) {
   seen.reserve(points.size() * 2);
   PointCloud out;
   out.reserve(points.size());
+  // A cell index beyond the integers' range is undefined behaviour; the engine's inputs are
+  // bounded far below it (input_bounds.h), so such a point is dropped rather than trusted.
+  constexpr double kMaxCellIndex = 1e15;
   for (const Eigen::Vector2f& p : points) {
+    if (!(std::abs(p.x() / cell) < kMaxCellIndex && std::abs(p.y() / cell) < kMaxCellIndex)) continue;
     const auto ix = static_cast<std::int64_t>(std::floor(p.x() / cell));
     const auto iy = static_cast<std::int64_t>(std::floor(p.y() / cell));
     const std::uint64_t key = (static_cast<std::uint64_t>(ix) << 32) ^
