@@ -29,6 +29,10 @@
 // defaults (12 m, 20 scans) segments freeze long before the cap and ACES never has more than about
 // 140 active segments, whatever --max-active-segments says.
 //
+// --resume-every N replaces the engine every N scans by LaserSlam::FromCheckpoint of its own
+// state and local trajectory (what a server restart does): the final trajectory should equal the
+// run without it, which tells whether a checkpoint loses anything.
+//
 // --out DIR writes trajectory.txt and odometry.txt (TUM), map.svg / map.png (segments and the
 // trajectory) and summary.json; --json prints the same JSON object on stdout.
 
@@ -74,6 +78,7 @@ struct Args {
   std::string relations;
   std::string out;
   int max_scans = 0;
+  int resume_every = 0;  // --resume-every N: replace the engine by its checkpoint every N scans
   bool json = false;
   ls::SlamOptions options;
   // --localize: after mapping, localize the same log on the map from scan localize_from, with an
@@ -88,6 +93,7 @@ struct Args {
 void Usage() {
   std::cerr
       << "usage: waymark-laser-eval --log LOG [--relations FILE] [--max-scans N] [--out DIR]\n"
+         "                          [--resume-every N]\n"
          "                          [--json] [--max-active-segments N] [--active-radius M]\n"
          "                          [--freeze-after-scans N] [--min-travel M --min-turn R]\n"
          "                          [--match-chi2 X] [--mapping on|off]\n"
@@ -214,6 +220,8 @@ bool ParseArgs(int argc, char** argv, Args* args) {
         args->out = v;
       } else if (a == "--max-scans") {
         args->max_scans = std::stoi(v);
+      } else if (a == "--resume-every") {
+        args->resume_every = std::stoi(v);
       } else if (a == "--max-active-segments") {
         args->options.ekf.max_active_segments = std::stoi(v);
       } else if (a == "--active-radius") {
@@ -463,7 +471,7 @@ int Run(const Args& args) {
     std::cerr << "options: " << s << "\n";
     return 1;
   }
-  ls::LaserSlam slam(options);
+  auto engine = std::make_unique<ls::LaserSlam>(options);
 
   std::vector<double> scan_ms;
   std::map<int, std::vector<double>> bin_ms;  // bin index -> per-scan ms (processed scans only)
@@ -472,7 +480,22 @@ int Run(const Args& args) {
   int max_active = 0, max_state = 0;
   std::vector<std::string> rejections;
   double engine_s = 0;
-  for (CarmenLaser& laser : log.lasers) {
+  int resumes = 0;
+  for (size_t line = 0; line < log.lasers.size(); ++line) {
+    if (args.resume_every > 0 && line > 0 && line % args.resume_every == 0) {
+      // What a server restart does (untimed): the session from its checkpoint and its stored
+      // local trajectory. The final trajectory should not depend on where this happened.
+      absl::StatusOr<std::unique_ptr<ls::LaserSlam>> resumed = ls::LaserSlam::FromCheckpoint(
+          options, engine->SerializeState(), engine->LocalTrajectory());
+      if (!resumed.ok()) {
+        std::cerr << "resume at line " << line << ": " << resumed.status() << "\n";
+        return 1;
+      }
+      engine = *std::move(resumed);
+      ++resumes;
+    }
+    ls::LaserSlam& slam = *engine;
+    CarmenLaser& laser = log.lasers[line];
     const ls::OdometryReading reading = ToOdometry(laser);
     odometry.push_back({laser.stamp, {reading.pose.x, reading.pose.y, reading.pose.theta}});
     const ls::LaserScan scan = ToScan(laser);  // the log is kept for a --localize pass
@@ -500,6 +523,7 @@ int Run(const Args& args) {
     bin_ms[update->active_segments / kBinWidth].push_back(ms);
   }
   for (const std::string& r : rejections) std::cerr << "warning: rejected " << r << "\n";
+  ls::LaserSlam& slam = *engine;
   {
     // The last optimisation belongs to the run's cost.
     const Clock::time_point start = Clock::now();
@@ -522,6 +546,7 @@ int Run(const Args& args) {
       {"scans_processed", slam.scans_processed()},
       {"scans_skipped_motion", skipped_motion},
       {"rejected", rejected},
+      {"resumes_from_checkpoint", resumes},
       {"duplicate_stamps", log.duplicate_stamps},
       {"reordered_lines", log.out_of_order},
       {"malformed_lines", log.malformed},

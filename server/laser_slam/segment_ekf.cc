@@ -275,10 +275,12 @@ void SegmentEkf::ApplyTransforms(const std::vector<Transform>& transforms) {
 }
 
 void SegmentEkf::MirrorLower() {
-  // The two passes (and ApplyToCovariance's rows-then-columns) round (i, j) and (j, i)
-  // differently, by about 1e-16 relative. Kept exactly symmetric, the covariance is all its lower
-  // triangle, which is what a checkpoint stores: a resumed session then goes on bit for bit as
-  // the uninterrupted one (without it they drifted apart by 4e-13 m over the Intel log).
+  // The two passes (and ApplyToCovariance's rows-then-columns, and a new segment's G C G^T)
+  // round (i, j) and (j, i) differently, by about 1e-16 relative. Kept exactly symmetric after
+  // every scan, the covariance is all its lower triangle, which is what a checkpoint stores: a
+  // resumed session then goes on bit for bit as the uninterrupted one (without it they drifted
+  // apart by 4e-13 m over the Intel log, and with loop closure that tiny difference changed which
+  // scan matches the graph accepted: trajectories 0.06 m apart).
   auto c = state_.cov();
   c.triangularView<Eigen::StrictlyUpper>() = c.transpose();
 }
@@ -514,6 +516,8 @@ ObserveStats SegmentEkf::Observe(const std::vector<ObservedSegment>& observed_in
   stats.pruned = PruneTentative(scan_index);
   stats.frozen = FreezeOutsideWindow(scan_index);
   if (stats.pruned > 0 || stats.frozen > 0) stats.map_changed = true;
+  // A new segment's own block (G C G^T) rounds (i, j) and (j, i) apart; see MirrorLower.
+  MirrorLower();
   stats.update_ms = MsSince(t1);
   return stats;
 }
@@ -616,6 +620,7 @@ int SegmentEkf::MergeSegments(std::uint64_t scan_index) {
       }
     }
   }
+  if (merged > 0) MirrorLower();
   return merged;
 }
 

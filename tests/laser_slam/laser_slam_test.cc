@@ -246,6 +246,8 @@ TEST(LaserSlamTest, CheckpointResumesExactly) {
   EXPECT_EQ(uninterrupted.Map().size(), (*resumed)->Map().size());
   EXPECT_EQ(uninterrupted.Trajectory().size(), (*resumed)->Trajectory().size());
   EXPECT_EQ(uninterrupted.map_revision(), (*resumed)->map_revision());
+  // All of it: every segment, the whole covariance and the pose graph.
+  EXPECT_TRUE(uninterrupted.SerializeState() == (*resumed)->SerializeState());
 
   // Damaged bytes are refused, never half-loaded.
   std::string state = first_half.SerializeState();
@@ -256,6 +258,43 @@ TEST(LaserSlamTest, CheckpointResumesExactly) {
   state[0] = 'X';
   EXPECT_EQ(LaserSlam::FromCheckpoint(options, state, {}).status().code(),
             absl::StatusCode::kDataLoss);
+}
+
+// A session resumed from its checkpoint after every single scan ends exactly where the
+// uninterrupted one does, segments, covariance and pose graph included: nothing the next scan
+// uses is left out of a checkpoint. (A new segment's block of the covariance was not exactly
+// symmetric and the checkpoint keeps the lower triangle: with loop closure on, Intel's
+// trajectories ended 0.06 m apart after resumes every 1000 scans.)
+TEST(LaserSlamTest, ResumingAfterEveryScanChangesNothing) {
+  // A room with four pillars: walls come into view and out of it all the time, so segments are
+  // added (and their covariance blocks built) throughout.
+  std::vector<Wall> walls = testing::Box(-4.0, -3.5, 4.0, 3.5);
+  for (const auto& [x, y] : {std::pair{-2.2, -2.2}, {1.9, -2.1}, {2.1, 1.8}, {-2.0, 2.0}}) {
+    const std::vector<Wall> pillar = testing::Box(x - 0.2, y - 0.2, x + 0.2, y + 0.2);
+    walls.insert(walls.end(), pillar.begin(), pillar.end());
+  }
+  const std::vector<Step> steps = SquareDrive(walls, 2.5, 2, 0.01, 0.02, 7);
+  const SlamOptions options;  // loop closure on, in AddScan (mapping.threads = 0)
+  LaserSlam uninterrupted(options);
+  auto resumed = std::make_unique<LaserSlam>(options);
+  for (const Step& step : steps) {
+    for (LaserSlam* slam : {&uninterrupted, resumed.get()}) {
+      ASSERT_TRUE(slam->AddOdometry({step.scan.stamp, step.odometry}).ok());
+      ASSERT_TRUE(slam->AddScan(step.scan).ok());
+    }
+    absl::StatusOr<std::unique_ptr<LaserSlam>> next = LaserSlam::FromCheckpoint(
+        options, resumed->SerializeState(), resumed->LocalTrajectory());
+    ASSERT_TRUE(next.ok()) << next.status();
+    resumed = *std::move(next);
+  }
+  EXPECT_TRUE(uninterrupted.SerializeState() == resumed->SerializeState());
+  const std::vector<PoseEstimate> a = uninterrupted.Trajectory(), b = resumed->Trajectory();
+  ASSERT_EQ(a.size(), b.size());
+  for (size_t i = 0; i < a.size(); ++i) {
+    ASSERT_EQ(a[i].pose.x, b[i].pose.x) << "pose " << i;
+    ASSERT_EQ(a[i].pose.y, b[i].pose.y) << "pose " << i;
+    ASSERT_EQ(a[i].pose.theta, b[i].pose.theta) << "pose " << i;
+  }
 }
 
 // A checkpoint's robot pose beyond any map, or a stamp that is no time, is corrupt: a robot at
