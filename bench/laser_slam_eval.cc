@@ -30,8 +30,9 @@
 // 140 active segments, whatever --max-active-segments says.
 //
 // --resume-every N replaces the engine every N scans by LaserSlam::FromCheckpoint of its own
-// state and local trajectory (what a server restart does): the final trajectory should equal the
-// run without it, which tells whether a checkpoint loses anything.
+// state and local trajectory (what a server restart does): final_state_digest (of the final
+// checkpoint's bytes) should equal the run's without it, which tells whether a checkpoint loses
+// anything.
 //
 // --out DIR writes trajectory.txt and odometry.txt (TUM), map.svg / map.png (segments and the
 // trajectory) and summary.json; --json prints the same JSON object on stdout.
@@ -109,6 +110,12 @@ double Percentile(std::vector<double> values, double q) {
   const size_t index =
       std::min(values.size() - 1, static_cast<size_t>(q * (values.size() - 1) + 0.5));
   return values[index];
+}
+
+std::string StateDigest(const std::string& bytes) {
+  std::uint64_t h = 1469598103934665603ULL;
+  for (unsigned char c : bytes) h = (h ^ c) * 1099511628211ULL;
+  return absl::StrFormat("%016x", h);
 }
 
 // --mapping-opt NAME=VALUE: one MappingOptions field by name (for tuning runs).
@@ -547,6 +554,9 @@ int Run(const Args& args) {
       {"scans_skipped_motion", skipped_motion},
       {"rejected", rejected},
       {"resumes_from_checkpoint", resumes},
+      // FNV-1a of the final checkpoint bytes: equal digests = bit-identical sessions (EKF and
+      // pose graph), e.g. with and without --resume-every.
+      {"final_state_digest", StateDigest(slam.SerializeState())},
       {"duplicate_stamps", log.duplicate_stamps},
       {"reordered_lines", log.out_of_order},
       {"malformed_lines", log.malformed},
