@@ -281,7 +281,7 @@ void SegmentEkf::MirrorLower() {
   // checkpoint stores: a resumed session then goes on bit for bit as the uninterrupted one.
   // Without this they drifted apart by 4e-13 m over the Intel log; without AddSegment's, by 1e-19
   // in the covariance, which with loop closure changed the matches the graph accepted
-  // (trajectories 0.06 m apart). Mirroring the whole matrix after every scan cost 13 % of the
+  // (trajectories 0.06 m apart). Mirroring the whole matrix after every scan cost 17 % of the
   // filter's time on ACES.
   auto c = state_.cov();
   c.triangularView<Eigen::StrictlyUpper>() = c.transpose();

@@ -48,8 +48,8 @@
 // sessions accepted meanwhile) before it is processed, so before it is answered. After a restart,
 // OpenStream on an open session that is not in memory loads it from its checkpoint and the stored
 // trajectory and replays the journal after the checkpoint: the session holds every message the
-// server accepted, as if it had not stopped (the engines are deterministic; a laser session's
-// background optimisation is applied where it lands, so its corrections may differ slightly). A
+// server accepted, as if it had not stopped (the engines are deterministic and their checkpoints
+// exact: a laser session resumed with loop closure on ends bit-identical to an uninterrupted one). A
 // message the journal cannot store (the database fails `attempts` times) is answered with that
 // error and not processed. `journal = false` gives the old behaviour: messages accepted after the
 // last checkpoint are lost with the process, and the client may resend them.
