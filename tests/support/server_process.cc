@@ -18,6 +18,10 @@
 namespace waymark::testing {
 
 std::string ServerBinary() {
+  // A long bench can run a copy, so that rebuilding meanwhile does not replace it mid-run.
+  if (const char* chosen = std::getenv("WAYMARK_SERVER_BINARY"); chosen != nullptr && *chosen) {
+    return chosen;
+  }
 #ifdef WAYMARK_BINARY_DIR
   return std::string(WAYMARK_BINARY_DIR) + "/bin/waymark-server";
 #else

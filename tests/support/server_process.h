@@ -61,7 +61,7 @@ class ServerProcess {
   std::string log_path_;
 };
 
-// The waymark-server binary of this build.
+// The waymark-server binary of this build, or $WAYMARK_SERVER_BINARY when set (benches).
 std::string ServerBinary();
 
 // Exit code and output of a command run through the shell.
