@@ -8,6 +8,7 @@
 #include <unordered_map>
 
 #include "absl/strings/str_cat.h"
+#include "server/common/input_bounds.h"
 #include "server/common/stopwatch.h"
 #include "server/crossing/features.h"
 #include "server/crossing/recognizer.h"
@@ -365,6 +366,13 @@ absl::StatusOr<v1::RebuildClustersResponse> CrossingRegistry::RebuildClusters(
 absl::StatusOr<v1::RecognizeResponse> CrossingRegistry::Recognize(
     const v1::RecognizeRequest& request, crossing::RecognitionOptions* effective) {
   const auto start = Clock::now();
+  // The stamp is echoed in the answer: a NaN or infinite one would leave the server (the issue 21
+  // campaign saw 18 such answers).
+  if (!PlausibleStamp(request.image().stamp())) {
+    return absl::InvalidArgumentError(absl::StrCat(
+        "image stamp ", request.image().stamp(), " s is not a time (finite, |stamp| <= ",
+        kMaxAbsStampS, "; 0 = none)"));
+  }
   absl::StatusOr<std::shared_ptr<Database>> found = Find(request.database());
   if (!found.ok()) return found.status();
   const Database& db = **found;

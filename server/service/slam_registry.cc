@@ -60,6 +60,8 @@ struct SlamRegistry::Session {
   // the next stream takes the session over once the queue is idle (OpenStream).
   bool stream_stopping = false;
   uint64_t stream_epoch = 0;  // counts the streams attached so far; the attached one's number
+  std::function<void()> stream_cancel;  // ends the attached stream's call (OpenStream's takeover)
+  uint64_t taken_over_epoch = 0;        // the stream a newer one took the session from
   bool closed = false;  // closing or closed: no stream, no message
   // Set when another server took the session's lease over: what every message is answered.
   std::optional<absl::Status> lost;
@@ -232,7 +234,7 @@ const std::string& SlamRegistry::Stream::session_id() const { return session_->i
 
 absl::Status SlamRegistry::Stream::Submit(const v1::SensorData& data) {
   if (stopped_) return absl::FailedPreconditionError("the stream is closed");
-  return registry_->Submit(session_, data);
+  return registry_->Submit(session_, epoch_, data);
 }
 
 void SlamRegistry::Stream::StopAccepting() {
@@ -252,6 +254,7 @@ void SlamRegistry::Stream::Close() {
   std::lock_guard<std::mutex> lock(session_->mu);
   if (session_->stream_epoch != epoch_) return;  // another stream has taken the session over
   session_->sink = nullptr;
+  session_->stream_cancel = nullptr;
   session_->stream_attached = false;
   session_->stream_stopping = false;
   session_->idle_cv.notify_all();
@@ -610,7 +613,7 @@ absl::StatusOr<std::shared_ptr<SlamRegistry::Session>> SlamRegistry::ResidentOrL
 }
 
 absl::StatusOr<std::unique_ptr<SlamRegistry::Stream>> SlamRegistry::OpenStream(
-    const std::string& session_id, SlamUpdateSink sink) {
+    const std::string& session_id, SlamUpdateSink sink, std::function<void()> cancel) {
   if (absl::Status s = CheckId(session_id); !s.ok()) return s;
   if (shutting_down_) {
     return absl::UnavailableError("the server is shutting down; resume the session after it restarts");
@@ -624,14 +627,21 @@ absl::StatusOr<std::unique_ptr<SlamRegistry::Stream>> SlamRegistry::OpenStream(
     std::unique_lock<std::mutex> lock(s.mu);
     if (s.closed) return ClosedError(session_id);
     if (s.stream_attached && !s.stream_stopping) {
-      return absl::FailedPreconditionError(absl::StrCat(
-          "SLAM session ", Quoted(session_id),
-          " already has an open stream (one stream per session): end the other stream first; a "
-          "stream whose connection died is noticed by keepalive within about a minute"));
+      // The newest stream wins: a robot that reconnects (its Wi-Fi dropped, it restarted, it
+      // cancelled its stream) gets its session at once. The old stream's connection may be
+      // dead without the server knowing it for a minute (keepalive), and a stream the client
+      // has just cancelled may not have noticed yet (the issue 21 campaign's reconnects were
+      // refused "already has an open stream"). The old stream accepts nothing more and its call
+      // is cancelled; what it accepted is processed and answered to it first. The callback runs
+      // under the session's lock, so the old call (which detaches under it) is still there.
+      s.stream_stopping = true;
+      s.taken_over_epoch = s.stream_epoch;
+      if (s.stream_cancel) s.stream_cancel();
+      s.stream_cancel = nullptr;
+      spdlog::info("SLAM session {}: a new stream takes over from the open one", session_id);
     }
-    // The previous stream has ended (a robot reconnecting after cancelling it): it hands the
-    // session over once the messages it accepted are answered, which this waits for, briefly.
-    // The issue 21 campaign's reconnects were refused for this interval.
+    // The previous stream has ended: it hands the session over once the messages it accepted
+    // are answered, which this waits for, briefly.
     const auto handed_over = [&s] {
       return s.closed || !s.stream_attached || (s.queue.empty() && !s.in_flight);
     };
@@ -645,6 +655,7 @@ absl::StatusOr<std::unique_ptr<SlamRegistry::Stream>> SlamRegistry::OpenStream(
     s.stream_stopping = false;
     epoch = ++s.stream_epoch;
     s.sink = std::move(sink);
+    s.stream_cancel = std::move(cancel);
   }
   // The previous stream has drained the queue before it detached: this is all the session has.
   v1::StreamStart start;
@@ -658,7 +669,7 @@ absl::StatusOr<std::unique_ptr<SlamRegistry::Stream>> SlamRegistry::OpenStream(
   return std::unique_ptr<Stream>(new Stream(this, *session, epoch, std::move(start)));
 }
 
-absl::Status SlamRegistry::Submit(const std::shared_ptr<Session>& owner,
+absl::Status SlamRegistry::Submit(const std::shared_ptr<Session>& owner, uint64_t epoch,
                                   const v1::SensorData& data) {
   Session& session = *owner;
   auto reject = [&session](absl::Status status, bool dropped = false) {
@@ -699,6 +710,9 @@ absl::Status SlamRegistry::Submit(const std::shared_ptr<Session>& owner,
           "the server is shutting down; resume the session after it restarts");
     } else if (session.closed || !session.stream_attached) {
       refused = absl::FailedPreconditionError("the session is closed");
+    } else if (session.taken_over_epoch == epoch) {
+      refused = absl::AbortedError(
+          "a newer stream took this session over (the robot reconnected); this stream ends");
     } else if (last.has_value() && !(stamp > *last)) {
       refused = OrderError(admitted->sensor, stamp, *last);
     } else if (static_cast<int>(session.queue.size()) >= options_.queue_capacity) {

@@ -69,7 +69,8 @@
 //
 // Limits: `max_sessions` open sessions per server (CreateSession: RESOURCE_EXHAUSTED beyond it;
 // only open sessions are held in memory, so this also bounds memory together with the queue
-// capacity and kMaxScanBeams), robot_id and name lengths, one stream per session.
+// capacity and kMaxScanBeams), robot_id and name lengths, one stream per session (the newest:
+// OpenStream takes the session over from an older stream).
 
 #include <atomic>
 #include <chrono>
@@ -112,9 +113,9 @@ struct SlamRegistryOptions {
   size_t checkpoint_journal_bytes = size_t{64} << 20;
   // Decoded frames waiting per visual session (640x480 RGB-D: 1.5 MB a frame).
   size_t max_queued_frame_bytes = size_t{64} << 20;
-  // A stream opened while the session's previous stream is ending (the robot reconnected after
-  // cancelling it) waits this long for that stream's accepted messages to be answered, then
-  // takes the session over; UNAVAILABLE after it. A stream still reading is refused at once.
+  // A stream opened while the session has one (the robot reconnected) waits this long for the
+  // old stream's accepted messages to be answered, then takes the session over; UNAVAILABLE
+  // after it.
   std::chrono::milliseconds stream_handover_wait{10000};
   // Several servers on one database (PostgreSQL): each session is served by the one holding its
   // lease (session_leases.h). Off (owner empty) with one server per database.
@@ -179,11 +180,15 @@ class SlamRegistry {
 
   absl::StatusOr<v1::Session> CreateSession(const v1::CreateSessionRequest& request);
   // Attaches a stream to an open session, loading it from its checkpoint when it is not in memory.
-  // NOT_FOUND (unknown id), FAILED_PRECONDITION (closed, or another stream is attached and still
-  // accepting), UNAVAILABLE (shutting down, or an ended stream's messages not answered within
-  // stream_handover_wait), DATA_LOSS (unreadable checkpoint).
+  // A stream already attached is taken over: it accepts nothing more (ABORTED), `cancel` of its
+  // OpenStream is called (the service cancels its call), and the new stream attaches once the
+  // messages the old one accepted are processed (answered through the old sink, if it still
+  // writes).
+  // NOT_FOUND (unknown id), FAILED_PRECONDITION (closed), UNAVAILABLE (shutting down, or the old
+  // stream's messages not answered within stream_handover_wait), DATA_LOSS (unreadable checkpoint).
   absl::StatusOr<std::unique_ptr<Stream>> OpenStream(const std::string& session_id,
-                                                     SlamUpdateSink sink);
+                                                     SlamUpdateSink sink,
+                                                     std::function<void()> cancel = nullptr);
   // Final checkpoint, then CLOSED. FAILED_PRECONDITION when a stream is attached or it is closed.
   absl::StatusOr<v1::Session> CloseSession(const std::string& session_id);
   // Removes a session from memory and the store (checkpoint and trajectory, one transaction).
@@ -242,7 +247,8 @@ class SlamRegistry {
   // CloseSession's work, with load_mutex_ held.
   absl::Status CloseLocked(const std::string& session_id);
 
-  absl::Status Submit(const std::shared_ptr<Session>& session, const v1::SensorData& data);
+  absl::Status Submit(const std::shared_ptr<Session>& session, uint64_t epoch,
+                      const v1::SensorData& data);
   void Schedule(std::shared_ptr<Session> session);
   void WorkerLoop();
   void RunSession(const std::shared_ptr<Session>& session);

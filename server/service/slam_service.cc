@@ -122,8 +122,10 @@ grpc::Status SlamServiceImpl::ServeStreamSensorData(grpc::ServerContext* context
   if (!lease.ok()) return ToGrpcStatus(lease.status());
 
   auto writer = std::make_shared<StreamWriter>(stream);
+  // A newer stream of the session (the robot reconnected) takes it over and cancels this call.
   absl::StatusOr<std::unique_ptr<SlamRegistry::Stream>> session = registry_->OpenStream(
-      data.session_id(), [writer](const v1::SlamUpdate& update) { writer->Write(update); });
+      data.session_id(), [writer](const v1::SlamUpdate& update) { writer->Write(update); },
+      [context] { context->TryCancel(); });
   if (!session.ok()) return WithSessionOwner(*context, session.status());
   writer->set_start((*session)->start());
 
@@ -144,6 +146,11 @@ grpc::Status SlamServiceImpl::ServeStreamSensorData(grpc::ServerContext* context
       // Another server took the session over: this stream cannot go on; the robot reconnects.
       (*session)->Close();
       return WithSessionOwner(*context, accepted);
+    }
+    if (absl::IsAborted(accepted)) {
+      // A newer stream took the session over (its call is being cancelled too).
+      (*session)->Close();
+      return ToGrpcStatus(accepted);
     }
     if (!accepted.ok()) {
       v1::SlamUpdate rejection;
