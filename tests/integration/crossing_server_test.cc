@@ -352,6 +352,14 @@ TEST_F(CrossingServerTest, AnUnparsableUnaryRequestIsInvalidArgument) {
   }
   v1::ListDatabasesResponse list;
   EXPECT_TRUE((*client_)->ListDatabases(Ctx().get(), v1::ListDatabasesRequest(), &list).ok());
+
+  // A name that is not UTF-8 does not parse either, and protobuf's complaint goes to the log at
+  // debug level, not to stderr as an ERROR line per request (15,827 in the campaign).
+  testing::RawStream call(channel, "/waymark.v1.CrossingService/CreateDatabase");
+  ASSERT_TRUE(call.WriteBytes(std::string("\x0a\x02\xff\xfe", 4)));
+  std::vector<v1::CrossingDatabase> answers;
+  EXPECT_EQ(call.Finish(&answers).error_code(), grpc::StatusCode::INVALID_ARGUMENT);
+  EXPECT_EQ(server_->Log().find("libprotobuf ERROR"), std::string::npos) << server_->Log();
 }
 
 // Issue 21: a message that does not parse in the middle of a client stream ends the stream with
