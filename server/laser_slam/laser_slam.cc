@@ -56,7 +56,7 @@ bool GetGrid(BinaryReader& r, OccupancyGrid* g) {
 
 struct LaserSlam::Impl {
   Impl(const SlamOptions& o, std::unique_ptr<MapLocalizer> l)
-      : options(o), ekf(o.ekf), localizer(std::move(l)) {
+      : options(o), ekf(o.ekf), before_scan(o.ekf), localizer(std::move(l)) {
     if (o.exploration.mode != ExplorationMode::kPassive) {
       planner = std::make_unique<ExplorationPlanner>(o.exploration);
     }
@@ -65,6 +65,7 @@ struct LaserSlam::Impl {
 
   SlamOptions options;
   SegmentEkf ekf;
+  SegmentEkf before_scan;  // the filter before the scan being processed (AddScan's rollback)
   std::unique_ptr<ExplorationPlanner> planner;  // active and wander sessions
   std::unique_ptr<MappingBackend> backend;      // loop closure (options.mapping.enabled)
   std::unique_ptr<MapLocalizer> localizer;      // localization sessions
@@ -155,7 +156,7 @@ absl::StatusOr<ScanUpdate> LaserSlam::AddScan(const LaserScan& scan) {
   } else {
     // The filter as it was, to go back to if this scan would leave it non-finite (bounded
     // inputs should never; an answer with NaN or inf must not leave the server either way).
-    const SegmentEkf before = s.ekf;
+    s.before_scan = s.ekf;  // into buffers kept between scans: no allocation per scan
     const Pose2 odometry_before = s.odometry_at_last_update;
     if (s.scans > 1) s.ekf.Predict(u, IncrementNoise(u, s.options.odometry));
     s.odometry_at_last_update = odom;
@@ -175,7 +176,7 @@ absl::StatusOr<ScanUpdate> LaserSlam::AddScan(const LaserScan& scan) {
     update.pose = s.Current(scan.stamp);
     if (!FinitePose(update.pose.pose) || !update.pose.covariance.allFinite() ||
         !s.ekf.state().cov().diagonal().allFinite()) {
-      s.ekf = before;
+      s.ekf = s.before_scan;
       s.odometry_at_last_update = odometry_before;
       s.last_scan = std::move(previous_scan);
       s.have_scan = had_scan;

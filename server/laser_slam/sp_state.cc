@@ -10,6 +10,18 @@ SpState::SpState() {
   storage_.topLeftCorner(3, 3).setZero();
 }
 
+SpState& SpState::operator=(const SpState& other) {
+  if (this == &other) return *this;
+  robot = other.robot;
+  segments = other.segments;
+  frozen = other.frozen;
+  n_ = 0;  // nothing of the old covariance is kept by a Reserve
+  Reserve(other.n_);
+  n_ = other.n_;
+  storage_.topLeftCorner(n_, n_) = other.storage_.topLeftCorner(n_, n_);
+  return *this;
+}
+
 void SpState::Reserve(int capacity) {
   if (storage_.rows() >= capacity) return;
   Eigen::MatrixXd grown = Eigen::MatrixXd::Zero(capacity, capacity);

@@ -49,6 +49,12 @@ struct FrozenSegment {
 class SpState {
  public:
   SpState();
+  SpState(const SpState&) = default;
+  // Copies the state into this one's buffers: the first size() rows and columns of the
+  // covariance, into storage reused when it is large enough. LaserSlam keeps a copy of the
+  // filter before every scan (to go back to if the scan would make it non-finite); copying the
+  // whole storage allocated and filled 0.5-2 MB per scan.
+  SpState& operator=(const SpState& other);
 
   int size() const { return n_; }
   // The covariance over all dofs. Only the first size() rows and columns are meaningful.

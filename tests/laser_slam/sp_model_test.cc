@@ -228,5 +228,34 @@ TEST(SpStateTest, RemovingDofsRenumbersAndKeepsCovariance) {
   for (int d : SegmentDofs(moved)) EXPECT_LT(d, st.size());
 }
 
+// Copying a state (LaserSlam's copy before each scan) copies every meaningful entry, into a
+// smaller state's storage (which grows) and into a larger one's (which is reused), and the copy
+// goes on like the original.
+TEST(SpStateTest, ACopyHoldsTheSameStateWhateverItsStorage) {
+  SpState big;
+  big.AddDofs(200);  // storage well over the original's below
+  SpState original;
+  original.AddDofs(70);  // past the initial 64: grown once
+  original.robot = Pose2{1, 2, 0.5};
+  original.segments.resize(3);
+  original.frozen.resize(2);
+  for (int i = 0; i < original.size(); ++i) {
+    for (int j = 0; j < original.size(); ++j) original.at(i, j) = 1000 * i + j + 0.5;
+  }
+  SpState small;
+  for (SpState* copy : {&small, &big}) {
+    *copy = original;
+    ASSERT_EQ(copy->size(), original.size());
+    EXPECT_EQ(copy->cov(), original.cov());
+    EXPECT_EQ(copy->robot.theta, 0.5);
+    EXPECT_EQ(copy->segments.size(), 3u);
+    EXPECT_EQ(copy->frozen.size(), 2u);
+    const int first = copy->AddDofs(2);  // new rows and columns start at zero
+    EXPECT_EQ(copy->cov().row(first).norm(), 0.0);
+    EXPECT_EQ(copy->cov().col(first + 1).norm(), 0.0);
+    EXPECT_EQ(copy->at(5, 7), original.at(5, 7));
+  }
+}
+
 }  // namespace
 }  // namespace waymark::laser_slam
