@@ -367,7 +367,6 @@ int main(int argc, char** argv) {
   // goes back to the system the moment it is freed; measured with waymark-memory-burst
   // (docs/operations.md, "Memory").
   mallopt(M_MMAP_THRESHOLD, 256 * 1024);
-  mallopt(M_TRIM_THRESHOLD, 64 << 20);
   // Logs go to stderr; stdout carries only the "listening on" line that scripts wait for.
   spdlog::set_default_logger(spdlog::stderr_color_mt("waymark"));
   google::protobuf::SetLogHandler(&ProtobufLogToSpdlog);

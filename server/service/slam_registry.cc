@@ -61,7 +61,6 @@ struct SlamRegistry::Session {
   bool stream_stopping = false;
   uint64_t stream_epoch = 0;  // counts the streams attached so far; the attached one's number
   std::function<void()> stream_cancel;  // ends the attached stream's call (OpenStream's takeover)
-  uint64_t taken_over_epoch = 0;        // the stream a newer one took the session from
   bool closed = false;  // closing or closed: no stream, no message
   // Set when another server took the session's lease over: what every message is answered.
   std::optional<absl::Status> lost;
@@ -632,10 +631,10 @@ absl::StatusOr<std::unique_ptr<SlamRegistry::Stream>> SlamRegistry::OpenStream(
       // dead without the server knowing it for a minute (keepalive), and a stream the client
       // has just cancelled may not have noticed yet (the issue 21 campaign's reconnects were
       // refused "already has an open stream"). The old stream accepts nothing more and its call
-      // is cancelled; what it accepted is processed and answered to it first. The callback runs
-      // under the session's lock, so the old call (which detaches under it) is still there.
+      // is cancelled; what it accepted is still processed before the new stream attaches. The
+      // callback runs under the session's lock, so the old call (which detaches under it) is
+      // still there.
       s.stream_stopping = true;
-      s.taken_over_epoch = s.stream_epoch;
       if (s.stream_cancel) s.stream_cancel();
       s.stream_cancel = nullptr;
       spdlog::info("SLAM session {}: a new stream takes over from the open one", session_id);
@@ -710,7 +709,8 @@ absl::Status SlamRegistry::Submit(const std::shared_ptr<Session>& owner, uint64_
           "the server is shutting down; resume the session after it restarts");
     } else if (session.closed || !session.stream_attached) {
       refused = absl::FailedPreconditionError("the session is closed");
-    } else if (session.taken_over_epoch == epoch) {
+    } else if (session.stream_epoch != epoch || session.stream_stopping) {
+      // Only a taken-over stream gets here: one that stopped itself refuses in Stream::Submit.
       refused = absl::AbortedError(
           "a newer stream took this session over (the robot reconnected); this stream ends");
     } else if (last.has_value() && !(stamp > *last)) {

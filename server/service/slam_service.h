@@ -35,9 +35,9 @@ class SlamServiceImpl final : public v1::SlamService::Service {
   // Reads messages and hands them to the registry; a rejected message is answered with a
   // SlamUpdate{sequence, rejection} and the stream goes on. Stream-level errors (no session_id on
   // the first message, unknown or closed session) end the stream with their status. A newer
-  // stream on the same session takes it over: this one's call is cancelled once the messages it
-  // accepted are answered. After the client half-closes, waits until every accepted message has
-  // been processed and answered, then returns OK.
+  // stream on the same session takes it over: this one's call is cancelled at once (what it had
+  // accepted is still processed). After the client half-closes, waits until every accepted
+  // message has been processed and answered, then returns OK.
   using SensorStream = ParsedStream<v1::SlamUpdate, v1::SensorData>;
   grpc::Status ServeStreamSensorData(grpc::ServerContext* context, SensorStream* stream);
   grpc::Status GetMap(grpc::ServerContext*, const v1::GetMapRequest* request,

@@ -31,9 +31,10 @@ PointCloud ThinPoints(const PointCloud& points, double cell) {
   // bounded far below it (input_bounds.h), so such a point is dropped rather than trusted.
   constexpr double kMaxCellIndex = 1e15;
   for (const Eigen::Vector2f& p : points) {
-    if (!(std::abs(p.x() / cell) < kMaxCellIndex && std::abs(p.y() / cell) < kMaxCellIndex)) continue;
-    const auto ix = static_cast<std::int64_t>(std::floor(p.x() / cell));
-    const auto iy = static_cast<std::int64_t>(std::floor(p.y() / cell));
+    const double cx = std::floor(p.x() / cell), cy = std::floor(p.y() / cell);
+    if (!(std::abs(cx) < kMaxCellIndex && std::abs(cy) < kMaxCellIndex)) continue;
+    const auto ix = static_cast<std::int64_t>(cx);
+    const auto iy = static_cast<std::int64_t>(cy);
     const std::uint64_t key = (static_cast<std::uint64_t>(ix) << 32) ^
                               (static_cast<std::uint64_t>(iy) & 0xffffffffULL);
     if (seen.insert(key).second) out.push_back(p);
