@@ -22,6 +22,9 @@ struct SearchWindow {
 struct GridMatch {
   Pose2 pose;          // of the cloud's frame in the grid frame
   double score = 0.0;  // mean likelihood of the points at `pose`, 0..1
+  // The same at the best pose on the grid's lattice, before refinement below a cell: what
+  // FindRival's scores compare with (they are not refined either).
+  double lattice_score = 0.0;
   long candidates = 0;  // scored (for the cost report)
 };
 
@@ -29,6 +32,16 @@ struct GridMatch {
 std::optional<GridMatch> MatchInWindow(const SearchPyramid& target, const PointCloud& points,
                                        const Pose2& initial, const SearchWindow& window,
                                        double min_score);
+
+// A rival of the match at `best`: some pose in the same window whose points lie on average
+// (root mean square) more than `exclusion` metres from where `best` puts them and that scores at
+// least `min_score` on the grid's lattice (not refined: compare with GridMatch::lattice_score), or nullopt when there is none. A
+// decision, not a search: it stops at the first such pose, so its score is not the second-best.
+// A closure whose rival scores nearly as well could be either place (look-alike rooms, a
+// corridor that slides along itself).
+std::optional<GridMatch> FindRival(const SearchPyramid& target, const PointCloud& points,
+                                   const Pose2& initial, const SearchWindow& window,
+                                   const Pose2& best, double exclusion, double min_score);
 
 // Mean likelihood (0..1) of `points` placed at `pose`, interpolated.
 double ScoreAt(const LikelihoodGrid& grid, const PointCloud& points, const Pose2& pose);

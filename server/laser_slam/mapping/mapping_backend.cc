@@ -8,7 +8,9 @@
 #include "server/common/binary_io.h"
 #include "server/laser_slam/geometry.h"
 #include "server/laser_slam/input_bounds.h"
+#include "server/laser_slam/mapping/chain_uncertainty.h"
 #include "server/laser_slam/mapping/correlative_matcher.h"
+#include "server/laser_slam/mapping/local_matcher.h"
 
 namespace waymark::laser_slam {
 namespace {
@@ -17,7 +19,8 @@ constexpr std::uint32_t kMagic = 0x5047574d;  // "MWGP"
 // 2: the newest node Process handled, so that nodes still waiting for the back end's thread are
 // processed after a resume (version 1 counted them as processed: their loop searches were lost,
 // and a session resumed from a checkpoint ended 0.3 m away from the uninterrupted one on Intel).
-constexpr std::uint32_t kVersion = 2;
+// 3: the node of the last closure and the global searches' turn (issue 33's loop search).
+constexpr std::uint32_t kVersion = 3;
 // Submap pyramids kept between searches (a few MB each).
 constexpr size_t kPyramidCacheSize = 12;
 
@@ -115,10 +118,30 @@ void MappingBackend::FreezeSubmapLocked(int index) {
   }
 }
 
+int MappingBackend::ChainConstraintLocked(int index) const {
+  // The newest chain constraint ending at the node: loop constraints to it come later, from its
+  // own Process, so this is a short walk from the end.
+  for (int c = static_cast<int>(constraints_.size()) - 1; c >= 0; --c) {
+    if (constraints_[c].kind == GraphConstraint::Kind::kChain && constraints_[c].to == index) {
+      return c;
+    }
+  }
+  return -1;
+}
+
+void MappingBackend::AppendChainUncertaintyLocked(int index, const Eigen::Vector3d& sigma) {
+  const Pose2& local = nodes_[index].local;
+  chain_.Append(Eigen::Vector2d(local.x, local.y), sigma);
+}
+
 void MappingBackend::Process(int index) {
   std::lock_guard<std::mutex> one_at_a_time(search_mu_);
+  if (options_.local_matching && index > 0) MatchLocalMap(index);
   {
     std::lock_guard<std::mutex> lock(mu_);
+    const int chain = ChainConstraintLocked(index);
+    AppendChainUncertaintyLocked(
+        index, chain >= 0 ? constraints_[chain].sigma : Eigen::Vector3d::Zero().eval());
     FreezeSubmapLocked(index);
   }
   if (index % options_.search_every_nodes == 0) SearchLoops(index);
@@ -132,6 +155,64 @@ void MappingBackend::Process(int index) {
   processed_ = index;
 }
 
+void MappingBackend::MatchLocalMap(int index) {
+  const auto start = Clock::now();
+  PointCloud local_map;
+  Pose2 step;
+  SearchWindow window;
+  Eigen::Vector3d step_sigma;
+  std::shared_ptr<const PointCloud> query;
+  int chain = -1;
+  {
+    std::lock_guard<std::mutex> lock(mu_);
+    const Node& previous = nodes_[index - 1];
+    step = Relative(previous.local, nodes_[index].local);
+    query = nodes_[index].points;
+    // The local map in the previous node's frame, so that the prior is the EKF's step itself.
+    for (int j = std::max(0, index - options_.local_map_nodes); j < index; ++j) {
+      AppendTransformed(*nodes_[j].points, Relative(previous.global, nodes_[j].global),
+                        &local_map);
+    }
+    chain = ChainConstraintLocked(index);
+    if (chain < 0) return;
+    const Eigen::Vector3d& sigma = constraints_[chain].sigma;
+    step_sigma = sigma;
+    window.xy = std::min(options_.max_window_xy,
+                         std::max(options_.local_window_min_xy,
+                                  options_.local_window_sigmas * std::max(sigma(0), sigma(1))));
+    window.theta = std::min(M_PI,
+                            std::max(options_.local_window_min_theta,
+                                     options_.local_window_sigmas * sigma(2)));
+  }
+  LocalMatchSettings settings;
+  settings.grid_resolution = options_.grid_resolution;
+  settings.grid_sigma = options_.grid_sigma;
+  settings.min_score = options_.local_min_score;
+  settings.points_per_observation = options_.local_points_per_observation;
+  const std::optional<LocalMatchResult> match = MatchLocally(
+      ThinPoints(local_map, options_.point_cell), *query, step,
+      step_sigma.cwiseAbs2().asDiagonal(), window, settings);
+  std::lock_guard<std::mutex> lock(mu_);
+  if (!match) {
+    ++stats_.local_unmatched;
+    return;
+  }
+  GraphConstraint& c = constraints_[chain];
+  c.relative = match->pose;
+  // The fused step's marginal sigmas, at least local_sigma_xy / _theta: the Laplace
+  // approximation knows the walls, not how well the local map itself was placed.
+  c.sigma = match->covariance.diagonal().cwiseSqrt().cwiseMax(
+      Eigen::Vector3d(options_.local_sigma_xy, options_.local_sigma_xy, options_.local_sigma_theta));
+  c.score = match->score;
+  nodes_[index].global = Compose(nodes_[index - 1].global, match->pose);
+  // Nodes appended since (the thread is behind the stream) follow their predecessor.
+  for (size_t j = index + 1; j < nodes_.size(); ++j) {
+    nodes_[j].global = Compose(nodes_[j - 1].global, Relative(nodes_[j - 1].local, nodes_[j].local));
+  }
+  ++stats_.local_matches;
+  stats_.local_ms.push_back(MsSince(start));
+}
+
 void MappingBackend::SearchLoops(int index) {
   const auto start = Clock::now();
   struct Candidate {
@@ -139,56 +220,81 @@ void MappingBackend::SearchLoops(int index) {
     double distance = 0.0;
     Pose2 initial;  // the node in the submap's frame, as the graph has it now
     SearchWindow window;
+    bool global = false;  // the whole submap at every heading
   };
   std::vector<Candidate> candidates;
   PointCloud query;
-  double node_travel = 0.0;
   {
     std::lock_guard<std::mutex> lock(mu_);
     const Node& node = nodes_[index];
-    node_travel = node.travel;
     for (int j = std::max(0, index - options_.query_nodes + 1); j <= index; ++j) {
       AppendTransformed(*nodes_[j].points, Relative(node.local, nodes_[j].local), &query);
     }
+    const bool global_due = index - last_global_search_ >= options_.global_search_every_nodes;
+    std::vector<Candidate> global;
     for (int s = 0; s < static_cast<int>(submaps_.size()); ++s) {
       const Submap& submap = submaps_[s];
       if (!submap.complete) continue;
-      const Node& last = nodes_[submap.first + submap.count - 1];
-      const double gap = node.travel - last.travel;
-      if (gap < options_.min_loop_travel) continue;
-      const double untied = tie_travel_ >= 0.0 ? std::min(gap, node.travel - tie_travel_) : gap;
+      const int last = submap.first + submap.count - 1;
+      if (node.travel - nodes_[last].travel < options_.min_loop_travel) continue;
+      // Tied to the submap by the chain since it ended, or since the last closure, whichever is
+      // newer (a closure ties the robot to the map as it stood then).
+      const ChainUncertainty::Sigma sigma = chain_.Between(std::max(last, tie_node_), index);
       Candidate c;
       c.submap = s;
-      c.window.xy = std::min(3.0 * (options_.window_base_xy + options_.drift_xy_per_m * untied),
-                             options_.max_window_xy);
-      c.window.theta =
-          std::min(3.0 * (options_.window_base_theta + options_.drift_theta_per_m * untied),
-                   options_.max_window_theta);
+      c.initial = Relative(nodes_[submap.first].global, node.global);
+      c.window.xy = std::max(options_.loop_window_min_xy, options_.loop_window_sigmas * sigma.xy);
+      c.window.theta = std::min(
+          M_PI, std::max(options_.loop_window_min_theta, options_.loop_window_sigmas * sigma.theta));
+      if (c.window.xy > options_.max_window_xy) {
+        c.global = true;
+        if (global_due) global.push_back(c);
+        continue;
+      }
       c.distance = 1e300;
-      for (int j = submap.first; j < submap.first + submap.count; ++j) {
+      for (int j = submap.first; j <= last; ++j) {
         c.distance = std::min(c.distance, std::hypot(nodes_[j].global.x - node.global.x,
                                                      nodes_[j].global.y - node.global.y));
       }
       if (c.distance > options_.candidate_distance + c.window.xy) continue;
-      c.initial = Relative(nodes_[submap.first].global, node.global);
       candidates.push_back(c);
     }
-  }
-  std::sort(candidates.begin(), candidates.end(),
-            [](const Candidate& a, const Candidate& b) { return a.distance < b.distance; });
-  if (static_cast<int>(candidates.size()) > options_.max_candidates) {
-    candidates.resize(options_.max_candidates);
+    std::sort(candidates.begin(), candidates.end(),
+              [](const Candidate& a, const Candidate& b) { return a.distance < b.distance; });
+    if (static_cast<int>(candidates.size()) > options_.max_candidates) {
+      candidates.resize(options_.max_candidates);
+    }
+    if (!global.empty()) {
+      // Submaps in turn, from the one after the last searched globally.
+      std::stable_partition(global.begin(), global.end(),
+                            [&](const Candidate& c) { return c.submap > global_cursor_; });
+      if (static_cast<int>(global.size()) > options_.max_candidates) {
+        global.resize(options_.max_candidates);
+      }
+      global_cursor_ = global.back().submap;
+      last_global_search_ = index;
+      ++stats_.global_searches;
+      candidates.insert(candidates.end(), global.begin(), global.end());
+    }
   }
   query = ThinPoints(query, options_.point_cell);
-  int accepted = 0, rejected = 0;
+  int accepted = 0, rejected = 0, ambiguous = 0, slid = 0;
   // The wide search scores half the points (one per 10 cm): the branch and bound costs in
   // proportion to them, and a wall sampled every 10 cm still pins the pose to the 5 cm grid. The
   // best pose is then refined and scored with all of them in a window of two cells.
   const PointCloud sparse = ThinPoints(query, 2.0 * options_.point_cell);
-  for (const Candidate& c : candidates) {
+  for (Candidate& c : candidates) {
     const std::shared_ptr<const SearchPyramid> pyramid = PyramidFor(c.submap);
+    if (c.global) {
+      const LikelihoodGrid& grid = pyramid->base();
+      c.initial.x = grid.origin.x() + 0.5 * grid.width * grid.resolution;
+      c.initial.y = grid.origin.y() + 0.5 * grid.height * grid.resolution;
+      c.window.xy = 0.5 * std::max(grid.width, grid.height) * grid.resolution;
+      c.window.theta = M_PI;
+    }
     std::optional<GridMatch> match =
         MatchInWindow(*pyramid, sparse, c.initial, c.window, options_.min_score);
+    const double lattice_score = match ? match->lattice_score : 0.0;
     if (match) {
       const SearchWindow refine{2.0 * options_.grid_resolution, 0.02};
       match = MatchInWindow(*pyramid, query, match->pose, refine, options_.min_score);
@@ -197,6 +303,27 @@ void MappingBackend::SearchLoops(int index) {
       ++rejected;
       continue;
     }
+    Eigen::Vector3d sigma(options_.loop_sigma_xy, options_.loop_sigma_xy,
+                          options_.loop_sigma_theta);
+    if (options_.rival_ratio > 0.0) {
+      // A rival beyond rival_far is another place that fits as well: refused. One nearer (but
+      // off the peak) is the same place, uncertain along some direction (a corridor seen without
+      // its ends): accepted, trusted only to that displacement.
+      const double rival_score = options_.rival_ratio * lattice_score;
+      if (FindRival(*pyramid, sparse, c.initial, c.window, match->pose, options_.rival_far,
+                    rival_score)) {
+        ++ambiguous;
+        continue;
+      }
+      if (const std::optional<GridMatch> slide =
+              FindRival(*pyramid, sparse, c.initial, c.window, match->pose,
+                        options_.rival_exclusion, rival_score)) {
+        const Pose2 offset = Relative(match->pose, slide->pose);
+        sigma = sigma.cwiseMax(Eigen::Vector3d(std::abs(offset.x), std::abs(offset.y),
+                                               std::abs(offset.theta)));
+        ++slid;
+      }
+    }
     ++accepted;
     std::lock_guard<std::mutex> lock(mu_);
     GraphConstraint loop;
@@ -204,18 +331,20 @@ void MappingBackend::SearchLoops(int index) {
     loop.from = submaps_[c.submap].first;
     loop.to = index;
     loop.relative = match->pose;
-    loop.sigma = Eigen::Vector3d(options_.loop_sigma_xy, options_.loop_sigma_xy,
-                                 options_.loop_sigma_theta);
+    loop.sigma = sigma;
     loop.score = match->score;
     constraints_.push_back(loop);
     ++closures_since_optimize_;
-    tie_travel_ = node_travel;
+    tie_travel_ = nodes_[index].travel;
+    tie_node_ = index;
   }
   std::lock_guard<std::mutex> lock(mu_);
   ++stats_.searches;
   stats_.candidates += static_cast<int>(candidates.size());
   stats_.closures_accepted += accepted;
   stats_.closures_rejected += rejected;
+  stats_.closures_ambiguous += ambiguous;
+  stats_.closures_loosened += slid;
   stats_.search_ms.push_back(MsSince(start));
 }
 
@@ -440,6 +569,9 @@ std::string MappingBackend::Serialize() const {
                 stats_.closures_rejected, stats_.closures_switched_off, stats_.optimizations}) {
     w.Put<std::int32_t>(v);
   }
+  w.Put<std::int32_t>(tie_node_);
+  w.Put<std::int32_t>(last_global_search_);
+  w.Put<std::int32_t>(global_cursor_);
   return w.Take();
 }
 
@@ -541,7 +673,25 @@ absl::StatusOr<std::unique_ptr<MappingBackend>> MappingBackend::Deserialize(
     if (!r.Get(&value)) return corrupt("counters");
     *v = value;
   }
+  if (version >= 3) {
+    if (!r.Get(&b.tie_node_) || !r.Get(&b.last_global_search_) || !r.Get(&b.global_cursor_) ||
+        b.tie_node_ < -1 || b.tie_node_ >= nodes || b.last_global_search_ >= nodes ||
+        b.global_cursor_ < -1 || b.global_cursor_ >= static_cast<int>(b.submaps_.size())) {
+      return corrupt("loop search state");
+    }
+  } else if (b.tie_travel_ >= 0.0) {
+    // Older checkpoints kept the travel of the last closure: its last node at that travel.
+    for (int i = 0; i < nodes && b.nodes_[i].travel <= b.tie_travel_; ++i) b.tie_node_ = i;
+  }
   if (!r.done()) return corrupt("trailing bytes");
+  // The chain's uncertainty of the processed nodes, from their chain constraints.
+  std::vector<Eigen::Vector3d> chain_sigma(nodes, Eigen::Vector3d::Zero());
+  for (const GraphConstraint& c : b.constraints_) {
+    if (c.kind == GraphConstraint::Kind::kChain && c.to > 0) chain_sigma[c.to] = c.sigma;
+  }
+  for (int index = 0; index <= processed; ++index) {
+    b.AppendChainUncertaintyLocked(index, chain_sigma[index]);
+  }
   b.stats_.nodes = nodes;
   b.processed_ = processed;
   b.stats_.submaps = static_cast<int>(b.submaps_.size());

@@ -29,6 +29,7 @@
 
 #include "absl/status/statusor.h"
 #include "absl/strings/string_view.h"
+#include "server/laser_slam/mapping/chain_uncertainty.h"
 #include "server/laser_slam/mapping/likelihood_grid.h"
 #include "server/laser_slam/mapping/mapping_options.h"
 #include "server/laser_slam/mapping/point_cloud.h"
@@ -52,11 +53,17 @@ struct MappingStats {
   int candidates = 0;           // submaps matched
   int closures_accepted = 0;    // loop constraints added
   int closures_rejected = 0;    // candidates with no pose above min_score
+  int closures_ambiguous = 0;   // matches refused: a rival place (rival_far away) fits as well
+  int closures_loosened = 0;    // accepted with their sigma widened to a near rival
+  int global_searches = 0;      // searches over whole submaps (the window outgrew max_window_xy)
   int closures_switched_off = 0;  // accepted, then found inconsistent by the graph
   int optimizations = 0;
+  int local_matches = 0;        // nodes whose chain constraint comes from local matching
+  int local_unmatched = 0;      // nodes left with the EKF's step (nothing scored local_min_score)
   int pending_nodes = 0;        // waiting for the back end's thread (filled by Stats())
   std::vector<double> search_ms;    // per searched node, all candidates
   std::vector<double> optimize_ms;  // per optimisation
+  std::vector<double> local_ms;     // per locally matched node
 };
 
 class MappingBackend {
@@ -120,6 +127,9 @@ class MappingBackend {
   // Submap bookkeeping, the loop search for node `index` and, when due, an optimisation.
   // Takes mu_ itself, briefly.
   void Process(int index);
+  // The front end: node `index`'s scan against the nodes before it (local_matcher.h); sets its
+  // chain constraint and its pose, and moves the nodes after it along.
+  void MatchLocalMap(int index);
   void SearchLoops(int index);
   // Optimises the graph of nodes [0, upto] and carries the later nodes along.
   void Optimize(int upto);
@@ -141,6 +151,15 @@ class MappingBackend {
   bool stop_ = false;
   int closures_since_optimize_ = 0;
   double tie_travel_ = -1.0;  // travel at the last accepted loop closure (-1: none yet)
+  int tie_node_ = -1;          // node of the last accepted loop closure (-1: none yet)
+  int last_global_search_ = -1000000;  // node of the last global search
+  int global_cursor_ = -1;     // submap searched globally last (they are searched in turn)
+  ChainUncertainty chain_;     // of the processed nodes, in order
+  // Appends node `index` (processed, its chain constraint final, of 1 sigma `sigma`) to chain_.
+  // Caller holds mu_.
+  void AppendChainUncertaintyLocked(int index, const Eigen::Vector3d& sigma);
+  // Index in constraints_ of the chain constraint ending at node `index`, or -1. Caller holds mu_.
+  int ChainConstraintLocked(int index) const;
   std::uint64_t revision_ = 0;
   MappingStats stats_;
   // Fixes the submap's frozen poses when node `index` is its last one. Caller holds mu_.

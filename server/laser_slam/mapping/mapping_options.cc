@@ -15,32 +15,57 @@ absl::Status ValidateMappingOptions(const MappingOptions& o) {
         {o.grid_resolution, "mapping.grid_resolution"}, {o.grid_sigma, "mapping.grid_sigma"},
         {o.max_window_xy, "mapping.max_window_xy"},
         {o.candidate_distance, "mapping.candidate_distance"},
-        {o.max_window_theta, "mapping.max_window_theta"},
+        {o.loop_window_sigmas, "mapping.loop_window_sigmas"},
+        {o.rival_exclusion, "mapping.rival_exclusion"}, {o.rival_far, "mapping.rival_far"},
         {o.chain_sigma_xy, "mapping.chain_sigma_xy"},
         {o.chain_sigma_theta, "mapping.chain_sigma_theta"},
         {o.loop_sigma_xy, "mapping.loop_sigma_xy"},
         {o.loop_sigma_theta, "mapping.loop_sigma_theta"}, {o.huber_scale, "mapping.huber_scale"},
+        {o.local_window_sigmas, "mapping.local_window_sigmas"},
+        {o.local_sigma_xy, "mapping.local_sigma_xy"},
+        {o.local_sigma_theta, "mapping.local_sigma_theta"},
+        {o.local_points_per_observation, "mapping.local_points_per_observation"},
         {o.outlier_residual, "mapping.outlier_residual"}}) {
     if (absl::Status s = Positive(value, name); !s.ok()) return s;
   }
   for (const auto& [value, name] :
        {std::pair{o.min_loop_travel, "mapping.min_loop_travel"},
-        {o.window_base_xy, "mapping.window_base_xy"},
-        {o.drift_xy_per_m, "mapping.drift_xy_per_m"},
-        {o.window_base_theta, "mapping.window_base_theta"},
-        {o.drift_theta_per_m, "mapping.drift_theta_per_m"},
+        {o.loop_window_min_xy, "mapping.loop_window_min_xy"},
+        {o.loop_window_min_theta, "mapping.loop_window_min_theta"},
+        {o.rival_ratio, "mapping.rival_ratio"},
         {o.chain_sigma_xy_per_m, "mapping.chain_sigma_xy_per_m"},
         {o.chain_sigma_theta_per_m, "mapping.chain_sigma_theta_per_m"},
-        {o.chain_sigma_theta_per_rad, "mapping.chain_sigma_theta_per_rad"}}) {
+        {o.chain_sigma_theta_per_rad, "mapping.chain_sigma_theta_per_rad"},
+        {o.local_window_min_xy, "mapping.local_window_min_xy"},
+        {o.local_window_min_theta, "mapping.local_window_min_theta"}}) {
     if (absl::Status s = NonNegative(value, name); !s.ok()) return s;
   }
   if (o.min_score <= 0.0 || o.min_score >= 1.0) {
     return absl::InvalidArgumentError(
         absl::StrCat("mapping.min_score must be in (0, 1), got ", o.min_score));
   }
+  if (o.local_min_score <= 0.0 || o.local_min_score >= 1.0) {
+    return absl::InvalidArgumentError(
+        absl::StrCat("mapping.local_min_score must be in (0, 1), got ", o.local_min_score));
+  }
+  if (o.local_map_nodes < 1 || o.local_map_nodes > 200) {
+    return absl::InvalidArgumentError(
+        absl::StrCat("mapping.local_map_nodes must be in [1, 200], got ", o.local_map_nodes));
+  }
+  if (o.local_window_min_xy > o.max_window_xy) {
+    return absl::InvalidArgumentError("mapping.local_window_min_xy must not exceed mapping.max_window_xy");
+  }
   if (o.submap_nodes < 2 || o.submap_nodes > 1000) {
     return absl::InvalidArgumentError(
         absl::StrCat("mapping.submap_nodes must be in [2, 1000], got ", o.submap_nodes));
+  }
+  if (o.rival_ratio >= 1.0) {
+    return absl::InvalidArgumentError(
+        absl::StrCat("mapping.rival_ratio must be in [0, 1), got ", o.rival_ratio));
+  }
+  if (o.global_search_every_nodes < 1) {
+    return absl::InvalidArgumentError(absl::StrCat(
+        "mapping.global_search_every_nodes must be >= 1, got ", o.global_search_every_nodes));
   }
   if (o.search_every_nodes < 1 || o.query_nodes < 1 || o.query_nodes > 50 ||
       o.max_candidates < 1 || o.optimize_every_closures < 1 || o.max_iterations < 1) {

@@ -27,6 +27,25 @@ struct MappingOptions {
   double point_range = 12.0;
   double point_cell = 0.05;
 
+  // Local matching, the front end (local_matcher.h): a node's scan is matched against the points
+  // of the local_map_nodes nodes before it, at their graph poses, and the match replaces the EKF's
+  // step as the chain constraint to the previous node. false = the EKF's step alone (as before
+  // issue 33). The search window is local_window_sigmas times the chain sigma of the EKF's step
+  // (the graph's own belief about it), at least local_window_min_xy (m) / _theta (rad). A match
+  // scoring below local_min_score (mean likelihood, 0..1) is not used. The match is fused with
+  // the EKF's step by their information (the match's from the curvature of its score, counting
+  // local_points_per_observation scan points as one observation); the fused step is trusted to
+  // its own sigmas, at least local_sigma_xy (m) and local_sigma_theta (rad).
+  bool local_matching = true;
+  int local_map_nodes = 12;
+  double local_window_sigmas = 3.0;
+  double local_window_min_xy = 0.1;
+  double local_window_min_theta = 0.035;
+  double local_min_score = 0.3;
+  double local_sigma_xy = 0.01;
+  double local_sigma_theta = 0.002;
+  double local_points_per_observation = 4.0;
+
   // A submap is this many consecutive nodes; its grid is built once the submap is complete.
   int submap_nodes = 25;
   // Likelihood grids: cell size (m) and the spread of a wall's likelihood (m, 1 sigma).
@@ -43,17 +62,32 @@ struct MappingOptions {
   // A submap is a candidate when one of its nodes lies within this distance of the new node, plus
   // the search window (m): from further away the two views share too little.
   double candidate_distance = 4.0;
-  // The search window grows with the travel since the graph was last tied to older places:
-  // 3 sigma with sigma = window_base + drift * travel (xy, m) and the same for heading (rad).
-  double window_base_xy = 0.3;
-  double drift_xy_per_m = 0.02;
-  double window_base_theta = 0.1;
-  double drift_theta_per_m = 0.005;
+  // The search window is loop_window_sigmas times the uncertainty of the node relative to the
+  // submap that the chain of constraints since their last tie leaves (chain_uncertainty.h: the
+  // chain constraints' sigmas, compounded), at least loop_window_min_xy (m) / _theta (rad): the
+  // graph's own uncertainty, not a drift rate per metre.
+  double loop_window_sigmas = 3.0;
+  double loop_window_min_xy = 0.5;
+  double loop_window_min_theta = 0.1;
+  // A window wider than max_window_xy (m) means the graph no longer knows where the robot is
+  // relative to that submap: the search covers the whole submap at every heading (a global
+  // search; branch and bound keeps it affordable), at most once every global_search_every_nodes
+  // nodes, over max_candidates submaps taken in turn (Cartographer's global_sampling_ratio).
   double max_window_xy = 8.0;
-  double max_window_theta = 3.14159265358979;
+  int global_search_every_nodes = 10;
   // Acceptance: mean likelihood of the query points at the match (0..1). Measured on ACES and
   // Intel (docs/results.md): true closures score 0.6-0.9, wrong places in corridors below 0.5.
   double min_score = 0.6;
+  // Uniqueness, against the second-best hypothesis in the same window: a rival pose that puts
+  // the query points on average (RMS) more than rival_far metres from where the match puts them
+  // and scores at least rival_ratio times the match is another place that fits as well
+  // (look-alike rooms, the same corridor seen the other way round): the match is refused. A
+  // rival nearer than that but beyond rival_exclusion (off the match's own peak) is the same
+  // place seen with too little to pin it (a corridor without its ends): the closure is kept,
+  // trusted only to that rival's offset. rival_ratio = 0 switches the test off.
+  double rival_ratio = 0.9;
+  double rival_exclusion = 0.3;
+  double rival_far = 1.0;
   // Depth of the branch-and-bound pyramid (2^depth cells at the coarsest level).
   int search_depth = 6;
 

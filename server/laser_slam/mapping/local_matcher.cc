@@ -1,0 +1,77 @@
+#include "server/laser_slam/mapping/local_matcher.h"
+
+#include <algorithm>
+#include <cmath>
+
+#include <Eigen/Cholesky>
+#include <Eigen/Eigenvalues>
+
+#include "server/laser_slam/geometry.h"
+#include "server/laser_slam/mapping/likelihood_grid.h"
+
+namespace waymark::laser_slam {
+
+Eigen::Matrix3d MatchInformation(const LikelihoodGrid& grid, const PointCloud& points,
+                                 const Pose2& pose, double observations) {
+  double mean_range = 0.0;
+  for (const Eigen::Vector2f& p : points) mean_range += p.norm();
+  mean_range = std::max(grid.resolution, mean_range / std::max<size_t>(1, points.size()));
+  const Eigen::Vector3d h(grid.resolution, grid.resolution, grid.resolution / mean_range);
+  const auto score = [&](const Eigen::Vector3d& d) {
+    return ScoreAt(grid, points, Pose2{pose.x + d(0), pose.y + d(1), pose.theta + d(2)});
+  };
+  const double centre = score(Eigen::Vector3d::Zero());
+  Eigen::Matrix3d hessian;
+  for (int i = 0; i < 3; ++i) {
+    const Eigen::Vector3d ei = h(i) * Eigen::Vector3d::Unit(i);
+    hessian(i, i) = (score(ei) - 2.0 * centre + score(-ei)) / (h(i) * h(i));
+    for (int j = 0; j < i; ++j) {
+      const Eigen::Vector3d ej = h(j) * Eigen::Vector3d::Unit(j);
+      hessian(i, j) = hessian(j, i) =
+          (score(ei + ej) - score(ei - ej) - score(ej - ei) + score(-ei - ej)) /
+          (4.0 * h(i) * h(j));
+    }
+  }
+  // Information is the negative curvature; a direction where the score does not fall (a
+  // corridor's axis, or noise) carries none.
+  const Eigen::SelfAdjointEigenSolver<Eigen::Matrix3d> eigen(-observations * hessian);
+  const Eigen::Vector3d values = eigen.eigenvalues().cwiseMax(0.0);
+  return eigen.eigenvectors() * values.asDiagonal() * eigen.eigenvectors().transpose();
+}
+
+std::optional<LocalMatchResult> MatchLocally(const PointCloud& local_map, const PointCloud& query,
+                                             const Pose2& prior,
+                                             const Eigen::Matrix3d& prior_covariance,
+                                             const SearchWindow& window,
+                                             const LocalMatchSettings& settings) {
+  if (local_map.empty() || query.empty()) return std::nullopt;
+  // The pyramid needs only as many levels as the window has cells: a window of a few cells is
+  // searched almost exhaustively, and building levels it never visits would cost more.
+  const double half_cells = std::max(1.0, window.xy / settings.grid_resolution);
+  const int depth = std::clamp(static_cast<int>(std::ceil(std::log2(half_cells))), 0, 6);
+  const SearchPyramid pyramid(
+      BuildLikelihoodGrid(local_map, settings.grid_resolution, settings.grid_sigma), depth);
+  const std::optional<GridMatch> match =
+      MatchInWindow(pyramid, query, prior, window, settings.min_score);
+  if (!match) return std::nullopt;
+  LocalMatchResult result;
+  result.matched = match->pose;
+  result.score = match->score;
+  // Gaussian fusion of the match with the prior, in (x, y, theta) of the local map's frame.
+  const Eigen::Matrix3d match_information =
+      MatchInformation(pyramid.base(), query, match->pose,
+                       static_cast<double>(query.size()) / settings.points_per_observation);
+  const Eigen::Matrix3d prior_information = prior_covariance.inverse();
+  const Eigen::Matrix3d information = match_information + prior_information;
+  const Eigen::LDLT<Eigen::Matrix3d> solver(information);
+  const Eigen::Vector3d matched(match->pose.x, match->pose.y, match->pose.theta);
+  Eigen::Vector3d from_prior(prior.x, prior.y, prior.theta);
+  from_prior(2) = matched(2) + NormalizeAngle(from_prior(2) - matched(2));
+  const Eigen::Vector3d fused =
+      solver.solve(match_information * matched + prior_information * from_prior);
+  result.pose = Pose2{fused(0), fused(1), NormalizeAngle(fused(2))};
+  result.covariance = solver.solve(Eigen::Matrix3d::Identity());
+  return result;
+}
+
+}  // namespace waymark::laser_slam
