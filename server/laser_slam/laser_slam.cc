@@ -191,7 +191,10 @@ absl::StatusOr<ScanUpdate> LaserSlam::AddScan(const LaserScan& scan) {
       const PointCloud points =
           ScanToPoints(scan, s.options.laser_pose, s.options.extraction.min_range,
                        s.options.mapping.point_range);
-      if (s.backend) s.backend->AddScan(s.scans, scan.stamp, update.pose.pose, points);
+      if (s.backend) {
+        s.backend->AddScan(s.scans, scan.stamp, update.pose.pose, points,
+                           ScanMotion{u, IncrementNoise(u, s.options.odometry)});
+      }
       if (s.localizer) {
         update.localization = s.localizer->AddScan(s.scans, scan.stamp, update.pose.pose, points);
       }

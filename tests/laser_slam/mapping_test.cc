@@ -3,6 +3,7 @@
 // answers; the real logs are in tests/realdata.
 
 #include <cmath>
+#include <cstring>
 #include <random>
 #include <vector>
 
@@ -257,6 +258,8 @@ PointCloud LRoomMap() {
 
 TEST(MapLocalizerTest, AnUnknownStartIsFoundByTwoAgreeingGlobalSearches) {
   LocalizationOptions options;  // no initial pose
+  // Each global search whole within its scan (localizer_test.cc spreads them over scans).
+  options.global_reads_per_scan = std::int64_t{1} << 50;
   absl::StatusOr<std::unique_ptr<MapLocalizer>> localizer = MapLocalizer::Create(options, LRoomMap());
   ASSERT_TRUE(localizer.ok()) << localizer.status();
   // The robot starts at an unknown pose; its local frame is its start.
@@ -416,29 +419,48 @@ TEST(MappingBackendTest, ACheckpointWithAPointOrPoseBeyondAnyMapIsRefused) {
 }
 
 // Version 2 stores the newest node processed (nodes still waiting for the thread are processed
-// after a resume); a version-1 checkpoint, without it, still loads, every node counted processed.
+// after a resume); version 3 the odometry of every node and the loop search's state. A version-1
+// checkpoint, without them, still loads, every node counted processed and its EKF poses taken for
+// the odometry.
 TEST(MappingBackendTest, AVersionOneCheckpointStillLoads) {
   MappingOptions options;
   options.submap_nodes = 3;
   MappingBackend backend(options);
   const PointCloud points = PointsFrom(LRoom(), Pose2{2, 2, 0});
   for (int i = 0; i < 20; ++i) backend.AddScan(i + 1, i, Pose2{0.05 * i, 0, 0}, points);
-  std::string v2 = backend.Serialize();
-  // Behind the processed index: the six int32 statistics counters, then version 3's three int32
-  // (the last closure's node, the last global search, the global searches' turn), which a
-  // version-1 checkpoint lacks as well.
-  const size_t v3_tail = 3 * sizeof(std::int32_t);
-  const size_t processed_at = v2.size() - v3_tail - 6 * sizeof(std::int32_t) - sizeof(std::int32_t);
-  std::string v1 = v2.substr(0, processed_at) +
-                   v2.substr(processed_at + sizeof(std::int32_t),
-                             6 * sizeof(std::int32_t));
+  const std::string v3 = backend.Serialize();
+  // Version 1 from version 3: each node without its odometry (a pose and three variances after
+  // its points), and the end without the processed index, nor version 3's three int32 and three
+  // poses' worth of doubles (dead reckoning, motion variance, last local pose).
+  constexpr size_t kHeader = 3 * sizeof(std::uint32_t);
+  constexpr size_t kNodeFixed = 8 + 8 + 8 + 2 * 24;  // scan, stamp, travel, local, global
+  constexpr size_t kOdometry = 6 * sizeof(double);
+  std::uint32_t count = 0;
+  std::memcpy(&count, v3.data() + 2 * sizeof(std::uint32_t), sizeof(count));
+  std::string v1 = v3.substr(0, kHeader);
+  size_t at = kHeader;
+  for (std::uint32_t n = 0; n < count; ++n) {
+    std::uint32_t cloud = 0;
+    std::memcpy(&cloud, v3.data() + at + kNodeFixed, sizeof(cloud));
+    const size_t node = kNodeFixed + sizeof(cloud) + cloud * 2 * sizeof(float);
+    v1 += v3.substr(at, node);
+    at += node + kOdometry;
+  }
+  constexpr size_t kV3Tail = 3 * sizeof(std::int32_t) + 9 * sizeof(double);
+  const size_t processed_at = v3.size() - kV3Tail - 7 * sizeof(std::int32_t);
+  v1 += v3.substr(at, processed_at - at);
+  v1 += v3.substr(processed_at + sizeof(std::int32_t), 6 * sizeof(std::int32_t));
   const std::uint32_t one = 1;
   v1.replace(sizeof(std::uint32_t), sizeof(one), reinterpret_cast<const char*>(&one), sizeof(one));
   absl::StatusOr<std::unique_ptr<MappingBackend>> restored = MappingBackend::Deserialize(options, v1);
   ASSERT_TRUE(restored.ok()) << restored.status();
-  EXPECT_EQ((*restored)->Serialize(), v2);
+  EXPECT_EQ((*restored)->Serialize().size(), v3.size());
+  ASSERT_EQ((*restored)->Nodes().size(), backend.Nodes().size());
+  for (size_t i = 0; i < backend.Nodes().size(); ++i) {
+    EXPECT_EQ((*restored)->Nodes()[i].global.x, backend.Nodes()[i].global.x);
+  }
   // A processed index beyond the nodes is refused.
-  std::string beyond = v2;
+  std::string beyond = v3;
   const std::int32_t too_far = 4;
   beyond.replace(processed_at, sizeof(too_far), reinterpret_cast<const char*>(&too_far),
                  sizeof(too_far));

@@ -22,7 +22,7 @@ constexpr std::uint32_t kMagic = 0x5047574d;  // "MWGP"
 // 3: the node of the last closure and the global searches' turn (issue 33's loop search).
 constexpr std::uint32_t kVersion = 3;
 // Submap pyramids kept between searches (a few MB each).
-constexpr size_t kPyramidCacheSize = 12;
+constexpr size_t kPyramidCacheSize = 16;
 
 }  // namespace
 
@@ -41,8 +41,22 @@ MappingBackend::~MappingBackend() {
 
 void MappingBackend::AddScan(std::uint64_t scan, double stamp, const Pose2& local,
                              const PointCloud& points) {
+  ScanMotion motion;
   {
     std::lock_guard<std::mutex> lock(mu_);
+    motion.increment = nodes_.empty() ? Pose2{} : Relative(last_local_, local);
+    last_local_ = local;
+  }
+  AddScan(scan, stamp, local, points, motion);
+}
+
+void MappingBackend::AddScan(std::uint64_t scan, double stamp, const Pose2& local,
+                             const PointCloud& points, const ScanMotion& motion) {
+  {
+    std::lock_guard<std::mutex> lock(mu_);
+    last_local_ = local;
+    dead_reckoning_ = Compose(dead_reckoning_, motion.increment);
+    motion_variance_ += motion.covariance.diagonal();
     if (!nodes_.empty()) {
       const Pose2 moved = Relative(nodes_.back().local, local);
       if (std::hypot(moved.x, moved.y) < options_.node_travel &&
@@ -74,6 +88,9 @@ int MappingBackend::AppendNodeLocked(std::uint64_t scan, double stamp, const Pos
   node.local = local;
   node.global = local;
   node.points = std::make_shared<const PointCloud>(points);
+  node.odometry = dead_reckoning_;
+  node.odometry_variance = motion_variance_;
+  motion_variance_.setZero();
   if (!nodes_.empty()) {
     const Node& prev = nodes_.back();
     const Pose2 step = Relative(prev.local, local);
@@ -115,6 +132,13 @@ void MappingBackend::FreezeSubmapLocked(int index) {
       }
     }
     return;
+  }
+}
+
+void MappingBackend::FollowPredecessorsLocked(int first) {
+  // Nodes appended since (the thread is behind the stream) follow their predecessor.
+  for (size_t j = static_cast<size_t>(std::max(first, 1)); j < nodes_.size(); ++j) {
+    nodes_[j].global = Compose(nodes_[j - 1].global, Relative(nodes_[j - 1].local, nodes_[j].local));
   }
 }
 
@@ -161,13 +185,22 @@ void MappingBackend::MatchLocalMap(int index) {
   Pose2 step;
   SearchWindow window;
   Eigen::Vector3d step_sigma;
+  Eigen::Vector3d disagreement = Eigen::Vector3d::Zero();
   std::shared_ptr<const PointCloud> query;
   int chain = -1;
   {
     std::lock_guard<std::mutex> lock(mu_);
     const Node& previous = nodes_[index - 1];
-    step = Relative(previous.local, nodes_[index].local);
-    query = nodes_[index].points;
+    const Node& node = nodes_[index];
+    const Pose2 ekf_step = Relative(previous.local, node.local);
+    const Pose2 odometry_step = Relative(previous.odometry, node.odometry);
+    step = options_.local_prior == MappingOptions::LocalPrior::kOdometry ? odometry_step
+                                                                         : ekf_step;
+    // Two estimates of one step: where they disagree, the prior is as uncertain as their
+    // difference (the EKF associated wrongly, or the wheels slipped), and the walls decide.
+    disagreement = Eigen::Vector3d(ekf_step.x - odometry_step.x, ekf_step.y - odometry_step.y,
+                                   NormalizeAngle(ekf_step.theta - odometry_step.theta));
+    query = node.points;
     // The local map in the previous node's frame, so that the prior is the EKF's step itself.
     for (int j = std::max(0, index - options_.local_map_nodes); j < index; ++j) {
       AppendTransformed(*nodes_[j].points, Relative(previous.global, nodes_[j].global),
@@ -175,7 +208,15 @@ void MappingBackend::MatchLocalMap(int index) {
     }
     chain = ChainConstraintLocked(index);
     if (chain < 0) return;
-    const Eigen::Vector3d& sigma = constraints_[chain].sigma;
+    const Eigen::Vector3d floor(options_.local_sigma_xy, options_.local_sigma_xy,
+                                options_.local_sigma_theta);
+    Eigen::Vector3d sigma = constraints_[chain].sigma;
+    if (options_.local_prior == MappingOptions::LocalPrior::kOdometry) {
+      sigma = nodes_[index].odometry_variance.cwiseSqrt().cwiseMax(floor);
+    } else if (options_.local_prior == MappingOptions::LocalPrior::kEkfWithinOdometry) {
+      sigma = (nodes_[index].odometry_variance + disagreement.cwiseAbs2()).cwiseSqrt().cwiseMax(
+          floor);
+    }
     step_sigma = sigma;
     window.xy = std::min(options_.max_window_xy,
                          std::max(options_.local_window_min_xy,
@@ -193,11 +234,18 @@ void MappingBackend::MatchLocalMap(int index) {
       ThinPoints(local_map, options_.point_cell), *query, step,
       step_sigma.cwiseAbs2().asDiagonal(), window, settings);
   std::lock_guard<std::mutex> lock(mu_);
+  GraphConstraint& c = constraints_[chain];
   if (!match) {
+    // The prior alone: with the odometry prior, its step and its noise replace the EKF's.
+    if (options_.local_prior != MappingOptions::LocalPrior::kEkf) {
+      c.relative = step;
+      c.sigma = step_sigma;
+      nodes_[index].global = Compose(nodes_[index - 1].global, step);
+      FollowPredecessorsLocked(index + 1);
+    }
     ++stats_.local_unmatched;
     return;
   }
-  GraphConstraint& c = constraints_[chain];
   c.relative = match->pose;
   // The fused step's marginal sigmas, at least local_sigma_xy / _theta: the Laplace
   // approximation knows the walls, not how well the local map itself was placed.
@@ -205,10 +253,7 @@ void MappingBackend::MatchLocalMap(int index) {
       Eigen::Vector3d(options_.local_sigma_xy, options_.local_sigma_xy, options_.local_sigma_theta));
   c.score = match->score;
   nodes_[index].global = Compose(nodes_[index - 1].global, match->pose);
-  // Nodes appended since (the thread is behind the stream) follow their predecessor.
-  for (size_t j = index + 1; j < nodes_.size(); ++j) {
-    nodes_[j].global = Compose(nodes_[j - 1].global, Relative(nodes_[j - 1].local, nodes_[j].local));
-  }
+  FollowPredecessorsLocked(index + 1);
   ++stats_.local_matches;
   stats_.local_ms.push_back(MsSince(start));
 }
@@ -283,8 +328,12 @@ void MappingBackend::SearchLoops(int index) {
   // proportion to them, and a wall sampled every 10 cm still pins the pose to the 5 cm grid. The
   // best pose is then refined and scored with all of them in a window of two cells.
   const PointCloud sparse = ThinPoints(query, 2.0 * options_.point_cell);
+  // Global searches run on a coarser grid first (coarse_search_factor times the cells, points and
+  // angular step: about factor^3 fewer candidates), then refine on the fine grid.
+  const int factor = options_.coarse_search_factor;
+  const PointCloud coarse_query = ThinPoints(query, 2.0 * factor * options_.point_cell);
   for (Candidate& c : candidates) {
-    const std::shared_ptr<const SearchPyramid> pyramid = PyramidFor(c.submap);
+    const std::shared_ptr<const SearchPyramid> pyramid = PyramidFor(c.submap, 1);
     if (c.global) {
       const LikelihoodGrid& grid = pyramid->base();
       c.initial.x = grid.origin.x() + 0.5 * grid.width * grid.resolution;
@@ -292,11 +341,14 @@ void MappingBackend::SearchLoops(int index) {
       c.window.xy = 0.5 * std::max(grid.width, grid.height) * grid.resolution;
       c.window.theta = M_PI;
     }
+    const bool coarse = factor > 1 && c.global;
+    const std::shared_ptr<const SearchPyramid> wide = coarse ? PyramidFor(c.submap, factor) : pyramid;
+    const PointCloud& wide_query = coarse ? coarse_query : sparse;
     std::optional<GridMatch> match =
-        MatchInWindow(*pyramid, sparse, c.initial, c.window, options_.min_score);
+        MatchInWindow(*wide, wide_query, c.initial, c.window, options_.min_score);
     const double lattice_score = match ? match->lattice_score : 0.0;
     if (match) {
-      const SearchWindow refine{2.0 * options_.grid_resolution, 0.02};
+      const SearchWindow refine{2.0 * wide->base().resolution, coarse ? 0.04 : 0.02};
       match = MatchInWindow(*pyramid, query, match->pose, refine, options_.min_score);
     }
     if (!match || match->score < options_.min_score) {
@@ -310,13 +362,13 @@ void MappingBackend::SearchLoops(int index) {
       // off the peak) is the same place, uncertain along some direction (a corridor seen without
       // its ends): accepted, trusted only to that displacement.
       const double rival_score = options_.rival_ratio * lattice_score;
-      if (FindRival(*pyramid, sparse, c.initial, c.window, match->pose, options_.rival_far,
+      if (FindRival(*wide, wide_query, c.initial, c.window, match->pose, options_.rival_far,
                     rival_score)) {
         ++ambiguous;
         continue;
       }
       if (const std::optional<GridMatch> slide =
-              FindRival(*pyramid, sparse, c.initial, c.window, match->pose,
+              FindRival(*wide, wide_query, c.initial, c.window, match->pose,
                         options_.rival_exclusion, rival_score)) {
         const Pose2 offset = Relative(match->pose, slide->pose);
         sigma = sigma.cwiseMax(Eigen::Vector3d(std::abs(offset.x), std::abs(offset.y),
@@ -348,12 +400,13 @@ void MappingBackend::SearchLoops(int index) {
   stats_.search_ms.push_back(MsSince(start));
 }
 
-std::shared_ptr<const SearchPyramid> MappingBackend::PyramidFor(int submap) {
+std::shared_ptr<const SearchPyramid> MappingBackend::PyramidFor(int submap, int coarsening) {
+  const int key = submap * 8 + coarsening;  // coarsening is 1 or coarse_search_factor (< 8)
   PointCloud cloud;
   {
     std::lock_guard<std::mutex> lock(mu_);
     for (auto it = pyramid_cache_.begin(); it != pyramid_cache_.end(); ++it) {
-      if (it->first == submap) {
+      if (it->first == key) {
         auto entry = *it;
         pyramid_cache_.erase(it);
         pyramid_cache_.push_back(entry);
@@ -368,12 +421,13 @@ std::shared_ptr<const SearchPyramid> MappingBackend::PyramidFor(int submap) {
       AppendTransformed(*nodes_[j].points, pose, &cloud);
     }
   }
+  const double resolution = coarsening * options_.grid_resolution;
   auto pyramid = std::make_shared<const SearchPyramid>(
-      BuildLikelihoodGrid(ThinPoints(cloud, options_.point_cell), options_.grid_resolution,
-                          options_.grid_sigma),
+      BuildLikelihoodGrid(ThinPoints(cloud, coarsening * options_.point_cell), resolution,
+                          coarsening * options_.grid_sigma),
       options_.search_depth);
   std::lock_guard<std::mutex> lock(mu_);
-  pyramid_cache_.emplace_back(submap, pyramid);
+  pyramid_cache_.emplace_back(key, pyramid);
   if (pyramid_cache_.size() > kPyramidCacheSize) pyramid_cache_.pop_front();
   return pyramid;
 }
@@ -413,10 +467,7 @@ void MappingBackend::Optimize(int upto) {
   std::lock_guard<std::mutex> lock(mu_);
   const size_t solved = poses.size();
   for (size_t i = 0; i < solved; ++i) nodes_[i].global = poses[i];
-  for (size_t i = solved; i < nodes_.size(); ++i) {
-    nodes_[i].global =
-        Compose(nodes_[i - 1].global, Relative(nodes_[i - 1].local, nodes_[i].local));
-  }
+  FollowPredecessorsLocked(static_cast<int>(solved));
   for (size_t i = 0; i < constraints.size(); ++i) {
     constraints_[indices[i]].enabled = constraints[i].enabled;
   }
@@ -515,6 +566,14 @@ void PutPose(BinaryWriter& w, const Pose2& p) {
   w.Put(p.theta);
 }
 
+// Stored variances: finite and not negative.
+bool GetVariance(BinaryReader& r, Eigen::Vector3d* v) {
+  for (int i = 0; i < 3; ++i) {
+    if (!r.Get(&(*v)(i)) || !std::isfinite((*v)(i)) || (*v)(i) < 0.0) return false;
+  }
+  return true;
+}
+
 // A stored pose, within the bounds of a map (input_bounds.h).
 bool GetPose(BinaryReader& r, Pose2* p) {
   return r.Get(&p->x) && r.Get(&p->y) && r.Get(&p->theta) && PlausibleMapPose(*p);
@@ -542,6 +601,8 @@ std::string MappingBackend::Serialize() const {
       w.Put(p.x());
       w.Put(p.y());
     }
+    PutPose(w, n.odometry);
+    for (int i = 0; i < 3; ++i) w.Put(n.odometry_variance(i));
   }
   w.Put<std::uint32_t>(static_cast<std::uint32_t>(submaps_.size()));
   for (const Submap& s : submaps_) {
@@ -572,6 +633,9 @@ std::string MappingBackend::Serialize() const {
   w.Put<std::int32_t>(tie_node_);
   w.Put<std::int32_t>(last_global_search_);
   w.Put<std::int32_t>(global_cursor_);
+  PutPose(w, dead_reckoning_);
+  for (int i = 0; i < 3; ++i) w.Put(motion_variance_(i));
+  PutPose(w, last_local_);
   return w.Take();
 }
 
@@ -618,6 +682,13 @@ absl::StatusOr<std::unique_ptr<MappingBackend>> MappingBackend::Deserialize(
       p = Eigen::Vector2f(x, y);
     }
     n.points = std::make_shared<const PointCloud>(std::move(cloud));
+    if (version >= 3) {
+      if (!GetPose(r, &n.odometry) || !GetVariance(r, &n.odometry_variance)) {
+        return corrupt("node odometry");
+      }
+    } else {
+      n.odometry = n.local;  // older graphs: the EKF's steps were the odometry
+    }
   }
   const int nodes = static_cast<int>(count);
   if (!r.Get(&count) || count > b.nodes_.size() || count > r.remaining() / kSubmap) {
@@ -675,11 +746,16 @@ absl::StatusOr<std::unique_ptr<MappingBackend>> MappingBackend::Deserialize(
   }
   if (version >= 3) {
     if (!r.Get(&b.tie_node_) || !r.Get(&b.last_global_search_) || !r.Get(&b.global_cursor_) ||
+        !GetPose(r, &b.dead_reckoning_) || !GetVariance(r, &b.motion_variance_) ||
+        !GetPose(r, &b.last_local_) ||
         b.tie_node_ < -1 || b.tie_node_ >= nodes || b.last_global_search_ >= nodes ||
         b.global_cursor_ < -1 || b.global_cursor_ >= static_cast<int>(b.submaps_.size())) {
       return corrupt("loop search state");
     }
-  } else if (b.tie_travel_ >= 0.0) {
+  } else {
+    if (nodes > 0) b.dead_reckoning_ = b.last_local_ = b.nodes_.back().local;
+  }
+  if (version < 3 && b.tie_travel_ >= 0.0) {
     // Older checkpoints kept the travel of the last closure: its last node at that travel.
     for (int i = 0; i < nodes && b.nodes_[i].travel <= b.tie_travel_; ++i) b.tie_node_ = i;
   }

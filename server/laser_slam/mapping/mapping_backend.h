@@ -38,6 +38,16 @@
 
 namespace waymark::laser_slam {
 
+// What the base's odometry says the robot did since the previous processed scan: the increment
+// the EKF was given (robot frame; zero after an odometry reset) and its error covariance. The
+// front end's prior: the EKF's own step is better when its walls are right, and arbitrarily wrong
+// when it associates wrongly (on logs with metres between scans, its steps were 5x worse than the
+// odometry's: docs/results.md), so local matching starts from the odometry and its honest noise.
+struct ScanMotion {
+  Pose2 increment;
+  Eigen::Matrix3d covariance = Eigen::Matrix3d::Zero();
+};
+
 // A node as the map and the grids need it.
 struct NodeView {
   std::uint64_t scan = 0;  // 1-based index of the scan in the session
@@ -76,6 +86,9 @@ class MappingBackend {
 
   // A processed scan: its 1-based index, stamp, EKF pose and points (robot frame). Becomes a
   // node when the robot moved enough since the last node (always for the first).
+  void AddScan(std::uint64_t scan, double stamp, const Pose2& local, const PointCloud& points,
+               const ScanMotion& motion);
+  // The same with the EKF's own motion as the odometry (tests of the graph's bookkeeping).
   void AddScan(std::uint64_t scan, double stamp, const Pose2& local, const PointCloud& points);
 
   // `local`, a pose of the EKF's frame at scan `scan`, in the map frame.
@@ -110,6 +123,8 @@ class MappingBackend {
     Pose2 local;
     Pose2 global;
     std::shared_ptr<const PointCloud> points;
+    Pose2 odometry;  // dead reckoning of the odometry increments, own frame
+    Eigen::Vector3d odometry_variance = Eigen::Vector3d::Zero();  // of the step from the previous
   };
   struct Submap {
     int first = 0;  // node indices [first, first + count)
@@ -123,7 +138,7 @@ class MappingBackend {
 
   // Appends the node and its chain constraint; returns its index. Caller holds mu_.
   int AppendNodeLocked(std::uint64_t scan, double stamp, const Pose2& local,
-                       const PointCloud& points);
+                       const PointCloud& points);  // takes the odometry from dead_reckoning_
   // Submap bookkeeping, the loop search for node `index` and, when due, an optimisation.
   // Takes mu_ itself, briefly.
   void Process(int index);
@@ -134,7 +149,8 @@ class MappingBackend {
   // Optimises the graph of nodes [0, upto] and carries the later nodes along.
   void Optimize(int upto);
   // The submap's points in its first node's frame, as a search pyramid (cached).
-  std::shared_ptr<const SearchPyramid> PyramidFor(int submap);
+  // `coarsening` 1: the search grid; coarse_search_factor: the coarse one of wide windows.
+  std::shared_ptr<const SearchPyramid> PyramidFor(int submap, int coarsening);
   void WorkerLoop();
   int NodeAtOrBeforeLocked(std::uint64_t scan) const;
 
@@ -152,19 +168,26 @@ class MappingBackend {
   int closures_since_optimize_ = 0;
   double tie_travel_ = -1.0;  // travel at the last accepted loop closure (-1: none yet)
   int tie_node_ = -1;          // node of the last accepted loop closure (-1: none yet)
+  Pose2 dead_reckoning_;       // the odometry increments so far, integrated
+  Eigen::Vector3d motion_variance_ = Eigen::Vector3d::Zero();  // since the newest node
+  Pose2 last_local_;           // of the last scan (AddScan without odometry)
   int last_global_search_ = -1000000;  // node of the last global search
   int global_cursor_ = -1;     // submap searched globally last (they are searched in turn)
   ChainUncertainty chain_;     // of the processed nodes, in order
   // Appends node `index` (processed, its chain constraint final, of 1 sigma `sigma`) to chain_.
   // Caller holds mu_.
   void AppendChainUncertaintyLocked(int index, const Eigen::Vector3d& sigma);
+  // Nodes from `first` on are placed after their predecessor by the EKF's steps (they wait for
+  // the thread). Caller holds mu_.
+  void FollowPredecessorsLocked(int first);
   // Index in constraints_ of the chain constraint ending at node `index`, or -1. Caller holds mu_.
   int ChainConstraintLocked(int index) const;
   std::uint64_t revision_ = 0;
   MappingStats stats_;
   // Fixes the submap's frozen poses when node `index` is its last one. Caller holds mu_.
   void FreezeSubmapLocked(int index);
-  // Pyramids of recently matched submaps (least recently used first).
+  // Pyramids of recently matched submaps (least recently used first), keyed by
+  // submap * 8 + coarsening.
   std::deque<std::pair<int, std::shared_ptr<const SearchPyramid>>> pyramid_cache_;
   mutable std::mutex search_mu_;  // one search / optimisation at a time (Serialize waits too)
   std::thread worker_;

@@ -63,6 +63,10 @@ absl::Status ValidateMappingOptions(const MappingOptions& o) {
     return absl::InvalidArgumentError(
         absl::StrCat("mapping.rival_ratio must be in [0, 1), got ", o.rival_ratio));
   }
+  if (o.coarse_search_factor < 1 || o.coarse_search_factor > 4) {
+    return absl::InvalidArgumentError(absl::StrCat(
+        "mapping.coarse_search_factor must be in [1, 4], got ", o.coarse_search_factor));
+  }
   if (o.global_search_every_nodes < 1) {
     return absl::InvalidArgumentError(absl::StrCat(
         "mapping.global_search_every_nodes must be >= 1, got ", o.global_search_every_nodes));

@@ -37,6 +37,13 @@ struct MappingOptions {
   // local_points_per_observation scan points as one observation); the fused step is trusted to
   // its own sigmas, at least local_sigma_xy (m) and local_sigma_theta (rad).
   bool local_matching = true;
+  // The prior of local matching. kEkfWithinOdometry: the EKF's step between the nodes, as
+  // uncertain as the odometry's noise (ScanMotion, from the session's odometry model) plus the
+  // difference between the two steps, so that a wrong EKF step (a wrong association) leaves the
+  // walls to decide. kOdometry: the odometry's step with its noise. kEkf: the EKF's step with the
+  // chain sigma.
+  enum class LocalPrior { kEkfWithinOdometry, kOdometry, kEkf };
+  LocalPrior local_prior = LocalPrior::kEkfWithinOdometry;
   int local_map_nodes = 12;
   double local_window_sigmas = 3.0;
   double local_window_min_xy = 0.1;
@@ -75,6 +82,11 @@ struct MappingOptions {
   // nodes, over max_candidates submaps taken in turn (Cartographer's global_sampling_ratio).
   double max_window_xy = 8.0;
   int global_search_every_nodes = 10;
+  // Global searches run on a grid coarse_search_factor times coarser (cells, thinned points,
+  // angular step), then refine on the fine grid in a window of two coarse cells, as the
+  // localizer's global search does (about 8x cheaper at 2). 1 = the fine grid. Windowed searches
+  // always use the fine grid: coarse ones there cost Intel 0.027 -> 0.131 m (wrong closures).
+  int coarse_search_factor = 2;
   // Acceptance: mean likelihood of the query points at the match (0..1). Measured on ACES and
   // Intel (docs/results.md): true closures score 0.6-0.9, wrong places in corridors below 0.5.
   double min_score = 0.6;
