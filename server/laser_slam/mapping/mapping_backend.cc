@@ -272,8 +272,10 @@ void MappingBackend::SearchLoops(int index) {
   {
     std::lock_guard<std::mutex> lock(mu_);
     const Node& node = nodes_[index];
+    // The nodes placed by the graph (local matching made them agree with each other), not by
+    // the EKF, whose steps can be far off where it associated wrongly.
     for (int j = std::max(0, index - options_.query_nodes + 1); j <= index; ++j) {
-      AppendTransformed(*nodes_[j].points, Relative(node.local, nodes_[j].local), &query);
+      AppendTransformed(*nodes_[j].points, Relative(node.global, nodes_[j].global), &query);
     }
     const bool global_due = index - last_global_search_ >= options_.global_search_every_nodes;
     std::vector<Candidate> global;
