@@ -34,8 +34,16 @@
 // checkpoint's bytes) should equal the run's without it, which tells whether a checkpoint loses
 // anything.
 //
+// With loop closure on, the map's self-check (laser_map_check.h) runs on the final graph:
+// "self_check" in the JSON, its verdict on the last line. --save-nodes FILE keeps the graph's
+// nodes, for waymark-map-check to check again with other settings. --check-after-optimisations
+// incremental|full also runs it after every optimisation (untimed as the engine's) and reports
+// what that costs ("self_check.after_optimisations").
+//
 // --out DIR writes trajectory.txt and odometry.txt (TUM), map.svg / map.png (segments and the
-// trajectory) and summary.json; --json prints the same JSON object on stdout.
+// trajectory; contradicting cells in red), occupancy.png (the occupancy grid at the optimised
+// poses, contradicting cells in red, areas that contradict themselves outlined in orange) and
+// summary.json; --json prints the same JSON object on stdout.
 
 #include <sys/resource.h>
 
@@ -47,13 +55,15 @@
 #include <fstream>
 #include <iostream>
 #include <map>
-#include <numeric>
+#include <optional>
 #include <stdexcept>
 #include <nlohmann/json.hpp>
 #include <string>
 #include <vector>
 
 #include "absl/strings/str_format.h"
+#include "bench/bench_timing.h"
+#include "bench/laser_map_check.h"
 #include "client/datasets/carmen_log.h"
 #include "client/render/map_render.h"
 #include "client/eval/relations_metric.h"
@@ -78,6 +88,8 @@ struct Args {
   std::string log;
   std::string relations;
   std::string out;
+  std::string save_nodes;  // --save-nodes FILE: the final graph's nodes (laser_map_check.h)
+  std::string check_after_optimisations;  // "incremental" or "full": OptimisationChecks
   int max_scans = 0;
   int resume_every = 0;  // --resume-every N: replace the engine by its checkpoint every N scans
   bool json = false;
@@ -98,18 +110,10 @@ void Usage() {
          "                          [--json] [--max-active-segments N] [--active-radius M]\n"
          "                          [--freeze-after-scans N] [--min-travel M --min-turn R]\n"
          "                          [--match-chi2 X] [--mapping on|off]\n"
-         "                          [--mapping-opt NAME=VALUE ...]\n"
+         "                          [--mapping-opt NAME=VALUE ...] [--save-nodes FILE]\n"
+         "                          [--check-after-optimisations incremental|full]\n"
          "                          [--localize [--localize-from SCAN] [--localize-known-start]\n"
          "                           [--localize-on-grid] [--localize-track-nodes N]]\n";
-}
-
-// Nearest-rank percentile, as slam_replay reports it.
-double Percentile(std::vector<double> values, double q) {
-  if (values.empty()) return 0;
-  std::sort(values.begin(), values.end());
-  const size_t index =
-      std::min(values.size() - 1, static_cast<size_t>(q * (values.size() - 1) + 0.5));
-  return values[index];
 }
 
 std::string StateDigest(const std::string& bytes) {
@@ -129,22 +133,41 @@ bool SetMappingOption(const std::string& assignment, ls::MappingOptions* m) {
       {"point_range", &m->point_range}, {"point_cell", &m->point_cell},
       {"grid_resolution", &m->grid_resolution}, {"grid_sigma", &m->grid_sigma},
       {"min_loop_travel", &m->min_loop_travel}, {"candidate_distance", &m->candidate_distance},
-      {"window_base_xy", &m->window_base_xy}, {"drift_xy_per_m", &m->drift_xy_per_m},
-      {"window_base_theta", &m->window_base_theta},
-      {"drift_theta_per_m", &m->drift_theta_per_m}, {"max_window_xy", &m->max_window_xy},
-      {"max_window_theta", &m->max_window_theta}, {"min_score", &m->min_score},
+      {"loop_window_sigmas", &m->loop_window_sigmas},
+      {"loop_window_min_xy", &m->loop_window_min_xy},
+      {"loop_window_min_theta", &m->loop_window_min_theta}, {"max_window_xy", &m->max_window_xy},
+      {"rival_ratio", &m->rival_ratio}, {"rival_exclusion", &m->rival_exclusion},
+      {"rival_far", &m->rival_far},
+      {"min_score", &m->min_score},
       {"chain_sigma_xy", &m->chain_sigma_xy}, {"chain_sigma_xy_per_m", &m->chain_sigma_xy_per_m},
       {"chain_sigma_theta", &m->chain_sigma_theta},
       {"chain_sigma_theta_per_m", &m->chain_sigma_theta_per_m},
       {"chain_sigma_theta_per_rad", &m->chain_sigma_theta_per_rad},
       {"loop_sigma_xy", &m->loop_sigma_xy}, {"loop_sigma_theta", &m->loop_sigma_theta},
-      {"huber_scale", &m->huber_scale}, {"outlier_residual", &m->outlier_residual}};
+      {"huber_scale", &m->huber_scale}, {"outlier_residual", &m->outlier_residual},
+      {"local_window_sigmas", &m->local_window_sigmas},
+      {"local_window_min_xy", &m->local_window_min_xy},
+      {"local_window_min_theta", &m->local_window_min_theta},
+      {"local_min_score", &m->local_min_score}, {"local_sigma_xy", &m->local_sigma_xy},
+      {"local_sigma_theta", &m->local_sigma_theta},
+      {"local_points_per_observation", &m->local_points_per_observation}};
+  if (name == "local_prior") {  // 0: EKF within odometry, 1: odometry, 2: EKF
+    if (value != 0.0 && value != 1.0 && value != 2.0) return false;
+    m->local_prior = static_cast<ls::MappingOptions::LocalPrior>(static_cast<int>(value));
+    return true;
+  }
+  if (name == "local_matching") {
+    m->local_matching = value != 0.0;
+    return true;
+  }
   const std::map<std::string, int*> ints = {
       {"threads", &m->threads}, {"submap_nodes", &m->submap_nodes},
       {"search_every_nodes", &m->search_every_nodes}, {"query_nodes", &m->query_nodes},
       {"max_candidates", &m->max_candidates}, {"search_depth", &m->search_depth},
       {"optimize_every_closures", &m->optimize_every_closures},
-      {"max_iterations", &m->max_iterations}};
+      {"max_iterations", &m->max_iterations}, {"local_map_nodes", &m->local_map_nodes},
+      {"global_search_every_nodes", &m->global_search_every_nodes},
+      {"coarse_search_factor", &m->coarse_search_factor}};
   if (auto it = doubles.find(name); it != doubles.end()) {
     *it->second = value;
     return true;
@@ -154,43 +177,6 @@ bool SetMappingOption(const std::string& assignment, ls::MappingOptions* m) {
     return true;
   }
   return false;
-}
-
-// Loop closures whose relative pose disagrees with the final graph by more than 0.3 m or 3 deg
-// ("false": the optimum, held by all other constraints, does not agree with them).
-nlohmann::json MappingJson(const ls::MappingBackend& backend) {
-  const ls::MappingStats stats = backend.Stats();
-  const std::vector<ls::NodeView> nodes = backend.Nodes();
-  int loops = 0, enabled = 0, disagreeing = 0;
-  for (const ls::GraphConstraint& c : backend.Constraints()) {
-    if (c.kind != ls::GraphConstraint::Kind::kLoop) continue;
-    ++loops;
-    if (!c.enabled) continue;
-    ++enabled;
-    const ls::Pose2 a = nodes[c.from].global, b = nodes[c.to].global;
-    const double ca = std::cos(a.theta), sa = std::sin(a.theta);
-    const double dx = ca * (b.x - a.x) + sa * (b.y - a.y) - c.relative.x;
-    const double dy = -sa * (b.x - a.x) + ca * (b.y - a.y) - c.relative.y;
-    const double dt = std::remainder(b.theta - a.theta - c.relative.theta, 2 * M_PI);
-    if (std::hypot(dx, dy) > 0.3 || std::abs(dt) > 3.0 * M_PI / 180.0) ++disagreeing;
-  }
-  return {{"nodes", stats.nodes},
-          {"submaps", stats.submaps},
-          {"searches", stats.searches},
-          {"candidates", stats.candidates},
-          {"closures_accepted", stats.closures_accepted},
-          {"closures_rejected", stats.closures_rejected},
-          {"closures_switched_off", stats.closures_switched_off},
-          {"closures_in_graph", enabled},
-          {"closures_disagreeing_with_final_graph", disagreeing},
-          {"optimizations", stats.optimizations},
-          {"search_s_total", std::accumulate(stats.search_ms.begin(), stats.search_ms.end(), 0.0) / 1000},
-          {"optimize_s_total",
-           std::accumulate(stats.optimize_ms.begin(), stats.optimize_ms.end(), 0.0) / 1000},
-          {"search_ms_p50", Percentile(stats.search_ms, 0.5)},
-          {"search_ms_p99", Percentile(stats.search_ms, 0.99)},
-          {"optimize_ms_p50", Percentile(stats.optimize_ms, 0.5)},
-          {"optimize_ms_p99", Percentile(stats.optimize_ms, 0.99)}};
 }
 
 bool ParseArgs(int argc, char** argv, Args* args) {
@@ -225,6 +211,11 @@ bool ParseArgs(int argc, char** argv, Args* args) {
         args->relations = v;
       } else if (a == "--out") {
         args->out = v;
+      } else if (a == "--save-nodes") {
+        args->save_nodes = v;
+      } else if (a == "--check-after-optimisations") {
+        if (v != "incremental" && v != "full") throw std::invalid_argument(v);
+        args->check_after_optimisations = v;
       } else if (a == "--max-scans") {
         args->max_scans = std::stoi(v);
       } else if (a == "--resume-every") {
@@ -479,6 +470,12 @@ int Run(const Args& args) {
     return 1;
   }
   auto engine = std::make_unique<ls::LaserSlam>(options);
+  // Not timed as the engine's: what the self-check would add after every optimisation.
+  std::optional<OptimisationChecks> optimisation_checks;
+  if (!args.check_after_optimisations.empty()) {
+    optimisation_checks.emplace(options.mapping.submap_nodes,
+                                args.check_after_optimisations == "incremental");
+  }
 
   std::vector<double> scan_ms;
   std::map<int, std::vector<double>> bin_ms;  // bin index -> per-scan ms (processed scans only)
@@ -512,6 +509,12 @@ int Run(const Args& args) {
     const double ms = std::chrono::duration<double, std::milli>(Clock::now() - start).count();
     engine_s += ms / 1000.0;
     scan_ms.push_back(ms);
+    if (optimisation_checks && slam.backend() != nullptr) {
+      if (absl::Status s = optimisation_checks->AfterScan(*slam.backend()); !s.ok()) {
+        std::cerr << "self-check: " << s << "\n";
+        return 1;
+      }
+    }
     if (!odom_status.ok() || !update.ok()) {
       ++rejected;
       if (rejections.size() < 5) {
@@ -592,7 +595,27 @@ int Run(const Args& args) {
                     {"p99_ms", Percentile(values, 0.99)}});
   }
   j["by_active_segments"] = bins;
-  if (slam.backend() != nullptr) j["mapping"] = MappingJson(*slam.backend());
+  std::optional<MapCheck> map_check;  // the map's self-check, on the final graph
+  if (slam.backend() != nullptr) {
+    j["mapping"] = MappingJson(*slam.backend());
+    absl::StatusOr<MapCheck> check =
+        RunMapCheck(slam.backend()->Nodes(), options.mapping.submap_nodes);
+    if (!check.ok()) {
+      std::cerr << "self-check: " << check.status() << "\n";
+      return 1;
+    }
+    j["self_check"] = MapCheckJson(*check);
+    if (optimisation_checks) j["self_check"]["after_optimisations"] = optimisation_checks->Json();
+    map_check = *std::move(check);
+    if (!args.save_nodes.empty()) {
+      if (absl::Status s = WriteNodesFile(args.save_nodes, slam.backend()->Nodes(),
+                                          options.mapping.submap_nodes);
+          !s.ok()) {
+        std::cerr << s << "\n";
+        return 1;
+      }
+    }
+  }
   if (args.localize) {
     absl::StatusOr<nlohmann::json> localization = RunLocalization(args, options, log.lasers, slam);
     if (!localization.ok()) {
@@ -663,10 +686,25 @@ int Run(const Args& args) {
     path.color = {30, 150, 60};
     path.label = "trajectory";
     for (const cli::StampedPose& p : trajectory) path.points.push_back({p.pose.x, p.pose.y});
+    const std::vector<cli::Vec2> path_points = path.points;
     scene.polylines.push_back(std::move(path));
+    if (map_check) {
+      for (cli::ScenePolyline& mark : ContradictionPolylines(*map_check)) {
+        scene.polylines.push_back(std::move(mark));
+      }
+    }
     if (absl::Status s = cli::WriteMapPictures(scene, dir / "map.svg", dir / "map.png"); !s.ok()) {
       std::cerr << s << "\n";
       return 1;
+    }
+    if (map_check) {
+      if (absl::Status s = WriteCheckedOccupancyPicture(dir / "occupancy.png",
+                                                        slam.backend()->Nodes(), *map_check,
+                                                        path_points);
+          !s.ok()) {
+        std::cerr << s << "\n";
+        return 1;
+      }
     }
     j["out_dir"] = dir.string();
     std::ofstream summary(dir / "summary.json");
@@ -704,9 +742,13 @@ int Run(const Args& args) {
     std::cout << "relations metric (local: t2 - t1 <= " << kLocalRelationS << " s):\n";
     for (const std::string& line : metric_lines) std::cout << line << "\n";
   }
+  if (map_check) {
+    std::cout << absl::StrFormat("self-check (%.0f ms): %s\n", map_check->check_ms,
+                                 map_check->report.verdict);
+  }
   if (!args.out.empty()) {
     std::cout << "wrote " << args.out << "/trajectory.txt, odometry.txt, map.svg, map.png, "
-              << "summary.json\n";
+              << (map_check ? "occupancy.png, " : "") << "summary.json\n";
   }
   return 0;
 }
