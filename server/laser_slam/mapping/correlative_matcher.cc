@@ -148,6 +148,17 @@ Pose2 CandidatePose(const SearchSpace& space, const Pose2& initial, double res,
 
 }  // namespace
 
+bool OnOneRidge(const LikelihoodGrid& grid, const PointCloud& points, const Pose2& a,
+                const Pose2& b, double ratio) {
+  const double at_a = ScoreAt(grid, points, a);
+  const double turn = std::remainder(b.theta - a.theta, 2 * M_PI);
+  for (double f : {0.25, 0.5, 0.75}) {
+    const Pose2 between{a.x + f * (b.x - a.x), a.y + f * (b.y - a.y), a.theta + f * turn};
+    if (ScoreAt(grid, points, between) < ratio * at_a) return false;
+  }
+  return true;
+}
+
 std::optional<GridMatch> FindRival(const SearchPyramid& target, const PointCloud& points,
                                    const Pose2& initial, const SearchWindow& window,
                                    const Pose2& best, double exclusion, double min_score) {

@@ -43,6 +43,12 @@ std::optional<GridMatch> FindRival(const SearchPyramid& target, const PointCloud
                                    const Pose2& initial, const SearchWindow& window,
                                    const Pose2& best, double exclusion, double min_score);
 
+// Whether the score stays at least `ratio` times its value at `a` at every quarter of the way from
+// pose `a` to pose `b` (interpolated in x, y and heading): one ridge (a corridor that slides along
+// itself) rather than two peaks (two places alike, with a valley between them).
+bool OnOneRidge(const LikelihoodGrid& grid, const PointCloud& points, const Pose2& a,
+                const Pose2& b, double ratio);
+
 // Mean likelihood (0..1) of `points` placed at `pose`, interpolated.
 double ScoreAt(const LikelihoodGrid& grid, const PointCloud& points, const Pose2& pose);
 

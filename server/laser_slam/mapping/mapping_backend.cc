@@ -326,6 +326,7 @@ void MappingBackend::SearchLoops(int index) {
   }
   query = ThinPoints(query, options_.point_cell);
   int accepted = 0, rejected = 0, ambiguous = 0, slid = 0;
+  std::vector<GraphConstraint> found;  // matches that passed their own tests
   // The wide search scores half the points (one per 10 cm): the branch and bound costs in
   // proportion to them, and a wall sampled every 10 cm still pins the pose to the 5 cm grid. The
   // best pose is then refined and scored with all of them in a window of two cells.
@@ -360,26 +361,29 @@ void MappingBackend::SearchLoops(int index) {
     Eigen::Vector3d sigma(options_.loop_sigma_xy, options_.loop_sigma_xy,
                           options_.loop_sigma_theta);
     if (options_.rival_ratio > 0.0) {
-      // A rival beyond rival_far is another place that fits as well: refused. One nearer (but
-      // off the peak) is the same place, uncertain along some direction (a corridor seen without
-      // its ends): accepted, trusted only to that displacement.
+      // A rival beyond rival_far is another place that fits as well (refused), unless the score
+      // stays as high all the way to it: then it is the same corridor slid along itself. A rival
+      // nearer (but off the peak) or on that ridge is the same place, uncertain along one
+      // direction: accepted, trusted only to the rival's offset.
       const double rival_score = options_.rival_ratio * lattice_score;
-      if (FindRival(*wide, wide_query, c.initial, c.window, match->pose, options_.rival_far,
-                    rival_score)) {
+      std::optional<GridMatch> rival = FindRival(*wide, wide_query, c.initial, c.window,
+                                                 match->pose, options_.rival_far, rival_score);
+      if (rival && !OnOneRidge(wide->base(), wide_query, match->pose, rival->pose,
+                               options_.rival_ratio)) {
         ++ambiguous;
         continue;
       }
-      if (const std::optional<GridMatch> slide =
-              FindRival(*wide, wide_query, c.initial, c.window, match->pose,
-                        options_.rival_exclusion, rival_score)) {
-        const Pose2 offset = Relative(match->pose, slide->pose);
+      if (!rival) {
+        rival = FindRival(*wide, wide_query, c.initial, c.window, match->pose,
+                          options_.rival_exclusion, rival_score);
+      }
+      if (rival) {
+        const Pose2 offset = Relative(match->pose, rival->pose);
         sigma = sigma.cwiseMax(Eigen::Vector3d(std::abs(offset.x), std::abs(offset.y),
                                                std::abs(offset.theta)));
         ++slid;
       }
     }
-    ++accepted;
-    std::lock_guard<std::mutex> lock(mu_);
     GraphConstraint loop;
     loop.kind = GraphConstraint::Kind::kLoop;
     loop.from = submaps_[c.submap].first;
@@ -387,12 +391,32 @@ void MappingBackend::SearchLoops(int index) {
     loop.relative = match->pose;
     loop.sigma = sigma;
     loop.score = match->score;
+    found.push_back(loop);
+  }
+  std::lock_guard<std::mutex> lock(mu_);
+  // Matches in different submaps that put the node in places further apart than rival_far are
+  // rival hypotheses too (two look-alike rooms, each in its own submap): none is kept.
+  const auto place = [&](const GraphConstraint& loop) {
+    return Compose(nodes_[loop.from].global, loop.relative);
+  };
+  bool conflict = false;
+  for (size_t i = 0; i < found.size() && options_.rival_ratio > 0.0; ++i) {
+    for (size_t j = 0; j < i; ++j) {
+      const Pose2 a = place(found[i]), b = place(found[j]);
+      conflict = conflict || std::hypot(a.x - b.x, a.y - b.y) > options_.rival_far;
+    }
+  }
+  if (conflict) {
+    ambiguous += static_cast<int>(found.size());
+    found.clear();
+  }
+  for (const GraphConstraint& loop : found) {
+    ++accepted;
     constraints_.push_back(loop);
     ++closures_since_optimize_;
     tie_travel_ = nodes_[index].travel;
     tie_node_ = index;
   }
-  std::lock_guard<std::mutex> lock(mu_);
   ++stats_.searches;
   stats_.candidates += static_cast<int>(candidates.size());
   stats_.closures_accepted += accepted;
