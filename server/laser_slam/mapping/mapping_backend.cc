@@ -368,8 +368,9 @@ void MappingBackend::SearchLoops(int index) {
       const double rival_score = options_.rival_ratio * lattice_score;
       std::optional<GridMatch> rival = FindRival(*wide, wide_query, c.initial, c.window,
                                                  match->pose, options_.rival_far, rival_score);
-      if (rival && !OnOneRidge(wide->base(), wide_query, match->pose, rival->pose,
-                               options_.rival_ratio)) {
+      if (rival && (!options_.loosen_ridges ||
+                    !OnOneRidge(wide->base(), wide_query, match->pose, rival->pose,
+                                options_.rival_ratio))) {
         ++ambiguous;
         continue;
       }
