@@ -278,8 +278,9 @@ awk -F'\t' -v total="$TOTAL_S" -v extra="${EXTRA[*]}" -v seed="$SEED" '
       num($18, "%.0fx"), $19, $20, num($21, "%.1f"), num($22, "%.1f")
   }
   END {
-    printf "\nSeed %s; %s s wall for the whole run%s. local: relations with t2 - t1 <= 10 s.\n", seed, total,
+    printf "\nSeed %s; %s s wall for the references and eval runs%s.", seed, total,
       (extra == "" ? "" : "; extra eval arguments: " extra)
+    print " local: relations with t2 - t1 <= 10 s."
   }' "$OUT/table.tsv" > "$OUT/table.md"
 
 # --- peers (optional) -------------------------------------------------------------------------

@@ -13,6 +13,7 @@
 #include "bench/bench_timing.h"
 #include "client/render/occupancy_picture.h"
 #include "server/laser_slam/mapping/occupancy_grid.h"
+#include "server/service/map_self_check.h"
 #include "waymark/v1/slam.pb.h"
 
 namespace waymark::bench {
@@ -265,29 +266,17 @@ absl::Status WriteCheckedOccupancyPicture(const std::filesystem::path& path,
   robot_path.mark_ends = true;
   absl::StatusOr<cv::Mat> picture = cli::OccupancyPicture(proto, {robot_path});
   if (!picture.ok()) return picture.status();
-  const int scale = cli::OccupancyPictureScale(proto, {});
-  const double pixels_per_metre = scale / grid->resolution;
+  // Every area and cell: the eval's picture is for looking at the whole map.
+  cli::DrawMapSelfCheck(proto,
+                        service::ToProtoMapSelfCheck(check.report, check.report.tiles.size(),
+                                                     check.report.contradicting_cells.size()),
+                        {}, &*picture);
+  const double pixels_per_metre = cli::OccupancyPictureScale(proto, {}) / grid->resolution;
   const auto to_pixel = [&](double x, double y) {
     return cv::Point(static_cast<int>(std::lround((x - grid->origin.x()) * pixels_per_metre)),
                      static_cast<int>(std::lround(picture->rows - (y - grid->origin.y()) *
                                                                        pixels_per_metre)));
   };
-  // A cell at least 2 px wide, so that a few contradicting cells on a large map are seen.
-  const double half = std::max(check.report.resolution / 2, 1.0 / pixels_per_metre);
-  for (const Eigen::Vector2d& c : check.report.contradicting_cells) {
-    cv::rectangle(*picture, to_pixel(c.x() - half, c.y() + half),
-                  to_pixel(c.x() + half, c.y() - half), cv::Scalar(30, 30, 230), cv::FILLED);
-  }
-  for (const ls::ConsistencyTile& t : check.report.tiles) {
-    if (!t.contradicts) continue;
-    cv::rectangle(*picture, to_pixel(t.min.x(), t.min.y() + t.size),
-                  to_pixel(t.min.x() + t.size, t.min.y()), cv::Scalar(0, 140, 255),
-                  std::max(1, static_cast<int>(pixels_per_metre * 0.05)));
-  }
-  const std::string caption = check.report.verdict;
-  cv::putText(*picture, caption.substr(0, caption.find(':')), cv::Point(8, 24),
-              cv::FONT_HERSHEY_SIMPLEX, 0.7,
-              check.report.consistent ? cv::Scalar(60, 140, 30) : cv::Scalar(30, 30, 220), 2);
   if (view) {
     const cv::Rect area =
         cv::Rect(to_pixel(view->min.x, view->max.y), to_pixel(view->max.x, view->min.y)) &

@@ -247,6 +247,12 @@ CREATE TABLE slam_journal (
 );
 )sql";
 
+// v12: the final map's self-check of a closed SLAM session (issue 33), which ListSessions shows
+// without loading the session (slam_store.h, SlamSessionRecord::map_check; opaque, NULL = none).
+constexpr absl::string_view kV12SlamMapCheck = R"sql(
+ALTER TABLE slam_session ADD COLUMN map_check BLOB;
+)sql";
+
 absl::Status TooNewError(sqlite::Connection& connection, int version, int latest) {
   return absl::FailedPreconditionError(absl::StrCat(
       "database \"", connection.path(), "\" has schema version ", version,
@@ -270,6 +276,7 @@ const std::vector<absl::string_view>& SchemaMigrations() {
       kV9DatabaseRevisions,
       kV10SlamLeases,
       kV11SlamJournal,
+      kV12SlamMapCheck,
   };
   return *kSteps;
 }

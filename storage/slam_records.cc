@@ -158,7 +158,7 @@ std::string SelectSlamSessions(bool with_checkpoint, absl::string_view where) {
       "s.scans_processed, s.map_revision, s.segments, s.last_scan_stamp, s.last_odometry_stamp, "
       "s.checkpoint_at, (SELECT COUNT(*) FROM slam_trajectory t WHERE t.session_id = s.id), "
       "s.lease_owner, s.lease_address, s.lease_expires_at, s.journal_through, ",
-      with_checkpoint ? "s.checkpoint" : "NULL", " FROM slam_session s ", where);
+      with_checkpoint ? "s.checkpoint" : "NULL", ", s.map_check FROM slam_session s ", where);
 }
 
 absl::StatusOr<SlamSessionRecord> ReadSlamSessionRow(const StoredRow& row) {
@@ -192,6 +192,7 @@ absl::StatusOr<SlamSessionRecord> ReadSlamSessionRow(const StoredRow& row) {
   session.lease.expires_at = row.OptionalDouble(17).value_or(0.0);
   session.journal_through = row.Int64(18);
   session.checkpoint = row.Text(19);
+  session.map_check = row.Text(20);
   return session;
 }
 

@@ -56,6 +56,9 @@ struct SlamSessionRecord {
   // The journal seq of the last accepted message the checkpoint includes (SlamJournalEntry);
   // journal rows after it are replayed on resume. 0 = none.
   int64_t journal_through = 0;
+  // The final map's self-check, written with the closing checkpoint (opaque: the service's
+  // serialized message); empty = none (an open session, or one without a map to check).
+  std::string map_check;
   int64_t trajectory_length = 0;  // poses stored (read-only: filled by Get/List)
   SlamLease lease;                // read-only: filled by Get/List, set by AcquireLease
 };
@@ -91,6 +94,9 @@ struct SlamCheckpoint {
   // The journal seq of the last message `state` includes: the journal rows up to it are deleted
   // in the same transaction (all of them when the session is closed). It never goes back.
   int64_t journal_through = 0;
+  // Opaque (the service writes it when the session closes, SlamSessionRecord::map_check); empty =
+  // none. Replaces the stored one.
+  std::string map_check;
   // When set, the write is fenced by the lease: FAILED_PRECONDITION, and nothing written, unless
   // this owner holds the session's lease (expired or not: what matters is that no other server
   // has taken it over). A server that lost its lease can never overwrite its successor's work.

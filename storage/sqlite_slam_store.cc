@@ -238,7 +238,7 @@ class SqliteSlamStore final : public SlamStore {
                          "UPDATE slam_session SET checkpoint = ?, checkpoint_at = ?, "
                          "updated_at = ?, scans_processed = ?, map_revision = ?, segments = ?, "
                          "last_scan_stamp = ?, last_odometry_stamp = ?, state = ?, "
-                         "journal_through = ?",
+                         "journal_through = ?, map_check = ?",
                          close ? absl::StrCat(", ", kClearSlamLease) : "", " WHERE id = ?")));
     const double now = NowSeconds();
     RETURN_IF_ERROR(update.BindBlob(1, checkpoint.state.data(), checkpoint.state.size()));
@@ -252,7 +252,13 @@ class SqliteSlamStore final : public SlamStore {
     RETURN_IF_ERROR(update.BindText(
         9, SlamSessionStateName(close ? SlamSessionState::kClosed : SlamSessionState::kOpen)));
     RETURN_IF_ERROR(update.BindInt64(10, checkpoint.journal_through));
-    RETURN_IF_ERROR(update.BindText(11, id));
+    if (checkpoint.map_check.empty()) {
+      RETURN_IF_ERROR(update.BindNull(11));
+    } else {
+      RETURN_IF_ERROR(
+          update.BindBlob(11, checkpoint.map_check.data(), checkpoint.map_check.size()));
+    }
+    RETURN_IF_ERROR(update.BindText(12, id));
     RETURN_IF_ERROR(update.Run());
     // The journal the checkpoint includes goes with it; a closed session keeps none.
     ASSIGN_OR_RETURN(Statement trim,

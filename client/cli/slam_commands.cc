@@ -45,6 +45,17 @@ std::string DescribeGrid(const v1::OccupancyGrid& grid) {
                      grid.resolution(), grid.origin().x(), grid.origin().y());
 }
 
+// slam list's "map check" column: a closed session's final map as its self-check judged it.
+std::string MapCheckCell(const v1::Session& session) {
+  if (!session.has_self_check()) return "-";  // open, no scans kept, or closed by an older server
+  const v1::MapSelfCheck& check = session.self_check();
+  if (check.consistent()) {
+    return fmt::format("consistent ({:.1f}%)", 100.0 * check.contradicted_fraction());
+  }
+  return fmt::format("CONTRADICTS: {} areas, {:.1f}%", check.areas_contradicting(),
+                     100.0 * check.contradicted_fraction());
+}
+
 int RunList(CommandContext& context, const std::string& robot) {
   auto sessions = context.ConnectSlam()->ListSessions(robot);
   if (!sessions.ok()) return ReportError(context, sessions.status());
@@ -56,15 +67,15 @@ int RunList(CommandContext& context, const std::string& robot) {
   const bool fleet = std::any_of(sessions->sessions().begin(), sessions->sessions().end(),
                                  [](const v1::Session& s) { return !s.served_by().empty(); });
   std::vector<Table::Column> columns = {{"session"}, {"robot"}, {"state"}, {"scans", true},
-                                        {"segments", true}, {"rejected", true}, {"resident"},
-                                        {"name"}};
+                                        {"segments", true}, {"rejected", true}, {"map check"},
+                                        {"resident"}, {"name"}};
   if (fleet) columns.insert(columns.end() - 1, {"served by"});
   Table table(columns);
   for (const v1::Session& s : sessions->sessions()) {
     std::vector<std::string> row = {s.session_id(), s.robot_id(), StateName(s.state()),
                                     std::to_string(s.scans_processed()),
                                     std::to_string(s.segments()),
-                                    std::to_string(s.messages_rejected()),
+                                    std::to_string(s.messages_rejected()), MapCheckCell(s),
                                     s.resident() ? "yes" : "no", s.name()};
     if (fleet) row.insert(row.end() - 1, s.served_by().empty() ? "-" : s.served_by());
     table.AddRow(row);
@@ -104,7 +115,8 @@ int RunMap(CommandContext& context, const MapArgs& args) {
       fmt::format("session {}: {} segments", args.session_id, map->segments_size()));
   if (!written.ok()) return ReportError(context, written.status(), target.path.string());
   if (grid.grid) {
-    auto grid_files = WriteGridFiles(target.path, *grid.grid, *trajectory);
+    auto grid_files = WriteGridFiles(target.path, *grid.grid, *trajectory,
+                                     map->has_self_check() ? &map->self_check() : nullptr);
     if (!grid_files.ok()) return ReportError(context, grid_files.status(), target.path.string());
     written->insert(written->end(), grid_files->begin(), grid_files->end());
   }
@@ -119,6 +131,12 @@ int RunMap(CommandContext& context, const MapArgs& args) {
                            {"files", files},
                            {"grid", grid.grid ? GridJson(*grid.grid) : nlohmann::json(nullptr)}};
     if (!grid.missing.empty()) json["grid_note"] = grid.missing;
+    if (map->has_self_check()) {
+      json["self_check"] = {{"consistent", map->self_check().consistent()},
+                            {"verdict", map->self_check().verdict()},
+                            {"areas_contradicting", map->self_check().areas_contradicting()},
+                            {"contradicted_fraction", map->self_check().contradicted_fraction()}};
+    }
     PrintJson(context.out, json);
   } else {
     const std::string grid_text =
@@ -127,6 +145,9 @@ int RunMap(CommandContext& context, const MapArgs& args) {
                                map->segments_size(), map->map_revision(), trajectory->poses_size(),
                                grid_text, DescribeWritten(*written));
     if (!grid.missing.empty()) context.out << grid.missing << "\n";
+    if (map->has_self_check()) {
+      context.out << "map self-check: " << map->self_check().verdict() << "\n";
+    }
   }
   return kExitOk;
 }
@@ -289,8 +310,10 @@ void AddSlamCommands(CLI::App& app, CommandRegistry& registry) {
       "Stream a CARMEN log (FLASER / ROBOTLASER1 lines; plain, .gz or .bz2) into a new session, "
       "close it, and write trajectory.txt (TUM), map.svg, map.png, summary.json and, when the "
       "session has an occupancy grid, map.pgm + map.yaml (ROS map_server) and occupancy.png. A log "
-      "whose stamps are broken (most lines skipped) is reported and exits 1: use --restamp. Ctrl-C "
-      "stops early: the session is closed and the outputs written, marked partial (exit 130)");
+      "whose stamps are broken (most lines skipped) is reported and exits 1: use --restamp. A "
+      "final map that contradicts itself (its self-check: a fold, a doubled corridor) is warned "
+      "about and exits 3. Ctrl-C stops early: the session is closed and the outputs written, "
+      "marked partial (exit 130)");
   replay->add_option("LOG", replay_args->log, "CARMEN log file")->required();
   replay->add_flag("--realtime", replay_args->realtime, "Send at the log's pace, not full speed");
   AddRestampFlags(replay, &replay_args->restamp, &replay_args->rate_hz);
@@ -320,6 +343,8 @@ void AddSlamCommands(CLI::App& app, CommandRegistry& registry) {
   AddOptionalNumber(replay, "--match-chi2", &replay_args->match_chi2,
                     "Association gate (chi-square, 2 dof)");
   AddGridResolutionOption(replay, &replay_args->grid_resolution);
+  replay->add_flag("--allow-inconsistent-map", replay_args->allow_inconsistent_map,
+                   "Exit 0 even when the final map contradicts itself (still warned about)");
   AddLocalizeFlags(replay, &replay_args->localize);
   registry.Add(replay, [replay_args](CommandContext& c) {
     StopSignals signals;  // Ctrl-C: stop sending, close the session, write partial outputs

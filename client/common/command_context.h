@@ -23,6 +23,10 @@ inline constexpr int kExitInterrupted = 130;
 // `robot --mode active`: the session said STUCK (the robot cannot go on; it was stopped). Not 2,
 // which shells and many tools use for wrong usage, so a script can tell the two apart.
 inline constexpr int kExitExplorationStuck = 3;
+// `slam replay`: the run finished and wrote its outputs, but the final map contradicts itself
+// (its self-check failed: a fold or a doubled corridor; --allow-inconsistent-map exits 0). The same
+// number as STUCK: a finished run whose result is not good, which a script tells from an error (1).
+inline constexpr int kExitInconsistentMap = 3;
 
 // Options every command accepts, before or after the command name.
 struct GlobalOptions {

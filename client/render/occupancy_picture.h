@@ -31,6 +31,15 @@ absl::StatusOr<cv::Mat> OccupancyPicture(const v1::OccupancyGrid& grid,
                                          const std::vector<ScenePolyline>& paths = {},
                                          const OccupancyPictureOptions& options = {});
 
+// The map's self-check (v1::MapSelfCheck; docs/laser-slam.md, "A map that checks itself") on a
+// picture OccupancyPicture drew of `grid` with `options`: the contradicting cells filled red, the
+// listed areas that contradict themselves outlined in orange, and the verdict's first words in the
+// top-left corner (green when consistent, red when not). What a folded corridor looks like, where
+// it is. Marks and caption grow with the picture (a cell is at least 2 pixels wide, and 2 per 1000
+// pixels of the picture's longer side), so that a few cells on a large map are still seen.
+void DrawMapSelfCheck(const v1::OccupancyGrid& grid, const v1::MapSelfCheck& check,
+                      const OccupancyPictureOptions& options, cv::Mat* picture);
+
 // OccupancyPicture as a PNG file.
 absl::Status WriteOccupancyPicture(const std::filesystem::path& path, const v1::OccupancyGrid& grid,
                                    const std::vector<ScenePolyline>& paths = {},

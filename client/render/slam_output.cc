@@ -113,14 +113,17 @@ absl::StatusOr<std::vector<std::filesystem::path>> WriteSlamOutputs(
 
 absl::StatusOr<std::vector<std::filesystem::path>> WriteGridFiles(
     const std::filesystem::path& dir, const v1::OccupancyGrid& grid,
-    const v1::Trajectory& trajectory) {
+    const v1::Trajectory& trajectory, const v1::MapSelfCheck* self_check) {
   absl::StatusOr<std::vector<std::filesystem::path>> files = WriteRosMap(grid, dir);
   if (!files.ok()) return files.status();
-  const std::filesystem::path picture = dir / "occupancy.png";
+  const std::filesystem::path path = dir / "occupancy.png";
   std::vector<ScenePolyline> paths;
   if (trajectory.poses_size() > 0) paths.push_back(TrajectoryPolyline(trajectory));
-  if (absl::Status s = WriteOccupancyPicture(picture, grid, paths); !s.ok()) return s;
-  files->push_back(picture);
+  absl::StatusOr<cv::Mat> picture = OccupancyPicture(grid, paths);
+  if (!picture.ok()) return picture.status();
+  if (self_check != nullptr) DrawMapSelfCheck(grid, *self_check, {}, &*picture);
+  if (absl::Status s = WritePngImage(*picture, path); !s.ok()) return s;
+  files->push_back(path);
   return files;
 }
 

@@ -54,10 +54,11 @@ absl::StatusOr<std::vector<std::filesystem::path>> WriteSlamOutputs(
     const std::string& title, const std::vector<Vec2>& reference = {});
 
 // DIR/map.pgm and DIR/map.yaml (ROS map_server files, datasets/ros_map.h) and DIR/occupancy.png
-// (the grid with the trajectory on it; DIR is created). Returns the files in that order.
-absl::StatusOr<std::vector<std::filesystem::path>> WriteGridFiles(const std::filesystem::path& dir,
-                                                                  const v1::OccupancyGrid& grid,
-                                                                  const v1::Trajectory& trajectory);
+// (the grid with the trajectory on it and, when given, the map's self-check: DrawMapSelfCheck;
+// DIR is created). Returns the files in that order.
+absl::StatusOr<std::vector<std::filesystem::path>> WriteGridFiles(
+    const std::filesystem::path& dir, const v1::OccupancyGrid& grid,
+    const v1::Trajectory& trajectory, const v1::MapSelfCheck* self_check = nullptr);
 
 // "out/aces/trajectory.txt, map.svg, map.png": the first path in full, the next ones by name when
 // they share its folder.

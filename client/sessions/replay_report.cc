@@ -1,6 +1,7 @@
 #include "client/sessions/replay_report.h"
 
 #include <fmt/format.h>
+#include <fmt/ranges.h>
 
 #include <algorithm>
 
@@ -69,7 +70,11 @@ nlohmann::json LocalizationJson(const ReplayReport& report) {
           {"first_fix_scan", report.first_fix_scan ? nlohmann::json(*report.first_fix_scan)
                                                    : nlohmann::json(nullptr)},
           {"first_fix_stamp", OptionalJson(report.first_fix_stamp)},
-          {"time_to_first_fix_s", OptionalJson(TimeToFirstFix(report))}};
+          {"time_to_first_fix_s", OptionalJson(TimeToFirstFix(report))},
+          {"first_fix_score", OptionalJson(report.first_fix_score)},
+          {"first_fix_rival_ratio", OptionalJson(report.first_fix_rival_ratio)},
+          {"first_fix_rival_distance_m", OptionalJson(report.first_fix_rival_distance)},
+          {"ambiguous_answers", report.ambiguous_answers}};
 }
 
 std::string LocalizationText(const ReplayReport& report) {
@@ -79,12 +84,27 @@ std::string LocalizationText(const ReplayReport& report) {
   if (report.first_fix_scan && report.first_fix_stamp) {
     text += fmt::format(", first fix at scan {} (stamp {:.3f}, {:.2f} s after the first scan)",
                         *report.first_fix_scan, *report.first_fix_stamp, *TimeToFirstFix(report));
+    if (report.first_fix_score) {
+      text += fmt::format(" scoring {:.2f}", *report.first_fix_score);
+      if (report.first_fix_rival_ratio.value_or(0) > 0) {
+        text += fmt::format(", its best rival {:.2f} of that {:.1f} m away",
+                            *report.first_fix_rival_ratio,
+                            report.first_fix_rival_distance.value_or(0));
+      } else {
+        text += ", no rival place near that score";
+      }
+    }
   } else if (report.scans_answered > 0 && report.localization_statuses == 0) {
     text +=
         ": no answer carried a localization status (a server older than --localize-on maps "
         "instead)";
   } else {
     text += ", never localized";
+  }
+  if (report.ambiguous_answers > 0) {
+    text += fmt::format(
+        "; {} answers refused a fix because another place fit nearly as well (ambiguous)",
+        report.ambiguous_answers);
   }
   return text + "\n";
 }
@@ -96,6 +116,83 @@ std::string LeftOpenAdvice(const std::string& session_id) {
       "session {0} was left open: close it with `waymark slam close {0}` (its map and trajectory "
       "stay readable), or delete it with `waymark slam delete {0} --force`",
       session_id);
+}
+
+namespace {
+
+// The map a replay ends with is judged only when it is the log's final map: the session closed
+// (the back end's last optimisation ran) and the replay not cut short.
+bool FinalMap(const ReplayReport& report) { return report.session_closed && !report.partial(); }
+
+nlohmann::json SelfCheckJson(const ReplayReport& report) {
+  if (!report.self_check) return nullptr;
+  const v1::MapSelfCheck& check = *report.self_check;
+  nlohmann::json areas = nlohmann::json::array();
+  for (const v1::MapCheckArea& area : check.worst_areas()) {
+    areas.push_back({{"min", {area.min_x(), area.min_y()}},
+                     {"size_m", area.size()},
+                     {"contradicted_fraction", area.contradicted_fraction()},
+                     {"contradicted", area.contradicted()},
+                     {"evidence", area.evidence()}});
+  }
+  return {{"consistent", check.consistent()},
+          {"verdict", check.verdict()},
+          {"final_map", FinalMap(report)},
+          {"fails_replay", FinalMapContradictsItself(report) && !report.allow_inconsistent_map},
+          {"contradicted_fraction", check.contradicted_fraction()},
+          {"areas_contradicting", check.areas_contradicting()},
+          {"worst_areas", areas},
+          {"contradicted", check.contradicted()},
+          {"evidence", check.evidence()},
+          {"baseline_fraction", check.baseline_fraction()},
+          {"contradicting_cells", check.contradicting_cell_count()},
+          {"nodes", check.nodes()},
+          {"submaps", check.submaps()},
+          {"resolution_m", check.resolution()}};
+}
+
+std::string SelfCheckText(const ReplayReport& report) {
+  if (!report.self_check) return "";
+  std::string text = "map self-check: " + report.self_check->verdict();
+  if (!FinalMap(report)) {
+    text += report.session_closed ? " (the replay was cut short: not the log's final map)"
+                                  : " (the session is still open: not its final map)";
+  }
+  return text + "\n";
+}
+
+}  // namespace
+
+bool FinalMapContradictsItself(const ReplayReport& report) {
+  return report.self_check && !report.self_check->consistent() && FinalMap(report);
+}
+
+std::string InconsistentMapWarning(const ReplayReport& report) {
+  if (!FinalMapContradictsItself(report)) return "";
+  const v1::MapSelfCheck& check = *report.self_check;
+  std::string text = fmt::format(
+      "WARNING: the final map contradicts itself: {} areas contradict themselves and {:.1f}% of "
+      "its wall cells are contradicted both ways (a wrong loop closure folds a map: a corridor "
+      "drawn twice, or across itself).\n",
+      check.areas_contradicting(), 100.0 * check.contradicted_fraction());
+  if (check.worst_areas_size() > 0) {
+    std::vector<std::string> areas;
+    for (int i = 0; i < std::min(3, check.worst_areas_size()); ++i) {
+      const v1::MapCheckArea& a = check.worst_areas(i);
+      areas.push_back(fmt::format("x {:g}..{:g}, y {:g}..{:g} m ({:.0f}%)", a.min_x(),
+                                  a.min_x() + a.size(), a.min_y(), a.min_y() + a.size(),
+                                  100.0 * a.contradicted_fraction()));
+    }
+    text += fmt::format("WARNING: the worst areas: {}{}.\n", fmt::join(areas, "; "),
+                        report.grid_width > 0
+                            ? "; occupancy.png outlines them in orange, the contradicting "
+                              "cells in red"
+                            : "");
+  }
+  text += report.allow_inconsistent_map
+              ? "WARNING: --allow-inconsistent-map: exit code 0 all the same.\n"
+              : "WARNING: exit code 3 (--allow-inconsistent-map exits 0 for such a map).\n";
+  return text;
 }
 
 nlohmann::json ReplayJson(const ReplayReport& report) {
@@ -149,6 +246,7 @@ nlohmann::json ReplayJson(const ReplayReport& report) {
                                                         {"resolution", report.grid_resolution}}
                                        : nlohmann::json(nullptr);
   if (!report.grid_note.empty()) json["grid_note"] = report.grid_note;
+  json["self_check"] = SelfCheckJson(report);
   if (!report.localize_map.empty()) json["localization"] = LocalizationJson(report);
   if (!factor.value) json["realtime_factor_note"] = factor.problem;
   if (!report.map_problem.empty()) json["map_problem"] = report.map_problem;
@@ -205,6 +303,7 @@ std::string ReplayText(const ReplayReport& report) {
     text += "the map pictures show no segments: " + report.map_problem + "\n";
   }
   if (!report.grid_note.empty()) text += report.grid_note + "\n";
+  text += SelfCheckText(report);
   if (!report.localize_map.empty()) text += LocalizationText(report);
   if (report.trajectory_source != "server") {
     text += fmt::format("trajectory: the {} poses of the {}\n", report.trajectory_poses,

@@ -12,6 +12,8 @@
 #include <string>
 #include <vector>
 
+#include "waymark/v1/slam.pb.h"
+
 namespace waymark::cli {
 
 // Why the replay stopped sending.
@@ -98,6 +100,13 @@ struct ReplayReport {
   uint32_t grid_height = 0;
   double grid_resolution = 0;
   std::string grid_note;
+  // The map's self-check as GetMap answered it after closing (docs/laser-slam.md, "A map that
+  // checks itself"); unset when the map has none (loop closure off, a localization session, a
+  // server older than it) or the map could not be had. Only a closed session's map of a replay
+  // that was not cut short is final: a map in the making contradicts itself until its loops close.
+  std::optional<v1::MapSelfCheck> self_check;
+  // --allow-inconsistent-map: a final map that contradicts itself is warned about, not an exit 3.
+  bool allow_inconsistent_map = false;
 
   // Localization sessions: the scans answered with localization.localized, and the first of them
   // (its index among the answered scans, 0 = the first, and its stamp): the time to first fix.
@@ -108,6 +117,13 @@ struct ReplayReport {
   uint64_t localization_statuses = 0;
   std::optional<uint64_t> first_fix_scan;
   std::optional<double> first_fix_stamp;
+  // The first fix's confidence (LocalizationStatus): its score, and its best rival's score over
+  // it (0 = none near it) and distance from it (m).
+  std::optional<double> first_fix_score;
+  std::optional<double> first_fix_rival_ratio;
+  std::optional<double> first_fix_rival_distance;
+  // Answers not localized because another place fit nearly as well (state AMBIGUOUS).
+  uint64_t ambiguous_answers = 0;
 
   bool partial() const { return end == ReplayEnd::kInterrupted || end == ReplayEnd::kFailed; }
 };
@@ -120,6 +136,14 @@ std::string ReplayText(const ReplayReport& report);
 
 // The sentence naming a session left open and how to close (or delete) it.
 std::string LeftOpenAdvice(const std::string& session_id);
+
+// The final map (closed, not cut short) contradicts itself: what exits kExitInconsistentMap unless
+// --allow-inconsistent-map.
+bool FinalMapContradictsItself(const ReplayReport& report);
+
+// The WARNING lines for stderr when FinalMapContradictsItself (the verdict, the worst areas, where
+// the pictures show them, the exit code); empty otherwise.
+std::string InconsistentMapWarning(const ReplayReport& report);
 
 }  // namespace waymark::cli
 

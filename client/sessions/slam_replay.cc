@@ -98,9 +98,13 @@ class Answers {
     if (update.skipped()) ++skipped_motion_;
     loop_closures_ = std::max<uint64_t>(loop_closures_, update.loop_closures());
     if (update.has_localization()) ++localization_statuses_;
+    if (update.localization().state() == v1::LocalizationStatus::AMBIGUOUS) ++ambiguous_;
     if (update.localization().localized()) {
       ++localized_;
-      if (!first_fix_) first_fix_ = Fix{answered_, update.stamp()};
+      if (!first_fix_) {
+        const v1::LocalizationStatus& l = update.localization();
+        first_fix_ = Fix{answered_, update.stamp(), l.score(), l.rival_ratio(), l.rival_distance()};
+      }
     }
     ++answered_;
     server_ms_.push_back(update.timings().total_ms());
@@ -110,16 +114,21 @@ class Answers {
     *pose->mutable_pose() = update.pose();
   }
 
-  // The first scan answered localized: its index among the answered scans and its stamp.
+  // The first scan answered localized: its index among the answered scans, its stamp and its
+  // confidence (score, and its best rival's score over it and distance from it).
   struct Fix {
     uint64_t scan = 0;
     double stamp = 0;
+    double score = 0;
+    double rival_ratio = 0;
+    double rival_distance = 0;
   };
 
   std::vector<std::string> rejections() const { return Locked(rejections_); }
   uint64_t localized() const { return Locked(localized_); }
   uint64_t loop_closures() const { return Locked(loop_closures_); }
   uint64_t localization_statuses() const { return Locked(localization_statuses_); }
+  uint64_t ambiguous() const { return Locked(ambiguous_); }
   std::optional<Fix> first_fix() const { return Locked(first_fix_); }
   std::vector<double> server_ms() const { return Locked(server_ms_); }
   uint64_t skipped_motion() const { return Locked(skipped_motion_); }
@@ -140,6 +149,7 @@ class Answers {
   uint64_t localized_ = 0;
   uint64_t loop_closures_ = 0;  // the newest count the answers carried
   uint64_t localization_statuses_ = 0;  // answers that carry a LocalizationStatus
+  uint64_t ambiguous_ = 0;  // answers not localized because another place fit nearly as well
   std::optional<Fix> first_fix_;
   v1::Trajectory trajectory_;
 };
@@ -213,7 +223,8 @@ std::optional<v1::OccupancyGrid> CollectGrid(client::SlamClient& client,
 // map.pgm, map.yaml and occupancy.png into the folder; a failure is the grid's note.
 void WriteGrid(const std::filesystem::path& dir, const v1::OccupancyGrid& grid,
                const v1::Trajectory& trajectory, ReplayReport& report) {
-  auto written = WriteGridFiles(dir, grid, trajectory);
+  auto written =
+      WriteGridFiles(dir, grid, trajectory, report.self_check ? &*report.self_check : nullptr);
   if (!written.ok()) {
     report.grid_note = "no occupancy grid files: " + StatusText(written.status());
     return;
@@ -231,6 +242,7 @@ void WriteOutputs(const SlamOutTarget& target, const SessionResults& results,
   report.out = target.path;
   report.out_is_folder = target.is_folder();
   report.segments = results.map.segments_size();
+  if (results.map.has_self_check()) report.self_check = results.map.self_check();
   if (results.map.graph_nodes() > 0) report.loop_closures = results.map.loop_closures();
   report.map_revision = results.map.map_revision();
   report.trajectory_poses = results.trajectory.poses_size();
@@ -341,6 +353,7 @@ int RunSlamReplay(CommandContext& context, const ReplayArgs& args, const StopReq
   if (!session.ok()) return ReportError(context, session.status(), "CreateSession");
   ReplayReport report;
   report.log = args.log;
+  report.allow_inconsistent_map = args.allow_inconsistent_map;
   report.session_id = session->session_id();
   report.realtime = args.realtime;
   if (args.restamp) report.restamp_rate_hz = args.rate_hz;
@@ -438,9 +451,13 @@ int RunSlamReplay(CommandContext& context, const ReplayArgs& args, const StopReq
     report.localize_map = args.localize->map_session_id();
     report.localized_scans = answers.localized();
     report.localization_statuses = answers.localization_statuses();
+    report.ambiguous_answers = answers.ambiguous();
     if (const std::optional<Answers::Fix> fix = answers.first_fix()) {
       report.first_fix_scan = fix->scan;
       report.first_fix_stamp = fix->stamp;
+      report.first_fix_score = fix->score;
+      report.first_fix_rival_ratio = fix->rival_ratio;
+      report.first_fix_rival_distance = fix->rival_distance;
     }
   }
 
@@ -457,12 +474,17 @@ int RunSlamReplay(CommandContext& context, const ReplayArgs& args, const StopReq
   }
   const std::string stamps_warning = BrokenStampsWarning(feed);
   context.err << stamps_warning;
+  context.err << InconsistentMapWarning(report);
   if (report.end == ReplayEnd::kFailed) return ReportError(context, failure, "replay");
   if (!report.write_error.empty()) {
     return ReportError(context, absl::DataLossError(report.write_error), target.path.string());
   }
   if (report.end == ReplayEnd::kInterrupted) return kExitInterrupted;
-  return stamps_warning.empty() ? kExitOk : kExitFailure;
+  if (!stamps_warning.empty()) return kExitFailure;
+  if (FinalMapContradictsItself(report) && !args.allow_inconsistent_map) {
+    return kExitInconsistentMap;
+  }
+  return kExitOk;
 }
 
 int RunSlamOdometry(CommandContext& context, const OdometryArgs& args) {

@@ -20,7 +20,8 @@
 // replay early: it says what was sent and answered, closes the session (or names it as left open
 // and how to close it), and writes the outputs it can, marked partial in summary.json; the
 // trajectory then comes from the stream's answers and the pictures have no map if the server
-// cannot be asked. Exit codes: 0 done, 1 error or broken stamps, 130 interrupted.
+// cannot be asked. Exit codes: 0 done, 1 error or broken stamps, 3 the final map contradicts
+// itself, 130 interrupted.
 //
 // The session's laser pose on the robot is inv(odom pose) (+) laser pose of the first laser line
 // when that offset is plausible (under 1 m and 0.1 rad); otherwise (e.g. GMapping-corrected logs,
@@ -29,6 +30,12 @@
 // After the session is closed, its occupancy grid is fetched and written as map.pgm, map.yaml and
 // occupancy.png into a folder --out; a session without a grid (loop closure off, a server older
 // than GetOccupancyGrid) or any failure there is a note in the summary, never a failed replay.
+// The closed session's map carries its self-check (GetMap; docs/laser-slam.md, "A map that checks
+// itself"): printed, written to summary.json ("self_check") and drawn on occupancy.png. When the
+// final map contradicts itself (a replay to the end of the log or --max-scans, session closed)
+// the replay warns and exits 3 (kExitInconsistentMap) after writing everything, unless
+// allow_inconsistent_map; intermediate maps are not judged (a map contradicts itself between
+// re-entering a place and the closure that ties it).
 // With `localize` set the session localizes on a stored map instead of mapping; the summary then
 // counts the scans answered localized and names the first (the time to the first fix).
 
@@ -66,6 +73,8 @@ struct ReplayArgs {
   std::optional<double> match_chi2;
   // GetOccupancyGrid's resolution (m per cell); unset = the server's default.
   std::optional<double> grid_resolution;
+  // A final map that contradicts itself (its self-check) is warned about but exits 0, not 3.
+  bool allow_inconsistent_map = false;
   // Set: a localization session on this map (LaserSlamConfig.localize) instead of a mapping one.
   std::optional<v1::LocalizationConfig> localize;
 };

@@ -68,6 +68,7 @@ struct LaserSlam::Impl {
   SegmentEkf before_scan;  // the filter before the scan being processed (AddScan's rollback)
   std::unique_ptr<ExplorationPlanner> planner;  // active and wander sessions
   std::unique_ptr<MappingBackend> backend;      // loop closure (options.mapping.enabled)
+  std::unique_ptr<MapConsistencyChecker> map_checker;  // CheckMap's cache, made on its first call
   std::unique_ptr<MapLocalizer> localizer;      // localization sessions
   std::optional<OccupancyGrid> imported_grid;   // an imported map's session
   LaserScan last_scan;                          // what the planner avoids
@@ -288,6 +289,7 @@ MapSegment FromEntity(const SegmentEntity& e, bool active) {
 std::vector<MapSegment> LaserSlam::Map() const {
   std::vector<MapSegment> out = LocalMap();
   if (impl_->backend) {
+    impl_->backend->WaitForPending();  // local matching moves a node when the thread gets to it
     for (MapSegment& m : out) m.frame = impl_->backend->ToGlobal(m.last_seen_scan, m.frame);
   }
   return out;
@@ -318,6 +320,7 @@ std::vector<MapSegment> LaserSlam::LocalMap() const {
 std::vector<PoseEstimate> LaserSlam::Trajectory() const {
   const Impl& s = *impl_;
   if (!s.backend && !s.localizer) return s.trajectory;
+  if (s.backend) s.backend->WaitForPending();  // as RenderGrid: every scan at its matched pose
   // Pose k is scan k + 1 of the session (every scan has one, skipped or not).
   std::vector<PoseEstimate> out = s.trajectory;
   for (size_t k = 0; k < out.size(); ++k) out[k] = s.ToMap(k + 1, out[k]);
@@ -328,6 +331,9 @@ const std::vector<PoseEstimate>& LaserSlam::LocalTrajectory() const { return imp
 
 void LaserSlam::FlushBackend() {
   if (impl_->backend) impl_->backend->Flush();
+  // The final map is checked afresh: the cache re-casts only submaps that moved a quarter cell,
+  // and a closed session's verdict must be the one its map gives when it is loaded again.
+  impl_->map_checker.reset();
 }
 
 const MappingBackend* LaserSlam::backend() const { return impl_->backend.get(); }
@@ -346,6 +352,8 @@ absl::StatusOr<OccupancyGrid> LaserSlam::RenderGrid(double resolution,
                                                     std::int64_t max_cells) const {
   if (impl_->imported_grid) return *impl_->imported_grid;
   if (!impl_->backend) return NoScansKept();
+  // Every scan sent so far at the pose local matching gives it (the thread may be behind).
+  impl_->backend->WaitForPending();
   const std::vector<NodeView> nodes = impl_->backend->Nodes();
   return RenderOccupancy(nodes, ResolutionThatFits(nodes, resolution, max_cells), max_cells);
 }
@@ -353,9 +361,22 @@ absl::StatusOr<OccupancyGrid> LaserSlam::RenderGrid(double resolution,
 absl::StatusOr<PointCloud> LaserSlam::MapPoints() const {
   if (impl_->imported_grid) return OccupiedPoints(*impl_->imported_grid);
   if (!impl_->backend) return NoScansKept();
+  impl_->backend->WaitForPending();
   PointCloud points;
   for (const NodeView& n : impl_->backend->Nodes()) AppendTransformed(*n.points, n.global, &points);
   return points;
+}
+
+absl::StatusOr<MapConsistencyReport> LaserSlam::CheckMap() {
+  Impl& s = *impl_;
+  if (!s.backend) return NoScansKept();
+  if (!s.map_checker) {
+    MapConsistencyOptions options;
+    options.submap_nodes = s.options.mapping.submap_nodes;
+    s.map_checker = std::make_unique<MapConsistencyChecker>(options);
+  }
+  s.backend->WaitForPending();
+  return s.map_checker->Check(s.backend->Nodes());
 }
 
 std::uint64_t LaserSlam::map_revision() const {

@@ -24,6 +24,7 @@
 #include "server/laser_slam/exploration/exploration_types.h"
 #include "server/laser_slam/exploration/goal_layer.h"
 #include "server/laser_slam/mapping/localizer.h"
+#include "server/laser_slam/mapping/map_consistency.h"
 #include "server/laser_slam/mapping/mapping_backend.h"
 #include "server/laser_slam/mapping/occupancy_grid.h"
 #include "server/laser_slam/options.h"
@@ -117,6 +118,13 @@ class LaserSlam {
   // The map as points in the map frame, for localizing on it: the kept scans at their optimised
   // poses, or an imported grid's occupied cells. FAILED_PRECONDITION as RenderGrid.
   absl::StatusOr<PointCloud> MapPoints() const;
+  // The map's self-check (mapping/map_consistency.h) of the graph as it stands, its nodes grouped
+  // into submaps as the back end groups them. After FlushBackend it is the final map's. The
+  // session keeps the checker between calls, so that the next check casts again only the submaps
+  // that gained nodes or moved (an optimisation moves most of them by less than that); it holds
+  // about a byte per cell each submap covers from the first call on. FAILED_PRECONDITION without
+  // a back end (no scans kept). Not const for that cache, and not thread-safe, as AddScan.
+  absl::StatusOr<MapConsistencyReport> CheckMap();
   std::uint64_t map_revision() const;
   std::uint64_t scans_processed() const;
   const SlamOptions& options() const;

@@ -3,6 +3,7 @@
 #include <utility>
 
 #include "absl/strings/str_cat.h"
+#include "server/service/map_self_check.h"
 
 namespace waymark::service {
 
@@ -181,6 +182,13 @@ absl::Status LaserSessionEngine::FillOccupancyGrid(double resolution,
   out->set_session_id(session_id);
   out->set_map_revision(revision);
   out->set_scans(static_cast<uint32_t>(slam_->backend() ? slam_->backend()->Stats().nodes : 0));
+  return absl::OkStatus();
+}
+
+absl::Status LaserSessionEngine::CheckMap(v1::MapSelfCheck* check) {
+  absl::StatusOr<ls::MapConsistencyReport> report = slam_->CheckMap();
+  if (!report.ok()) return report.status();
+  *check = ToProtoMapSelfCheck(*report, kMaxMapCheckAreas, kMaxMapCheckCells);
   return absl::OkStatus();
 }
 

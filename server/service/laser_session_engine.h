@@ -48,6 +48,7 @@ class LaserSessionEngine final : public SessionEngine {
   void AppendTrajectory(v1::Trajectory* out) const override;
   absl::Status FillMap(v1::SegmentMap* map) const override;
   absl::Status FillOccupancyGrid(double resolution, v1::OccupancyGrid* grid) const override;
+  absl::Status CheckMap(v1::MapSelfCheck* check) override;
   void Finish() override;
   void DescribeConfig(v1::Session* out) const override;
 

@@ -68,6 +68,13 @@ class SessionEngine {
     return absl::FailedPreconditionError(
         absl::StrCat("a ", kind(), " session has no occupancy grid"));
   }
+  // The self-check of the map as it stands (laser sessions that keep scans), contradicting cells
+  // included; FAILED_PRECONDITION for sessions without one. Not const: the laser engine keeps what
+  // the last check cast, so that the next one redoes only what moved.
+  virtual absl::Status CheckMap(v1::MapSelfCheck* check) {
+    return absl::FailedPreconditionError(
+        absl::StrCat("a ", kind(), " session has no map self-check"));
+  }
   // Called once before the final checkpoint of CloseSession: finish background work (the laser
   // back end's last optimisation) so that the closed session holds its final map.
   virtual void Finish() {}

@@ -155,6 +155,8 @@ absl::StatusOr<LaserSessionOptions> ToLaserSessionOptions(const v1::LaserSlamCon
       lo.initial_sigma_theta = l.initial_sigma_theta();
     }
     lo.point_range = options.slam.mapping.point_range;
+    // As the back end's: the global search runs on the localizer's thread, not the stream's.
+    lo.threads = 1;
     if (absl::Status s = ls::ValidateLocalizationOptions(lo); !s.ok()) {
       return absl::InvalidArgumentError(absl::StrCat("localize: ", s.message()));
     }
@@ -288,6 +290,21 @@ v1::MapSegment ToProtoSegment(const ls::MapSegment& segment) {
   return s;
 }
 
+namespace {
+
+v1::LocalizationStatus::State ToProtoLocalizationState(ls::LocalizationState state) {
+  switch (state) {
+    case ls::LocalizationState::kTracking: return v1::LocalizationStatus::TRACKING;
+    case ls::LocalizationState::kFromStart: return v1::LocalizationStatus::FROM_START;
+    case ls::LocalizationState::kSearching: return v1::LocalizationStatus::SEARCHING;
+    case ls::LocalizationState::kConfirming: return v1::LocalizationStatus::CONFIRMING;
+    case ls::LocalizationState::kAmbiguous: return v1::LocalizationStatus::AMBIGUOUS;
+  }
+  return v1::LocalizationStatus::STATE_UNSPECIFIED;
+}
+
+}  // namespace
+
 void FillSlamUpdate(const ls::ScanUpdate& scan_update, v1::SlamUpdate* update) {
   update->set_stamp(scan_update.pose.stamp);
   *update->mutable_pose() = ToProtoPose(scan_update.pose.pose);
@@ -324,6 +341,10 @@ void FillSlamUpdate(const ls::ScanUpdate& scan_update, v1::SlamUpdate* update) {
     out->set_fixes(count(l.fixes));
     out->set_last_fix_stamp(l.last_fix_stamp);
     out->set_global_search(l.global_search);
+    out->set_state(ToProtoLocalizationState(l.state));
+    out->set_rival_ratio(l.rival_ratio);
+    out->set_rival_distance(l.rival_distance);
+    out->set_rival_angle(l.rival_angle);
   }
 }
 

@@ -17,6 +17,7 @@
 #include "absl/strings/str_cat.h"
 #include "server/common/stopwatch.h"
 #include "server/service/laser_session_engine.h"
+#include "server/service/map_self_check.h"
 #include "server/service/session_engine.h"
 #include "server/service/slam_journal.h"
 #include "server/service/visual_params.h"
@@ -898,6 +899,34 @@ void SlamRegistry::MaybeCheckpoint(Session& session) {
   }
 }
 
+namespace {
+
+// The closing session's self-check as stored with its final checkpoint (a serialized
+// v1::MapSelfCheck without its cells, which ListSessions shows); empty for a session without
+// one. A check that fails is logged, never a reason not to close. Caller holds engine_mu.
+std::string FinalMapCheck(SessionEngine& engine, const std::string& session_id) {
+  v1::MapSelfCheck check;
+  const absl::Status status = engine.CheckMap(&check);
+  if (absl::IsFailedPrecondition(status)) return "";
+  if (!status.ok()) {
+    spdlog::warn("SLAM session {}: the final map's self-check failed: {}", session_id,
+                 status.ToString());
+    return "";
+  }
+  if (!check.consistent()) {
+    spdlog::warn("SLAM session {}: the final map {}", session_id, check.verdict());
+  }
+  check.clear_contradicting_cells();
+  if (check.worst_areas_size() > static_cast<int>(kMaxSessionCheckAreas)) {
+    check.mutable_worst_areas()->DeleteSubrange(
+        static_cast<int>(kMaxSessionCheckAreas),
+        check.worst_areas_size() - static_cast<int>(kMaxSessionCheckAreas));
+  }
+  return check.SerializeAsString();
+}
+
+}  // namespace
+
 absl::Status SlamRegistry::Checkpoint(Session& session, bool close) {
   std::lock_guard<std::mutex> checkpoint_lock(session.checkpoint_mu);
   if (session.finalized) return absl::OkStatus();
@@ -917,6 +946,7 @@ absl::Status SlamRegistry::Checkpoint(Session& session, bool close) {
     for (int64_t seq = session.stored_poses; seq < trajectory_size; ++seq) {
       checkpoint.new_poses.push_back(session.engine->PoseRecord(seq));
     }
+    if (close) checkpoint.map_check = FinalMapCheck(*session.engine, session.id);
     session.dirty = false;
     session.scans_since_checkpoint = 0;
     session.journal_bytes_since_checkpoint = 0;
@@ -1132,6 +1162,9 @@ v1::Session SlamRegistry::Describe(const storage::SlamSessionRecord& record, Ses
   if (!record.lease.owner.empty() && record.lease.expires_at > UnixNow()) {
     out.set_served_by(record.lease.address);
   }
+  if (!record.map_check.empty() && !out.mutable_self_check()->ParseFromString(record.map_check)) {
+    out.clear_self_check();  // written by a newer server in a form this one cannot read
+  }
   if (resident != nullptr) {
     out.set_resident(true);
     {
@@ -1191,6 +1224,14 @@ absl::StatusOr<v1::SegmentMap> SlamRegistry::GetMap(const std::string& session_i
   std::lock_guard<std::mutex> lock((*session)->engine_mu);
   map.set_map_revision((*session)->map_revision);
   if (absl::Status s = (*session)->engine->FillMap(&map); !s.ok()) return s;
+  // A session without a self-check (no scans kept) answers its map without one.
+  if (absl::Status s = (*session)->engine->CheckMap(map.mutable_self_check());
+      absl::IsFailedPrecondition(s)) {
+    map.clear_self_check();
+  } else if (!s.ok()) {
+    return absl::Status(s.code(), absl::StrCat("SLAM session ", Quoted(session_id),
+                                               ": the map's self-check: ", s.message()));
+  }
   return map;
 }
 

@@ -132,10 +132,17 @@ CREATE TABLE slam_journal (
 );
 )sql";
 
+// v3: the final map's self-check of a closed SLAM session, as SQLite's version 12
+// (storage/migrations.cc, kV12SlamMapCheck).
+constexpr absl::string_view kV3SlamMapCheck = R"sql(
+ALTER TABLE slam_session ADD COLUMN map_check BYTEA;
+)sql";
+
 }  // namespace
 
 const std::vector<absl::string_view>& PostgresMigrations() {
-  static const auto* const kSteps = new std::vector<absl::string_view>{kV1Tables, kV2SlamJournal};
+  static const auto* const kSteps =
+      new std::vector<absl::string_view>{kV1Tables, kV2SlamJournal, kV3SlamMapCheck};
   return *kSteps;
 }
 

@@ -316,7 +316,7 @@ class PostgresSlamStore final : public SlamStore {
                   "UPDATE slam_session SET checkpoint = $1, checkpoint_at = $2, "
                   "updated_at = $2, scans_processed = $3, map_revision = $4, segments = $5, "
                   "last_scan_stamp = $6, last_odometry_stamp = $7, state = $8, "
-                  "journal_through = $10",
+                  "journal_through = $10, map_check = $11",
                   close ? absl::StrCat(", ", kClearSlamLease) : "", " WHERE id = $9"),
               Params()
                   .Bytes(checkpoint.state)
@@ -328,7 +328,8 @@ class PostgresSlamStore final : public SlamStore {
                   .OptionalDouble(checkpoint.last_odometry_stamp)
                   .Text(SlamSessionStateName(state))
                   .Text(id)
-                  .Int64(checkpoint.journal_through))
+                  .Int64(checkpoint.journal_through)
+                  .OptionalBytes(checkpoint.map_check))
           .status();
     });
   }

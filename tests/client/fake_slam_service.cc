@@ -183,6 +183,11 @@ v1::SlamUpdate FakeSlamService::Process(SessionData& session, const v1::SensorDa
     update.mutable_localization()->set_localized(localized);
     update.mutable_localization()->set_fixes(session.fixes);
     update.mutable_localization()->set_score(localized ? 0.8 : 0.0);
+    // Before the fix another place fits as well (a twin room 12 m away); the fix is unique.
+    update.mutable_localization()->set_state(localized ? v1::LocalizationStatus::TRACKING
+                                                       : v1::LocalizationStatus::AMBIGUOUS);
+    update.mutable_localization()->set_rival_ratio(localized ? 0.5 : 0.97);
+    update.mutable_localization()->set_rival_distance(12.0);
   }
   return update;
 }
@@ -358,6 +363,7 @@ grpc::Status FakeSlamService::GetMap(grpc::ServerContext*, const v1::GetMapReque
   auto it = sessions_.find(request->session_id());
   if (it == sessions_.end()) return NoSession(request->session_id());
   *response = it->second.map;
+  if (self_check_ && !it->second.localizing) *response->mutable_self_check() = *self_check_;
   return grpc::Status::OK;
 }
 
@@ -389,6 +395,10 @@ grpc::Status FakeSlamService::CloseSession(grpc::ServerContext*,
   }
   it->second.info.set_state(v1::Session::CLOSED);
   it->second.info.set_resident(false);
+  if (self_check_ && !it->second.localizing) {
+    *it->second.info.mutable_self_check() = *self_check_;
+    it->second.info.mutable_self_check()->clear_contradicting_cells();
+  }
   *response = it->second.info;
   return grpc::Status::OK;
 }

@@ -46,6 +46,12 @@ class FakeSlamService final : public v1::SlamService::Service {
     std::lock_guard<std::mutex> lock(mutex_);
     grid_answer_ = code;
   }
+  // Every mapping session's GetMap carries this self-check and, once closed, its Session (without
+  // the cells), as the real server's; unset (the default): none, as a server older than it.
+  void set_map_self_check(const v1::MapSelfCheck& check) {
+    std::lock_guard<std::mutex> lock(mutex_);
+    self_check_ = check;
+  }
   // Localization sessions: scan number `scan` (1 = the first processed) and later ones are
   // answered localized. Default 3.
   void set_localized_from_scan(int scan) {
@@ -204,6 +210,7 @@ class FakeSlamService final : public v1::SlamService::Service {
   int exploration_end_scan_ = 0;
   v1::ExplorationProgress exploration_end_;
   std::optional<v1::OccupancyGrid> grid_;
+  std::optional<v1::MapSelfCheck> self_check_;
   grpc::StatusCode grid_answer_ = grpc::StatusCode::OK;
   int localized_from_scan_ = 3;
   struct Failures {

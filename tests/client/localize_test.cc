@@ -64,6 +64,11 @@ TEST_F(LocalizeTest, ReplayCreatesALocalizationSessionAndReportsTheFirstFix) {
   EXPECT_EQ(localization["first_fix_scan"], 2);
   EXPECT_NEAR(localization["first_fix_stamp"].get<double>(), 1000.4, 1e-6);
   EXPECT_NEAR(localization["time_to_first_fix_s"].get<double>(), 0.4, 1e-6);
+  // The fix's confidence, and the answers before it that another place made ambiguous.
+  EXPECT_DOUBLE_EQ(localization["first_fix_score"].get<double>(), 0.8);
+  EXPECT_DOUBLE_EQ(localization["first_fix_rival_ratio"].get<double>(), 0.5);
+  EXPECT_DOUBLE_EQ(localization["first_fix_rival_distance_m"].get<double>(), 12.0);
+  EXPECT_EQ(localization["ambiguous_answers"], 2);
   const nlohmann::json summary = nlohmann::json::parse(ReadAll(out / "summary.json"));
   EXPECT_EQ(summary["localization"], localization);
 
@@ -71,7 +76,9 @@ TEST_F(LocalizeTest, ReplayCreatesALocalizationSessionAndReportsTheFirstFix) {
       {"slam", "replay", WriteLog(20), "--out", (dir_.path() / "h").string(), "--localize-on", "s1"});
   ASSERT_EQ(human.code, 0) << human.err;
   EXPECT_THAT(human.out, HasSubstr("localization on map s1: 18 of 20 scans localized, first fix at "
-                                   "scan 2 (stamp 1000.400, 0.40 s after the first scan)"));
+                                   "scan 2 (stamp 1000.400, 0.40 s after the first scan) scoring "
+                                   "0.80, its best rival 0.50 of that 12.0 m away; 2 answers "
+                                   "refused a fix because another place fit nearly as well"));
   EXPECT_FALSE(server_.service().last_create().laser().localize().has_initial_pose());
 }
 
@@ -87,7 +94,8 @@ TEST_F(LocalizeTest, AReplayThatNeverLocalizesSaysSo) {
   CliResult human = Run(
       {"slam", "replay", WriteLog(10), "--out", (dir_.path() / "h").string(), "--localize-on", "s1"});
   EXPECT_THAT(human.out, HasSubstr("localization on map s1: 0 of 10 scans localized, never "
-                                   "localized"));
+                                   "localized; 10 answers refused a fix because another place fit "
+                                   "nearly as well (ambiguous)"));
 }
 
 TEST_F(LocalizeTest, AServerThatDoesNotLocalizeIsNotTakenForOneThatNeverLocalized) {

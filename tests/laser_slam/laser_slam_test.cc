@@ -323,5 +323,34 @@ TEST(LaserSlamTest, ACheckpointWithAPoseBeyondAnyMapIsRefused) {
   EXPECT_EQ(resume_with(kStamp, 12.5), absl::StatusCode::kOk);
 }
 
+// The map's self-check of the session's graph: two laps of a room agree with each other; a
+// second check with nothing moved casts no submap again (the kept checker), a session without a
+// back end has none.
+TEST(LaserSlamTest, TheMapChecksItselfAndRechecksOnlyWhatMoved) {
+  const std::vector<Step> steps =
+      SquareDrive(testing::Box(-3.0, -2.5, 3.0, 2.5), 2.0, 2, 0.01, 0.02, 7);
+  Replayed run = Replay(steps, SlamOptions());
+  run.slam->FlushBackend();
+  absl::StatusOr<MapConsistencyReport> first = run.slam->CheckMap();
+  ASSERT_TRUE(first.ok()) << first.status();
+  EXPECT_TRUE(first->consistent) << first->verdict;
+  EXPECT_EQ(first->nodes, run.slam->backend()->Stats().nodes);
+  const int submap_nodes = SlamOptions().mapping.submap_nodes;
+  EXPECT_EQ(first->submaps, (first->nodes + submap_nodes - 1) / submap_nodes);
+  EXPECT_GE(first->submaps, 3);
+  EXPECT_GT(first->confirmed, 0);  // the laps' walls were compared, and agree
+  EXPECT_EQ(first->submaps_cast, first->submaps);
+
+  absl::StatusOr<MapConsistencyReport> second = run.slam->CheckMap();
+  ASSERT_TRUE(second.ok()) << second.status();
+  EXPECT_EQ(second->submaps_cast, 0);
+  EXPECT_EQ(second->verdict, first->verdict);
+
+  SlamOptions paper_alone;
+  paper_alone.mapping.enabled = false;
+  LaserSlam no_backend(paper_alone);
+  EXPECT_EQ(no_backend.CheckMap().status().code(), absl::StatusCode::kFailedPrecondition);
+}
+
 }  // namespace
 }  // namespace waymark::laser_slam

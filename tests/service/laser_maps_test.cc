@@ -172,9 +172,14 @@ TEST_F(LaserMapsTest, ARobotLocalizesOnAClosedMapFromAKnownStart) {
   // Dead reckoning from the given start until five scans 0.25 m apart can be matched: localized
   // from the fifth on, never by a global search.
   EXPECT_FALSE(updates.front().localization().localized());
+  EXPECT_EQ(updates.front().localization().state(), v1::LocalizationStatus::FROM_START);
   for (const v1::SlamUpdate& u : updates) EXPECT_FALSE(u.localization().global_search());
   EXPECT_TRUE(updates.back().localization().localized());
+  EXPECT_EQ(updates.back().localization().state(), v1::LocalizationStatus::TRACKING);
   EXPECT_GE(updates.back().localization().fixes(), 1u);
+  // Each fix carries its confidence: a score, and a rival below it (0 when none comes near).
+  EXPECT_GT(updates.back().localization().score(), 0.55);
+  EXPECT_LT(updates.back().localization().rival_ratio(), 1.0);
   // Odometry started at the robot's own origin; the answers are in the map's frame.
   EXPECT_NEAR(updates.back().pose().x(), 1.5, 0.05);
   EXPECT_NEAR(updates.back().pose().y(), -1.3 + 1.4, 0.05);
@@ -294,6 +299,62 @@ TEST_F(LaserMapsTest, AnImportedGridIsAClosedMapToLocalizeOn) {
   EXPECT_EQ(CodeOf(registry->ImportMap(bad)), absl::StatusCode::kInvalidArgument);
   ASSERT_OK_AND_ASSIGN(v1::ListSessionsResponse after, registry->ListSessions(""));
   EXPECT_EQ(after.sessions_size(), before.sessions_size());
+}
+
+TEST_F(LaserMapsTest, GetMapCarriesTheMapsSelfCheckAndAClosedSessionKeepsItsVerdict) {
+  std::string id;
+  v1::MapSelfCheck listed;
+  {
+    auto registry = MakeRegistry();
+    ASSERT_OK_AND_ASSIGN(v1::Session session, registry->CreateSession(TestSessionRequest("r1")));
+    id = session.session_id();
+    // Across the room and back four times: submaps far enough apart in time to be compared.
+    for (int pass = 0; pass < 4; ++pass) DriveAcross(*registry, id, 100.0 * pass);
+
+    // Open: GetMap checks the map as it stands; the session has no final verdict yet.
+    ASSERT_OK_AND_ASSIGN(v1::SegmentMap live, registry->GetMap(id));
+    ASSERT_TRUE(live.has_self_check());
+    const v1::MapSelfCheck& check = live.self_check();
+    EXPECT_TRUE(check.consistent()) << check.verdict();
+    EXPECT_EQ(check.verdict().rfind("consistent: ", 0), 0u) << check.verdict();
+    EXPECT_EQ(check.nodes(), live.graph_nodes());
+    EXPECT_GE(check.submaps(), 3u);
+    EXPECT_GT(check.evidence(), 0u);  // the passes' walls were compared, and agree
+    EXPECT_EQ(check.areas_contradicting(), 0u);
+    EXPECT_EQ(check.worst_areas_size(), 0);
+    EXPECT_EQ(check.contradicting_cells_size(),
+              2 * static_cast<int>(check.contradicting_cell_count()));
+    EXPECT_DOUBLE_EQ(check.resolution(), 0.1);
+    ASSERT_OK_AND_ASSIGN(v1::SegmentMap again, registry->GetMap(id));  // from the kept casts
+    EXPECT_EQ(again.self_check().verdict(), check.verdict());
+    ASSERT_OK_AND_ASSIGN(v1::Session open, registry->GetSession(id));
+    EXPECT_FALSE(open.has_self_check());
+
+    // Closed: the final map's verdict is stored with the session, without the cells.
+    ASSERT_OK_AND_ASSIGN(v1::Session closed, registry->CloseSession(id));
+    ASSERT_TRUE(closed.has_self_check());
+    listed = closed.self_check();
+    EXPECT_TRUE(listed.consistent());
+    EXPECT_EQ(listed.contradicting_cells_size(), 0);
+    ASSERT_OK_AND_ASSIGN(v1::SegmentMap final_map, registry->GetMap(id));
+    EXPECT_EQ(final_map.self_check().verdict(), listed.verdict());
+  }
+  // ... and shown by ListSessions after a restart without loading the session.
+  auto registry = MakeRegistry();
+  ASSERT_OK_AND_ASSIGN(v1::ListSessionsResponse sessions, registry->ListSessions("r1"));
+  ASSERT_EQ(sessions.sessions_size(), 1);
+  EXPECT_FALSE(sessions.sessions(0).resident());
+  EXPECT_EQ(sessions.sessions(0).self_check().SerializeAsString(), listed.SerializeAsString());
+
+  // A session that keeps no scans has no self-check to give, and GetMap says nothing of one.
+  v1::CreateSessionRequest request = TestSessionRequest("r2");
+  request.mutable_laser()->mutable_params()->set_loop_closure(false);
+  ASSERT_OK_AND_ASSIGN(v1::Session plain, registry->CreateSession(request));
+  DriveAcross(*registry, plain.session_id());
+  ASSERT_OK_AND_ASSIGN(v1::SegmentMap map, registry->GetMap(plain.session_id()));
+  EXPECT_FALSE(map.has_self_check());
+  ASSERT_OK_AND_ASSIGN(v1::Session closed, registry->CloseSession(plain.session_id()));
+  EXPECT_FALSE(closed.has_self_check());
 }
 
 }  // namespace

@@ -197,6 +197,25 @@ TEST_P(SlamStoreTest, CloseWritesTheFinalCheckpointAndRefusesMore) {
   EXPECT_EQ(closed, 1);
 }
 
+TEST_P(SlamStoreTest, TheClosingCheckpointKeepsTheMapCheckThatListsShow) {
+  ASSERT_OK(store_->CreateSession(MakeSession("s", "r")));
+  ASSERT_OK(store_->CreateSession(MakeSession("t", "r")));
+  ASSERT_OK(store_->WriteCheckpoint("s", Checkpoint("one", 2, 0, 2)));
+  ASSERT_OK_AND_ASSIGN(SlamSessionRecord open, store_->GetSession("s"));
+  EXPECT_TRUE(open.map_check.empty());  // NULL: an open session has none
+  SlamCheckpoint final_checkpoint = Checkpoint("final", 4, 2, 2);
+  final_checkpoint.map_check = std::string("\x08\x01\x00verdict", 10);  // opaque, with a NUL
+  ASSERT_OK(store_->CloseSession("s", final_checkpoint));
+  ASSERT_OK(store_->CloseSession("t", Checkpoint("final", 1, 0, 1)));  // nothing to check
+  ASSERT_OK_AND_ASSIGN(SlamSessionRecord closed, store_->GetSession("s"));
+  EXPECT_EQ(closed.map_check, final_checkpoint.map_check);
+  ASSERT_OK_AND_ASSIGN(auto listed, store_->ListSessions("r"));  // without checkpoint bytes
+  ASSERT_EQ(listed.size(), 2u);
+  EXPECT_EQ(listed[0].map_check, final_checkpoint.map_check);
+  EXPECT_TRUE(listed[0].checkpoint.empty());
+  EXPECT_TRUE(listed[1].map_check.empty());
+}
+
 TEST_P(SlamStoreTest, DeleteCascadesToTheTrajectory) {
   ASSERT_OK(store_->CreateSession(MakeSession("s", "r")));
   ASSERT_OK(store_->CreateSession(MakeSession("t", "r")));

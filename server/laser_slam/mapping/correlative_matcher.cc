@@ -2,6 +2,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <limits>
 #include <vector>
 
 #include <Eigen/Geometry>
@@ -43,15 +44,16 @@ double ScoreAt(const LikelihoodGrid& grid, const PointCloud& points, const Pose2
 
 namespace {
 
-// The cloud at every candidate angle of the window, and the window in cells.
+// The window in cells and headings; the cloud at each heading is made as the search reaches it.
 struct SearchSpace {
   std::vector<RotatedCloud> rotations;
   double step = 0.0;  // rad between rotations
+  int half_rotations = 0;
   int half_cells = 0;
 };
 
 SearchSpace MakeSearchSpace(const LikelihoodGrid& grid, const PointCloud& points,
-                            const Pose2& initial, const SearchWindow& window) {
+                            const SearchWindow& window) {
   SearchSpace space;
   const double res = grid.resolution;
   double max_range = 0.0;
@@ -60,85 +62,27 @@ SearchSpace MakeSearchSpace(const LikelihoodGrid& grid, const PointCloud& points
   space.step =
       max_range > res ? std::acos(std::max(-1.0, 1.0 - res * res / (2 * max_range * max_range)))
                       : 0.1;
-  const int half_rotations = std::min(static_cast<int>(std::ceil(window.theta / space.step)),
-                                      static_cast<int>(std::ceil(M_PI / space.step)));
-  space.rotations.reserve(2 * half_rotations + 1);
-  for (int k = -half_rotations; k <= half_rotations; ++k) {
-    RotatedCloud r;
-    r.theta = initial.theta + k * space.step;
-    const double c = std::cos(r.theta), s = std::sin(r.theta);
-    r.cells.reserve(points.size());
-    for (const Eigen::Vector2f& p : points) {
-      const double wx = initial.x + c * p.x() - s * p.y();
-      const double wy = initial.y + s * p.x() + c * p.y();
-      r.cells.emplace_back(static_cast<int>(std::floor((wx - grid.origin.x()) / res)),
-                           static_cast<int>(std::floor((wy - grid.origin.y()) / res)));
-    }
-    space.rotations.push_back(std::move(r));
-  }
+  space.half_rotations = std::min(static_cast<int>(std::ceil(window.theta / space.step)),
+                                  static_cast<int>(std::ceil(M_PI / space.step)));
+  space.rotations.reserve(2 * space.half_rotations + 1);
   space.half_cells = static_cast<int>(std::ceil(window.xy / res));
   return space;
 }
 
-// Depth-first branch and bound over `space`: the best leaf (base-level candidate) that `allowed`
-// accepts and that scores at least `min_score`; with `first_only`, any such leaf (a decision,
-// not a search: it stops at the first). `candidates` counts the scored candidates.
-template <typename Allowed>
-std::optional<Candidate> BranchAndBound(const SearchPyramid& target, const SearchSpace& space,
-                                        double min_score, bool first_only, Allowed allowed,
-                                        long* candidates) {
-  const int top = target.depth();
-  const int top_width = 1 << top;
-  const int half_cells = space.half_cells;
-  double best = min_score;
-  std::optional<Candidate> found;
-  // Expand the most promising candidates first so that `best` rises quickly and prunes the rest.
-  std::vector<Candidate> top_level;
-  for (int r = 0; r < static_cast<int>(space.rotations.size()); ++r) {
-    for (int x = -half_cells; x <= half_cells; x += top_width) {
-      for (int y = -half_cells; y <= half_cells; y += top_width) {
-        Candidate c{r, x, y, LevelScore(target, top, space.rotations[r], x, y)};
-        ++*candidates;
-        if (c.score >= best) top_level.push_back(c);
-      }
-    }
+// The cloud at rotation index `k` (-half_rotations .. half_rotations), as base-grid cells.
+RotatedCloud Rotate(const LikelihoodGrid& grid, const PointCloud& points, const Pose2& initial,
+                    double step, int k) {
+  RotatedCloud r;
+  r.theta = initial.theta + k * step;
+  const double c = std::cos(r.theta), s = std::sin(r.theta);
+  r.cells.reserve(points.size());
+  for (const Eigen::Vector2f& p : points) {
+    const double wx = initial.x + c * p.x() - s * p.y();
+    const double wy = initial.y + s * p.x() + c * p.y();
+    r.cells.emplace_back(static_cast<int>(std::floor((wx - grid.origin.x()) / grid.resolution)),
+                         static_cast<int>(std::floor((wy - grid.origin.y()) / grid.resolution)));
   }
-  std::sort(top_level.begin(), top_level.end(),
-            [](const Candidate& a, const Candidate& b) { return a.score > b.score; });
-  struct Frame {
-    Candidate candidate;
-    int level;
-  };
-  std::vector<Frame> stack;
-  for (auto it = top_level.rbegin(); it != top_level.rend(); ++it) stack.push_back({*it, top});
-  while (!stack.empty()) {
-    const Frame f = stack.back();
-    stack.pop_back();
-    if (f.candidate.score < best || (found && f.candidate.score <= best)) continue;
-    if (f.level == 0) {
-      if (!allowed(f.candidate)) continue;
-      best = f.candidate.score;
-      found = f.candidate;
-      if (first_only) break;
-      continue;
-    }
-    const int half = 1 << (f.level - 1);
-    std::vector<Candidate> children;
-    for (int dx : {0, half}) {
-      for (int dy : {0, half}) {
-        const int x = f.candidate.x + dx, y = f.candidate.y + dy;
-        if (x > half_cells || y > half_cells) continue;
-        Candidate c{f.candidate.rotation, x, y,
-                    LevelScore(target, f.level - 1, space.rotations[f.candidate.rotation], x, y)};
-        ++*candidates;
-        if (c.score >= best) children.push_back(c);
-      }
-    }
-    std::sort(children.begin(), children.end(),
-              [](const Candidate& a, const Candidate& b) { return a.score < b.score; });
-    for (const Candidate& c : children) stack.push_back({c, f.level - 1});
-  }
-  return found;
+  return r;
 }
 
 Pose2 CandidatePose(const SearchSpace& space, const Pose2& initial, double res,
@@ -146,7 +90,143 @@ Pose2 CandidatePose(const SearchSpace& space, const Pose2& initial, double res,
   return Pose2{initial.x + c.x * res, initial.y + c.y * res, space.rotations[c.rotation].theta};
 }
 
+struct Frame {
+  Candidate candidate;
+  int level = 0;
+};
+
 }  // namespace
+
+// Depth-first branch and bound over the search space: the coarsest level is scored heading by
+// heading, sorted, then expanded most promising first so that `best` rises quickly and prunes
+// the rest.
+struct BranchAndBoundSearch::State {
+  const SearchPyramid* target = nullptr;
+  PointCloud points;
+  Pose2 initial;
+  SearchSpace space;
+  bool first_only = false;
+  Allowed allowed;
+  double best = 0.0;  // the pruning bound: min_score, then the best leaf's score
+  std::optional<Candidate> found;
+  std::vector<Candidate> top_level;  // scored so far (headings before next_rotation)
+  bool top_level_done = false;
+  std::vector<Frame> stack;
+  bool done = false;
+  long candidates = 0;
+  std::int64_t reads = 0;
+
+  // Scores one candidate (its cloud's cells summed at `level`), counting the reads.
+  double Score(int level, int rotation, int x, int y) {
+    ++candidates;
+    reads += static_cast<std::int64_t>(points.size());
+    return LevelScore(*target, level, space.rotations[rotation], x, y);
+  }
+};
+
+BranchAndBoundSearch::BranchAndBoundSearch(const SearchPyramid& target, const PointCloud& points,
+                                           const Pose2& initial, const SearchWindow& window,
+                                           double min_score, bool first_only, Allowed allowed)
+    : state_(std::make_unique<State>()) {
+  State& s = *state_;
+  s.target = &target;
+  s.points = points;
+  s.initial = initial;
+  s.first_only = first_only;
+  s.allowed = std::move(allowed);
+  s.best = min_score;
+  s.done = points.empty() || target.base().empty();
+  if (!s.done) s.space = MakeSearchSpace(target.base(), points, window);
+}
+
+BranchAndBoundSearch::~BranchAndBoundSearch() = default;
+BranchAndBoundSearch::BranchAndBoundSearch(BranchAndBoundSearch&&) noexcept = default;
+BranchAndBoundSearch& BranchAndBoundSearch::operator=(BranchAndBoundSearch&&) noexcept = default;
+
+bool BranchAndBoundSearch::Resume(std::int64_t budget) {
+  State& s = *state_;
+  if (s.done) return true;
+  const std::int64_t limit =
+      budget >= std::numeric_limits<std::int64_t>::max() - s.reads ? std::numeric_limits<std::int64_t>::max()
+                                                                   : s.reads + budget;
+  const SearchPyramid& target = *s.target;
+  const int top = target.depth();
+  const int top_width = 1 << top;
+  const int half_cells = s.space.half_cells;
+  if (!s.top_level_done) {
+    while (static_cast<int>(s.space.rotations.size()) < 2 * s.space.half_rotations + 1) {
+      if (s.reads >= limit) return false;
+      const int r = static_cast<int>(s.space.rotations.size());
+      s.space.rotations.push_back(Rotate(target.base(), s.points, s.initial, s.space.step,
+                                         r - s.space.half_rotations));
+      for (int x = -half_cells; x <= half_cells; x += top_width) {
+        for (int y = -half_cells; y <= half_cells; y += top_width) {
+          Candidate c{r, x, y, s.Score(top, r, x, y)};
+          if (c.score >= s.best) s.top_level.push_back(c);
+        }
+      }
+    }
+    std::sort(s.top_level.begin(), s.top_level.end(),
+              [](const Candidate& a, const Candidate& b) { return a.score > b.score; });
+    s.stack.reserve(s.top_level.size());
+    for (auto it = s.top_level.rbegin(); it != s.top_level.rend(); ++it) {
+      s.stack.push_back({*it, top});
+    }
+    s.top_level = {};
+    s.top_level_done = true;
+  }
+  const double res = target.base().resolution;
+  while (!s.stack.empty()) {
+    if (s.reads >= limit) return false;
+    const Frame f = s.stack.back();
+    s.stack.pop_back();
+    if (f.candidate.score < s.best || (s.found && f.candidate.score <= s.best)) continue;
+    if (f.level == 0) {
+      if (s.allowed && !s.allowed(CandidatePose(s.space, s.initial, res, f.candidate))) continue;
+      s.best = f.candidate.score;
+      s.found = f.candidate;
+      if (s.first_only) break;
+      continue;
+    }
+    const int half = 1 << (f.level - 1);
+    Candidate children[4];
+    int count = 0;
+    for (int dx : {0, half}) {
+      for (int dy : {0, half}) {
+        const int x = f.candidate.x + dx, y = f.candidate.y + dy;
+        if (x > half_cells || y > half_cells) continue;
+        Candidate c{f.candidate.rotation, x, y, s.Score(f.level - 1, f.candidate.rotation, x, y)};
+        if (c.score >= s.best) children[count++] = c;
+      }
+    }
+    // Ascending, equal scores kept in order (what std::sort's insertion sort does for so few, so
+    // the search visits candidates in the order it always did).
+    for (int i = 1; i < count; ++i) {
+      for (int j = i; j > 0 && children[j].score < children[j - 1].score; --j) {
+        std::swap(children[j], children[j - 1]);
+      }
+    }
+    for (int i = 0; i < count; ++i) s.stack.push_back({children[i], f.level - 1});
+  }
+  s.stack = {};
+  s.done = true;
+  return true;
+}
+
+bool BranchAndBoundSearch::done() const { return state_->done; }
+std::int64_t BranchAndBoundSearch::reads() const { return state_->reads; }
+double BranchAndBoundSearch::angular_step() const { return state_->space.step; }
+
+std::optional<GridMatch> BranchAndBoundSearch::result() const {
+  const State& s = *state_;
+  if (!s.done || !s.found) return std::nullopt;
+  GridMatch match;
+  match.pose = CandidatePose(s.space, s.initial, s.target->base().resolution, *s.found);
+  match.score = s.found->score;
+  match.lattice_score = s.found->score;
+  match.candidates = s.candidates;
+  return match;
+}
 
 bool OnOneRidge(const LikelihoodGrid& grid, const PointCloud& points, const Pose2& a,
                 const Pose2& b, double ratio) {
@@ -175,24 +255,18 @@ std::optional<GridMatch> FindRival(const SearchPyramid& target, const PointCloud
   }
   centroid /= static_cast<double>(points.size());
   mean_norm2 /= static_cast<double>(points.size());
-  const SearchSpace space = MakeSearchSpace(grid, points, initial, window);
-  const double res = grid.resolution;
   const Eigen::Matrix2d best_rotation = Eigen::Rotation2Dd(best.theta).toRotationMatrix();
-  const auto outside = [&](const Candidate& c) {
-    const Pose2 q = CandidatePose(space, initial, res, c);
+  const auto outside = [&](const Pose2& q) {
     const Eigen::Vector2d d(q.x - best.x, q.y - best.y);
     const Eigen::Matrix2d a = Eigen::Rotation2Dd(q.theta).toRotationMatrix() - best_rotation;
     const double msd = d.squaredNorm() + 2.0 * d.dot(a * centroid) +
                        2.0 * (1.0 - std::cos(q.theta - best.theta)) * mean_norm2;
     return msd > exclusion * exclusion;
   };
-  GridMatch result;
-  const std::optional<Candidate> rival =
-      BranchAndBound(target, space, min_score, /*first_only=*/true, outside, &result.candidates);
-  if (!rival) return std::nullopt;
-  result.pose = CandidatePose(space, initial, res, *rival);
-  result.score = rival->score;
-  return result;
+  BranchAndBoundSearch search(target, points, initial, window, min_score, /*first_only=*/true,
+                              outside);
+  search.Resume(std::numeric_limits<std::int64_t>::max());
+  return search.result();
 }
 
 std::optional<GridMatch> MatchInWindow(const SearchPyramid& target, const PointCloud& points,
@@ -201,19 +275,18 @@ std::optional<GridMatch> MatchInWindow(const SearchPyramid& target, const PointC
   const LikelihoodGrid& grid = target.base();
   if (points.empty() || grid.empty()) return std::nullopt;
   const double res = grid.resolution;
-  const SearchSpace space = MakeSearchSpace(grid, points, initial, window);
-  const double step = space.step;
-  GridMatch result;
-  const std::optional<Candidate> found = BranchAndBound(
-      target, space, min_score, /*first_only=*/false, [](const Candidate&) { return true; },
-      &result.candidates);
+  BranchAndBoundSearch search(target, points, initial, window, min_score);
+  search.Resume(std::numeric_limits<std::int64_t>::max());
+  const std::optional<GridMatch> found = search.result();
   if (!found) return std::nullopt;
-  const Candidate& best_candidate = *found;
-  result.lattice_score = best_candidate.score;
+  const double step = search.angular_step();
+  GridMatch result;
+  result.candidates = found->candidates;
+  result.lattice_score = found->lattice_score;
 
   // Below a cell: the discrete optimum refined on the interpolated field, in a small grid of
   // sub-cell shifts and sub-step turns around it.
-  Pose2 pose = CandidatePose(space, initial, res, best_candidate);
+  Pose2 pose = found->pose;
   double score = ScoreAt(grid, points, pose);
   for (double scale : {0.5, 0.25}) {
     const Pose2 centre = pose;

@@ -6,6 +6,9 @@
 // a likelihood grid within a window, found exactly at the grid's resolution and the angular step
 // the cloud's extent needs, then refined below a cell by bilinear interpolation.
 
+#include <cstdint>
+#include <functional>
+#include <memory>
 #include <optional>
 
 #include "server/laser_slam/mapping/likelihood_grid.h"
@@ -26,6 +29,40 @@ struct GridMatch {
   // FindRival's scores compare with (they are not refined either).
   double lattice_score = 0.0;
   long candidates = 0;  // scored (for the cost report)
+};
+
+// A branch-and-bound search that stops once it has spent a budget of work and resumes where it
+// stopped, so that a search over a whole map can be spread over several scans (the localizer's
+// global search, localizer.h). Run to the end it answers exactly what MatchInWindow's lattice
+// search (or FindRival's decision) answers: the same candidates in the same order.
+class BranchAndBoundSearch {
+ public:
+  // Which lattice poses may be the answer (empty: any); asked only of leaves.
+  using Allowed = std::function<bool(const Pose2&)>;
+  // The best pose of `points` (their own frame) in `window` around `initial` whose lattice score
+  // is at least `min_score` and that `allowed` accepts; with `first_only` any such pose (a
+  // decision: it stops at the first). `target` must outlive the search.
+  BranchAndBoundSearch(const SearchPyramid& target, const PointCloud& points, const Pose2& initial,
+                       const SearchWindow& window, double min_score, bool first_only = false,
+                       Allowed allowed = nullptr);
+  ~BranchAndBoundSearch();
+  BranchAndBoundSearch(BranchAndBoundSearch&&) noexcept;
+  BranchAndBoundSearch& operator=(BranchAndBoundSearch&&) noexcept;
+
+  // Goes on until the search is over or about `budget` more cell reads (one per point of every
+  // candidate scored) are spent; true once it is over. The work between two checks of the budget
+  // is one heading of the coarsest level or one candidate's children, so a call overruns its
+  // budget by at most that.
+  bool Resume(std::int64_t budget);
+  bool done() const;
+  // Once done: the pose found on the lattice (score = lattice_score, not refined), or nullopt.
+  std::optional<GridMatch> result() const;
+  std::int64_t reads() const;  // cell reads spent so far
+  double angular_step() const;  // rad between the headings searched
+
+ private:
+  struct State;
+  std::unique_ptr<State> state_;
 };
 
 // The best pose with score >= min_score, or nullopt. `points` in their own frame.

@@ -524,11 +524,14 @@ void MappingBackend::WorkerLoop() {
   }
 }
 
+void MappingBackend::WaitForPending() const {
+  if (options_.threads == 0) return;
+  std::unique_lock<std::mutex> lock(mu_);
+  idle_cv_.wait(lock, [&] { return stop_ || (queue_.empty() && !busy_); });
+}
+
 void MappingBackend::Flush() {
-  if (options_.threads > 0) {
-    std::unique_lock<std::mutex> lock(mu_);
-    idle_cv_.wait(lock, [&] { return stop_ || (queue_.empty() && !busy_); });
-  }
+  WaitForPending();
   std::lock_guard<std::mutex> one_at_a_time(search_mu_);
   bool due = false;
   {

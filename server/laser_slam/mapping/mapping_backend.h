@@ -100,6 +100,10 @@ class MappingBackend {
   // constraint came since the last optimisation. The graph is then final for these scans.
   void Flush();
 
+  // Waits until the thread has handled every node appended so far (no extra optimisation): a
+  // node's pose changes when local matching handles it.
+  void WaitForPending() const;
+
   std::vector<NodeView> Nodes() const;
   std::vector<GraphConstraint> Constraints() const;
   // Copies the per-search and per-optimisation times: not for every scan.
@@ -157,7 +161,7 @@ class MappingBackend {
   const MappingOptions options_;
   mutable std::mutex mu_;
   std::condition_variable work_cv_;
-  std::condition_variable idle_cv_;
+  mutable std::condition_variable idle_cv_;
   std::vector<Node> nodes_;
   std::vector<Submap> submaps_;
   std::vector<GraphConstraint> constraints_;
