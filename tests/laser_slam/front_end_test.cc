@@ -25,10 +25,7 @@ using testing::RayCastOptions;
 using testing::Wall;
 
 PointCloud PointsFrom(const std::vector<Wall>& walls, const Pose2& pose) {
-  RayCastOptions ray;
-  ray.sensor_range = 12.0;
-  const LaserScan scan = CastScan(walls, pose, Lms200Geometry(), ray, nullptr);
-  return ScanToPoints(scan, Pose2{}, 0.05, 12.0);
+  return testing::ScanPoints(walls, pose);
 }
 
 // A corridor 40 m x 2 m with doorways and pillars every few metres (irregular, so that a scan

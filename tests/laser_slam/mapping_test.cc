@@ -40,10 +40,7 @@ std::vector<Wall> LRoom() {
 }
 
 PointCloud PointsFrom(const std::vector<Wall>& walls, const Pose2& pose) {
-  RayCastOptions ray;
-  ray.sensor_range = 12.0;
-  const LaserScan scan = CastScan(walls, pose, Lms200Geometry(), ray, nullptr);
-  return ScanToPoints(scan, Pose2{}, 0.05, 12.0);
+  return testing::ScanPoints(walls, pose);
 }
 
 // ---- pose graph ------------------------------------------------------------------------------

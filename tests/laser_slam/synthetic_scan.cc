@@ -1,5 +1,7 @@
 #include "tests/laser_slam/synthetic_scan.h"
 
+#include "server/laser_slam/mapping/point_cloud.h"
+
 #include <cmath>
 #include <limits>
 
@@ -74,6 +76,13 @@ LaserScan CastScan(const std::vector<Wall>& walls, const Pose2& laser_pose,
     scan.ranges[i] = static_cast<float>(r);
   }
   return scan;
+}
+
+std::vector<Eigen::Vector2f> ScanPoints(const std::vector<Wall>& walls, const Pose2& pose) {
+  RayCastOptions ray;
+  ray.sensor_range = 12.0;
+  const LaserScan scan = CastScan(walls, pose, Lms200Geometry(), ray, nullptr);
+  return ScanToPoints(scan, Pose2{}, 0.05, 12.0);
 }
 
 std::vector<Wall> Box(double x0, double y0, double x1, double y1) {

@@ -49,6 +49,10 @@ double CastRay(const std::vector<Wall>& walls, const Eigen::Vector2d& origin, do
 LaserScan CastScan(const std::vector<Wall>& walls, const Pose2& laser_pose,
                    const ScanGeometry& geometry, const RayCastOptions& options, std::mt19937* rng);
 
+// The returns of one noise-free LMS200 scan (0.5 degree, 12 m) of `walls` from `pose`, as the back
+// end keeps them: points in the robot frame (the laser at its origin).
+std::vector<Eigen::Vector2f> ScanPoints(const std::vector<Wall>& walls, const Pose2& pose);
+
 // Axis-aligned rectangle [x0, x1] x [y0, y1] as four walls.
 std::vector<Wall> Box(double x0, double y0, double x1, double y1);
 
