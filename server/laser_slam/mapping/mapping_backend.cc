@@ -23,6 +23,9 @@ constexpr std::uint32_t kMagic = 0x5047574d;  // "MWGP"
 constexpr std::uint32_t kVersion = 3;
 // Submap pyramids kept between searches (a few MB each).
 constexpr size_t kPyramidCacheSize = 16;
+// last_global_search_ before any (so that the first is due at once); a stored value below it
+// would overflow `index - last_global_search_`.
+constexpr int kNoGlobalSearchYet = -1000000;
 
 }  // namespace
 
@@ -779,6 +782,7 @@ absl::StatusOr<std::unique_ptr<MappingBackend>> MappingBackend::Deserialize(
         !GetPose(r, &b.dead_reckoning_) || !GetVariance(r, &b.motion_variance_) ||
         !GetPose(r, &b.last_local_) ||
         b.tie_node_ < -1 || b.tie_node_ >= nodes || b.last_global_search_ >= nodes ||
+        b.last_global_search_ < kNoGlobalSearchYet ||
         b.global_cursor_ < -1 || b.global_cursor_ >= static_cast<int>(b.submaps_.size())) {
       return corrupt("loop search state");
     }

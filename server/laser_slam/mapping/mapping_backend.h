@@ -175,7 +175,7 @@ class MappingBackend {
   Pose2 dead_reckoning_;       // the odometry increments so far, integrated
   Eigen::Vector3d motion_variance_ = Eigen::Vector3d::Zero();  // since the newest node
   Pose2 last_local_;           // of the last scan (AddScan without odometry)
-  int last_global_search_ = -1000000;  // node of the last global search
+  int last_global_search_ = -1000000;  // node of the last global search (kNoGlobalSearchYet)
   int global_cursor_ = -1;     // submap searched globally last (they are searched in turn)
   ChainUncertainty chain_;     // of the processed nodes, in order
   // Appends node `index` (processed, its chain constraint final, of 1 sigma `sigma`) to chain_.
