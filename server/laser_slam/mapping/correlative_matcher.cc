@@ -146,9 +146,8 @@ BranchAndBoundSearch& BranchAndBoundSearch::operator=(BranchAndBoundSearch&&) no
 bool BranchAndBoundSearch::Resume(std::int64_t budget) {
   State& s = *state_;
   if (s.done) return true;
-  const std::int64_t limit =
-      budget >= std::numeric_limits<std::int64_t>::max() - s.reads ? std::numeric_limits<std::int64_t>::max()
-                                                                   : s.reads + budget;
+  constexpr std::int64_t kUnbounded = std::numeric_limits<std::int64_t>::max();
+  const std::int64_t limit = budget >= kUnbounded - s.reads ? kUnbounded : s.reads + budget;
   const SearchPyramid& target = *s.target;
   const int top = target.depth();
   const int top_width = 1 << top;

@@ -57,22 +57,12 @@ absl::Status ValidateLocalizationOptions(const LocalizationOptions& o) {
         "localize: rival_floor and global_rival_ratio must satisfy 0 < rival_floor <= "
         "global_rival_ratio <= 1 (1 refuses only a rival that scores as well as the match)");
   }
-  if (o.threads < 0 || o.threads > 1 || o.global_reads_per_scan < 1000) {
+  if (o.threads < 0 || o.threads > 1 || o.global_reads_per_scan < 1000 ||
+      o.global_reads_per_scan > (std::int64_t{1} << 60)) {
     return absl::InvalidArgumentError(
-        "localize: threads must be 0 or 1 and global_reads_per_scan at least 1000");
+        "localize: threads must be 0 or 1 and global_reads_per_scan in [1000, 2^60]");
   }
   return absl::OkStatus();
-}
-
-const char* LocalizationStateName(LocalizationState state) {
-  switch (state) {
-    case LocalizationState::kFromStart: return "from start";
-    case LocalizationState::kSearching: return "searching";
-    case LocalizationState::kConfirming: return "confirming";
-    case LocalizationState::kAmbiguous: return "ambiguous";
-    case LocalizationState::kTracking: return "tracking";
-  }
-  return "searching";
 }
 
 MapLocalizer::MapLocalizer(const LocalizationOptions& options, SearchPyramid pyramid,
@@ -82,7 +72,8 @@ MapLocalizer::MapLocalizer(const LocalizationOptions& options, SearchPyramid pyr
       coarse_(std::move(coarse)),
       // On the thread, a scan waits only while the search is more than two scans' budgets behind.
       global_(options.threads, 2 * options.global_reads_per_scan) {
-  last_.state = options_.initial_pose ? LocalizationState::kFromStart : LocalizationState::kSearching;
+  last_.state =
+      options_.initial_pose ? LocalizationState::kFromStart : LocalizationState::kSearching;
 }
 
 MapLocalizer::~MapLocalizer() = default;
@@ -247,6 +238,16 @@ LocalizationResult MapLocalizer::AddScan(std::uint64_t scan, double stamp, const
            std::abs(moved.theta) >= options_.node_turn;
     if (node) travel_ += std::hypot(moved.x, moved.y);
   }
+  if (global_.busy()) {
+    // Every scan, node or not, gives the search under way its budget: inline that much work, on
+    // the thread that much more. Taken before this scan's node so that a fix it brings is
+    // tracked to this node at once (the search's node may be metres behind).
+    last_.global_search = true;
+    global_.Advance(options_.global_reads_per_scan);
+    if (std::unique_ptr<GlobalSearch> answered = global_.TakeFinished()) {
+      TakeGlobalAnswer(*answered);
+    }
+  }
   if (node) {
     have_node_ = true;
     last_node_local_ = local;
@@ -265,8 +266,9 @@ LocalizationResult MapLocalizer::AddScan(std::uint64_t scan, double stamp, const
     } else if (localized_ || from_initial) {
       Track(scan, stamp, local, from_initial);
     } else if (!global_.busy()) {
-      // A new search with the newest nodes; the one before (if any) was answered already. While
-      // it runs the robot stays not localized, and the nodes keep coming for the next search.
+      // A new search with the newest nodes (its budget comes from the next scan on); the one
+      // before (if any) was answered already. While it runs the robot stays not localized, and
+      // the nodes keep coming for the next search.
       GlobalSearchSettings settings;
       settings.min_score = options_.global_min_score;
       settings.rival_xy = options_.rival_xy;
@@ -274,17 +276,9 @@ LocalizationResult MapLocalizer::AddScan(std::uint64_t scan, double stamp, const
       settings.rival_floor = options_.rival_floor;
       settings.query_cell = options_.global_query_cell;
       search_travel_ = travel_;
+      last_.global_search = true;
       global_.Start(std::make_unique<GlobalSearch>(coarse_, pyramid_, settings, scan, stamp, local,
                                                    Query(options_.query_nodes, local)));
-    }
-  }
-  if (global_.busy()) {
-    // Every scan, node or not, gives the search its budget: inline at most that much work, on
-    // the thread at most that much more.
-    last_.global_search = true;
-    global_.Advance(options_.global_reads_per_scan);
-    if (std::unique_ptr<GlobalSearch> answered = global_.TakeFinished()) {
-      TakeGlobalAnswer(*answered);
     }
   }
   last_.localized = localized_;

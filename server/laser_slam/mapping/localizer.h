@@ -60,11 +60,11 @@ struct LocalizationOptions {
   int global_depth = 5;
   // The global search runs on a grid this many times coarser (and then refines on the fine one),
   // with the query thinned to one point per global_query_cell: its cost is in proportion to the
-  // cells, the headings (one per cell at the query's far end) and the points. Measured over 111
-  // searches at every 150th scan of ACES, Intel and MIT CSAIL, on their maps and exported grids
-  // (bench/laser_slam_eval.cc's maps): 4x and 0.3 m cost 130-145 M cell reads a search where
-  // 2x and 0.1 m (the old setting) cost 300-930 M, and found the same poses (none wrong on the
-  // maps, 1 of 13 on CSAIL's grid either way).
+  // cells, the headings (one per cell at the query's far end) and the points. Measured with one
+  // search at every 150th scan of ACES, Intel and MIT CSAIL, on their maps and exported grids
+  // (306 searches): 4x and 0.3 m cost 86-145 M cell reads a search, 2x and 0.3 m 166-335 M, 2x
+  // and 0.1 m (the old setting; CSAIL and Intel) 441-927 M. Matches unique but wrong: 4 of 306 at
+  // 4x, 1 at 2x; a fix needs two searches that agree.
   int global_coarsening = 4;
   double global_query_cell = 0.3;
   // Lost: this far (m) without an accepted match, the next match is global again.
@@ -84,10 +84,11 @@ struct LocalizationOptions {
   double track_rival_xy = 0.2;
 
   // Cost. 0 = the global search runs inside AddScan, global_reads_per_scan at a time
-  // (deterministic: tests, evaluations); 1 = on the localizer's own thread, at most that much per
-  // scan the session processes (the server's setting: no answer waits on it). One read is one
-  // point of one candidate pose (about 1-3 ns here): 4 M reads is under 10 ms per scan, and a
-  // search over ACES or Intel's map takes about 15 to 60 scans.
+  // (deterministic: tests, evaluations); 1 = on the localizer's own thread, that much per scan the
+  // session processes (the server's setting: at a robot's pace no answer waits on it; a scan
+  // waits only while the thread is two budgets behind, as in a replay faster than real time). One
+  // read is one point of one candidate pose (1-3 ns here): 4 M reads take 5-10 ms, and a search
+  // over ACES, Intel or MIT CSAIL's map 20-40 processed scans.
   int threads = 0;
   std::int64_t global_reads_per_scan = 4'000'000;
 };
@@ -102,8 +103,6 @@ enum class LocalizationState {
   kAmbiguous,   // not localized: the last global match had a rival place (rival_*) and was refused
   kTracking,    // localized
 };
-
-const char* LocalizationStateName(LocalizationState state);
 
 struct LocalizationResult {
   bool localized = false;
