@@ -14,6 +14,7 @@
 #include "client/render/occupancy_picture.h"
 #include "server/laser_slam/mapping/occupancy_grid.h"
 #include "server/service/map_self_check.h"
+#include "server/service/slam_params.h"
 #include "waymark/v1/slam.pb.h"
 
 namespace waymark::bench {
@@ -25,16 +26,6 @@ namespace ls = waymark::laser_slam;
 // picture of Killian's 200 m rather than 4 GB of 5 cm cells).
 constexpr std::int64_t kPictureCells = 16'000'000;
 
-v1::OccupancyGrid ToProto(const ls::OccupancyGrid& grid) {
-  v1::OccupancyGrid out;
-  out.set_resolution(grid.resolution);
-  out.mutable_origin()->set_x(grid.origin.x());
-  out.mutable_origin()->set_y(grid.origin.y());
-  out.set_width(static_cast<uint32_t>(grid.width));
-  out.set_height(static_cast<uint32_t>(grid.height));
-  out.set_cells(std::string(reinterpret_cast<const char*>(grid.cells.data()), grid.cells.size()));
-  return out;
-}
 
 }  // namespace
 
@@ -259,7 +250,7 @@ absl::Status WriteCheckedOccupancyPicture(const std::filesystem::path& path,
   const double fits = ls::ResolutionThatFits(nodes, resolution, kPictureCells);
   absl::StatusOr<ls::OccupancyGrid> grid = ls::RenderOccupancy(nodes, fits, kPictureCells);
   if (!grid.ok()) return grid.status();
-  const v1::OccupancyGrid proto = ToProto(*grid);
+  const v1::OccupancyGrid proto = service::ToProtoGrid(*grid);
   cli::ScenePolyline robot_path;
   robot_path.color = {30, 150, 60};
   robot_path.points = trajectory;

@@ -1,5 +1,7 @@
 #include "server/laser_slam/mapping/map_consistency.h"
 
+#include "server/laser_slam/mapping/occupancy_grid.h"
+
 #include <algorithm>
 #include <cmath>
 #include <cstdlib>
@@ -101,22 +103,7 @@ void CastNode(const NodeView& node, const CellFrame& frame, FreeFn&& free_cell, 
   for (const Eigen::Vector2f& q : *node.points) {
     const Eigen::Vector2i to =
         frame.CellOf(node.global.x + c * q.x() - s * q.y(), node.global.y + s * q.x() + c * q.y());
-    int x = from.x(), y = from.y();
-    const int dx = std::abs(to.x() - x), dy = -std::abs(to.y() - y);
-    const int sx = x < to.x() ? 1 : -1, sy = y < to.y() ? 1 : -1;
-    int err = dx + dy;
-    while (x != to.x() || y != to.y()) {
-      free_cell(x, y);
-      const int e2 = 2 * err;
-      if (e2 >= dy) {
-        err += dy;
-        x += sx;
-      }
-      if (e2 <= dx) {
-        err += dx;
-        y += sy;
-      }
-    }
+    ForEachCellBefore(from, to, free_cell);
     hit_cell(to.x(), to.y());
   }
 }

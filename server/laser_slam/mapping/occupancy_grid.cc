@@ -100,23 +100,7 @@ absl::StatusOr<OccupancyGrid> RenderOccupancy(const std::vector<NodeView>& nodes
     const Eigen::Vector2i from = cell_of(nodes[i].global.x, nodes[i].global.y);
     for (const Eigen::Vector2f& p : TransformPoints(*nodes[i].points, nodes[i].global)) {
       const Eigen::Vector2i to = cell_of(p.x(), p.y());
-      // Bresenham from the robot's cell to the cell before the hit.
-      int x = from.x(), y = from.y();
-      const int dx = std::abs(to.x() - x), dy = -std::abs(to.y() - y);
-      const int sx = x < to.x() ? 1 : -1, sy = y < to.y() ? 1 : -1;
-      int err = dx + dy;
-      while (x != to.x() || y != to.y()) {
-        add({x, y}, kMiss);
-        const int e2 = 2 * err;
-        if (e2 >= dy) {
-          err += dy;
-          x += sx;
-        }
-        if (e2 <= dx) {
-          err += dx;
-          y += sy;
-        }
-      }
+      ForEachCellBefore(from, to, [&](int x, int y) { add({x, y}, kMiss); });
       add(to, kHit);
     }
   }

@@ -41,6 +41,30 @@ absl::StatusOr<OccupancyGrid> RenderOccupancy(const std::vector<NodeView>& nodes
 double ResolutionThatFits(const std::vector<NodeView>& nodes, double resolution,
                           std::int64_t max_cells);
 
+// The cells a laser ray crosses from cell `from` to cell `to` (Bresenham): visit(x, y) for every
+// cell before `to`, which is left to the caller (the hit). The occupancy grid and the map's
+// self-check draw rays alike.
+template <typename Visit>
+void ForEachCellBefore(const Eigen::Vector2i& from, const Eigen::Vector2i& to, Visit&& visit) {
+  int x = from.x(), y = from.y();
+  const int dx = to.x() > x ? to.x() - x : x - to.x();
+  const int dy = -(to.y() > y ? to.y() - y : y - to.y());
+  const int sx = x < to.x() ? 1 : -1, sy = y < to.y() ? 1 : -1;
+  int err = dx + dy;
+  while (x != to.x() || y != to.y()) {
+    visit(x, y);
+    const int e2 = 2 * err;
+    if (e2 >= dy) {
+      err += dy;
+      x += sx;
+    }
+    if (e2 <= dx) {
+      err += dx;
+      y += sy;
+    }
+  }
+}
+
 // Centres of the occupied cells (value >= occupied), map frame: a grid as a point map.
 PointCloud OccupiedPoints(const OccupancyGrid& grid, int occupied = 65);
 
