@@ -11,6 +11,7 @@
 #include "server/laser_slam/mapping/chain_uncertainty.h"
 #include "server/laser_slam/mapping/correlative_matcher.h"
 #include "server/laser_slam/mapping/likelihood_grid.h"
+#include "server/laser_slam/mapping/local_matcher.h"
 #include "server/laser_slam/mapping/mapping_backend.h"
 #include "server/laser_slam/mapping/point_cloud.h"
 #include "tests/laser_slam/synthetic_scan.h"
@@ -116,6 +117,36 @@ TEST(ChainUncertaintyTest, HeadingAddsUpAndItsSwingGrowsWithTheLeverArm) {
 }
 
 // Two rooms alike side by side: from inside one of them a scan fits both.
+// A local map with one node's points a kilometre away (a restored checkpoint, or an odometry
+// jump): the match uses what the window can reach and still finds the pose, instead of building a
+// grid of 10^9 cells (make fuzz found one that took 17 s).
+TEST(LocalMatcherTest, PointsBeyondTheWindowsReachAreLeftOut) {
+  const std::vector<Wall> room = Box(0.0, 0.0, 8.0, 6.0);
+  const Pose2 truth{3.0, 3.0, 0.2};
+  PointCloud local_map;
+  AppendTransformed(PointsFrom(room, Pose2{4.0, 2.5, 0.0}), Pose2{4.0, 2.5, 0.0}, &local_map);
+  local_map.emplace_back(2.0e4f, -3.0e4f);
+  const PointCloud query = PointsFrom(room, truth);
+  LocalMatchSettings settings;
+  const Pose2 prior{3.15, 2.9, 0.17};
+  const std::optional<LocalMatchResult> match =
+      MatchLocally(local_map, query, prior, Eigen::Matrix3d::Identity() * 0.04,
+                   SearchWindow{0.5, 0.2}, settings);
+  ASSERT_TRUE(match.has_value());
+  EXPECT_NEAR(match->matched.x, truth.x, 0.05);
+  EXPECT_NEAR(match->matched.y, truth.y, 0.05);
+  EXPECT_NEAR(match->matched.theta, truth.theta, 0.01);
+}
+
+TEST(LikelihoodGridTest, PointsSpreadOverTooManyCellsGiveAnEmptyGrid) {
+  EXPECT_FALSE(BuildLikelihoodGrid({{0.0f, 0.0f}, {50.0f, 40.0f}}, 0.05, 0.05).empty());
+  EXPECT_TRUE(BuildLikelihoodGrid({{0.0f, 0.0f}, {1.0e3f, 1.0e3f}}, 0.05, 0.05).empty());
+  // A span whose cell count overflows an int.
+  EXPECT_TRUE(BuildLikelihoodGrid({{-1.0e7f, -1.0e7f}, {1.0e7f, 1.0e7f}}, 0.05, 0.05).empty());
+  // A caller that may hold a larger grid says so.
+  EXPECT_FALSE(BuildLikelihoodGrid({{0.0f, 0.0f}, {1.0e3f, 1.0f}}, 0.05, 0.05, 1'000'000).empty());
+}
+
 std::vector<Wall> TwinRooms() {
   std::vector<Wall> walls;
   for (double x0 : {0.0, 12.0}) {

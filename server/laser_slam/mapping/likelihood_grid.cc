@@ -15,7 +15,8 @@ double LikelihoodGrid::Interpolate(double px, double py) const {
   return v / 255.0;
 }
 
-LikelihoodGrid BuildLikelihoodGrid(const PointCloud& points, double resolution, double sigma) {
+LikelihoodGrid BuildLikelihoodGrid(const PointCloud& points, double resolution, double sigma,
+                                   std::int64_t max_cells) {
   LikelihoodGrid grid;
   grid.resolution = resolution;
   if (points.empty()) return grid;
@@ -25,9 +26,13 @@ LikelihoodGrid BuildLikelihoodGrid(const PointCloud& points, double resolution, 
     hi = hi.cwiseMax(p);
   }
   const double margin = 3.0 * sigma + resolution;
+  // Sizes in double first: a span of 10^7 m in cells overflows an int.
+  const double width = std::ceil((double(hi.x()) - lo.x() + 2 * margin) / resolution) + 1;
+  const double height = std::ceil((double(hi.y()) - lo.y() + 2 * margin) / resolution) + 1;
+  if (!(width * height <= static_cast<double>(max_cells))) return grid;
   grid.origin = lo.cast<double>() - Eigen::Vector2d::Constant(margin);
-  grid.width = static_cast<int>(std::ceil((hi.x() - lo.x() + 2 * margin) / resolution)) + 1;
-  grid.height = static_cast<int>(std::ceil((hi.y() - lo.y() + 2 * margin) / resolution)) + 1;
+  grid.width = static_cast<int>(width);
+  grid.height = static_cast<int>(height);
   grid.cells.assign(static_cast<size_t>(grid.width) * grid.height, 0);
   // The kernel, as bytes, by squared cell distance from the point's cell centre.
   const int radius = static_cast<int>(std::ceil(3.0 * sigma / resolution));

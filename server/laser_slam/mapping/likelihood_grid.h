@@ -30,8 +30,15 @@ struct LikelihoodGrid {
   double Interpolate(double px, double py) const;
 };
 
+// The most cells a search grid may have (16 MB, a 200 m square at 5 cm): a submap or a local map
+// spans a few tens of metres. Only corrupt or hostile input spreads one over more: points a
+// kilometre apart in a restored checkpoint made one grid of 10^9 cells (found by make fuzz).
+inline constexpr std::int64_t kMaxSearchGridCells = 16'000'000;
+
 // The field of `points` (grid frame) with Gaussian spread `sigma`, margin 3 sigma around them.
-LikelihoodGrid BuildLikelihoodGrid(const PointCloud& points, double resolution, double sigma);
+// An empty grid (nothing matches against it) when that takes more than `max_cells` cells.
+LikelihoodGrid BuildLikelihoodGrid(const PointCloud& points, double resolution, double sigma,
+                                   std::int64_t max_cells = kMaxSearchGridCells);
 
 // Max-pooled copies of a grid for branch and bound: level d holds, at cell (x, y), the largest
 // value of the base cells [x, x + 2^d) x [y, y + 2^d); cells left of and below the grid are

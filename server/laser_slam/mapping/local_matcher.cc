@@ -39,6 +39,32 @@ Eigen::Matrix3d MatchInformation(const LikelihoodGrid& grid, const PointCloud& p
   return eigen.eigenvectors() * values.asDiagonal() * eigen.eigenvectors().transpose();
 }
 
+namespace {
+
+// The local map's points that can bear on a match in the window: a query point lands within
+// its range plus the window's reach of the prior, and a cell's value depends on points within
+// 3 sigma of it; the pyramid's coarsest level reads 2^depth cells further. Leaving the rest
+// out changes no score (but the cells' phase, which follows the points' bounding box), keeps
+// the grid as small as the window (a restored checkpoint's nodes a kilometre apart made a grid
+// of 10^9 cells), and builds faster.
+PointCloud Reachable(const PointCloud& local_map, const PointCloud& query, const Pose2& prior,
+                     const SearchWindow& window, int depth, const LocalMatchSettings& settings) {
+  float reach = 0.0f;
+  for (const Eigen::Vector2f& p : query) reach = std::max(reach, p.norm());
+  const double radius = reach + std::sqrt(2.0) * window.xy + 3.0 * settings.grid_sigma +
+                        ((1 << depth) + 2) * settings.grid_resolution;
+  const Eigen::Vector2f centre(static_cast<float>(prior.x), static_cast<float>(prior.y));
+  const float r2 = static_cast<float>(radius * radius);
+  PointCloud kept;
+  kept.reserve(local_map.size());
+  for (const Eigen::Vector2f& p : local_map) {
+    if ((p - centre).squaredNorm() <= r2) kept.push_back(p);
+  }
+  return kept;
+}
+
+}  // namespace
+
 std::optional<LocalMatchResult> MatchLocally(const PointCloud& local_map, const PointCloud& query,
                                              const Pose2& prior,
                                              const Eigen::Matrix3d& prior_covariance,
@@ -50,7 +76,9 @@ std::optional<LocalMatchResult> MatchLocally(const PointCloud& local_map, const 
   const double half_cells = std::max(1.0, window.xy / settings.grid_resolution);
   const int depth = std::clamp(static_cast<int>(std::ceil(std::log2(half_cells))), 0, 6);
   const SearchPyramid pyramid(
-      BuildLikelihoodGrid(local_map, settings.grid_resolution, settings.grid_sigma), depth);
+      BuildLikelihoodGrid(Reachable(local_map, query, prior, window, depth, settings),
+                          settings.grid_resolution, settings.grid_sigma),
+      depth);
   const std::optional<GridMatch> match =
       MatchInWindow(pyramid, query, prior, window, settings.min_score);
   if (!match) return std::nullopt;

@@ -10,6 +10,7 @@
 #include "server/laser_slam/geometry.h"
 #include "server/laser_slam/input_bounds.h"
 #include "server/laser_slam/mapping/correlative_matcher.h"
+#include "server/laser_slam/mapping/occupancy_grid.h"
 #include "server/laser_slam/option_checks.h"
 
 namespace waymark::laser_slam {
@@ -85,10 +86,18 @@ absl::StatusOr<std::unique_ptr<MapLocalizer>> MapLocalizer::Create(
     return absl::FailedPreconditionError("the map to localize on has no points");
   }
   const double k = options.global_coarsening;
+  // A whole map, not a submap: as large as an occupancy grid may be.
   LikelihoodGrid fine = BuildLikelihoodGrid(ThinPoints(map_points, options.point_cell),
-                                            options.grid_resolution, options.grid_sigma);
+                                            options.grid_resolution, options.grid_sigma,
+                                            kMaxOccupancyCells);
+  if (fine.empty()) {
+    return absl::InvalidArgumentError(absl::StrCat(
+        "the map to localize on spans more than ", kMaxOccupancyCells, " cells at ",
+        options.grid_resolution, " m"));
+  }
   LikelihoodGrid coarse = BuildLikelihoodGrid(ThinPoints(map_points, k * options.point_cell),
-                                              k * options.grid_resolution, k * options.grid_sigma);
+                                              k * options.grid_resolution, k * options.grid_sigma,
+                                              kMaxOccupancyCells);
   return std::unique_ptr<MapLocalizer>(new MapLocalizer(
       options, SearchPyramid(fine, 6), SearchPyramid(coarse, options.global_depth)));
 }
