@@ -281,4 +281,39 @@ absl::Status WriteCheckedOccupancyPicture(const std::filesystem::path& path,
   return cli::WritePngImage(*picture, path);
 }
 
+absl::Status WriteSmallCheckedPicture(const std::filesystem::path& path,
+                                      const std::vector<ls::NodeView>& nodes,
+                                      const MapCheck& check, int size_px) {
+  if (size_px < 16) return absl::InvalidArgumentError("a small picture is at least 16 pixels");
+  // The map's extent (nodes and their points), so that its longer side is size_px cells.
+  double min_x = 1e300, min_y = 1e300, max_x = -1e300, max_y = -1e300;
+  for (const ls::NodeView& node : nodes) {
+    const auto extend = [&](double x, double y) {
+      min_x = std::min(min_x, x), max_x = std::max(max_x, x);
+      min_y = std::min(min_y, y), max_y = std::max(max_y, y);
+    };
+    extend(node.global.x, node.global.y);
+    if (node.points == nullptr) continue;
+    const double c = std::cos(node.global.theta), s = std::sin(node.global.theta);
+    for (const Eigen::Vector2f& q : *node.points) {
+      extend(node.global.x + c * q.x() - s * q.y(), node.global.y + s * q.x() + c * q.y());
+    }
+  }
+  if (min_x > max_x) return absl::FailedPreconditionError("no nodes to draw");
+  const double span = std::max(max_x - min_x, max_y - min_y);
+  const double resolution = std::max(0.05, std::ceil(span / (size_px - 2) * 1000.0) / 1000.0);
+  absl::StatusOr<ls::OccupancyGrid> grid = ls::RenderOccupancy(nodes, resolution, kPictureCells);
+  if (!grid.ok()) return grid.status();
+  const v1::OccupancyGrid proto = service::ToProtoGrid(*grid);
+  // No trajectory: the walls are what the eye judges here, and a path hides them at this size.
+  const cli::OccupancyPictureOptions one_pixel_a_cell{.min_size_px = 0};
+  absl::StatusOr<cv::Mat> picture = cli::OccupancyPicture(proto, {}, one_pixel_a_cell);
+  if (!picture.ok()) return picture.status();
+  cli::DrawMapSelfCheck(proto,
+                        service::ToProtoMapSelfCheck(check.report, check.report.tiles.size(),
+                                                     check.report.contradicting_cells.size()),
+                        one_pixel_a_cell, &*picture);
+  return cli::WriteSmallPalettePicture(*picture, size_px, path);
+}
+
 }  // namespace waymark::bench

@@ -93,6 +93,15 @@ absl::Status WriteCheckedOccupancyPicture(const std::filesystem::path& path,
                                           double resolution = 0.05,
                                           const std::optional<PictureView>& view = std::nullopt);
 
+// A small picture of the same map for a page of many maps (docs/results.md, "Every map, looked
+// at"): the occupancy grid rendered at the resolution that makes its longer side `size_px` cells,
+// one pixel a cell (no trajectory: the walls are what is judged), the self-check's contradicting cells in red, the
+// areas that contradict themselves outlined in orange, the verdict's first words top left; an
+// 8-bit palette PNG (client/render's WriteSmallPalettePicture), tens of KB.
+absl::Status WriteSmallCheckedPicture(const std::filesystem::path& path,
+                                      const std::vector<laser_slam::NodeView>& nodes,
+                                      const MapCheck& check, int size_px = 360);
+
 }  // namespace waymark::bench
 
 #endif  // WAYMARK_BENCH_LASER_MAP_CHECK_H_

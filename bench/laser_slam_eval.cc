@@ -38,7 +38,10 @@
 // "self_check" in the JSON, its verdict on the last line. --save-nodes FILE keeps the graph's
 // nodes, for waymark-map-check to check again with other settings. --check-after-optimisations
 // incremental|full also runs it after every optimisation (untimed as the engine's) and reports
-// what that costs ("self_check.after_optimisations").
+// what that costs ("self_check.after_optimisations"). --picture FILE.png writes a small picture
+// of the checked map (the occupancy grid, its longer side --picture-size pixels, default 360;
+// contradicting cells in red; an 8-bit palette PNG of tens of KB) for a page of many maps
+// (bench/laser_benchmark.sh --pictures).
 //
 // --out DIR writes trajectory.txt and odometry.txt (TUM), map.svg / map.png (segments and the
 // trajectory; contradicting cells in red), occupancy.png (the occupancy grid at the optimised
@@ -89,6 +92,8 @@ struct Args {
   std::string relations;
   std::string out;
   std::string save_nodes;  // --save-nodes FILE: the final graph's nodes (laser_map_check.h)
+  std::string picture;     // --picture FILE.png: a small picture of the checked map
+  int picture_size = 360;  // --picture-size N: its longer side (pixels)
   std::string check_after_optimisations;  // "incremental" or "full": OptimisationChecks
   int max_scans = 0;
   int resume_every = 0;  // --resume-every N: replace the engine by its checkpoint every N scans
@@ -111,6 +116,7 @@ void Usage() {
          "                          [--freeze-after-scans N] [--min-travel M --min-turn R]\n"
          "                          [--match-chi2 X] [--mapping on|off]\n"
          "                          [--mapping-opt NAME=VALUE ...] [--save-nodes FILE]\n"
+         "                          [--picture FILE.png [--picture-size N]]\n"
          "                          [--check-after-optimisations incremental|full]\n"
          "                          [--localize [--localize-from SCAN] [--localize-known-start]\n"
          "                           [--localize-on-grid] [--localize-track-nodes N]]\n";
@@ -217,6 +223,11 @@ bool ParseArgs(int argc, char** argv, Args* args) {
         args->out = v;
       } else if (a == "--save-nodes") {
         args->save_nodes = v;
+      } else if (a == "--picture") {
+        args->picture = v;
+      } else if (a == "--picture-size") {
+        args->picture_size = std::stoi(v);
+        if (args->picture_size < 16 || args->picture_size > 4000) throw std::invalid_argument(v);
       } else if (a == "--check-after-optimisations") {
         if (v != "incremental" && v != "full") throw std::invalid_argument(v);
         args->check_after_optimisations = v;
@@ -614,6 +625,14 @@ int Run(const Args& args) {
     if (!args.save_nodes.empty()) {
       if (absl::Status s = WriteNodesFile(args.save_nodes, slam.backend()->Nodes(),
                                           options.mapping.submap_nodes);
+          !s.ok()) {
+        std::cerr << s << "\n";
+        return 1;
+      }
+    }
+    if (!args.picture.empty()) {
+      if (absl::Status s = WriteSmallCheckedPicture(args.picture, slam.backend()->Nodes(),
+                                                    *map_check, args.picture_size);
           !s.ok()) {
         std::cerr << s << "\n";
         return 1;

@@ -4,6 +4,7 @@
 //
 //   waymark-map-check (--nodes FILE | --log LOG) [--fold FRACTION,DEGREES] [--opt NAME=VALUE ...]
 //                     [--repeat N] [--out DIR] [--view XMIN,YMIN,XMAX,YMAX]
+//                     [--picture FILE.png [--picture-size N]]
 //
 // --log LOG: the map a log's own laser poses make, no SLAM: for the GMapping-corrected logs of
 // ../shared (*-corrected.log.gz) a map believed consistent, on which the check must not find
@@ -15,7 +16,8 @@
 //
 // Prints the self_check JSON of summary.json (check_ms: the fastest of --repeat runs);
 // --out DIR writes DIR/occupancy.png with the contradicting cells in red (only the --view
-// rectangle of the map frame, enlarged, when given).
+// rectangle of the map frame, enlarged, when given); --picture FILE.png the small palette picture
+// of waymark-laser-eval --picture (longer side --picture-size pixels, default 360).
 
 #include <algorithm>
 #include <cmath>
@@ -120,7 +122,8 @@ void Fold(std::vector<ls::NodeView>& nodes, size_t first, double angle) {
 }
 
 int Run(int argc, char** argv) {
-  std::string nodes_path, log_path, out;
+  std::string nodes_path, log_path, out, picture;
+  int picture_size = 360;
   double fold_fraction = -1.0, fold_degrees = 0.0;
   std::optional<PictureView> view;
   int repeat = 1;
@@ -148,6 +151,11 @@ int Run(int argc, char** argv) {
         view = v4;
       } else if (a == "--out") {
         out = v;
+      } else if (a == "--picture") {
+        picture = v;
+      } else if (a == "--picture-size") {
+        picture_size = std::stoi(v);
+        if (picture_size < 16 || picture_size > 4000) throw std::invalid_argument(v);
       } else if (a == "--opt") {
         if (!SetCheckOption(v, &options)) throw std::invalid_argument(v);
       } else {
@@ -162,7 +170,8 @@ int Run(int argc, char** argv) {
   if (nodes_path.empty() == log_path.empty() || argc % 2 == 0) {
     std::cerr << "usage: waymark-map-check (--nodes FILE | --log LOG) [--fold FRACTION,DEGREES]\n"
                  "                         [--opt NAME=VALUE ...] [--repeat N] [--out DIR]\n"
-                 "                         [--view XMIN,YMIN,XMAX,YMAX]\n";
+                 "                         [--view XMIN,YMIN,XMAX,YMAX]\n"
+                 "                         [--picture FILE.png [--picture-size N]]\n";
     return 2;
   }
   absl::StatusOr<SavedNodes> saved =
@@ -200,6 +209,13 @@ int Run(int argc, char** argv) {
     for (const ls::NodeView& n : nodes) path.push_back({n.global.x, n.global.y});
     if (absl::Status s = WriteCheckedOccupancyPicture(std::filesystem::path(out) / "occupancy.png",
                                                       nodes, check, path, 0.05, view);
+        !s.ok()) {
+      std::cerr << s << "\n";
+      return 1;
+    }
+  }
+  if (!picture.empty()) {
+    if (absl::Status s = WriteSmallCheckedPicture(picture, nodes, check, picture_size);
         !s.ok()) {
       std::cerr << s << "\n";
       return 1;

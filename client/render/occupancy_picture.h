@@ -40,6 +40,15 @@ absl::StatusOr<cv::Mat> OccupancyPicture(const v1::OccupancyGrid& grid,
 void DrawMapSelfCheck(const v1::OccupancyGrid& grid, const v1::MapSelfCheck& check,
                       const OccupancyPictureOptions& options, cv::Mat* picture);
 
+// A picture (8-bit BGR, as OccupancyPicture and DrawMapSelfCheck make it) shrunk to `width_px`
+// pixels wide (area averaging; never enlarged) and written as an 8-bit palette PNG: 16 greys for
+// the map and the exact colours of the self-check's marks and of paths (red, orange, green), each
+// pixel the nearest of them. A thumbnail of a whole map for a page of many maps
+// (docs/results.md's grid of every benchmark map): a 360-pixel map is 10-40 KB instead of the
+// hundreds of an RGB picture. InvalidArgument for an empty picture or width_px < 16.
+absl::Status WriteSmallPalettePicture(const cv::Mat& picture, int width_px,
+                                      const std::filesystem::path& path);
+
 // OccupancyPicture as a PNG file.
 absl::Status WriteOccupancyPicture(const std::filesystem::path& path, const v1::OccupancyGrid& grid,
                                    const std::vector<ScenePolyline>& paths = {},

@@ -146,6 +146,45 @@ TEST(MapConsistencyTest, AWrongClosureThatSwingsTheLastCorridorIsFoundWhereItIs)
   }
 }
 
+// The scale of what the check calls a contradiction (issue 33, "Every map, looked at" in
+// docs/results.md): the benchmark's noisy-odometry maps that fail are the ones whose overlapping
+// submaps are misregistered, against the corrected poses, by 0.47 m or more at 5 m; belgioioso's
+// low row (relations 0.043 m on average) fails because its last submap, back at the start, lies
+// 1.3 m off the first. Here the last submap (23 nodes down the west corridor, over the first lap)
+// moved sideways as that row's was: 1.3 m is a corridor drawn twice, a map that contradicts
+// itself where the moved submap lies; 0.15 m (a registration blur, inside the tolerance) is not.
+void Shift(std::vector<NodeView>& nodes, size_t first, double dx, double dy) {
+  for (size_t i = first; i < nodes.size(); ++i) {
+    nodes[i].global.x += dx;
+    nodes[i].global.y += dy;
+  }
+}
+
+TEST(MapConsistencyTest, TheLastSubmapDrawnAMetreOffTheStartContradictsItselfThere) {
+  std::vector<NodeView> nodes = CleanMap();
+  const size_t last_submap = (nodes.size() - 1) / 25 * 25;
+  ASSERT_LT(last_submap, nodes.size());
+  for (size_t i = last_submap; i < nodes.size(); ++i) {
+    ASSERT_NEAR(nodes[i].global.x, 1.0, 1e-9);  // the west corridor
+  }
+  Shift(nodes, last_submap, 1.3, 0.0);
+  absl::StatusOr<MapConsistencyReport> report = CheckMapConsistency(nodes);
+  ASSERT_TRUE(report.ok()) << report.status();
+  EXPECT_FALSE(report->consistent) << report->verdict;
+  for (const ConsistencyTile& tile : report->tiles) {
+    if (tile.contradicts) EXPECT_LT(tile.min.x(), 5.0) << "tile at " << tile.min.transpose();
+  }
+}
+
+TEST(MapConsistencyTest, TheLastSubmapFifteenCentimetresOffIsABlurNotAContradiction) {
+  std::vector<NodeView> nodes = CleanMap();
+  Shift(nodes, (nodes.size() - 1) / 25 * 25, 0.15, 0.0);
+  absl::StatusOr<MapConsistencyReport> report = CheckMapConsistency(nodes);
+  ASSERT_TRUE(report.ok()) << report.status();
+  EXPECT_TRUE(report->consistent) << report->verdict;
+  EXPECT_EQ(report->tiles_contradicting, 0) << report->verdict;
+}
+
 TEST(MapConsistencyTest, ACartParkedInOneLapIsAChangeOfTheWorldNotAFold) {
   // A 1.5 m cart against the south wall during the first lap only: the first lap's submaps hold
   // a wall where the second lap saw free space, but nothing of the second lap stands in the first
