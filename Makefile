@@ -6,12 +6,16 @@ LISTEN ?= 127.0.0.1:50051
 DB ?= ./var/waymark.db
 CTEST_ARGS ?=
 
-.PHONY: all deps configure build run test bench demo docker-test fuzz clean
+.PHONY: all deps peers-deps configure build run test bench demo docker-test fuzz clean
 
 all: build
 
 deps:
 	./scripts/install-deps.sh
+
+# Opt-in: MRPT's icp-slam for `bench/laser_benchmark.sh --peers` (not needed by run or test).
+peers-deps:
+	./scripts/install-deps.sh --peers
 
 $(BUILD_DIR)/build.ninja: CMakeLists.txt | deps
 	cmake -S . -B $(BUILD_DIR) -G Ninja -DCMAKE_BUILD_TYPE=$(BUILD_TYPE)

@@ -3,7 +3,7 @@
 # waymark-laser-eval (the engine in-process) on each log, one table row per log.
 #
 #   bench/laser_benchmark.sh BUILD_DIR [--out DIR] [--only LIST] [--levels LIST] [--seed N]
-#                            [--jobs N] [--peers] [-- EXTRA_EVAL_ARGS...]
+#                            [--jobs N] [--peers] [--pictures DIR] [-- EXTRA_EVAL_ARGS...]
 #     --out DIR    results and generated references (default out/bench/laser_benchmark; never the
 #                  data folder): table.md, table.tsv, results.json, refs/, noisy/, runs/, and bin/
 #                  (the copies of the two programs the run used)
@@ -13,8 +13,16 @@
 #                  poses themselves as odometry: the floor of what the noisy rows can measure
 #     --seed N     seed of the noisy odometry (default 1; the same for every log and strength)
 #     --jobs N     eval runs at a time (default 2, at most 2: the machine is shared)
-#     --peers      also run MRPT icp-slam (shipped and tuned) on the scored rows through
-#                  bench/laser_peer_mrpt.sh (needs mrpt-apps; slow: off by default)
+#     --peers      also run MRPT icp-slam (shipped and tuned) on every scored row (aces, intel,
+#                  mit-csail, the noisy rows) through bench/laser_peer_mrpt.sh, and write peers.md:
+#                  Waymark, MRPT and Cartographer's published numbers per row, and whether Waymark
+#                  meets issue 33's target (slow: off by default). Needs mrpt-apps and mrpt-common:
+#                  `scripts/install-deps.sh --peers` (`make peers-deps`), opt-in, not in make test
+#     --pictures DIR  one small picture per row, DIR/NAME.png (waymark-laser-eval --picture: the
+#                  final occupancy grid, 360 px on its longer side, the self-check's contradicting
+#                  cells in red, failing areas outlined in orange; 8-bit palette PNG), and
+#                  DIR/index.md, a markdown grid of them with each row's verdict and error
+#                  (docs/results.md, "Every map, looked at (issue 33)", is made this way)
 #     EXTRA_EVAL_ARGS  passed to every waymark-laser-eval run, e.g. `-- --mapping-opt min_score=0.55`
 #                  for leave-one-out tuning runs
 #   env: SHARED (default ../shared beside the repository)
@@ -50,6 +58,7 @@ LEVELS=low,medium,high
 SEED=1
 JOBS=2
 PEERS=0
+PICTURES=""
 EXTRA=()
 while [ $# -gt 0 ]; do
   case "$1" in
@@ -59,6 +68,7 @@ while [ $# -gt 0 ]; do
     --seed) SEED=$2; shift 2 ;;
     --jobs) JOBS=$2; shift 2 ;;
     --peers) PEERS=1; shift ;;
+    --pictures) PICTURES=$2; shift 2 ;;
     --) shift; EXTRA=("$@"); break ;;
     -h|--help) usage ;;
     *) echo "unknown option $1" >&2; usage ;;
@@ -83,6 +93,7 @@ mkdir -p "$OUT"
 OUT=$(cd "$OUT" && pwd)
 case "$OUT/" in "$(cd "$SHARED" && pwd)"/*) die "--out must not be inside $SHARED" ;; esac
 mkdir -p "$OUT/refs" "$OUT/noisy" "$OUT/runs" "$OUT/bin"
+if [ -n "$PICTURES" ]; then mkdir -p "$PICTURES"; PICTURES=$(cd "$PICTURES" && pwd); fi
 # Run copies of the programs: a rebuild during the run (the machine is shared) would otherwise
 # fail the runs that start while the binary is being linked, or mix two versions in one table.
 EVAL_BUILT=$(stat -c %y "$EVAL")
@@ -162,6 +173,7 @@ run_one() {
   local name=$1 log=$2 relations=$3 start status=0
   local args=(--log "$log" --json)
   [ -n "$relations" ] && args+=(--relations "$relations")
+  [ -n "$PICTURES" ] && args+=(--picture "$PICTURES/$name.png")
   start=$EPOCHREALTIME
   "$EVAL" "${args[@]}" "${EXTRA[@]}" > "$OUT/runs/$name.out" 2> "$OUT/runs/$name.err" || status=$?
   awk -v a="$start" -v b="$EPOCHREALTIME" 'BEGIN { printf "%.1f\n", b - a }' > "$OUT/runs/$name.wall"
@@ -283,11 +295,25 @@ awk -F'\t' -v total="$TOTAL_S" -v extra="${EXTRA[*]}" -v seed="$SEED" '
     print " local: relations with t2 - t1 <= 10 s."
   }' "$OUT/table.tsv" > "$OUT/table.md"
 
+# --- pictures (optional): a markdown grid of the rows' pictures, three a line -----------------
+if [ -n "$PICTURES" ]; then
+  jq -r '
+    def f3: if . == null then "-" else (. * 1000 | round / 1000 | tostring) end;
+    [.rows[] | "![\(.name)](\(.name).png)<br>**\(.name)**<br>self-check: "
+       + (if .self_check == null then "-" elif .self_check == "pass" then "pass" else "**FAIL**" end)
+       + "; error \(.slam_all.trans_mean | f3) m"] as $cells
+    | "| | | |", "|---|---|---|",
+      (range(0; $cells | length; 3) as $i | "| " + ($cells[$i:$i + 3] | join(" | ")) + " |")
+  ' "$OUT/results.json" > "$PICTURES/index.md"
+  echo "pictures in $PICTURES (index.md: the grid)"
+fi
+
 # --- peers (optional) -------------------------------------------------------------------------
 if [ "$PEERS" -eq 1 ]; then
   # laser_peer_mrpt.sh scores LOG with NAME.relations beside it: link the raw logs and their
   # relations side by side (links, not copies of the data); the noisy logs already are.
   PEER_IN="$OUT/peers-input"
+  rm -f "$OUT/peers.md"
   mkdir -p "$PEER_IN"
   PEER_LOGS=()
   for row in "${ROWS[@]}"; do
@@ -302,10 +328,42 @@ if [ "$PEERS" -eq 1 ]; then
   echo "== MRPT icp-slam (shipped, tuned) on ${#PEER_LOGS[@]} scored logs"
   "$HERE/laser_peer_mrpt.sh" "$BUILD_DIR" --out "$OUT/peers" --methods mrpt-icp-shipped,mrpt-icp-tuned \
     "${PEER_LOGS[@]}" || FAILED=$((FAILED + 1))
+  # peers.md: each scored row beside MRPT and Cartographer's published all-relations error (Hess et
+  # al. 2016, table I; CSAIL's is against Kummerle's relations, this row's are built from
+  # csail-corrected). Target (issue 33): all-relations mean no worse than both MRPT settings and
+  # within 1.25x Cartographer's number where there is one.
+  [ -f "$OUT/peers/summary.tsv" ] && awk -F'\t' '
+    BEGIN { carto["aces"] = 0.0375; carto["intel"] = 0.0229; carto["mit-csail"] = 0.0319 }
+    FNR == 1 { next }
+    FILENAME ~ /summary.tsv$/ { if ($4 == 0 && $7 != "-") mrpt[$1, $2] = sprintf("%.3f +- %.3f", $7, $8)
+                                if ($4 == 0 && $7 != "-") mean[$1, $2] = $7; next }
+    $2 == "unscored" { next }
+    {
+      name = $1; me = $3 == "ok" ? $10 : "-"
+      verdict = "meets"; why = ""
+      if (me == "-") { verdict = "FAILED"; why = "no Waymark run" }
+      for (m = 1; m <= 2 && me != "-"; m++) {
+        method = m == 1 ? "mrpt-icp-shipped" : "mrpt-icp-tuned"
+        if (!((name, method) in mean)) { why = why (why == "" ? "" : "; ") method " failed" }
+        else if (me + 0 > mean[name, method] + 0) {
+          verdict = "misses"; why = why (why == "" ? "" : "; ") sprintf("%.2fx MRPT %s", me / mean[name, method], m == 1 ? "shipped" : "tuned") }
+      }
+      c = (name in carto) ? sprintf("%.4f", carto[name]) : "-"
+      if (c != "-" && me != "-" && me + 0 > 1.25 * carto[name]) {
+        verdict = "misses"; why = why (why == "" ? "" : "; ") sprintf("%.2fx Cartographer", me / carto[name]) }
+      printf "| %s | %s | %s | %s | %s | %s | %s%s |\n", name,
+        $6 == "-" ? "-" : sprintf("%.3f +- %.3f", $6, $7), me == "-" ? "-" : sprintf("%.3f +- %.3f", $10, $11),
+        ((name, "mrpt-icp-shipped") in mrpt) ? mrpt[name, "mrpt-icp-shipped"] : "FAILED",
+        ((name, "mrpt-icp-tuned") in mrpt) ? mrpt[name, "mrpt-icp-tuned"] : "FAILED", c,
+        verdict == "meets" ? "**meets**" : verdict, why == "" ? "" : " (" why ")"
+    }' "$OUT/peers/summary.tsv" "$OUT/table.tsv" \
+    | { echo "| log | Waymark local (m) | Waymark all (m) | MRPT shipped all (m) | MRPT tuned all (m) | Cartographer (m) | target |"
+        echo "|---|---|---|---|---|---:|---|"; cat; } > "$OUT/peers.md"
 fi
 
 echo
 cat "$OUT/table.md"
+[ ! -f "$OUT/peers.md" ] || { echo; cat "$OUT/peers.md"; }
 echo
-echo "results in $OUT (table.md, table.tsv, results.json; references in refs/ and noisy/)"
+echo "results in $OUT (table.md, table.tsv, results.json; references in refs/ and noisy/$([ "$PEERS" -eq 0 ] || echo "; peers.md, peers/"))"
 [ "$FAILED" -eq 0 ] || die "$FAILED run(s) failed"

@@ -24,7 +24,8 @@
 # carmen_for_mrpt.sh); its pose after every scan is exported at the scan's CARMEN stamp.
 # Wall and CPU time: the replay command for Waymark (it reads the compressed log itself; CPU adds
 # the server's), icp-slam alone for MRPT (the conversion is timed apart, in results.json).
-# Needs mrpt-apps and mrpt-common (installed here when missing and running as root).
+# Needs mrpt-apps and mrpt-common: `scripts/install-deps.sh --peers` (`make peers-deps`), which this
+# script runs when icp-slam, carmen2rawlog or the example config is missing.
 set -euo pipefail
 HERE=$(cd "$(dirname "$0")" && pwd)
 TOOLS="$HERE/laser_peer_mrpt"
@@ -74,17 +75,15 @@ if [[ ",$METHODS," == *,waymark,* ]]; then
 fi
 MRPT_INI=${MRPT_INI:-/usr/share/mrpt/config_files/icp-slam/icp-slam_demo_classic.ini}
 # icp-slam and carmen2rawlog are in mrpt-apps, the example config in mrpt-common.
+# Missing ones are installed by the project's opt-in (scripts/install-deps.sh --peers, which is
+# `make peers-deps`: Debian 12 packages, idempotent; it needs root or sudo).
 if [ "$NEED_MRPT" -eq 1 ] && ! { command -v icp-slam && command -v carmen2rawlog && [ -f "$MRPT_INI" ]; } > /dev/null; then
-  if [ "$(id -u)" -eq 0 ] && command -v apt-get > /dev/null; then
-    echo "== installing mrpt-apps mrpt-common (Debian) for icp-slam, carmen2rawlog and $MRPT_INI"
-    export DEBIAN_FRONTEND=noninteractive
-    apt-get install -y -q mrpt-apps mrpt-common > /dev/null \
-      || { apt-get update -q > /dev/null && apt-get install -y -q mrpt-apps mrpt-common > /dev/null; } \
-      || die "apt-get install mrpt-apps mrpt-common failed"
-  fi
-  command -v icp-slam > /dev/null || die "icp-slam not found: apt-get install mrpt-apps"
-  command -v carmen2rawlog > /dev/null || die "carmen2rawlog not found: apt-get install mrpt-apps"
-  [ -f "$MRPT_INI" ] || die "$MRPT_INI not found: apt-get install mrpt-common (or set MRPT_INI)"
+  echo "== installing MRPT for the peers: scripts/install-deps.sh --peers"
+  "$HERE/../scripts/install-deps.sh" --peers \
+    || die "scripts/install-deps.sh --peers failed (run it as root, or apt-get install mrpt-apps mrpt-common)"
+  command -v icp-slam > /dev/null || die "icp-slam not found: scripts/install-deps.sh --peers (mrpt-apps)"
+  command -v carmen2rawlog > /dev/null || die "carmen2rawlog not found: scripts/install-deps.sh --peers (mrpt-apps)"
+  [ -f "$MRPT_INI" ] || die "$MRPT_INI not found: scripts/install-deps.sh --peers (mrpt-common), or set MRPT_INI"
 fi
 for log in "${LOGS[@]}"; do
   [ -f "$log" ] || die "no log $log"

@@ -5,13 +5,19 @@
 #   scripts/install-deps.sh               everything: build, tests, benchmarks, demo (make run/test)
 #   scripts/install-deps.sh --build-only  only what building the binaries needs (docker/Dockerfile's
 #                                         build stage): no ccache, git, test photos, openssl
+#   scripts/install-deps.sh --peers       everything above plus the laser SLAM peers of
+#                                         `bench/laser_benchmark.sh --peers` and bench/laser_peer_mrpt.sh
+#                                         (MRPT's icp-slam and carmen2rawlog; `make peers-deps`).
+#                                         Opt-in: make run/test do not need them.
 set -euo pipefail
 
 BUILD_ONLY=0
+PEERS=0
 case "${1:-}" in
   "") ;;
   --build-only) BUILD_ONLY=1 ;;
-  *) echo "usage: $0 [--build-only]" >&2; exit 2 ;;
+  --peers) PEERS=1 ;;
+  *) echo "usage: $0 [--build-only | --peers]" >&2; exit 2 ;;
 esac
 
 PACKAGES=(
@@ -42,6 +48,13 @@ if [ "$BUILD_ONLY" -eq 1 ]; then
     [[ "$NOT_FOR_BUILD" == *" $p "* ]] || kept+=("$p")
   done
   PACKAGES=("${kept[@]}")
+fi
+if [ "$PEERS" -eq 1 ]; then
+  PACKAGES+=(
+    mrpt-apps  # icp-slam, carmen2rawlog (MRPT 2.5.8): the peer of bench/laser_peer_mrpt.sh
+    mrpt-common  # icp-slam's example config icp-slam_demo_classic.ini, the "shipped" settings
+    jq bzip2 gzip  # the laser benchmark's JSON, and the compressed CARMEN logs it converts for MRPT
+  )
 fi
 
 missing=()
