@@ -126,10 +126,31 @@ int Run(int argc, char** argv) {
   app.add_flag("--realtime", realtime,
                "feed frames at the sequence's own rate (its stamps), as a camera does, instead of "
                "back to back; an adjustment applied when done then lags as it would on a robot");
+  std::string preset = "paper";
+  app.add_option("--preset", preset,
+                 "paper (the paper's constants; the flags above change them) or best (the "
+                 "service's default, VisualOdometryOptions::MeasuredBest; flags given win)")
+      ->check(CLI::IsMember({"paper", "best"}))
+      ->capture_default_str();
+  int start = 0, stride = 1;
+  app.add_option("--start", start, "skip the first N frames")->capture_default_str();
+  app.add_option("--stride", stride, "use every N-th frame (a faster camera motion per frame)")
+      ->check(CLI::PositiveNumber)
+      ->capture_default_str();
   std::string per_frame_path;
   app.add_option("--per-frame", per_frame_path,
                  "CSV of every frame's feature counts and state (config, seed, frame, ...)");
   CLI11_PARSE(app, argc, argv);
+  if (preset == "best") {
+    const vs::VisualOdometryOptions best = vs::VisualOdometryOptions::MeasuredBest();
+    if (app.count("--static-hamming") == 0) base.static_hamming_fraction = best.static_hamming_fraction;
+    if (app.count("--proven-frames") == 0) base.proven_static_frames = best.proven_static_frames;
+    if (app.count("--prior-direction") == 0) base.prior_direction_deg = best.prior_direction_deg;
+    if (app.count("--bundle-window") == 0) {
+      base.bundle_window = best.bundle_window;
+      base.bundle_monocular_only = best.bundle_monocular_only;
+    }
+  }
   std::FILE* per_frame = nullptr;
   if (!per_frame_path.empty()) {
     per_frame = std::fopen(per_frame_path.c_str(), "w");
@@ -139,7 +160,8 @@ int Run(int argc, char** argv) {
     }
     std::fprintf(per_frame,
                  "config,seed,frame,state,total,boxed,matched,dynamic,tracked,mapped,"
-                 "proven,boxes,bundle_ms,tx,ty,tz,r00,r01,r02,r10,r11,r12,r20,r21,r22\n");
+                 "proven,boxes,bundle_ms,tx,ty,tz,r00,r01,r02,r10,r11,r12,r20,r21,r22,"
+                 "static_in_box,inliers,parallax_deg,quality\n");
   }
   if (threads >= 0) cv::setNumThreads(threads);
 
@@ -162,7 +184,9 @@ int Run(int argc, char** argv) {
     return 1;
   }
   std::vector<Decoded> frames;
-  for (const cli::SequenceFrame& f : sequence->frames) {
+  for (size_t i = static_cast<size_t>(std::max(0, start)); i < sequence->frames.size();
+       i += static_cast<size_t>(stride)) {
+    const cli::SequenceFrame& f = sequence->frames[i];
     if (max_frames > 0 && static_cast<int>(frames.size()) >= max_frames) break;
     Decoded d{f.stamp, cv::imread(f.image.string(), cv::IMREAD_COLOR), cv::Mat()};
     if (f.depth && !no_depth) d.depth = cv::imread(f.depth->string(), cv::IMREAD_UNCHANGED);
@@ -243,15 +267,18 @@ int Run(int argc, char** argv) {
         if (per_frame != nullptr) {
           const vs::FeatureCounts& c = r->counts;
           const vs::Pose& p = r->pose;
+          const int static_in_box = static_cast<int>(std::count(
+              r->labels.begin(), r->labels.end(), vs::FeatureLabel::kStaticInBox));
           std::fprintf(
               per_frame,
               "%s,%d,%d,%d,%d,%d,%d,%d,%d,%d,%d,%zu,%.2f,%.6f,%.6f,%.6f,%.9f,%.9f,%.9f,%.9f,"
-              "%.9f,%.9f,%.9f,%.9f,%.9f\n",
+              "%.9f,%.9f,%.9f,%.9f,%.9f,%d,%d,%.4f,%s\n",
               text.c_str(), seed, frame_index, static_cast<int>(r->state), c.total,
               c.potentially_dynamic, c.matched, c.dynamic, c.tracked, c.mapped, c.proven,
               r->boxes.size(), r->timings.bundle_ms, p.t.x(), p.t.y(), p.t.z(), p.R(0, 0),
               p.R(0, 1), p.R(0, 2), p.R(1, 0), p.R(1, 1), p.R(1, 2), p.R(2, 0), p.R(2, 1),
-              p.R(2, 2));
+              p.R(2, 2), static_in_box, r->quality.inliers, r->quality.parallax_deg,
+              vs::QualityLevelName(r->quality.level));
         }
         ++frames_run;
         lost += r->state == vs::TrackingState::kLost;

@@ -17,6 +17,7 @@
 #include "client/common/output.h"
 #include "client/datasets/pose_file.h"
 #include "client/eval/trajectory_metrics.h"
+#include "client/eval/result_warnings.h"
 #include "client/eval/vo_summary.h"
 
 namespace waymark::cli {
@@ -108,8 +109,9 @@ int RunAte(CommandContext& context, const AteArgs& args) {
     return ReportError(context, result.status(),
                        fmt::format("{} against {}", args.trajectory, args.groundtruth));
   }
-  if (const std::optional<std::string> warning = FewMatchesWarning(*result)) {
-    context.err << "warning: " << *warning << "\n";
+  // Every reason the numbers may mean nothing (result_warnings.h); --json marks them too.
+  for (const ResultWarning& warning : EvaluationWarnings(*result, args.scale)) {
+    context.err << "warning: " << warning.message << "\n";
   }
   if (!args.plot.empty()) {
     if (absl::Status status = WritePlot(args.plot, *result); !status.ok()) {
@@ -161,13 +163,16 @@ void AddEvalAteCommand(CLI::App& app, CommandRegistry& registry) {
   CLI::App* ate = eval->add_subcommand(
       "ate",
       "Visual odometry accuracy: ATE after a rigid (Horn) alignment and RPE of TRAJECTORY against "
-      "GROUNDTRUTH; TUM (t tx ty tz qx qy qz qw) or KITTI (12 numbers, 3x4 [R|t]) pose files, "
+      "GROUNDTRUTH; TUM (t tx ty tz qx qy qz qw), KITTI (12 numbers, 3x4 [R|t]) or EuRoC "
+      "(state_groundtruth_estimate0/data.csv: t [ns], p, q_w q_x q_y q_z, ...) pose files; warns "
+      "when the result means nothing (Sim(3) scale outside [0.2, 5], ground truth under 0.1 m, "
+      "a collapsed estimate; --json: warnings, result_meaningful); "
       "matched by time stamp");
   ate->add_option("TRAJECTORY", args->trajectory, "Estimated trajectory")->required();
   ate->add_option("GROUNDTRUTH", args->groundtruth, "Ground-truth trajectory")->required();
   ate->add_option("--format", args->format,
-                  "Pose file format of both files: auto (by column count), tum or kitti")
-      ->check(CLI::IsMember({"auto", "tum", "kitti"}))
+                  "Pose file format of both files: auto (by column count), tum, kitti or euroc")
+      ->check(CLI::IsMember({"auto", "tum", "kitti", "euroc"}))
       ->capture_default_str();
   ate->add_option("--times", args->times,
                   "KITTI times.txt: stamps of the KITTI pose files (default: pose i at 0.1 * i "

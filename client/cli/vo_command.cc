@@ -18,7 +18,7 @@ void AddNumber(CLI::App* command, const std::string& name, std::optional<double>
       ->check(CLI::PositiveNumber);
 }
 
-// An option beyond the paper: unset leaves the server's default (the paper's value).
+// An option beyond the paper: unset leaves the preset's value (the server fills it per input kind).
 template <typename T>
 void AddBeyondPaper(CLI::App* command, const std::string& name, std::optional<T>* target, T lowest,
                     T highest, const std::string& help) {
@@ -45,29 +45,33 @@ void AddVoCommands(CLI::App& app, CommandRegistry& registry) {
                   "Movable-object detector: none, hog (OpenCV people detector), "
                   "yolo:CFG,WEIGHTS (darknet) or yolo:MODEL.onnx; model files are uploaded")
       ->capture_default_str();
+  run->add_flag("--paper", args->paper,
+                "The paper's pipeline exactly (the session preset PRESET_PAPER: the full filter and "
+                "the paper's constants) instead of the default, the best configuration measured "
+                "per input kind (docs/visual-odometry.md, \"Defaults\"); flags given still apply");
   run->add_option("--filter", args->filter,
                   "Dynamic-point filter: full (the paper: boxes + static test), boxes (drop "
                   "features in boxes), none (plain ORB VO) or proven (full, and boxed features "
-                  "static over several frames are used like the rest)")
-      ->check(CLI::IsMember({"full", "boxes", "none", "proven"}))
-      ->capture_default_str();
+                  "static over several frames are used like the rest); default: the preset's "
+                  "(proven; --paper: full)")
+      ->check(CLI::IsMember({"full", "boxes", "none", "proven"}));
   AddBeyondPaper(run, "--prior-direction", &args->prior_direction_deg, 0.0, 180.0,
                  "Monocular motion prior: a motion this many degrees off the constant-velocity "
-                 "prediction gives way to it when the pairs cannot tell them apart (30 measured "
-                 "best on KITTI; default off, the paper)");
+                 "prediction gives way to it when the pairs cannot tell them apart (default 30, "
+                 "measured best on KITTI; 0 = off, the paper)");
   AddBeyondPaper(run, "--bundle-window", &args->bundle_window, 0, 50,
-                 "Local bundle adjustment over this many keyframes, in the background (0 or "
-                 "unset = off, the paper; 10 measured best on KITTI, no gain on Bonn RGB-D)");
+                 "Local bundle adjustment over this many keyframes, in the background (default: "
+                 "10 monocular, off RGB-D, as measured best; 0 = off, the paper)");
   AddBeyondPaper(run, "--relocalize", &args->relocalize, 0, 1000,
                  "Keep this many keyframes (monocular: one frame in five) that left the local "
                  "map and relocalise a frame that cannot be tracked against them (0 or unset = "
                  "off, the paper)");
   AddBeyondPaper(run, "--static-hamming", &args->static_hamming, 0.01, 1.0,
-                 "The static test's descriptor half as a fraction of delta (0.5 or unset = the "
-                 "paper; 1.0 = geometry only, measured best with --filter proven)");
+                 "The static test's descriptor half as a fraction of delta (default 1.0 = geometry "
+                 "only, measured best with --filter proven; 0.5 = the paper)");
   AddBeyondPaper(run, "--proven-frames", &args->proven_frames, 1, 1000,
                  "--filter proven: frames in a row a boxed feature must be static before it is "
-                 "used like the rest (server default 3; 2 measured best)");
+                 "used like the rest (default 2, measured best; the paper's preset 3)");
   run->add_option("--movable", args->movable,
                   "Movable classes, comma-separated (default: the server's person,car,bus,truck,"
                   "bicycle,motorbike)");

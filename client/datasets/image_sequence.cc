@@ -1,5 +1,7 @@
 #include "client/datasets/image_sequence.h"
 
+#include "client/datasets/euroc.h"
+
 #include "client/datasets/stamp_association.h"
 
 #include <algorithm>
@@ -352,7 +354,15 @@ absl::StatusOr<std::array<double, 5>> ParseDistortion(absl::string_view text) {
 }
 
 const char* SequenceLayoutName(SequenceLayout layout) {
-  return layout == SequenceLayout::kKitti ? "kitti" : "tum";
+  switch (layout) {
+    case SequenceLayout::kKitti:
+      return "kitti";
+    case SequenceLayout::kEuroc:
+      return "euroc";
+    case SequenceLayout::kTum:
+      break;
+  }
+  return "tum";
 }
 
 absl::StatusOr<ImageSequence> ReadImageSequence(const fs::path& dir) {
@@ -368,11 +378,14 @@ absl::StatusOr<ImageSequence> ReadImageSequence(const fs::path& dir) {
   } else if (fs::is_directory(dir / "image_0", ec)) {
     sequence.layout = SequenceLayout::kKitti;
     if (absl::Status s = ReadKitti(&sequence); !s.ok()) return s;
+  } else if (!EurocRoot(dir).empty()) {
+    sequence.layout = SequenceLayout::kEuroc;
+    if (absl::Status s = ReadEurocSequence(&sequence); !s.ok()) return s;
   } else {
     return absl::NotFoundError(absl::StrCat(
         "'", dir.string(),
         "' is not an image sequence: expected rgb.txt or associations.txt (TUM layout) or "
-        "image_0/ with calib.txt (KITTI layout)"));
+        "image_0/ with calib.txt (KITTI layout) or mav0/cam0/data.csv (EuRoC layout)"));
   }
   return sequence;
 }
@@ -383,6 +396,26 @@ absl::StatusOr<std::vector<StampedPose3>> ReadSequenceGroundTruth(const ImageSeq
         absl::StrCat("'", sequence.dir.string(), "' has no groundtruth.txt or poses.txt"));
   }
   PoseFileOptions options;
+  if (sequence.layout == SequenceLayout::kEuroc) {
+    // The body's poses; the camera's are body * T_BS (cam0/sensor.yaml).
+    absl::StatusOr<PoseFile> file = ReadPoseFile(*sequence.groundtruth, {PoseFormat::kEuroc, {}});
+    if (!file.ok()) return file.status();
+    Eigen::Matrix4d body_to_camera = Eigen::Matrix4d::Identity();
+    if (absl::StatusOr<std::string> yaml =
+            ReadFileBytes(EurocRoot(sequence.dir) / "cam0" / "sensor.yaml");
+        yaml.ok()) {
+      if (absl::StatusOr<EurocCamera> camera = ParseEurocSensorYaml(*yaml); camera.ok()) {
+        body_to_camera = camera->body_to_camera;
+      }
+    }
+    const Eigen::Matrix3d r = body_to_camera.topLeftCorner<3, 3>();
+    const Eigen::Vector3d t = body_to_camera.topRightCorner<3, 1>();
+    for (StampedPose3& pose : file->poses) {
+      pose.translation = pose.rotation * t + pose.translation;
+      pose.rotation = pose.rotation * r;
+    }
+    return std::move(file->poses);
+  }
   if (sequence.layout == SequenceLayout::kKitti) {
     options.format = PoseFormat::kKitti;
     // One pose per line: count them to give each the frames' stamp rule.

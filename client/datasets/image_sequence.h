@@ -11,6 +11,8 @@
 //   with or without the `P0:` prefix), times.txt (one stamp per image) if present, else the
 //   sensor's 10 Hz: image i at 0.1 * i s (kitti_stamps.h, the rule `eval ate` also gives poses.txt).
 //   poses.txt beside them is the ground truth.
+// - EuRoC MAV / ASL: mav0/cam0/data.csv + data/ + sensor.yaml (intrinsics and distortion), ground
+//   truth mav0/state_groundtruth_estimate0/data.csv (euroc.h).
 // Lists may carry '#' comments and blank lines; paths in them are relative to the sequence folder.
 // Stamps must increase (the SLAM service rejects frames out of time order), and every listed file
 // must exist: a sequence that would fail halfway through a run is refused before it starts.
@@ -46,7 +48,7 @@ std::string CameraPresetNames();
 // "k1,k2,p1,p2,k3" (4 values: k3 = 0); INVALID_ARGUMENT otherwise.
 absl::StatusOr<std::array<double, 5>> ParseDistortion(absl::string_view text);
 
-enum class SequenceLayout { kTum, kKitti };
+enum class SequenceLayout { kTum, kKitti, kEuroc };
 const char* SequenceLayoutName(SequenceLayout layout);
 
 struct SequenceFrame {

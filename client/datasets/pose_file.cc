@@ -9,6 +9,7 @@
 #include "absl/strings/str_split.h"
 #include "absl/strings/strip.h"
 #include "client/common/numeric_table.h"
+#include "client/datasets/euroc.h"
 #include "client/datasets/kitti_stamps.h"
 
 namespace waymark::cli {
@@ -88,8 +89,9 @@ absl::StatusOr<PoseFormat> ParsePoseFormat(absl::string_view name) {
   if (name == "auto") return PoseFormat::kAuto;
   if (name == "tum") return PoseFormat::kTum;
   if (name == "kitti") return PoseFormat::kKitti;
+  if (name == "euroc") return PoseFormat::kEuroc;
   return absl::InvalidArgumentError(
-      absl::StrCat("unknown pose format '", name, "' (auto, tum or kitti)"));
+      absl::StrCat("unknown pose format '", name, "' (auto, tum, kitti or euroc)"));
 }
 
 const char* PoseFormatName(PoseFormat format) {
@@ -100,6 +102,8 @@ const char* PoseFormatName(PoseFormat format) {
       return "tum";
     case PoseFormat::kKitti:
       return "kitti";
+    case PoseFormat::kEuroc:
+      return "euroc";
   }
   return "?";
 }
@@ -110,6 +114,7 @@ absl::StatusOr<PoseFormat> DetectPoseFormat(const std::string& text) {
     ++line_number;
     line = absl::StripAsciiWhitespace(line);
     if (line.empty() || line[0] == '#') continue;
+    if (LooksLikeEurocLine(std::string(line))) return PoseFormat::kEuroc;
     const std::vector<absl::string_view> fields =
         absl::StrSplit(line, absl::ByAnyChar(kSeparators), absl::SkipEmpty());
     if (fields.size() == 8) return PoseFormat::kTum;
@@ -130,8 +135,9 @@ absl::StatusOr<PoseFile> ParsePoseText(const std::string& text, const PoseFileOp
     file.format = *detected;
   }
   absl::StatusOr<std::vector<StampedPose3>> poses =
-      file.format == PoseFormat::kTum ? ParseTumPoses(text)
-                                      : ParseKittiPoses(text, options.kitti_stamps);
+      file.format == PoseFormat::kEuroc ? ParseEurocPoses(text)
+      : file.format == PoseFormat::kTum ? ParseTumPoses(text)
+                                        : ParseKittiPoses(text, options.kitti_stamps);
   if (!poses.ok()) return poses.status();
   file.poses = *std::move(poses);
   return file;

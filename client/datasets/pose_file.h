@@ -22,9 +22,11 @@
 
 namespace waymark::cli {
 
-enum class PoseFormat { kAuto, kTum, kKitti };
+// kEuroc: EuRoC / ASL csv, `timestamp [ns], px, py, pz, qw, qx, qy, qz[, ...]` (euroc.h),
+// detected by commas and 17 fields or a nanosecond stamp.
+enum class PoseFormat { kAuto, kTum, kKitti, kEuroc };
 
-// "auto", "tum", "kitti"; INVALID_ARGUMENT otherwise.
+// "auto", "tum", "kitti", "euroc"; INVALID_ARGUMENT otherwise.
 absl::StatusOr<PoseFormat> ParsePoseFormat(absl::string_view name);
 const char* PoseFormatName(PoseFormat format);
 

@@ -172,6 +172,7 @@ absl::StatusOr<TrajectoryEvaluation> EvaluateTrajectory(
     const Eigen::Vector3d p = alignment->Apply(source[k]);
     result.aligned_positions.push_back(p);
     result.groundtruth_positions.push_back(target[k]);
+    result.groundtruth_rotations.push_back(groundtruth[result.matches[k].groundtruth].rotation);
     ate.push_back((p - target[k]).norm());
     StampedPose3 a = estimate[result.matches[k].estimate];
     a.rotation = alignment->rotation * a.rotation;

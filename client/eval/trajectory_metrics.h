@@ -81,6 +81,7 @@ struct TrajectoryEvaluation {
   // Positions of the matched poses, ground truth and aligned estimate (for plots).
   std::vector<Eigen::Vector3d> groundtruth_positions;
   std::vector<Eigen::Vector3d> aligned_positions;
+  std::vector<Eigen::Matrix3d> groundtruth_rotations;  // of the matched poses
 };
 
 // ATE and RPE of `estimate` against `groundtruth`. FAILED_PRECONDITION when fewer than 3 poses

@@ -9,6 +9,7 @@
 #include <string>
 
 #include "absl/strings/str_cat.h"
+#include "client/eval/result_warnings.h"
 
 namespace waymark::cli {
 
@@ -57,7 +58,8 @@ nlohmann::json FrameSummary(const std::vector<VoFrameRecord>& records) {
   uint64_t total = 0, potentially_dynamic = 0, matched = 0, dynamic = 0, tracked = 0, mapped = 0;
   std::vector<std::vector<double>> stage_ms(kVoStages.size());
   std::vector<double> bundle_ms;  // per adjustment applied
-  uint64_t relocalized = 0;
+  uint64_t relocalized = 0, tracked_frames = 0, weak_frames = 0;
+  std::vector<double> inliers, parallax;  // over tracked frames
   for (const VoFrameRecord& r : records) {
     if (!r.answered) {
       ++unanswered;
@@ -79,6 +81,12 @@ nlohmann::json FrameSummary(const std::vector<VoFrameRecord>& records) {
     for (size_t s = 0; s < kVoStages.size(); ++s) stage_ms[s].push_back(r.stage_ms[s]);
     if (r.bundle_ms > 0) bundle_ms.push_back(r.bundle_ms);
     if (r.relocalized) ++relocalized;
+    if (r.state == "tracking") {
+      ++tracked_frames;
+      inliers.push_back(r.inliers);
+      parallax.push_back(r.parallax_deg);
+    }
+    if (r.quality == "weak") ++weak_frames;
   }
   nlohmann::json json = {
       {"frames", records.size()},    {"processed", processed},
@@ -89,6 +97,8 @@ nlohmann::json FrameSummary(const std::vector<VoFrameRecord>& records) {
       {"features_tracked", tracked}, {"features_mapped", mapped},
       {"relocalized_frames", relocalized}, {"bundle_adjustments", bundle_ms.size()},
       {"bundle_ms_median", Quantile(bundle_ms, 0.5)}, {"bundle_ms_p90", Quantile(bundle_ms, 0.9)},
+      {"tracked_frames", tracked_frames}, {"weak_frames", weak_frames},
+      {"inliers_median", Quantile(inliers, 0.5)}, {"parallax_deg_median", Quantile(parallax, 0.5)},
   };
   for (size_t s = 0; s < kVoStages.size(); ++s) {
     json[fmt::format("{}_ms_median", kVoStages[s])] = Quantile(stage_ms[s], 0.5);
@@ -99,7 +109,7 @@ nlohmann::json FrameSummary(const std::vector<VoFrameRecord>& records) {
 
 nlohmann::json EvaluationSummary(const TrajectoryEvaluation& e, bool with_scale) {
   const std::optional<std::string> warning = FewMatchesWarning(e);
-  return {
+  nlohmann::json json = {
       {"match_warning", warning ? nlohmann::json(*warning) : nlohmann::json(nullptr)},
       {"alignment", with_scale ? "Sim(3)" : "SE(3)"},
       {"scale", e.alignment.scale},
@@ -117,7 +127,10 @@ nlohmann::json EvaluationSummary(const TrajectoryEvaluation& e, bool with_scale)
       {"rpe_rot_rmse_deg", e.rpe_rotation_deg.rmse},
       {"rpe_rot_mean_deg", e.rpe_rotation_deg.mean},
       {"rpe_rot_std_deg", e.rpe_rotation_deg.std},
+      {"groundtruth_path_m", PathLength(e.groundtruth_positions)},
   };
+  json.update(WarningsJson(EvaluationWarnings(e, with_scale)));
+  return json;
 }
 
 }  // namespace waymark::cli

@@ -35,7 +35,8 @@ std::vector<StampedPose3> ProcessedPoses(const std::vector<VoFrameRecord>& recor
 nlohmann::json FrameSummary(const std::vector<VoFrameRecord>& records);
 
 // The ATE/RPE fields, named as `waymark eval ate --json` names them (ate_rmse, ..., poses_matched,
-// scale), and match_warning: FewMatchesWarning's text, or null when enough poses matched.
+// scale), and match_warning: FewMatchesWarning's text, or null when enough poses matched;
+// groundtruth_path_m, and `warnings` / `result_meaningful` (result_warnings.h EvaluationWarnings).
 nlohmann::json EvaluationSummary(const TrajectoryEvaluation& evaluation, bool with_scale);
 
 }  // namespace waymark::cli

@@ -62,6 +62,16 @@ StampedPose3 PoseFromProto(double stamp, const v1::Pose3D& pose) {
   return out;
 }
 
+static const char* QualityName(v1::VisualTrackingQuality::Level level) {
+  switch (level) {
+    case v1::VisualTrackingQuality::INITIALIZING: return "initializing";
+    case v1::VisualTrackingQuality::GOOD: return "good";
+    case v1::VisualTrackingQuality::WEAK: return "weak";
+    case v1::VisualTrackingQuality::LOST: return "lost";
+    default: return "";
+  }
+}
+
 VoFrameRecord RecordFromUpdate(const v1::SlamUpdate& update, size_t index, double stamp) {
   VoFrameRecord record;
   record.index = index;
@@ -90,6 +100,13 @@ VoFrameRecord RecordFromUpdate(const v1::SlamUpdate& update, size_t index, doubl
                      t.bundle_wait_ms()};
   record.bundle_ms = t.bundle_ms();
   record.relocalized = info.relocalized();
+  if (info.has_quality()) {
+    record.quality = QualityName(info.quality().level());
+    record.inliers = info.quality().inliers();
+    record.parallax_deg = info.quality().parallax_deg();
+    record.quality_reason = info.quality().reason();
+  }
+  record.warnings.assign(info.warnings().begin(), info.warnings().end());
   for (const v1::BoundingBox& b : info.boxes()) {
     record.boxes.push_back({b.x(), b.y(), b.width(), b.height(), b.label(), b.confidence()});
   }

@@ -62,6 +62,12 @@ struct VoFrameRecord {
   uint32_t tracked = 0;
   uint32_t mapped = 0;
   bool relocalized = false;
+  // VisualTrackingQuality: "initializing", "good", "weak", "lost" ("" from an older server).
+  std::string quality;
+  uint32_t inliers = 0;
+  double parallax_deg = 0;
+  std::string quality_reason;
+  std::vector<std::string> warnings;  // the session's (VisualFrameInfo.warnings)
   double bundle_ms = 0;  // the bundle adjustment applied before this frame (background), 0 = none
   std::array<double, kVoStages.size()> stage_ms{};
   std::vector<VoBox> boxes;

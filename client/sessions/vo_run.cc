@@ -29,6 +29,7 @@
 #include "client/sessions/resumable_frames.h"
 #include "client/sessions/vo_pictures.h"
 #include "client/sessions/vo_session.h"
+#include "client/eval/result_warnings.h"
 #include "client/eval/vo_summary.h"
 
 namespace waymark::cli {
@@ -227,7 +228,11 @@ int RunVo(CommandContext& context, const VoArgs& args) {
       {"layout", SequenceLayoutName(sequence->layout)},
       {"session_id", session_id},
       {"detector", args.detector},
-      {"filter", args.filter},
+      {"preset", args.paper ? "paper" : "measured-best"},
+      // What the server runs: the preset's filter unless --filter named one.
+      {"filter", session->has_visual()
+                     ? FilterName(session->visual().filter())
+                     : (args.filter.empty() ? std::string("(preset)") : args.filter)},
       {"depth", args.depth},
       {"frames_in_sequence", sequence->frames.size()},
       {"frames_skipped_no_depth", skipped_no_depth},
@@ -251,6 +256,7 @@ int RunVo(CommandContext& context, const VoArgs& args) {
 
   // Accuracy against the sequence's ground truth, with the existing `eval ate` code.
   std::optional<TrajectoryEvaluation> evaluation;
+  std::vector<ResultWarning> result_warnings;
   const bool with_scale = !args.depth;  // monocular trajectories are scale-free
   if (sequence->groundtruth) {
     absl::StatusOr<std::vector<StampedPose3>> truth = ReadSequenceGroundTruth(*sequence);
@@ -261,15 +267,22 @@ int RunVo(CommandContext& context, const VoArgs& args) {
                    : absl::StatusOr<TrajectoryEvaluation>(truth.status());
     if (evaluated.ok()) {
       evaluation = *std::move(evaluated);
-      if (const std::optional<std::string> warning = FewMatchesWarning(*evaluation)) {
-        context.err << "warning: " << *warning << "\n";
-      }
       summary["groundtruth"] = sequence->groundtruth->string();
       summary.update(EvaluationSummary(*evaluation, with_scale));
+      result_warnings = EvaluationWarnings(*evaluation, with_scale);
     } else {
       context.err << "warning: no ATE/RPE: " << evaluated.status().message() << "\n";
       summary["evaluation_error"] = std::string(evaluated.status().message());
     }
+  }
+
+  // When the numbers mean nothing (result_warnings.h): the session's own warnings (intrinsics that
+  // do not fit the images), few tracked frames, no parallax, then the evaluation's.
+  {
+    std::vector<ResultWarning> all = TrackingWarnings(records, /*monocular=*/!args.depth);
+    all.insert(all.end(), result_warnings.begin(), result_warnings.end());
+    for (const ResultWarning& warning : all) context.err << "warning: " << warning.message << "\n";
+    summary.update(WarningsJson(all));
   }
 
   const std::string title =

@@ -121,11 +121,24 @@ absl::StatusOr<v1::VisualSlamConfig::DynamicFilter> FilterFromName(const std::st
       absl::StrCat("--filter '", name, "': expected full, boxes, none or proven"));
 }
 
+std::string FilterName(v1::VisualSlamConfig::DynamicFilter filter) {
+  switch (filter) {
+    case v1::VisualSlamConfig::FILTER_BOXES_ONLY: return "boxes";
+    case v1::VisualSlamConfig::FILTER_NONE: return "none";
+    case v1::VisualSlamConfig::FILTER_PROVEN: return "proven";
+    default: return "full";
+  }
+}
+
 absl::StatusOr<v1::CreateSessionRequest> VoSessionRequest(const VoArgs& args,
                                                           const CameraIntrinsics& camera, int width,
                                                           int height) {
-  absl::StatusOr<v1::VisualSlamConfig::DynamicFilter> filter = FilterFromName(args.filter);
-  if (!filter.ok()) return filter.status();
+  std::optional<v1::VisualSlamConfig::DynamicFilter> filter;
+  if (!args.filter.empty()) {
+    absl::StatusOr<v1::VisualSlamConfig::DynamicFilter> named = FilterFromName(args.filter);
+    if (!named.ok()) return named.status();
+    filter = *named;
+  }
   absl::StatusOr<v1::DetectorConfig> detector = DetectorFromSpec(args.detector, args.movable);
   if (!detector.ok()) return detector.status();
 
@@ -150,7 +163,10 @@ absl::StatusOr<v1::CreateSessionRequest> VoSessionRequest(const VoArgs& args,
   c->set_height(static_cast<uint32_t>(height));
   if (args.depth && camera.depth_scale > 0) config->set_depth_scale(camera.depth_scale);
   *config->mutable_detector() = *std::move(detector);
-  config->set_filter(*filter);
+  // The preset fills what the flags leave unset, per input kind, on the server.
+  config->set_preset(args.paper ? v1::VisualSlamConfig::PRESET_PAPER
+                                : v1::VisualSlamConfig::PRESET_MEASURED_BEST);
+  if (filter) config->set_filter(*filter);
   v1::VisualSlamParams* params = config->mutable_params();
   if (args.prior_direction_deg) params->set_prior_direction_deg(*args.prior_direction_deg);
   if (args.bundle_window) params->set_bundle_window(static_cast<uint32_t>(*args.bundle_window));

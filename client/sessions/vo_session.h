@@ -19,8 +19,11 @@ namespace waymark::cli {
 struct VoArgs {
   std::string sequence;
   std::string detector = "none";  // none | hog | yolo:CFG,WEIGHTS | yolo:MODEL.onnx
-  std::string filter = "full";    // full | boxes | none | proven
-  // Beyond the paper (unset = the server's default: off).
+  // Empty = the preset's (measured best: proven; --paper: full); else full | boxes | none | proven.
+  std::string filter;
+  // The paper's pipeline exactly (PRESET_PAPER) instead of the measured best (PRESET_MEASURED_BEST).
+  bool paper = false;
+  // Beyond the paper (unset = the preset's: docs/visual-odometry.md, "Defaults").
   std::optional<double> prior_direction_deg;  // monocular motion prior, degrees
   std::optional<int> bundle_window;           // local bundle adjustment, keyframes
   std::optional<int> relocalize;              // old keyframes kept to relocalise
@@ -52,8 +55,10 @@ absl::StatusOr<CameraIntrinsics> ResolveIntrinsics(const VoArgs& args,
 absl::StatusOr<v1::DetectorConfig> DetectorFromSpec(const std::string& spec,
                                                     const std::string& movable);
 
-// full | boxes | none; INVALID_ARGUMENT otherwise.
+// full | boxes | none | proven; INVALID_ARGUMENT otherwise.
 absl::StatusOr<v1::VisualSlamConfig::DynamicFilter> FilterFromName(const std::string& name);
+// The reverse: "full", "boxes", "none", "proven".
+std::string FilterName(v1::VisualSlamConfig::DynamicFilter filter);
 
 // The whole CreateSessionRequest; width and height are the frames' size.
 absl::StatusOr<v1::CreateSessionRequest> VoSessionRequest(const VoArgs& args,

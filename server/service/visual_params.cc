@@ -116,11 +116,47 @@ void AddModelFile(const char* role, const std::string& bytes, v1::DetectorConfig
   file->set_sha256(Sha256Hex(bytes));
 }
 
+vs::Preset PresetOf(const v1::VisualSlamConfig& config) {
+  return config.preset() == v1::VisualSlamConfig::PRESET_PAPER ? vs::Preset::kPaper
+                                                                : vs::Preset::kMeasuredBest;
+}
+
+vs::DynamicFilter FromProtoFilter(v1::VisualSlamConfig::DynamicFilter filter) {
+  switch (filter) {
+    case v1::VisualSlamConfig::FILTER_BOXES_ONLY:
+      return vs::DynamicFilter::kBoxesOnly;
+    case v1::VisualSlamConfig::FILTER_NONE:
+      return vs::DynamicFilter::kNone;
+    case v1::VisualSlamConfig::FILTER_PROVEN:
+      return vs::DynamicFilter::kProven;
+    default:
+      return vs::DynamicFilter::kFull;
+  }
+}
+
+v1::VisualSlamConfig::DynamicFilter ToProtoFilter(vs::DynamicFilter filter) {
+  switch (filter) {
+    case vs::DynamicFilter::kBoxesOnly:
+      return v1::VisualSlamConfig::FILTER_BOXES_ONLY;
+    case vs::DynamicFilter::kNone:
+      return v1::VisualSlamConfig::FILTER_NONE;
+    case vs::DynamicFilter::kProven:
+      return v1::VisualSlamConfig::FILTER_PROVEN;
+    case vs::DynamicFilter::kFull:
+      break;
+  }
+  return v1::VisualSlamConfig::FILTER_FULL;
+}
+
 }  // namespace
 
 absl::StatusOr<v1::VisualSlamConfig> EffectiveVisualConfig(const v1::VisualSlamConfig& config) {
   if (absl::Status s = CheckCamera(config.camera()); !s.ok()) return s;
   if (absl::Status s = CheckDetector(config.detector()); !s.ok()) return s;
+  if (!v1::VisualSlamConfig::Preset_IsValid(config.preset())) {
+    return absl::InvalidArgumentError(absl::StrCat(
+        "preset ", config.preset(), " is unknown (PRESET_MEASURED_BEST, PRESET_PAPER)"));
+  }
   if (!v1::VisualSlamConfig::DynamicFilter_IsValid(config.filter())) {
     return absl::InvalidArgumentError(absl::StrCat(
         "filter ", config.filter(),
@@ -142,7 +178,8 @@ absl::StatusOr<v1::VisualSlamConfig> EffectiveVisualConfig(const v1::VisualSlamC
     AddModelFile("weights", detector->model_weights(), detector);
     AddModelFile("onnx", detector->model_onnx(), detector);
   }
-  const vs::VisualOdometryOptions d;
+  const vs::VisualOdometryOptions d = vs::OptionsForPreset(PresetOf(out));
+  if (!out.has_filter()) out.set_filter(ToProtoFilter(d.filter));
   v1::VisualSlamParams* p = out.mutable_params();
   if (!p->has_delta()) p->set_delta(d.delta);
   if (!p->has_match_ratio()) p->set_match_ratio(d.match_ratio);
@@ -172,7 +209,9 @@ absl::StatusOr<v1::VisualSlamConfig> EffectiveVisualConfig(const v1::VisualSlamC
   if (!p->has_prior_direction_deg()) p->set_prior_direction_deg(d.prior_direction_deg);
   if (!p->has_prior_rotation_deg()) p->set_prior_rotation_deg(d.prior_rotation_deg);
   if (!p->has_prior_inlier_fraction()) p->set_prior_inlier_fraction(d.prior_inlier_fraction);
-  if (!p->has_bundle_window()) p->set_bundle_window(d.bundle_window);
+  // The measured best's window depends on the input kind (monocular 10, RGB-D none), which the
+  // first frame tells: unset says "by input kind".
+  if (!p->has_bundle_window() && !d.bundle_monocular_only) p->set_bundle_window(d.bundle_window);
   if (!p->has_bundle_wait()) p->set_bundle_wait(d.bundle_wait);
   if (!p->has_relocalization_keyframes()) {
     p->set_relocalization_keyframes(static_cast<uint32_t>(d.relocalization_keyframes));
@@ -200,18 +239,13 @@ absl::StatusOr<VisualSessionOptions> ToVisualSessionOptions(const v1::VisualSlam
   camera.height = static_cast<int>(config.camera().height());
 
   vs::VisualOdometryOptions& o = options.odometry;
-  switch (config.filter()) {
-    case v1::VisualSlamConfig::FILTER_BOXES_ONLY:
-      o.filter = vs::DynamicFilter::kBoxesOnly;
-      break;
-    case v1::VisualSlamConfig::FILTER_NONE:
-      o.filter = vs::DynamicFilter::kNone;
-      break;
-    case v1::VisualSlamConfig::FILTER_PROVEN:
-      o.filter = vs::DynamicFilter::kProven;
-      break;
-    default:
-      o.filter = vs::DynamicFilter::kFull;
+  o = vs::OptionsForPreset(PresetOf(config));
+  if (config.has_filter()) {
+    o.filter = FromProtoFilter(config.filter());
+  } else if (config.params().has_delta()) {
+    // An effective config stored before presets existed (every param filled in, the filter a
+    // plain proto3 field that FILTER_FULL left off the wire): the paper's filter, as it ran then.
+    o.filter = vs::DynamicFilter::kFull;
   }
   if (config.has_depth_scale()) o.depth_scale = config.depth_scale();
   const v1::VisualSlamParams& p = config.params();
@@ -243,7 +277,10 @@ absl::StatusOr<VisualSessionOptions> ToVisualSessionOptions(const v1::VisualSlam
   if (p.has_prior_direction_deg()) o.prior_direction_deg = p.prior_direction_deg();
   if (p.has_prior_rotation_deg()) o.prior_rotation_deg = p.prior_rotation_deg();
   if (p.has_prior_inlier_fraction()) o.prior_inlier_fraction = p.prior_inlier_fraction();
-  if (p.has_bundle_window()) o.bundle_window = ClampToInt(p.bundle_window());
+  if (p.has_bundle_window()) {
+    o.bundle_window = ClampToInt(p.bundle_window());
+    o.bundle_monocular_only = false;  // asked for: on every input kind
+  }
   if (p.has_bundle_wait()) o.bundle_wait = p.bundle_wait();
   if (p.has_relocalization_keyframes()) {
     o.relocalization_keyframes = ClampToInt(p.relocalization_keyframes());
@@ -372,6 +409,20 @@ v1::VisualFrameInfo::FeatureLabel ToProtoLabel(vs::FeatureLabel label) {
   return v1::VisualFrameInfo::UNMATCHED;
 }
 
+v1::VisualTrackingQuality::Level ToProtoQuality(vs::TrackingQuality::Level level) {
+  switch (level) {
+    case vs::TrackingQuality::Level::kInitializing:
+      return v1::VisualTrackingQuality::INITIALIZING;
+    case vs::TrackingQuality::Level::kGood:
+      return v1::VisualTrackingQuality::GOOD;
+    case vs::TrackingQuality::Level::kWeak:
+      return v1::VisualTrackingQuality::WEAK;
+    case vs::TrackingQuality::Level::kLost:
+      return v1::VisualTrackingQuality::LOST;
+  }
+  return v1::VisualTrackingQuality::LEVEL_UNSPECIFIED;
+}
+
 uint32_t Count(int n) { return static_cast<uint32_t>(std::max(0, n)); }
 
 }  // namespace
@@ -392,6 +443,12 @@ void FillVisualUpdate(const vs::FrameResult& result, bool want_features, double 
   counts->set_mapped(Count(result.counts.mapped));
   counts->set_proven(Count(result.counts.proven));
   info->set_relocalized(result.relocalized);
+  v1::VisualTrackingQuality* quality = info->mutable_quality();
+  quality->set_level(ToProtoQuality(result.quality.level));
+  quality->set_inliers(Count(result.quality.inliers));
+  quality->set_parallax_deg(result.quality.parallax_deg);
+  quality->set_reason(result.quality.reason);
+  for (const std::string& warning : result.warnings) info->add_warnings(warning);
   v1::VisualTimings* timings = info->mutable_timings();
   timings->set_decode_ms(decode_ms);
   timings->set_orb_ms(result.timings.orb_ms);

@@ -185,6 +185,7 @@ TrackingOutcome TrackWithDepth(const TrackingInputs& in, const VisualOdometryOpt
   absl::StatusOr<Motion> refined =
       RefinePnp(out.correspondences, chosen->inliers, chosen->motion, in.focal_px);
   out.motion = refined.ok() ? *refined : chosen->motion;
+  out.inliers = static_cast<int>(chosen->inliers.size());
   ClassifyPairs(in, options, out);
   // The final pose uses every static pair with a 3-D point (in boxes too, for the full method).
   std::vector<int> with_points;
@@ -227,6 +228,7 @@ TrackingOutcome TrackMonocular(const TrackingInputs& in, const VisualOdometryOpt
   // KITTI 06 the plain refit sometimes slid from the right motion to a sideways one with a few
   // degrees of rotation, which far points with no parallax support almost as well.
   out.motion = chosen->motion;
+  out.inliers = static_cast<int>(chosen->inliers.size());
   ClassifyPairs(in, options, out);
   if (static_cast<int>(out.tracking_set.size()) < options.min_tracked) {
     out.failure = absl::StrCat("only ", out.tracking_set.size(), " static pairs (need ",

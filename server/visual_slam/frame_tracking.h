@@ -30,6 +30,7 @@ struct TrackingOutcome {
   std::vector<bool> is_static;    // per match: passed eq 17 (only meaningful when tested)
   std::vector<int> tracking_set;  // matches the final pose was computed from
   int hypotheses = 0;
+  int inliers = 0;  // of the chosen motion hypothesis (after the motion prior)
   double matching_ms = 0, sampling_ms = 0, pose_ms = 0;
 };
 

@@ -70,4 +70,24 @@ absl::Status VisualOdometryOptions::Validate() const {
   return absl::OkStatus();
 }
 
+VisualOdometryOptions VisualOdometryOptions::MeasuredBest() {
+  VisualOdometryOptions o;
+  o.filter = DynamicFilter::kProven;
+  o.static_hamming_fraction = 1.0;
+  o.proven_static_frames = 2;
+  o.prior_direction_deg = 30;  // monocular only (the engine applies it to monocular sessions)
+  o.bundle_window = 10;
+  o.bundle_monocular_only = true;
+  return o;
+}
+
+VisualOdometryOptions OptionsForPreset(Preset preset) {
+  return preset == Preset::kPaper ? VisualOdometryOptions::Paper()
+                                  : VisualOdometryOptions::MeasuredBest();
+}
+
+const char* PresetName(Preset preset) {
+  return preset == Preset::kPaper ? "paper" : "measured-best";
+}
+
 }  // namespace waymark::visual_slam

@@ -110,9 +110,29 @@ struct VisualOdometryOptions {
   // Apply each adjustment before the next frame, waiting for it if needed: deterministic answers
   // (tests, benchmarks) at the cost of the next frame's latency. Off: applied once finished.
   bool bundle_wait = false;
+  // The bundle adjustment runs on monocular sessions only: an RGB-D session (its first frame has
+  // depth) takes bundle_window 0. The measured best sets it (no gain on Bonn RGB-D, see
+  // docs/visual-odometry.md).
+  bool bundle_monocular_only = false;
 
   absl::Status Validate() const;
+
+  // The two presets (issue 35). A default-constructed VisualOdometryOptions is the paper's
+  // pipeline (every constant above), and Paper() returns exactly that. MeasuredBest() is the
+  // service's and `vo run`'s default: the best configuration measured per input kind
+  // (docs/visual-odometry.md, "Defaults"): the proven-static filter with eq 17's descriptor half
+  // off, boxed features proven after 2 frames; monocular also the motion prior (30 degrees) and a
+  // 10-frame local bundle adjustment (RGB-D: none, bundle_monocular_only).
+  static VisualOdometryOptions Paper() { return VisualOdometryOptions(); }
+  static VisualOdometryOptions MeasuredBest();
 };
+
+enum class Preset {
+  kMeasuredBest,  // the default (VisualOdometryOptions::MeasuredBest)
+  kPaper,         // the paper's pipeline exactly (VisualOdometryOptions::Paper)
+};
+VisualOdometryOptions OptionsForPreset(Preset preset);
+const char* PresetName(Preset preset);
 
 }  // namespace waymark::visual_slam
 

@@ -22,4 +22,14 @@ const char* TrackingStateName(TrackingState state) {
   return "unknown";
 }
 
+const char* QualityLevelName(TrackingQuality::Level level) {
+  switch (level) {
+    case TrackingQuality::Level::kInitializing: return "initializing";
+    case TrackingQuality::Level::kGood: return "good";
+    case TrackingQuality::Level::kWeak: return "weak";
+    case TrackingQuality::Level::kLost: return "lost";
+  }
+  return "unknown";
+}
+
 }  // namespace waymark::visual_slam

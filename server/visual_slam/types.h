@@ -99,6 +99,28 @@ enum class TrackingState {
   kLost,          // too few static matches: the pose is predicted (constant velocity)
 };
 
+// How far a frame's pose can be trusted (issue 35): what clients show beside the pose.
+struct TrackingQuality {
+  enum class Level {
+    kInitializing,  // no motion yet
+    kGood,
+    kWeak,  // tracked, but on few inliers or (monocular) with almost no parallax
+    kLost,  // the pose is a prediction
+  };
+  Level level = Level::kInitializing;
+  int inliers = 0;          // of the motion hypothesis the pose comes from
+  double parallax_deg = 0;  // median angle between the tracked pairs' rays after the rotation
+  std::string reason;       // why kWeak or kLost; empty otherwise
+};
+
+// Below these a tracked frame is kWeak: inliers under kWeakInlierFactor * min_tracked, or
+// (monocular) a median parallax under kLowParallaxDeg, where the essential matrix cannot tell a
+// translation from a rotation (docs/visual-odometry.md, "Tracking quality").
+inline constexpr double kWeakInlierFactor = 2.0;
+inline constexpr double kLowParallaxDeg = 0.05;
+
+const char* QualityLevelName(TrackingQuality::Level level);
+
 struct FrameResult {
   double stamp = 0;
   Pose pose;
@@ -112,6 +134,10 @@ struct FrameResult {
   // Per keypoint: pixel position and label (same order), for pictures and tests.
   std::vector<cv::Point2f> keypoints;
   std::vector<FeatureLabel> labels;
+  TrackingQuality quality;
+  // Warnings about the session itself, on its first frame only: intrinsics that do not fit the
+  // images (CameraWarnings in camera_check.h).
+  std::vector<std::string> warnings;
 };
 
 const char* FeatureLabelName(FeatureLabel label);

@@ -10,6 +10,7 @@
 #include "absl/strings/str_cat.h"
 #include "server/common/binary_io.h"
 #include "server/common/stopwatch.h"
+#include "server/visual_slam/camera_check.h"
 #include "server/visual_slam/frame_features.h"
 #include "server/visual_slam/frame_tracking.h"
 #include "server/visual_slam/frame_validation.h"
@@ -125,7 +126,46 @@ std::vector<T> Subset(const std::vector<T>& values, const std::vector<bool>& kee
   return out;
 }
 
+
+// The median angle (degrees) between the rays of the tracked pairs once the motion's rotation is
+// taken out: the parallax the translation has to be seen from (monocular: almost none = a pure
+// rotation, or no motion, and the essential matrix's translation is noise).
+double MedianParallaxDeg(const TrackingOutcome& outcome) {
+  std::vector<double> angles;
+  angles.reserve(outcome.tracking_set.size());
+  for (int k : outcome.tracking_set) {
+    const Correspondence& c = outcome.correspondences[k];
+    const Eigen::Vector3d a = outcome.motion.R * c.reference.homogeneous().normalized();
+    const Eigen::Vector3d b = c.current.homogeneous().normalized();
+    angles.push_back(std::atan2(a.cross(b).norm(), a.dot(b)) * 180 / M_PI);
+  }
+  return angles.empty() ? 0 : Percentile50(angles);
+}
+
 }  // namespace
+
+TrackingQuality VisualOdometry::Quality(const FrameResult& result, const TrackingOutcome& outcome,
+                                        bool tracked, bool rgbd) const {
+  TrackingQuality q;
+  q.inliers = outcome.inliers;
+  if (result.state == TrackingState::kInitializing) return q;
+  if (result.state == TrackingState::kLost || !tracked) {
+    q.level = TrackingQuality::Level::kLost;
+    q.reason = outcome.failure.empty() ? "lost: the pose is predicted" : outcome.failure;
+    return q;
+  }
+  q.parallax_deg = MedianParallaxDeg(outcome);
+  q.level = TrackingQuality::Level::kGood;
+  if (q.inliers < kWeakInlierFactor * options_.min_tracked) {
+    q.level = TrackingQuality::Level::kWeak;
+    q.reason = absl::StrCat("few inliers (", q.inliers, ")");
+  } else if (!rgbd && q.parallax_deg < kLowParallaxDeg) {
+    q.level = TrackingQuality::Level::kWeak;
+    q.reason = absl::StrCat("no parallax (median ", absl::SixDigits(q.parallax_deg),
+                            " degrees): a rotation or no motion, the translation is a guess");
+  }
+  return q;
+}
 
 VisualOdometry::VisualOdometry(const VisualOdometryOptions& options, const CameraModel& camera,
                                std::unique_ptr<ObjectDetector> detector)
@@ -216,7 +256,12 @@ absl::StatusOr<FrameResult> VisualOdometry::ProcessFrame(const FrameInput& frame
     }
   }
 
-  if (!s.with_depth) s.with_depth = !frame.depth.empty();
+  if (!s.with_depth) {
+    s.with_depth = !frame.depth.empty();
+    // The input kind is known now: the preset's per-kind choices take effect.
+    if (*s.with_depth && options_.bundle_monocular_only) options_.bundle_window = 0;
+    if (trajectory_.empty()) result.warnings = CameraWarnings(camera_);
+  }
   const bool rgbd = *s.with_depth;
   const double focal = 0.5 * (camera_.fx + camera_.fy);
 
@@ -364,6 +409,7 @@ absl::StatusOr<FrameResult> VisualOdometry::ProcessFrame(const FrameInput& frame
     reference = nullptr;
     make_keyframe = true;
   }
+  result.quality = Quality(result, outcome, reference != nullptr, rgbd);
   if (make_keyframe) {
     // eq 18: the map takes static features outside boxes (with depth, RGB-D). kProven also keeps
     // the boxed ones not found dynamic: as candidates, or as mapped once proven static.
@@ -722,6 +768,7 @@ absl::Status VisualOdometry::RestoreState(const std::string& bytes) {
   if (!in.done()) return lost();
   // A map saved by a session without the adjustment, or the reverse: tracks only mean something
   // with their window.
+  if (has_depth && with_depth && options_.bundle_monocular_only) options_.bundle_window = 0;
   if (options_.bundle_window <= 0) local_map.reset();
   if (!local_map) {
     for (std::deque<Reference>& list : lists) {

@@ -71,6 +71,8 @@ class VisualOdometry {
   // trajectory and the motion model.
   void StartBundle();
   LocalMap NewLocalMap(bool monocular) const;
+  TrackingQuality Quality(const FrameResult& result, const TrackingOutcome& outcome, bool tracked,
+                          bool rgbd) const;
   void ApplyBundle(bool wait, StageTimings* timings);
   // Relocalisation: tracks `features` against the archived keyframes (monocular: archived
   // frames) they match best; returns the one it tracked against (with its outcome in *outcome),

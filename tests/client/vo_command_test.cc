@@ -181,10 +181,23 @@ TEST(VoSessionTest, RequestCarriesCameraDetectorAndFilter) {
   EXPECT_EQ(request->visual().detector().kind(), v1::DetectorConfig::HOG);
   EXPECT_EQ(request->visual().camera().distortion_size(), 0);  // undistorted: none sent
   EXPECT_FALSE(request->visual().has_depth_scale());           // monocular run
-  EXPECT_FALSE(request->visual().params().has_bundle_window());  // the server's default: off
+  // Unset: the preset's, filled in by the server per input kind.
+  EXPECT_EQ(request->visual().preset(), v1::VisualSlamConfig::PRESET_MEASURED_BEST);
+  EXPECT_FALSE(request->visual().params().has_bundle_window());
   EXPECT_FALSE(request->visual().params().has_prior_direction_deg());
   EXPECT_FALSE(request->visual().params().has_static_hamming_fraction());
   EXPECT_FALSE(request->visual().params().has_proven_static_frames());
+
+  args.filter.clear();
+  request = VoSessionRequest(args, *CameraPreset("tum3"), 640, 480);
+  ASSERT_TRUE(request.ok());
+  EXPECT_FALSE(request->visual().has_filter());  // the preset's (measured best: proven)
+  args.paper = true;                              // --paper
+  request = VoSessionRequest(args, *CameraPreset("tum3"), 640, 480);
+  ASSERT_TRUE(request.ok());
+  EXPECT_EQ(request->visual().preset(), v1::VisualSlamConfig::PRESET_PAPER);
+  EXPECT_FALSE(request->visual().has_filter());
+  args.paper = false;
 
   args.filter = "proven";
   args.static_hamming = 1.0;

@@ -18,6 +18,7 @@
 
 #include "gtest/gtest.h"
 #include "server/service/slam_registry.h"
+#include "server/service/visual_params.h"
 #include "storage/slam_store.h"
 #include "tests/service/slam_answers.h"
 #include "tests/service/slam_test_world.h"
@@ -47,6 +48,9 @@ v1::CreateSessionRequest VisualRequest(const std::string& robot) {
   camera->set_cy(kHeight / 2.0);
   camera->set_width(kWidth);
   camera->set_height(kHeight);
+  // The session mechanics below were written against the paper's pipeline (the bundle adjustment
+  // of the measured best runs in the background: answers would depend on timing).
+  request.mutable_visual()->set_preset(v1::VisualSlamConfig::PRESET_PAPER);
   return request;
 }
 
@@ -113,6 +117,7 @@ class VisualSessionTest : public ::testing::Test {
 TEST_F(VisualSessionTest, CreateEchoesTheConfigWithDefaultsAndKind) {
   auto registry = MakeRegistry();
   v1::CreateSessionRequest request = VisualRequest("cam");
+  request.mutable_visual()->clear_preset();  // the default
   request.mutable_visual()->mutable_detector()->set_kind(v1::DetectorConfig::HOG);
   request.mutable_visual()->mutable_params()->set_orb_features(500);
   ASSERT_OK_AND_ASSIGN(v1::Session session, registry->CreateSession(request));
@@ -124,10 +129,35 @@ TEST_F(VisualSessionTest, CreateEchoesTheConfigWithDefaultsAndKind) {
   EXPECT_EQ(session.visual().params().orb_features(), 500u);  // as asked
   EXPECT_EQ(session.visual().params().delta(), 64u);          // the engine default
   EXPECT_EQ(session.visual().detector().kind(), v1::DetectorConfig::HOG);
-  // Beyond the paper: off unless asked for, and echoed either way.
-  EXPECT_EQ(session.visual().params().bundle_window(), 0u);
-  EXPECT_EQ(session.visual().params().prior_direction_deg(), 0.0);
-  EXPECT_DOUBLE_EQ(session.visual().params().static_hamming_fraction(), 0.5);
+  // The default preset is the measured best (issue 35): the proven filter, eq 17's Hamming half
+  // off, proven after 2 frames, the monocular prior; the bundle window by input kind (unset).
+  EXPECT_EQ(session.visual().preset(), v1::VisualSlamConfig::PRESET_MEASURED_BEST);
+  EXPECT_EQ(session.visual().filter(), v1::VisualSlamConfig::FILTER_PROVEN);
+  EXPECT_FALSE(session.visual().params().has_bundle_window());
+  EXPECT_EQ(session.visual().params().prior_direction_deg(), 30.0);
+  EXPECT_DOUBLE_EQ(session.visual().params().static_hamming_fraction(), 1.0);
+  EXPECT_EQ(session.visual().params().proven_static_frames(), 2u);
+  // The paper's pipeline is one switch away: the preset.
+  v1::CreateSessionRequest paper_request = VisualRequest("cam");
+  paper_request.mutable_visual()->set_preset(v1::VisualSlamConfig::PRESET_PAPER);
+  ASSERT_OK_AND_ASSIGN(v1::Session paper, registry->CreateSession(paper_request));
+  EXPECT_EQ(paper.visual().filter(), v1::VisualSlamConfig::FILTER_FULL);
+  EXPECT_EQ(paper.visual().params().bundle_window(), 0u);
+  EXPECT_EQ(paper.visual().params().prior_direction_deg(), 0.0);
+  EXPECT_DOUBLE_EQ(paper.visual().params().static_hamming_fraction(), 0.5);
+  EXPECT_EQ(paper.visual().params().proven_static_frames(), 3u);
+  ASSERT_OK_AND_ASSIGN(VisualSessionOptions paper_options, ToVisualSessionOptions(paper.visual()));
+  EXPECT_EQ(paper_options.odometry.filter, visual_slam::DynamicFilter::kFull);
+  ASSERT_OK_AND_ASSIGN(VisualSessionOptions best_options, ToVisualSessionOptions(session.visual()));
+  EXPECT_EQ(best_options.odometry.bundle_window, 10);
+  EXPECT_TRUE(best_options.odometry.bundle_monocular_only);
+  // An effective config stored before presets (params filled, the filter left off the wire as
+  // FILTER_FULL) still runs the paper's filter.
+  v1::VisualSlamConfig old_stored = paper.visual();
+  old_stored.clear_filter();
+  old_stored.clear_preset();
+  ASSERT_OK_AND_ASSIGN(VisualSessionOptions old_options, ToVisualSessionOptions(old_stored));
+  EXPECT_EQ(old_options.odometry.filter, visual_slam::DynamicFilter::kFull);
   v1::CreateSessionRequest better = VisualRequest("cam");
   better.mutable_visual()->set_filter(v1::VisualSlamConfig::FILTER_PROVEN);
   better.mutable_visual()->mutable_params()->set_bundle_window(6);
@@ -136,15 +166,16 @@ TEST_F(VisualSessionTest, CreateEchoesTheConfigWithDefaultsAndKind) {
   EXPECT_EQ(improved.visual().filter(), v1::VisualSlamConfig::FILTER_PROVEN);
   EXPECT_EQ(improved.visual().params().bundle_window(), 6u);
   EXPECT_EQ(improved.visual().params().prior_direction_deg(), 30.0);
-  EXPECT_EQ(improved.visual().params().proven_static_frames(), 3u);
+  EXPECT_EQ(improved.visual().params().proven_static_frames(), 3u);  // the paper preset's
   EXPECT_EQ(improved.visual().params().relocalization_keyframes(), 0u);
 
   ASSERT_OK_AND_ASSIGN(v1::ListSessionsResponse list, registry->ListSessions("cam"));
-  ASSERT_EQ(list.sessions_size(), 2);
+  ASSERT_EQ(list.sessions_size(), 3);  // the default, the paper preset, `better`
   EXPECT_EQ(list.sessions(0).kind(), "visual");
   EXPECT_EQ(list.sessions(0).visual().params().orb_features() +
-                list.sessions(1).visual().params().orb_features(),
-            500u + 1000u);  // as asked, and the default
+                list.sessions(1).visual().params().orb_features() +
+                list.sessions(2).visual().params().orb_features(),
+            500u + 1000u + 1000u);  // as asked, and the defaults
 
   // A laser session says so too.
   ASSERT_OK_AND_ASSIGN(v1::Session laser, registry->CreateSession(TestSessionRequest("r")));
