@@ -10,10 +10,14 @@
 namespace waymark::laser_slam {
 namespace {
 
-// The cloud rotated by one candidate angle, as base-grid cell indices at zero offset.
+// The cloud rotated by one candidate angle, as base-grid cell indices at zero offset, with their
+// bounding box, and as offsets in the pyramid's storage (y * stride + x, the same at every level).
 struct RotatedCloud {
   double theta = 0.0;
   std::vector<Eigen::Vector2i> cells;
+  std::vector<std::int32_t> index;
+  Eigen::Vector2i lo = Eigen::Vector2i::Zero();
+  Eigen::Vector2i hi = Eigen::Vector2i::Zero();
 };
 
 struct Candidate {
@@ -23,11 +27,55 @@ struct Candidate {
   double score = 0.0;  // upper bound at its level, 0..1
 };
 
+// The least sum of cell values (out of 255 per point, `n` points) whose score reaches `best`:
+// every smaller sum scores below it, as LevelScore divides.
+std::int64_t NeededSum(double best, size_t n) {
+  const double k = 255.0 * static_cast<double>(n);
+  const std::int64_t most = 255 * static_cast<std::int64_t>(n);
+  if (!(best > 0.0)) return std::numeric_limits<std::int64_t>::min() / 2;
+  if (best > 1.0) return most + 1;
+  std::int64_t t = std::clamp<std::int64_t>(static_cast<std::int64_t>(std::ceil(best * k)), 0,
+                                            most + 1);
+  while (t > 0 && static_cast<double>(t - 1) / k >= best) --t;
+  while (t <= most && static_cast<double>(t) / k < best) ++t;
+  return t;
+}
+
+// The cloud's mean cell value (0..1) at `level` shifted by (ox, oy) cells. Gives up as soon as
+// even 255 under every point left could not bring the sum to `needed`, returning that bound
+// (below the score `needed` stands for): branch and bound drops such a candidate anyway.
 double LevelScore(const SearchPyramid& pyramid, int level, const RotatedCloud& cloud, int ox,
-                  int oy) {
-  long sum = 0;
-  for (const Eigen::Vector2i& c : cloud.cells) sum += pyramid.At(level, c.x() + ox, c.y() + oy);
-  return static_cast<double>(sum) / (255.0 * static_cast<double>(cloud.cells.size()));
+                  int oy, std::int64_t needed) {
+  const SearchPyramid::LevelView l = pyramid.level(level);
+  const int n = static_cast<int>(cloud.cells.size());
+  const double k = 255.0 * static_cast<double>(n);
+  const int dx = ox + l.offset_x, dy = oy + l.offset_y;
+  const Eigen::Vector2i* cells = cloud.cells.data();
+  // Inside the level everywhere: no bounds to check.
+  const bool inside = cloud.lo.x() + dx >= 0 && cloud.lo.y() + dy >= 0 &&
+                      cloud.hi.x() + dx < l.width && cloud.hi.y() + dy < l.height;
+  const std::ptrdiff_t shift = static_cast<std::ptrdiff_t>(dy) * l.width + dx;
+  const std::int32_t* index = cloud.index.data();
+  std::int64_t sum = 0;
+  std::int64_t left = 255 * static_cast<std::int64_t>(n);
+  constexpr int kChunk = 32;
+  for (int i = 0; i < n; i += kChunk) {
+    const int end = std::min(n, i + kChunk);
+    if (inside) {
+      for (int j = i; j < end; ++j) sum += l.cells[shift + index[j]];
+    } else {
+      for (int j = i; j < end; ++j) {
+        const unsigned x = static_cast<unsigned>(cells[j].x() + dx);
+        const unsigned y = static_cast<unsigned>(cells[j].y() + dy);
+        if (x < static_cast<unsigned>(l.width) && y < static_cast<unsigned>(l.height)) {
+          sum += l.cells[static_cast<size_t>(y) * l.width + x];
+        }
+      }
+    }
+    left -= 255 * static_cast<std::int64_t>(end - i);
+    if (sum + left < needed) return static_cast<double>(sum + left) / k;
+  }
+  return static_cast<double>(sum) / k;
 }
 
 }  // namespace
@@ -70,17 +118,29 @@ SearchSpace MakeSearchSpace(const LikelihoodGrid& grid, const PointCloud& points
 }
 
 // The cloud at rotation index `k` (-half_rotations .. half_rotations), as base-grid cells.
-RotatedCloud Rotate(const LikelihoodGrid& grid, const PointCloud& points, const Pose2& initial,
+RotatedCloud Rotate(const SearchPyramid& target, const PointCloud& points, const Pose2& initial,
                     double step, int k) {
+  const LikelihoodGrid& grid = target.base();
+  const std::int64_t stride = target.level(0).width;
   RotatedCloud r;
   r.theta = initial.theta + k * step;
   const double c = std::cos(r.theta), s = std::sin(r.theta);
   r.cells.reserve(points.size());
+  r.index.reserve(points.size());
   for (const Eigen::Vector2f& p : points) {
     const double wx = initial.x + c * p.x() - s * p.y();
     const double wy = initial.y + s * p.x() + c * p.y();
     r.cells.emplace_back(static_cast<int>(std::floor((wx - grid.origin.x()) / grid.resolution)),
                          static_cast<int>(std::floor((wy - grid.origin.y()) / grid.resolution)));
+    // Wraps for a point far off the grid; only read when the whole cloud is on it.
+    r.index.push_back(static_cast<std::int32_t>(r.cells.back().y() * stride + r.cells.back().x()));
+  }
+  if (!r.cells.empty()) {
+    r.lo = r.hi = r.cells.front();
+    for (const Eigen::Vector2i& c : r.cells) {
+      r.lo = r.lo.cwiseMin(c);
+      r.hi = r.hi.cwiseMax(c);
+    }
   }
   return r;
 }
@@ -108,6 +168,7 @@ struct BranchAndBoundSearch::State {
   bool first_only = false;
   Allowed allowed;
   double best = 0.0;  // the pruning bound: min_score, then the best leaf's score
+  std::int64_t needed = 0;  // NeededSum(best, points)
   std::optional<Candidate> found;
   std::vector<Candidate> top_level;  // scored so far (headings before next_rotation)
   bool top_level_done = false;
@@ -120,7 +181,7 @@ struct BranchAndBoundSearch::State {
   double Score(int level, int rotation, int x, int y) {
     ++candidates;
     reads += static_cast<std::int64_t>(points.size());
-    return LevelScore(*target, level, space.rotations[rotation], x, y);
+    return LevelScore(*target, level, space.rotations[rotation], x, y, needed);
   }
 };
 
@@ -135,6 +196,7 @@ BranchAndBoundSearch::BranchAndBoundSearch(const SearchPyramid& target, const Po
   s.first_only = first_only;
   s.allowed = std::move(allowed);
   s.best = min_score;
+  s.needed = NeededSum(min_score, points.size());
   s.done = points.empty() || target.base().empty();
   if (!s.done) s.space = MakeSearchSpace(target.base(), points, window);
 }
@@ -156,7 +218,7 @@ bool BranchAndBoundSearch::Resume(std::int64_t budget) {
     while (static_cast<int>(s.space.rotations.size()) < 2 * s.space.half_rotations + 1) {
       if (s.reads >= limit) return false;
       const int r = static_cast<int>(s.space.rotations.size());
-      s.space.rotations.push_back(Rotate(target.base(), s.points, s.initial, s.space.step,
+      s.space.rotations.push_back(Rotate(target, s.points, s.initial, s.space.step,
                                          r - s.space.half_rotations));
       for (int x = -half_cells; x <= half_cells; x += top_width) {
         for (int y = -half_cells; y <= half_cells; y += top_width) {
@@ -183,6 +245,7 @@ bool BranchAndBoundSearch::Resume(std::int64_t budget) {
     if (f.level == 0) {
       if (s.allowed && !s.allowed(CandidatePose(s.space, s.initial, res, f.candidate))) continue;
       s.best = f.candidate.score;
+      s.needed = NeededSum(s.best, s.points.size());
       s.found = f.candidate;
       if (s.first_only) break;
       continue;
@@ -238,34 +301,76 @@ bool OnOneRidge(const LikelihoodGrid& grid, const PointCloud& points, const Pose
   return true;
 }
 
+namespace {
+
+// Whether pose q puts `points` on average (root mean square) more than `distance` from where
+// `best` puts them, in closed form from the points' centroid and mean squared norm:
+// msd = |d|^2 + 2 d.(A m) + 2 (1 - cos a) n, with d the translation difference,
+// A = R(q) - R(best), m the centroid, n the mean |p|^2.
+class Displacement {
+ public:
+  Displacement(const PointCloud& points, const Pose2& best) : best_(best) {
+    for (const Eigen::Vector2f& p : points) {
+      centroid_ += p.cast<double>();
+      mean_norm2_ += p.cast<double>().squaredNorm();
+    }
+    centroid_ /= static_cast<double>(points.size());
+    mean_norm2_ /= static_cast<double>(points.size());
+    best_rotation_ = Eigen::Rotation2Dd(best.theta).toRotationMatrix();
+  }
+  bool Beyond(const Pose2& q, double distance) const {
+    const Eigen::Vector2d d(q.x - best_.x, q.y - best_.y);
+    const Eigen::Matrix2d a = Eigen::Rotation2Dd(q.theta).toRotationMatrix() - best_rotation_;
+    const double msd = d.squaredNorm() + 2.0 * d.dot(a * centroid_) +
+                       2.0 * (1.0 - std::cos(q.theta - best_.theta)) * mean_norm2_;
+    return msd > distance * distance;
+  }
+
+ private:
+  Pose2 best_;
+  Eigen::Vector2d centroid_ = Eigen::Vector2d::Zero();
+  double mean_norm2_ = 0.0;
+  Eigen::Matrix2d best_rotation_;
+};
+
+}  // namespace
+
 std::optional<GridMatch> FindRival(const SearchPyramid& target, const PointCloud& points,
                                    const Pose2& initial, const SearchWindow& window,
                                    const Pose2& best, double exclusion, double min_score) {
   const LikelihoodGrid& grid = target.base();
   if (points.empty() || grid.empty()) return std::nullopt;
-  // Mean squared displacement of the points between `best` and a candidate pose q, in closed
-  // form from the points' centroid and mean squared norm: |d|^2 + 2 d.(A m) + 2 (1 - cos a) n,
-  // with d the translation difference, A = R(q) - R(best), m the centroid, n the mean |p|^2.
-  Eigen::Vector2d centroid = Eigen::Vector2d::Zero();
-  double mean_norm2 = 0.0;
-  for (const Eigen::Vector2f& p : points) {
-    centroid += p.cast<double>();
-    mean_norm2 += p.cast<double>().squaredNorm();
-  }
-  centroid /= static_cast<double>(points.size());
-  mean_norm2 /= static_cast<double>(points.size());
-  const Eigen::Matrix2d best_rotation = Eigen::Rotation2Dd(best.theta).toRotationMatrix();
-  const auto outside = [&](const Pose2& q) {
-    const Eigen::Vector2d d(q.x - best.x, q.y - best.y);
-    const Eigen::Matrix2d a = Eigen::Rotation2Dd(q.theta).toRotationMatrix() - best_rotation;
-    const double msd = d.squaredNorm() + 2.0 * d.dot(a * centroid) +
-                       2.0 * (1.0 - std::cos(q.theta - best.theta)) * mean_norm2;
-    return msd > exclusion * exclusion;
-  };
-  BranchAndBoundSearch search(target, points, initial, window, min_score, /*first_only=*/true,
-                              outside);
+  const Displacement displacement(points, best);
+  BranchAndBoundSearch search(
+      target, points, initial, window, min_score, /*first_only=*/true,
+      [&](const Pose2& q) { return displacement.Beyond(q, exclusion); });
   search.Resume(std::numeric_limits<std::int64_t>::max());
   return search.result();
+}
+
+Rivals FindRivals(const SearchPyramid& target, const PointCloud& points, const Pose2& initial,
+                  const SearchWindow& window, const Pose2& best, double near_exclusion,
+                  double far_exclusion, double min_score) {
+  Rivals rivals;
+  const LikelihoodGrid& grid = target.base();
+  if (points.empty() || grid.empty()) return rivals;
+  const Displacement displacement(points, best);
+  // Leaves that are not allowed leave the bound where it is, so the search visits the leaves in
+  // the order either FindRival would: the first beyond near_exclusion is the near one's answer.
+  BranchAndBoundSearch search(target, points, initial, window, min_score, /*first_only=*/true,
+                              [&](const Pose2& q) {
+                                if (displacement.Beyond(q, far_exclusion)) return true;
+                                if (!rivals.near && displacement.Beyond(q, near_exclusion)) {
+                                  rivals.near = q;
+                                }
+                                return false;
+                              });
+  search.Resume(std::numeric_limits<std::int64_t>::max());
+  if (const std::optional<GridMatch> far = search.result()) {
+    rivals.far = far->pose;
+    if (!rivals.near) rivals.near = far->pose;
+  }
+  return rivals;
 }
 
 std::optional<GridMatch> MatchInWindow(const SearchPyramid& target, const PointCloud& points,
@@ -284,20 +389,53 @@ std::optional<GridMatch> MatchInWindow(const SearchPyramid& target, const PointC
   result.lattice_score = found->lattice_score;
 
   // Below a cell: the discrete optimum refined on the interpolated field, in a small grid of
-  // sub-cell shifts and sub-step turns around it.
+  // sub-cell shifts and sub-step turns around it (the first best in (i, j, k) order). The cloud
+  // is turned once per heading: the same products ScoreAt forms, so the same scores.
   Pose2 pose = found->pose;
   double score = ScoreAt(grid, points, pose);
+  const size_t n = points.size();
+  // Per heading, the cell and fraction of every point at each of the five shifts in x (the same
+  // for every shift in y) and in y: Interpolate's divisions once per point and shift.
+  std::vector<int> cell_x(5 * n), cell_y(5 * n);
+  std::vector<double> frac_x(5 * n), frac_y(5 * n);
+  double scores[5][5][5];
   for (double scale : {0.5, 0.25}) {
     const Pose2 centre = pose;
+    for (int k = -2; k <= 2; ++k) {
+      const double theta = centre.theta + k * scale * step / 2;
+      const double c = std::cos(theta), s = std::sin(theta);
+      for (int i = -2; i <= 2; ++i) {
+        const double x = centre.x + i * scale * res / 2;
+        const double y = centre.y + i * scale * res / 2;
+        for (size_t m = 0; m < n; ++m) {
+          // As ScoreAt places the point, and Interpolate finds its cell.
+          const double gx = (x + c * points[m].x() - s * points[m].y() - grid.origin.x()) / res - 0.5;
+          const double gy = (y + s * points[m].x() + c * points[m].y() - grid.origin.y()) / res - 0.5;
+          const size_t at = (i + 2) * n + m;
+          cell_x[at] = static_cast<int>(std::floor(gx));
+          cell_y[at] = static_cast<int>(std::floor(gy));
+          frac_x[at] = gx - cell_x[at];
+          frac_y[at] = gy - cell_y[at];
+        }
+      }
+      for (int i = -2; i <= 2; ++i) {
+        for (int j = -2; j <= 2; ++j) {
+          double sum = 0.0;
+          const size_t ax = (i + 2) * n, ay = (j + 2) * n;
+          for (size_t m = 0; m < n; ++m) {
+            sum += grid.Bilinear(cell_x[ax + m], cell_y[ay + m], frac_x[ax + m], frac_y[ay + m]);
+          }
+          scores[i + 2][j + 2][k + 2] = sum / static_cast<double>(n);
+        }
+      }
+    }
     for (int i = -2; i <= 2; ++i) {
       for (int j = -2; j <= 2; ++j) {
         for (int k = -2; k <= 2; ++k) {
-          const Pose2 p{centre.x + i * scale * res / 2, centre.y + j * scale * res / 2,
-                        centre.theta + k * scale * step / 2};
-          const double s = ScoreAt(grid, points, p);
-          if (s > score) {
-            score = s;
-            pose = p;
+          if (scores[i + 2][j + 2][k + 2] > score) {
+            score = scores[i + 2][j + 2][k + 2];
+            pose = Pose2{centre.x + i * scale * res / 2, centre.y + j * scale * res / 2,
+                         centre.theta + k * scale * step / 2};
           }
         }
       }

@@ -80,6 +80,18 @@ std::optional<GridMatch> FindRival(const SearchPyramid& target, const PointCloud
                                    const Pose2& initial, const SearchWindow& window,
                                    const Pose2& best, double exclusion, double min_score);
 
+// FindRival's two questions in one search: the first rival beyond `far_exclusion` (as FindRival
+// with far_exclusion answers) and the first beyond `near_exclusion` (as FindRival with
+// near_exclusion < far_exclusion answers), at the cost of one search, and of less when there is
+// a far one (the search stops there).
+struct Rivals {
+  std::optional<Pose2> near;  // nullopt: no rival beyond near_exclusion
+  std::optional<Pose2> far;   // nullopt: none beyond far_exclusion
+};
+Rivals FindRivals(const SearchPyramid& target, const PointCloud& points, const Pose2& initial,
+                  const SearchWindow& window, const Pose2& best, double near_exclusion,
+                  double far_exclusion, double min_score);
+
 // Whether the score stays at least `ratio` times its value at `a` at every quarter of the way from
 // pose `a` to pose `b` (interpolated in x, y and heading): one ridge (a corridor that slides along
 // itself) rather than two peaks (two places alike, with a valley between them).

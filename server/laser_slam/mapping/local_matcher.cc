@@ -44,7 +44,7 @@ namespace {
 // The local map's points that can bear on a match in the window: a query point lands within
 // its range plus the window's reach of the prior, and a cell's value depends on points within
 // 3 sigma of it; the pyramid's coarsest level reads 2^depth cells further. Leaving the rest
-// out changes no score (but the cells' phase, which follows the points' bounding box), keeps
+// out changes no score (the grid keeps the whole map's lattice: GridFrameOf), keeps
 // the grid as small as the window (a restored checkpoint's nodes a kilometre apart made a grid
 // of 10^9 cells), and builds faster.
 PointCloud Reachable(const PointCloud& local_map, const PointCloud& query, const Pose2& prior,
@@ -75,9 +75,12 @@ std::optional<LocalMatchResult> MatchLocally(const PointCloud& local_map, const 
   // searched almost exhaustively, and building levels it never visits would cost more.
   const double half_cells = std::max(1.0, window.xy / settings.grid_resolution);
   const int depth = std::clamp(static_cast<int>(std::ceil(std::log2(half_cells))), 0, 6);
+  // On the lattice of the whole local map (its cells where they would be had every point been
+  // drawn), so that leaving points out moves no cell.
   const SearchPyramid pyramid(
       BuildLikelihoodGrid(Reachable(local_map, query, prior, window, depth, settings),
-                          settings.grid_resolution, settings.grid_sigma),
+                          settings.grid_resolution, settings.grid_sigma,
+                          GridFrameOf(local_map, settings.grid_resolution, settings.grid_sigma)),
       depth);
   const std::optional<GridMatch> match =
       MatchInWindow(pyramid, query, prior, window, settings.min_score);

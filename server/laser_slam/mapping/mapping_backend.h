@@ -31,6 +31,7 @@
 #include "absl/strings/string_view.h"
 #include "server/laser_slam/mapping/chain_uncertainty.h"
 #include "server/laser_slam/mapping/likelihood_grid.h"
+#include "server/laser_slam/mapping/loop_search.h"
 #include "server/laser_slam/mapping/mapping_options.h"
 #include "server/laser_slam/mapping/point_cloud.h"
 #include "server/laser_slam/mapping/pose_graph.h"
@@ -153,8 +154,13 @@ class MappingBackend {
   // Optimises the graph of nodes [0, upto] and carries the later nodes along.
   void Optimize(int upto);
   // The submap's points in its first node's frame, as a search pyramid (cached).
-  // `coarsening` 1: the search grid; coarse_search_factor: the coarse one of wide windows.
+  // `coarsening` 1: the search grid; coarse_search_factor: the coarse one of global searches.
+  // Caller holds search_mu_ (the cache is the searches').
   std::shared_ptr<const SearchPyramid> PyramidFor(int submap, int coarsening);
+  // The lattice of the submap's search grid, without building it (what a global search covers).
+  GridFrame FineFrameOf(int submap);
+  // The submap's points in its first node's frame (at its frozen poses once complete).
+  PointCloud SubmapCloud(int submap) const;
   void WorkerLoop();
   int NodeAtOrBeforeLocked(std::uint64_t scan) const;
 
@@ -175,7 +181,10 @@ class MappingBackend {
   Pose2 dead_reckoning_;       // the odometry increments so far, integrated
   Eigen::Vector3d motion_variance_ = Eigen::Vector3d::Zero();  // since the newest node
   Pose2 last_local_;           // of the last scan (AddScan without odometry)
-  int last_global_search_ = -1000000;  // node of the last global search (kNoGlobalSearchYet)
+  // last_global_search_ before any (so that the first is due at once); a stored value below it
+  // would overflow `index - last_global_search_`.
+  static constexpr int kNoGlobalSearchYet = -1000000;
+  int last_global_search_ = kNoGlobalSearchYet;  // node of the last global search
   int global_cursor_ = -1;     // submap searched globally last (they are searched in turn)
   ChainUncertainty chain_;     // of the processed nodes, in order
   // Appends node `index` (processed, its chain constraint final, of 1 sigma `sigma`) to chain_.
@@ -190,9 +199,9 @@ class MappingBackend {
   MappingStats stats_;
   // Fixes the submap's frozen poses when node `index` is its last one. Caller holds mu_.
   void FreezeSubmapLocked(int index);
-  // Pyramids of recently matched submaps (least recently used first), keyed by
-  // submap * 8 + coarsening.
-  std::deque<std::pair<int, std::shared_ptr<const SearchPyramid>>> pyramid_cache_;
+  // Pyramids of recently matched submaps, within kPyramidCacheBytes; guarded by search_mu_.
+  static constexpr size_t kPyramidCacheBytes = 48u << 20;
+  PyramidCache pyramid_cache_;
   mutable std::mutex search_mu_;  // one search / optimisation at a time (Serialize waits too)
   std::thread worker_;
 };

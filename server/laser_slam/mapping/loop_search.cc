@@ -1,0 +1,117 @@
+#include "server/laser_slam/mapping/loop_search.h"
+
+#include <algorithm>
+#include <cmath>
+#include <utility>
+
+#include "server/laser_slam/geometry.h"
+
+namespace waymark::laser_slam {
+
+LoopQuery MakeLoopQuery(const PointCloud& points, const MappingOptions& options) {
+  LoopQuery query;
+  query.points = ThinPoints(points, options.point_cell);
+  // The wide search scores half the points (one per 10 cm): the branch and bound costs in
+  // proportion to them, and a wall sampled every 10 cm still pins the pose to the 5 cm grid. The
+  // best pose is then refined and scored with all of them in a window of two cells.
+  query.sparse = ThinPoints(query.points, 2.0 * options.point_cell);
+  // Global searches run on a coarser grid first (coarse_search_factor times the cells, points and
+  // angular step: about factor^3 fewer candidates), then refine on the fine grid.
+  query.coarse =
+      ThinPoints(query.points, 2.0 * options.coarse_search_factor * options.point_cell);
+  return query;
+}
+
+LoopMatch MatchSubmap(const LoopQuery& query, const SubmapGrids& grids, const Pose2& initial,
+                      const SearchWindow& window, bool global, const MappingOptions& options) {
+  LoopMatch out;
+  Pose2 centre = initial;
+  SearchWindow area = window;
+  if (global) {
+    // The whole submap: the fine grid's extent, every heading.
+    const GridFrame frame = grids.fine_frame();
+    const double resolution = options.grid_resolution;
+    centre.x = frame.origin.x() + 0.5 * static_cast<double>(frame.width) * resolution;
+    centre.y = frame.origin.y() + 0.5 * static_cast<double>(frame.height) * resolution;
+    area.xy = 0.5 * static_cast<double>(std::max(frame.width, frame.height)) * resolution;
+    area.theta = M_PI;
+  }
+  const bool coarse = options.coarse_search_factor > 1 && global;
+  std::shared_ptr<const SearchPyramid> fine;
+  const std::shared_ptr<const SearchPyramid> wide = coarse ? grids.coarse() : (fine = grids.fine());
+  const PointCloud& wide_query = coarse ? query.coarse : query.sparse;
+  std::optional<GridMatch> match =
+      MatchInWindow(*wide, wide_query, centre, area, options.min_score);
+  if (!match) return out;
+  const double lattice_score = match->lattice_score;
+  if (!fine) fine = grids.fine();  // a global search's fine grid only when it found something
+  const SearchWindow refine{2.0 * wide->base().resolution, coarse ? 0.04 : 0.02};
+  match = MatchInWindow(*fine, query.points, match->pose, refine, options.min_score);
+  if (!match || match->score < options.min_score) return out;
+  Eigen::Vector3d sigma(options.loop_sigma_xy, options.loop_sigma_xy, options.loop_sigma_theta);
+  if (options.rival_ratio > 0.0) {
+    // A rival beyond rival_far is another place that fits as well (refused), unless the score
+    // stays as high all the way to it: then it is the same corridor slid along itself. A rival
+    // nearer (but off the peak) or on that ridge is the same place, uncertain along one
+    // direction: accepted, trusted only to the rival's offset. One search answers both (and
+    // stops at a far rival).
+    const double rival_score = options.rival_ratio * lattice_score;
+    const Rivals rivals = FindRivals(*wide, wide_query, centre, area, match->pose,
+                                     options.rival_exclusion, options.rival_far, rival_score);
+    std::optional<Pose2> rival = rivals.near;
+    if (rivals.far) {
+      if (!options.loosen_ridges || !OnOneRidge(wide->base(), wide_query, match->pose,
+                                                *rivals.far, options.rival_ratio)) {
+        out.verdict = LoopMatch::Verdict::kAmbiguous;
+        return out;
+      }
+      rival = rivals.far;
+    }
+    if (rival) {
+      const Pose2 offset = Relative(match->pose, *rival);
+      sigma = sigma.cwiseMax(
+          Eigen::Vector3d(std::abs(offset.x), std::abs(offset.y), std::abs(offset.theta)));
+      out.loosened = true;
+    }
+  }
+  out.verdict = LoopMatch::Verdict::kAccepted;
+  out.pose = match->pose;
+  out.sigma = sigma;
+  out.score = match->score;
+  return out;
+}
+
+std::shared_ptr<const SearchPyramid> PyramidCache::Find(int submap, int coarsening) {
+  const auto it = index_.find(Key(submap, coarsening));
+  if (it == index_.end()) return nullptr;
+  entries_.splice(entries_.end(), entries_, it->second);
+  return it->second->pyramid;
+}
+
+void PyramidCache::Insert(int submap, int coarsening,
+                          std::shared_ptr<const SearchPyramid> pyramid) {
+  const std::int64_t key = Key(submap, coarsening);
+  if (const auto it = index_.find(key); it != index_.end()) {
+    bytes_ -= it->second->bytes;
+    entries_.erase(it->second);
+    index_.erase(it);
+  }
+  const size_t bytes = pyramid->bytes();
+  entries_.push_back(Entry{key, std::move(pyramid), bytes});
+  index_[key] = std::prev(entries_.end());
+  bytes_ += bytes;
+  // The newest stays even alone over the budget: the search in hand needs it.
+  while (bytes_ > budget_ && entries_.size() > 1) {
+    bytes_ -= entries_.front().bytes;
+    index_.erase(entries_.front().key);
+    entries_.pop_front();
+  }
+}
+
+std::optional<GridFrame> PyramidCache::Frame(int submap) const {
+  const auto it = frames_.find(submap);
+  if (it == frames_.end()) return std::nullopt;
+  return it->second;
+}
+
+}  // namespace waymark::laser_slam
