@@ -9,7 +9,9 @@
 //
 // A configuration is FILTER[:DETECTOR]: FILTER none (plain ORB VO, every feature used), boxes
 // (every feature in a box dropped), full (the paper's method), proven (full, and boxed features
-// static over several frames are tracked and mapped); DETECTOR none, yolo or hog.
+// static over several frames are tracked and mapped); DETECTOR none, yolo or hog. An optional
+// third part, join or nojoin, sets join_static_boxed for that configuration (proven:yolo:nojoin is
+// the proven filter before issue 35's fix), whatever the preset says.
 // Frames are decoded before timing. Monocular runs (KITTI, or --no-depth) are scale-free and
 // aligned with scale (Sim(3)); RGB-D runs rigidly (SE(3)). The load average is printed: on a
 // shared machine it says how much to trust the times. No asserts.
@@ -26,6 +28,7 @@
 #include <iterator>
 #include <opencv2/core.hpp>
 #include <opencv2/imgcodecs.hpp>
+#include <optional>
 #include <string>
 #include <thread>
 #include <vector>
@@ -47,6 +50,7 @@ struct Config {
   std::string name;
   vs::DynamicFilter filter = vs::DynamicFilter::kFull;
   vs::DetectorChoice::Kind detector = vs::DetectorChoice::kNone;
+  std::optional<bool> join;  // join_static_boxed when given (third part: join | nojoin)
 };
 
 bool ParseConfig(const std::string& text, Config& out) {
@@ -71,7 +75,15 @@ bool ParseConfig(const std::string& text, Config& out) {
     out.detector = vs::DetectorChoice::kHog;
   else
     return false;
-  return parts.size() <= 2;
+  if (parts.size() > 2) {
+    if (parts[2] == "join")
+      out.join = true;
+    else if (parts[2] == "nojoin")
+      out.join = false;
+    else
+      return false;
+  }
+  return parts.size() <= 3;
 }
 
 struct Decoded {
@@ -89,7 +101,7 @@ int Run(int argc, char** argv) {
   app.add_option("SEQ_DIR", dir, "TUM/Bonn or KITTI layout")->required();
   app.add_option("--camera", camera_name, "intrinsics preset (KITTI reads calib.txt)");
   app.add_flag("--no-depth", no_depth, "monocular even when depth is listed");
-  app.add_option("--configs", configs_text, "comma-separated FILTER[:DETECTOR]");
+  app.add_option("--configs", configs_text, "comma-separated FILTER[:DETECTOR[:join|nojoin]]");
   app.add_option("--models", models, "folder with yolo-fastest-1.1-xl.cfg/.weights");
   app.add_option("--frames", max_frames, "at most N frames (0 = all)");
   app.add_option("--threads", threads, "cv::setNumThreads (-1 = OpenCV's default)");
@@ -145,6 +157,7 @@ int Run(int argc, char** argv) {
     const vs::VisualOdometryOptions best = vs::VisualOdometryOptions::MeasuredBest();
     if (app.count("--static-hamming") == 0) base.static_hamming_fraction = best.static_hamming_fraction;
     if (app.count("--proven-frames") == 0) base.proven_static_frames = best.proven_static_frames;
+    base.join_static_boxed = best.join_static_boxed;
     if (app.count("--prior-direction") == 0) base.prior_direction_deg = best.prior_direction_deg;
     if (app.count("--bundle-window") == 0) {
       base.bundle_window = best.bundle_window;
@@ -213,7 +226,9 @@ int Run(int argc, char** argv) {
   for (const std::string& text : std::vector<std::string>(absl::StrSplit(configs_text, ','))) {
     Config config;
     if (!ParseConfig(text, config)) {
-      std::fprintf(stderr, "bad config '%s' (FILTER[:DETECTOR], none|boxes|full, none|yolo|hog)\n",
+      std::fprintf(stderr,
+                   "bad config '%s' (FILTER[:DETECTOR[:join|nojoin]], none|boxes|full|proven, "
+                   "none|yolo|hog)\n",
                    text.c_str());
       return 1;
     }
@@ -239,6 +254,7 @@ int Run(int argc, char** argv) {
       }
       vs::VisualOdometryOptions options = base;
       options.filter = config.filter;
+      if (config.join) options.join_static_boxed = *config.join;
       options.sampler.seed = seed;
       options.depth_scale = intrinsics->depth_scale > 0 ? intrinsics->depth_scale : 5000;
       absl::StatusOr<std::unique_ptr<vs::VisualOdometry>> odometry =

@@ -236,7 +236,29 @@ TrackingOutcome TrackMonocular(const TrackingInputs& in, const VisualOdometryOpt
     out.pose_ms = MsSince(start);
     return out;
   }
-  std::vector<int> fit_set = chosen->inliers;
+  out.fit_set = chosen->inliers;
+  if (options.join_static_boxed && options.filter == DynamicFilter::kProven) {
+    // The static pairs the sampler could not use (boxed, not proven) join the chosen motion's
+    // polish now: they passed eq 17 against a motion they had no say in.
+    std::vector<int> joined = chosen->inliers;
+    for (int k : out.tracking_set) {
+      if (!Samplable(in, options, out.matches[k])) joined.push_back(k);
+    }
+    std::sort(joined.begin(), joined.end());
+    joined.erase(std::unique(joined.begin(), joined.end()), joined.end());
+    if (joined.size() > chosen->inliers.size()) {
+      const Motion polished = PolishOnSampson(out.motion, out.correspondences, joined);
+      // With the motion prior on, the polish may not take the motion far from the prediction.
+      const bool allowed = options.prior_direction_deg <= 0 || !in.predicted ||
+                           !FarFromPrediction(polished, *in.predicted, options) ||
+                           FarFromPrediction(out.motion, *in.predicted, options);
+      if (allowed && polished.R.allFinite() && polished.t.allFinite()) {
+        out.motion = polished;
+        out.fit_set = std::move(joined);
+      }
+    }
+  }
+  std::vector<int> fit_set = out.fit_set;
   fit_set.insert(fit_set.end(), out.tracking_set.begin(), out.tracking_set.end());
   std::sort(fit_set.begin(), fit_set.end());
   fit_set.erase(std::unique(fit_set.begin(), fit_set.end()), fit_set.end());
@@ -251,7 +273,10 @@ TrackingOutcome TrackMonocular(const TrackingInputs& in, const VisualOdometryOpt
   const bool refit_allowed = refit.ok() && (options.prior_direction_deg <= 0 || !in.predicted ||
                                             !FarFromPrediction(*refit, *in.predicted, options) ||
                                             FarFromPrediction(out.motion, *in.predicted, options));
-  if (refit_allowed && cost(*refit) < cost(out.motion)) out.motion = *refit;
+  if (refit_allowed && cost(*refit) < cost(out.motion)) {
+    out.motion = *refit;
+    out.fit_set = std::move(fit_set);
+  }
   out.pose_ms = MsSince(start);
   out.ok = true;
   return out;

@@ -29,6 +29,10 @@ struct TrackingOutcome {
   std::vector<bool> tested;                     // per match: the static test ran on it
   std::vector<bool> is_static;    // per match: passed eq 17 (only meaningful when tested)
   std::vector<int> tracking_set;  // matches the final pose was computed from
+  // Monocular: the pairs the chosen motion was last polished on (the sampler's inliers, plus the
+  // static boxed pairs with join_static_boxed); the refit from scratch over the chosen inliers and
+  // the tracking set replaces it only when it explains them better.
+  std::vector<int> fit_set;
   int hypotheses = 0;
   int inliers = 0;  // of the chosen motion hypothesis (after the motion prior)
   double matching_ms = 0, sampling_ms = 0, pose_ms = 0;

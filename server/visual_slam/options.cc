@@ -75,6 +75,7 @@ VisualOdometryOptions VisualOdometryOptions::MeasuredBest() {
   o.filter = DynamicFilter::kProven;
   o.static_hamming_fraction = 1.0;
   o.proven_static_frames = 2;
+  o.join_static_boxed = true;  // issue 35: boxed static pairs join the polish and the window now
   o.prior_direction_deg = 30;  // monocular only (the engine applies it to monocular sessions)
   o.bundle_window = 10;
   o.bundle_monocular_only = true;

@@ -327,6 +327,20 @@ absl::StatusOr<FrameResult> VisualOdometry::ProcessFrame(const FrameInput& frame
       tracks[outcome.matches[k].query] = reference->tracks[outcome.matches[k].train];
     }
   }
+  // join_static_boxed: a static pair whose reference feature is still a candidate joins the
+  // adjustment's window now, both its observations (the reference's was kept out when added).
+  const bool joining = options_.join_static_boxed && options_.filter == DynamicFilter::kProven;
+  std::vector<bool> joined(features.size(), false);
+  if (joining && reference != nullptr && !reference->roles.empty()) {
+    for (int k : outcome.tracking_set) {
+      const int t = outcome.matches[k].train;
+      if (reference->roles[t] != ReferenceRole::kCandidate) continue;
+      joined[outcome.matches[k].query] = true;
+      if (s.local_map && !reference->tracks.empty()) {
+        s.local_map->Admit(reference->id, t, reference->tracks[t]);
+      }
+    }
+  }
 
   // kProven: the frames in a row each boxed feature has been static. The reference's own count
   // moves too (an RGB-D keyframe is tested by every frame tracked against it, and promotes its
@@ -435,7 +449,9 @@ absl::StatusOr<FrameResult> VisualOdometry::ProcessFrame(const FrameInput& frame
         s.local_map.emplace(NewLocalMap(/*monocular=*/!rgbd));
       }
       std::vector<bool> in_map(features.size());
-      for (int i = 0; i < features.size(); ++i) in_map[i] = roles[i] != ReferenceRole::kCandidate;
+      for (int i = 0; i < features.size(); ++i) {
+        in_map[i] = roles[i] != ReferenceRole::kCandidate || joined[i];
+      }
       keyframe.tracks = s.local_map->AddKeyframe(keyframe.id, pose, keyframe.features,
                                                  Subset(tracks, keep), Subset(in_map, keep));
     }

@@ -540,8 +540,10 @@ TEST(PresetAndEstimateQualityTest, MeasuredBestIsPerInputKindAndAnswersCarryQual
   EXPECT_EQ(paper.filter, DynamicFilter::kFull);
   EXPECT_EQ(paper.static_hamming_fraction, 0.5);
   EXPECT_EQ(paper.bundle_window, 0);
+  EXPECT_FALSE(paper.join_static_boxed);
   const VisualOdometryOptions best = OptionsForPreset(Preset::kMeasuredBest);
   EXPECT_EQ(best.filter, DynamicFilter::kProven);
+  EXPECT_TRUE(best.join_static_boxed);
   EXPECT_EQ(best.bundle_window, 10);
   EXPECT_TRUE(best.bundle_monocular_only);
 

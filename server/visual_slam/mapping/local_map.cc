@@ -33,6 +33,17 @@ std::optional<Eigen::Vector3d> Midpoint(const Eigen::Vector3d& o1, const Eigen::
 LocalMap::LocalMap(const LocalMapOptions& options, bool monocular)
     : options_(options), monocular_(monocular) {}
 
+void LocalMap::Admit(int64_t id, int feature, int64_t track) {
+  if (track < 0) return;
+  for (Keyframe& keyframe : keyframes_) {
+    if (keyframe.id != id) continue;
+    if (feature >= 0 && feature < static_cast<int>(keyframe.track.size())) {
+      keyframe.track[feature] = track;
+    }
+    return;
+  }
+}
+
 std::vector<int64_t> LocalMap::AddKeyframe(int64_t id, const Pose& pose,
                                            const FrameFeatures& features,
                                            const std::vector<int64_t>& tracks,

@@ -56,6 +56,12 @@ class LocalMap {
                                    const std::vector<int64_t>& tracks,
                                    const std::vector<bool>& in_map);
 
+  // Lets feature `feature` of keyframe `id` (still in the window) become a point on `track`: a
+  // candidate that was kept out when its keyframe was added and has since passed the static test
+  // (join_static_boxed). Does nothing for a keyframe no longer in the window, a feature out of
+  // range or a negative track.
+  void Admit(int64_t id, int feature, int64_t track);
+
   // A snapshot of the window as a bundle problem; nullopt when the window is too small for the
   // gauge or has too few points.
   std::optional<BundleJob> MakeJob() const;
