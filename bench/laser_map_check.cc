@@ -62,6 +62,7 @@ nlohmann::json MappingJson(const ls::MappingBackend& backend) {
           {"optimizations", stats.optimizations},
           {"local_matches", stats.local_matches},
           {"local_unmatched", stats.local_unmatched},
+          {"local_odometry_wins", stats.local_odometry_wins},
           {"local_s_total", std::accumulate(stats.local_ms.begin(), stats.local_ms.end(), 0.0) / 1000},
           {"search_s_total", std::accumulate(stats.search_ms.begin(), stats.search_ms.end(), 0.0) / 1000},
           {"optimize_s_total",

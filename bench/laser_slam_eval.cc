@@ -162,6 +162,10 @@ bool SetMappingOption(const std::string& assignment, ls::MappingOptions* m) {
     m->local_prior = static_cast<ls::MappingOptions::LocalPrior>(static_cast<int>(value));
     return true;
   }
+  if (name == "local_odometry_hypothesis") {
+    m->local_odometry_hypothesis = value != 0.0;
+    return true;
+  }
   if (name == "loosen_ridges") {
     m->loosen_ridges = value != 0.0;
     return true;

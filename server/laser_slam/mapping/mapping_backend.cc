@@ -166,6 +166,16 @@ void MappingBackend::Process(int index) {
   processed_ = index;
 }
 
+SearchWindow MappingBackend::LocalWindow(const Eigen::Vector3d& sigma) const {
+  SearchWindow window;
+  window.xy = std::min(options_.max_window_xy,
+                       std::max(options_.local_window_min_xy,
+                                options_.local_window_sigmas * std::max(sigma(0), sigma(1))));
+  window.theta = std::min(M_PI, std::max(options_.local_window_min_theta,
+                                         options_.local_window_sigmas * sigma(2)));
+  return window;
+}
+
 void MappingBackend::MatchLocalMap(int index) {
   const auto start = Clock::now();
   PointCloud local_map;
@@ -175,6 +185,9 @@ void MappingBackend::MatchLocalMap(int index) {
   Eigen::Vector3d disagreement = Eigen::Vector3d::Zero();
   std::shared_ptr<const PointCloud> query;
   int chain = -1;
+  // The odometry's step as a second hypothesis (MappingOptions::local_odometry_hypothesis).
+  std::optional<Pose2> odometry_hypothesis;
+  Eigen::Vector3d odometry_sigma;
   {
     std::lock_guard<std::mutex> lock(mu_);
     const Node& previous = nodes_[index - 1];
@@ -205,22 +218,37 @@ void MappingBackend::MatchLocalMap(int index) {
           floor);
     }
     step_sigma = sigma;
-    window.xy = std::min(options_.max_window_xy,
-                         std::max(options_.local_window_min_xy,
-                                  options_.local_window_sigmas * std::max(sigma(0), sigma(1))));
-    window.theta = std::min(M_PI,
-                            std::max(options_.local_window_min_theta,
-                                     options_.local_window_sigmas * sigma(2)));
+    window = LocalWindow(sigma);
+    odometry_sigma = nodes_[index].odometry_variance.cwiseSqrt().cwiseMax(floor);
+    if (options_.local_prior == MappingOptions::LocalPrior::kEkfWithinOdometry &&
+        options_.local_odometry_hypothesis &&
+        (disagreement.array().abs() > options_.local_window_sigmas * odometry_sigma.array())
+            .any()) {
+      odometry_hypothesis = odometry_step;
+    }
   }
   LocalMatchSettings settings;
   settings.grid_resolution = options_.grid_resolution;
   settings.grid_sigma = options_.grid_sigma;
   settings.min_score = options_.local_min_score;
   settings.points_per_observation = options_.local_points_per_observation;
-  const std::optional<LocalMatchResult> match = MatchLocally(
-      ThinPoints(local_map, options_.point_cell), *query, step,
-      step_sigma.cwiseAbs2().asDiagonal(), window, settings);
+  const PointCloud thinned = ThinPoints(local_map, options_.point_cell);
+  std::optional<LocalMatchResult> match = MatchLocally(
+      thinned, *query, step, step_sigma.cwiseAbs2().asDiagonal(), window, settings);
+  bool odometry_won = false;
+  if (odometry_hypothesis) {
+    // The walls decide between the two steps: the better-scoring match is kept.
+    std::optional<LocalMatchResult> around_odometry =
+        MatchLocally(thinned, *query, *odometry_hypothesis,
+                     odometry_sigma.cwiseAbs2().asDiagonal(), LocalWindow(odometry_sigma),
+                     settings);
+    if (around_odometry && (!match || around_odometry->score > match->score)) {
+      match = std::move(around_odometry);
+      odometry_won = true;
+    }
+  }
   std::lock_guard<std::mutex> lock(mu_);
+  if (odometry_won) ++stats_.local_odometry_wins;
   GraphConstraint& c = constraints_[chain];
   if (!match) {
     // The prior alone: with the odometry prior, its step and its noise replace the EKF's.

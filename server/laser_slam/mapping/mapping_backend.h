@@ -30,6 +30,7 @@
 #include "absl/status/statusor.h"
 #include "absl/strings/string_view.h"
 #include "server/laser_slam/mapping/chain_uncertainty.h"
+#include "server/laser_slam/mapping/correlative_matcher.h"
 #include "server/laser_slam/mapping/likelihood_grid.h"
 #include "server/laser_slam/mapping/loop_search.h"
 #include "server/laser_slam/mapping/mapping_options.h"
@@ -71,6 +72,7 @@ struct MappingStats {
   int optimizations = 0;
   int local_matches = 0;        // nodes whose chain constraint comes from local matching
   int local_unmatched = 0;      // nodes left with the EKF's step (nothing scored local_min_score)
+  int local_odometry_wins = 0;  // matches around the odometry's step that beat the EKF's
   int pending_nodes = 0;        // waiting for the back end's thread (filled by Stats())
   std::vector<double> search_ms;    // per searched node, all candidates
   std::vector<double> optimize_ms;  // per optimisation
@@ -150,6 +152,8 @@ class MappingBackend {
   // The front end: node `index`'s scan against the nodes before it (local_matcher.h); sets its
   // chain constraint and its pose, and moves the nodes after it along.
   void MatchLocalMap(int index);
+  // The local search window of a step with these sigmas (x, y, theta).
+  SearchWindow LocalWindow(const Eigen::Vector3d& sigma) const;
   void SearchLoops(int index);
   // Optimises the graph of nodes [0, upto] and carries the later nodes along.
   void Optimize(int upto);
