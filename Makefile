@@ -4,6 +4,8 @@ BUILD_TYPE ?= RelWithDebInfo
 JOBS ?= $(shell nproc)
 LISTEN ?= 127.0.0.1:50051
 DB ?= ./var/waymark.db
+# make run's Prometheus endpoint: loopback, a free port (the server's log names it); METRICS= is off.
+METRICS ?= 127.0.0.1:0
 CTEST_ARGS ?=
 
 .PHONY: all deps peers-deps configure build run test bench demo docker-test fuzz clean
@@ -32,7 +34,9 @@ run: build
 	@echo "  $(BUILD_DIR)/bin/waymark --server $(LISTEN) db create city"
 	@echo "  $(BUILD_DIR)/bin/waymark --server $(LISTEN) enroll city DIR     # DIR/<crossing>/<heading>.jpg"
 	@echo "  $(BUILD_DIR)/bin/waymark --server $(LISTEN) recognize city IMAGE.jpg"
-	$(BUILD_DIR)/bin/waymark-server --listen $(LISTEN) --db $(DB) --insecure-dev
+	@echo "Listening on $(LISTEN), database $(DB); change them with make run LISTEN=HOST:PORT DB=FILE"
+	@echo "(or DB=postgresql://USER@HOST:PORT/DBNAME). Metrics: $(if $(METRICS),the 'metrics at http://...' log line below gives the address (METRICS=127.0.0.1:9100 for a fixed port; METRICS= turns them off),off (METRICS=127.0.0.1:9100 turns them on))."
+	$(BUILD_DIR)/bin/waymark-server --listen $(LISTEN) --db $(DB) --insecure-dev $(if $(METRICS),--metrics-listen $(METRICS))
 
 test: build
 	cd $(BUILD_DIR) && ctest --output-on-failure -j $(JOBS) $(CTEST_ARGS)

@@ -34,14 +34,15 @@ PACKAGES=(
   blender-data  # real 360-degree photos for the rotation test set (bench/rotation_set.h)
   openssl  # test certificates (tests/integration/tls_test.cc)
   postgresql-15  # the server the PostgreSQL tests start for themselves (tests/support/postgres_server.sh)
+  python3-protobuf  # a strict parser of the server's answers (tests/fuzz/answers_utf8_test.sh)
   # make fuzz (scripts/fuzz.sh): clang with libFuzzer and the sanitizers' runtimes, and
   # llvm-symbolizer for their reports
   clang-14 libclang-rt-14-dev llvm-14
 )
 
 # Not needed to build the binaries: the compiler cache, git, test photos, test certificates, the
-# PostgreSQL server of the tests and the fuzzing toolchain.
-NOT_FOR_BUILD=" ccache git blender-data openssl postgresql-15 clang-14 libclang-rt-14-dev llvm-14 "
+# PostgreSQL server of the tests, the tests' Python protobuf and the fuzzing toolchain.
+NOT_FOR_BUILD=" ccache git blender-data openssl postgresql-15 python3-protobuf clang-14 libclang-rt-14-dev llvm-14 "
 if [ "$BUILD_ONLY" -eq 1 ]; then
   kept=()
   for p in "${PACKAGES[@]}"; do

@@ -20,6 +20,7 @@
 #include "client/cli/command.h"
 #include "client/cli/localize_flags.h"
 #include "client/lib/exploration_progress.h"
+#include "client/lib/session_resume.h"
 #include "client/robot/crossing_watch.h"
 #include "client/common/output.h"
 #include "client/robot/robot_loop.h"
@@ -110,10 +111,13 @@ nlohmann::json SummaryJson(const RobotStatus& s, DriveMode mode, const std::stri
           {"safety_stops", stops},
           {"exploration_state", client::ExplorationStateName(exploration)},
           {"exploration_reason", exploration.reason()},
-          {"last_server_error", s.server_error}};
+          {"last_server_error", s.server_error},
+          {"session_closed", s.session_closed},
+          {"close_error", s.close_error}};
 }
 
-// Raw keys from a terminal (no echo, no line buffering) for teleop; restores it on exit.
+// Raw keys from a terminal (no echo, no line buffering); restores it on exit. Signals (Ctrl-C)
+// still work.
 class RawTerminal {
  public:
   RawTerminal() {
@@ -133,53 +137,31 @@ class RawTerminal {
   bool active_ = false;
 };
 
-// Reads keys until `stop`; drives through the loop (whose guard lets each command live for
-// teleop_hold seconds, so the target is re-sent while it is non-zero). A safety stop zeroes the
-// commanded velocity; the target is then dropped so the robot does not drive on into the wall.
-void TeleopKeys(RobotLoop& loop, const VelocityLimits& limits, StopSignals& signals,
-                CrossingWatch* watch, const std::function<void(const std::string&)>& say) {
-  RawTerminal terminal;
-  TeleopTarget target;
-  bool driving = false;
-  while (!signals.stop_requested().load()) {
-    pollfd p{STDIN_FILENO, POLLIN, 0};
-    char key = 0;
-    const int ready = ::poll(&p, 1, 150);
-    const ssize_t got = ready > 0 ? ::read(STDIN_FILENO, &key, 1) : 0;
-    if (ready > 0 && got <= 0) {
-      // The terminal went away (EOF, hang-up): nobody is steering any more.
-      say("teleop: no more keyboard input; stopping");
-      loop.Teleop(0, 0).IgnoreError();
-      return;
-    }
-    if (got == 1) {
-      switch (ApplyTeleopKey(key, target, limits)) {
-        case TeleopAction::kQuit:
-          signals.RequestStop();
-          return;
-        case TeleopAction::kRecognize:
-          if (watch) watch->Request();
-          break;
-        case TeleopAction::kStop:
-        case TeleopAction::kDrive:
-          driving = true;
-          break;
-        case TeleopAction::kNone:
-          break;
-      }
-    } else if (driving) {
-      const RobotStatus s = loop.status();
-      if (s.linear == 0 && s.angular == 0 && (target.linear != 0 || target.angular != 0)) {
-        say("teleop: the base was stopped for safety; target reset");
-        target = {};
-      }
-    }
-    if (driving) {
-      absl::Status s = loop.Teleop(target.linear, target.angular);
-      if (!s.ok()) say("teleop: " + s.ToString());
-      driving = target.linear != 0 || target.angular != 0;
-    }
-  }
+// Whether the keyboard may be read: not from a terminal this process runs in the background of
+// (`waymark robot ... &`), where reading or setting the terminal would stop the whole process
+// (SIGTTIN/SIGTTOU) with its safety watchdog. Input that is not a terminal (a pipe, /dev/null) is
+// read: its end only ends the reading (teleop: stops the robot).
+bool KeyboardReadable() {
+  if (!isatty(STDIN_FILENO)) return true;
+  return tcgetpgrp(STDIN_FILENO) == getpgrp();
+}
+
+// The exact command that closes a session this run left open (with --server unless it is the
+// default).
+std::string CloseCommand(const CommandContext& context, const std::string& session_id) {
+  const std::string server = context.globals.server == GlobalOptions{}.server
+                                 ? ""
+                                 : " --server " + context.globals.server;
+  return fmt::format("waymark{} slam close {}", server, session_id);
+}
+
+// How the final line names the session's state: closed, left open as asked, or still open
+// because the close failed (the server gone): then how to close it.
+std::string SessionEnd(const CommandContext& context, const RobotStatus& s, bool keep_session) {
+  if (s.session_closed) return "closed";
+  if (keep_session) return "left open; continue it with --resume " + s.session_id;
+  return fmt::format("STILL OPEN: could not close it ({}); close it with `{}`", s.close_error,
+                     CloseCommand(context, s.session_id));
 }
 
 int RunRobot(CommandContext& context, RobotArgs args) {
@@ -264,16 +246,46 @@ int RunRobot(CommandContext& context, RobotArgs args) {
     say(StatusLine(s, crossing, mode));
   });
 
+  // The keyboard in every mode: q quits, c recognizes; teleop drives with it too.
   std::thread keys;
-  if (mode == DriveMode::kTeleop) {
-    say(TeleopHelp());
-    keys = std::thread([&] { TeleopKeys(loop, options.limits, signals, watch.get(), say); });
+  std::optional<RawTerminal> terminal;
+  if (!KeyboardReadable()) {
+    if (mode == DriveMode::kTeleop) say("teleop: no keyboard (running in the background)");
+  } else {
+    terminal.emplace();
+    say(KeysHelp(mode == DriveMode::kTeleop));
+    KeyboardHooks hooks;
+    hooks.quit = [&] { signals.RequestStop(); };
+    if (watch) hooks.recognize = [&] { watch->Request(); };
+    if (mode == DriveMode::kTeleop) {
+      hooks.drive = [&](double linear, double angular) { return loop.Teleop(linear, angular); };
+      hooks.base_stopped = [&] {
+        const RobotStatus s = loop.status();
+        return s.linear == 0 && s.angular == 0;
+      };
+    }
+    hooks.say = say;
+    keys = std::thread([&, hooks] {
+      ReadKeys(STDIN_FILENO, signals.stop_requested(), options.limits, hooks);
+    });
   }
   auto result = loop.Run(signals.stop_requested());
   signals.RequestStop();  // ends the key thread
   if (keys.joinable()) keys.join();
+  terminal.reset();
   watch.reset();
-  if (!result.ok()) return ReportError(context, result.status(), "robot");
+  if (!result.ok()) {
+    const int code = ReportError(context, result.status(), "robot");
+    // The run ended without closing its session: say so, and how to close or continue it.
+    const std::string session_id = loop.status().session_id;
+    if (!session_id.empty() && !client::SessionIsGone(result.status())) {
+      context.err << fmt::format(
+          "session {} is still open: continue it with `waymark robot ... --resume {}` or close "
+          "it with `{}`\n",
+          session_id, session_id, CloseCommand(context, session_id));
+    }
+    return code;
+  }
   nlohmann::json summary = SummaryJson(*result, mode, devices->description);
   if (devices->sim) {
     const adapters::BasePose truth = devices->sim->true_pose();
@@ -281,12 +293,22 @@ int RunRobot(CommandContext& context, RobotArgs args) {
                       {"distance_m", devices->sim->distance_travelled()},
                       {"true_pose", {{"x", truth.x}, {"y", truth.y}, {"theta", truth.theta}}}};
   }
+  if (!result->session_closed && !args.keep_session) {
+    summary["close_command"] = CloseCommand(context, result->session_id);
+  }
   if (context.globals.json) {
     PrintJson(context.out, summary);
+    if (!result->session_closed && !args.keep_session) {
+      context.err << fmt::format("session {} is STILL OPEN: could not close it ({}); close it "
+                                 "with `{}`\n",
+                                 result->session_id, result->close_error,
+                                 CloseCommand(context, result->session_id));
+    }
   } else {
     lines << fmt::format(
         "stopped: session {} ({}), {} scans answered, {} reconnects{}\n", result->session_id,
-        args.keep_session ? "left open" : "closed", result->scans_answered, result->reconnects,
+        SessionEnd(context, *result, args.keep_session), result->scans_answered,
+        result->reconnects,
         client::ExplorationEnded(result->exploration_end)
             ? ", exploration " + client::ExplorationStateName(result->exploration_end)
             : "");
@@ -305,8 +327,10 @@ void AddRobotCommand(CLI::App& app, CommandRegistry& registry) {
       "robot",
       "Run a robot against the server: stream its laser and odometry into a SLAM session, drive "
       "the server's suggestions (--mode active) or the keyboard (--mode teleop), recognize "
-      "crossings from its camera. Ctrl-C stops the robot, then exits. Active mode ends by itself "
-      "when the server says exploration is DONE (exit code 0) or STUCK (exit code 3).");
+      "crossings from its camera. Ctrl-C or q (in every mode) stops the robot, closes the "
+      "session, then exits; when the session cannot be closed (the server gone) the last line "
+      "says it is still open and how to close it. Active mode ends by itself when the server "
+      "says exploration is DONE (exit code 0) or STUCK (exit code 3).");
   robot
       ->add_option("--base", args->setup.base,
                    "serial:DEVICE (Pioneer over ARCOS/P2OS, e.g. serial:/dev/ttyS0) or "
@@ -345,7 +369,11 @@ void AddRobotCommand(CLI::App& app, CommandRegistry& registry) {
   robot->add_option("--max-angular", args->max_angular, "Turn rate clamp (rad/s)")
       ->check(CLI::Range(0.0, 4.0))
       ->capture_default_str();
-  robot->add_option("--duration", args->duration_s, "Stop after this many seconds (0 = Ctrl-C)")
+  robot
+      ->add_option("--duration", args->duration_s,
+                   "Stop after this many seconds of the robot's clock (0 = Ctrl-C or q): wall "
+                   "seconds on a real robot, simulated seconds with the simulator (at "
+                   "--sim-speed 10, --duration 60 takes 6 s)")
       ->check(CLI::NonNegativeNumber)
       ->capture_default_str();
   robot->add_option("--robot-id", args->robot_id, "Robot id for the session (default: hostname)");

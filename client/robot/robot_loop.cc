@@ -116,13 +116,22 @@ class RobotLoop::Impl {
     }
     guard_.Halt(StopReason::kShutdown).IgnoreError();
     FinishStream(/*cancel=*/!result.ok());
+    std::string close_error;
+    bool closed_now = false;
     if (result.ok() && options_.close_session) {
       auto closed = client_.CloseSession(session_id_);
-      if (!closed.ok())
-        Event(fmt::format("could not close the session: {}", Text(closed.status())));
+      closed_now = closed.ok();
+      if (!closed.ok()) {
+        close_error = Text(closed.status());
+        Event(fmt::format("could not close session {}: {}: it is still open on the server",
+                          session_id_, close_error));
+      }
     }
     if (!result.ok()) return result;
-    return Snapshot();
+    RobotStatus final_status = Snapshot();
+    final_status.session_closed = closed_now;
+    final_status.close_error = close_error;
+    return final_status;
   }
 
   absl::Status Teleop(double linear, double angular) {

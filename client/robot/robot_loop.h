@@ -49,7 +49,9 @@ struct RobotLoopOptions {
   // Set: the session created localizes on this stored map instead of mapping (not with resume).
   std::optional<v1::LocalizationConfig> localize;
   VelocityLimits limits;
-  double duration_s = 0;    // device seconds to run; 0 = until `stop` is set
+  // Device seconds to run (the base's clock: simulated seconds with the simulator, so at
+  // time_scale 10 a duration of 60 takes 6 s of wall time); 0 = until `stop` is set.
+  double duration_s = 0;
   double time_scale = 1.0;  // device seconds per wall second (the simulator's speed)
   // A scan not answered within this counts as a broken stream (the base stops, then reconnect).
   absl::Duration answer_timeout = absl::Seconds(5);
@@ -96,6 +98,11 @@ struct RobotStatus {
   v1::ExplorationProgress exploration_end;
   uint64_t suggestions_driven = 0;
   uint64_t stops[static_cast<int>(StopReason::kCount)] = {};
+  // The run closed its session at the end. False when asked not to (close_session false), when
+  // the run ended in an error, or when the close failed (close_error says why: the server is
+  // gone, say): the session is then still open on the server.
+  bool session_closed = false;
+  std::string close_error;
 };
 
 class RobotLoop {

@@ -74,7 +74,32 @@ nlohmann::json LocalizationJson(const ReplayReport& report) {
           {"first_fix_score", OptionalJson(report.first_fix_score)},
           {"first_fix_rival_ratio", OptionalJson(report.first_fix_rival_ratio)},
           {"first_fix_rival_distance_m", OptionalJson(report.first_fix_rival_distance)},
-          {"ambiguous_answers", report.ambiguous_answers}};
+          {"ambiguous_answers", report.ambiguous_answers},
+          // What the pictures draw: the map localized on (segments and grid) under this run's
+          // trajectory.
+          {"drawn_map", report.map_drawn ? nlohmann::json(report.localize_map)
+                                         : nlohmann::json(nullptr)},
+          {"drawn_segments", report.drawn_segments},
+          {"drawn_map_problem", report.drawn_map_problem.empty()
+                                    ? nlohmann::json(nullptr)
+                                    : nlohmann::json(report.drawn_map_problem)}};
+}
+
+// What a localization replay's pictures show: the map it localized on.
+std::string DrawnMapText(const ReplayReport& report) {
+  if (!report.map_drawn) {
+    return fmt::format("the pictures show only this run's trajectory: map {} could not be read "
+                       "({})\n",
+                       report.localize_map, report.drawn_map_problem);
+  }
+  std::string grid = report.grid_width > 0
+                         ? fmt::format("its occupancy grid ({} x {} cells of {:g} m) and ",
+                                       report.grid_width, report.grid_height,
+                                       report.grid_resolution)
+                         : std::string();
+  return fmt::format("the pictures show the map localized on, {}: {}its {} segments, with this "
+                     "run's trajectory\n",
+                     report.localize_map, grid, report.drawn_segments);
 }
 
 std::string LocalizationText(const ReplayReport& report) {
@@ -304,7 +329,7 @@ std::string ReplayText(const ReplayReport& report) {
   }
   if (!report.grid_note.empty()) text += report.grid_note + "\n";
   text += SelfCheckText(report);
-  if (!report.localize_map.empty()) text += LocalizationText(report);
+  if (!report.localize_map.empty()) text += LocalizationText(report) + DrawnMapText(report);
   if (report.trajectory_source != "server") {
     text += fmt::format("trajectory: the {} poses of the {}\n", report.trajectory_poses,
                         report.trajectory_source);

@@ -124,6 +124,12 @@ struct ReplayReport {
   std::optional<double> first_fix_rival_distance;
   // Answers not localized because another place fit nearly as well (state AMBIGUOUS).
   uint64_t ambiguous_answers = 0;
+  // Localization: the pictures draw the map localized on (localize_map's segments and occupancy
+  // grid) with this run's trajectory, not this session's own (it keeps no scans). How many of its
+  // segments were drawn, and why it could not be had when map_drawn is false.
+  bool map_drawn = false;
+  int drawn_segments = 0;
+  std::string drawn_map_problem;
 
   bool partial() const { return end == ReplayEnd::kInterrupted || end == ReplayEnd::kFailed; }
 };

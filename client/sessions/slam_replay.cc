@@ -4,10 +4,12 @@
 #include <fmt/ranges.h>
 
 #include <algorithm>
+#include <atomic>
 #include <chrono>
 #include <cmath>
 #include <filesystem>
 #include <fstream>
+#include <future>
 #include <mutex>
 #include <optional>
 #include <thread>
@@ -20,6 +22,7 @@
 #include "client/datasets/tum_trajectory.h"
 #include "client/eval/eval_metrics.h"      // Percentile
 #include "client/eval/relations_metric.h"  // Compose, Inverse
+#include "client/render/occupancy_picture.h"
 #include "client/render/slam_output.h"
 #include "client/robot/laser_session.h"
 #include "client/sessions/replay_report.h"
@@ -57,6 +60,60 @@ absl::StatusOr<std::unique_ptr<CarmenLaserFeed>> OpenFeed(const std::string& log
   if (restamp) options.restamp_rate_hz = rate_hz;
   return std::make_unique<CarmenLaserFeed>(*std::move(reader), options);
 }
+
+// The laser scans a replay of `log` sends when it is not stopped: the log read through a feed of
+// its own with the same options, so scans skipped for their stamps are not counted. For the
+// progress bar, which follows the scans sent (the reader itself reads ahead of what was sent: a
+// compressed log can be read whole while the first scans go out). 0 when the log cannot be read.
+// Gives up (0) once `cancel` is set.
+int64_t CountFeedScans(const std::string& log, bool restamp, double rate_hz,
+                       const std::atomic<bool>* cancel) {
+  auto feed = OpenFeed(log, restamp, rate_hz);
+  if (!feed.ok()) return 0;
+  CarmenRecord record;
+  int64_t scans = 0;
+  while (!cancel->load()) {
+    auto next = (*feed)->Next(&record);
+    if (!next.ok() || !*next) break;
+    ++scans;
+  }
+  return scans;
+}
+
+// The replay's progress bar: scans sent of the scans in the log (or of --max-scans), drawn once
+// the log has been counted on a thread of its own (a bar with a total, never one of bytes read).
+class ReplayProgress {
+ public:
+  ReplayProgress(CommandContext& context, const ReplayArgs& args)
+      : context_(context), max_scans_(args.max_scans) {
+    if (!context.err_is_tty) return;  // the bar is for a person watching
+    total_ = std::async(std::launch::async, CountFeedScans, args.log, args.restamp, args.rate_hz,
+                        &cancel_);
+  }
+  ~ReplayProgress() { cancel_ = true; }  // the future's destructor then waits little
+  // `sent` scans sent, `answered` answered so far. `final`: waits for the count.
+  void Update(int64_t sent, int64_t answered, bool final = false) {
+    if (!total_.valid() && !bar_) return;
+    if (!bar_) {
+      if (!final && total_.wait_for(std::chrono::seconds(0)) != std::future_status::ready) return;
+      int64_t total = total_.get();
+      if (max_scans_ > 0) total = std::min<int64_t>(total, max_scans_);
+      bar_.emplace(context_.err, static_cast<int>(std::max<int64_t>(total, 1)), "scans",
+                   context_.err_is_tty);
+    }
+    bar_->Update(static_cast<int>(sent), fmt::format("{} answered", answered));
+  }
+  void Finish() {
+    if (bar_) bar_->Finish();
+  }
+
+ private:
+  CommandContext& context_;
+  const int max_scans_;
+  std::atomic<bool> cancel_{false};
+  std::future<int64_t> total_;
+  std::optional<ProgressBar> bar_;
+};
 
 // The loud warning when most laser lines were skipped for their stamps (how many, why, what to
 // do); empty when the stamps were usable.
@@ -167,7 +224,9 @@ void SleepUntil(Clock::time_point due, const StopRequested& stop) {
 struct SessionResults {
   v1::Trajectory trajectory;
   v1::SegmentMap map;
-  std::optional<v1::OccupancyGrid> grid;  // only asked for a folder --out
+  std::optional<v1::OccupancyGrid> grid;  // only asked for a folder --out, or when localizing
+  // Localization: the map localized on, which the pictures draw instead of `map`.
+  std::optional<v1::SegmentMap> drawn_map;
 };
 
 SessionResults CloseAndCollect(client::SlamClient& client, const std::string& session_id,
@@ -220,6 +279,34 @@ std::optional<v1::OccupancyGrid> CollectGrid(client::SlamClient& client,
   return std::move(grid->grid);
 }
 
+// A localization replay draws the map it localized on, `map_id`: its segments, and its occupancy
+// grid (the localizer matches scans against the map's scans, which the grid shows) with this
+// run's trajectory. This session's own segments and grid are no map (it keeps no scans: asking
+// for its grid only says so). What cannot be had is said in the report, never a failure.
+void CollectLocalizationMap(client::SlamClient& client, const std::string& map_id,
+                            std::optional<double> resolution, SessionResults& results,
+                            ReplayReport& report) {
+  absl::StatusOr<v1::SegmentMap> map = client.GetMap(map_id);
+  if (!map.ok()) {
+    report.drawn_map_problem = "GetMap: " + StatusText(map.status());
+    return;
+  }
+  map->clear_self_check();  // that map's own verdict, not this run's
+  report.map_drawn = true;
+  report.drawn_segments = map->segments_size();
+  results.drawn_map = *std::move(map);
+  absl::StatusOr<SessionGrid> grid = FetchSessionGrid(client, map_id, resolution);
+  if (!grid.ok()) {
+    report.grid_note = fmt::format("map {} has no occupancy grid to draw: GetOccupancyGrid: {}",
+                                   map_id, StatusText(grid.status()));
+  } else if (!grid->grid) {
+    report.grid_note = fmt::format("map {} has no occupancy grid to draw ({})", map_id,
+                                   grid->missing);
+  } else {
+    results.grid = std::move(grid->grid);
+  }
+}
+
 // map.pgm, map.yaml and occupancy.png into the folder; a failure is the grid's note.
 void WriteGrid(const std::filesystem::path& dir, const v1::OccupancyGrid& grid,
                const v1::Trajectory& trajectory, ReplayReport& report) {
@@ -246,15 +333,38 @@ void WriteOutputs(const SlamOutTarget& target, const SessionResults& results,
   if (results.map.graph_nodes() > 0) report.loop_closures = results.map.loop_closures();
   report.map_revision = results.map.map_revision();
   report.trajectory_poses = results.trajectory.poses_size();
-  std::string title = fmt::format("{}: {} scans, {} segments", LogName(report.log),
-                                  report.scans_answered, report.segments);
+  const bool localizing = !report.localize_map.empty();
+  std::string title =
+      localizing ? fmt::format("{}: {} scans localized on map {}", LogName(report.log),
+                               report.scans_answered, report.localize_map)
+                 : fmt::format("{}: {} scans, {} segments", LogName(report.log),
+                               report.scans_answered, report.segments);
   if (report.partial()) title += fmt::format(" (partial: {})", ReplayEndName(report.end));
-  auto written = WriteSlamOutputs(target, results.map, results.trajectory, title, odometry_path);
+  const v1::SegmentMap& drawn = results.drawn_map ? *results.drawn_map : results.map;
+  auto written = WriteSlamOutputs(target, drawn, results.trajectory, title, odometry_path);
   if (!written.ok()) {
     report.write_error = StatusText(written.status());
     return;
   }
   report.files = *std::move(written);
+  // Localizing on a grid: map.png is that grid with the trajectory (an imported map has no
+  // segments at all).
+  if (localizing && results.grid && target.kind != SlamOutTarget::Kind::kSvg) {
+    const std::filesystem::path png = target.is_folder() ? target.path / "map.png" : target.path;
+    std::vector<ScenePolyline> paths;
+    if (results.trajectory.poses_size() > 0) {
+      paths.push_back(TrajectoryPolyline(results.trajectory));
+    }
+    if (absl::Status s = WriteOccupancyPicture(png, *results.grid, paths); !s.ok()) {
+      report.write_error = StatusText(s);
+      return;
+    }
+    if (!target.is_folder()) {
+      report.grid_width = results.grid->width();
+      report.grid_height = results.grid->height();
+      report.grid_resolution = results.grid->resolution();
+    }
+  }
   if (!target.is_folder()) return;
   if (results.grid) WriteGrid(target.path, *results.grid, results.trajectory, report);
   const std::filesystem::path summary_path = target.path / "summary.json";
@@ -363,10 +473,7 @@ int RunSlamReplay(CommandContext& context, const ReplayArgs& args, const StopReq
       report.session_id, args.window, [&answers](const v1::SlamUpdate& u) { answers.Add(u); });
 
   const bool by_scans = args.max_scans > 0;
-  const int64_t kib_total = std::max<int64_t>(1, feed.reader().file_size() / 1024);
-  ProgressBar progress(context.err,
-                       by_scans ? args.max_scans : static_cast<int>(kib_total),
-                       by_scans ? "scans" : "KiB of log", context.err_is_tty);
+  ReplayProgress progress(context, args);
   const double first_stamp = record.laser.stamp;
   std::vector<Vec2> odometry_path;
   const Clock::time_point start = Clock::now();
@@ -395,10 +502,7 @@ int RunSlamReplay(CommandContext& context, const ReplayArgs& args, const StopReq
       odometry_path.push_back({record.laser.odom_pose.x, record.laser.odom_pose.y});
     }
     const int64_t sent = report.span.scans();
-    if (sent % 16 == 0) {
-      progress.Update(by_scans ? static_cast<int>(sent)
-                               : static_cast<int>(feed.reader().bytes_consumed() / 1024));
-    }
+    if (sent % 16 == 0) progress.Update(sent, stream->stats().updates);
     if (by_scans && sent >= args.max_scans) {
       report.end = ReplayEnd::kMaxScans;
       break;
@@ -423,7 +527,9 @@ int RunSlamReplay(CommandContext& context, const ReplayArgs& args, const StopReq
     report.end = ReplayEnd::kFailed;
   }
   if (!failure.ok()) report.error = StatusText(failure);
-  progress.Update(by_scans ? static_cast<int>(report.span.scans()) : static_cast<int>(kib_total));
+  // The last draw waits for the count, unless the run was interrupted (Ctrl-C ends it at once).
+  progress.Update(report.span.scans(), stream->stats().updates,
+                  /*final=*/report.end != ReplayEnd::kInterrupted);
   progress.Finish();
   PrintReadProblems(context, feed.reader());
   for (const std::string& r : answers.rejections()) context.err << "warning: rejected " << r << "\n";
@@ -462,7 +568,9 @@ int RunSlamReplay(CommandContext& context, const ReplayArgs& args, const StopReq
   }
 
   SessionResults results = CloseAndCollect(*client, report.session_id, answers, report);
-  if (target.is_folder()) {
+  if (args.localize) {
+    CollectLocalizationMap(*client, report.localize_map, args.grid_resolution, results, report);
+  } else if (target.is_folder()) {
     results.grid = CollectGrid(*client, report.session_id, args.grid_resolution, report);
   }
   WriteOutputs(target, results, odometry_path, report);

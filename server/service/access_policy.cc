@@ -1,6 +1,7 @@
 #include "server/service/access_policy.h"
 
 #include "absl/strings/str_cat.h"
+#include "server/common/quote.h"
 
 namespace waymark::service {
 
@@ -26,8 +27,8 @@ const char* ActionName(Action action) {
 
 std::string Caller::Describe() const {
   if (auth_off) return "(auth off)";
-  return absl::StrCat("token \"", token_name, "\" (", storage::TokenRoleName(role), ", robot \"",
-                      robot_id, "\")");
+  return absl::StrCat("token ", QuoteClientText(token_name), " (", storage::TokenRoleName(role),
+                      ", robot ", QuoteClientText(robot_id), ")");
 }
 
 TokenRole MinimumRole(Action action) {

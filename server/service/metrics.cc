@@ -20,6 +20,10 @@
 
 #include <algorithm>
 #include <atomic>
+#include <cmath>
+#include <map>
+#include <mutex>
+#include <set>
 #include <chrono>
 #include <cstdint>
 #include <exception>
@@ -127,11 +131,90 @@ std::string StatusCodeName(grpc::StatusCode code) {
   return name.empty() ? absl::StrCat(static_cast<int>(code)) : name;
 }
 
+namespace {
+
+// Processing time of one scan (or frame) in a SLAM session: 0.5 ms (a scan the EKF alone takes)
+// to 2.5 s (a loop search on a loaded machine).
+const prometheus::Histogram::BucketBoundaries& ScanBuckets() {
+  static const auto* buckets = new prometheus::Histogram::BucketBoundaries{
+      0.0005, 0.001, 0.0025, 0.005, 0.01, 0.025, 0.05, 0.1, 0.25, 0.5, 1, 2.5};
+  return *buckets;
+}
+
+// The q-quantile (0..1) of `values` (not empty), nearest rank.
+double Quantile(std::vector<double> values, double q) {
+  std::sort(values.begin(), values.end());
+  const size_t rank = static_cast<size_t>(std::ceil(q * static_cast<double>(values.size())));
+  return values[std::min(values.size() - 1, rank == 0 ? 0 : rank - 1)];
+}
+
+}  // namespace
+
+// The SLAM answers as they go out (SlamRegistry::SetUpdateObserver): the server-wide scan count
+// and processing-time histogram (no labels), and per session what its last answer said and the
+// processing times of its last kWindow scans, for the per-session gauges. A session's entry is
+// dropped at the first scrape after it left memory (closed, deleted, handed to another server), so
+// the `session` label takes at most as many values as sessions in memory (--max-sessions).
+// Shared with the registry's observer, which may run on a worker thread while ~Metrics runs.
+class Metrics::SlamSessionStats {
+ public:
+  static constexpr size_t kWindow = 256;
+  struct Entry {
+    uint64_t loop_closures = 0;
+    std::vector<double> recent_seconds;  // a ring of the last kWindow processing times
+    size_t next = 0;
+  };
+
+  explicit SlamSessionStats(prometheus::Registry& registry)
+      : scans_(&prometheus::BuildCounter()
+                    .Name("waymark_slam_scans_total")
+                    .Help("SLAM scans (and visual frames) processed and answered, all sessions")
+                    .Register(registry)
+                    .Add({})),
+        seconds_(&prometheus::BuildHistogram()
+                      .Name("waymark_slam_scan_seconds")
+                      .Help("Processing time of one SLAM scan or frame in its session, queue "
+                            "excluded, all sessions")
+                      .Register(registry)
+                      .Add({}, ScanBuckets())) {}
+
+  void Observe(const std::string& session_id, const v1::SlamUpdate& update) {
+    const double seconds = std::max(0.0, update.timings().total_ms() / 1000);
+    scans_->Increment();
+    seconds_->Observe(seconds);
+    std::lock_guard<std::mutex> lock(mutex_);
+    Entry& entry = sessions_[session_id];
+    entry.loop_closures = update.loop_closures();
+    if (entry.recent_seconds.size() < kWindow) {
+      entry.recent_seconds.push_back(seconds);
+    } else {
+      entry.recent_seconds[entry.next] = seconds;
+      entry.next = (entry.next + 1) % kWindow;
+    }
+  }
+
+  // The entries of the sessions in `resident`; every other entry is dropped.
+  std::map<std::string, Entry> Keep(const std::set<std::string>& resident) {
+    std::lock_guard<std::mutex> lock(mutex_);
+    for (auto it = sessions_.begin(); it != sessions_.end();) {
+      it = resident.count(it->first) ? std::next(it) : sessions_.erase(it);
+    }
+    return sessions_;
+  }
+
+ private:
+  prometheus::Counter* scans_;
+  prometheus::Histogram* seconds_;
+  std::mutex mutex_;
+  std::map<std::string, Entry> sessions_;
+};
+
 // Reads the state metrics from their sources at scrape time (see metrics.h). A source that
 // fails is left out of that scrape and logged; the other families are still served.
 class Metrics::StateCollector : public prometheus::Collectable {
  public:
-  explicit StateCollector(MetricsSources sources) : sources_(std::move(sources)) {}
+  StateCollector(MetricsSources sources, std::shared_ptr<SlamSessionStats> slam_stats)
+      : sources_(std::move(sources)), slam_stats_(std::move(slam_stats)) {}
 
   std::vector<prometheus::MetricFamily> Collect() const override {
     std::vector<prometheus::MetricFamily> families;
@@ -151,12 +234,15 @@ class Metrics::StateCollector : public prometheus::Collectable {
     int active = 0;
     uint64_t queued = 0;
     uint32_t max_queued = 0;
+    std::set<std::string> resident;
     for (const v1::Session& session : sessions->sessions()) {
       if (!session.resident()) continue;
       ++active;
       queued += session.queued_messages();
       max_queued = std::max(max_queued, session.queued_messages());
+      resident.insert(session.session_id());
     }
+    CollectSlamSessions(*sessions, slam_stats_->Keep(resident), families);
     families.push_back(
         GaugeFamily("waymark_slam_sessions_active", "SLAM sessions held in this server's memory"));
     AddGauge(families.back(), active);
@@ -170,6 +256,41 @@ class Metrics::StateCollector : public prometheus::Collectable {
         "waymark_slam_queue_capacity",
         "SLAM messages a session queue holds; beyond it messages get RESOURCE_EXHAUSTED"));
     AddGauge(families.back(), sources_.slam->options().queue_capacity);
+  }
+
+  // Per session in memory (label `session`, its id): scans processed, messages waiting, loop
+  // closures and the processing time of its recent scans (quantile 0.5 and 0.99 of the last
+  // SlamSessionStats::kWindow).
+  static void CollectSlamSessions(const v1::ListSessionsResponse& sessions,
+                                  const std::map<std::string, SlamSessionStats::Entry>& stats,
+                                  std::vector<prometheus::MetricFamily>& families) {
+    prometheus::MetricFamily scans = GaugeFamily(
+        "waymark_slam_session_scans", "Scans (or frames) a SLAM session in memory has processed");
+    prometheus::MetricFamily queue = GaugeFamily(
+        "waymark_slam_session_queue_depth", "Messages waiting in a SLAM session's input queue");
+    prometheus::MetricFamily closures = GaugeFamily(
+        "waymark_slam_session_loop_closures",
+        "Loop closures of a laser SLAM session, as its last answer counted them");
+    prometheus::MetricFamily seconds = GaugeFamily(
+        "waymark_slam_session_scan_seconds",
+        "Processing time of a SLAM session's recent scans (the last 256), by quantile");
+    for (const v1::Session& session : sessions.sessions()) {
+      if (!session.resident()) continue;
+      const std::string& id = session.session_id();
+      AddGauge(scans, static_cast<double>(session.scans_processed()), {{"session", id}});
+      AddGauge(queue, session.queued_messages(), {{"session", id}});
+      auto it = stats.find(id);
+      if (it == stats.end()) continue;  // nothing processed since it was loaded
+      AddGauge(closures, static_cast<double>(it->second.loop_closures), {{"session", id}});
+      if (it->second.recent_seconds.empty()) continue;
+      for (const auto& [label, q] : {std::pair<const char*, double>{"0.5", 0.5}, {"0.99", 0.99}}) {
+        AddGauge(seconds, Quantile(it->second.recent_seconds, q),
+                 {{"quantile", label}, {"session", id}});
+      }
+    }
+    for (prometheus::MetricFamily* family : {&scans, &queue, &closures, &seconds}) {
+      families.push_back(std::move(*family));
+    }
   }
 
   void CollectCrossings(std::vector<prometheus::MetricFamily>& families) const {
@@ -193,11 +314,16 @@ class Metrics::StateCollector : public prometheus::Collectable {
   }
 
   const MetricsSources sources_;
+  const std::shared_ptr<SlamSessionStats> slam_stats_;
 };
 
 Metrics::Metrics(const MetricsSources& sources)
     : registry_(std::make_shared<prometheus::Registry>()),
-      state_(std::make_shared<StateCollector>(sources)),
+      // The SLAM families exist only with a SLAM source (a page without one has none).
+      slam_stats_(sources.slam != nullptr ? std::make_shared<SlamSessionStats>(*registry_)
+                                          : nullptr),
+      state_(std::make_shared<StateCollector>(sources, slam_stats_)),
+      slam_(sources.slam),
       requests_(&prometheus::BuildCounter()
                      .Name("waymark_rpc_requests_total")
                      .Help("RPCs finished, by full method name and status code")
@@ -214,9 +340,21 @@ Metrics::Metrics(const MetricsSources& sources)
       recognitions_(&prometheus::BuildCounter()
                          .Name("waymark_recognitions_total")
                          .Help("Recognition answers (unary calls and stream frames), by outcome")
-                         .Register(*registry_)) {}
+                         .Register(*registry_)) {
+  if (slam_ != nullptr) {
+    // The observer holds the stats (and through them the registry's families), not this: a
+    // worker may still be in it while ~Metrics runs.
+    std::shared_ptr<SlamSessionStats> stats = slam_stats_;
+    std::shared_ptr<prometheus::Registry> registry = registry_;
+    slam_->SetUpdateObserver(
+        [stats, registry](const std::string& session_id, const v1::SlamUpdate& update) {
+          stats->Observe(session_id, update);
+        });
+  }
+}
 
 Metrics::~Metrics() {
+  if (slam_ != nullptr) slam_->SetUpdateObserver(nullptr);
   // Stop serving before the families and the collector go away.
   StopExposer(std::move(exposer_), host_, port());
 }

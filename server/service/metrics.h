@@ -6,7 +6,8 @@
 //
 // Two kinds:
 //   - event metrics (calls, latency, in-flight calls, recognition outcomes), updated by the call
-//     interceptor as calls happen;
+//     interceptor as calls happen; SLAM scans and their processing time, from the SLAM
+//     registry's update observer as each scan (or frame) is answered;
 //   - state metrics (SLAM sessions and queues, views per crossing database, database file size),
 //     read from their sources when Prometheus scrapes, by a Collectable. Reading at scrape time
 //     rather than polling from a thread every few seconds means a scrape never shows stale
@@ -70,9 +71,12 @@ class Metrics {
   friend absl::StatusOr<std::unique_ptr<Metrics>> StartMetrics(const std::string& listen,
                                                                const MetricsSources& sources);
   class StateCollector;
+  class SlamSessionStats;  // per session, while it is in memory (bounded labels)
 
   std::shared_ptr<prometheus::Registry> registry_;
+  std::shared_ptr<SlamSessionStats> slam_stats_;  // shared with the registry's observer
   std::shared_ptr<StateCollector> state_;
+  SlamRegistry* slam_ = nullptr;  // whose observer this installed
   prometheus::Family<prometheus::Counter>* requests_;
   prometheus::Family<prometheus::Histogram>* latency_;
   prometheus::Family<prometheus::Gauge>* in_flight_;

@@ -15,7 +15,9 @@
 #include <utility>
 
 #include "absl/strings/str_cat.h"
+#include "server/common/quote.h"
 #include "server/common/stopwatch.h"
+#include "server/service/grpc_status.h"
 #include "server/service/laser_session_engine.h"
 #include "server/service/map_self_check.h"
 #include "server/service/session_engine.h"
@@ -101,7 +103,9 @@ double UnixNow() {
   return std::chrono::duration<double>(std::chrono::system_clock::now().time_since_epoch()).count();
 }
 
-std::string Quoted(const std::string& s) { return absl::StrCat("\"", s, "\""); }
+// A session id (the client's, or a map session it names) in a message: valid UTF-8, escaped,
+// and whole up to the 128 characters CheckId allows (issue 35: server/common/quote.h).
+std::string Quoted(const std::string& s) { return QuoteClientText(s, 128); }
 
 std::string NewSessionId() {
   std::random_device device;
@@ -142,7 +146,7 @@ v1::SlamUpdate Rejection(uint64_t sequence, const absl::Status& status) {
   v1::SlamUpdate update;
   update.set_sequence(sequence);
   update.mutable_rejection()->set_code(static_cast<int32_t>(status.code()));
-  update.mutable_rejection()->set_message(std::string(status.message()));
+  update.mutable_rejection()->set_message(BoundedStatusMessage(status.message()));
   return update;
 }
 
@@ -876,8 +880,22 @@ void SlamRegistry::Process(Session& session, QueuedMessage& message, const SlamU
     }
     answer = Rejection(message.sequence, error);
   }
+  // Observed before it goes out, so a client that has the answer can already scrape it.
+  if (answer.has_value() && error.ok()) {
+    std::shared_ptr<const UpdateObserver> observer;
+    {
+      std::lock_guard<std::mutex> lock(observer_mutex_);
+      observer = observer_;
+    }
+    if (observer) (*observer)(session.id, *answer);
+  }
   if (answer.has_value() && sink) sink(*answer);
   if (message.is_scan && error.ok()) MaybeCheckpoint(session);
+}
+
+void SlamRegistry::SetUpdateObserver(UpdateObserver observer) {
+  std::lock_guard<std::mutex> lock(observer_mutex_);
+  observer_ = observer ? std::make_shared<const UpdateObserver>(std::move(observer)) : nullptr;
 }
 
 void SlamRegistry::MaybeCheckpoint(Session& session) {

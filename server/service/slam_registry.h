@@ -216,6 +216,13 @@ class SlamRegistry {
   absl::Status Shutdown();
 
   const SlamRegistryOptions& options() const { return options_; }
+
+  // Sees every answer to a processed scan or frame (not rejections), on the session's worker
+  // thread just before the stream's sink: the metrics' per-session counts and latencies (metrics.h).
+  // Null (the default) = none. Safe to set and clear while sessions run.
+  using UpdateObserver =
+      std::function<void(const std::string& session_id, const v1::SlamUpdate& update)>;
+  void SetUpdateObserver(UpdateObserver observer);
   // Where robots reach this server, for the leases (SlamRegistryOptions::lease), once known.
   void set_lease_address(const std::string& address) { leases_.set_address(address); }
 
@@ -275,6 +282,8 @@ class SlamRegistry {
   std::unique_ptr<storage::SlamStore> store_;
   std::atomic<bool> shutting_down_{false};
 
+  std::mutex observer_mutex_;  // guards observer_ (copied out per answer, called unlocked)
+  std::shared_ptr<const UpdateObserver> observer_;
   std::mutex load_mutex_;  // serializes loading/creating/closing sessions (not the hot path)
   std::mutex mutex_;       // guards sessions_ (the map, not the sessions)
   std::map<std::string, std::shared_ptr<Session>> sessions_;  // resident (open) sessions

@@ -5,6 +5,7 @@
 #include <mutex>
 #include <optional>
 
+#include "server/service/grpc_status.h"
 #include "server/service/service_call.h"
 #include "server/service/session_leases.h"
 
@@ -156,7 +157,7 @@ grpc::Status SlamServiceImpl::ServeStreamSensorData(grpc::ServerContext* context
       v1::SlamUpdate rejection;
       rejection.set_sequence(data.sequence());
       rejection.mutable_rejection()->set_code(static_cast<int32_t>(accepted.code()));
-      rejection.mutable_rejection()->set_message(std::string(accepted.message()));
+      rejection.mutable_rejection()->set_message(BoundedStatusMessage(accepted.message()));
       writer->Write(rejection);
     }
   }

@@ -1,6 +1,7 @@
 #include "server/service/stream_limiter.h"
 
 #include "absl/strings/str_cat.h"
+#include "server/common/quote.h"
 
 namespace waymark::service {
 
@@ -12,8 +13,9 @@ absl::StatusOr<std::unique_ptr<StreamLimiter::Lease>> StreamLimiter::Acquire(
   int& open = open_[robot_id];
   if (max_per_robot_ > 0 && open >= max_per_robot_) {
     return absl::ResourceExhaustedError(
-        absl::StrCat("robot \"", robot_id, "\" already has ", open, " streams open (the limit is ",
-                     max_per_robot_, ", server option --max-streams-per-robot); end one first"));
+        absl::StrCat("robot ", QuoteClientText(robot_id), " already has ", open,
+                     " streams open (the limit is ", max_per_robot_,
+                     ", server option --max-streams-per-robot); end one first"));
   }
   ++open;
   return std::unique_ptr<Lease>(new Lease(this, robot_id));

@@ -4,6 +4,7 @@
 #include <string>
 
 #include "absl/strings/str_cat.h"
+#include "server/common/quote.h"
 #include "server/service/service_call.h"
 #include "storage/store_util.h"
 
@@ -114,8 +115,8 @@ grpc::Status TokenServiceImpl::RevokeToken(grpc::ServerContext* context,
                            for (const auto& token : *tokens) {
                              if (token.name == request->name()) return ToProto(token);
                            }
-                           return absl::NotFoundError(
-                               absl::StrCat("token \"", request->name(), "\" vanished"));
+                           return absl::NotFoundError(absl::StrCat(
+                               "token ", QuoteClientText(request->name()), " vanished"));
                          });
 }
 

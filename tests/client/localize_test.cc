@@ -6,6 +6,8 @@
 
 #include <fstream>
 #include <nlohmann/json.hpp>
+#include <opencv2/core.hpp>
+#include <opencv2/imgcodecs.hpp>
 
 #include "client/cli/localize_flags.h"
 #include "client/lib/channel.h"
@@ -19,6 +21,7 @@ namespace waymark::cli {
 namespace {
 
 using ::testing::HasSubstr;
+using ::testing::Not;
 using waymark::testing::CliResult;
 using waymark::testing::FakeSlamServer;
 using waymark::testing::MakeLog;
@@ -80,6 +83,37 @@ TEST_F(LocalizeTest, ReplayCreatesALocalizationSessionAndReportsTheFirstFix) {
                                    "0.80, its best rival 0.50 of that 12.0 m away; 2 answers "
                                    "refused a fix because another place fit nearly as well"));
   EXPECT_FALSE(server_.service().last_create().laser().localize().has_initial_pose());
+}
+
+// Issue 35: a localization replay draws the map it localized on (its grid, with the run's
+// trajectory) and does not print the failure-looking "no occupancy grid for session ...: this
+// session keeps no scans" of its own session.
+TEST_F(LocalizeTest, ReplayDrawsTheMapItLocalizedOnWithItsTrajectory) {
+  const auto out = dir_.path() / "o";
+  CliResult human =
+      Run({"slam", "replay", WriteLog(20), "--out", out.string(), "--localize-on", "s1"});
+  ASSERT_EQ(human.code, 0) << human.err;
+  EXPECT_THAT(human.out, Not(HasSubstr("no occupancy grid")));
+  EXPECT_THAT(human.out, Not(HasSubstr("keeps no scans")));
+  EXPECT_THAT(human.out, HasSubstr("the pictures show the map localized on, s1: its occupancy "
+                                   "grid (2 x 2 cells of 0.05 m) and its 0 segments, with this "
+                                   "run's trajectory"));
+  // map.png is s1's grid under the trajectory: the very picture occupancy.png is (the session's
+  // own segment map would be a titled picture of another size).
+  const cv::Mat map = cv::imread((out / "map.png").string());
+  const cv::Mat occupancy = cv::imread((out / "occupancy.png").string());
+  ASSERT_FALSE(map.empty());
+  ASSERT_FALSE(occupancy.empty());
+  ASSERT_EQ(map.size(), occupancy.size());
+  EXPECT_EQ(cv::norm(map, occupancy, cv::NORM_INF), 0);
+  EXPECT_TRUE(std::filesystem::exists(out / "map.pgm"));
+
+  CliResult r = Run({"--json", "slam", "replay", WriteLog(20), "--out",
+                     (dir_.path() / "j").string(), "--localize-on", "s1"});
+  ASSERT_EQ(r.code, 0) << r.err;
+  EXPECT_EQ(r.Json()["localization"]["drawn_map"], "s1");
+  EXPECT_EQ(r.Json()["grid"]["width"], 2);
+  EXPECT_FALSE(r.Json().contains("grid_note")) << r.out;
 }
 
 TEST_F(LocalizeTest, AReplayThatNeverLocalizesSaysSo) {

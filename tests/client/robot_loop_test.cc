@@ -14,6 +14,8 @@
 #include <optional>
 #include <thread>
 
+#include <unistd.h>
+
 #include "client/devices/camera_source.h"
 #include "client/sim/sim_realtime.h"
 #include "client/sim/sim_world.h"
@@ -32,6 +34,7 @@ namespace waymark::cli {
 namespace {
 
 using ::testing::HasSubstr;
+using ::testing::Not;
 using waymark::testing::CliResult;
 using waymark::testing::FakeSlamServer;
 using waymark::testing::RunWaymark;
@@ -232,6 +235,98 @@ TEST(TeleopKeysTest, StepsClampsStopsAndQuits) {
   EXPECT_EQ(ApplyTeleopKey('c', t, limits), TeleopAction::kRecognize);
   EXPECT_EQ(ApplyTeleopKey('q', t, limits), TeleopAction::kQuit);
   EXPECT_EQ(ApplyTeleopKey('?', t, limits), TeleopAction::kNone);
+}
+
+// Issue 35: q quits in every mode; the driving keys do nothing outside teleop.
+TEST(TeleopKeysTest, QuitAndRecognizeWorkInEveryModeDrivingOnlyInTeleop) {
+  TeleopTarget t;
+  const VelocityLimits limits{0.3, 0.5};
+  for (bool teleop : {true, false}) {
+    EXPECT_EQ(ApplyKey('q', teleop, t, limits), TeleopAction::kQuit) << teleop;
+    EXPECT_EQ(ApplyKey('Q', teleop, t, limits), TeleopAction::kQuit) << teleop;
+    EXPECT_EQ(ApplyKey('c', teleop, t, limits), TeleopAction::kRecognize) << teleop;
+  }
+  EXPECT_EQ(ApplyKey('w', /*teleop=*/false, t, limits), TeleopAction::kNone);
+  EXPECT_EQ(ApplyKey(' ', /*teleop=*/false, t, limits), TeleopAction::kNone);
+  EXPECT_EQ(t.linear, 0);
+  EXPECT_EQ(ApplyKey('w', /*teleop=*/true, t, limits), TeleopAction::kDrive);
+  EXPECT_DOUBLE_EQ(t.linear, 0.05);
+  EXPECT_THAT(KeysHelp(false), HasSubstr("q quit"));
+}
+
+// The keyboard reader on a pipe, as `waymark robot` runs it on stdin.
+class KeyPipe {
+ public:
+  KeyPipe() { EXPECT_EQ(pipe(fds_), 0); }
+  ~KeyPipe() {
+    CloseWriter();
+    close(fds_[0]);
+  }
+  int reader() const { return fds_[0]; }
+  void Write(const std::string& keys) {
+    EXPECT_EQ(write(fds_[1], keys.data(), keys.size()), static_cast<ssize_t>(keys.size()));
+  }
+  void CloseWriter() {
+    if (fds_[1] >= 0) close(fds_[1]);
+    fds_[1] = -1;
+  }
+
+ private:
+  int fds_[2] = {-1, -1};
+};
+
+TEST(KeyboardTest, QQuitsAnActiveRunAndTheDrivingKeysAreIgnored) {
+  KeyPipe keys;
+  std::atomic<bool> stop{false};
+  int quits = 0, recognitions = 0;
+  EventRecorder said;
+  KeyboardHooks hooks;  // no drive hook: active (or passive) mode
+  hooks.quit = [&] { ++quits; };
+  hooks.recognize = [&] { ++recognitions; };
+  hooks.say = said.Callback();
+  keys.Write("wadcxq");
+  std::thread reader([&] { ReadKeys(keys.reader(), stop, {0.3, 0.5}, hooks, 10); });
+  reader.join();  // q ends the reading by itself
+  EXPECT_EQ(quits, 1);
+  EXPECT_EQ(recognitions, 1);
+  EXPECT_THAT(said.Find("q:"), HasSubstr("stopping"));
+}
+
+TEST(KeyboardTest, TheEndOfInputStopsATeleopRobotButNotAnActiveRun) {
+  {
+    KeyPipe keys;
+    std::atomic<bool> stop{false};
+    int quits = 0;
+    EventRecorder said;
+    KeyboardHooks hooks;
+    hooks.quit = [&] { ++quits; };
+    hooks.say = said.Callback();
+    keys.CloseWriter();
+    ReadKeys(keys.reader(), stop, {0.3, 0.5}, hooks, 10);
+    EXPECT_EQ(quits, 0);  // the run goes on (stdin from /dev/null, say)
+    EXPECT_TRUE(said.events().empty());
+  }
+  {
+    KeyPipe keys;
+    std::atomic<bool> stop{false};
+    std::vector<std::pair<double, double>> drives;
+    EventRecorder said;
+    KeyboardHooks hooks;
+    hooks.quit = [] {};
+    hooks.drive = [&](double linear, double angular) {
+      drives.emplace_back(linear, angular);
+      return absl::OkStatus();
+    };
+    hooks.base_stopped = [] { return false; };
+    hooks.say = said.Callback();
+    keys.Write("w");
+    keys.CloseWriter();
+    ReadKeys(keys.reader(), stop, {0.3, 0.5}, hooks, 10);
+    ASSERT_GE(drives.size(), 2u);
+    EXPECT_DOUBLE_EQ(drives.front().first, 0.05);
+    EXPECT_EQ(drives.back(), std::make_pair(0.0, 0.0));
+    EXPECT_THAT(said.Find("no more keyboard input"), HasSubstr("stopping"));
+  }
 }
 
 // ---- Device specs -----------------------------------------------------------------------------
@@ -840,6 +935,40 @@ TEST_F(RobotLoopTest, CommandEndsAtStuckWithItsOwnExitCode) {
   EXPECT_EQ(r.code, kExitExplorationStuck) << r.err;
   EXPECT_EQ(r.Json()["exploration_state"], "stuck");
   EXPECT_EQ(r.Json()["exploration_reason"], "no collision-free control");
+}
+
+// Issue 35: with the server gone at the end, the session cannot be closed: the last line must
+// not say "closed" but that it is still open, and the exact command that closes it.
+TEST_F(RobotLoopTest, CommandSaysTheSessionIsStillOpenWhenItCannotBeClosed) {
+  server_.service().set_session_calls_fail(grpc::StatusCode::UNAVAILABLE);
+  CliResult r = RunWaymark(server_.address(), {"robot", "--base", "sim:office", "--laser", "sim",
+                                               "--duration", "2", "--sim-speed", "10"});
+  ASSERT_EQ(r.code, 0) << r.err;
+  EXPECT_THAT(r.out, Not(HasSubstr("(closed)")));
+  EXPECT_THAT(r.out, HasSubstr("could not close session s1: UNAVAILABLE"));
+  EXPECT_THAT(r.out, HasSubstr("stopped: session s1 (STILL OPEN: could not close it (UNAVAILABLE"));
+  EXPECT_THAT(r.out, HasSubstr("close it with `waymark --server " + server_.address() +
+                               " slam close s1`"));
+  r = RunWaymark(server_.address(), {"robot", "--base", "sim:office", "--laser", "sim",
+                                     "--duration", "2", "--sim-speed", "10", "--json"});
+  ASSERT_EQ(r.code, 0) << r.err;
+  EXPECT_EQ(r.Json()["session_closed"], false);
+  EXPECT_THAT(r.Json()["close_error"].get<std::string>(), HasSubstr("UNAVAILABLE"));
+  EXPECT_THAT(r.Json()["close_command"].get<std::string>(), HasSubstr("slam close s2"));
+  EXPECT_THAT(r.err, HasSubstr("session s2 is STILL OPEN"));
+
+  server_.service().set_session_calls_fail(grpc::StatusCode::OK);
+  r = RunWaymark(server_.address(), {"robot", "--base", "sim:office", "--laser", "sim",
+                                     "--duration", "2", "--sim-speed", "10"});
+  ASSERT_EQ(r.code, 0) << r.err;
+  EXPECT_THAT(r.out, HasSubstr("stopped: session s3 (closed)"));
+}
+
+// Issue 35: --duration is the robot's clock; the help says it is simulated time with the
+// simulator.
+TEST_F(RobotLoopTest, DurationHelpSaysSimulatedSeconds) {
+  CliResult r = RunWaymark(server_.address(), {"robot", "--help"});
+  EXPECT_THAT(r.out + r.err, HasSubstr("simulated seconds with the simulator"));
 }
 
 TEST_F(RobotLoopTest, CommandErrorsAreClear) {

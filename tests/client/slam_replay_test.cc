@@ -251,6 +251,42 @@ TEST_F(SlamReplayTest, WhenTheServerCannotBeAskedTheSessionIsNamedAsLeftOpen) {
   EXPECT_THAT(summary["close_error"].get<std::string>(), HasSubstr("UNAVAILABLE"));
 }
 
+// Issue 35: the progress bar follows the scans sent, of the scans in the log: the reader reads
+// ahead (a compressed log may be read whole after a few hundred scans), so its bytes are no
+// measure of progress ("819/819 KiB of log" after 234 of 7374 scans).
+TEST_F(SlamReplayTest, ProgressCountsScansSentOfTheScansInTheLog) {
+  // 64 scans as fast as they go; 20 at the log's pace (0.2 s apart: 4 s).
+  for (const auto& [scans, extra] : std::vector<std::pair<int, std::vector<std::string>>>{
+           {64, {}}, {20, {"--realtime"}}}) {
+    SCOPED_TRACE(scans);
+    const std::string log = WriteLog(MakeLog(scans), "progress" + std::to_string(scans) + ".clf");
+    std::vector<std::string> args = {"waymark", "--server", server_.address(),
+                                     "--json",  "slam",     "replay",
+                                     log,       "--out",    (dir_.path() / "p").string()};
+    args.insert(args.end(), extra.begin(), extra.end());
+    std::vector<const char*> argv;
+    for (const std::string& arg : args) argv.push_back(arg.c_str());
+    std::ostringstream out, err;
+    ASSERT_EQ(RunCli(static_cast<int>(argv.size()), argv.data(), out, err, /*err_is_tty=*/true),
+              0)
+        << err.str();
+    const int sent = nlohmann::json::parse(out.str())["scans_sent"].get<int>();
+    EXPECT_EQ(err.str().find("KiB"), std::string::npos) << err.str();
+    // Every draw is "k/TOTAL scans" with TOTAL the log's scans.
+    const std::string total = "/" + std::to_string(sent) + " scans";
+    EXPECT_EQ(sent, scans);
+    size_t draws = 0;
+    for (size_t at = err.str().find('\r'); at != std::string::npos;
+         at = err.str().find('\r', at + 1)) {
+      ++draws;
+      const std::string line = err.str().substr(at + 1, err.str().find_first_of("\r\n", at + 1) - at - 1);
+      EXPECT_THAT(line, HasSubstr(total)) << line;
+    }
+    EXPECT_GE(draws, 1u);
+    EXPECT_THAT(err.str(), HasSubstr(std::to_string(sent) + total + ": "));
+  }
+}
+
 TEST_F(SlamReplayTest, OutNamingAPictureWritesOnlyThatPicture) {
   const std::string log = WriteLog(MakeLog(20));
   for (const std::string name : {"map.svg", "Map.PNG"}) {

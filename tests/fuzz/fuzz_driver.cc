@@ -5,7 +5,14 @@
 // The count of runs is fixed, not the time, so a loaded machine runs the same inputs, only slower.
 //
 //   waymark-fuzz --target NAME [--corpus DIR] [--runs N] [--seed S] [--max-memory-mb M]
+//                [--answers FILE]
 //   waymark-fuzz --list
+//
+// --answers FILE (the request targets; issue 35): every answer the services gave is written to
+// FILE for a strict parser in another language (tests/fuzz/parse_answers.py, Python's protobuf):
+// records of [u32 name length][message type name][u32 length][serialized message], little
+// endian; a failed call's status message as a google.protobuf.StringValue (a proto3 string too);
+// then FILE.fds, the FileDescriptorSet of every type written.
 //
 // A crash is a crash of this process (ctest reports it); the input that caused it is written to
 // ./fuzz-crash-<target> first, so it can be replayed (--replay FILE) and kept in the corpus.
@@ -19,6 +26,7 @@
 #include <filesystem>
 #include <fstream>
 #include <iterator>
+#include <memory>
 #include <random>
 #include <string>
 #include <vector>
@@ -27,7 +35,14 @@
 #include <sys/resource.h>
 #include <unistd.h>
 
+#include <google/protobuf/descriptor.h>
+#include <google/protobuf/descriptor.pb.h>
+#include <google/protobuf/wrappers.pb.h>
+
+#include <set>
+
 #include "tests/fuzz/fuzz_targets.h"
+#include "tests/fuzz/service_calls.h"
 
 namespace {
 
@@ -137,6 +152,54 @@ class CrashFile {
   int fd_;
 };
 
+// The answers of --answers, as the file comment says.
+class AnswerFile {
+ public:
+  explicit AnswerFile(const std::string& path) : path_(path), out_(path, std::ios::binary) {
+    if (!out_) std::perror(path.c_str());
+  }
+  ~AnswerFile() {
+    google::protobuf::FileDescriptorSet set;
+    for (const google::protobuf::FileDescriptor* file : files_) file->CopyTo(set.add_file());
+    std::ofstream(path_ + ".fds", std::ios::binary) << set.SerializeAsString();
+  }
+  void Add(const google::protobuf::Message* response, const grpc::Status& status) {
+    google::protobuf::StringValue message;
+    if (response == nullptr) message.set_value(status.error_message());
+    const google::protobuf::Message& answer = response != nullptr ? *response : message;
+    // Serialized as it is, invalid UTF-8 included (protobuf's C++ only logs that), so that the
+    // reader sees what a client would.
+    Write(answer.GetDescriptor()->full_name());
+    Write(answer.SerializeAsString());
+    AddFile(answer.GetDescriptor()->file());
+    ++count_;
+  }
+  size_t count() const { return count_; }
+
+ private:
+  void Write(const std::string& bytes) {
+    const uint32_t n = static_cast<uint32_t>(bytes.size());
+    const unsigned char length[4] = {static_cast<unsigned char>(n), static_cast<unsigned char>(n >> 8),
+                                     static_cast<unsigned char>(n >> 16),
+                                     static_cast<unsigned char>(n >> 24)};
+    out_.write(reinterpret_cast<const char*>(length), 4);
+    out_.write(bytes.data(), static_cast<std::streamsize>(bytes.size()));
+  }
+  // A file and what it imports, dependencies first (the order a pool is built in).
+  void AddFile(const google::protobuf::FileDescriptor* file) {
+    if (seen_.count(file)) return;
+    seen_.insert(file);
+    for (int i = 0; i < file->dependency_count(); ++i) AddFile(file->dependency(i));
+    files_.push_back(file);
+  }
+
+  std::string path_;
+  std::ofstream out_;
+  std::set<const google::protobuf::FileDescriptor*> seen_;
+  std::vector<const google::protobuf::FileDescriptor*> files_;
+  size_t count_ = 0;
+};
+
 void Run(const FuzzTarget& target, CrashFile& crash_file, const std::string& input) {
   crash_file.Keep(input);
   target.run(reinterpret_cast<const uint8_t*>(input.data()), input.size());
@@ -145,7 +208,7 @@ void Run(const FuzzTarget& target, CrashFile& crash_file, const std::string& inp
 }  // namespace
 
 int main(int argc, char** argv) {
-  std::string name, corpus, replay;
+  std::string name, corpus, replay, answers;
   long runs = 10000;
   long max_memory_mb = 2048;
   unsigned long long seed = 1;
@@ -160,6 +223,7 @@ int main(int argc, char** argv) {
     else if (arg == "--replay") replay = value();
     else if (arg == "--max-memory-mb") max_memory_mb = std::stol(value());
     else if (arg == "--list") list = true;
+    else if (arg == "--answers") answers = value();
     else {
       std::fprintf(stderr, "unknown argument %s\n", arg.c_str());
       return 2;
@@ -178,6 +242,14 @@ int main(int argc, char** argv) {
     return 2;
   }
   LimitMemory(max_memory_mb);
+  std::unique_ptr<AnswerFile> answer_file;
+  if (!answers.empty()) {
+    answer_file = std::make_unique<AnswerFile>(answers);
+    waymark::fuzz::Answers() = [&answer_file](const google::protobuf::Message* response,
+                                              const grpc::Status& status) {
+      answer_file->Add(response, status);
+    };
+  }
   if (!replay.empty()) {
     const std::string input = ReadFile(replay);
     target->run(reinterpret_cast<const uint8_t*>(input.data()), input.size());
@@ -195,5 +267,11 @@ int main(int argc, char** argv) {
   for (long r = 0; r < runs; ++r) Run(*target, crash_file, Mutate(seeds, random));
   crash_file.Remove();
   std::printf("%s: %zu seeds and %ld mutated inputs, no crash\n", target->name, seeds.size(), runs);
+  if (answer_file) {
+    std::printf("%s: %zu answers written to %s\n", target->name, answer_file->count(),
+                answers.c_str());
+    waymark::fuzz::Answers() = nullptr;
+    answer_file.reset();  // writes FILE.fds
+  }
   return 0;
 }

@@ -9,6 +9,7 @@
 // before any handler runs; everything after parsing (validation, translation into the engines'
 // types, the registry and its in-memory store) is the server's own code.
 
+#include <google/protobuf/message.h>
 #include <google/protobuf/message_lite.h>
 #include <google/protobuf/stubs/logging.h>
 #include <grpcpp/server_context.h>
@@ -69,9 +70,22 @@ std::optional<Request> ParseRequest(const RequestInput& input) {
   return request;
 }
 
+// Where the answers of the calls go when someone wants them (waymark-fuzz --answers, issue 35):
+// every response of a call that succeeded, every stream update, and the status of every call
+// that failed (`response` null). Unset (the default): nowhere.
+using AnswerSink =
+    std::function<void(const google::protobuf::Message* response, const grpc::Status& status)>;
+inline AnswerSink& Answers() {
+  static AnswerSink* sink = new AnswerSink;  // never destroyed: fixtures outlive main
+  return *sink;
+}
+inline void RecordAnswer(const google::protobuf::Message* response, const grpc::Status& status) {
+  if (Answers()) Answers()(response, status);
+}
+
 // Runs a unary handler (`&Service::Method`) on `request` with a fresh server context (the
 // services' authenticators are off: admin calls), as gRPC's sync server does. The response when
-// the call succeeded.
+// the call succeeded. Either goes to the answer sink.
 template <class Service, class Request, class Response>
 std::optional<Response> CallUnary(Service& service,
                                   grpc::Status (Service::*method)(grpc::ServerContext*,
@@ -79,7 +93,9 @@ std::optional<Response> CallUnary(Service& service,
                                   const Request& request) {
   grpc::ServerContext context;
   Response response;
-  if (!(service.*method)(&context, &request, &response).ok()) return std::nullopt;
+  const grpc::Status status = (service.*method)(&context, &request, &response);
+  RecordAnswer(status.ok() ? &response : nullptr, status);
+  if (!status.ok()) return std::nullopt;
   return response;
 }
 

@@ -26,6 +26,7 @@
 #include <vector>
 
 #include "server/service/authenticator.h"
+#include "server/service/grpc_status.h"
 #include "server/service/slam_params.h"
 #include "server/service/slam_registry.h"
 #include "server/service/slam_service.h"
@@ -219,9 +220,16 @@ class SlamFixture {
     // The handler refuses a first message without a session before the registry sees it.
     if (!data.has_value() || data->session_id().empty()) return;
     Resolve(data->mutable_session_id());
-    auto stream = registry_->OpenStream(data->session_id(), [](const v1::SlamUpdate&) {});
-    if (!stream.ok()) return;
-    const bool accepted = (*stream)->Submit(*data).ok();
+    auto stream = registry_->OpenStream(
+        data->session_id(), [](const v1::SlamUpdate& update) { RecordAnswer(&update, {}); });
+    if (!stream.ok()) {
+      RecordAnswer(nullptr, service::ToGrpcStatus(stream.status()));
+      return;
+    }
+    const absl::Status submitted = (*stream)->Submit(*data);
+    // The service answers a refused message with a rejection quoting this status.
+    if (!submitted.ok()) RecordAnswer(nullptr, service::ToGrpcStatus(submitted));
+    const bool accepted = submitted.ok();
     (*stream)->Close();
     if (accepted) fed_ = data->session_id();
   }

@@ -200,6 +200,56 @@ TEST(MetricsTest, SlamSessionsAndQueueDepthsAtScrapeTime) {
   metrics->reset();  // before the registry it reads
 }
 
+// Issue 35: per-session SLAM metrics (scans, loop closures, queue depth, per-scan processing
+// time) while the session is in memory, and a server-wide scan count and latency histogram. A
+// closed session's labels go away: the label values stay bounded.
+TEST(MetricsTest, PerSessionSlamMetricsWhileTheSessionIsInMemory) {
+  TempDir dir;
+  SlamRegistryOptions options;
+  options.workers = 1;
+  auto store = storage::OpenSqliteSlamStore(dir.File("slam.db"));
+  ASSERT_TRUE(store.ok()) << store.status();
+  auto registry = SlamRegistry::Create(std::move(*store), options);
+  ASSERT_TRUE(registry.ok()) << registry.status();
+  MetricsSources sources;
+  sources.slam = registry->get();
+  absl::StatusOr<std::unique_ptr<Metrics>> metrics = StartMetrics("127.0.0.1:0", sources);
+  ASSERT_TRUE(metrics.ok()) << metrics.status();
+
+  auto session = (*registry)->CreateSession(TestSessionRequest("r1"));
+  ASSERT_TRUE(session.ok()) << session.status();
+  const std::string id = session->session_id();
+  auto stream = (*registry)->OpenStream(id, [](const v1::SlamUpdate&) {});
+  ASSERT_TRUE(stream.ok()) << stream.status();
+  for (int i = 0; i < 3; ++i) {
+    ASSERT_TRUE((*stream)->Submit(Odom(2 * i + 1, 1.0 + i, 0.1 * i, 0, 0)).ok());
+    ASSERT_TRUE((*stream)->Submit(RoomScan(2 * i + 2, 1.0 + i, 0.1 * i, 0, 0)).ok());
+  }
+  (*stream)->Close();  // every scan processed and answered
+
+  const std::string label = "{session=\"" + id + "\"}";
+  std::string page = Scrape(**metrics);
+  EXPECT_EQ(Sample(page, "waymark_slam_session_scans" + label), 3) << page;
+  EXPECT_EQ(Sample(page, "waymark_slam_session_queue_depth" + label), 0) << page;
+  EXPECT_EQ(Sample(page, "waymark_slam_session_loop_closures" + label), 0) << page;
+  const std::optional<double> p50 = Sample(
+      page, "waymark_slam_session_scan_seconds{quantile=\"0.5\",session=\"" + id + "\"}");
+  const std::optional<double> p99 = Sample(
+      page, "waymark_slam_session_scan_seconds{quantile=\"0.99\",session=\"" + id + "\"}");
+  ASSERT_TRUE(p50.has_value() && p99.has_value()) << page;
+  EXPECT_GE(*p50, 0);
+  EXPECT_GE(*p99, *p50);
+  EXPECT_EQ(Sample(page, "waymark_slam_scans_total"), 3) << page;
+  EXPECT_EQ(Sample(page, "waymark_slam_scan_seconds_count"), 3) << page;
+
+  stream->reset();
+  ASSERT_TRUE((*registry)->CloseSession(id).ok());
+  page = Scrape(**metrics);
+  EXPECT_EQ(page.find(id), std::string::npos) << page;  // no label of a session gone
+  EXPECT_EQ(Sample(page, "waymark_slam_scans_total"), 3) << page;
+  metrics->reset();  // before the registry it reads
+}
+
 TEST(MetricsTest, ViewsPerCrossingDatabase) {
   TempDir dir;
   const std::string db_path = dir.File("waymark.db");
