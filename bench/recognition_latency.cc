@@ -4,7 +4,10 @@
 // memory against the descriptor bytes held; cluster rebuild time; and how often the index's
 // decisions differ from exact matching.
 //
-//   waymark-bench-recognition --shared ../shared --out out/bench [--sizes 36,360,3600]
+//   waymark-bench-recognition --shared ../shared --out out/bench [--sizes 1200,3600,12000]
+//
+// The databases are what `waymark db create` makes by default (retrieval mode, RootSIFT,
+// kept aspect, the global stage); --paper-features measures the paper's features instead.
 
 #include <signal.h>
 #include <sys/resource.h>
@@ -27,6 +30,7 @@
 #include <nlohmann/json.hpp>
 #include <opencv2/features2d.hpp>
 #include <opencv2/imgcodecs.hpp>
+#include <opencv2/imgproc.hpp>
 
 #include "bench/bench_images.h"
 #include "server/crossing/decision.h"
@@ -81,19 +85,33 @@ struct BenchView {
 };
 
 // View i of the benchmark database: augmentation-major order, so small databases hold originals.
-std::vector<BenchView> MakeViews(const std::vector<std::string>& sources, int n) {
+// `extract`: also the features in-process (the baselines of step 6; not needed with --server-only).
+std::vector<BenchView> MakeViews(const std::vector<std::string>& sources, int n, bool extract) {
   std::vector<BenchView> views;
   std::vector<cv::Mat> originals;
   for (const auto& path : sources) originals.push_back(cv::imread(path, cv::IMREAD_COLOR));
   for (int i = 0; i < n; ++i) {
     const int k = i / static_cast<int>(sources.size());
-    const cv::Mat image = Augment(originals[i % sources.size()], k % kAugmentations);
+    cv::Mat image = Augment(originals[i % sources.size()], k % kAugmentations);
+    // Past sources x kAugmentations views (3,984 with ../shared's 332 images) the augmentations
+    // repeat, and a repeated image is a duplicate the server refuses: each further round turns
+    // and scales its copies a little more (3 degrees, 4 % per round), so 12,000 views are 12,000
+    // distinct images with descriptors of their own.
+    if (const int round = k / kAugmentations; round > 0) {
+      const cv::Mat turn = cv::getRotationMatrix2D(
+          cv::Point2f(image.cols / 2.f, image.rows / 2.f), 3.0 * round, 1.0 + 0.04 * round);
+      cv::Mat turned;
+      cv::warpAffine(image, turned, turn, image.size(), cv::INTER_LINEAR, cv::BORDER_REFLECT);
+      image = turned;
+    }
     BenchView v;
     v.crossing = fmt::format("c{:04d}", i / 12);
     v.heading = 30.0 * (i % 12);
     v.jpeg = Jpeg(image);
-    auto f = crossing::ExtractFeatures(v.jpeg, crossing::FeatureOptions{});
-    if (f.ok()) v.features = std::move(*f);
+    if (extract) {
+      auto f = crossing::ExtractFeatures(v.jpeg, crossing::FeatureOptions{});
+      if (f.ok()) v.features = std::move(*f);
+    }
     views.push_back(std::move(v));
     if ((i + 1) % 200 == 0) std::cerr << "  prepared " << (i + 1) << "/" << n << " views\r";
   }
@@ -144,6 +162,9 @@ struct RunFlags {
   // The database keeps the retrieval mode's global stage (DatabaseParams.global_descriptor): its
   // cost at enrollment, the vocabulary's background work and the global scan are measured too.
   bool global_descriptor = true;
+  // The paper's features (plain SIFT, squeezed to 4:3) instead of the default database's RootSIFT
+  // and kept aspect.
+  bool paper_features = false;
   // A PostgreSQL server (libpq URI): each size's database is a fresh PostgreSQL database on it
   // instead of a SQLite file (issue 19: the same measurements on both backends).
   std::string postgres;
@@ -200,8 +221,14 @@ json RunSize(int n, const std::vector<BenchView>& all_views, const std::vector<s
   auto stub = v1::CrossingService::NewStub(channel);
   v1::CreateDatabaseRequest create;
   create.set_name("bench");
+  // What `waymark db create` sends by default (client/cli/db_commands.cc): the best measured
+  // configuration.
+  create.mutable_params()->mutable_recognition()->set_mode(v1::RECOGNITION_MODE_RETRIEVAL);
+  create.mutable_params()->set_root_sift(!flags.paper_features);
+  create.mutable_params()->set_keep_aspect(!flags.paper_features);
   create.mutable_params()->set_global_descriptor(flags.global_descriptor);
   out["global_descriptor"] = flags.global_descriptor;
+  out["root_sift"] = !flags.paper_features;
   v1::CrossingDatabase created;
   stub->CreateDatabase(Ctx(10).get(), create, &created);
   const auto enroll_start = Clock::now();
@@ -400,7 +427,7 @@ json RunSize(int n, const std::vector<BenchView>& all_views, const std::vector<s
 
 int main(int argc, char** argv) {
   std::string shared = "../shared", out_dir = "out/bench";
-  std::vector<int> sizes = {36, 360, 3600};
+  std::vector<int> sizes = {1200, 3600, 12000};
   int query_count = 40;
   waymark::bench::RunFlags flags;
   CLI::App app{"RecognizeCrossing latency, memory and clustering as the database grows"};
@@ -417,6 +444,8 @@ int main(int argc, char** argv) {
   app.add_flag("--server-only", flags.server_only,
                "only the server measurements (latency, memory), no in-process baselines");
   app.add_flag("--skip-rebuild", flags.skip_rebuild, "do not time RebuildClusters");
+  app.add_flag("--paper-features", flags.paper_features,
+               "the paper's features (SIFT, squeezed to 4:3) instead of RootSIFT + kept aspect");
   app.add_flag("--global-descriptor,!--no-global-descriptor", flags.global_descriptor,
                "keep the retrieval mode's global stage in the databases [on]");
   app.add_option("--postgres", flags.postgres,
@@ -440,7 +469,7 @@ int main(int argc, char** argv) {
   const std::string work = waymark::testing::MakeTempDir("waymark-bench");
   const int max_size = *std::max_element(sizes.begin(), sizes.end());
   std::cerr << "preparing " << max_size << " views from " << sources.size() << " real images\n";
-  const auto views = MakeViews(sources, max_size);
+  const auto views = MakeViews(sources, max_size, !flags.server_only);
 
   const double empty_rss_mb = EmptyServerRssMb(work);
   nlohmann::json results = nlohmann::json::array();
@@ -491,6 +520,23 @@ int main(int argc, char** argv) {
                       r["retrieval"].value("retrieval_ms_p50", kNaN),
                       r["retrieval"].value("latency_ms_p50", kNaN),
                       r.value("retrieval_latency_over_sift", kNaN));
+  }
+  // Issue 34's targets at each size, one row each.
+  md << "\nTargets (retrieval p50 <= 2.5x the query's own SIFT, (RSS - empty) <= 1.5x the "
+        "descriptor bytes, enrollment >= 30 views/s with the global stage):\n\n"
+     << "| views | retrieval p50 ms | own SIFT p50 ms | ratio | of it: global stage ms | "
+        "RSS - empty MB | descriptor MB | ratio | enroll views/s |\n"
+     << "|---|---|---|---|---|---|---|---|---|\n";
+  for (const auto& r : results) {
+    md << fmt::format("| {} | {:.1f} | {:.1f} | {:.2f}x | {:.1f} | {:.0f} | {:.0f} | {:.2f}x | "
+                      "{:.1f} |\n",
+                      r.value("views", -1), r["retrieval"].value("latency_ms_p50", kNaN),
+                      r["retrieval"].value("extraction_ms_p50", kNaN),
+                      r.value("retrieval_latency_over_sift", kNaN),
+                      r["retrieval"].value("retrieval_ms_p50", kNaN),
+                      r.value("server_rss_mb", kNaN) - r.value("empty_server_rss_mb", kNaN),
+                      r.value("descriptor_mb", kNaN), r.value("rss_growth_over_descriptors", kNaN),
+                      r.value("enrolled", 0) / std::max(1e-9, r.value("enroll_s", kNaN)));
   }
   std::ofstream(out_dir + "/bench_recognition.md") << md.str();
   std::cout << md.str();

@@ -13,6 +13,8 @@
 #include <sstream>
 #include <thread>
 
+#include <opencv2/imgcodecs.hpp>
+
 #include "absl/strings/str_cat.h"
 #include "server/crossing/enrollment.h"
 
@@ -119,6 +121,24 @@ absl::Status FeatureCache::Prefetch(const std::vector<std::string>& paths, int t
   return first_error;
 }
 
+absl::Status FeatureCache::Put(const std::string& key, const cv::Mat& image) {
+  if (cache_.count(key)) return absl::OkStatus();
+  std::vector<uchar> png;
+  if (!cv::imencode(".png", image, png)) {
+    return absl::InvalidArgumentError(absl::StrCat(key, ": cannot encode the image"));
+  }
+  const auto start = Clock::now();
+  absl::StatusOr<ImageFeatures> features =
+      crossing::ExtractFeatures(std::string(png.begin(), png.end()), options_);
+  extraction_seconds_ += SecondsSince(start);
+  if (!features.ok()) {
+    return absl::Status(features.status().code(),
+                        absl::StrCat(key, ": ", features.status().message()));
+  }
+  cache_.emplace(key, std::make_unique<ImageFeatures>(*std::move(features)));
+  return absl::OkStatus();
+}
+
 std::vector<std::string> ImagePaths(const Protocol& protocol) {
   std::vector<std::string> paths;
   for (const Enrollment& e : protocol.enroll) paths.push_back(e.path);
@@ -222,7 +242,12 @@ absl::StatusOr<std::vector<QueryOutcome>> RunQueries(const PreparedProtocol& pre
       for (const crossing::Candidate& c : r->candidates) {
         o.evidence.emplace_back(db.views()[c.slot].crossing_id, c.log10_nfa);
       }
-      if (r->accepted_by_global) {
+      if (r->global.computed) {
+        // The global path's chance model, weak frames included (place_evidence.h).
+        const crossing::FrameEvidence e =
+            crossing::GlobalFrameEvidence(r->global.best_place, r->global.log10_efa);
+        o.evidence.emplace_back(e.crossing_id, e.log10_nfa);
+      } else if (r->accepted_by_global) {
         const crossing::FrameEvidence e = crossing::GlobalAnswerEvidence(
             db.views()[r->best_slot].crossing_id, crossing::EvidenceOptions());
         o.evidence.emplace_back(e.crossing_id, e.log10_nfa);

@@ -29,6 +29,9 @@ class FeatureCache {
 
   // NOT_FOUND for an unreadable file, the extraction's error for an undecodable one.
   absl::StatusOr<const crossing::ImageFeatures*> Get(const std::string& path);
+  // Extracts an image already in memory (e.g. a view rendered from a panorama) under `key`, the
+  // name protocols then use as its path; a key already cached is kept.
+  absl::Status Put(const std::string& key, const cv::Mat& image);
   // Extracts the images of `paths` not cached yet on `threads` threads (the first error wins).
   absl::Status Prefetch(const std::vector<std::string>& paths, int threads);
   size_t size() const { return cache_.size(); }

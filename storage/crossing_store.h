@@ -49,6 +49,9 @@ struct ViewRecord {
   int64_t id = 0;  // assigned on insert; increasing ids are the enrollment order
   int64_t crossing_id = 0;
   double heading_deg = 0;
+  // False for a view taken facing an unknown way (schema v13, issue 34): heading_deg is then 0 and
+  // means nothing. Every view before v13 had a heading.
+  bool heading_known = true;
   // Where in the crossing the view was taken ("north-kerb", "p2", "t=12.5s"): free text that only
   // tells the views of one heading apart; empty = not tagged (and every view before schema v6).
   std::string position;

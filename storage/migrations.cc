@@ -253,6 +253,13 @@ constexpr absl::string_view kV12SlamMapCheck = R"sql(
 ALTER TABLE slam_session ADD COLUMN map_check BLOB;
 )sql";
 
+// v13: views with no heading (issue 34): a view taken facing an unknown way is stored with
+// heading_known = 0 (heading_deg 0, meaning nothing) and answers its crossing only. Every view
+// stored before had a heading.
+constexpr absl::string_view kV13ViewHeadingKnown = R"sql(
+ALTER TABLE view ADD COLUMN heading_known INTEGER NOT NULL DEFAULT 1;
+)sql";
+
 absl::Status TooNewError(sqlite::Connection& connection, int version, int latest) {
   return absl::FailedPreconditionError(absl::StrCat(
       "database \"", connection.path(), "\" has schema version ", version,
@@ -277,6 +284,7 @@ const std::vector<absl::string_view>& SchemaMigrations() {
       kV10SlamLeases,
       kV11SlamJournal,
       kV12SlamMapCheck,
+      kV13ViewHeadingKnown,
   };
   return *kSteps;
 }

@@ -41,7 +41,8 @@ absl::Status CheckBlobSize(const Statement& row, int column, int64_t expected, i
 constexpr char kSelectViews[] =
     "SELECT v.id, v.crossing_id, v.heading_deg, v.width, v.height, v.keypoint_count, "
     "v.keypoints, v.descriptors, v.hue_hist, v.hue_bins, v.format_version, v.content_sha256, "
-    "v.position, v.global_code, v.global_sample FROM view v JOIN crossing c ON c.id = v.crossing_id WHERE c.db_id = ? AND v.id > ? ORDER BY v.id";
+    "v.position, v.global_code, v.global_sample, v.heading_known FROM view v JOIN crossing c ON "
+    "c.id = v.crossing_id WHERE c.db_id = ? AND v.id > ? ORDER BY v.id";
 
 // NULL for an empty string: the blob columns that may be absent use NULL for "none".
 absl::Status BindOptionalBlob(Statement& statement, int index, const std::string& bytes) {
@@ -73,6 +74,7 @@ absl::StatusOr<ViewRecord> ReadViewRow(const Statement& row) {
   view.position = row.ColumnText(12);
   if (!row.ColumnIsNull(13)) view.global_code = std::string(row.ColumnBlobView(13));
   if (!row.ColumnIsNull(14)) view.global_sample = std::string(row.ColumnBlobView(14));
+  view.heading_known = row.ColumnInt32(15) != 0;
   return view;
 }
 
@@ -538,8 +540,8 @@ class SqliteCrossingStore final : public CrossingStore {
         connection_.Prepare(
             "INSERT INTO view (crossing_id, heading_deg, width, height, keypoint_count, "
             "keypoints, descriptors, hue_hist, hue_bins, format_version, image, created_at, "
-            "content_sha256, position, work_image, global_code, global_sample) VALUES (?, ?, ?, ?, "
-            "?, ?, ?, ?, ?, ?, ?, ?, ?, ?, ?, ?, ?)"));
+            "content_sha256, position, work_image, global_code, global_sample, heading_known) "
+            "VALUES (?, ?, ?, ?, ?, ?, ?, ?, ?, ?, ?, ?, ?, ?, ?, ?, ?, ?)"));
     RETURN_IF_ERROR(insert.BindInt64(1, view.crossing_id));
     RETURN_IF_ERROR(insert.BindDouble(2, view.heading_deg));
     RETURN_IF_ERROR(insert.BindInt64(3, view.width));
@@ -562,6 +564,7 @@ class SqliteCrossingStore final : public CrossingStore {
     RETURN_IF_ERROR(BindOptionalBlob(insert, 15, view.work_image));
     RETURN_IF_ERROR(BindOptionalBlob(insert, 16, view.global_code));
     RETURN_IF_ERROR(BindOptionalBlob(insert, 17, view.global_sample));
+    RETURN_IF_ERROR(insert.BindInt64(18, view.heading_known ? 1 : 0));
     RETURN_IF_ERROR(insert.Run());
 
     AddViewResult result;

@@ -3,6 +3,9 @@
 // (client/sessions/folder_enroll.h), with progress counting what the server stored.
 // `waymark enroll NAME --video FILE --crossing C`: frames sampled from a video driven through the
 // crossing (client/datasets/video_frames.h), enrolled the same way, tagged with their times.
+// `waymark enroll NAME --manifest FILE`: the views a CSV file lists (client/datasets/
+// enroll_manifest.h), for images whose names are not headings; `enroll NAME DIR --no-headings`:
+// DIR/<crossing>/<any name>.jpg with no heading. A view with no heading answers its crossing only.
 #include <fmt/format.h>
 
 #include <memory>
@@ -17,6 +20,7 @@
 #include "client/common/output.h"
 #include "client/common/progress_bar.h"
 #include "client/common/stop_signals.h"
+#include "client/datasets/enroll_manifest.h"
 #include "client/datasets/image_folder.h"
 #include "client/datasets/video_frames.h"
 #include "client/sessions/folder_enroll.h"
@@ -30,6 +34,8 @@ struct EnrollArgs {
   bool store_images = false;
   bool strict = false;
   bool replace = false;
+  std::string manifest;      // --manifest FILE instead of DIR
+  bool no_headings = false;  // DIR/<crossing>/<any name>.jpg, no heading
   // --video
   std::string video;
   std::string crossing;
@@ -54,10 +60,19 @@ std::string ProgressDetail(const EnrollTally& tally) {
                      tally.invalid);
 }
 
-// "A/90" or "A/north-kerb/90" for people: the stored view's crossing, position and heading.
+// "A/90" or "A/north-kerb/90" for people: the stored view's crossing, position and heading
+// ("no heading" for a view stored without one).
 std::string ViewPlace(const v1::EnrollViewResponse& answer) {
-  if (answer.position().empty()) return fmt::format("{}/{:g}", answer.crossing(), answer.heading_deg());
-  return fmt::format("{}/{}/{:g}", answer.crossing(), answer.position(), answer.heading_deg());
+  const std::string heading = answer.heading_unknown()
+                                  ? std::string("no heading")
+                                  : fmt::format("{:g}", answer.heading_deg());
+  if (answer.position().empty()) return fmt::format("{}/{}", answer.crossing(), heading);
+  return fmt::format("{}/{}/{}", answer.crossing(), answer.position(), heading);
+}
+
+// A heading for JSON: null when the view has none.
+nlohmann::json HeadingJson(const EnrollImage& image) {
+  return HasHeading(image) ? nlohmann::json(image.heading_deg) : nlohmann::json(nullptr);
 }
 
 // The file a view came from: its image, or the video and the frame's time.
@@ -74,8 +89,11 @@ void PrintSkipped(std::ostream& err, const FolderEnrollReport& report) {
                        skipped.answer.error_message());
   }
   for (const SkippedImage& skipped : report.duplicates) {
-    if (skipped.answer.crossing() == skipped.image.crossing &&
-        skipped.answer.heading_deg() == skipped.image.heading_deg &&
+    const bool same_heading = HasHeading(skipped.image)
+                                  ? !skipped.answer.heading_unknown() &&
+                                        skipped.answer.heading_deg() == skipped.image.heading_deg
+                                  : skipped.answer.heading_unknown();
+    if (skipped.answer.crossing() == skipped.image.crossing && same_heading &&
         skipped.answer.position() == skipped.image.position) {
       continue;
     }
@@ -108,7 +126,7 @@ nlohmann::json ReportJson(const EnrollArgs& args, const EnrollSource& source, in
     skipped.push_back({{"path", s.image.path.string()},
                        {"crossing", s.image.crossing},
                        {"position", s.image.position},
-                       {"heading_deg", s.image.heading_deg},
+                       {"heading_deg", HeadingJson(s.image)},
                        {"reason", s.answer.error_message()}});
   }
   nlohmann::json duplicates = nlohmann::json::array();
@@ -118,7 +136,9 @@ nlohmann::json ReportJson(const EnrollArgs& args, const EnrollSource& source, in
                           {"stored_view_id", s.answer.view_id()},
                           {"stored_crossing", s.answer.crossing()},
                           {"stored_position", s.answer.position()},
-                          {"stored_heading_deg", s.answer.heading_deg()}});
+                          {"stored_heading_deg", s.answer.heading_unknown()
+                                                     ? nlohmann::json(nullptr)
+                                                     : nlohmann::json(s.answer.heading_deg())}});
   }
   nlohmann::json json = {{"database", args.database},
                          {"crossings", crossings},
@@ -192,11 +212,26 @@ absl::StatusOr<EnrollSource> SampleVideoViews(CommandContext& context, const Enr
 }
 
 absl::StatusOr<EnrollSource> ReadSource(CommandContext& context, const EnrollArgs& args) {
-  if (args.dir.empty() == args.video.empty()) {
-    return absl::InvalidArgumentError("give either DIR or --video FILE (with --crossing NAME)");
+  const int sources = !args.dir.empty() + !args.video.empty() + !args.manifest.empty();
+  if (sources != 1) {
+    return absl::InvalidArgumentError(
+        "give one of DIR, --manifest FILE or --video FILE (with --crossing NAME)");
   }
   if (!args.video.empty()) return SampleVideoViews(context, args);
-  absl::StatusOr<std::vector<EnrollImage>> images = ScanEnrollFolder(args.dir);
+  absl::StatusOr<std::vector<EnrollImage>> images =
+      !args.manifest.empty() ? ReadEnrollManifest(args.manifest)
+      : args.no_headings     ? ScanUnheadedFolder(args.dir)
+                             : ScanEnrollFolder(args.dir);
+  if (!images.ok() && args.manifest.empty() && !args.no_headings &&
+      images.status().code() == absl::StatusCode::kInvalidArgument) {
+    // File names that are not headings: say how to enroll them anyway.
+    return absl::InvalidArgumentError(absl::StrCat(
+        images.status().message(),
+        "\nimages whose names are not headings (p0_i0.jpg): list them with their crossing and "
+        "heading in a CSV file and run `waymark enroll NAME --manifest FILE` (",
+        kManifestLayout, "), or enroll DIR/<crossing>/<any name>.jpg with no heading with "
+        "--no-headings"));
+  }
   if (!images.ok()) return images.status();
   return EnrollSource{*std::move(images), std::nullopt};
 }
@@ -268,6 +303,19 @@ void AddEnrollCommand(CLI::App& app, CommandRegistry& registry) {
       "stops after the views in flight and says what was stored");
   enroll->add_option("NAME", args->database, "Database name")->required();
   CLI::Option* dir = enroll->add_option("DIR", args->dir, "Folder of crossing folders");
+  CLI::Option* manifest =
+      enroll->add_option("--manifest", args->manifest,
+                         "Instead of DIR: a CSV file listing the views, one per line: "
+                         "file,crossing,heading[,position] (file relative to the CSV's folder; "
+                         "heading in degrees in [0, 360), or empty or `unknown` for a view whose "
+                         "heading is not known: it answers its crossing and no heading). For "
+                         "images whose names are not headings (p0_i0.JPG)");
+  dir->excludes(manifest);
+  CLI::Option* no_headings = enroll->add_flag(
+      "--no-headings", args->no_headings,
+      "DIR/<crossing>/<any name>.jpg: the file names are not headings, every view is stored with "
+      "no heading (recognition then answers the crossing and no heading)");
+  no_headings->needs(dir);
   enroll->add_flag("--store-images", args->store_images,
                    "Keep the encoded images in the database (for rebuilds and inspection)");
   enroll->add_flag("--strict", args->strict,
@@ -286,6 +334,7 @@ void AddEnrollCommand(CLI::App& app, CommandRegistry& registry) {
                        "sampled before anything is sent: one that cannot be read enrolls nothing")
           ->group(video_group);
   dir->excludes(video);
+  manifest->excludes(video);
   CLI::Option* crossing =
       enroll->add_option("--crossing", args->crossing, "The crossing the video's frames show")
           ->group(video_group);

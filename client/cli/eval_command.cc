@@ -5,6 +5,8 @@
 #include <chrono>
 #include <fstream>
 #include <memory>
+#include <set>
+#include <sstream>
 #include <string>
 #include <vector>
 
@@ -17,6 +19,7 @@
 #include "client/common/progress_bar.h"
 #include "client/common/read_file.h"
 #include "client/cli/recognition_flags.h"
+#include "client/cli/recognition_output.h"
 
 namespace waymark::cli {
 namespace {
@@ -28,9 +31,17 @@ struct EvalArgs {
   RecognitionFlags recognition;
 };
 
+// What eval needs of an answer beyond the metrics: why it was accepted (the per-query CSV's
+// extra columns) and whether the mode ran with the stages it relies on.
+struct AnswerNotes {
+  std::string csv;            // RecognitionCsvFields
+  bool retrieval = false;     // the server applied the retrieval mode
+  bool global_stage = false;  // ... with its global stage
+};
+
 // Runs one query. Errors stop the evaluation: metrics over a partial set would mislead.
 absl::StatusOr<QueryRecord> RunQuery(client::CrossingClient& client, const EvalArgs& args,
-                                     const QueryImage& query) {
+                                     const QueryImage& query, AnswerNotes* notes) {
   auto bytes = ReadFileBytes(query.path);
   if (!bytes.ok()) return bytes.status();
   v1::RecognizeRequest request;
@@ -56,13 +67,37 @@ absl::StatusOr<QueryRecord> RunQuery(client::CrossingClient& client, const EvalA
   record.keypoints = response->keypoints();
   record.server_ms = response->timings().total_ms();
   record.reason = response->reason();
+  notes->csv = RecognitionCsvFields(*response);
+  notes->retrieval = response->mode() == v1::RECOGNITION_MODE_RETRIEVAL;
+  notes->global_stage = response->global_stage();
   return record;
 }
 
-absl::Status WriteCsv(const std::string& path, const std::vector<QueryRecord>& records) {
+// The per-query CSV of eval_report.h with the answer's path and numbers appended to each row
+// (RecognitionCsvFields). Rows end at a line break outside quotes.
+std::string AppendColumns(const std::string& csv, const std::vector<std::string>& extra) {
+  std::string out;
+  size_t row = 0;
+  bool quoted = false;
+  for (char c : csv) {
+    if (c == '"') quoted = !quoted;
+    if (c == '\n' && !quoted) {
+      out += ',';
+      out += row == 0 ? RecognitionCsvHeader() : (row - 1 < extra.size() ? extra[row - 1] : ",,,");
+      ++row;
+    }
+    out += c;
+  }
+  return out;
+}
+
+absl::Status WriteCsv(const std::string& path, const std::vector<QueryRecord>& records,
+                      const std::vector<std::string>& extra) {
   std::ofstream out(path);
   if (!out) return absl::PermissionDeniedError("cannot write '" + path + "'");
-  WritePerQueryCsv(out, records);
+  std::ostringstream base;
+  WritePerQueryCsv(base, records);
+  out << AppendColumns(base.str(), extra);
   out.close();
   if (!out) return absl::DataLossError("writing '" + path + "' failed");
   return absl::OkStatus();
@@ -73,26 +108,72 @@ int RunEval(CommandContext& context, const EvalArgs& args) {
   if (!queries.ok()) return ReportError(context, queries.status());
 
   std::unique_ptr<client::CrossingClient> client = context.Connect();
+  // The crossings the database holds: a query folder naming none of them is a place that was
+  // never stored (e.g. every view refused at enrollment), counted apart, neither known nor
+  // "unknown".
+  v1::ListCrossingsRequest list_request;
+  list_request.set_database(args.database);
+  auto crossings = client->ListCrossings(list_request);
+  std::set<std::string> stored;
+  if (crossings.ok()) {
+    for (const v1::Crossing& c : crossings->crossings()) {
+      if (c.views() > 0) stored.insert(c.name());
+    }
+  } else {
+    context.err << "warning: cannot list the database's crossings (" << crossings.status().message()
+                << "): every query folder is taken for a stored crossing\n";
+  }
   ProgressBar progress(context.err, static_cast<int>(queries->size()), "queries",
                        context.err_is_tty);
   std::vector<QueryRecord> records;
+  std::vector<std::string> extra;
   std::vector<QueryOutcome> outcomes;
+  std::set<std::string> never_stored;
+  int never_stored_queries = 0, never_stored_accepted = 0;
+  int retrieval_queries = 0, without_global = 0;
   for (const QueryImage& query : *queries) {
-    auto record = RunQuery(*client, args, query);
+    AnswerNotes notes;
+    auto record = RunQuery(*client, args, query, &notes);
     if (!record.ok()) {
       progress.Finish();
       return ReportError(context, record.status(),
                          fmt::format("query {} after {} of {}", query.path.string(), records.size(),
                                      queries->size()));
     }
-    outcomes.push_back(record->outcome);
+    if (notes.retrieval) {
+      ++retrieval_queries;
+      if (!notes.global_stage) ++without_global;
+    }
+    if (crossings.ok() && !query.unknown() && stored.count(query.folder) == 0) {
+      never_stored.insert(query.folder);
+      ++never_stored_queries;
+      if (record->outcome.recognized) ++never_stored_accepted;
+    } else {
+      outcomes.push_back(record->outcome);
+    }
+    extra.push_back(notes.csv);
     records.push_back(*std::move(record));
     progress.Update(static_cast<int>(records.size()));
   }
   progress.Finish();
 
+  if (without_global > 0) {
+    context.err << fmt::format(
+        "warning: {} of {} retrieval-mode queries ran without its global stage: the database has "
+        "no vocabulary (it learns its first at 16 views) or keeps no global stage, so only the "
+        "geometric NFA could accept\n",
+        without_global, retrieval_queries);
+  }
+  if (never_stored_queries > 0) {
+    std::string names;
+    for (const std::string& n : never_stored) names += (names.empty() ? "" : ", ") + n;
+    context.err << fmt::format(
+        "note: {} queries of {} crossing(s) the database never stored ({}) are counted apart, "
+        "not as known places: {} of them accepted (as another crossing)\n",
+        never_stored_queries, never_stored.size(), names, never_stored_accepted);
+  }
   if (!args.per_query_csv.empty()) {
-    if (absl::Status status = WriteCsv(args.per_query_csv, records); !status.ok()) {
+    if (absl::Status status = WriteCsv(args.per_query_csv, records, extra); !status.ok()) {
       return ReportError(context, status);
     }
   }
@@ -100,9 +181,20 @@ int RunEval(CommandContext& context, const EvalArgs& args) {
   if (context.globals.json) {
     nlohmann::json json = SummaryToJson(summary);
     json["database"] = args.database;
+    json["never_stored"] = {{"queries", never_stored_queries},
+                            {"crossings", std::vector<std::string>(never_stored.begin(),
+                                                                   never_stored.end())},
+                            {"accepted", never_stored_accepted}};
+    json["without_global_stage"] = {{"queries", without_global},
+                                    {"retrieval_queries", retrieval_queries}};
     PrintJson(context.out, json);
   } else {
     PrintSummary(context.out, summary);
+    if (never_stored_queries > 0) {
+      context.out << fmt::format(
+          "never stored: {} queries of {} crossing(s), counted apart ({} accepted)\n",
+          never_stored_queries, never_stored.size(), never_stored_accepted);
+    }
   }
   return kExitOk;
 }

@@ -14,6 +14,17 @@ namespace waymark::cli {
 // view when it has one) or "not recognized: <reason>".
 std::string RecognitionSummary(const v1::RecognizeResponse& response);
 
+// Why the answer is what it is (issue 34): the path that accepted it (or "refused") and its
+// numbers: "accepted by global: similarity 0.412, 10^-3.1 false alarms by chance; no geometric
+// match set (NFA not computed)". Empty for a paper- or verified-mode answer without them.
+std::string RecognitionWhy(const v1::RecognizeResponse& response);
+
+// The answer's path and numbers as CSV: RecognitionCsvHeader() names the columns
+// (accepted_by,log10_nfa,global_similarity,global_log10_false_alarms); a number that was not
+// computed is an empty field, never 0.
+std::string RecognitionCsvHeader();
+std::string RecognitionCsvFields(const v1::RecognizeResponse& response);
+
 // "keypoints 512, qualifying clusters 3, server 45.1 ms (decode 1.2, extraction 30.1, ...)".
 std::string RecognitionDetails(const v1::RecognizeResponse& response);
 

@@ -75,7 +75,8 @@ EvalSummary Summarize(const std::vector<QueryOutcome>& outcomes) {
     if (!IsCorrect(outcome)) continue;
     ++summary.correct;
     ++recall.correct;
-    if (outcome.true_heading_deg.has_value()) {
+    // A view enrolled with no heading answers NaN: the crossing is right, its heading unknown.
+    if (outcome.true_heading_deg.has_value() && !std::isnan(outcome.predicted_heading_deg)) {
       heading_errors.push_back(
           CircularHeadingError(*outcome.true_heading_deg, outcome.predicted_heading_deg));
     }

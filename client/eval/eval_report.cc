@@ -3,6 +3,7 @@
 #include <fmt/format.h>
 
 #include <algorithm>
+#include <cmath>
 #include <tuple>
 #include <utility>
 
@@ -109,7 +110,7 @@ void WritePerQueryCsv(std::ostream& out, const std::vector<QueryRecord>& records
     const QueryOutcome& o = r.outcome;
     const bool correct = IsCorrect(o);
     std::optional<double> heading_error;
-    if (correct && o.true_heading_deg.has_value()) {
+    if (correct && o.true_heading_deg.has_value() && !std::isnan(o.predicted_heading_deg)) {
       heading_error = CircularHeadingError(*o.true_heading_deg, o.predicted_heading_deg);
     }
     out << fmt::format("{},{},{},{},{},{},{},{},{:.4f},{},{:.3f},{:.3f},{}\n", CsvField(r.path),

@@ -15,7 +15,12 @@ v1::EnrollViewRequest MakeRequest(const FolderEnrollOptions& options, const Enro
   v1::EnrollViewRequest request;
   request.set_database(options.database);
   request.set_crossing(image.crossing);
-  request.set_heading_deg(image.heading_deg);
+  // A heading that is not a number: the view's heading is not known (enroll_manifest.h).
+  if (image.heading_deg == image.heading_deg) {
+    request.set_heading_deg(image.heading_deg);
+  } else {
+    request.set_heading_unknown(true);
+  }
   request.set_position(image.position);
   request.mutable_image()->set_data(std::move(bytes));
   request.set_create_crossing(true);

@@ -78,6 +78,10 @@ absl::Status ValidateRecognitionOptions(const RecognitionOptions& o) {
     return Invalid(
         absl::StrCat("global_shortlist = ", o.global_shortlist, " must be in [0, 1000]"));
   }
+  if (!(o.max_log10_global_efa >= -1e4 && o.max_log10_global_efa <= 100)) {
+    return Invalid(absl::StrCat("max_log10_global_efa = ", o.max_log10_global_efa,
+                                " must be in [-10000, 100]"));
+  }
   if (!(o.min_global_lift >= 0 && o.min_global_lift <= 2)) {
     return Invalid(
         absl::StrCat("min_global_lift = ", o.min_global_lift, " must be in [0, 2] (0 = off)"));

@@ -57,6 +57,16 @@ inline FrameEvidence GlobalAnswerEvidence(int64_t crossing_id, const EvidenceOpt
   return {crossing_id, -options.max_log10_ratio};
 }
 
+// What one frame's global path says of the crossing of its most similar view (issue 34): the
+// chance model's expected false alarms (global_chance.h) stand for the NFA, so the likelihood
+// ratio is 1 / EFA, clamped as every frame's. A frame the global path accepted alone
+// (EFA < 10^max_log10_global_efa = 10^-2) counts at the cap; a weak frame (EFA between that and
+// 1) is not accepted alone but counts here, so that agreeing weak frames decide over a stream;
+// a frame chance explains (EFA >= 1) counts as a miss.
+inline FrameEvidence GlobalFrameEvidence(int64_t crossing_id, double log10_false_alarms) {
+  return {crossing_id, log10_false_alarms};
+}
+
 struct PlaceBelief {
   int64_t crossing_id = -1;  // the most probable crossing (-1: none seen yet)
   double posterior = 0;      // its probability

@@ -96,6 +96,7 @@ void RecognizePaper(const ViewDatabase& db, const ImageFeatures& query,
   const int best = Decide(db, query, options, &list);
   out->histogram_ms = MsSince(start);
   out->recognized = true;
+  out->accepted_by = AcceptedBy::kDecision;
   out->best_slot = list[best].slot;
   out->decision = list[best].decision;
   out->candidates = std::move(list);
@@ -182,6 +183,7 @@ void RecognizeVerified(const ViewDatabase& db, const ImageFeatures& query,
                                " inliers, share ", options.min_inlier_share, ")");
   } else {
     out->recognized = true;
+    out->accepted_by = AcceptedBy::kInliers;
     out->best_slot = winner.slot;
   }
   out->candidates = std::move(list);
@@ -264,12 +266,25 @@ GeometricEvidence JudgeMatchSet(const ImageFeatures& query, const ViewEntry& vie
   return {evidence.inliers, std::min(0.0, evidence.log10_nfa - std::log10(tests))};
 }
 
-// What the global path saw, appended to a refusal's reason ("" when it is off).
-std::string GlobalRefusal(const GlobalStage& global, const RecognitionOptions& options) {
-  if (!global.active() || options.min_global_lift <= 0) return "";
+// What the global path saw, appended to a refusal's reason ("" without a global stage).
+std::string GlobalRefusal(const GlobalStage& global, const GlobalChance& chance,
+                          const RecognitionOptions& options) {
+  if (!global.active()) return "";
+  if (options.min_global_lift > 0) {
+    return absl::StrFormat(
+        "; the most similar view stands %.3f above the median global similarity (%.3f needed)",
+        global.lift, options.min_global_lift);
+  }
+  if (!chance.computed) {
+    return absl::StrFormat(
+        "; global path: no chance model (%d views of other places, %d needed)",
+        chance.background_views, GlobalChanceOptions().min_background_views);
+  }
   return absl::StrFormat(
-      "; the most similar view stands %.3f above the median global similarity (%.3f needed)",
-      global.lift, options.min_global_lift);
+      "; global path: most similar view %.3f, 10^%.1f false alarms expected by chance, the "
+      "limit is 10^%.1f%s",
+      chance.best_similarity, chance.log10_efa, options.max_log10_global_efa,
+      chance.log10_efa < 0 ? " (a weak frame: evidence over a stream may take it)" : "");
 }
 
 // Retrieval mode: the verified mode's shortlist joined by the views most similar globally; each
@@ -329,19 +344,45 @@ void RecognizeRetrieval(const ViewDatabase& db, const ImageFeatures& query,
     list.push_back(c);
   }
   out->verification_ms = MsSince(start);
-  // The global path: a view that stands out this far is the answer on its own.
-  const bool global_accepts = global.active() && options.min_global_lift > 0 &&
-                              global.lift >= options.min_global_lift;
-  if (global.active()) out->global_lift = global.lift;
-  if (global_accepts) {
+  // The global path's chance model (global_chance.h), over the places of the views.
+  GlobalChance chance;
+  if (global.active()) {
+    out->global_stage = true;
+    out->global_lift = global.lift;
+    std::vector<int64_t> place_of_slot(db.views().size());
+    for (size_t i = 0; i < place_of_slot.size(); ++i) place_of_slot[i] = db.views()[i].crossing_id;
+    chance = EstimateGlobalChance(global.similarity, place_of_slot);
+    out->global = chance;
+  }
+  // Legacy lift rule (off by default): checked before the NFA, as in issue 18.
+  const bool lift_accepts = global.active() && options.min_global_lift > 0 &&
+                            global.lift >= options.min_global_lift;
+  // The chance model's rule: only where the geometry did not accept (below).
+  const bool chance_accepts = global.active() && options.min_global_lift <= 0 && chance.computed &&
+                              chance.log10_efa < options.max_log10_global_efa;
+  // The global path's answer: the most similar view, with its own NFA when it has a match set.
+  auto accept_global = [&](AcceptedBy path, const std::vector<Candidate>& candidates) {
     out->recognized = true;
+    out->accepted_by = path;
     out->accepted_by_global = true;
     out->best_slot = global.top_slot;
-  }
+    out->nfa_computed = false;
+    out->log10_nfa = 0;
+    for (const Candidate& c : candidates) {
+      if (c.slot == out->best_slot) {
+        out->log10_nfa = c.log10_nfa;
+        out->nfa_computed = true;
+      }
+    }
+  };
   if (list.empty()) {
-    if (!global_accepts) {
+    if (lift_accepts) {
+      accept_global(AcceptedBy::kGlobalLift, list);
+    } else if (chance_accepts) {
+      accept_global(AcceptedBy::kGlobal, list);
+    } else {
       out->reason = "no view has geometrically consistent matches";
-      out->reason += GlobalRefusal(global, options);
+      out->reason += GlobalRefusal(global, chance, options);
     }
     return;
   }
@@ -353,30 +394,45 @@ void RecognizeRetrieval(const ViewDatabase& db, const ImageFeatures& query,
     return std::max(0.0, -c.log10_nfa);
   });
   out->histogram_ms = MsSince(start);
-  const Candidate& winner = list[best];
+  const Candidate winner = list[best];
   out->decision = winner.decision;
   out->log10_nfa = winner.log10_nfa;
-  if (global_accepts) {
-    // The answer is the global one; its own candidate's NFA, when it has one (0 otherwise).
-    out->log10_nfa = 0;
-    for (const Candidate& c : list) {
-      if (c.slot == out->best_slot) out->log10_nfa = c.log10_nfa;
-    }
-  } else if (!(winner.log10_nfa < options.max_log10_nfa)) {
+  out->nfa_computed = true;
+  out->candidates = std::move(list);
+  if (lift_accepts) {
+    accept_global(AcceptedBy::kGlobalLift, out->candidates);
+  } else if (winner.log10_nfa < options.max_log10_nfa) {
+    // Geometry is the main evidence: a meaningful match set is the answer whatever the global
+    // stage prefers.
+    out->recognized = true;
+    out->accepted_by = AcceptedBy::kNfa;
+    out->best_slot = winner.slot;
+  } else if (chance_accepts) {
+    accept_global(AcceptedBy::kGlobal, out->candidates);
+  } else {
     out->reason = absl::StrFormat(
         "best view (%d inliers of %d tentative matches, global similarity %.3f) could be "
         "chance: 10^%.1f false alarms expected, the limit is 10^%.1f",
         winner.matches, winner.tentative, winner.global_similarity, winner.log10_nfa,
         options.max_log10_nfa);
-    out->reason += GlobalRefusal(global, options);
-  } else {
-    out->recognized = true;
-    out->best_slot = winner.slot;
+    out->reason += GlobalRefusal(global, chance, options);
   }
-  out->candidates = std::move(list);
 }
 
 }  // namespace
+
+const char* AcceptedByName(AcceptedBy path) {
+  switch (path) {
+    case AcceptedBy::kRefused: return "refused";
+    case AcceptedBy::kDecision: return "decision";
+    case AcceptedBy::kInliers: return "inliers";
+    case AcceptedBy::kNfa: return "nfa";
+    case AcceptedBy::kGlobal: return "global";
+    case AcceptedBy::kGlobalLift: return "global_lift";
+    case AcceptedBy::kStreamEvidence: return "stream_evidence";
+  }
+  return "refused";
+}
 
 absl::StatusOr<Recognition> Recognize(const ViewDatabase& database, const ImageFeatures& query,
                                       const RecognitionOptions& options) {

@@ -10,6 +10,7 @@
 
 #include "absl/status/statusor.h"
 #include "server/crossing/features.h"
+#include "server/crossing/global_chance.h"
 #include "server/crossing/options.h"
 #include "server/crossing/view_database.h"
 
@@ -32,16 +33,37 @@ struct Candidate {
   double global_z = 0;
 };
 
+// Which rule accepted an answer (issue 34: every answer says why).
+enum class AcceptedBy {
+  kRefused = 0,         // not recognized
+  kDecision = 1,        // paper mode: the paper's decision (a centre reached N0)
+  kInliers = 2,         // verified mode: the calibrated inlier rule
+  kNfa = 3,             // retrieval mode: the epipolar match set's NFA < 10^max_log10_nfa
+  kGlobal = 4,          // retrieval mode: the global chance model's EFA < 10^max_log10_global_efa
+  kGlobalLift = 5,      // retrieval mode, legacy min_global_lift > 0 (off by default)
+  kStreamEvidence = 6,  // StreamRecognize: the posterior over frames (set by the service)
+};
+// "refused", "decision", "inliers", "nfa", "global", "global_lift", "stream_evidence".
+const char* AcceptedByName(AcceptedBy path);
+
 struct Recognition {
   bool recognized = false;
+  AcceptedBy accepted_by = AcceptedBy::kRefused;
+  // Whether log10_nfa holds a computed value (retrieval mode, an answer or winner with a
+  // geometric match set); false: log10_nfa is meaningless (0).
+  bool nfa_computed = false;
+  // Retrieval mode on a database with a global stage: whether it ran (false: no vocabulary yet,
+  // or the query carried no dense descriptors), and its chance model (global_chance.h).
+  bool global_stage = false;
+  GlobalChance global;
   uint32_t best_slot = 0;  // valid when recognized
   double decision = 0;
   // Retrieval mode: log10 of the winner's expected number of false alarms (the lower, the
   // surer; < max_log10_nfa when recognized).
   double log10_nfa = 0;
   // Retrieval mode with a global descriptor: the highest global similarity minus the median over
-  // all views, and whether the answer was accepted on it (RecognitionOptions::min_global_lift)
-  // rather than on its NFA.
+  // all views, and whether the answer was accepted by the global path (kGlobal or the legacy
+  // kGlobalLift) rather than on its NFA.
   double global_lift = 0;
   bool accepted_by_global = false;
   std::vector<Candidate> candidates;  // sorted by matches, descending

@@ -30,6 +30,15 @@ inline constexpr int kVocabularySampleRows = 256;
 // view's dense descriptors a vocabulary is trained on.
 cv::Mat EvenRows(const cv::Mat& rows, int count);
 
+// The vocabulary schedule (issue 34): a database learns its vocabulary from exactly the first 16,
+// 32, 64, ... `last` views it holds (in enrollment order), whenever the worker gets to it. How many
+// views a database of `views` views learns from: the largest of first, 2 first, 4 first, ... up to
+// `last` that is at most `views`; 0 below `first`. A vocabulary learnt from the first N views is
+// a function of the enrollment sequence alone, not of how far enrollment had gone on meanwhile
+// (a worker that learnt from every view present when it looked recorded 44, 95, 228 and 301
+// views under a bulk enrollment of 20 views/s).
+int VocabularyScheduleSize(int views, int first, int last);
+
 class VladVocabulary {
  public:
   // k-means (k-means++, fixed seed: the same descriptors give the same words) on at most
@@ -40,6 +49,10 @@ class VladVocabulary {
   // (evenly spread), so every view has its say and nothing big is stacked.
   static VladVocabulary TrainOnImages(const std::vector<cv::Mat>& descriptors, int words,
                                       int max_samples = 50000);
+  // TrainOnImages on the first `views` of `descriptors` only (all of them when fewer): the
+  // schedule's vocabulary (VocabularyScheduleSize) from the samples of every view held.
+  static VladVocabulary TrainOnFirstImages(const std::vector<cv::Mat>& descriptors, int views,
+                                           int words, int max_samples = 50000);
 
   bool empty() const { return centers_.empty(); }
   // A 64-bit hash of the words (FNV-1a over their bytes; 0 for an empty vocabulary): what a stored

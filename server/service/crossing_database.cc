@@ -5,18 +5,20 @@
 #include <utility>
 
 #include "absl/strings/str_cat.h"
+#include "server/common/quote.h"
 
 namespace waymark::service {
 
 absl::Status ValidateCrossingName(const std::string& name) {
   if (name.empty() || name.size() > 128) {
     return absl::InvalidArgumentError(
-        absl::StrCat("crossing name \"", name, "\" must be 1-128 characters long"));
+        absl::StrCat("crossing name ", QuoteClientText(name), " must be 1-128 characters long"));
   }
   for (char c : name) {
     if (static_cast<unsigned char>(c) < 0x20 || c == '/') {
       return absl::InvalidArgumentError(
-          absl::StrCat("crossing name \"", name, "\" may not contain '/' or control characters"));
+          absl::StrCat("crossing name ", QuoteClientText(name),
+                       " may not contain '/' or control characters"));
     }
   }
   return absl::OkStatus();
@@ -33,19 +35,30 @@ absl::Status ValidateHeading(double heading_deg) {
 
 absl::Status ValidatePosition(const std::string& position) {
   if (position.size() > 64) {
-    return absl::InvalidArgumentError(absl::StrCat("position \"", position.substr(0, 64),
-                                                   "...\" is over 64 characters long"));
+    // Quoted by characters, never cut inside one (a cut UTF-8 character made the whole
+    // BulkEnroll answer unreadable to strict clients: issue 35).
+    return absl::InvalidArgumentError(absl::StrCat("position ", QuoteClientText(position), " is ",
+                                                   position.size(),
+                                                   " bytes long (UTF-8); at most 64"));
   }
   for (char c : position) {
     if (static_cast<unsigned char>(c) < 0x20 || c == 0x7f) {
       return absl::InvalidArgumentError(
-          absl::StrCat("position \"", position, "\" may not contain control characters"));
+          absl::StrCat("position ", QuoteClientText(position),
+                       " may not contain control characters"));
     }
   }
   return absl::OkStatus();
 }
 
-bool SameHeading(double a_deg, double b_deg) { return std::abs(a_deg - b_deg) < 1e-6; }
+bool SameHeading(double a_deg, double b_deg) {
+  if (std::isnan(a_deg) || std::isnan(b_deg)) return std::isnan(a_deg) && std::isnan(b_deg);
+  return std::abs(a_deg - b_deg) < 1e-6;
+}
+
+double RequestedHeading(const v1::EnrollViewRequest& request) {
+  return request.heading_unknown() ? kNoHeading : request.heading_deg();
+}
 
 void ViewContents::Add(int64_t view_id, const std::string& sha256) {
   if (sha256.empty()) return;
@@ -165,7 +178,9 @@ storage::ViewRecord ToViewRecord(int64_t crossing_id, double heading_deg,
                                  const crossing::ImageFeatures& features) {
   storage::ViewRecord r;
   r.crossing_id = crossing_id;
-  r.heading_deg = heading_deg;
+  // Storage keeps a finite heading and says whether it is known (schema v13).
+  r.heading_known = !std::isnan(heading_deg);
+  r.heading_deg = r.heading_known ? heading_deg : 0;
   r.width = features.width;
   r.height = features.height;
   r.keypoint_count = static_cast<int32_t>(features.keypoints.size());

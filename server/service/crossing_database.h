@@ -8,6 +8,7 @@
 #include <cstdint>
 #include <functional>
 #include <map>
+#include <limits>
 #include <memory>
 #include <optional>
 #include <set>
@@ -33,7 +34,14 @@ absl::Status ValidateHeading(double heading_deg);
 absl::Status ValidatePosition(const std::string& position);
 // Headings that name the same view direction (they come from file names and JSON, so exact
 // equality of the decimal values is what "the same" means; the tolerance only absorbs rounding).
+// Two NaN headings (views with no heading, kNoHeading) are the same; NaN and a number are not.
 bool SameHeading(double a_deg, double b_deg);
+
+// In memory (crossing::ViewEntry::heading_deg) a view enrolled with no heading holds NaN: a
+// recognition that picks it answers the crossing and no heading (issue 34).
+inline constexpr double kNoHeading = std::numeric_limits<double>::quiet_NaN();
+// The heading an enrollment request gives its view: kNoHeading with heading_unknown.
+double RequestedHeading(const v1::EnrollViewRequest& request);
 
 // Which stored view holds which image: the SHA-256 of its encoded bytes (storage/sha256.h).
 // Views enrolled before hashes were stored are not in it.

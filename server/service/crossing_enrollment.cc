@@ -2,10 +2,12 @@
 // cluster proposal and the commit, plain or replacing views (crossing_registry.h, crossing.proto).
 
 #include <algorithm>
+#include <cmath>
 #include <optional>
 #include <utility>
 
 #include "absl/strings/str_cat.h"
+#include "server/common/quote.h"
 #include "server/common/stopwatch.h"
 #include "server/service/crossing_registry.h"
 
@@ -30,7 +32,8 @@ constexpr int kMinEnrollKeypoints = 10;
 // position: the place a `replace` request takes.
 bool AtRequestedPlace(const crossing::ViewEntry& view, int64_t crossing_id,
                       const v1::EnrollViewRequest& request) {
-  return view.crossing_id == crossing_id && SameHeading(view.heading_deg, request.heading_deg()) &&
+  return view.crossing_id == crossing_id &&
+         SameHeading(view.heading_deg, RequestedHeading(request)) &&
          view.position == request.position();
 }
 
@@ -57,9 +60,16 @@ absl::Status CheckCrossing(const ResidentDatabase& db, const v1::EnrollViewReque
   if (request.create_crossing() || db.crossing_ids.count(request.crossing()) > 0) {
     return absl::OkStatus();
   }
-  return absl::NotFoundError(absl::StrCat("crossing \"", request.crossing(),
-                                          "\" not found in database \"", request.database(),
-                                          "\": add it first or set create_crossing"));
+  return absl::NotFoundError(absl::StrCat("crossing ", QuoteClientText(request.crossing()),
+                                          " not found in database ",
+                                          QuoteClientText(request.database()),
+                                          ": add it first or set create_crossing"));
+}
+
+// A view's heading in an answer: heading_unknown (and heading_deg 0) for a view with none.
+void SetResponseHeading(double heading_deg, v1::EnrollViewResponse* response) {
+  response->set_heading_unknown(std::isnan(heading_deg));
+  response->set_heading_deg(response->heading_unknown() ? 0 : heading_deg);
 }
 
 v1::EnrollViewResponse DuplicateAnswer(const ResidentDatabase& db, const crossing::ViewEntry& view,
@@ -69,7 +79,7 @@ v1::EnrollViewResponse DuplicateAnswer(const ResidentDatabase& db, const crossin
   response.set_view_id(view.view_id);
   response.set_crossing_id(view.crossing_id);
   response.set_crossing(db.CrossingName(view.crossing_id));
-  response.set_heading_deg(view.heading_deg);
+  SetResponseHeading(view.heading_deg, &response);
   response.set_position(view.position);
   response.mutable_timings()->set_total_ms(MsSince(start));
   return response;
@@ -82,7 +92,7 @@ void InstallView(ResidentDatabase& db, const storage::AddViewResult& added, int 
                  const CrossingRegistry::PreparedEnrollment& prepared, bool new_crossing) {
   const crossing::ImageFeatures& features = prepared.features;
   if (new_crossing) db.AddCrossingRecord({added.crossing_id, db.record.id, request.crossing(), ""});
-  const uint32_t slot = db.views->AddView(added.view_id, added.crossing_id, request.heading_deg(),
+  const uint32_t slot = db.views->AddView(added.view_id, added.crossing_id, RequestedHeading(request),
                                           features.descriptors,
                                           crossing::KeypointPositions(features), features.hue_hist);
   db.views->SetPosition(slot, request.position());
@@ -112,7 +122,15 @@ absl::StatusOr<CrossingRegistry::PreparedEnrollment> CrossingRegistry::PrepareEn
   PreparedEnrollment prepared;
   prepared.start = Clock::now();
   if (absl::Status s = ValidateCrossingName(request.crossing()); !s.ok()) return s;
-  if (absl::Status s = ValidateHeading(request.heading_deg()); !s.ok()) return s;
+  if (request.heading_unknown()) {
+    if (request.heading_deg() != 0) {
+      return absl::InvalidArgumentError(absl::StrCat(
+          "heading_deg = ", request.heading_deg(), " with heading_unknown: a view has a heading or "
+          "none (send heading_deg 0 with heading_unknown)"));
+    }
+  } else if (absl::Status s = ValidateHeading(request.heading_deg()); !s.ok()) {
+    return s;
+  }
   if (absl::Status s = ValidatePosition(request.position()); !s.ok()) return s;
   absl::StatusOr<std::shared_ptr<Database>> found = Find(request.database());
   if (!found.ok()) return found.status();
@@ -177,7 +195,7 @@ absl::StatusOr<v1::EnrollViewResponse> CrossingRegistry::CommitEnrollment(
   auto id_it = db.crossing_ids.find(request.crossing());
   const bool new_crossing = id_it == db.crossing_ids.end();
   const int64_t crossing_id = new_crossing ? 0 : id_it->second;
-  storage::ViewRecord record = ToViewRecord(crossing_id, request.heading_deg(), features);
+  storage::ViewRecord record = ToViewRecord(crossing_id, RequestedHeading(request), features);
   record.content_sha256 = content;
   record.position = request.position();
   if (request.store_image()) record.image = request.image().data();
@@ -204,7 +222,7 @@ absl::StatusOr<v1::EnrollViewResponse> CrossingRegistry::CommitEnrollment(
   response.set_view_id(committed->added.view_id);
   response.set_crossing_id(committed->added.crossing_id);
   response.set_crossing(request.crossing());
-  response.set_heading_deg(request.heading_deg());
+  SetResponseHeading(RequestedHeading(request), &response);
   response.set_position(request.position());
   response.set_crossing_created(new_crossing);
   response.set_keypoints(features.descriptors.rows);

@@ -38,7 +38,9 @@ absl::Status AddStoredView(ResidentDatabase& db, storage::ViewRecord&& v, bool d
   }
   const cv::Mat descriptors(v.keypoint_count, crossing::kDescriptorSize, CV_8U,
                             v.descriptors.data());
-  const uint32_t slot = db.views->AddView(v.id, v.crossing_id, v.heading_deg, descriptors,
+  // A view stored with no heading (schema v13) holds NaN in memory (crossing_database.h).
+  const double heading = v.heading_known ? v.heading_deg : kNoHeading;
+  const uint32_t slot = db.views->AddView(v.id, v.crossing_id, heading, descriptors,
                                           std::move(points), std::move(v.hue_hist), defer_indexing);
   db.views->SetPosition(slot, std::move(v.position));
   LoadGlobalView(db, slot, v);

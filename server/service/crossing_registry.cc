@@ -9,6 +9,7 @@
 
 #include "absl/strings/str_cat.h"
 #include "server/common/input_bounds.h"
+#include "server/common/quote.h"
 #include "server/common/stopwatch.h"
 #include "server/crossing/features.h"
 #include "server/crossing/recognizer.h"
@@ -23,12 +24,13 @@ using crossing::ViewDatabase;
 absl::Status ValidateDatabaseName(const std::string& name) {
   if (name.empty() || name.size() > 64) {
     return absl::InvalidArgumentError(
-        absl::StrCat("database name \"", name, "\" must be 1-64 characters long"));
+        absl::StrCat("database name ", QuoteClientText(name), " must be 1-64 characters long"));
   }
   for (char c : name) {
     if (!(std::isalnum(static_cast<unsigned char>(c)) || c == '-' || c == '_' || c == '.')) {
       return absl::InvalidArgumentError(absl::StrCat(
-          "database name \"", name, "\" may contain only letters, digits, '-', '_' and '.'"));
+          "database name ", QuoteClientText(name),
+          " may contain only letters, digits, '-', '_' and '.'"));
     }
   }
   return absl::OkStatus();
@@ -152,8 +154,8 @@ absl::StatusOr<std::shared_ptr<CrossingRegistry::Database>> CrossingRegistry::Fi
   absl::ReaderMutexLock lock(&mutex_);
   auto it = databases_.find(name);
   if (it == databases_.end()) {
-    return absl::NotFoundError(absl::StrCat("database \"", name,
-                                            "\" not found: create it with `waymark db create`"));
+    return absl::NotFoundError(absl::StrCat("database ", QuoteClientText(name),
+                                            " not found: create it with `waymark db create`"));
   }
   return it->second;
 }
@@ -177,7 +179,8 @@ absl::StatusOr<v1::CrossingDatabase> CrossingRegistry::CreateDatabase(
   if (!params.ok()) return params.status();
   absl::MutexLock lock(&mutex_);
   if (databases_.count(request.name())) {
-    return absl::AlreadyExistsError(absl::StrCat("database \"", request.name(), "\" already exists"));
+    return absl::AlreadyExistsError(
+        absl::StrCat("database ", QuoteClientText(request.name()), " already exists"));
   }
   absl::StatusOr<storage::DatabaseRecord> record =
       store_->CreateDatabase(request.name(), ParamsToJson(*params));
@@ -209,7 +212,7 @@ absl::Status CrossingRegistry::DeleteDatabase(const std::string& name) {
   absl::MutexLock lock(&mutex_);
   auto it = databases_.find(name);
   if (it == databases_.end()) {
-    return absl::NotFoundError(absl::StrCat("database \"", name, "\" not found"));
+    return absl::NotFoundError(absl::StrCat("database ", QuoteClientText(name), " not found"));
   }
   // The database must outlive its lock: erasing the map's entry may drop the last reference,
   // and a mutex destroyed while held is undefined behaviour (absl aborts on it in debug checks).
@@ -260,9 +263,9 @@ absl::StatusOr<v1::Crossing> CrossingRegistry::AddCrossing(const v1::AddCrossing
   absl::MutexLock lock(&db.mutex);
   if (absl::Status s = db.CheckAlive(); !s.ok()) return s;
   if (db.crossing_ids.count(request.name())) {
-    return absl::AlreadyExistsError(absl::StrCat("crossing \"", request.name(),
-                                                 "\" already exists in database \"",
-                                                 request.database(), "\""));
+    return absl::AlreadyExistsError(absl::StrCat("crossing ", QuoteClientText(request.name()),
+                                                 " already exists in database ",
+                                                 QuoteClientText(request.database())));
   }
   absl::StatusOr<storage::CrossingRecord> record =
       store_->AddCrossing(db.record.id, request.name(), request.label());
@@ -296,9 +299,9 @@ absl::StatusOr<v1::DeleteCrossingResponse> CrossingRegistry::DeleteCrossing(
   if (absl::Status s = db.CheckAlive(); !s.ok()) return s;
   auto id_it = db.crossing_ids.find(request.name());
   if (id_it == db.crossing_ids.end()) {
-    return absl::NotFoundError(absl::StrCat("crossing \"", request.name(),
-                                            "\" not found in database \"", request.database(),
-                                            "\""));
+    return absl::NotFoundError(absl::StrCat("crossing ", QuoteClientText(request.name()),
+                                            " not found in database ",
+                                            QuoteClientText(request.database())));
   }
   const int64_t crossing_id = id_it->second;
   // The remaining views, re-clustered in enrollment order, become the new memory and disk state
@@ -415,6 +418,20 @@ absl::StatusOr<v1::RecognizeResponse> CrossingRegistry::Recognize(
   response.set_log10_nfa(result->log10_nfa);
   response.set_global_lift(result->global_lift);
   response.set_accepted_by_global(result->accepted_by_global);
+  response.set_accepted_by(crossing::AcceptedByName(result->accepted_by));
+  response.set_nfa_computed(result->nfa_computed);
+  response.set_global_stage(result->global_stage);
+  if (result->global_stage) {
+    const crossing::ViewEntry& top = views[result->global.best_slot];
+    response.set_global_model(result->global.computed);
+    response.set_global_crossing_id(top.crossing_id);
+    response.set_global_crossing(db.CrossingName(top.crossing_id));
+    response.set_global_view_id(top.view_id);
+    response.set_global_similarity(result->global.best_similarity);
+    if (result->global.computed) {
+      response.set_global_log10_false_alarms(result->global.log10_efa);
+    }
+  }
   for (const crossing::Candidate& c : result->candidates) {
     const crossing::ViewEntry& v = views[c.slot];
     v1::Candidate* out = response.add_candidates();

@@ -9,11 +9,17 @@
 #include <thread>
 
 #include "absl/strings/str_cat.h"
+#include "server/common/quote.h"
+#include "server/service/grpc_status.h"
 #include "server/service/service_call.h"
 #include "server/service/stream_evidence.h"
 
 namespace waymark::service {
 namespace {
+
+// A skipped view's crossing and position are echoed whole up to this many characters: every
+// valid value (crossing names have at most 128, positions 64), never a client's megabyte.
+constexpr size_t kMaxEchoedChars = 128;
 
 // The views of an enrollment stream, in stream order, with up to `depth` of them being prepared
 // (hashed, features extracted) ahead on their own threads while the handler commits the oldest:
@@ -183,11 +189,13 @@ grpc::Status CrossingServiceImpl::BulkEnrollInto(grpc::ServerContext* context,
     switch (answer->outcome()) {
       case v1::ENROLL_OUTCOME_INVALID: {
         v1::SkippedView* skipped = response->add_skipped();
-        skipped->set_crossing(view.request.crossing());
+        // The client's own values, to match the view by, but bounded: a view is often skipped
+        // for an oversized field, which must not travel back whole (issue 35).
+        skipped->set_crossing(BoundClientText(view.request.crossing(), kMaxEchoedChars));
         if (std::isfinite(view.request.heading_deg())) {
           skipped->set_heading_deg(view.request.heading_deg());
         }
-        skipped->set_position(view.request.position());
+        skipped->set_position(BoundClientText(view.request.position(), kMaxEchoedChars));
         skipped->set_index(index);
         skipped->set_reason(answer->error_message());
         break;
@@ -256,12 +264,12 @@ absl::StatusOr<v1::EnrollViewResponse> CrossingServiceImpl::EnrollStreamedView(
   }
   v1::EnrollViewResponse invalid;
   invalid.set_outcome(v1::ENROLL_OUTCOME_INVALID);
-  invalid.set_crossing(request.crossing());
+  invalid.set_crossing(BoundClientText(request.crossing(), kMaxEchoedChars));
   // Echoed only when finite: no NaN or inf leaves the server.
   if (std::isfinite(request.heading_deg())) invalid.set_heading_deg(request.heading_deg());
-  invalid.set_position(request.position());
+  invalid.set_position(BoundClientText(request.position(), kMaxEchoedChars));
   invalid.set_error_code(static_cast<int32_t>(enrolled.status().code()));
-  invalid.set_error_message(std::string(enrolled.status().message()));
+  invalid.set_error_message(BoundedStatusMessage(enrolled.status().message()));
   return invalid;
 }
 
@@ -271,8 +279,9 @@ grpc::Status CrossingServiceImpl::EndEnrollStream(const absl::Status& error,
   // Views before this one are committed; say which one failed and how many made it.
   return ToGrpcStatus(absl::Status(
       error.code(), absl::StrCat("view ", index + 1, " [", stored,
-                                 " views before it were stored] (crossing \"", request.crossing(),
-                                 "\", heading ", request.heading_deg(), "): ", error.message())));
+                                 " views before it were stored] (crossing ",
+                                 QuoteClientText(request.crossing()), ", heading ",
+                                 request.heading_deg(), "): ", error.message())));
 }
 
 grpc::Status CrossingServiceImpl::RebuildClusters(grpc::ServerContext* context,
@@ -315,8 +324,8 @@ grpc::Status CrossingServiceImpl::ServeStreamRecognize(grpc::ServerContext* cont
     } else {
       // A bad frame (corrupt image, bad parameter) is reported and the robot keeps streaming.
       response.set_error_code(static_cast<int32_t>(result.status().code()));
-      response.set_error_message(std::string(result.status().message()));
-      response.set_reason(absl::StrCat("frame rejected: ", result.status().message()));
+      response.set_error_message(BoundedStatusMessage(result.status().message()));
+      response.set_reason(absl::StrCat("frame rejected: ", response.error_message()));
       if (std::isfinite(request.image().stamp())) response.set_stamp(request.image().stamp());
     }
     response.set_frame_index(frame++);

@@ -54,13 +54,11 @@ bool KeepsSamples(const ResidentDatabase& db) {
 }
 
 bool NeedsVocabulary(int views, int trained_views) {
-  if (views < kFirstVocabularyViews) return false;
-  // The last threshold (16, 32, 64, ... 512) the database has reached. A training that looked
-  // at more views than its threshold (enrollments go on while the worker catches up) counts for
-  // the thresholds it passed, so the schedule does not depend on the worker's timing.
-  int threshold = kFirstVocabularyViews;
-  while (threshold * 2 <= std::min(views, kLastVocabularyViews)) threshold *= 2;
-  return trained_views < threshold;
+  // The last size of the schedule (16, 32, 64, ... 512) the database has reached; a vocabulary is
+  // learnt from exactly that many views, its first ones (vlad.h, VocabularyScheduleSize).
+  const int due = crossing::VocabularyScheduleSize(views, kFirstVocabularyViews,
+                                                   kLastVocabularyViews);
+  return due > 0 && trained_views < due;
 }
 
 bool GlobalStageHasWork(const ResidentDatabase& db) {
@@ -194,6 +192,7 @@ bool GlobalStageWorker::Round(ResidentDatabase& db) {
   // What to do, from one consistent look at the database.
   bool train = false;
   int views = 0;
+  int learn_from = 0;  // training: the schedule's size, the first views of the database
   std::vector<int64_t> ids;
   std::vector<cv::Mat> samples;
   crossing::VladVocabulary vocabulary;
@@ -203,9 +202,16 @@ bool GlobalStageWorker::Round(ResidentDatabase& db) {
     views = static_cast<int>(db.views->views().size());
     train = NeedsVocabulary(views, db.global.trained_views);
     if (train) {
-      for (const crossing::ViewEntry& v : db.views->views()) {
-        ids.push_back(v.view_id);
-        if (!v.global_sample.empty()) samples.push_back(v.global_sample);
+      // Exactly the first 16, 32, ... views, however many were enrolled before the worker got
+      // here (it used to learn from all of them: 44, 95, 228, 301 under a bulk enrollment).
+      learn_from =
+          crossing::VocabularyScheduleSize(views, kFirstVocabularyViews, kLastVocabularyViews);
+      const std::vector<crossing::ViewEntry>& all = db.views->views();
+      for (size_t i = 0; i < all.size(); ++i) {
+        ids.push_back(all[i].view_id);
+        if (static_cast<int>(i) < learn_from && !all[i].global_sample.empty()) {
+          samples.push_back(all[i].global_sample);
+        }
       }
     } else {
       ids.assign(db.global.uncoded.begin(), db.global.uncoded.end());
@@ -258,7 +264,7 @@ bool GlobalStageWorker::Round(ResidentDatabase& db) {
     }
   }
   const absl::Status saved =
-      train ? store_->SaveVocabulary({db.record.id, views, vocabulary.Serialize()}, rows)
+      train ? store_->SaveVocabulary({db.record.id, learn_from, vocabulary.Serialize()}, rows)
             : store_->SaveViewCodes(db.record.id, rows);
   if (!saved.ok()) {
     if (saved.code() != absl::StatusCode::kNotFound) {  // NOT_FOUND: the database was deleted
@@ -273,7 +279,7 @@ bool GlobalStageWorker::Round(ResidentDatabase& db) {
   if (train) {
     db.views->SetVocabulary(vocabulary);
     db.global.vocabulary = fingerprint;
-    db.global.trained_views = views;
+    db.global.trained_views = learn_from;
     db.global.uncoded.clear();
     // Views enrolled since the look hold codes of the old vocabulary, or none.
     for (const crossing::ViewEntry& v : db.views->views()) {
@@ -296,7 +302,8 @@ bool GlobalStageWorker::Round(ResidentDatabase& db) {
     }
   }
   spdlog::info("database \"{}\": {} {} views in {:.1f} s", db.record.name,
-               train ? absl::StrCat("learnt a vocabulary from ", views, " views and coded")
+               train ? absl::StrCat("learnt a vocabulary from the first ", learn_from, " of ",
+                                    views, " views and coded")
                      : std::string("coded"),
                codes.size(), MsSince(start) / 1000.0);
   return true;

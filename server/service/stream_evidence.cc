@@ -20,7 +20,12 @@ void StreamEvidence::Apply(const crossing::RecognitionOptions& options,
     frame.push_back({c.crossing_id(), c.log10_nfa()});
     names_[c.crossing_id()] = c.crossing();
   }
-  if (response->accepted_by_global()) {
+  if (response->global_model()) {
+    // The global path's chance model, weak frames included (place_evidence.h).
+    frame.push_back(crossing::GlobalFrameEvidence(response->global_crossing_id(),
+                                                  response->global_log10_false_alarms()));
+    names_[response->global_crossing_id()] = response->global_crossing();
+  } else if (response->accepted_by_global()) {
     frame.push_back(crossing::GlobalAnswerEvidence(response->crossing_id(), filter_->options()));
     names_[response->crossing_id()] = response->crossing();
   }
@@ -44,12 +49,14 @@ void StreamEvidence::Apply(const crossing::RecognitionOptions& options,
   response->clear_heading_deg();
   response->clear_position();
   if (!belief.recognized) {
+    response->set_accepted_by("refused");
     if (response->reason().empty()) {
       response->set_reason("evidence over the frames so far is below the threshold");
     }
     return;
   }
   response->set_reason("");
+  response->set_accepted_by("stream_evidence");
   response->set_crossing_id(belief.crossing_id);
   response->set_crossing(names_[belief.crossing_id]);
   const v1::Candidate* best = nullptr;
@@ -62,6 +69,8 @@ void StreamEvidence::Apply(const crossing::RecognitionOptions& options,
     response->set_view_id(best->view_id());
     response->set_heading_deg(best->heading_deg());
     response->set_position(best->position());
+  } else if (response->global_model() && response->global_crossing_id() == belief.crossing_id) {
+    response->set_view_id(response->global_view_id());
   }
 }
 

@@ -44,8 +44,8 @@ constexpr int kViewPage = 64;
 constexpr char kSelectViewPage[] =
     "SELECT v.id, v.crossing_id, v.heading_deg, v.width, v.height, v.keypoint_count, "
     "v.keypoints, v.descriptors, v.hue_hist, v.hue_bins, v.format_version, v.content_sha256, "
-    "v.position, v.global_code, v.global_sample FROM view v JOIN crossing c ON c.id = "
-    "v.crossing_id WHERE c.db_id = $1 AND v.id > $2 ORDER BY v.id LIMIT $3";
+    "v.position, v.global_code, v.global_sample, v.heading_known FROM view v JOIN crossing c ON "
+    "c.id = v.crossing_id WHERE c.db_id = $1 AND v.id > $2 ORDER BY v.id LIMIT $3";
 
 absl::StatusOr<ViewRecord> ReadViewRow(const Result& rows, int r) {
   ViewRecord view;
@@ -72,6 +72,7 @@ absl::StatusOr<ViewRecord> ReadViewRow(const Result& rows, int r) {
   view.position = rows.Text(r, 12);
   if (!rows.IsNull(r, 13)) view.global_code = std::string(rows.Bytes(r, 13));
   if (!rows.IsNull(r, 14)) view.global_sample = std::string(rows.Bytes(r, 14));
+  view.heading_known = rows.Int32(r, 15) != 0;
   return view;
 }
 
@@ -512,8 +513,9 @@ class PostgresCrossingStore final : public CrossingStore {
         connection.Execute(
             "INSERT INTO view (crossing_id, heading_deg, width, height, keypoint_count, "
             "keypoints, descriptors, hue_hist, hue_bins, format_version, image, created_at, "
-            "content_sha256, position, work_image, global_code, global_sample) VALUES ($1, $2, "
-            "$3, $4, $5, $6, $7, $8, $9, $10, $11, $12, $13, $14, $15, $16, $17) RETURNING id",
+            "content_sha256, position, work_image, global_code, global_sample, heading_known) "
+            "VALUES ($1, $2, $3, $4, $5, $6, $7, $8, $9, $10, $11, $12, $13, $14, $15, $16, $17, "
+            "$18) RETURNING id",
             Params()
                 .Int64(view.crossing_id)
                 .Double(view.heading_deg)
@@ -532,7 +534,8 @@ class PostgresCrossingStore final : public CrossingStore {
                 .Text(view.position)
                 .OptionalBytes(view.work_image)
                 .OptionalBytes(view.global_code)
-                .OptionalBytes(view.global_sample)));
+                .OptionalBytes(view.global_sample)
+                .Int32(view.heading_known ? 1 : 0)));
     AddViewResult result;
     result.view_id = inserted.Int64(0, 0);
     result.crossing_id = view.crossing_id;

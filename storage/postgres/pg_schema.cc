@@ -138,11 +138,17 @@ constexpr absl::string_view kV3SlamMapCheck = R"sql(
 ALTER TABLE slam_session ADD COLUMN map_check BYTEA;
 )sql";
 
+// v4: views with no heading, as SQLite's version 13 (storage/migrations.cc, kV13ViewHeadingKnown).
+constexpr absl::string_view kV4ViewHeadingKnown = R"sql(
+ALTER TABLE view ADD COLUMN heading_known INTEGER NOT NULL DEFAULT 1;
+)sql";
+
 }  // namespace
 
 const std::vector<absl::string_view>& PostgresMigrations() {
   static const auto* const kSteps =
-      new std::vector<absl::string_view>{kV1Tables, kV2SlamJournal, kV3SlamMapCheck};
+      new std::vector<absl::string_view>{kV1Tables, kV2SlamJournal, kV3SlamMapCheck,
+                                         kV4ViewHeadingKnown};
   return *kSteps;
 }
 

@@ -65,6 +65,112 @@ TEST_F(CliTest, DbCreateSendsOnlyTheGivenParams) {
   EXPECT_EQ(server_.service().last_create().params().cluster_threshold(), 7);
 }
 
+// Issue 34: `db create` without options makes the best measured database (retrieval mode,
+// RootSIFT, kept aspect; the server adds the global stage to a retrieval database); --mode paper
+// keeps the paper's configuration exactly; the features can be set either way.
+TEST_F(CliTest, DbCreateDefaultsToTheBestMeasuredConfigurationAndPaperModeIsThePapers) {
+  CliResult r = Run({"db", "create", "city"});
+  ASSERT_EQ(r.code, 0) << r.err;
+  v1::CreateDatabaseRequest sent = server_.service().last_create();
+  EXPECT_EQ(sent.params().recognition().mode(), v1::RECOGNITION_MODE_RETRIEVAL);
+  EXPECT_TRUE(sent.params().root_sift());
+  EXPECT_TRUE(sent.params().keep_aspect());
+  EXPECT_FALSE(sent.params().has_global_descriptor());  // the server's: on in retrieval mode
+  EXPECT_FALSE(sent.params().has_work_width());          // the paper's 320x240 stays
+  EXPECT_FALSE(sent.params().recognition().has_ratio());
+  EXPECT_THAT(r.out, HasSubstr("retrieval mode"));
+  EXPECT_THAT(r.out, HasSubstr("RootSIFT (root_sift)"));
+  EXPECT_THAT(r.out, HasSubstr("keeping their aspect (keep_aspect)"));
+
+  r = Run({"db", "create", "paper", "--mode", "paper"});
+  ASSERT_EQ(r.code, 0) << r.err;
+  sent = server_.service().last_create();
+  EXPECT_EQ(sent.params().recognition().mode(), v1::RECOGNITION_MODE_PAPER);
+  EXPECT_TRUE(sent.params().has_root_sift());
+  EXPECT_FALSE(sent.params().root_sift());
+  EXPECT_FALSE(sent.params().keep_aspect());
+  EXPECT_FALSE(sent.params().has_global_descriptor());
+  EXPECT_FALSE(sent.params().recognition().has_ratio());  // lambda 0.32, N0/N1/N2: the server's
+  EXPECT_THAT(r.out, HasSubstr("paper mode"));
+  EXPECT_THAT(r.out, HasSubstr("features     SIFT, images resized to the working size"));
+
+  ASSERT_EQ(Run({"db", "create", "v", "--mode", "verified"}).code, 0);
+  EXPECT_FALSE(server_.service().last_create().params().root_sift());
+  ASSERT_EQ(Run({"db", "create", "r", "--no-root-sift", "--no-keep-aspect"}).code, 0);
+  sent = server_.service().last_create();
+  EXPECT_EQ(sent.params().recognition().mode(), v1::RECOGNITION_MODE_RETRIEVAL);
+  EXPECT_FALSE(sent.params().root_sift());
+  EXPECT_FALSE(sent.params().keep_aspect());
+  ASSERT_EQ(Run({"db", "create", "p", "--mode", "paper", "--root-sift"}).code, 0);
+  EXPECT_TRUE(server_.service().last_create().params().root_sift());
+}
+
+// `db stats` shows RootSIFT, aspect and the global stage with its vocabulary's state.
+TEST_F(CliTest, DbStatsShowsTheFeaturesAndTheGlobalStage) {
+  ASSERT_EQ(Run({"db", "create", "city", "--global-descriptor"}).code, 0);
+  CliResult r = Run({"db", "stats", "city"});
+  ASSERT_EQ(r.code, 0) << r.err;
+  EXPECT_THAT(r.out, HasSubstr("RootSIFT (root_sift)"));
+  EXPECT_THAT(r.out, HasSubstr("(keep_aspect)"));
+  EXPECT_THAT(r.out, HasSubstr("global descriptor"));
+  EXPECT_THAT(r.out, HasSubstr("no vocabulary yet: learnt at 16 views, the database holds 0"));
+  ASSERT_EQ(Run({"db", "create", "paper", "--mode", "paper"}).code, 0);
+  r = Run({"db", "stats", "paper"});
+  EXPECT_THAT(r.out, HasSubstr("features     SIFT, images resized"));
+  EXPECT_THAT(r.out, HasSubstr("global       off"));
+  r = Run({"db", "stats", "city", "--json"});
+  ASSERT_EQ(r.code, 0) << r.err;
+  EXPECT_EQ(r.Json()["database"]["params"]["root_sift"], true);
+}
+
+// Issue 34: images whose names are not headings, through a manifest, and views with no heading.
+TEST_F(CliTest, EnrollAManifestWithViewsOfNoHeading) {
+  ScopedTempDir dir;
+  WriteImage(dir.Make("photos/p0_i0.JPG"), 40, 30, cv::Scalar(255, 0, 0));
+  WriteImage(dir.Make("photos/p0_i1.JPG"), 40, 30, cv::Scalar(0, 255, 0));
+  WriteImage(dir.Make("photos/p1_i0.png"), 40, 30, cv::Scalar(0, 0, 255));
+  {
+    std::ofstream manifest(dir.Make("views.csv"));
+    manifest << "file,crossing,heading,position\n"
+                "photos/p0_i0.JPG,main-and-1st,30,north-kerb\n"
+                "photos/p0_i1.JPG,main-and-1st,,\n"
+                "photos/p1_i0.png,station,unknown\n";
+  }
+  ASSERT_EQ(Run({"db", "create", "campus"}).code, 0);
+  // The folder layout refuses such names, and says what to do.
+  CliResult refused = Run({"enroll", "campus", (dir.path() / "photos").string()});
+  EXPECT_NE(refused.code, 0);
+  CliResult r = Run({"enroll", "campus", "--manifest", (dir.path() / "views.csv").string(),
+                     "--json"});
+  ASSERT_EQ(r.code, 0) << r.err;
+  EXPECT_EQ(r.Json()["views"], 3);
+  EXPECT_EQ(r.Json()["crossings"], 2);
+  const auto views = server_.service().views("campus");
+  ASSERT_EQ(views.size(), 3u);
+  EXPECT_EQ(views[0].crossing, "main-and-1st");
+  EXPECT_EQ(views[0].heading_deg, 30);
+  EXPECT_FALSE(views[0].heading_unknown);
+  EXPECT_EQ(views[0].position, "north-kerb");
+  EXPECT_TRUE(views[1].heading_unknown);
+  EXPECT_EQ(views[1].heading_deg, 0);
+  EXPECT_EQ(views[2].crossing, "station");
+  EXPECT_TRUE(views[2].heading_unknown);
+  EXPECT_EQ(views[2].bytes, ReadAll(dir.path() / "photos/p1_i0.png"));
+
+  // DIR/<crossing>/<any name> with --no-headings: every view without a heading.
+  WriteImage(dir.Make("folders/yard/IMG_0001.JPG"), 40, 30, cv::Scalar(1, 2, 3));
+  r = Run({"enroll", "campus", (dir.path() / "folders").string(), "--no-headings"});
+  ASSERT_EQ(r.code, 0) << r.err;
+  const auto more = server_.service().views("campus");
+  ASSERT_EQ(more.size(), 4u);
+  EXPECT_EQ(more[3].crossing, "yard");
+  EXPECT_TRUE(more[3].heading_unknown);
+  // Again: a duplicate at its own place (no heading either way) is a re-run, not listed.
+  r = Run({"enroll", "campus", (dir.path() / "folders").string(), "--no-headings"});
+  ASSERT_EQ(r.code, 0) << r.err;
+  EXPECT_THAT(r.err, Not(HasSubstr("already stored")));
+}
+
 TEST_F(CliTest, ErrorsGoToStderrWithCodeNameAndMessage) {
   ASSERT_EQ(Run({"db", "create", "campus"}).code, 0);
   CliResult r = Run({"db", "create", "campus", "--json"});
@@ -349,7 +455,8 @@ TEST_F(CliTest, EnrollVideoThatCannotBeReadEnrollsNothingAndSaysSo) {
   EXPECT_THAT(r.err, HasSubstr("nothing was enrolled"));
   EXPECT_EQ(server_.service().calls("StreamEnroll"), 0);
 
-  EXPECT_THAT(Run({"enroll", "campus"}).err, HasSubstr("give either DIR or --video FILE"));
+  EXPECT_THAT(Run({"enroll", "campus"}).err,
+              HasSubstr("give one of DIR, --manifest FILE or --video FILE"));
   EXPECT_NE(Run({"enroll", "campus", "--video", garbage}).code, 0);  // --crossing missing
   EXPECT_NE(Run({"enroll", "campus", (dir.path()).string(), "--video", garbage, "--crossing", "A"})
                 .code,

@@ -211,6 +211,7 @@ grpc::Status FakeCrossingService::EnrollOne(const v1::EnrollViewRequest& request
     answer->set_view_id(view.id);
     answer->set_crossing(view.crossing);
     answer->set_heading_deg(view.heading_deg);
+    answer->set_heading_unknown(view.heading_unknown);
     answer->set_position(view.position);
     return grpc::Status::OK;
   }
@@ -249,12 +250,13 @@ grpc::Status FakeCrossingService::EnrollOne(const v1::EnrollViewRequest& request
   const int64_t id = next_id_++;
   db->views.push_back(
       {request.crossing(), request.heading_deg(), bytes, request.store_image(), id,
-       request.position()});
+       request.position(), request.heading_unknown()});
   answer->set_outcome(v1::ENROLL_OUTCOME_STORED);
   answer->set_view_id(id);
   answer->set_crossing_id(crossing->second.id());
   answer->set_crossing(request.crossing());
   answer->set_heading_deg(request.heading_deg());
+  answer->set_heading_unknown(request.heading_unknown());
   answer->set_position(request.position());
   answer->set_keypoints(kKeypointsPerView);
   return grpc::Status::OK;

@@ -30,6 +30,7 @@ class FakeCrossingService final : public v1::CrossingService::Service {
     bool store_image = false;
     int64_t id = 0;
     std::string position;
+    bool heading_unknown = false;  // EnrollViewRequest.heading_unknown
   };
 
   // Test hooks; set before calls, read after.

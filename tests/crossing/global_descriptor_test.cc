@@ -241,6 +241,7 @@ TEST(GlobalPathTest, TheMostSimilarViewIsTheAnswerWhenItStandsOutEnough) {
   options.mode = RecognitionMode::kRetrieval;
   options.max_log10_nfa = -10000;  // only the global path can accept
   options.min_global_lift = 0;
+  options.max_log10_global_efa = -10000;  // the chance model's rule shut too: the legacy lift
   const ImageFeatures known = extract(502, 100.0);
   const ImageFeatures unknown = extract(599, 100.0);
   auto known_off = Recognize(db, known, options);

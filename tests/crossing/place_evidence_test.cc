@@ -77,5 +77,27 @@ TEST(PlaceEvidenceTest, NonFiniteEvidenceIsIgnoredAndOptionsAreChecked) {
   EXPECT_TRUE(ValidateEvidenceOptions({}).ok());
 }
 
+// Issue 34: a weak global frame (its chance model expects 10^-1.2 false alarms: not accepted
+// alone at 10^-2) is evidence; agreeing weak frames decide over a stream, one does not, and
+// frames chance explains (EFA >= 1) never do.
+TEST(PlaceEvidenceTest, WeakGlobalFramesDecideTogetherButNotAlone) {
+  PlaceEvidenceFilter filter;
+  EXPECT_FALSE(filter.Update({GlobalFrameEvidence(kA, -1.2)}).recognized);
+  int frames = 1;
+  while (!filter.belief().recognized && frames < 20) {
+    filter.Update({GlobalFrameEvidence(kA, -1.2)});
+    ++frames;
+  }
+  EXPECT_TRUE(filter.belief().recognized);
+  EXPECT_EQ(filter.belief().crossing_id, kA);
+  EXPECT_GE(frames, 3);
+  EXPECT_LE(frames, 8);
+
+  PlaceEvidenceFilter chance;
+  for (int i = 0; i < 30; ++i) chance.Update({GlobalFrameEvidence(kB, 0.3)});
+  EXPECT_FALSE(chance.belief().recognized);
+  EXPECT_GT(chance.belief().unknown, 0.5);
+}
+
 }  // namespace
 }  // namespace waymark::crossing

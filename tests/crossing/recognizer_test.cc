@@ -148,6 +148,10 @@ TEST_F(RecognizerTest, RetrievalModeAcceptsByFalseAlarmsAndSaysHowSure) {
   ASSERT_TRUE(result->recognized) << result->reason;
   EXPECT_EQ(db_->views()[result->best_slot].crossing_id, 2);
   EXPECT_LT(result->log10_nfa, options.max_log10_nfa);
+  // The answer says why: the NFA path, with its NFA computed.
+  EXPECT_EQ(result->accepted_by, AcceptedBy::kNfa);
+  EXPECT_STREQ(AcceptedByName(result->accepted_by), "nfa");
+  EXPECT_TRUE(result->nfa_computed);
   // Candidates are ordered by their evidence, and every one carries it.
   for (size_t i = 1; i < result->candidates.size(); ++i) {
     EXPECT_LE(result->candidates[i - 1].log10_nfa, result->candidates[i].log10_nfa);

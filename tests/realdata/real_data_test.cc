@@ -253,31 +253,31 @@ TEST_F(RealDataTest, VerifiedMode) {
 TEST_F(RealDataTest, RetrievalMode) {
   RecognitionOptions retrieval;
   retrieval.mode = RecognitionMode::kRetrieval;
-  // Measured (waymark-vpr-eval --keep-aspect --root-sift, 242fe68): corridor 70/111 = 63.1 %,
-  // triplets 27/60 = 45.0 %; the NFA path alone (min_global_lift 0): 9.0 % and 31.7 %.
+  // Issue 34: the global path accepts under its chance model (global_chance.h, EFA < 10^-2).
+  // Measured (waymark-vpr-heldout, same features): corridor 12/111 = 10.8 %, triplets 21/60 =
+  // 35.0 %; the legacy lift rule (0.16): 62.2 % and 45.0 %, but 15.6 % false accepts on the
+  // rotation set's held-out places.
   const Tally corridor_known = Run("corridor", retrieval);
-  EXPECT_GE(corridor_known.accuracy(), 0.55) << "corridor";
+  EXPECT_GE(corridor_known.accuracy(), 0.08) << "corridor";
   const Tally triplets_known = Run("triplets", retrieval);
-  EXPECT_GE(triplets_known.accuracy(), 0.38) << "triplets";
-  // Places not in the database. Measured: corridor 0/49, triplets 1/45, corridor vs triplet db
-  // 0/111, triplets vs corridor db 0/30.
+  EXPECT_GE(triplets_known.accuracy(), 0.30) << "triplets";
+  // Places not in the database.
   const Tally corridor = Run("corridor_unknown", retrieval);
   const Tally triplets = Run("triplets_unknown", retrieval);
   const Tally cvt = Run("corridor_vs_triplet_db", retrieval);
   const Tally tvc = Run("triplets_vs_corridor_db", retrieval);
-  EXPECT_LE(corridor.false_accepts, 2) << "corridor_unknown, of 49";
-  EXPECT_LE(triplets.false_accepts, 2) << "triplets_unknown, of 45";
+  EXPECT_LE(corridor.false_accepts, 1) << "corridor_unknown, of 49";
+  EXPECT_LE(triplets.false_accepts, 1) << "triplets_unknown, of 45";
   EXPECT_LE(cvt.false_accepts, 3) << "corridor_vs_triplet_db, of 111";
   EXPECT_LE(tvc.false_accepts, 1) << "triplets_vs_corridor_db, of 30";
   const int unknown = corridor.unknown + triplets.unknown + cvt.unknown + tvc.unknown;
   const int accepted =
       corridor.false_accepts + triplets.false_accepts + cvt.false_accepts + tvc.false_accepts;
   EXPECT_LE(static_cast<double>(accepted) / unknown, 0.03) << accepted << " of " << unknown;
-  // Without the global path the NFA alone accepts far less of the corridor: the path is what
-  // the floors above measure.
+  // The chance model's global path adds to what the NFA alone accepts on the corridor.
   RecognitionOptions nfa_only = retrieval;
-  nfa_only.min_global_lift = 0;
-  EXPECT_LT(Run("corridor", nfa_only).accuracy(), corridor_known.accuracy() - 0.3);
+  nfa_only.max_log10_global_efa = -10000;
+  EXPECT_LE(Run("corridor", nfa_only).accuracy(), corridor_known.accuracy());
 }
 
 // The global stage's 8-bit exact scan against the float vectors it quantises, on real images:

@@ -55,5 +55,37 @@ TEST(StreamEvidenceTest, AFrameWithoutCandidatesOrGlobalAnswerNamesNothing) {
   }
 }
 
+// Issue 34: a frame the global path did not accept alone (a weak frame: its chance model
+// expects 10^-1.2 false alarms) still counts for the crossing of its most similar view; agreeing
+// weak frames decide, and the answer says it was the stream's evidence.
+TEST(StreamEvidenceTest, WeakGlobalFramesDecideOverTheStreamAndSaySo) {
+  StreamEvidence evidence;
+  v1::RecognizeResponse weak;
+  weak.set_mode(v1::RECOGNITION_MODE_RETRIEVAL);
+  weak.set_accepted_by("refused");
+  weak.set_global_stage(true);
+  weak.set_global_model(true);
+  weak.set_global_crossing_id(9);
+  weak.set_global_crossing("south");
+  weak.set_global_view_id(90);
+  weak.set_global_log10_false_alarms(-1.2);
+  v1::RecognizeResponse frame = weak;
+  evidence.Apply(Retrieval(), &frame);
+  EXPECT_FALSE(frame.recognized());
+  EXPECT_EQ(frame.accepted_by(), "refused");
+  EXPECT_EQ(frame.evidence().crossing(), "south");
+  int frames = 1;
+  while (!frame.recognized() && frames < 20) {
+    frame = weak;
+    evidence.Apply(Retrieval(), &frame);
+    ++frames;
+  }
+  EXPECT_TRUE(frame.recognized());
+  EXPECT_LE(frames, 8);
+  EXPECT_EQ(frame.crossing(), "south");
+  EXPECT_EQ(frame.accepted_by(), "stream_evidence");
+  EXPECT_EQ(frame.view_id(), 90);
+}
+
 }  // namespace
 }  // namespace waymark::service
