@@ -18,6 +18,18 @@
 #include "waymark/v1/slam.pb.h"
 
 namespace waymark::bench {
+
+laser_slam::LaserScan ToLaserScan(const adapters::CarmenLaser& laser) {
+  laser_slam::LaserScan scan;
+  scan.stamp = laser.stamp;
+  scan.geometry.angle_min = laser.angle_min;
+  scan.geometry.angle_increment = laser.angle_increment;
+  scan.geometry.beam_count = static_cast<int>(laser.ranges.size());
+  scan.geometry.no_return_range = laser.no_return_range;
+  scan.ranges = laser.ranges;
+  return scan;
+}
+
 namespace {
 
 namespace ls = waymark::laser_slam;

@@ -16,11 +16,15 @@
 
 #include "absl/status/status.h"
 #include "absl/status/statusor.h"
+#include "client/datasets/carmen_log.h"
 #include "client/render/map_render.h"
 #include "server/laser_slam/mapping/map_consistency.h"
 #include "server/laser_slam/mapping/mapping_backend.h"
 
 namespace waymark::bench {
+
+// A CARMEN laser line as the engine's scan (stamp, beam geometry, ranges).
+laser_slam::LaserScan ToLaserScan(const adapters::CarmenLaser& laser);
 
 // summary.json's "mapping": the loop-closing back end's counters and times, and the loop
 // closures that disagree with the final graph.

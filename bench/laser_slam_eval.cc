@@ -363,16 +363,6 @@ ls::OdometryReading ToOdometry(const CarmenLaser& laser) {
   return reading;
 }
 
-ls::LaserScan ToScan(const CarmenLaser& laser) {
-  ls::LaserScan scan;
-  scan.stamp = laser.stamp;
-  scan.geometry.angle_min = laser.angle_min;
-  scan.geometry.angle_increment = laser.angle_increment;
-  scan.geometry.beam_count = static_cast<int>(laser.ranges.size());
-  scan.geometry.no_return_range = laser.no_return_range;
-  scan.ranges = laser.ranges;
-  return scan;
-}
 
 // The log again, as a localization session on the map just built: pose error against the SLAM
 // trajectory (same stamps, same map frame), time to the first fix, wrong fixes, cost per scan.
@@ -406,7 +396,7 @@ absl::StatusOr<nlohmann::json> RunLocalization(const Args& args, const ls::SlamO
     const ls::OdometryReading reading = ToOdometry(lasers[i]);
     const Clock::time_point start = Clock::now();
     (void)slam.AddOdometry(reading);
-    absl::StatusOr<ls::ScanUpdate> update = slam.AddScan(ToScan(lasers[i]));
+    absl::StatusOr<ls::ScanUpdate> update = slam.AddScan(ToLaserScan(lasers[i]));
     const double ms = std::chrono::duration<double, std::milli>(Clock::now() - start).count();
     scan_ms.push_back(ms);
     if (!update.ok() || !update->localization) continue;
@@ -521,7 +511,7 @@ int Run(const Args& args) {
     CarmenLaser& laser = log.lasers[line];
     const ls::OdometryReading reading = ToOdometry(laser);
     odometry.push_back({laser.stamp, {reading.pose.x, reading.pose.y, reading.pose.theta}});
-    const ls::LaserScan scan = ToScan(laser);  // the log is kept for a --localize pass
+    const ls::LaserScan scan = ToLaserScan(laser);  // the log is kept for a --localize pass
     const Clock::time_point start = Clock::now();
     absl::Status odom_status = slam.AddOdometry(reading);
     absl::StatusOr<ls::ScanUpdate> update = slam.AddScan(scan);

@@ -90,13 +90,7 @@ absl::StatusOr<SavedNodes> NodesFromLog(const std::string& path) {
         std::abs(std::remainder(pose.theta - last.theta, 2 * M_PI)) < defaults.node_turn) {
       continue;
     }
-    ls::LaserScan scan;
-    scan.stamp = laser.stamp;
-    scan.geometry.angle_min = laser.angle_min;
-    scan.geometry.angle_increment = laser.angle_increment;
-    scan.geometry.beam_count = static_cast<int>(laser.ranges.size());
-    scan.geometry.no_return_range = laser.no_return_range;
-    scan.ranges = laser.ranges;
+    const ls::LaserScan scan = ToLaserScan(laser);
     ls::NodeView node;
     node.scan = saved.nodes.size() + 1;
     node.stamp = laser.stamp;

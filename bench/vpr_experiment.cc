@@ -3,6 +3,7 @@
 #include "server/crossing/place_evidence.h"
 
 #include <algorithm>
+#include <functional>
 #include <chrono>
 #include <cmath>
 #include <fstream>
@@ -374,27 +375,34 @@ std::vector<Protocol> TripletFolds(const TripletSet& set) {
   return folds;
 }
 
+Protocol TripletFoldWithUnknowns(const TripletSet& set, size_t k,
+                                 const std::function<bool(int)>& known, std::string name) {
+  Protocol p;
+  p.name = std::move(name);
+  for (int place = 0; place < set.places(); ++place) {
+    const auto& images = set.images[place];
+    const bool enrolled = known(place);
+    if (enrolled && k < images.size()) {
+      p.enroll.push_back({images[k], kTripletPlaceBase + place, 0.0});
+    }
+    for (size_t j = 0; j < images.size(); ++j) {
+      if (enrolled && j == k) continue;
+      Query q;
+      q.path = images[j];
+      if (enrolled) q.accepted = {kTripletPlaceBase + place};
+      p.queries.push_back(q);
+    }
+  }
+  return p;
+}
+
 std::vector<Protocol> TripletUnknownFolds(const TripletSet& set, int known_places) {
   std::vector<Protocol> folds;
   const size_t slots = set.images.empty() ? 0 : set.images[0].size();
   for (size_t k = 0; k < slots; ++k) {
-    Protocol p;
-    p.name = absl::StrCat("triplets_unknown_fold", k);
-    for (int place = 0; place < set.places(); ++place) {
-      const auto& images = set.images[place];
-      const bool known = place < known_places;
-      if (known && k < images.size()) {
-        p.enroll.push_back({images[k], kTripletPlaceBase + place, 0.0});
-      }
-      for (size_t j = 0; j < images.size(); ++j) {
-        if (known && j == k) continue;
-        Query q;
-        q.path = images[j];
-        if (known) q.accepted = {kTripletPlaceBase + place};
-        p.queries.push_back(q);
-      }
-    }
-    folds.push_back(std::move(p));
+    folds.push_back(TripletFoldWithUnknowns(
+        set, k, [&](int place) { return place < known_places; },
+        absl::StrCat("triplets_unknown_fold", k)));
   }
   return folds;
 }

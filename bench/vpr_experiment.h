@@ -7,6 +7,7 @@
 // and cached, so many experiments and parameter sweeps over the same images cost little.
 
 #include <cstdint>
+#include <functional>
 #include <map>
 #include <memory>
 #include <string>
@@ -166,6 +167,10 @@ std::vector<Protocol> TripletFolds(const TripletSet& set);
 // Fold k: image k of places 0..known_places-1 enrolled; their other images are known queries,
 // every image of the remaining places an unknown query.
 std::vector<Protocol> TripletUnknownFolds(const TripletSet& set, int known_places = 5);
+// One triplet fold: of the places `known` says yes to, image k is enrolled and the others query
+// it; every image of the other places is an unknown query.
+Protocol TripletFoldWithUnknowns(const TripletSet& set, size_t k,
+                                 const std::function<bool(int)>& known, std::string name);
 // All triplet images enrolled (place = kTripletPlaceBase + p); every corridor query is unknown.
 Protocol CorridorQueriesVsTripletDb(const CorridorSet& corridor, const TripletSet& triplets);
 // All corridor refs enrolled; every triplet image is unknown.

@@ -49,24 +49,11 @@ std::vector<Protocol> TripletHeldOut(const TripletSet& set, int held_out_places)
   const size_t slots = set.images.empty() ? 0 : set.images[0].size();
   for (size_t k = 0; k < slots; ++k) {
     for (int first = 0; first + held_out_places <= set.places(); first += held_out_places) {
-      Protocol p;
-      p.name = absl::StrCat("triplets_heldout_fold", k, "_p", first, "-",
-                            first + held_out_places - 1);
-      for (int place = 0; place < set.places(); ++place) {
-        const auto& images = set.images[place];
-        const bool known = place < first || place >= first + held_out_places;
-        if (known && k < images.size()) {
-          p.enroll.push_back({images[k], kTripletPlaceBase + place, 0.0});
-        }
-        for (size_t j = 0; j < images.size(); ++j) {
-          if (known && j == k) continue;
-          Query q;
-          q.path = images[j];
-          if (known) q.accepted = {kTripletPlaceBase + place};
-          p.queries.push_back(q);
-        }
-      }
-      folds.push_back(std::move(p));
+      folds.push_back(TripletFoldWithUnknowns(
+          set, k,
+          [&](int place) { return place < first || place >= first + held_out_places; },
+          absl::StrCat("triplets_heldout_fold", k, "_p", first, "-",
+                       first + held_out_places - 1)));
     }
   }
   return folds;

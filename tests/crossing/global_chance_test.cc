@@ -15,6 +15,7 @@
 #include "server/crossing/global_index.h"
 #include "server/crossing/recognizer.h"
 #include "server/crossing/view_database.h"
+#include "tests/crossing/global_places.h"
 #include "tests/support/synthetic_scene.h"
 
 namespace waymark::crossing {
@@ -278,26 +279,11 @@ TEST_F(GlobalChanceDatabaseTest, ADatabaseWithoutAGlobalStageSaysSo) {
 // of another place given the query's own global code). The legacy lift rule, checked first,
 // did.
 TEST(GlobalChanceGeometryTest, AStrongNfaIsNotOverriddenByTheGlobalPath) {
-  FeatureOptions features;
-  features.global_descriptor = true;
-  auto extract = [&](int seed, double heading) {
-    auto f = ExtractFeatures(
-        testing::EncodePng(testing::CropView(testing::MakePanorama(seed), heading)), features);
-    EXPECT_TRUE(f.ok()) << f.status();
-    return *f;
-  };
   ViewDatabase db;
-  std::vector<cv::Mat> dense;
-  for (int place = 0; place < 6; ++place) {
-    for (int k = 0; k < 4; ++k) {
-      const ImageFeatures f = extract(700 + place, 90.0 * k);
-      EnrollView(&db, 1 + place * 4 + k, place + 1, 90.0 * k, f);
-      dense.push_back(f.dense);
-    }
-  }
-  db.TrainGlobal(dense, 32);
-  const ImageFeatures query = extract(702, 95.0);  // place 3, near its 90-degree view
-  const uint32_t decoy = 21;                        // a view of place 6
+  testing_places::EnrollSixPlaces(700, &db);
+  // Place 3, near its 90-degree view; the decoy is a view of place 6.
+  const ImageFeatures query = testing_places::GlobalView(702, 95.0);
+  const uint32_t decoy = 21;
   db.SetGlobalCode(decoy, QuantizeGlobal(db.vocabulary().Encode(query.dense)));
 
   RecognitionOptions options;

@@ -12,6 +12,7 @@
 #include "server/crossing/global_index.h"
 #include "server/crossing/view_database.h"
 #include "server/crossing/vlad.h"
+#include "tests/crossing/global_places.h"
 #include "tests/support/synthetic_scene.h"
 
 namespace waymark::crossing {
@@ -218,32 +219,16 @@ TEST(VladVocabularyTest, TheFingerprintNamesTheWords) {
 // a query of an enrolled place is accepted on how far its most similar view stands out, a query
 // of a place not enrolled is not, and the threshold decides.
 TEST(GlobalPathTest, TheMostSimilarViewIsTheAnswerWhenItStandsOutEnough) {
-  FeatureOptions features;
-  features.global_descriptor = true;
-  auto extract = [&](int seed, double heading) {
-    auto f = ExtractFeatures(
-        testing::EncodePng(testing::CropView(testing::MakePanorama(seed), heading)), features);
-    EXPECT_TRUE(f.ok()) << f.status();
-    return *f;
-  };
   ViewDatabase db;
-  std::vector<cv::Mat> dense;
-  for (int place = 0; place < 6; ++place) {
-    for (int k = 0; k < 4; ++k) {
-      const ImageFeatures f = extract(500 + place, 90.0 * k);
-      EnrollView(&db, 1 + place * 4 + k, place + 1, 90.0 * k, f);
-      dense.push_back(f.dense);
-    }
-  }
-  db.TrainGlobal(dense, 32);
+  testing_places::EnrollSixPlaces(500, &db);
 
   RecognitionOptions options;
   options.mode = RecognitionMode::kRetrieval;
   options.max_log10_nfa = -10000;  // only the global path can accept
   options.min_global_lift = 0;
   options.max_log10_global_efa = -10000;  // the chance model's rule shut too: the legacy lift
-  const ImageFeatures known = extract(502, 100.0);
-  const ImageFeatures unknown = extract(599, 100.0);
+  const ImageFeatures known = testing_places::GlobalView(502, 100.0);
+  const ImageFeatures unknown = testing_places::GlobalView(599, 100.0);
   auto known_off = Recognize(db, known, options);
   auto unknown_off = Recognize(db, unknown, options);
   ASSERT_TRUE(known_off.ok() && unknown_off.ok());
