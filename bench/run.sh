@@ -32,18 +32,18 @@ if [ -x "$BUILD_DIR/bin/waymark-laser-eval" ]; then
     "$BUILD_DIR/bin/waymark-laser-eval" --log "$LASER/$log/$log.clf.bz2" \
       --relations "$LASER/$log/$log.relations" --out "$OUT/laser_$log" --json > "$OUT/laser_$log.json"
   done
-  # Update cost vs segments in the filter (the per-bin timings; see bench/laser_slam_eval.cc).
+  # Update cost vs segments in the filter (the per-bin timings; see bench/laser/laser_slam_eval.cc).
   "$BUILD_DIR/bin/waymark-laser-eval" --log "$LASER/aces/aces.clf.bz2" --max-active-segments 400 \
     --active-radius 1000 --freeze-after-scans 1000000 --json > "$OUT/laser_aces_active400.json"
 fi
 if command -v icp-slam > /dev/null; then
   echo "== laser SLAM beside MRPT icp-slam (ACES, Intel; through the server; relations metric)"
-  "$(dirname "$0")/laser_peer_mrpt.sh" "$BUILD_DIR" --out "$OUT/laser_peer_mrpt"
+  "$(dirname "$0")/laser/laser_peer_mrpt.sh" "$BUILD_DIR" --out "$OUT/laser_peer_mrpt"
 else
   echo "== laser SLAM beside MRPT icp-slam: skipped (no icp-slam: apt-get install mrpt-apps mrpt-common)"
 fi
-echo "== exploration modes in the simulator (every world x mode x seed; bench/explore_eval.sh)"
-OUT="$OUT/explore" "$(dirname "$0")/explore_eval.sh" "$BUILD_DIR"
+echo "== exploration modes in the simulator (world x mode x seed; bench/laser/explore_eval.sh)"
+OUT="$OUT/explore" "$(dirname "$0")/laser/explore_eval.sh" "$BUILD_DIR"
 echo "== robot loop: stop and resume latency when the server is killed under a driving robot"
 "$BUILD_DIR/bin/waymark-robot-bench" --trials 20 --json > "$OUT/robot_safety.json"
 echo "== visual odometry: ATE/RPE and ms per stage, plain vs boxes vs full method (5 seeds)"

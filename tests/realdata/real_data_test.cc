@@ -16,8 +16,8 @@
 #include <string>
 #include <vector>
 
-#include "bench/vpr_datasets.h"
-#include "bench/vpr_experiment.h"
+#include "bench/crossing/vpr_datasets.h"
+#include "bench/crossing/vpr_experiment.h"
 #include "server/crossing/global_index.h"
 #include "server/crossing/options.h"
 

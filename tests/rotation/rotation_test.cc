@@ -13,7 +13,7 @@
 #include <string>
 #include <vector>
 
-#include "bench/rotation_set.h"
+#include "bench/crossing/rotation_set.h"
 #include "server/crossing/enrollment.h"
 #include "server/crossing/features.h"
 #include "server/crossing/hue_histogram.h"
