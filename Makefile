@@ -15,7 +15,7 @@ all: build
 deps:
 	./scripts/install-deps.sh
 
-# Opt-in: MRPT's icp-slam for `bench/laser_benchmark.sh --peers` (not needed by run or test).
+# Opt-in: MRPT's icp-slam for `bench/laser/laser_benchmark.sh --peers` (not needed by run or test).
 peers-deps:
 	./scripts/install-deps.sh --peers
 

@@ -6,7 +6,8 @@
 #   scripts/install-deps.sh --build-only  only what building the binaries needs (docker/Dockerfile's
 #                                         build stage): no ccache, git, test photos, openssl
 #   scripts/install-deps.sh --peers       everything above plus the laser SLAM peers of
-#                                         `bench/laser_benchmark.sh --peers` and bench/laser_peer_mrpt.sh
+#                                         `bench/laser/laser_benchmark.sh --peers` and
+#                                         bench/laser/laser_peer_mrpt.sh
 #                                         (MRPT's icp-slam and carmen2rawlog; `make peers-deps`).
 #                                         Opt-in: make run/test do not need them.
 set -euo pipefail
@@ -31,7 +32,7 @@ PACKAGES=(
   libcli11-dev libspdlog-dev libfmt-dev nlohmann-json3-dev
   prometheus-cpp-dev  # metrics endpoint (server/service/metrics)
   zlib1g-dev libbz2-dev  # compressed CARMEN laser logs (client/adapters/carmen_log)
-  blender-data  # real 360-degree photos for the rotation test set (bench/rotation_set.h)
+  blender-data  # real 360-degree photos for the rotation test set (bench/crossing/rotation_set.h)
   openssl  # test certificates (tests/integration/tls_test.cc)
   postgresql-15  # the server the PostgreSQL tests start for themselves (tests/support/postgres_server.sh)
   python3-protobuf  # a strict parser of the server's answers (tests/fuzz/answers_utf8_test.sh)
@@ -52,7 +53,7 @@ if [ "$BUILD_ONLY" -eq 1 ]; then
 fi
 if [ "$PEERS" -eq 1 ]; then
   PACKAGES+=(
-    mrpt-apps  # icp-slam, carmen2rawlog (MRPT 2.5.8): the peer of bench/laser_peer_mrpt.sh
+    mrpt-apps  # icp-slam, carmen2rawlog (MRPT 2.5.8): the peer of bench/laser/laser_peer_mrpt.sh
     mrpt-common  # icp-slam's example config icp-slam_demo_classic.ini, the "shipped" settings
     jq bzip2 gzip  # the laser benchmark's JSON, and the compressed CARMEN logs it converts for MRPT
   )

@@ -1,5 +1,6 @@
 // waymark-rotation-eval: the paper's rotation claim (METHODS.md section 1: recognition 12 and 26
-// degrees off the stored headings) on views cut from real 360-degree photos (bench/rotation_set.h).
+// degrees off the stored headings) on views cut from real 360-degree photos
+// (bench/crossing/rotation_set.h).
 //
 // Every panorama is one crossing, enrolled as 12 views at 0, 30, ..., 330 degrees with the paper's
 // clustering. Queries look at 30k + offset degrees (clockwise) for every sector k and each offset;

@@ -1,7 +1,7 @@
 // waymark-vpr-heldout: the retrieval mode's acceptance on places that are NOT in the database
 // (issue 34). For each set (corridor, triplets, KITTI, Bonn, the rotation set) it builds the
-// usual known-places protocol and an unknown-places variant (bench/vpr_heldout_sets.h), runs
-// every query once through the engine (RootSIFT, kept aspect, the global stage: a retrieval
+// usual known-places protocol and an unknown-places variant (bench/crossing/vpr_heldout_sets.h),
+// runs every query once through the engine (RootSIFT, kept aspect, the global stage: a retrieval
 // database), records the NFA path's answer and the global path's chance model, and scores:
 // - today's rule (the legacy lift 0.16 before the NFA), measured in the same run;
 // - the chance-model rule for a grid of epsilon (replayed: recognizer.cc's order, NFA first);

@@ -1,6 +1,7 @@
-// waymark-laser-reference: references for the laser SLAM benchmark (bench/laser_benchmark.sh) on
-// logs that have no published relations, built from GMapping-corrected logs (Stachniss'
-// *-corrected.log.gz in ../shared/data/laser: keyframes whose x y theta hold the corrected pose).
+// waymark-laser-reference: references for the laser SLAM benchmark
+// (bench/laser/laser_benchmark.sh) on logs that have no published relations, built from
+// GMapping-corrected logs (Stachniss' *-corrected.log.gz in ../shared/data/laser: keyframes whose
+// x y theta hold the corrected pose).
 //
 //   waymark-laser-reference relations --corrected LOG --out FILE.relations [--raw RAW]
 //     Relations (Kummerle et al.: `t1 t2 x y z roll pitch yaw`) between the corrected keyframes:

@@ -41,7 +41,7 @@
 // what that costs ("self_check.after_optimisations"). --picture FILE.png writes a small picture
 // of the checked map (the occupancy grid, its longer side --picture-size pixels, default 360;
 // contradicting cells in red; an 8-bit palette PNG of tens of KB) for a page of many maps
-// (bench/laser_benchmark.sh --pictures).
+// (bench/laser/laser_benchmark.sh --pictures).
 //
 // --out DIR writes trajectory.txt and odometry.txt (TUM), map.svg / map.png (segments and the
 // trajectory; contradicting cells in red), occupancy.png (the occupancy grid at the optimised

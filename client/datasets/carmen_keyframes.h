@@ -3,7 +3,7 @@
 
 // The keyframes of a GMapping-corrected CARMEN log (Stachniss' `*-corrected.log.gz` in
 // ../shared/data/laser): its laser lines in file order, whose `x y theta` hold the corrected pose.
-// Used as ground truth by the laser reference benchmark (bench/laser_reference.cc).
+// Used as ground truth by the laser reference benchmark (bench/laser/laser_reference.cc).
 //
 // Their stamps are often unusable (../shared/data/laser/SOURCES.md): freiburg-campus and orebro
 // have only zeros, belgioioso and csail print Unix stamps with 6 significant digits (one value for

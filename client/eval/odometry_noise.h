@@ -2,8 +2,8 @@
 #define WAYMARK_CLIENT_EVAL_ODOMETRY_NOISE_H_
 
 // Wheel odometry regenerated from a true trajectory with seeded, realistic error, for the
-// noisy-odometry benchmark (bench/laser_reference.cc): the scans of a corrected log, the truth of
-// its corrected poses, and odometry whose error is known in kind and size.
+// noisy-odometry benchmark (bench/laser/laser_reference.cc): the scans of a corrected log, the
+// truth of its corrected poses, and odometry whose error is known in kind and size.
 //
 // Per increment u = inv(T_{i-1}) (+) T_i = (dx, dy, dtheta) of the truth, with d = hypot(dx, dy)
 // and a = |dtheta|, the odometry sees u' = (dx * k, dy * k, dtheta') with

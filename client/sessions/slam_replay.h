@@ -103,7 +103,8 @@ struct OdometryArgs {
 int RunSlamOdometry(CommandContext& context, const OdometryArgs& args);
 
 // The laser's pose on the robot from one laser line: inv(odom pose) (+) laser pose when under 1 m
-// and 0.1 rad, else the robot's origin (see the file comment). Shared with bench/laser_slam_eval.
+// and 0.1 rad, else the robot's origin (see the file comment). Shared with
+// bench/laser/laser_slam_eval.
 Pose2 LaserMount(const adapters::CarmenLaser& laser);
 
 // "aces" for ".../aces.clf.bz2", "intel-corrected" for "intel-corrected.log.gz".

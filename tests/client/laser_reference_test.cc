@@ -1,6 +1,6 @@
-// The laser reference benchmark's pieces (bench/laser_reference.cc): the noisy-odometry generator,
-// the relation builder, the keyframe stamp rule, matching keyframes to a raw log, and the FLASER
-// writer read back by the CARMEN parser.
+// The laser reference benchmark's pieces (bench/laser/laser_reference.cc): the noisy-odometry
+// generator, the relation builder, the keyframe stamp rule, matching keyframes to a raw log, and
+// the FLASER writer read back by the CARMEN parser.
 #include <gtest/gtest.h>
 
 #include <cmath>

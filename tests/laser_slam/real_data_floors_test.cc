@@ -1,12 +1,12 @@
 // Accuracy floors of the laser SLAM engine on real logs (issue 33, "real-data floors in make
 // test"): the engine in-process with its default options, as waymark-laser-eval runs it
-// (bench/laser_slam_eval.cc), scored with the relations metric (Kummerle et al. 2009). Logs from
-// ../shared/data/laser, read in place; every test skips when they are absent.
+// (bench/laser/laser_slam_eval.cc), scored with the relations metric (Kummerle et al. 2009). Logs
+// from ../shared/data/laser, read in place; every test skips when they are absent.
 //
 //   - ACES raw, its first 2000 scans, against the published relations (the full log takes 30-40 s
 //     on the shared 2-core machine; its first 2000 scans cover 296 of the 1279 relations);
-//   - noisy-odometry rows made here exactly as bench/laser_benchmark.sh makes them
-//     (bench/laser_reference.cc `noisy`, seed 1, medium strength): the keyframes of a
+//   - noisy-odometry rows made here exactly as bench/laser/laser_benchmark.sh makes them
+//     (bench/laser/laser_reference.cc `noisy`, seed 1, medium strength): the keyframes of a
 //     GMapping-corrected log with odometry regenerated with seeded error
 //     (client/eval/odometry_noise.h), written as FLASER lines and parsed back (the bench's text
 //     precision), scored against relations built from the corrected poses
@@ -135,7 +135,7 @@ Scores RunAndScore(const std::vector<CarmenLaser>& lasers,
           cli::EvaluateRelations(odometry, relations)};
 }
 
-// A noisy-odometry row as bench/laser_reference.cc `noisy` writes it (no --raw: the keyframe
+// A noisy-odometry row as bench/laser/laser_reference.cc `noisy` writes it (no --raw: the keyframe
 // stamp rule), parsed back from its FLASER text.
 struct NoisyRow {
   std::vector<CarmenLaser> lasers;
@@ -245,8 +245,8 @@ TEST_P(LaserNoisyOdometryFloors, MediumOdometryNoiseIsCorrected) {
 }
 
 // Measured 2026-12-05, seed 1 (all / local, m; the larger of 2b11249 and its working tree), the
-// rows of bench/laser_benchmark.sh: seattle-corrected-medium 0.036 / 0.021 (odometry all 3.86),
-// freiburg-101-corrected-medium 0.038 / 0.031 (1.54), intel-corrected-medium 0.046 / 0.029
+// rows of bench/laser/laser_benchmark.sh: seattle-corrected-medium 0.036 / 0.021 (odometry all
+// 3.86), freiburg-101-corrected-medium 0.038 / 0.031 (1.54), intel-corrected-medium 0.046 / 0.029
 // (3.39), aces-corrected-medium 0.079 / 0.045 (1.43; 0.064 / 0.044 at 2b11249). Floors 1.5x.
 INSTANTIATE_TEST_SUITE_P(
     MediumRows, LaserNoisyOdometryFloors,

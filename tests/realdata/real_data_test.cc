@@ -1,7 +1,7 @@
 // Crossing recognition on real images: the VPR-Bench corridor and the Gardens Point / SFU triplets
 // in ../shared/data/vpr (read in place; the test skips when the folder is absent). Runs the
-// corridor and triplet experiments of waymark-vpr-eval (bench/vpr_experiment.h) in the three modes
-// and guards the measured accuracy and the rejection of unknown places.
+// corridor and triplet experiments of waymark-vpr-eval (bench/crossing/vpr_experiment.h) in the
+// three modes and guards the measured accuracy and the rejection of unknown places.
 //
 // Floors sit a little below what was measured (waymark-vpr-eval, 2-core machine, OpenCV 4.6);
 // the measured values are in the comments. The engine's descriptor index is approximate, so a

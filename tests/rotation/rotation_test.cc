@@ -1,6 +1,7 @@
-// The rotation test set (bench/rotation_set.h): the perspective renderer on synthetic panoramas of
-// known geometry, and the paper's rotation claim (recognition 12 and 26 degrees off the stored
-// headings, METHODS.md section 1) on real 360-degree photos from the Debian package blender-data.
+// The rotation test set (bench/crossing/rotation_set.h): the perspective renderer on synthetic
+// panoramas of known geometry, and the paper's rotation claim (recognition 12 and 26 degrees off
+// the stored headings, METHODS.md section 1) on real 360-degree photos from the Debian package
+// blender-data.
 
 #include <gtest/gtest.h>
 
