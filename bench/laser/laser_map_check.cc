@@ -13,8 +13,8 @@
 #include "bench/common/bench_timing.h"
 #include "client/render/occupancy_picture.h"
 #include "server/laser_slam/mapping/occupancy_grid.h"
-#include "server/service/map_self_check.h"
-#include "server/service/slam_params.h"
+#include "server/service/slam/map_self_check.h"
+#include "server/service/slam/slam_params.h"
 #include "waymark/v1/slam.pb.h"
 
 namespace waymark::bench {

@@ -10,9 +10,9 @@
 
 #include "absl/strings/str_cat.h"
 #include "server/common/quote.h"
-#include "server/service/grpc_status.h"
+#include "server/service/runtime/grpc_status.h"
 #include "server/service/service_call.h"
-#include "server/service/stream_evidence.h"
+#include "server/service/crossing/stream_evidence.h"
 
 namespace waymark::service {
 namespace {

@@ -6,11 +6,11 @@
 
 #include <memory>
 
-#include "server/service/authenticator.h"
-#include "server/service/crossing_registry.h"
-#include "server/service/idle_stream_reaper.h"
-#include "server/service/parsed_stream.h"
-#include "server/service/stream_limiter.h"
+#include "server/service/auth/authenticator.h"
+#include "server/service/crossing/crossing_registry.h"
+#include "server/service/runtime/idle_stream_reaper.h"
+#include "server/service/runtime/parsed_stream.h"
+#include "server/service/runtime/stream_limiter.h"
 #include "waymark/v1/crossing.grpc.pb.h"
 
 namespace waymark::service {

@@ -10,8 +10,8 @@
 #include <utility>
 
 #include "absl/status/statusor.h"
-#include "server/service/authenticator.h"
-#include "server/service/grpc_status.h"
+#include "server/service/auth/authenticator.h"
+#include "server/service/runtime/grpc_status.h"
 
 namespace waymark::service {
 

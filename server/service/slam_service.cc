@@ -5,9 +5,9 @@
 #include <mutex>
 #include <optional>
 
-#include "server/service/grpc_status.h"
+#include "server/service/runtime/grpc_status.h"
 #include "server/service/service_call.h"
-#include "server/service/session_leases.h"
+#include "server/service/slam/session_leases.h"
 
 namespace waymark::service {
 namespace {

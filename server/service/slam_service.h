@@ -6,12 +6,12 @@
 
 #include <string>
 
-#include "server/service/authenticator.h"
-#include "server/service/idle_stream_reaper.h"
-#include "server/service/parsed_stream.h"
+#include "server/service/auth/authenticator.h"
+#include "server/service/runtime/idle_stream_reaper.h"
+#include "server/service/runtime/parsed_stream.h"
 #include "server/service/service_call.h"
-#include "server/service/slam_registry.h"
-#include "server/service/stream_limiter.h"
+#include "server/service/slam/slam_registry.h"
+#include "server/service/runtime/stream_limiter.h"
 #include "waymark/v1/slam.grpc.pb.h"
 
 namespace waymark::service {

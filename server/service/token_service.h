@@ -5,7 +5,7 @@
 
 #include <memory>
 
-#include "server/service/authenticator.h"
+#include "server/service/auth/authenticator.h"
 #include "storage/token_store.h"
 #include "waymark/v1/token.grpc.pb.h"
 

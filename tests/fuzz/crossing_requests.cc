@@ -17,10 +17,10 @@
 #include <string>
 #include <vector>
 
-#include "server/service/authenticator.h"
-#include "server/service/crossing_registry.h"
+#include "server/service/auth/authenticator.h"
+#include "server/service/crossing/crossing_registry.h"
 #include "server/service/crossing_service.h"
-#include "server/service/params.h"
+#include "server/service/crossing/params.h"
 #include "storage/crossing_store.h"
 #include "tests/fuzz/fuzz_images.h"
 #include "tests/fuzz/fuzz_targets.h"

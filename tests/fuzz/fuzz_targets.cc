@@ -19,9 +19,9 @@
 #include "server/crossing/features.h"
 #include "server/laser_slam/laser_slam.h"
 #include "server/laser_slam/mapping/localizer.h"
-#include "server/service/slam_params.h"
-#include "server/service/visual_frame_decoder.h"
-#include "server/service/visual_params.h"
+#include "server/service/slam/slam_params.h"
+#include "server/service/slam/visual_frame_decoder.h"
+#include "server/service/slam/visual_params.h"
 #include "server/visual_slam/visual_odometry.h"
 #include "tests/fuzz/fuzz_images.h"
 

@@ -25,10 +25,10 @@
 #include <string>
 #include <vector>
 
-#include "server/service/authenticator.h"
-#include "server/service/grpc_status.h"
-#include "server/service/slam_params.h"
-#include "server/service/slam_registry.h"
+#include "server/service/auth/authenticator.h"
+#include "server/service/runtime/grpc_status.h"
+#include "server/service/slam/slam_params.h"
+#include "server/service/slam/slam_registry.h"
 #include "server/service/slam_service.h"
 #include "storage/slam_store.h"
 #include "tests/fuzz/fuzz_images.h"

@@ -15,7 +15,7 @@
 #include <vector>
 
 #include "absl/strings/str_replace.h"
-#include "server/service/authenticator.h"
+#include "server/service/auth/authenticator.h"
 #include "server/service/token_service.h"
 #include "storage/token_store.h"
 #include "tests/fuzz/fuzz_targets.h"

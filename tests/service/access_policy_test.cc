@@ -6,9 +6,9 @@
 #include <memory>
 #include <vector>
 
-#include "server/service/access_policy.h"
-#include "server/service/server_security.h"
-#include "server/service/stream_limiter.h"
+#include "server/service/auth/access_policy.h"
+#include "server/service/auth/server_security.h"
+#include "server/service/runtime/stream_limiter.h"
 
 namespace waymark::service {
 namespace {

@@ -2,7 +2,7 @@
 // per-method/per-code counters, latency histogram, in-flight gauge, recognition outcomes (as a
 // scrape of the metrics endpoint shows them) and the one log line per call.
 
-#include "server/service/call_interceptor.h"
+#include "server/service/operations/call_interceptor.h"
 
 #include <grpcpp/generic/generic_stub.h>
 #include <grpcpp/grpcpp.h>
@@ -23,8 +23,8 @@
 #include "gmock/gmock.h"
 #include "grpc/health/v1/health.grpc.pb.h"
 #include "gtest/gtest.h"
-#include "server/service/call_identity.h"
-#include "server/service/metrics.h"
+#include "server/service/auth/call_identity.h"
+#include "server/service/operations/metrics.h"
 #include "tests/service/scrape.h"
 #include "waymark/v1/crossing.grpc.pb.h"
 

@@ -11,8 +11,8 @@
 #include <vector>
 
 #include "gtest/gtest.h"
-#include "server/service/crossing_fleet_sync.h"
-#include "server/service/crossing_registry.h"
+#include "server/service/crossing/crossing_fleet_sync.h"
+#include "server/service/crossing/crossing_registry.h"
 #include "tests/service/registry_on_file.h"
 #include "tests/storage/store_backend.h"
 #include "tests/support/synthetic_scene.h"

@@ -9,7 +9,7 @@
 #include <vector>
 
 #include "gtest/gtest.h"
-#include "server/service/crossing_registry.h"
+#include "server/service/crossing/crossing_registry.h"
 #include "storage/crossing_store.h"
 #include "tests/service/registry_on_file.h"
 #include "tests/storage/store_backend.h"

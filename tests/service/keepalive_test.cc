@@ -5,7 +5,7 @@
 #include <gtest/gtest.h>
 
 #include "client/lib/channel.h"
-#include "server/service/server_channel.h"
+#include "server/service/runtime/server_channel.h"
 
 namespace waymark {
 namespace {

@@ -8,7 +8,7 @@
 #include <vector>
 
 #include "gtest/gtest.h"
-#include "server/service/slam_registry.h"
+#include "server/service/slam/slam_registry.h"
 #include "storage/slam_store.h"
 #include "tests/service/slam_answers.h"
 #include "tests/service/slam_test_world.h"

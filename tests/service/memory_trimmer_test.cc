@@ -1,7 +1,7 @@
 // MemoryTrimmer gives back heap that was freed but that the allocator kept: 100 MB of small
 // blocks freed below one block still in use (so the heap's top cannot shrink) stay resident
 // until the trimmer's check, which returns them.
-#include "server/service/memory_trimmer.h"
+#include "server/service/runtime/memory_trimmer.h"
 
 #include <gtest/gtest.h>
 

@@ -2,7 +2,7 @@
 // latency buckets are checked without a clock) and the state metrics read from a real
 // SlamRegistry, a real CrossingRegistry and database files, as a scrape over HTTP shows them.
 
-#include "server/service/metrics.h"
+#include "server/service/operations/metrics.h"
 
 #include <cstdio>
 #include <fstream>

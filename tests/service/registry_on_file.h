@@ -8,7 +8,7 @@
 #include <string>
 
 #include "gtest/gtest.h"
-#include "server/service/crossing_registry.h"
+#include "server/service/crossing/crossing_registry.h"
 #include "storage/crossing_store.h"
 #include "storage/open_stores.h"
 

@@ -7,7 +7,7 @@
 #include <mutex>
 #include <vector>
 
-#include "server/service/slam_registry.h"
+#include "server/service/slam/slam_registry.h"
 #include "waymark/v1/slam.pb.h"
 
 namespace waymark::service {

@@ -2,14 +2,14 @@
 // transaction for whatever piled up meanwhile; a message that cannot be stored is refused, not
 // processed.
 
-#include "server/service/slam_journal.h"
+#include "server/service/slam/slam_journal.h"
 
 #include <memory>
 #include <string>
 #include <vector>
 
 #include "gtest/gtest.h"
-#include "server/service/slam_registry.h"
+#include "server/service/slam/slam_registry.h"
 #include "storage/slam_store.h"
 #include "tests/service/faulty_slam_store.h"
 #include "tests/service/slam_answers.h"

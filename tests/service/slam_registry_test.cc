@@ -2,7 +2,7 @@
 // counts, payloads), the bounded queue, one stream per session, checkpoints and resume, isolation
 // of concurrent sessions, limits.
 
-#include "server/service/slam_registry.h"
+#include "server/service/slam/slam_registry.h"
 
 #include <chrono>
 #include <cmath>

@@ -1,7 +1,7 @@
 // StreamEvidence (StreamRecognize's belief over frames, retrieval mode): frames the global path
 // answered count for their crossing though they carry no candidate with an NFA.
 
-#include "server/service/stream_evidence.h"
+#include "server/service/crossing/stream_evidence.h"
 
 #include "gtest/gtest.h"
 

@@ -17,8 +17,8 @@
 #include <opencv2/imgproc.hpp>
 
 #include "gtest/gtest.h"
-#include "server/service/slam_registry.h"
-#include "server/service/visual_params.h"
+#include "server/service/slam/slam_registry.h"
+#include "server/service/slam/visual_params.h"
 #include "storage/slam_store.h"
 #include "tests/service/slam_answers.h"
 #include "tests/service/slam_test_world.h"

@@ -1,7 +1,7 @@
 // WorkGate: at most max_running turns at once, at most max_waiting callers waiting, the next one
 // refused at once with RESOURCE_EXHAUSTED; a released turn lets a waiter in.
 
-#include "server/service/work_gate.h"
+#include "server/service/runtime/work_gate.h"
 
 #include <gtest/gtest.h>
 
