@@ -31,7 +31,7 @@ PACKAGES=(
   libgtest-dev libgmock-dev libbenchmark-dev
   libcli11-dev libspdlog-dev libfmt-dev nlohmann-json3-dev
   prometheus-cpp-dev  # metrics endpoint (server/service/metrics)
-  zlib1g-dev libbz2-dev  # compressed CARMEN laser logs (client/adapters/carmen_log)
+  zlib1g-dev libbz2-dev  # compressed CARMEN laser logs (client/datasets/carmen_log)
   blender-data  # real 360-degree photos for the rotation test set (bench/crossing/rotation_set.h)
   openssl  # test certificates (tests/integration/tls_test.cc)
   postgresql-15  # the server the PostgreSQL tests start for themselves (tests/support/postgres_server.sh)

@@ -2,8 +2,8 @@
 // UndefinedBehaviorSanitizer, coverage-guided): the same targets as fuzz_driver.cc, one per
 // process, named by an environment variable because libFuzzer owns the command line.
 //
-//   WAYMARK_FUZZ_TARGET=pgm WAYMARK_FUZZ_SEEDS=work/pgm \
-//     waymark-fuzz -max_total_time=30 work/pgm tests/fuzz/corpus/pgm
+//   WAYMARK_FUZZ_TARGET=laser_checkpoint WAYMARK_FUZZ_SEEDS=work/laser_checkpoint \
+//     waymark-fuzz -max_total_time=30 work/laser_checkpoint tests/fuzz/corpus/laser_checkpoint
 //   WAYMARK_FUZZ_TARGET=list waymark-fuzz      prints the targets' names
 //
 // The target's own seeds (made by code from valid inputs) are written into WAYMARK_FUZZ_SEEDS, when

@@ -3,7 +3,8 @@
 
 // Test helpers for the visual odometry engine: synthetic textured frames with a known camera
 // motion, and running the engine over a real sequence in ../shared with its ATE (the sequence
-// reader and the ATE are the client's, client/tools/image_sequence and trajectory_metrics).
+// reader and the ATE are the client's, client/datasets/image_sequence and
+// client/eval/trajectory_metrics).
 
 #include <memory>
 #include <optional>
