@@ -8,6 +8,7 @@
 
 #include "server/service/auth/authenticator.h"
 #include "server/service/crossing/crossing_registry.h"
+#include "server/service/folder.h"
 #include "server/service/runtime/idle_stream_reaper.h"
 #include "server/service/runtime/parsed_stream.h"
 #include "server/service/runtime/stream_limiter.h"

@@ -11,6 +11,7 @@
 
 #include "absl/status/statusor.h"
 #include "server/service/auth/authenticator.h"
+#include "server/service/folder.h"
 #include "server/service/runtime/grpc_status.h"
 
 namespace waymark::service {

@@ -7,6 +7,7 @@
 #include <string>
 
 #include "server/service/auth/authenticator.h"
+#include "server/service/folder.h"
 #include "server/service/runtime/idle_stream_reaper.h"
 #include "server/service/runtime/parsed_stream.h"
 #include "server/service/service_call.h"

@@ -6,6 +6,7 @@
 #include <memory>
 
 #include "server/service/auth/authenticator.h"
+#include "server/service/folder.h"
 #include "storage/token_store.h"
 #include "waymark/v1/token.grpc.pb.h"
 

@@ -1,5 +1,5 @@
-#ifndef WAYMARK_SERVER_SERVICE_ACCESS_POLICY_H_
-#define WAYMARK_SERVER_SERVICE_ACCESS_POLICY_H_
+#ifndef WAYMARK_SERVER_SERVICE_AUTH_ACCESS_POLICY_H_
+#define WAYMARK_SERVER_SERVICE_AUTH_ACCESS_POLICY_H_
 
 // Who may do what (issue 6): the one table from token roles to the service's actions, and the
 // rule that a robot sees only its own SLAM sessions. Plain C++: the gRPC layer (authenticator.h)
@@ -8,6 +8,7 @@
 #include <string>
 
 #include "absl/status/status.h"
+#include "server/service/auth/folder.h"
 #include "storage/token_store.h"
 
 namespace waymark::service {
@@ -54,4 +55,4 @@ absl::Status CheckRobot(const Caller& caller, const std::string& robot_id);
 
 }  // namespace waymark::service
 
-#endif  // WAYMARK_SERVER_SERVICE_ACCESS_POLICY_H_
+#endif  // WAYMARK_SERVER_SERVICE_AUTH_ACCESS_POLICY_H_

@@ -1,5 +1,5 @@
-#ifndef WAYMARK_SERVER_SERVICE_AUTHENTICATOR_H_
-#define WAYMARK_SERVER_SERVICE_AUTHENTICATOR_H_
+#ifndef WAYMARK_SERVER_SERVICE_AUTH_AUTHENTICATOR_H_
+#define WAYMARK_SERVER_SERVICE_AUTH_AUTHENTICATOR_H_
 
 // The auth check every CrossingService, SlamService and TokenService handler runs first: reads the
 // call's "authorization: Bearer <secret>" metadata, finds the token (storage::TokenStore), and
@@ -17,6 +17,7 @@
 
 #include "absl/status/statusor.h"
 #include "server/service/auth/access_policy.h"
+#include "server/service/auth/folder.h"
 #include "storage/token_store.h"
 
 namespace waymark::service {
@@ -76,4 +77,4 @@ class Authenticator {
 
 }  // namespace waymark::service
 
-#endif  // WAYMARK_SERVER_SERVICE_AUTHENTICATOR_H_
+#endif  // WAYMARK_SERVER_SERVICE_AUTH_AUTHENTICATOR_H_

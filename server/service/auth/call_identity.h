@@ -1,5 +1,5 @@
-#ifndef WAYMARK_SERVER_SERVICE_CALL_IDENTITY_H_
-#define WAYMARK_SERVER_SERVICE_CALL_IDENTITY_H_
+#ifndef WAYMARK_SERVER_SERVICE_AUTH_CALL_IDENTITY_H_
+#define WAYMARK_SERVER_SERVICE_AUTH_CALL_IDENTITY_H_
 
 // Who made a call, handed from the auth check inside a handler to the call interceptor, which
 // writes it into the call's log line. gRPC gives an interceptor no typed slot on the call for
@@ -21,6 +21,8 @@
 #include <cstddef>
 #include <string>
 
+#include "server/service/auth/folder.h"
+
 namespace waymark::service {
 
 inline constexpr std::size_t kMaxCallIdentities = 1 << 16;
@@ -33,4 +35,4 @@ std::string TakeCallRobotId(
 
 }  // namespace waymark::service
 
-#endif  // WAYMARK_SERVER_SERVICE_CALL_IDENTITY_H_
+#endif  // WAYMARK_SERVER_SERVICE_AUTH_CALL_IDENTITY_H_

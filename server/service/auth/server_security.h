@@ -1,5 +1,5 @@
-#ifndef WAYMARK_SERVER_SERVICE_SERVER_SECURITY_H_
-#define WAYMARK_SERVER_SERVICE_SERVER_SECURITY_H_
+#ifndef WAYMARK_SERVER_SERVICE_AUTH_SERVER_SECURITY_H_
+#define WAYMARK_SERVER_SERVICE_AUTH_SERVER_SECURITY_H_
 
 // How the server protects its port (issue 6): TLS from PEM files, and the rule that plaintext is
 // only served on loopback unless the operator says otherwise.
@@ -10,6 +10,7 @@
 #include <string>
 
 #include "absl/status/statusor.h"
+#include "server/service/auth/folder.h"
 
 namespace waymark::service {
 
@@ -32,4 +33,4 @@ absl::StatusOr<std::shared_ptr<grpc::ServerCredentials>> MakeServerCredentials(
 
 }  // namespace waymark::service
 
-#endif  // WAYMARK_SERVER_SERVICE_SERVER_SECURITY_H_
+#endif  // WAYMARK_SERVER_SERVICE_AUTH_SERVER_SECURITY_H_

@@ -1,5 +1,5 @@
-#ifndef WAYMARK_SERVER_SERVICE_CROSSING_DATABASE_H_
-#define WAYMARK_SERVER_SERVICE_CROSSING_DATABASE_H_
+#ifndef WAYMARK_SERVER_SERVICE_CROSSING_CROSSING_DATABASE_H_
+#define WAYMARK_SERVER_SERVICE_CROSSING_CROSSING_DATABASE_H_
 
 // One crossing database as the registry holds it in memory (crossing_registry.h explains the
 // locking), and what the registry's operations on it share: name and heading rules, the index of
@@ -20,6 +20,7 @@
 #include "absl/synchronization/mutex.h"
 #include "server/crossing/features.h"
 #include "server/crossing/view_database.h"
+#include "server/service/crossing/folder.h"
 #include "server/service/crossing/params.h"
 #include "storage/crossing_store.h"
 
@@ -125,4 +126,4 @@ storage::ViewRecord ToViewRecord(int64_t crossing_id, double heading_deg,
 
 }  // namespace waymark::service
 
-#endif  // WAYMARK_SERVER_SERVICE_CROSSING_DATABASE_H_
+#endif  // WAYMARK_SERVER_SERVICE_CROSSING_CROSSING_DATABASE_H_

@@ -1,5 +1,5 @@
-#ifndef WAYMARK_SERVER_SERVICE_CROSSING_FLEET_SYNC_H_
-#define WAYMARK_SERVER_SERVICE_CROSSING_FLEET_SYNC_H_
+#ifndef WAYMARK_SERVER_SERVICE_CROSSING_CROSSING_FLEET_SYNC_H_
+#define WAYMARK_SERVER_SERVICE_CROSSING_CROSSING_FLEET_SYNC_H_
 
 // Keeps a server's crossing databases in step with the other servers of a shared database
 // (PostgreSQL, docs/scale-out.md). One thread listens to the store's change feed and runs
@@ -13,6 +13,7 @@
 #include <thread>
 
 #include "server/service/crossing/crossing_registry.h"
+#include "server/service/crossing/folder.h"
 
 namespace waymark::service {
 
@@ -49,4 +50,4 @@ class CrossingFleetSync {
 
 }  // namespace waymark::service
 
-#endif  // WAYMARK_SERVER_SERVICE_CROSSING_FLEET_SYNC_H_
+#endif  // WAYMARK_SERVER_SERVICE_CROSSING_CROSSING_FLEET_SYNC_H_

@@ -1,5 +1,5 @@
-#ifndef WAYMARK_SERVER_SERVICE_CROSSING_LOADING_H_
-#define WAYMARK_SERVER_SERVICE_CROSSING_LOADING_H_
+#ifndef WAYMARK_SERVER_SERVICE_CROSSING_CROSSING_LOADING_H_
+#define WAYMARK_SERVER_SERVICE_CROSSING_CROSSING_LOADING_H_
 
 // Bringing a crossing database from the store into memory: whole at start-up, and, when servers
 // share the database (PostgreSQL, docs/scale-out.md), what another server changed since this one
@@ -14,6 +14,7 @@
 #include "absl/status/statusor.h"
 #include "server/crossing/view_database.h"
 #include "server/service/crossing/crossing_database.h"
+#include "server/service/crossing/folder.h"
 #include "storage/crossing_store.h"
 
 namespace waymark::service {
@@ -49,4 +50,4 @@ class WriteScope {
 
 }  // namespace waymark::service
 
-#endif  // WAYMARK_SERVER_SERVICE_CROSSING_LOADING_H_
+#endif  // WAYMARK_SERVER_SERVICE_CROSSING_CROSSING_LOADING_H_

@@ -1,5 +1,5 @@
-#ifndef WAYMARK_SERVER_SERVICE_CROSSING_REGISTRY_H_
-#define WAYMARK_SERVER_SERVICE_CROSSING_REGISTRY_H_
+#ifndef WAYMARK_SERVER_SERVICE_CROSSING_CROSSING_REGISTRY_H_
+#define WAYMARK_SERVER_SERVICE_CROSSING_CROSSING_REGISTRY_H_
 
 // The crossing databases a server holds: each one in memory (features, index, clusters) and in
 // the store, kept consistent. This is the application layer between the gRPC handlers and the
@@ -46,6 +46,7 @@
 #include "server/crossing/features.h"
 #include "server/crossing/view_database.h"
 #include "server/service/crossing/crossing_database.h"
+#include "server/service/crossing/folder.h"
 #include "server/service/crossing/global_stage.h"
 #include "server/service/crossing/params.h"
 #include "server/service/runtime/work_gate.h"
@@ -165,4 +166,4 @@ class CrossingRegistry {
 
 }  // namespace waymark::service
 
-#endif  // WAYMARK_SERVER_SERVICE_CROSSING_REGISTRY_H_
+#endif  // WAYMARK_SERVER_SERVICE_CROSSING_CROSSING_REGISTRY_H_

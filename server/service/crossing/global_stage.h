@@ -1,5 +1,5 @@
-#ifndef WAYMARK_SERVER_SERVICE_GLOBAL_STAGE_H_
-#define WAYMARK_SERVER_SERVICE_GLOBAL_STAGE_H_
+#ifndef WAYMARK_SERVER_SERVICE_CROSSING_GLOBAL_STAGE_H_
+#define WAYMARK_SERVER_SERVICE_CROSSING_GLOBAL_STAGE_H_
 
 // The retrieval mode's global stage of the resident crossing databases (issue 18): a database
 // that keeps a global descriptor (DatabaseParams.global_descriptor) learns a VLAD vocabulary from
@@ -40,6 +40,7 @@
 #include "server/crossing/features.h"
 #include "server/crossing/global_index.h"
 #include "server/service/crossing/crossing_database.h"
+#include "server/service/crossing/folder.h"
 #include "storage/crossing_store.h"
 
 namespace waymark::service {
@@ -116,4 +117,4 @@ class GlobalStageWorker {
 
 }  // namespace waymark::service
 
-#endif  // WAYMARK_SERVER_SERVICE_GLOBAL_STAGE_H_
+#endif  // WAYMARK_SERVER_SERVICE_CROSSING_GLOBAL_STAGE_H_

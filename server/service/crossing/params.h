@@ -1,5 +1,5 @@
-#ifndef WAYMARK_SERVER_SERVICE_PARAMS_H_
-#define WAYMARK_SERVER_SERVICE_PARAMS_H_
+#ifndef WAYMARK_SERVER_SERVICE_CROSSING_PARAMS_H_
+#define WAYMARK_SERVER_SERVICE_CROSSING_PARAMS_H_
 
 // Translation between the API's parameter messages and the engine's Options structs, with the
 // layering users expect: request value, else the database's value, else the engine default (the
@@ -9,6 +9,7 @@
 
 #include "absl/status/statusor.h"
 #include "server/crossing/options.h"
+#include "server/service/crossing/folder.h"
 #include "waymark/v1/crossing.pb.h"
 
 namespace waymark::service {
@@ -38,4 +39,4 @@ absl::StatusOr<v1::DatabaseParams> ParamsFromJson(const std::string& json);
 
 }  // namespace waymark::service
 
-#endif  // WAYMARK_SERVER_SERVICE_PARAMS_H_
+#endif  // WAYMARK_SERVER_SERVICE_CROSSING_PARAMS_H_

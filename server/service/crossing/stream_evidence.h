@@ -1,5 +1,5 @@
-#ifndef WAYMARK_SERVER_SERVICE_STREAM_EVIDENCE_H_
-#define WAYMARK_SERVER_SERVICE_STREAM_EVIDENCE_H_
+#ifndef WAYMARK_SERVER_SERVICE_CROSSING_STREAM_EVIDENCE_H_
+#define WAYMARK_SERVER_SERVICE_CROSSING_STREAM_EVIDENCE_H_
 
 // StreamRecognize's evidence over frames (retrieval mode): one PlaceEvidenceFilter per stream,
 // fed with each frame's candidates, and the answer rewritten to the belief's decision
@@ -10,6 +10,7 @@
 #include <optional>
 #include <string>
 
+#include "server/service/crossing/folder.h"
 #include "waymark/v1/crossing.pb.h"
 #include "server/crossing/options.h"
 #include "server/crossing/place_evidence.h"
@@ -31,4 +32,4 @@ class StreamEvidence {
 
 }  // namespace waymark::service
 
-#endif  // WAYMARK_SERVER_SERVICE_STREAM_EVIDENCE_H_
+#endif  // WAYMARK_SERVER_SERVICE_CROSSING_STREAM_EVIDENCE_H_

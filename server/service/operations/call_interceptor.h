@@ -1,5 +1,5 @@
-#ifndef WAYMARK_SERVER_SERVICE_CALL_INTERCEPTOR_H_
-#define WAYMARK_SERVER_SERVICE_CALL_INTERCEPTOR_H_
+#ifndef WAYMARK_SERVER_SERVICE_OPERATIONS_CALL_INTERCEPTOR_H_
+#define WAYMARK_SERVER_SERVICE_OPERATIONS_CALL_INTERCEPTOR_H_
 
 // One server interceptor for every call: a request id, the call metrics and one log line.
 //
@@ -28,6 +28,7 @@
 
 #include <memory>
 
+#include "server/service/operations/folder.h"
 #include "server/service/operations/metrics.h"
 
 namespace waymark::service {
@@ -40,4 +41,4 @@ std::unique_ptr<grpc::experimental::ServerInterceptorFactoryInterface> MakeCallI
 
 }  // namespace waymark::service
 
-#endif  // WAYMARK_SERVER_SERVICE_CALL_INTERCEPTOR_H_
+#endif  // WAYMARK_SERVER_SERVICE_OPERATIONS_CALL_INTERCEPTOR_H_

@@ -1,5 +1,5 @@
-#ifndef WAYMARK_SERVER_SERVICE_METRICS_H_
-#define WAYMARK_SERVER_SERVICE_METRICS_H_
+#ifndef WAYMARK_SERVER_SERVICE_OPERATIONS_METRICS_H_
+#define WAYMARK_SERVER_SERVICE_OPERATIONS_METRICS_H_
 
 // The server's Prometheus metrics (names, labels and meaning: docs/operations.md), served as text
 // at http://HOST:PORT/metrics by prometheus-cpp's Exposer.
@@ -21,6 +21,7 @@
 
 #include "absl/status/statusor.h"
 #include "server/service/crossing/crossing_registry.h"
+#include "server/service/operations/folder.h"
 #include "server/service/slam/slam_registry.h"
 #include "waymark/v1/crossing.pb.h"
 
@@ -96,4 +97,4 @@ absl::StatusOr<std::unique_ptr<Metrics>> StartMetrics(const std::string& listen,
 
 }  // namespace waymark::service
 
-#endif  // WAYMARK_SERVER_SERVICE_METRICS_H_
+#endif  // WAYMARK_SERVER_SERVICE_OPERATIONS_METRICS_H_

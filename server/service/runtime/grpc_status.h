@@ -1,5 +1,5 @@
-#ifndef WAYMARK_SERVER_SERVICE_GRPC_STATUS_H_
-#define WAYMARK_SERVER_SERVICE_GRPC_STATUS_H_
+#ifndef WAYMARK_SERVER_SERVICE_RUNTIME_GRPC_STATUS_H_
+#define WAYMARK_SERVER_SERVICE_RUNTIME_GRPC_STATUS_H_
 
 #include <grpcpp/support/status.h>
 
@@ -8,6 +8,7 @@
 #include "absl/status/status.h"
 #include "absl/strings/str_cat.h"
 #include "absl/strings/string_view.h"
+#include "server/service/runtime/folder.h"
 
 namespace waymark::service {
 
@@ -35,4 +36,4 @@ inline grpc::Status ToGrpcStatus(const absl::Status& status) {
 
 }  // namespace waymark::service
 
-#endif  // WAYMARK_SERVER_SERVICE_GRPC_STATUS_H_
+#endif  // WAYMARK_SERVER_SERVICE_RUNTIME_GRPC_STATUS_H_

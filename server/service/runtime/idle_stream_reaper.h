@@ -1,5 +1,5 @@
-#ifndef WAYMARK_SERVER_SERVICE_IDLE_STREAM_REAPER_H_
-#define WAYMARK_SERVER_SERVICE_IDLE_STREAM_REAPER_H_
+#ifndef WAYMARK_SERVER_SERVICE_RUNTIME_IDLE_STREAM_REAPER_H_
+#define WAYMARK_SERVER_SERVICE_RUNTIME_IDLE_STREAM_REAPER_H_
 
 // Ends client streams that have sent nothing for too long. With gRPC's synchronous server every
 // open stream holds a request thread, and keepalive only notices peers that are gone, not a robot
@@ -29,6 +29,7 @@
 #include <functional>
 
 #include "absl/status/status.h"
+#include "server/service/runtime/folder.h"
 
 namespace waymark::service {
 
@@ -111,4 +112,4 @@ class IdleStreamReaper {
 
 }  // namespace waymark::service
 
-#endif  // WAYMARK_SERVER_SERVICE_IDLE_STREAM_REAPER_H_
+#endif  // WAYMARK_SERVER_SERVICE_RUNTIME_IDLE_STREAM_REAPER_H_

@@ -1,5 +1,5 @@
-#ifndef WAYMARK_SERVER_SERVICE_MEMORY_TRIMMER_H_
-#define WAYMARK_SERVER_SERVICE_MEMORY_TRIMMER_H_
+#ifndef WAYMARK_SERVER_SERVICE_RUNTIME_MEMORY_TRIMMER_H_
+#define WAYMARK_SERVER_SERVICE_RUNTIME_MEMORY_TRIMMER_H_
 
 // Gives freed heap back to the system. glibc keeps what the request threads free in their
 // arenas: after a burst of large concurrent inputs (enrollments, big scans) the server's resident
@@ -11,6 +11,8 @@
 #include <condition_variable>
 #include <mutex>
 #include <thread>
+
+#include "server/service/runtime/folder.h"
 
 namespace waymark::service {
 
@@ -44,4 +46,4 @@ class MemoryTrimmer {
 
 }  // namespace waymark::service
 
-#endif  // WAYMARK_SERVER_SERVICE_MEMORY_TRIMMER_H_
+#endif  // WAYMARK_SERVER_SERVICE_RUNTIME_MEMORY_TRIMMER_H_

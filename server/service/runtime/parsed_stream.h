@@ -1,5 +1,5 @@
-#ifndef WAYMARK_SERVER_SERVICE_PARSED_STREAM_H_
-#define WAYMARK_SERVER_SERVICE_PARSED_STREAM_H_
+#ifndef WAYMARK_SERVER_SERVICE_RUNTIME_PARSED_STREAM_H_
+#define WAYMARK_SERVER_SERVICE_RUNTIME_PARSED_STREAM_H_
 
 // Client streams whose messages this server parses itself. gRPC's synchronous reader reports a
 // message it cannot parse exactly as it reports the end of the stream: a robot that sent 5 good
@@ -20,6 +20,7 @@
 #include <string>
 
 #include "absl/strings/str_cat.h"
+#include "server/service/runtime/folder.h"
 
 namespace waymark::service {
 
@@ -90,4 +91,4 @@ grpc::internal::MethodHandler* ParsedHandler(
 
 }  // namespace waymark::service
 
-#endif  // WAYMARK_SERVER_SERVICE_PARSED_STREAM_H_
+#endif  // WAYMARK_SERVER_SERVICE_RUNTIME_PARSED_STREAM_H_

@@ -1,5 +1,5 @@
-#ifndef WAYMARK_SERVER_SERVICE_SERVER_CHANNEL_H_
-#define WAYMARK_SERVER_SERVICE_SERVER_CHANNEL_H_
+#ifndef WAYMARK_SERVER_SERVICE_RUNTIME_SERVER_CHANNEL_H_
+#define WAYMARK_SERVER_SERVICE_RUNTIME_SERVER_CHANNEL_H_
 
 // The server's HTTP/2 connection settings: keepalive, the ping policy clients must keep to,
 // message sizes and request threads.
@@ -15,6 +15,7 @@
 #include <grpcpp/server_builder.h>
 
 #include "absl/time/time.h"
+#include "server/service/runtime/folder.h"
 
 namespace waymark::service {
 
@@ -37,4 +38,4 @@ void ConfigureServerChannel(grpc::ServerBuilder* builder, const ServerChannelOpt
 
 }  // namespace waymark::service
 
-#endif  // WAYMARK_SERVER_SERVICE_SERVER_CHANNEL_H_
+#endif  // WAYMARK_SERVER_SERVICE_RUNTIME_SERVER_CHANNEL_H_

@@ -1,5 +1,5 @@
-#ifndef WAYMARK_SERVER_SERVICE_STREAM_LIMITER_H_
-#define WAYMARK_SERVER_SERVICE_STREAM_LIMITER_H_
+#ifndef WAYMARK_SERVER_SERVICE_RUNTIME_STREAM_LIMITER_H_
+#define WAYMARK_SERVER_SERVICE_RUNTIME_STREAM_LIMITER_H_
 
 // Caps the streams one robot holds open at once (SLAM sensor streams, recognition streams, bulk
 // enrolls), so one misbehaving robot cannot take every request thread of a server shared by many.
@@ -11,6 +11,7 @@
 #include <string>
 
 #include "absl/status/statusor.h"
+#include "server/service/runtime/folder.h"
 
 namespace waymark::service {
 
@@ -52,4 +53,4 @@ class StreamLimiter {
 
 }  // namespace waymark::service
 
-#endif  // WAYMARK_SERVER_SERVICE_STREAM_LIMITER_H_
+#endif  // WAYMARK_SERVER_SERVICE_RUNTIME_STREAM_LIMITER_H_

@@ -1,5 +1,5 @@
-#ifndef WAYMARK_SERVER_SERVICE_WORK_GATE_H_
-#define WAYMARK_SERVER_SERVICE_WORK_GATE_H_
+#ifndef WAYMARK_SERVER_SERVICE_RUNTIME_WORK_GATE_H_
+#define WAYMARK_SERVER_SERVICE_RUNTIME_WORK_GATE_H_
 
 // Bounds how many requests do an expensive step at once, and how many may wait for a turn.
 //
@@ -18,6 +18,7 @@
 #include "absl/status/statusor.h"
 #include "absl/strings/string_view.h"
 #include "absl/synchronization/mutex.h"
+#include "server/service/runtime/folder.h"
 
 namespace waymark::service {
 
@@ -65,4 +66,4 @@ class WorkGate {
 
 }  // namespace waymark::service
 
-#endif  // WAYMARK_SERVER_SERVICE_WORK_GATE_H_
+#endif  // WAYMARK_SERVER_SERVICE_RUNTIME_WORK_GATE_H_

@@ -1,5 +1,5 @@
-#ifndef WAYMARK_SERVER_SERVICE_EXPLORATION_PARAMS_H_
-#define WAYMARK_SERVER_SERVICE_EXPLORATION_PARAMS_H_
+#ifndef WAYMARK_SERVER_SERVICE_SLAM_EXPLORATION_PARAMS_H_
+#define WAYMARK_SERVER_SERVICE_SLAM_EXPLORATION_PARAMS_H_
 
 // Translation between ExplorationConfig / SuggestedControl (slam.proto) and the planner's types
 // (server/laser_slam/exploration/exploration_options.h, exploration_types.h).
@@ -8,6 +8,7 @@
 #include "server/laser_slam/exploration/exploration_options.h"
 #include "server/laser_slam/exploration/exploration_types.h"
 #include "server/laser_slam/exploration/goal_layer.h"
+#include "server/service/slam/folder.h"
 #include "waymark/v1/slam.pb.h"
 
 namespace waymark::service {
@@ -28,4 +29,4 @@ void FillExplorationProgress(const laser_slam::GoalProgress& progress,
 
 }  // namespace waymark::service
 
-#endif  // WAYMARK_SERVER_SERVICE_EXPLORATION_PARAMS_H_
+#endif  // WAYMARK_SERVER_SERVICE_SLAM_EXPLORATION_PARAMS_H_

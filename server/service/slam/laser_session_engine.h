@@ -1,5 +1,5 @@
-#ifndef WAYMARK_SERVER_SERVICE_LASER_SESSION_ENGINE_H_
-#define WAYMARK_SERVER_SERVICE_LASER_SESSION_ENGINE_H_
+#ifndef WAYMARK_SERVER_SERVICE_SLAM_LASER_SESSION_ENGINE_H_
+#define WAYMARK_SERVER_SERVICE_SLAM_LASER_SESSION_ENGINE_H_
 
 // SessionEngine of a laser SLAM session (METHODS.md section 2): odometry and scans in, the
 // line-segment EKF SLAM (server/laser_slam) in between, poses and map revisions out. The
@@ -11,6 +11,7 @@
 
 #include "absl/status/statusor.h"
 #include "server/laser_slam/laser_slam.h"
+#include "server/service/slam/folder.h"
 #include "server/service/slam/session_engine.h"
 #include "server/service/slam/slam_params.h"
 #include "storage/slam_store.h"
@@ -63,4 +64,4 @@ class LaserSessionEngine final : public SessionEngine {
 
 }  // namespace waymark::service
 
-#endif  // WAYMARK_SERVER_SERVICE_LASER_SESSION_ENGINE_H_
+#endif  // WAYMARK_SERVER_SERVICE_SLAM_LASER_SESSION_ENGINE_H_

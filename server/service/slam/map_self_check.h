@@ -1,5 +1,5 @@
-#ifndef WAYMARK_SERVER_SERVICE_MAP_SELF_CHECK_H_
-#define WAYMARK_SERVER_SERVICE_MAP_SELF_CHECK_H_
+#ifndef WAYMARK_SERVER_SERVICE_SLAM_MAP_SELF_CHECK_H_
+#define WAYMARK_SERVER_SERVICE_SLAM_MAP_SELF_CHECK_H_
 
 // The map's self-check (server/laser_slam/mapping/map_consistency.h) as the API carries it
 // (v1::MapSelfCheck in GetMap and, for closed sessions, in the Session that ListSessions shows).
@@ -7,6 +7,7 @@
 #include <cstddef>
 
 #include "server/laser_slam/mapping/map_consistency.h"
+#include "server/service/slam/folder.h"
 #include "waymark/v1/slam.pb.h"
 
 namespace waymark::service {
@@ -27,4 +28,4 @@ v1::MapSelfCheck ToProtoMapSelfCheck(const laser_slam::MapConsistencyReport& rep
 
 }  // namespace waymark::service
 
-#endif  // WAYMARK_SERVER_SERVICE_MAP_SELF_CHECK_H_
+#endif  // WAYMARK_SERVER_SERVICE_SLAM_MAP_SELF_CHECK_H_

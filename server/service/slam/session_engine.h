@@ -1,5 +1,5 @@
-#ifndef WAYMARK_SERVER_SERVICE_SESSION_ENGINE_H_
-#define WAYMARK_SERVER_SERVICE_SESSION_ENGINE_H_
+#ifndef WAYMARK_SERVER_SERVICE_SLAM_SESSION_ENGINE_H_
+#define WAYMARK_SERVER_SERVICE_SLAM_SESSION_ENGINE_H_
 
 // What the SLAM registry needs from the engine of one session, whatever its kind (laser EKF SLAM,
 // visual odometry): admit a message on the stream's thread, process it on the session's strand,
@@ -16,6 +16,7 @@
 #include "absl/status/status.h"
 #include "absl/status/statusor.h"
 #include "absl/strings/str_cat.h"
+#include "server/service/slam/folder.h"
 #include "storage/slam_store.h"
 #include "waymark/v1/slam.pb.h"
 
@@ -88,4 +89,4 @@ v1::TrajectoryPose TrajectoryPoseFromRecord(const storage::TrajectoryPoseRecord&
 
 }  // namespace waymark::service
 
-#endif  // WAYMARK_SERVER_SERVICE_SESSION_ENGINE_H_
+#endif  // WAYMARK_SERVER_SERVICE_SLAM_SESSION_ENGINE_H_

@@ -1,5 +1,5 @@
-#ifndef WAYMARK_SERVER_SERVICE_SESSION_LEASES_H_
-#define WAYMARK_SERVER_SERVICE_SESSION_LEASES_H_
+#ifndef WAYMARK_SERVER_SERVICE_SLAM_SESSION_LEASES_H_
+#define WAYMARK_SERVER_SERVICE_SLAM_SESSION_LEASES_H_
 
 // This server's leases on SLAM sessions (issue 19, storage::SlamLease): when several servers
 // share one database, a session is served by the one server that holds its lease. The registry
@@ -16,6 +16,7 @@
 #include <vector>
 
 #include "absl/status/status.h"
+#include "server/service/slam/folder.h"
 #include "storage/slam_store.h"
 
 namespace waymark::service {
@@ -80,4 +81,4 @@ class SessionLeases {
 
 }  // namespace waymark::service
 
-#endif  // WAYMARK_SERVER_SERVICE_SESSION_LEASES_H_
+#endif  // WAYMARK_SERVER_SERVICE_SLAM_SESSION_LEASES_H_

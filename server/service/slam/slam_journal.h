@@ -1,5 +1,5 @@
-#ifndef WAYMARK_SERVER_SERVICE_SLAM_JOURNAL_H_
-#define WAYMARK_SERVER_SERVICE_SLAM_JOURNAL_H_
+#ifndef WAYMARK_SERVER_SERVICE_SLAM_SLAM_JOURNAL_H_
+#define WAYMARK_SERVER_SERVICE_SLAM_SLAM_JOURNAL_H_
 
 // The write-ahead journal of the SLAM sessions (issue 21): every message a session accepts is
 // stored before the session processes it, so that what the server answered survives a crash
@@ -24,6 +24,7 @@
 #include <vector>
 
 #include "absl/status/status.h"
+#include "server/service/slam/folder.h"
 #include "storage/slam_store.h"
 
 namespace waymark::service {
@@ -84,4 +85,4 @@ class SlamJournal {
 
 }  // namespace waymark::service
 
-#endif  // WAYMARK_SERVER_SERVICE_SLAM_JOURNAL_H_
+#endif  // WAYMARK_SERVER_SERVICE_SLAM_SLAM_JOURNAL_H_

@@ -1,5 +1,5 @@
-#ifndef WAYMARK_SERVER_SERVICE_SLAM_PARAMS_H_
-#define WAYMARK_SERVER_SERVICE_SLAM_PARAMS_H_
+#ifndef WAYMARK_SERVER_SERVICE_SLAM_SLAM_PARAMS_H_
+#define WAYMARK_SERVER_SERVICE_SLAM_SLAM_PARAMS_H_
 
 // Translation between the SLAM API's messages and the laser SLAM engine's types, with validation
 // messages that name the field, the value and the allowed range, so a robot engineer knows what to
@@ -13,6 +13,7 @@
 #include "server/laser_slam/laser_slam.h"
 #include "server/laser_slam/options.h"
 #include "server/laser_slam/types.h"
+#include "server/service/slam/folder.h"
 #include "waymark/v1/slam.pb.h"
 
 namespace waymark::service {
@@ -70,4 +71,4 @@ void FillSlamUpdate(const laser_slam::ScanUpdate& scan_update, v1::SlamUpdate* u
 
 }  // namespace waymark::service
 
-#endif  // WAYMARK_SERVER_SERVICE_SLAM_PARAMS_H_
+#endif  // WAYMARK_SERVER_SERVICE_SLAM_SLAM_PARAMS_H_

@@ -1,5 +1,5 @@
-#ifndef WAYMARK_SERVER_SERVICE_SLAM_REGISTRY_H_
-#define WAYMARK_SERVER_SERVICE_SLAM_REGISTRY_H_
+#ifndef WAYMARK_SERVER_SERVICE_SLAM_SLAM_REGISTRY_H_
+#define WAYMARK_SERVER_SERVICE_SLAM_SLAM_REGISTRY_H_
 
 // The SLAM sessions a server holds, laser (METHODS.md section 2) and visual (section 3): each one
 // in memory (its engine, its input queue) and in the store (config, counters, checkpoints,
@@ -88,6 +88,7 @@
 
 #include "absl/status/status.h"
 #include "absl/status/statusor.h"
+#include "server/service/slam/folder.h"
 #include "server/service/slam/session_engine.h"
 #include "server/service/slam/session_leases.h"
 #include "server/service/slam/slam_journal.h"
@@ -309,4 +310,4 @@ class SlamRegistry {
 
 }  // namespace waymark::service
 
-#endif  // WAYMARK_SERVER_SERVICE_SLAM_REGISTRY_H_
+#endif  // WAYMARK_SERVER_SERVICE_SLAM_SLAM_REGISTRY_H_

@@ -1,5 +1,5 @@
-#ifndef WAYMARK_SERVER_SERVICE_VISUAL_FRAME_DECODER_H_
-#define WAYMARK_SERVER_SERVICE_VISUAL_FRAME_DECODER_H_
+#ifndef WAYMARK_SERVER_SERVICE_SLAM_VISUAL_FRAME_DECODER_H_
+#define WAYMARK_SERVER_SERVICE_SLAM_VISUAL_FRAME_DECODER_H_
 
 // Admission of one ImageFrame of a visual session: the JPEG/PNG image and the optional 16-bit PNG
 // depth are decoded into the engine's FrameInput and checked against the session's camera, so a
@@ -11,6 +11,7 @@
 #include <cstdint>
 
 #include "absl/status/statusor.h"
+#include "server/service/slam/folder.h"
 #include "server/visual_slam/types.h"
 #include "waymark/v1/slam.pb.h"
 
@@ -36,4 +37,4 @@ absl::StatusOr<DecodedFrame> DecodeFrame(const v1::ImageFrame& frame, uint64_t s
 
 }  // namespace waymark::service
 
-#endif  // WAYMARK_SERVER_SERVICE_VISUAL_FRAME_DECODER_H_
+#endif  // WAYMARK_SERVER_SERVICE_SLAM_VISUAL_FRAME_DECODER_H_

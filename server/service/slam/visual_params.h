@@ -1,5 +1,5 @@
-#ifndef WAYMARK_SERVER_SERVICE_VISUAL_PARAMS_H_
-#define WAYMARK_SERVER_SERVICE_VISUAL_PARAMS_H_
+#ifndef WAYMARK_SERVER_SERVICE_SLAM_VISUAL_PARAMS_H_
+#define WAYMARK_SERVER_SERVICE_SLAM_VISUAL_PARAMS_H_
 
 // Translation between the visual session messages of the SLAM API and the visual odometry
 // engine's types (server/visual_slam), with validation messages that name the field, the value
@@ -10,6 +10,7 @@
 
 #include "absl/status/status.h"
 #include "absl/status/statusor.h"
+#include "server/service/slam/folder.h"
 #include "server/visual_slam/detectors/detector_factory.h"
 #include "server/visual_slam/options.h"
 #include "server/visual_slam/types.h"
@@ -53,4 +54,4 @@ void FillVisualUpdate(const visual_slam::FrameResult& result, bool want_features
 
 }  // namespace waymark::service
 
-#endif  // WAYMARK_SERVER_SERVICE_VISUAL_PARAMS_H_
+#endif  // WAYMARK_SERVER_SERVICE_SLAM_VISUAL_PARAMS_H_

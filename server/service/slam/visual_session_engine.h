@@ -1,5 +1,5 @@
-#ifndef WAYMARK_SERVER_SERVICE_VISUAL_SESSION_ENGINE_H_
-#define WAYMARK_SERVER_SERVICE_VISUAL_SESSION_ENGINE_H_
+#ifndef WAYMARK_SERVER_SERVICE_SLAM_VISUAL_SESSION_ENGINE_H_
+#define WAYMARK_SERVER_SERVICE_SLAM_VISUAL_SESSION_ENGINE_H_
 
 // SessionEngine of a visual odometry session (METHODS.md section 3): image frames in (decoded and
 // checked at admission, visual_frame_decoder.h), VisualOdometry in between, 3-D camera poses with
@@ -17,6 +17,7 @@
 #include <vector>
 
 #include "absl/status/statusor.h"
+#include "server/service/slam/folder.h"
 #include "server/service/slam/session_engine.h"
 #include "server/service/slam/visual_params.h"
 #include "server/visual_slam/visual_odometry.h"
@@ -64,4 +65,4 @@ absl::Status NoSegmentMapError();
 
 }  // namespace waymark::service
 
-#endif  // WAYMARK_SERVER_SERVICE_VISUAL_SESSION_ENGINE_H_
+#endif  // WAYMARK_SERVER_SERVICE_SLAM_VISUAL_SESSION_ENGINE_H_
