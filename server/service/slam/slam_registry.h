@@ -71,107 +71,46 @@
 // only open sessions are held in memory, so this also bounds memory together with the queue
 // capacity and kMaxScanBeams), robot_id and name lengths, one stream per session (the newest:
 // OpenStream takes the session over from an older stream).
+//
+// The parts (one class each, owned here; this class only wires them and orders Shutdown):
+//   - slam_session.h      the session's state in memory, shared by all parts;
+//   - session_table.h     the resident sessions by id;
+//   - session_lifecycle.h create, import, load (taking the lease), close, delete, lease renewal;
+//   - session_streams.h   stream ownership and handover, admission, the answers;
+//   - session_scheduler.h the worker pool and the periodic threads;
+//   - session_persistence.h engines from the store, journal replay, checkpoints;
+//   - session_queries.h   descriptions, maps, trajectories, grids, lists.
 
 #include <atomic>
-#include <chrono>
-#include <condition_variable>
-#include <cstdint>
-#include <optional>
-#include <deque>
 #include <functional>
-#include <map>
 #include <memory>
 #include <mutex>
+#include <optional>
 #include <string>
-#include <thread>
-#include <vector>
 
 #include "absl/status/status.h"
 #include "absl/status/statusor.h"
 #include "server/service/slam/folder.h"
-#include "server/service/slam/session_engine.h"
 #include "server/service/slam/session_leases.h"
-#include "server/service/slam/slam_journal.h"
-#include "server/service/slam/slam_params.h"
+#include "server/service/slam/slam_registry_options.h"
+#include "server/service/slam/slam_stream.h"
 #include "storage/slam_store.h"
 #include "waymark/v1/slam.pb.h"
 
 namespace waymark::service {
 
-struct QueuedMessage;  // an accepted message (slam_registry.cc)
-
-struct SlamRegistryOptions {
-  int queue_capacity = 64;        // messages waiting per session
-  int workers = 0;                // 0 = std::thread::hardware_concurrency()
-  double checkpoint_seconds = 30;  // 0 = no time-based checkpoints
-  int checkpoint_scans = 500;     // 0 = no count-based checkpoints
-  int max_sessions = 64;          // open sessions per server
-  int max_batch = 8;              // messages of one session per turn of a worker
-  // Store every accepted message before processing it (see Journal above).
-  bool journal = true;
-  // Checkpoint once the journal since the last checkpoint holds this many bytes (camera frames:
-  // 30 s of 30 Hz RGB-D is several hundred MB), which bounds the replay after a crash.
-  size_t checkpoint_journal_bytes = size_t{64} << 20;
-  // Decoded frames waiting per visual session (640x480 RGB-D: 1.5 MB a frame).
-  size_t max_queued_frame_bytes = size_t{64} << 20;
-  // A stream opened while the session has one (the robot reconnected) waits this long for the
-  // old stream's accepted messages to be answered, then takes the session over; UNAVAILABLE
-  // after it.
-  std::chrono::milliseconds stream_handover_wait{10000};
-  // Several servers on one database (PostgreSQL): each session is served by the one holding its
-  // lease (session_leases.h). Off (owner empty) with one server per database.
-  SessionLeaseOptions lease;
-  // Test hook: runs on the worker thread before each message of `session_id` is processed.
-  std::function<void(const std::string& session_id)> before_process;
-};
-
-inline constexpr int kMaxRobotIdLength = 128;
-inline constexpr int kMaxSessionNameLength = 256;
-
-// Receives the answers of one stream, on a worker thread, one call at a time, in message order.
-using SlamUpdateSink = std::function<void(const v1::SlamUpdate& update)>;
+class SessionLifecycle;
+class SessionPersistence;
+class SessionQueries;
+class SessionScheduler;
+class SessionStreams;
+class SessionTable;
+class SlamJournal;
 
 class SlamRegistry {
- private:
-  struct Session;
-
  public:
-  // One client stream attached to a session (see OpenStream). Not thread-safe: one thread (the
-  // stream's reader) calls Submit and Close. Must not outlive the registry.
-  class Stream {
-   public:
-    ~Stream();  // Close()
-    Stream(const Stream&) = delete;
-    Stream& operator=(const Stream&) = delete;
-
-    const std::string& session_id() const;
-    // What the session held when this stream attached (the API's StreamStart): loaded from its
-    // checkpoint for this stream or already in memory, scans processed and the last one's stamp.
-    const v1::StreamStart& start() const { return start_; }
-    // OK: the message is queued and, if it is a scan, will be answered through the sink.
-    // Otherwise the message was rejected (see the admission rules above) and the status says why.
-    absl::Status Submit(const v1::SensorData& data);
-    // Ends the stream's input without waiting: Submit is refused from now on, and another
-    // stream's OpenStream takes the session over as soon as the messages this one accepted are
-    // processed and answered (through this stream's sink). Idempotent.
-    void StopAccepting();
-    // StopAccepting, then waits until every accepted message has been processed and answered,
-    // then detaches the sink (unless another stream has taken the session over). Idempotent.
-    void Close();
-
-   private:
-    friend class SlamRegistry;
-    Stream(SlamRegistry* registry, std::shared_ptr<Session> session, uint64_t epoch,
-           v1::StreamStart start)
-        : registry_(registry), session_(std::move(session)), epoch_(epoch),
-          start_(std::move(start)) {}
-    SlamRegistry* registry_;
-    std::shared_ptr<Session> session_;
-    const uint64_t epoch_;  // which of the session's streams this is (Session::stream_epoch)
-    v1::StreamStart start_;
-    bool stopped_ = false;
-    bool closed_ = false;
-  };
+  // One client stream attached to a session (see OpenStream; slam_stream.h).
+  using Stream = SlamStream;
 
   static absl::StatusOr<std::unique_ptr<SlamRegistry>> Create(
       std::unique_ptr<storage::SlamStore> store, const SlamRegistryOptions& options = {});
@@ -221,8 +160,7 @@ class SlamRegistry {
   // Sees every answer to a processed scan or frame (not rejections), on the session's worker
   // thread just before the stream's sink: the metrics' per-session counts and latencies (metrics.h).
   // Null (the default) = none. Safe to set and clear while sessions run.
-  using UpdateObserver =
-      std::function<void(const std::string& session_id, const v1::SlamUpdate& update)>;
+  using UpdateObserver = SlamUpdateObserver;
   void SetUpdateObserver(UpdateObserver observer);
   // Where robots reach this server, for the leases (SlamRegistryOptions::lease), once known.
   void set_lease_address(const std::string& address) { leases_.set_address(address); }
@@ -230,79 +168,19 @@ class SlamRegistry {
  private:
   SlamRegistry(std::unique_ptr<storage::SlamStore> store, const SlamRegistryOptions& options);
 
-  absl::StatusOr<std::shared_ptr<Session>> FindResident(const std::string& id);
-  // The points of the map session a localization session localizes on: NOT_FOUND (unknown),
-  // FAILED_PRECONDITION (a visual session, still open, a localization session, no scans kept).
-  absl::StatusOr<std::shared_ptr<const laser_slam::PointCloud>> LoadLocalizationMap(
-      const std::string& map_session_id);
-  // A session to read from: the resident one, or one built from its checkpoint (not made
-  // resident); `visual_refusal` for a stored visual session (its engine is not built to read it).
-  absl::StatusOr<std::shared_ptr<Session>> SessionToRead(const std::string& session_id,
-                                                         const absl::Status& visual_refusal);
-  // A session's engine built from its stored record (not made resident).
-  absl::StatusOr<std::unique_ptr<SessionEngine>> EngineOf(const storage::SlamSessionRecord& record);
-  // Checks the request's common fields (robot id, name) as CreateSession does.
-  static absl::Status CheckNewSessionRequest(const std::string& robot_id, const std::string& name);
-  // Stores a new session around `engine` (id, limits) and makes it resident unless `close`.
-  absl::StatusOr<v1::Session> StoreNewSession(const std::string& robot_id,
-                                              const std::string& name, std::string config_bytes,
-                                              std::unique_ptr<SessionEngine> engine, bool close);
-  // Builds a session (engine from the checkpoint + stored trajectory) from its stored record.
-  absl::StatusOr<std::shared_ptr<Session>> LoadSession(const storage::SlamSessionRecord& record);
-  // `loaded` (optional) tells whether the session was loaded from the store by this call.
-  absl::StatusOr<std::shared_ptr<Session>> ResidentOrLoad(const std::string& id,
-                                                          bool* loaded = nullptr);
-  // CloseSession's work, with load_mutex_ held.
-  absl::Status CloseLocked(const std::string& session_id);
-
-  absl::Status Submit(const std::shared_ptr<Session>& session, uint64_t epoch,
-                      const v1::SensorData& data);
-  void Schedule(std::shared_ptr<Session> session);
-  void WorkerLoop();
-  void RunSession(const std::shared_ptr<Session>& session);
-  void Process(Session& session, QueuedMessage& message, const SlamUpdateSink& sink);
-  // Processes one admitted message on the session's engine and counts it (engine_mu held, or the
-  // session not shared yet); the update without its sequence, or the engine's error.
-  absl::StatusOr<std::optional<v1::SlamUpdate>> Apply(Session& session, EngineInput& input,
-                                                     bool is_scan, double stamp,
-                                                     int64_t journal_seq, size_t journal_bytes,
-                                                     double queue_ms);
-  // Replays the journal after the session's checkpoint (LoadSession).
-  absl::Status ReplayJournal(Session& session);
-  void TimerLoop();
-  // Renews the leases of the resident sessions every ttl/3; drops those another server took.
-  void LeaseLoop();
-  // Removes a session whose lease another server holds: no checkpoint, its stream is told.
-  void DropLost(const std::string& session_id, const absl::Status& moved);
-  static void WaitIdle(Session& session);
-  absl::Status Checkpoint(Session& session, bool close);
-  void MaybeCheckpoint(Session& session);
-  v1::Session Describe(const storage::SlamSessionRecord& record, Session* resident);
-
   const SlamRegistryOptions options_;
   std::unique_ptr<storage::SlamStore> store_;
   std::atomic<bool> shutting_down_{false};
-
-  std::mutex observer_mutex_;  // guards observer_ (copied out per answer, called unlocked)
-  std::shared_ptr<const UpdateObserver> observer_;
-  std::mutex load_mutex_;  // serializes loading/creating/closing sessions (not the hot path)
-  std::mutex mutex_;       // guards sessions_ (the map, not the sessions)
-  std::map<std::string, std::shared_ptr<Session>> sessions_;  // resident (open) sessions
-
-  std::mutex pool_mutex_;  // guards run_queue_ and stop_workers_
-  std::condition_variable pool_cv_;
-  std::deque<std::shared_ptr<Session>> run_queue_;  // sessions with work, FIFO
-  bool stop_workers_ = false;
-  std::vector<std::thread> workers_;
-
-  std::mutex timer_mutex_;
-  std::condition_variable timer_cv_;
-  bool stop_timer_ = false;
-  std::thread timer_;
-
   SessionLeases leases_;
   std::unique_ptr<SlamJournal> journal_;  // null when options_.journal is off
-  std::thread lease_thread_;  // with timer_mutex_/timer_cv_/stop_timer_ for stopping
+
+  // The parts, each using only those above it (the scheduler calls back into the streams).
+  std::unique_ptr<SessionTable> table_;
+  std::unique_ptr<SessionPersistence> persistence_;
+  std::unique_ptr<SessionLifecycle> lifecycle_;
+  std::unique_ptr<SessionQueries> queries_;
+  std::unique_ptr<SessionScheduler> scheduler_;
+  std::unique_ptr<SessionStreams> streams_;
 
   std::mutex shutdown_mutex_;
   bool shut_down_ = false;
