@@ -1,7 +1,13 @@
+#ifndef WAYMARK_SERVER_SERVICE_FOLDER_H_
+#define WAYMARK_SERVER_SERVICE_FOLDER_H_
+
 // Every header of server/service/ (the gRPC services) includes this: it compiles only in a target
 // that links waymark_service, which defines WAYMARK_SERVICE_SERVICES for itself and for every
 // target that links it. A folder links only the folders it may use (server/service/CMakeLists.txt),
 // so one that includes a header of a folder it may not use does not build.
+
 #ifndef WAYMARK_SERVICE_SERVICES
 #error "the gRPC services' headers need waymark_service linked (server/service/CMakeLists.txt)"
 #endif
+
+#endif  // WAYMARK_SERVER_SERVICE_FOLDER_H_

@@ -1,7 +1,13 @@
+#ifndef WAYMARK_SERVER_SERVICE_CROSSING_FOLDER_H_
+#define WAYMARK_SERVER_SERVICE_CROSSING_FOLDER_H_
+
 // Every header of server/service/crossing/ includes this: it compiles only in a target that links
 // waymark_service_crossing, which defines WAYMARK_SERVICE_CROSSING for itself and for every target
 // that links it. A folder links only the folders it may use (server/service/CMakeLists.txt), so one
 // that includes a header of a folder it may not use does not build.
+
 #ifndef WAYMARK_SERVICE_CROSSING
 #error "server/service/crossing/ headers need waymark_service_crossing linked (server/service/CMakeLists.txt)"
 #endif
+
+#endif  // WAYMARK_SERVER_SERVICE_CROSSING_FOLDER_H_
