@@ -37,7 +37,9 @@ struct AteArgs {
 // Top view of the ground truth and the aligned estimate (each with start and end markers), in the
 // plane of the two axes along which the ground truth extends most (x-z for a forward-moving
 // camera, x-y for a robot).
-absl::Status WritePlot(const std::string& path, const TrajectoryEvaluation& result) {
+// `mark`: NotMeaningfulMark's text, or "".
+absl::Status WritePlot(const std::string& path, const TrajectoryEvaluation& result,
+                       const std::string& mark) {
   const std::vector<Eigen::Vector3d>& gt = result.groundtruth_positions;
   Eigen::Vector3d lo = gt.front();
   Eigen::Vector3d hi = gt.front();
@@ -54,9 +56,10 @@ absl::Status WritePlot(const std::string& path, const TrajectoryEvaluation& resu
 
   MapScene scene;
   scene.title = fmt::format(
-      "ATE RMSE {:.4f} m over {} poses ({}-{} plane{})", result.ate.rmse, result.matches.size(),
-      kAxis[u], kAxis[v],
-      result.alignment.scale != 1.0 ? fmt::format(", scale {:.4f}", result.alignment.scale) : "");
+      "ATE RMSE {:.4f} m over {} poses ({}-{} plane{}{})", result.ate.rmse,
+      result.matches.size(), kAxis[u], kAxis[v],
+      result.alignment.scale != 1.0 ? fmt::format(", scale {:.4f}", result.alignment.scale) : "",
+      mark.empty() ? "" : ", " + mark);
   ScenePolyline truth{{}, Rgb{40, 40, 40}, 2.0, "ground truth", /*mark_ends=*/true};
   ScenePolyline estimate{{}, Rgb{220, 40, 40}, 1.5, "estimate (aligned)", /*mark_ends=*/true};
   for (const Eigen::Vector3d& p : gt) truth.points.push_back({p[u], p[v]});
@@ -110,11 +113,15 @@ int RunAte(CommandContext& context, const AteArgs& args) {
                        fmt::format("{} against {}", args.trajectory, args.groundtruth));
   }
   // Every reason the numbers may mean nothing (result_warnings.h); --json marks them too.
-  for (const ResultWarning& warning : EvaluationWarnings(*result, args.scale)) {
+  const std::vector<ResultWarning> warnings = EvaluationWarnings(*result, args.scale);
+  for (const ResultWarning& warning : warnings) {
     context.err << "warning: " << warning.message << "\n";
   }
+  // The score lines carry the mark themselves (the warnings are lines above them).
+  const std::string mark = NotMeaningfulMark(warnings);
   if (!args.plot.empty()) {
-    if (absl::Status status = WritePlot(args.plot, *result); !status.ok()) {
+    const std::string plot_mark = NotMeaningfulMark(warnings, "the run's warnings");
+    if (absl::Status status = WritePlot(args.plot, *result, plot_mark); !status.ok()) {
       return ReportError(context, status);
     }
   }
@@ -136,10 +143,11 @@ int RunAte(CommandContext& context, const AteArgs& args) {
   }
 
   context.out << fmt::format(
-      "{} poses matched ({} estimated, {} ground truth, within {} s); alignment {}{}\n",
+      "{} poses matched ({} estimated, {} ground truth, within {} s); alignment {}{}{}\n",
       result->matches.size(), result->poses_estimated, result->poses_groundtruth, args.max_dt,
       args.scale ? "Sim(3)" : "SE(3)",
-      args.scale ? fmt::format(", scale {:.6f}", result->alignment.scale) : "");
+      args.scale ? fmt::format(", scale {:.6f}", result->alignment.scale) : "",
+      mark.empty() ? "" : "; " + mark);
   Table table(
       {{"metric"}, {"rmse", true}, {"mean", true}, {"median", true}, {"std", true}, {"max", true}});
   auto row = [&](const std::string& name, const ErrorStats& s, int decimals) {
@@ -147,7 +155,7 @@ int RunAte(CommandContext& context, const AteArgs& args) {
                   FormatNumber(s.median, decimals), FormatNumber(s.std, decimals),
                   FormatNumber(s.max, decimals)});
   };
-  row("ATE (m)", result->ate, 4);
+  row(mark.empty() ? "ATE (m)" : "ATE (m), NOT MEANINGFUL", result->ate, 4);
   row(fmt::format("RPE trans (m, delta {})", args.delta), result->rpe_translation, 4);
   row(fmt::format("RPE rot (deg, delta {})", args.delta), result->rpe_rotation_deg, 3);
   table.Print(context.out);

@@ -4,6 +4,7 @@
 
 #include <chrono>
 #include <fstream>
+#include <map>
 #include <memory>
 #include <set>
 #include <sstream>
@@ -37,7 +38,32 @@ struct AnswerNotes {
   std::string csv;            // RecognitionCsvFields
   bool retrieval = false;     // the server applied the retrieval mode
   bool global_stage = false;  // ... with its global stage
+  std::string skipped;        // ... or why not (RecognizeResponse.global_stage_skipped)
 };
+
+// Why queries ran without the global stage, by the answer's reason
+// (RecognizeResponse.global_stage_skipped): the query's own lack is not the database's.
+std::string WithoutGlobalCause(const std::string& skipped) {
+  static const std::map<std::string, std::string> kCauses = {
+      {"no_keypoints",
+       "the query had no SIFT keypoints (an image without texture), so no stage could accept it"},
+      {"no_vocabulary",
+       "the database had no vocabulary yet (it learns its first at 16 views), so only the "
+       "geometric NFA could accept"},
+      {"off",
+       "the database keeps no global stage (created in another mode or with "
+       "--no-global-descriptor), so only the geometric NFA could accept"},
+      {"no_dense",
+       "the query carried no dense descriptors (the vocabulary was learnt while it was "
+       "extracted)"},
+      {"not_coded", "the database's views were not coded yet (see `db stats`)"},
+  };
+  const auto it = kCauses.find(skipped);
+  // A server older than the reason: the causes it could have had.
+  return it != kCauses.end() ? it->second
+                             : "the server gave no reason (the database has no vocabulary or "
+                               "keeps no global stage, or the query had no keypoints)";
+}
 
 // Runs one query. Errors stop the evaluation: metrics over a partial set would mislead.
 absl::StatusOr<QueryRecord> RunQuery(client::CrossingClient& client, const EvalArgs& args,
@@ -70,6 +96,7 @@ absl::StatusOr<QueryRecord> RunQuery(client::CrossingClient& client, const EvalA
   notes->csv = RecognitionCsvFields(*response);
   notes->retrieval = response->mode() == v1::RECOGNITION_MODE_RETRIEVAL;
   notes->global_stage = response->global_stage();
+  notes->skipped = response->global_stage_skipped();
   return record;
 }
 
@@ -131,6 +158,7 @@ int RunEval(CommandContext& context, const EvalArgs& args) {
   std::set<std::string> never_stored;
   int never_stored_queries = 0, never_stored_accepted = 0;
   int retrieval_queries = 0, without_global = 0;
+  std::map<std::string, int> without_global_by_cause;  // global_stage_skipped -> queries
   for (const QueryImage& query : *queries) {
     AnswerNotes notes;
     auto record = RunQuery(*client, args, query, &notes);
@@ -142,7 +170,10 @@ int RunEval(CommandContext& context, const EvalArgs& args) {
     }
     if (notes.retrieval) {
       ++retrieval_queries;
-      if (!notes.global_stage) ++without_global;
+      if (!notes.global_stage) {
+        ++without_global;
+        ++without_global_by_cause[notes.skipped.empty() ? "unknown" : notes.skipped];
+      }
     }
     if (crossings.ok() && !query.unknown() && stored.count(query.folder) == 0) {
       never_stored.insert(query.folder);
@@ -158,11 +189,14 @@ int RunEval(CommandContext& context, const EvalArgs& args) {
   progress.Finish();
 
   if (without_global > 0) {
+    std::string causes;
+    for (const auto& [skipped, count] : without_global_by_cause) {
+      causes += fmt::format("{}{} because {}", causes.empty() ? "" : "; ", count,
+                            WithoutGlobalCause(skipped));
+    }
     context.err << fmt::format(
-        "warning: {} of {} retrieval-mode queries ran without its global stage: the database has "
-        "no vocabulary (it learns its first at 16 views) or keeps no global stage, so only the "
-        "geometric NFA could accept\n",
-        without_global, retrieval_queries);
+        "warning: {} of {} retrieval-mode queries ran without the global stage: {}\n",
+        without_global, retrieval_queries, causes);
   }
   if (never_stored_queries > 0) {
     std::string names;
@@ -186,7 +220,8 @@ int RunEval(CommandContext& context, const EvalArgs& args) {
                                                                    never_stored.end())},
                             {"accepted", never_stored_accepted}};
     json["without_global_stage"] = {{"queries", without_global},
-                                    {"retrieval_queries", retrieval_queries}};
+                                    {"retrieval_queries", retrieval_queries},
+                                    {"causes", without_global_by_cause}};
     PrintJson(context.out, json);
   } else {
     PrintSummary(context.out, summary);

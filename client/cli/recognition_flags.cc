@@ -66,8 +66,9 @@ void RecognitionFlags::Register(CLI::App* command) {
   min_global_lift_option_ =
       command
           ->add_option("--min-global-lift", min_global_lift_,
-                       "Retrieval mode: accept the most similar view when it stands this far "
-                       "above the median global similarity; 0 = off [0.16]")
+                       "Retrieval mode, legacy lift rule: accept the most similar view when it "
+                       "stands this far above the median global similarity; 0 = off, the global "
+                       "chance model decides [0]")
           ->check(CLI::Range(0.0, 2.0))
           ->group(group);
   evidence_option_ =

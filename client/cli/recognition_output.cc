@@ -54,7 +54,10 @@ std::string RecognitionWhy(const v1::RecognizeResponse& r) {
     const std::string global = GlobalNumbers(r, true);
     if (!global.empty()) numbers += "; " + global;
   }
-  if (!r.global_stage()) numbers += "; ran without a global stage";
+  if (!r.global_stage()) {
+    numbers += "; ran without a global stage";
+    if (!r.global_stage_skipped().empty()) numbers += " (" + r.global_stage_skipped() + ")";
+  }
   return path == "refused" ? fmt::format("refused: {}", numbers)
                            : fmt::format("accepted by {}: {}", path.empty() ? "?" : path, numbers);
 }

@@ -96,4 +96,9 @@ nlohmann::json WarningsJson(const std::vector<ResultWarning>& warnings) {
   return {{"warnings", list}, {"result_meaningful", warnings.empty()}};
 }
 
+std::string NotMeaningfulMark(const std::vector<ResultWarning>& warnings,
+                              const std::string& where) {
+  return warnings.empty() ? "" : "NOT MEANINGFUL: see " + where;
+}
+
 }  // namespace waymark::cli

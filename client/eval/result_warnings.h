@@ -52,6 +52,12 @@ std::vector<ResultWarning> TrackingWarnings(const std::vector<VoFrameRecord>& re
 // {"warnings": [{"code": ..., "message": ...}, ...], "result_meaningful": warnings.empty()}.
 nlohmann::json WarningsJson(const std::vector<ResultWarning>& warnings);
 
+// The mark a printed score carries on its own line when `warnings` say it means nothing (issue
+// 35's tour: the warnings came before an unmarked "ATE RMSE 0.0563 m"): "NOT MEANINGFUL: see
+// <where>", or "" without warnings.
+std::string NotMeaningfulMark(const std::vector<ResultWarning>& warnings,
+                              const std::string& where = "warnings above");
+
 }  // namespace waymark::cli
 
 #endif  // WAYMARK_CLIENT_EVAL_RESULT_WARNINGS_H_

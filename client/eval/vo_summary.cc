@@ -133,4 +133,13 @@ nlohmann::json EvaluationSummary(const TrajectoryEvaluation& e, bool with_scale)
   return json;
 }
 
+std::string AteLine(const TrajectoryEvaluation& e, bool with_scale,
+                    const std::vector<ResultWarning>& warnings) {
+  const std::string mark = NotMeaningfulMark(warnings);
+  return fmt::format(
+      "ATE RMSE {:.4f} m over {} poses ({}{}), RPE trans RMSE {:.4f} m, rot RMSE {:.3f} deg",
+      e.ate.rmse, e.matches.size(), with_scale ? "Sim(3)" : "SE(3)",
+      mark.empty() ? "" : ", " + mark, e.rpe_translation.rmse, e.rpe_rotation_deg.rmse);
+}
+
 }  // namespace waymark::cli

@@ -11,6 +11,7 @@
 #include <vector>
 
 #include "absl/status/status.h"
+#include "client/eval/result_warnings.h"
 #include "client/eval/trajectory_metrics.h"
 #include "client/render/vo_frames.h"
 
@@ -38,6 +39,11 @@ nlohmann::json FrameSummary(const std::vector<VoFrameRecord>& records);
 // scale), and match_warning: FewMatchesWarning's text, or null when enough poses matched;
 // groundtruth_path_m, and `warnings` / `result_meaningful` (result_warnings.h EvaluationWarnings).
 nlohmann::json EvaluationSummary(const TrajectoryEvaluation& evaluation, bool with_scale);
+
+// `vo run`'s score line: "ATE RMSE 0.0563 m over 51 poses (Sim(3)), RPE trans RMSE ... deg", with
+// "(Sim(3), NOT MEANINGFUL: see warnings above)" when `warnings` (result_warnings.h) say so.
+std::string AteLine(const TrajectoryEvaluation& evaluation, bool with_scale,
+                    const std::vector<ResultWarning>& warnings);
 
 }  // namespace waymark::cli
 

@@ -278,21 +278,23 @@ int RunVo(CommandContext& context, const VoArgs& args) {
 
   // When the numbers mean nothing (result_warnings.h): the session's own warnings (intrinsics that
   // do not fit the images), few tracked frames, no parallax, then the evaluation's.
-  {
-    std::vector<ResultWarning> all = TrackingWarnings(records, /*monocular=*/!args.depth);
-    all.insert(all.end(), result_warnings.begin(), result_warnings.end());
-    for (const ResultWarning& warning : all) context.err << "warning: " << warning.message << "\n";
-    summary.update(WarningsJson(all));
+  std::vector<ResultWarning> all_warnings = TrackingWarnings(records, /*monocular=*/!args.depth);
+  all_warnings.insert(all_warnings.end(), result_warnings.begin(), result_warnings.end());
+  for (const ResultWarning& warning : all_warnings) {
+    context.err << "warning: " << warning.message << "\n";
   }
+  summary.update(WarningsJson(all_warnings));
 
-  const std::string title =
-      evaluation
-          ? fmt::format("{}: {} frames, ATE RMSE {:.4f} m{}", SequenceName(args.sequence),
-                        poses.size(), evaluation->ate.rmse,
-                        with_scale
-                            ? fmt::format(" (Sim(3), scale {:.3f})", evaluation->alignment.scale)
-                            : "")
-          : fmt::format("{}: {} frames", SequenceName(args.sequence), poses.size());
+  // The picture's score carries the mark too: it is shown without the warnings.
+  const std::string picture_mark = NotMeaningfulMark(all_warnings, "summary.json's warnings");
+  std::string title = fmt::format("{}: {} frames", SequenceName(args.sequence), poses.size());
+  if (evaluation) {
+    std::string notes =
+        with_scale ? fmt::format("Sim(3), scale {:.3f}", evaluation->alignment.scale) : "";
+    if (!picture_mark.empty()) notes += (notes.empty() ? "" : ", ") + picture_mark;
+    title += fmt::format(", ATE RMSE {:.4f} m{}", evaluation->ate.rmse,
+                         notes.empty() ? "" : " (" + notes + ")");
+  }
   // SVG for documents, PNG for a quick look (one layout, map_render.h).
   if (absl::Status s = WriteMapPictures(TrajectoryScene(poses, evaluation, title),
                                         out_dir / "trajectory.svg", out_dir / "trajectory.png",
@@ -344,12 +346,7 @@ int RunVo(CommandContext& context, const VoArgs& args) {
   context.out << fmt::format("server ms per frame: median {:.1f}, p90 {:.1f}\n",
                              summary["total_ms_median"].get<double>(),
                              summary["total_ms_p90"].get<double>());
-  if (evaluation) {
-    context.out << fmt::format(
-        "ATE RMSE {:.4f} m over {} poses ({}), RPE trans RMSE {:.4f} m, rot RMSE {:.3f} deg\n",
-        evaluation->ate.rmse, evaluation->matches.size(), with_scale ? "Sim(3)" : "SE(3)",
-        evaluation->rpe_translation.rmse, evaluation->rpe_rotation_deg.rmse);
-  }
+  if (evaluation) context.out << AteLine(*evaluation, with_scale, all_warnings) << "\n";
   context.out << fmt::format(
       "wrote {}/trajectory.txt, trajectory.svg, trajectory.png, summary.json, {} frame "
       "pictures in frames/\n",

@@ -635,6 +635,50 @@ TEST_F(CliTest, EvalWithoutUnknownFolderHasNullFalseAcceptRate) {
   EXPECT_THAT(missing_db.err, HasSubstr("NOT_FOUND"));
 }
 
+// Issue 34's tour: one unknown-place query without SIFT keypoints made eval say the database
+// "has no vocabulary ... or keeps no global stage" when it had both. The warning names the cause
+// each answer gives (RecognizeResponse.global_stage_skipped).
+TEST_F(CliTest, EvalNamesWhyQueriesRanWithoutTheGlobalStage) {
+  ScopedTempDir dir;
+  MakeViews(dir);
+  ASSERT_EQ(Run({"db", "create", "campus"}).code, 0);
+  ASSERT_EQ(Run({"enroll", "campus", (dir.path() / "views").string()}).code, 0);
+  Copy(dir, "views/A/090.png", "queries/A/090.png");
+  WriteImage(dir.Make("queries/unknown/sunset-162.png"), 40, 30, cv::Scalar(7, 7, 7));
+  const std::string blank = ReadAll(dir.path() / "queries/unknown/sunset-162.png");
+  const std::string queries = (dir.path() / "queries").string();
+  // Retrieval answers from a database with its vocabulary: the blank query had no keypoints.
+  std::string database_cause;  // every answer's cause when set
+  server_.service().set_on_recognize(
+      [&](const v1::RecognizeRequest& request, v1::RecognizeResponse* answer) {
+        answer->set_mode(v1::RECOGNITION_MODE_RETRIEVAL);
+        std::string skipped = database_cause;
+        if (skipped.empty() && request.image().data() == blank) skipped = "no_keypoints";
+        answer->set_global_stage(skipped.empty());
+        answer->set_global_stage_skipped(skipped);
+      });
+
+  CliResult r = Run({"eval", "campus", queries});
+  ASSERT_EQ(r.code, 0) << r.err;
+  EXPECT_THAT(r.err, HasSubstr("warning: 1 of 2 retrieval-mode queries ran without the global "
+                               "stage: 1 because the query had no SIFT keypoints"));
+  EXPECT_THAT(r.err, Not(HasSubstr("vocabulary")));
+  EXPECT_THAT(r.err, Not(HasSubstr("keeps no global stage")));
+  r = Run({"--json", "eval", "campus", queries});
+  ASSERT_EQ(r.code, 0) << r.err;
+  EXPECT_EQ(r.Json()["without_global_stage"]["queries"], 1);
+  EXPECT_EQ(r.Json()["without_global_stage"]["causes"]["no_keypoints"], 1);
+
+  database_cause = "off";
+  r = Run({"eval", "campus", queries});
+  EXPECT_THAT(r.err, HasSubstr("warning: 2 of 2 retrieval-mode queries ran without the global "
+                               "stage: 2 because the database keeps no global stage"));
+  EXPECT_THAT(r.err, Not(HasSubstr("keypoints")));
+  database_cause = "no_vocabulary";
+  r = Run({"eval", "campus", queries});
+  EXPECT_THAT(r.err, HasSubstr("2 because the database had no vocabulary yet"));
+}
+
 // Issue 15: an unknown command said only "A subcommand is required".
 TEST_F(CliTest, AnUnknownCommandIsNamedAndTheCommandsListed) {
   CliResult r = Run({"frobnicate"});

@@ -32,6 +32,11 @@ void FakeCrossingService::set_on_enroll(std::function<void(int index)> hook) {
   on_enroll_ = std::move(hook);
 }
 
+void FakeCrossingService::set_on_recognize(RecognizeHook hook) {
+  std::lock_guard<std::mutex> lock(mutex_);
+  on_recognize_ = std::move(hook);
+}
+
 std::vector<FakeCrossingService::View> FakeCrossingService::views(
     const std::string& database) const {
   std::lock_guard<std::mutex> lock(mutex_);
@@ -338,9 +343,10 @@ grpc::Status FakeCrossingService::RecognizeCrossing(grpc::ServerContext*,
     candidate->set_kept(true);
     candidate->set_similarity(0.8);
     candidate->set_decision(0.9);
-    return grpc::Status::OK;
+    break;
   }
-  response->set_reason("no view matches");
+  if (!response->recognized()) response->set_reason("no view matches");
+  if (on_recognize_) on_recognize_(*request, response);
   return grpc::Status::OK;
 }
 

@@ -39,6 +39,10 @@ class FakeCrossingService final : public v1::CrossingService::Service {
   void set_stream_recognize_from(int frame) { stream_recognize_from_ = frame; }
   // Called by StreamEnroll before it enrolls the view at `index` (on the server's thread).
   void set_on_enroll(std::function<void(int index)> hook);
+  // Called by RecognizeCrossing with its answer, to edit it (under the service's lock).
+  using RecognizeHook =
+      std::function<void(const v1::RecognizeRequest& request, v1::RecognizeResponse* answer)>;
+  void set_on_recognize(RecognizeHook hook);
   int calls(const std::string& method) const;
   std::vector<View> views(const std::string& database) const;
   v1::CreateDatabaseRequest last_create() const;
@@ -94,6 +98,7 @@ class FakeCrossingService final : public v1::CrossingService::Service {
   absl::Duration delay_ = absl::ZeroDuration();
   int stream_recognize_from_ = 0;
   std::function<void(int)> on_enroll_;
+  RecognizeHook on_recognize_;
   int64_t next_id_ = 1;
   v1::CreateDatabaseRequest last_create_;
   v1::RecognitionParams last_params_;

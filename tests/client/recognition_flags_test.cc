@@ -2,6 +2,10 @@
 
 #include <gtest/gtest.h>
 
+#include <map>
+
+#include "server/crossing/options.h"
+
 namespace waymark::cli {
 namespace {
 
@@ -50,6 +54,41 @@ TEST(RecognitionFlagsTest, RejectsBadValues) {
   EXPECT_THROW(Parse({"--mode", "fast"}), CLI::ValidationError);
   EXPECT_THROW(Parse({"--ratio", "1.5"}), CLI::ValidationError);
   EXPECT_THROW(Parse({"--n2", "0"}), CLI::ValidationError);
+}
+
+// The default an option's help shows, "[X]" at its end ("" without one).
+std::string ShownDefault(const CLI::Option& option) {
+  const std::string text = option.get_description();
+  const size_t open = text.rfind('[');
+  if (text.empty() || text.back() != ']' || open == std::string::npos) return "";
+  return text.substr(open + 1, text.size() - open - 2);
+}
+
+// Issue 35's tour: `recognize --help` and `eval --help` showed `--min-global-lift ... [0.16]`
+// while a database's default is 0 (the lift rule off). Every default the overrides show is the
+// server's (crossing::RecognitionOptions, which a new database keeps), and none goes unchecked.
+TEST(RecognitionFlagsTest, TheHelpShowsTheServersDefaults) {
+  CLI::App app;
+  RecognitionFlags flags;
+  flags.Register(&app);
+  const crossing::RecognitionOptions server;
+  const std::map<std::string, double> defaults = {
+      {"--min-global-lift", server.min_global_lift},
+      {"--max-log10-nfa", server.max_log10_nfa},
+      {"--global-shortlist", server.global_shortlist},
+      {"--evidence", server.evidence_threshold},
+  };
+  int shown = 0;
+  for (const CLI::Option* option : app.get_options()) {
+    const std::string value = ShownDefault(*option);
+    if (value.empty()) continue;
+    ++shown;
+    const std::string name = option->get_name(false, true);
+    const auto it = defaults.find(name);
+    ASSERT_NE(it, defaults.end()) << name << " shows [" << value << "], which is not checked";
+    EXPECT_DOUBLE_EQ(std::stod(value), it->second) << name << " shows [" << value << "]";
+  }
+  EXPECT_EQ(shown, static_cast<int>(defaults.size()));
 }
 
 }  // namespace

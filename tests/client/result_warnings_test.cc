@@ -152,5 +152,33 @@ TEST(EvaluateWarningsTest, EvalAteWarnsAndMarksItsJson) {
   EXPECT_FALSE(r.Json()["result_meaningful"].get<bool>());
 }
 
+// Issue 35's tour: the warnings came on the lines before an unmarked "ATE RMSE 0.0563 m"; the
+// score's own line says it means nothing, in `vo run` (AteLine) and in `eval ate`.
+TEST(EvaluateWarningsTest, TheAteLineItselfIsMarked) {
+  const std::vector<StampedPose3> truth = Drive();
+  std::vector<StampedPose3> estimate = truth;
+  for (StampedPose3& p : estimate) p.translation /= 0.013;
+  absl::StatusOr<TrajectoryEvaluation> bad = EvaluateTrajectory(estimate, truth, {0.02, true, 1});
+  ASSERT_TRUE(bad.ok());
+  const std::string line = AteLine(*bad, true, EvaluationWarnings(*bad, true));
+  EXPECT_NE(line.find("ATE RMSE"), std::string::npos) << line;
+  EXPECT_NE(line.find("(Sim(3), NOT MEANINGFUL: see warnings above)"), std::string::npos) << line;
+  absl::StatusOr<TrajectoryEvaluation> good = EvaluateTrajectory(truth, truth, {0.02, true, 1});
+  ASSERT_TRUE(good.ok());
+  EXPECT_EQ(AteLine(*good, true, EvaluationWarnings(*good, true)).find("NOT MEANINGFUL"),
+            std::string::npos);
+
+  testing::ScopedTempDir dir;
+  ASSERT_TRUE(WriteTumPosesFile(dir.path() / "est.txt", estimate).ok());
+  ASSERT_TRUE(WriteTumPosesFile(dir.path() / "gt.txt", truth).ok());
+  const std::vector<std::string> ate = {"eval", "ate", (dir.path() / "est.txt").string(),
+                                        (dir.path() / "gt.txt").string(), "--scale"};
+  testing::CliResult r = testing::RunWaymark("localhost:1", ate);
+  ASSERT_EQ(r.code, 0) << r.err;
+  EXPECT_NE(r.out.find("scale 0.013000; NOT MEANINGFUL: see warnings above"), std::string::npos)
+      << r.out;
+  EXPECT_NE(r.out.find("ATE (m), NOT MEANINGFUL"), std::string::npos) << r.out;
+}
+
 }  // namespace
 }  // namespace waymark::cli

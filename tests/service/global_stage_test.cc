@@ -209,6 +209,43 @@ TEST_P(GlobalStageTest, ADatabaseWithoutTheGlobalDescriptorLearnsNothing) {
   EXPECT_FALSE(Stats().database().params().global_descriptor());
 }
 
+// Issue 34's tour: one unknown-place query had no SIFT keypoints, and eval blamed the database
+// ("no vocabulary ... or keeps no global stage"). Each answer says whose lack it was.
+TEST_P(GlobalStageTest, AnAnswerSaysWhyTheGlobalStageDidNotRun) {
+  Create(v1::RECOGNITION_MODE_RETRIEVAL);
+  EnrollViews(0, 15);
+  registry_->WaitForGlobalStage();
+  v1::RecognizeResponse answer = Recognize(2, 10);
+  EXPECT_FALSE(answer.global_stage());
+  EXPECT_EQ(answer.global_stage_skipped(), "no_vocabulary");
+
+  EnrollViews(15, 16);
+  registry_->WaitForGlobalStage();
+  answer = Recognize(2, 10);
+  EXPECT_TRUE(answer.global_stage());
+  EXPECT_EQ(answer.global_stage_skipped(), "");
+
+  // A textureless image: no keypoints, though the database has its vocabulary and codes.
+  v1::RecognizeRequest blank = QueryRequest(panoramas_, 2, 10);
+  blank.mutable_image()->set_data(
+      testing::EncodePng(cv::Mat(240, 320, CV_8UC3, cv::Scalar(90, 90, 90))));
+  absl::StatusOr<v1::RecognizeResponse> none = registry_->Recognize(blank);
+  ASSERT_TRUE(none.ok()) << none.status();
+  EXPECT_EQ(none->keypoints(), 0);
+  EXPECT_FALSE(none->global_stage());
+  EXPECT_EQ(none->global_stage_skipped(), "no_keypoints");
+}
+
+TEST_P(GlobalStageTest, ARetrievalQueryOfADatabaseWithoutTheStageSaysSo) {
+  Create(v1::RECOGNITION_MODE_PAPER);
+  EnrollViews(0, 16);
+  registry_->WaitForGlobalStage();
+  const v1::RecognizeResponse answer = Recognize(2, 10);
+  EXPECT_EQ(answer.mode(), v1::RECOGNITION_MODE_RETRIEVAL);
+  EXPECT_FALSE(answer.global_stage());
+  EXPECT_EQ(answer.global_stage_skipped(), "off");
+}
+
 // The same views enrolled into a SQLite file and into a PostgreSQL database give the same
 // clusters, vocabulary and answers: crossing, view, decision, NFA and every candidate.
 TEST(GlobalStageBackendsTest, SqliteAndPostgresGiveTheSameAnswers) {

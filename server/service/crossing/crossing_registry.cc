@@ -44,6 +44,19 @@ int MaxRunning(const ExtractionLimits& limits) {
   return std::max(1, static_cast<int>(std::thread::hardware_concurrency()));
 }
 
+// Why a retrieval-mode answer ran without its global stage (RecognizeResponse
+// .global_stage_skipped): the database's lack before the query's. "" when it ran or the mode has
+// none. Requires db.mutex.
+const char* GlobalStageSkipped(const ResidentDatabase& db, const crossing::ImageFeatures& query,
+                               const crossing::Recognition& result) {
+  if (result.mode != crossing::RecognitionMode::kRetrieval || result.global_stage) return "";
+  if (!db.options.features.global_descriptor) return "off";
+  if (db.global.vocabulary == 0) return "no_vocabulary";
+  if (query.descriptors.rows == 0) return "no_keypoints";
+  if (query.dense.empty()) return "no_dense";
+  return "not_coded";
+}
+
 }  // namespace
 
 CrossingRegistry::CrossingRegistry(std::unique_ptr<storage::CrossingStore> store,
@@ -421,6 +434,7 @@ absl::StatusOr<v1::RecognizeResponse> CrossingRegistry::Recognize(
   response.set_accepted_by(crossing::AcceptedByName(result->accepted_by));
   response.set_nfa_computed(result->nfa_computed);
   response.set_global_stage(result->global_stage);
+  response.set_global_stage_skipped(GlobalStageSkipped(db, *features, *result));
   if (result->global_stage) {
     const crossing::ViewEntry& top = views[result->global.best_slot];
     response.set_global_model(result->global.computed);
