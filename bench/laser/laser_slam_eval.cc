@@ -166,6 +166,10 @@ bool SetMappingOption(const std::string& assignment, ls::MappingOptions* m) {
     m->local_odometry_hypothesis = value != 0.0;
     return true;
   }
+  if (name == "global_within_window") {
+    m->global_within_window = value != 0.0;
+    return true;
+  }
   if (name == "loosen_ridges") {
     m->loosen_ridges = value != 0.0;
     return true;

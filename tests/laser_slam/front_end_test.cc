@@ -250,13 +250,7 @@ struct TwinRoomsRun {
   int closures_to_a = 0;
 };
 
-TwinRoomsRun DriveTwinRooms(double rival_ratio) {
-  MappingOptions options;
-  options.submap_nodes = 5;
-  options.min_loop_travel = 3.0;
-  options.loop_window_min_xy = 14.0;  // the window holds both rooms
-  options.max_window_xy = 30.0;
-  options.rival_ratio = rival_ratio;
+TwinRoomsRun DriveTwinRooms(const MappingOptions& options) {
   MappingBackend backend(options);
   const std::vector<Wall> walls = TwinRooms();
   std::uint64_t scan = 0;
@@ -287,13 +281,43 @@ TwinRoomsRun DriveTwinRooms(double rival_ratio) {
   return run;
 }
 
+MappingOptions TwinRoomsOptions(double rival_ratio) {
+  MappingOptions options;
+  options.submap_nodes = 5;
+  options.min_loop_travel = 3.0;
+  options.loop_window_min_xy = 14.0;  // the window holds both rooms
+  options.max_window_xy = 30.0;
+  options.rival_ratio = rival_ratio;
+  return options;
+}
+
 TEST(LookAlikeRoomsTest, AReturnThatFitsTwoRoomsClosesOnNeither) {
-  const TwinRoomsRun guarded = DriveTwinRooms(0.9);
+  const TwinRoomsRun guarded = DriveTwinRooms(TwinRoomsOptions(0.9));
   EXPECT_GT(guarded.stats.closures_ambiguous, 0);
   EXPECT_EQ(guarded.closures_to_b, 0);
   // Without the rival tests the same run ties the return to the twin room: the test can fail.
-  const TwinRoomsRun unguarded = DriveTwinRooms(0.0);
+  const TwinRoomsRun unguarded = DriveTwinRooms(TwinRoomsOptions(0.0));
   EXPECT_GT(unguarded.closures_to_b, 0);
+}
+
+// Every search global (the window outgrows max_window_xy) but the graph sure of the robot to 3 m:
+// the twin room 12 m away is beyond the window's reach, so it is never searched and the return
+// closes on its own room. Searching every submap in turn instead ties it to the twin, which fits
+// as well and is matched alone (the test can fail).
+TEST(LookAlikeRoomsTest, AGlobalSearchLooksOnlyWhereTheWindowReaches) {
+  MappingOptions options = TwinRoomsOptions(0.9);
+  options.loop_window_min_xy = 3.0;
+  options.max_window_xy = 2.0;
+  options.global_search_every_nodes = 1;
+  options.max_candidates = 1;  // one submap per search, in turn
+  options.global_within_window = true;
+  const TwinRoomsRun gated = DriveTwinRooms(options);
+  EXPECT_GT(gated.stats.global_searches, 0);
+  EXPECT_GT(gated.closures_to_a, 0);
+  EXPECT_EQ(gated.closures_to_b, 0);
+  options.global_within_window = false;
+  const TwinRoomsRun everywhere = DriveTwinRooms(options);
+  EXPECT_GT(everywhere.closures_to_b, 0);
 }
 
 }  // namespace

@@ -310,17 +310,21 @@ void MappingBackend::SearchLoops(int index) {
       c.window.xy = std::max(options_.loop_window_min_xy, options_.loop_window_sigmas * sigma.xy);
       c.window.theta = std::min(
           M_PI, std::max(options_.loop_window_min_theta, options_.loop_window_sigmas * sigma.theta));
-      if (c.window.xy > options_.max_window_xy) {
-        c.global = true;
-        if (global_due) global.push_back(c);
-        continue;
-      }
       c.distance = 1e300;
       for (int j = submap.first; j <= last; ++j) {
         c.distance = std::min(c.distance, std::hypot(nodes_[j].global.x - node.global.x,
                                                      nodes_[j].global.y - node.global.y));
       }
-      if (c.distance > options_.candidate_distance + c.window.xy) continue;
+      // A submap further than the window reaches cannot hold the robot, wherever within its
+      // 3 sigma the graph is wrong; a global search looks at the whole of a submap the window
+      // reaches (the window outgrew it), and at no other.
+      const bool reachable = c.distance <= options_.candidate_distance + c.window.xy;
+      if (c.window.xy > options_.max_window_xy) {
+        c.global = true;
+        if (global_due && (reachable || !options_.global_within_window)) global.push_back(c);
+        continue;
+      }
+      if (!reachable) continue;
       candidates.push_back(c);
     }
     std::sort(candidates.begin(), candidates.end(),
