@@ -267,7 +267,8 @@ TwinRoomsRun DriveTwinRooms(const MappingOptions& options) {
       motion.increment = scan == 0 ? Pose2{} : Relative(previous, truth);
       motion.covariance = Eigen::Vector3d(1e-4, 1e-4, 1e-4).asDiagonal();
       previous = truth;
-      backend.AddScan(++scan, static_cast<double>(scan), truth, PointsFrom(walls, truth), motion);
+      ++scan;
+      backend.AddScan(scan, static_cast<double>(scan), truth, PointsFrom(walls, truth), motion);
     }
   }
   backend.Flush();

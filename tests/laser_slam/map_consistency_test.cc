@@ -172,7 +172,9 @@ TEST(MapConsistencyTest, TheLastSubmapDrawnAMetreOffTheStartContradictsItselfThe
   ASSERT_TRUE(report.ok()) << report.status();
   EXPECT_FALSE(report->consistent) << report->verdict;
   for (const ConsistencyTile& tile : report->tiles) {
-    if (tile.contradicts) EXPECT_LT(tile.min.x(), 5.0) << "tile at " << tile.min.transpose();
+    if (tile.contradicts) {
+      EXPECT_LT(tile.min.x(), 5.0) << "tile at " << tile.min.transpose();
+    }
   }
 }
 
