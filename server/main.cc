@@ -9,7 +9,7 @@
 //   waymark-server --db FILE token create NAME --role admin|mapper|robot [--robot-id ID]
 //   waymark-server --db FILE token list | token revoke NAME
 //
-// Every call needs a bearer token (server/service/access_policy.h) unless --insecure-dev, which is
+// Every call needs a bearer token (server/service/auth/access_policy.h) unless --insecure-dev, which is
 // only accepted on loopback. Plaintext is only served on loopback unless --allow-plaintext.
 // Prints "waymark-server listening on HOST:PORT" once it accepts calls (port 0 picks a free port).
 // SIGINT/SIGTERM: stop accepting, checkpoint every SLAM session in memory, end the open streams

@@ -19,7 +19,7 @@ using grpc::StatusCode;
 using Metadata = std::vector<std::pair<std::string, std::string>>;
 
 // The RPCs only an admin may call (token.proto: TokenService; crossing: DeleteDatabase drops
-// every robot's views, server/service/access_policy.h).
+// every robot's views, server/service/auth/access_policy.h).
 bool AdminOnly(const RpcTarget& target) {
   return target.method->service()->name() == "TokenService" ||
          target.name == "CrossingService/DeleteDatabase";

@@ -137,7 +137,7 @@ int RunList(CommandContext& context) {
   return kExitOk;
 }
 
-// The global stage's vocabulary schedule (server/service/global_stage.h): learnt at 16 views, then
+// The global stage's vocabulary schedule (server/service/crossing/global_stage.h): learnt at 16 views, then
 // at every doubling up to 512.
 constexpr int kFirstVocabularyViews = 16;
 constexpr int kLastVocabularyViews = 512;

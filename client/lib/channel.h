@@ -16,7 +16,7 @@ namespace waymark::client {
 // server even when idle, notices a dead link within keepalive_time + keepalive_timeout, and retries
 // connecting quickly once the robot is back in range.
 //
-// The keepalive must agree with the server's ping policy (server/service/server_channel.h; a test
+// The keepalive must agree with the server's ping policy (server/service/runtime/server_channel.h; a test
 // checks it): keepalive_time not below the server's minimum ping interval, or the server answers
 // GOAWAY "too_many_pings". keepalive_timeout is generous: on a busy machine (a loaded 2-core robot
 // computer, a server decoding camera frames on every core) a ping's answer can take seconds, and

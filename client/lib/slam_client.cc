@@ -11,7 +11,7 @@ namespace waymark::client {
 
 constexpr int kResourceExhausted = 8;  // google.rpc.Code
 // The trailing metadata a server of a fleet names the session's server in (the server's
-// kSessionOwnerMetadata, server/service/session_leases.h).
+// kSessionOwnerMetadata, server/service/slam/session_leases.h).
 constexpr char kSessionOwnerKey[] = "waymark-session-owner";
 
 // The server a finished call's refusal names as its session's ("" when none).

@@ -45,7 +45,7 @@ struct GlobalChanceOptions {
   // upper one stays below the few views of neighbouring places that do look alike).
   double low_quantile = 0.25;
   double high_quantile = 0.75;
-  // An alternative background, for the held-out evaluation (bench/vpr_heldout.cc), not the
+  // An alternative background, for the held-out evaluation (bench/crossing/vpr_heldout.cc), not the
   // default: per other place the query's best similarity over its views (a maximum already),
   // a Gumbel law fitted to those maxima by moments (scale inflated as above, n = places), and
   // EFA = places x P(max >= s_best). Measured worse on both counts (docs/crossing-recognition.md,

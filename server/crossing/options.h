@@ -57,7 +57,7 @@ struct RecognitionOptions {
   double beta = 0.5;    // decision weight of hue similarity
 
   // Verified mode (ours). The rejection rule was calibrated with waymark-vpr-eval
-  // (bench/vpr_eval.cc) on ../shared/data: the VPR-Bench corridor, the Gardens Point / SFU
+  // (bench/crossing/vpr_eval.cc) on ../shared/data: the VPR-Bench corridor, the Gardens Point / SFU
   // triplets, KITTI 06 frames 0-50 and Bonn crowd frames 270-409. min_inliers 20 is the smallest
   // value of {8, 10, 12, 15, 20, 25, 30} that keeps false accepts <= 5 % on every set of places not
   // in the database (15 lets 13 % of the unknown triplet queries through, 25 costs 5 points of

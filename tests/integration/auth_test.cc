@@ -49,7 +49,7 @@ Rpc Unary(Method method) {
   };
 }
 
-// Minimum role per RPC (the table in server/service/access_policy.h, written out again so that a
+// Minimum role per RPC (the table in server/service/auth/access_policy.h, written out again so that a
 // change there has to be made on purpose here).
 struct RpcCase {
   std::string name;
