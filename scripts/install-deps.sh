@@ -30,7 +30,7 @@ PACKAGES=(
   libssl-dev  # SHA-256 of token secrets and enrolled images (storage/sha256), TLS (a gRPC dependency)
   libgtest-dev libgmock-dev libbenchmark-dev
   libcli11-dev libspdlog-dev libfmt-dev nlohmann-json3-dev
-  prometheus-cpp-dev  # metrics endpoint (server/service/metrics)
+  prometheus-cpp-dev  # metrics endpoint (server/service/operations/metrics)
   zlib1g-dev libbz2-dev  # compressed CARMEN laser logs (client/datasets/carmen_log)
   blender-data  # real 360-degree photos for the rotation test set (bench/crossing/rotation_set.h)
   openssl  # test certificates (tests/integration/tls_test.cc)
