@@ -112,6 +112,63 @@ TEST_F(ExplorationServerTest, FrontierRunSaysDoneWithoutTouchingAWall) {
   EXPECT_GE(result->scans.back().completeness, 0.8);
 }
 
+// Floors on the built-in worlds of the README tour and docs/results.md's exploration table, on the
+// map and pose the session answers (map frame, after the back end). The goal layer steers in the
+// EKF's frame, so the robot drives the same path whatever the back end does: a drop here is the
+// answered map drifting off the walls it saw. The two-rooms world above is too small for that
+// (about 30 scans): issue 33's local matching chained its per-node match errors into 0.1-0.25 m
+// over the corridor's 146 scans with no loop closure to take them back, and corridor seed 1 went
+// from 97.9 % to 73.7 % of the walls on the same path (final error 0.016 -> 0.185 m).
+absl::StatusOr<cli::ExploreResult> ExploreBuiltIn(client::SlamClient& client,
+                                                 const std::string& name,
+                                                 v1::ExplorationConfig::Mode mode,
+                                                 std::uint64_t seed) {
+  auto world = adapters::LoadWorld(name);
+  if (!world.ok()) return world.status();
+  cli::ExploreOptions options;
+  options.mode = mode;
+  options.duration_s = 1800;
+  options.seed = seed;
+  return cli::RunExploration(client, *world, options);
+}
+
+// The README's tour: `sim explore --world corridor --mode active --seed 1` (97.9 % and 0.016 m
+// with the EKF's frame as the map's, as before issue 33).
+// DISABLED while issue 33 is open: the local-matching front end fails both floors (corridor seed 1:
+// 0.737 of the walls, 0.185 m; loop: 0.765, 0.142 m). Nine front-end variants were measured on
+// 2026-12-05 and none restored these without folding freiburg-campus-medium on the laser benchmark
+// (docs/results.md). Enable them with the fix.
+TEST_F(ExplorationServerTest, DISABLED_ReadmeCorridorRunMapsItsWallsAndEndsWhereItIs) {
+  auto result = ExploreBuiltIn(*client_, "corridor", v1::ExplorationConfig::ACTIVE, 1);
+  ASSERT_TRUE(result.ok()) << result.status() << "\n" << server_->Log();
+  EXPECT_EQ(result->collisions, 0);
+  EXPECT_TRUE(result->finished);
+  const cli::ScanRecord& last = result->scans.back();
+  EXPECT_EQ(last.exploration.state(), v1::ExplorationProgress::DONE) << last.exploration.reason();
+  EXPECT_GE(last.completeness, 0.9);
+  EXPECT_LT(last.loc_error_m, 0.1);
+}
+
+// `loop` (a ring corridor), active and frontier, seeds 1-5: means over the ten runs, as
+// docs/results.md reports them (0.952 / 0.939 of the walls, final error 0.067 / 0.064 m).
+TEST_F(ExplorationServerTest, DISABLED_LoopWorldMapsStayOnTheWallsOverFiveSeeds) {
+  double completeness = 0.0, final_error = 0.0;
+  int runs = 0;
+  for (v1::ExplorationConfig::Mode mode :
+       {v1::ExplorationConfig::ACTIVE, v1::ExplorationConfig::FRONTIER}) {
+    for (std::uint64_t seed = 1; seed <= 5; ++seed) {
+      auto result = ExploreBuiltIn(*client_, "loop", mode, seed);
+      ASSERT_TRUE(result.ok()) << result.status() << "\n" << server_->Log();
+      EXPECT_EQ(result->collisions, 0) << "mode " << mode << " seed " << seed;
+      completeness += result->scans.back().completeness;
+      final_error += result->scans.back().loc_error_m;
+      ++runs;
+    }
+  }
+  EXPECT_GE(completeness / runs, 0.9);
+  EXPECT_LT(final_error / runs, 0.1);
+}
+
 // goal_layer = false: the paper's planner exactly as published; no goal layer, no end.
 TEST_F(ExplorationServerTest, PaperModeKeepsTheOneStepPlannerAndRunsToTheEnd) {
   cli::ExploreOptions options;
