@@ -59,6 +59,28 @@ if [ "$PEERS" -eq 1 ]; then
   )
 fi
 
+# The tests' node packages (tests/js/package.json: MCAP/rosbag2 writers, the Foxglove WebSocket
+# client) need node and npm; a machine that already has them (any version >= 18) keeps its own.
+if [ "$BUILD_ONLY" -eq 0 ] && ! { command -v node >/dev/null && command -v npm >/dev/null; }; then
+  PACKAGES+=(nodejs npm)
+fi
+
+# tests/js/node_modules from its lock file, once per change of the lock (after apt, which may
+# have just installed npm). Called on every exit path below.
+install_test_node_packages() {
+  [ "$BUILD_ONLY" -eq 0 ] || return 0
+  local dir
+  dir="$(cd "$(dirname "$0")/.." && pwd)/tests/js"
+  [ -f "$dir/package-lock.json" ] || return 0
+  if [ -f "$dir/node_modules/.waymark-lock" ] && cmp -s "$dir/package-lock.json" "$dir/node_modules/.waymark-lock"; then
+    return 0
+  fi
+  echo "install-deps: npm ci in tests/js"
+  (cd "$dir" && npm ci --no-audit --no-fund --loglevel=error) || {
+    echo "install-deps: npm ci in tests/js failed (is the npm registry reachable?)" >&2; exit 1; }
+  cp "$dir/package-lock.json" "$dir/node_modules/.waymark-lock"
+}
+
 missing=()
 for p in "${PACKAGES[@]}"; do
   if ! dpkg-query -W -f='${Status}' "$p" 2>/dev/null | grep -q "install ok installed"; then
@@ -68,6 +90,7 @@ done
 
 if [ ${#missing[@]} -eq 0 ]; then
   echo "install-deps: all ${#PACKAGES[@]} packages present"
+  install_test_node_packages
   exit 0
 fi
 
@@ -88,3 +111,4 @@ if [[ " ${missing[*]} " == *" postgresql-15 "* ]]; then
 fi
 $SUDO apt-get update -qq
 $SUDO apt-get install -y -qq --no-install-recommends "${missing[@]}"
+install_test_node_packages
