@@ -70,10 +70,10 @@ def resolve_target(address):
     if len(entries) == 1:
         host, port = _split_host_port(entries[0])
         return _with_port(host, port), False, host
+    if not all(entries):
+        raise invalid_argument(f"server list {address!r} has an empty entry")
     resolved, families = [], set()
     for entry in entries:
-        if not entry:
-            raise invalid_argument(f"server list {address!r} has an empty entry")
         host, port = _split_host_port(entry)
         port = int(_with_port(host, port).rsplit(":", 1)[1])
         try:

@@ -152,7 +152,7 @@ class Recognition:
     keypoints: int
     global_stage_skipped: str
     total_ms: float
-    candidates: typing.List[Candidate]
+    candidates: typing.List[Candidate] = dataclasses.field(repr=False)
     raw: typing.Any = dataclasses.field(repr=False)
 
     @classmethod

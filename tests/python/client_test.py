@@ -10,7 +10,9 @@ certificates made with openssl. Real data from ../shared: crossing photos
 Run by run.sh (ctest: python_client_<Class>), which sets PYTHONPATH and the paths below.
 """
 import glob
+import math
 import os
+import re
 import shutil
 import signal
 import subprocess
@@ -26,6 +28,7 @@ import waymark
 SOURCE = os.environ["WAYMARK_SOURCE_DIR"]
 SHARED = os.environ["WAYMARK_SHARED_DIR"]
 SERVER = os.environ["WAYMARK_SERVER_BINARY"]
+CLI = os.environ["WAYMARK_CLI_BINARY"]
 TRIPLETS = os.path.join(SHARED, "data/vpr/gardenspoint_sfu_triplets_sample")
 CORRIDOR = os.path.join(SHARED, "data/vpr/corridor_vprbench")
 INTEL = os.path.join(SHARED, "data/laser/intel/intel.clf.bz2")
@@ -486,6 +489,27 @@ class ExamplesTest(ServerCase):
                                      r"theta=-?\d+\.\d{3} rad")
         # The example deletes its session.
         self.assertEqual(self.connect().list_sessions(), [])
+
+    def test_replay_example_ends_where_the_command_line_replay_does(self):
+        if not os.path.exists(INTEL):
+            self.skipTest(f"{INTEL} is absent")
+        out = self.run_example(os.path.join(EXAMPLES, "replay_carmen.py"), "--scans", "60", INTEL)
+        self.assertEqual(out.returncode, 0, out.stderr)
+        match = re.search(r"final pose x=(\S+) m y=(\S+) m theta=(\S+) rad", out.stdout)
+        self.assertIsNotNone(match, out.stdout)
+        x, y, theta = (float(v) for v in match.groups())
+        folder = os.path.join(self.folder, "cli-replay")
+        cli = subprocess.run([CLI, "--server", self.server.address, "slam", "replay", INTEL,
+                              "--max-scans", "60", "--out", folder],
+                             capture_output=True, text=True, timeout=300)
+        self.assertEqual(cli.returncode, 0, cli.stdout + cli.stderr)
+        with open(os.path.join(folder, "trajectory.txt")) as f:
+            last = [line for line in f if not line.startswith("#")][-1].split()
+        qz, qw = float(last[6]), float(last[7])
+        # The example prints 3 decimals; the two replays send the same scans and odometry.
+        self.assertAlmostEqual(x, float(last[1]), delta=0.002)
+        self.assertAlmostEqual(y, float(last[2]), delta=0.002)
+        self.assertAlmostEqual(theta, 2 * math.atan2(qz, qw), delta=0.002)
 
 
 def _take(iterable, n):
