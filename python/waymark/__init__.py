@@ -18,7 +18,7 @@ __path__ = pkgutil.extend_path(__path__, __name__)
 
 from waymark.errors import Error  # noqa: E402
 from waymark.retry import RetryOptions  # noqa: E402
-from waymark.types import (Candidate, CreatedToken, Crossing, Database, EnrollResult,  # noqa: E402
+from waymark.typed import (Candidate, CreatedToken, Crossing, Database, EnrollResult,  # noqa: E402
                            Frame, OccupancyGrid, Odometry, Pose2D, Pose3D, Recognition, Rejection,
                            Scan, SegmentMap, Session, SlamUpdate, Token, Trajectory,
                            TrajectoryPose)

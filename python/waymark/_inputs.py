@@ -6,7 +6,7 @@ import grpc
 from google.protobuf import json_format
 
 from waymark.errors import Error, invalid_argument
-from waymark.types import MODES
+from waymark.typed import MODES
 
 
 def image_bytes(image, what="image"):

@@ -23,3 +23,6 @@ except ImportError as e:
         "`cmake --build build --target waymark_python` and run with "
         "PYTHONPATH=python:build/python, or generate them with python/generate_stubs.sh OUT_DIR "
         f"and add OUT_DIR ({e})") from e
+
+__all__ = ["common_pb2", "crossing_pb2", "crossing_pb2_grpc", "slam_pb2", "slam_pb2_grpc",
+           "token_pb2", "token_pb2_grpc", "health_pb2"]

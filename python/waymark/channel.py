@@ -81,9 +81,11 @@ def resolve_target(address):
             infos = [(socket.AF_INET6 if ":" in host else socket.AF_INET, host)]
         except ValueError:
             try:
-                infos = [(i[0], i[4][0]) for i in socket.getaddrinfo(host, port, type=socket.SOCK_STREAM)]
+                infos = [(i[0], i[4][0])
+                         for i in socket.getaddrinfo(host, port, type=socket.SOCK_STREAM)]
             except socket.gaierror as e:
-                raise Error(grpc.StatusCode.NOT_FOUND, f"server {host!r} does not resolve: {e}") from e
+                raise Error(grpc.StatusCode.NOT_FOUND,
+                            f"server {host!r} does not resolve: {e}") from e
         family, ip = infos[0]
         families.add(family)
         resolved.append(f"[{ip}]:{port}" if family == socket.AF_INET6 else f"{ip}:{port}")
@@ -100,7 +102,8 @@ def _read_pem(path, what):
         with open(os.fspath(path), "rb") as f:
             data = f.read()
     except OSError as e:
-        raise Error(grpc.StatusCode.NOT_FOUND, f"cannot read the {what} file {path}: {e.strerror}") from e
+        raise Error(grpc.StatusCode.NOT_FOUND,
+                    f"cannot read the {what} file {path}: {e.strerror}") from e
     if b"-----BEGIN " not in data:
         raise invalid_argument(f"the {what} file {path} is not PEM (no -----BEGIN line)")
     return data

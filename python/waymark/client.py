@@ -4,10 +4,10 @@ import grpc
 from waymark import channel as _channel
 from waymark._stubs import health_pb2, token_pb2, token_pb2_grpc
 from waymark.crossing import CrossingMixin
-from waymark.errors import from_rpc_error, invalid_argument
+from waymark.errors import Error, from_rpc_error, invalid_argument
 from waymark.retry import RetryOptions, call_unary
 from waymark.slam import SlamMixin
-from waymark.types import ROLES, CreatedToken, Token
+from waymark.typed import ROLES, CreatedToken, Token
 
 _HEALTH_CHECK = "/grpc.health.v1.Health/Check"
 
@@ -68,7 +68,7 @@ class Client(CrossingMixin, SlamMixin):
         try:
             grpc.channel_ready_future(self.channel).result(timeout=timeout)
         except grpc.FutureTimeoutError:
-            raise from_rpc_error(_Unavailable(f"no connection within {timeout} s")) from None
+            raise Error(grpc.StatusCode.UNAVAILABLE, f"no connection within {timeout} s") from None
 
     # --- tokens (admin only) ---------------------------------------------------------------
 
@@ -93,18 +93,6 @@ class Client(CrossingMixin, SlamMixin):
         """Revokes a token at once; returns it as it now stands."""
         return Token.of(self._unary(self.token_stub.RevokeToken,
                                     token_pb2.RevokeTokenRequest(name=name), read=False))
-
-
-class _Unavailable(grpc.RpcError):
-    def __init__(self, message):
-        super().__init__(message)
-        self._message = message
-
-    def code(self):
-        return grpc.StatusCode.UNAVAILABLE
-
-    def details(self):
-        return self._message
 
 
 def connect(address="127.0.0.1:50051", token=None, tls=False, ca_file=None, cert_file=None,

@@ -5,7 +5,7 @@ import math
 from waymark import _inputs, _streams
 from waymark._stubs import common_pb2, crossing_pb2, crossing_pb2_grpc
 from waymark.errors import invalid_argument
-from waymark.types import Crossing, Database, EnrollResult, Recognition
+from waymark.typed import Crossing, Database, EnrollResult, Recognition
 
 
 class CrossingMixin:
@@ -66,7 +66,8 @@ class CrossingMixin:
     def _enroll_request(database, crossing, heading, image, create_crossing=True, position="",
                         replace=False, store_image=False, skip_invalid=False):
         request = crossing_pb2.EnrollViewRequest(
-            database=database, crossing=crossing, image=common_pb2.Image(data=_inputs.image_bytes(image)),
+            database=database, crossing=crossing,
+            image=common_pb2.Image(data=_inputs.image_bytes(image)),
             create_crossing=create_crossing, position=position, replace=replace,
             store_image=store_image, skip_invalid=skip_invalid)
         if heading is None:
@@ -118,7 +119,8 @@ class CrossingMixin:
         """The paper's frame loop over one StreamRecognize stream: yields a waymark.Recognition
         per image of `images` (bytes or paths), in order. A frame the server cannot use is
         answered with raw.error_code set and the stream goes on."""
-        params = _inputs.params_message(crossing_pb2.RecognitionParams, params, "recognition params")
+        params = _inputs.params_message(crossing_pb2.RecognitionParams, params,
+                                        "recognition params")
 
         def requests():
             for i, image in enumerate(images):

@@ -6,7 +6,7 @@ import threading
 from waymark import _inputs, _streams
 from waymark._stubs import slam_pb2, slam_pb2_grpc
 from waymark.errors import invalid_argument
-from waymark.types import (Frame, OccupancyGrid, Odometry, Scan, SegmentMap, Session,
+from waymark.typed import (Frame, OccupancyGrid, Odometry, Scan, SegmentMap, Session,
                            SlamUpdate, Trajectory)
 
 # Scans in flight on one stream (sent, not yet answered): well under the server's session queue
@@ -27,7 +27,8 @@ def _sensor_data(item):
     data = slam_pb2.SensorData()
     if isinstance(item, Odometry):
         data.odometry.stamp = item.stamp
-        data.odometry.pose.x, data.odometry.pose.y, data.odometry.pose.theta = item.x, item.y, item.theta
+        pose = data.odometry.pose
+        pose.x, pose.y, pose.theta = item.x, item.y, item.theta
         return data, "odometry"
     if isinstance(item, Scan):
         data.scan.stamp = item.stamp
@@ -106,9 +107,11 @@ class SlamMixin:
         if laser is not None and visual is not None:
             raise invalid_argument("a session is laser or visual, not both")
         if laser is not None:
-            request.laser.CopyFrom(_inputs.params_message(slam_pb2.LaserSlamConfig, laser, "laser config"))
+            request.laser.CopyFrom(
+                _inputs.params_message(slam_pb2.LaserSlamConfig, laser, "laser config"))
         if visual is not None:
-            request.visual.CopyFrom(_inputs.params_message(slam_pb2.VisualSlamConfig, visual, "visual config"))
+            request.visual.CopyFrom(
+                _inputs.params_message(slam_pb2.VisualSlamConfig, visual, "visual config"))
         return Session.of(self._unary(self.slam_stub.CreateSession, request, read=False))
 
     def create_laser_session(self, robot_id="", name="", *, beam_count, angle_min,
@@ -122,7 +125,8 @@ class SlamMixin:
         config.laser.angle_increment = float(angle_increment)
         config.laser.no_return_range = float(no_return_range)
         config.laser_pose.x, config.laser_pose.y, config.laser_pose.theta = laser_pose
-        config.params.CopyFrom(_inputs.params_message(slam_pb2.LaserSlamParams, params, "laser params"))
+        config.params.CopyFrom(
+            _inputs.params_message(slam_pb2.LaserSlamParams, params, "laser params"))
         if loop_closure is not None:
             config.params.loop_closure = loop_closure
         return self.create_session(robot_id, name, laser=config)
@@ -140,7 +144,8 @@ class SlamMixin:
         c.distortion.extend(distortion)
         if depth_scale is not None:
             config.depth_scale = depth_scale
-        config.params.CopyFrom(_inputs.params_message(slam_pb2.VisualSlamParams, params, "visual params"))
+        config.params.CopyFrom(
+            _inputs.params_message(slam_pb2.VisualSlamParams, params, "visual params"))
         return self.create_session(robot_id, name, visual=config)
 
     def list_sessions(self, robot_id=""):

@@ -141,7 +141,9 @@ class ClientTest(ServerCase):
         self.client = self.connect()
 
     def test_health_and_databases(self):
+        self.client.wait_ready(10)
         self.assertEqual(self.client.health(), "SERVING")
+        self.assertEqual(self.client.health("waymark.v1.SlamService"), "SERVING")
         self.assertNotIn("health-db", [d.name for d in self.client.list_databases()])
         created = self.client.create_database("health-db", {"hue_bins": 24})
         self.assertEqual(created.name, "health-db")
@@ -233,6 +235,7 @@ class ClientTest(ServerCase):
         client = self.connect(address="127.0.0.1:1", timeout=5,
                               retry=waymark.RetryOptions(max_attempts=2, initial_backoff=0.05))
         self.assertRaisesCode(grpc.StatusCode.UNAVAILABLE, client.list_databases)
+        self.assertRaisesCode(grpc.StatusCode.UNAVAILABLE, client.wait_ready, 0.5)
 
 
 class SlamTest(ServerCase):
@@ -243,7 +246,8 @@ class SlamTest(ServerCase):
         self.client = self.connect()
         if not os.path.exists(INTEL):
             self.skipTest(f"{INTEL} is absent")
-        self.lines = list(_take(replay_carmen.in_stamp_order(replay_carmen.flaser_lines(INTEL)), 80))
+        lines = replay_carmen.in_stamp_order(replay_carmen.flaser_lines(INTEL))
+        self.lines = list(_take(lines, 80))
 
     def _create(self, name):
         stamp, ranges, odom, laser = self.lines[0]
@@ -335,7 +339,8 @@ class SlamTest(ServerCase):
         listed = {s.session_id: s for s in self.client.list_sessions("py-robot")}
         self.assertEqual(listed[session.session_id].state, "open")
         # A new stream takes the session up where it was.
-        updates = list(self.client.stream_laser(session.session_id, self._readings(self.lines[40:45])))
+        updates = list(self.client.stream_laser(session.session_id,
+                                                self._readings(self.lines[40:45])))
         self.assertEqual([u.rejection for u in updates], [None] * 5)
         self.assertGreater(updates[-1].scans_processed, 5)
         self.client.delete_session(session.session_id, force=True)
