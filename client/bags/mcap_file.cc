@@ -274,11 +274,13 @@ absl::Status McapFile::BuildTable() {
     uint64_t length = 0;
     std::memcpy(&length, head->data() + 1, 8);
     const uint64_t content_at = offset + 9;
-    if (length > file_.size() - content_at) {
+    const bool cut = length > file_.size() - content_at;
+    if (cut) {
       Warn(absl::StrCat("record at offset ", offset, " claims ", length,
                         " bytes but the file ends sooner (a truncated file?); the messages "
                         "before it are kept"));
-      break;
+      if (op != kOpChunk) break;
+      length = file_.size() - content_at;  // a cut chunk: the messages it holds up to the cut
     }
     if (op == kOpDataEnd || op == kOpFooter) break;
     if (op == kOpChunk) {
@@ -291,7 +293,8 @@ absl::Status McapFile::BuildTable() {
       std::string compression;
       if (!cursor.Read(&start) || !cursor.Read(&end) || !cursor.Read(&uncompressed) ||
           !cursor.Read(&crc) || !cursor.PrefixedString<uint32_t>(&compression) ||
-          !cursor.Read(&records_length) || records_length > length - cursor.position()) {
+          !cursor.Read(&records_length) ||
+          (records_length > length - cursor.position() && !cut)) {
         Warn(absl::StrCat("malformed chunk record at offset ", offset, " is skipped"));
       } else {
         absl::StatusOr<Compression> codec = ParseCompression(compression);
@@ -299,13 +302,14 @@ absl::Status McapFile::BuildTable() {
         if (!codec.ok()) {
           Warn(absl::StrCat("chunk at offset ", offset, " is skipped: ", codec.status().message()));
         } else {
+          if (cut) records_length = std::min<uint64_t>(records_length, length - cursor.position());
           const uint32_t index = static_cast<uint32_t>(chunks_.size());
           chunks_.push_back({content_at + cursor.position(), records_length, *codec,
-                             *codec == Compression::kNone ? records_length : uncompressed, false});
+                             *codec == Compression::kNone ? records_length : uncompressed, cut});
           absl::StatusOr<std::string> expanded = ExpandChunk(chunks_.back());
           if (!expanded.ok()) {
             Warn(absl::StrCat("chunk at offset ", offset, " is skipped: ", expanded.status().message()));
-          } else if (crc != 0 && crc32(0L, reinterpret_cast<const Bytef*>(expanded->data()),
+          } else if (crc != 0 && !cut && crc32(0L, reinterpret_cast<const Bytef*>(expanded->data()),
                                        static_cast<uInt>(expanded->size())) != crc) {
             Warn(absl::StrCat("chunk at offset ", offset, " fails its CRC and is skipped"));
           } else {
@@ -330,6 +334,7 @@ absl::Status McapFile::BuildTable() {
       }
     }
     offset = content_at + length;
+    if (cut) break;
   }
   // Channels whose schema came later in the file are complete now; nothing else to resolve.
   return absl::OkStatus();

@@ -192,8 +192,7 @@ absl::Status Ros1Bag::Open() {
   connection_index_.clear();
   chunk_infos_.clear();
   Scan(header->end);
-  table_built_ = true;
-  return absl::OkStatus();
+  return EnsureTable();  // BuildTable has nothing left to add; this sorts what the scan found
 }
 
 absl::Status Ros1Bag::ReadIndex(uint64_t index_pos, uint32_t conn_count, uint32_t chunk_count) {
@@ -269,6 +268,7 @@ absl::Status Ros1Bag::ChunkAt(uint64_t chunk_pos, ChunkRef* chunk, uint64_t* end
 }
 
 absl::Status Ros1Bag::BuildTable() {
+  if (!indexed_) return absl::OkStatus();  // the scan at open filled the table
   // The index data records after each chunk: time and offset of each message, per connection.
   for (const ChunkInfo& info : chunk_infos_) {
     ChunkRef chunk;
