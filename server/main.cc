@@ -3,10 +3,10 @@
 //   waymark-server [--listen 127.0.0.1:50051] [--db ./var/waymark.db] [--threads N]
 //                  [--insecure-dev | --tls-cert F --tls-key F [--tls-client-ca F] | --allow-plaintext]
 //                  [--max-message-mb 32] [--max-streams-per-robot 8] [--stream-idle-seconds 300]
-//                  [--metrics-listen HOST:PORT] [--slam-queue 64]
+//                  [--metrics-listen HOST:PORT] [--live [HOST:]PORT] [--slam-queue 64]
 //                  [--slam-workers N] [--slam-checkpoint-seconds 30] [--max-sessions 64]
 //                  [--slam-journal true] [--slam-checkpoint-journal-mb 64]
-//   waymark-server --db FILE token create NAME --role admin|mapper|robot [--robot-id ID]
+//   waymark-server --db FILE token create NAME --role admin|mapper|robot|viewer [--robot-id ID]
 //   waymark-server --db FILE token list | token revoke NAME
 //
 // Every call needs a bearer token (server/service/auth/access_policy.h) unless --insecure-dev, which is
@@ -45,6 +45,7 @@
 #include "server/service/runtime/idle_stream_reaper.h"
 #include "server/service/runtime/memory_trimmer.h"
 #include "server/service/operations/metrics.h"
+#include "server/service/live/live_server.h"
 #include "server/service/slam/slam_registry.h"
 #include "server/service/runtime/server_channel.h"
 #include "server/service/auth/server_security.h"
@@ -68,6 +69,8 @@ struct ServerFlags {
   std::string listen = "127.0.0.1:50051";
   std::string db = "./var/waymark.db";
   std::string metrics_listen;  // "" = no metrics endpoint
+  std::string live;            // "" = no live view (docs/live-view.md)
+  waymark::service::live::LiveOptions live_options;
   // Where robots reach this server, named when another server redirects a robot here (a fleet on
   // PostgreSQL); "" = the --listen address.
   std::string advertise;
@@ -187,6 +190,27 @@ int Run(const ServerFlags& flags) {
     HintFirstToken(*tokens, flags);
     auth = waymark::service::Authenticator::WithTokens(tokens);
   }
+  // The live view: after the authenticator it asks, declared after the registries it reads so it
+  // stops first.
+  std::unique_ptr<waymark::service::live::LiveServer> live;
+  if (!flags.live.empty()) {
+    waymark::service::live::LiveOptions live_options = flags.live_options;
+    if (absl::Status s = waymark::service::live::ParseLiveAddress(flags.live, &live_options);
+        !s.ok()) {
+      spdlog::error("{}", std::string(s.message()));
+      return 2;
+    }
+    auto started = waymark::service::live::LiveServer::Start(
+        live_options, slam_registry->get(), registry->get(), auth.get());
+    if (!started.ok()) {
+      spdlog::error("{}", std::string(started.status().message()));
+      return 2;
+    }
+    live = std::move(*started);
+    spdlog::info("live view on http://{}:{}/ (Foxglove: ws://{}:{}; {})", live->host(),
+                 live->port(), live->host(), live->port(),
+                 flags.security.insecure_dev ? "auth OFF" : "a viewer token as ?token=");
+  }
   waymark::service::StreamLimiter streams(flags.max_streams_per_robot);
   waymark::service::IdleStreamReaper idle_streams(flags.stream_idle_seconds);
   waymark::service::MemoryTrimmer memory_trimmer;  // freed heap back to the system after bursts
@@ -232,6 +256,7 @@ int Run(const ServerFlags& flags) {
                "in-flight calls finish",
                g_signal.load());
   server->GetHealthCheckService()->SetServingStatus(false);
+  if (live != nullptr) live->Stop();  // viewers go first: they only watch
   const auto deadline = std::chrono::system_clock::now() +
                         std::chrono::milliseconds(static_cast<int>(flags.shutdown_grace_s * 1000));
   // Shutdown() refuses new calls at once and waits for the running ones (up to the grace); it
@@ -347,6 +372,18 @@ int main(int argc, char** argv) {
       ->capture_default_str();
   app.add_option("--metrics-listen", flags.metrics_listen,
                  "serve Prometheus metrics at http://IPV4:PORT/metrics (empty = off; port 0 picks one)");
+  app.add_option("--live", flags.live,
+                 "serve the live view at PORT or HOST:PORT (a bare port: loopback only): the "
+                 "Foxglove WebSocket protocol and a page of its own (docs/live-view.md; empty = "
+                 "off; port 0 picks one); needs a viewer token unless --insecure-dev");
+  app.add_option("--live-grid-resolution", flags.live_options.grid_resolution,
+                 "m per cell of the live view's occupancy grids (coarser for larger maps)")
+      ->check(CLI::Range(0.01, 1.0))
+      ->capture_default_str();
+  app.add_option("--live-max-viewers", flags.live_options.max_viewers,
+                 "viewers the live view serves at once; more get HTTP 503")
+      ->check(CLI::Range(1, 1000))
+      ->capture_default_str();
   app.add_option("--max-sessions", flags.slam.max_sessions,
                  "open SLAM sessions this server holds; CreateSession beyond gets RESOURCE_EXHAUSTED")
       ->check(CLI::Range(1, 100000))

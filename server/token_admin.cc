@@ -66,7 +66,10 @@ CLI::App* AddTokenAdminCommands(CLI::App& app, TokenAdminFlags* flags) {
   token->require_subcommand(1);
   CLI::App* create = token->add_subcommand("create", "create a token and print its secret once");
   create->add_option("name", flags->name, "unique token name, e.g. the robot's name")->required();
-  create->add_option("--role", flags->role, "robot, mapper or admin")->capture_default_str();
+  create
+      ->add_option("--role", flags->role,
+                   "robot, mapper, admin or viewer (viewer: only watches, e.g. the live view)")
+      ->capture_default_str();
   create->add_option("--robot-id", flags->robot_id, "robot the token speaks for (default: name)");
   create->add_option("--expires-days", flags->expires_days, "days until it expires (0 = never)")
       ->check(CLI::NonNegativeNumber);

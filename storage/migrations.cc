@@ -260,6 +260,29 @@ constexpr absl::string_view kV13ViewHeadingKnown = R"sql(
 ALTER TABLE view ADD COLUMN heading_known INTEGER NOT NULL DEFAULT 1;
 )sql";
 
+// v14: viewer tokens (issue 37): a role that may only watch (the live view, reads of every
+// robot's SLAM sessions). SQLite cannot alter a CHECK constraint, so the table is rebuilt with the
+// same columns and rows; nothing references it.
+constexpr absl::string_view kV14ViewerTokens = R"sql(
+CREATE TABLE tokens_v14 (
+  id INTEGER PRIMARY KEY,
+  name TEXT NOT NULL UNIQUE,
+  robot_id TEXT NOT NULL,
+  role TEXT NOT NULL CHECK (role IN ('robot', 'mapper', 'admin', 'viewer')),
+  secret_hash BLOB NOT NULL UNIQUE,
+  created_at REAL NOT NULL,
+  expires_at REAL,
+  revoked_at REAL,
+  last_used_at REAL
+);
+INSERT INTO tokens_v14 (id, name, robot_id, role, secret_hash, created_at, expires_at, revoked_at,
+                        last_used_at)
+  SELECT id, name, robot_id, role, secret_hash, created_at, expires_at, revoked_at, last_used_at
+  FROM tokens;
+DROP TABLE tokens;
+ALTER TABLE tokens_v14 RENAME TO tokens;
+)sql";
+
 absl::Status TooNewError(sqlite::Connection& connection, int version, int latest) {
   return absl::FailedPreconditionError(absl::StrCat(
       "database \"", connection.path(), "\" has schema version ", version,
@@ -285,6 +308,7 @@ const std::vector<absl::string_view>& SchemaMigrations() {
       kV11SlamJournal,
       kV12SlamMapCheck,
       kV13ViewHeadingKnown,
+      kV14ViewerTokens,
   };
   return *kSteps;
 }

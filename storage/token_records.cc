@@ -18,6 +18,8 @@ const char* TokenRoleName(TokenRole role) {
       return "mapper";
     case TokenRole::kAdmin:
       return "admin";
+    case TokenRole::kViewer:
+      return "viewer";
     case TokenRole::kRobot:
       break;
   }
@@ -25,11 +27,12 @@ const char* TokenRoleName(TokenRole role) {
 }
 
 absl::StatusOr<TokenRole> ParseTokenRole(absl::string_view name) {
-  for (TokenRole role : {TokenRole::kRobot, TokenRole::kMapper, TokenRole::kAdmin}) {
+  for (TokenRole role :
+       {TokenRole::kRobot, TokenRole::kMapper, TokenRole::kAdmin, TokenRole::kViewer}) {
     if (name == TokenRoleName(role)) return role;
   }
   return absl::InvalidArgumentError(
-      absl::StrCat("unknown token role \"", name, "\" (robot, mapper or admin)"));
+      absl::StrCat("unknown token role \"", name, "\" (robot, mapper, admin or viewer)"));
 }
 
 namespace {

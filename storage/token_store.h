@@ -18,10 +18,12 @@
 
 namespace waymark::storage {
 
-// robot: recognize, its own SLAM sessions; mapper: also edit crossing databases; admin: all.
-enum class TokenRole { kRobot, kMapper, kAdmin };
+// robot: recognize, its own SLAM sessions; mapper: also edit crossing databases; admin: all;
+// viewer: only watch (read every robot's SLAM sessions and maps, the live view). Listed in the
+// order they were added, not by rank (server/service/auth/access_policy.h ranks them).
+enum class TokenRole { kRobot, kMapper, kAdmin, kViewer };
 
-// "robot" / "mapper" / "admin", as stored and as typed on the command line.
+// "robot" / "mapper" / "admin" / "viewer", as stored and as typed on the command line.
 const char* TokenRoleName(TokenRole role);
 // The inverse of TokenRoleName; INVALID_ARGUMENT naming the valid roles otherwise.
 absl::StatusOr<TokenRole> ParseTokenRole(absl::string_view name);

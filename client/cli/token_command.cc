@@ -44,8 +44,9 @@ int RunCreate(CommandContext& context, const TokenArgs& args) {
   v1::TokenRole role = v1::TOKEN_ROLE_UNSPECIFIED;
   if (!v1::TokenRole_Parse(absl::AsciiStrToUpper(args.role), &role) ||
       role == v1::TOKEN_ROLE_UNSPECIFIED) {
-    return ReportError(context, absl::InvalidArgumentError(fmt::format(
-                                    "unknown role '{}' (robot, mapper or admin)", args.role)));
+    return ReportError(context,
+                       absl::InvalidArgumentError(fmt::format(
+                           "unknown role '{}' (robot, mapper, admin or viewer)", args.role)));
   }
   auto created = Connect(context).CreateToken(args.name, args.robot_id, role,
                                               absl::Seconds(args.expires_days * 86400.0));
@@ -99,7 +100,10 @@ void AddTokenCommands(CLI::App& app, CommandRegistry& registry) {
 
   CLI::App* create = token->add_subcommand("create", "Create a token; prints its secret once");
   create->add_option("NAME", args->name, "Unique token name, e.g. the robot's name")->required();
-  create->add_option("--role", args->role, "robot, mapper or admin")->capture_default_str();
+  create
+      ->add_option("--role", args->role,
+                   "robot, mapper, admin or viewer (viewer: only watches, e.g. the live view)")
+      ->capture_default_str();
   create->add_option("--robot-id", args->robot_id, "Robot the token speaks for (default: NAME)");
   create->add_option("--expires-days", args->expires_days, "Days until it expires (0 = never)")
       ->check(CLI::NonNegativeNumber);

@@ -169,28 +169,28 @@ grpc::Status SlamServiceImpl::ServeStreamSensorData(grpc::ServerContext* context
 
 grpc::Status SlamServiceImpl::GetMap(grpc::ServerContext* context, const v1::GetMapRequest* request,
                                      v1::SegmentMap* response) {
-  return ReplyForOwnSession(*context, request->session_id(), response,
+  return ReplyForOwnSession(*context, Action::kWatchSlam, request->session_id(), response,
                             [&] { return registry_->GetMap(request->session_id()); });
 }
 
 grpc::Status SlamServiceImpl::GetTrajectory(grpc::ServerContext* context,
                                             const v1::GetTrajectoryRequest* request,
                                             v1::Trajectory* response) {
-  return ReplyForOwnSession(*context, request->session_id(), response,
+  return ReplyForOwnSession(*context, Action::kWatchSlam, request->session_id(), response,
                             [&] { return registry_->GetTrajectory(request->session_id()); });
 }
 
 grpc::Status SlamServiceImpl::CloseSession(grpc::ServerContext* context,
                                            const v1::CloseSessionRequest* request,
                                            v1::Session* response) {
-  return ReplyForOwnSession(*context, request->session_id(), response,
+  return ReplyForOwnSession(*context, Action::kSlam, request->session_id(), response,
                             [&] { return registry_->CloseSession(request->session_id()); });
 }
 
 grpc::Status SlamServiceImpl::DeleteSession(grpc::ServerContext* context,
                                             const v1::DeleteSessionRequest* request,
                                             v1::DeleteSessionResponse* response) {
-  return ReplyForOwnSession(*context, request->session_id(), response, [&] {
+  return ReplyForOwnSession(*context, Action::kSlam, request->session_id(), response, [&] {
     return registry_->DeleteSession(request->session_id(), request->force());
   });
 }
@@ -198,7 +198,7 @@ grpc::Status SlamServiceImpl::DeleteSession(grpc::ServerContext* context,
 grpc::Status SlamServiceImpl::GetOccupancyGrid(grpc::ServerContext* context,
                                                const v1::GetOccupancyGridRequest* request,
                                                v1::OccupancyGrid* response) {
-  return ReplyForOwnSession(*context, request->session_id(), response, [&] {
+  return ReplyForOwnSession(*context, Action::kWatchSlam, request->session_id(), response, [&] {
     return registry_->GetOccupancyGrid(
         request->session_id(),
         request->has_resolution() ? std::optional<double>(request->resolution()) : std::nullopt);
@@ -225,7 +225,7 @@ grpc::Status SlamServiceImpl::ListSessions(grpc::ServerContext* context,
                                            const v1::ListSessionsRequest* request,
                                            v1::ListSessionsResponse* response) {
   return ReplyAuthorized(
-      *auth_, *context, Action::kSlam, response,
+      *auth_, *context, Action::kWatchSlam, response,
       [&](const Caller& caller) -> absl::StatusOr<v1::ListSessionsResponse> {
         // A robot lists its own sessions; "all robots" means all it may see.
         const std::string robot = request->robot_id().empty() && !SeesAllRobots(caller)

@@ -66,10 +66,10 @@ class SlamServiceImpl final : public v1::SlamService::Service {
   // A refusal because another server of the fleet serves the session also names that server in
   // the trailing metadata (AddSessionOwnerTrailer), for the client to go there.
   template <typename T, typename Call>
-  grpc::Status ReplyForOwnSession(grpc::ServerContext& context, const std::string& session_id,
-                                  T* response, Call&& call) {
+  grpc::Status ReplyForOwnSession(grpc::ServerContext& context, Action action,
+                                  const std::string& session_id, T* response, Call&& call) {
     absl::Status refused;
-    grpc::Status status = ReplyAuthorized(*auth_, context, Action::kSlam, response,
+    grpc::Status status = ReplyAuthorized(*auth_, context, action, response,
                                           [&](const Caller& caller) -> absl::StatusOr<T> {
                                             absl::Status owner =
                                                 CheckSessionOwner(caller, session_id);

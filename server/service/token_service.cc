@@ -19,6 +19,8 @@ v1::TokenRole RoleToProto(storage::TokenRole role) {
       return v1::MAPPER;
     case storage::TokenRole::kAdmin:
       return v1::ADMIN;
+    case storage::TokenRole::kViewer:
+      return v1::VIEWER;
   }
   return v1::TOKEN_ROLE_UNSPECIFIED;
 }
@@ -31,8 +33,10 @@ absl::StatusOr<storage::TokenRole> FromProto(v1::TokenRole role) {
       return storage::TokenRole::kMapper;
     case v1::ADMIN:
       return storage::TokenRole::kAdmin;
+    case v1::VIEWER:
+      return storage::TokenRole::kViewer;
     default:
-      return absl::InvalidArgumentError("role must be ROBOT, MAPPER or ADMIN");
+      return absl::InvalidArgumentError("role must be ROBOT, MAPPER, ADMIN or VIEWER");
   }
 }
 

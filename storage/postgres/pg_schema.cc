@@ -143,12 +143,20 @@ constexpr absl::string_view kV4ViewHeadingKnown = R"sql(
 ALTER TABLE view ADD COLUMN heading_known INTEGER NOT NULL DEFAULT 1;
 )sql";
 
+// v5: viewer tokens, as SQLite's version 14 (storage/migrations.cc, kV14ViewerTokens). The
+// column's CHECK got PostgreSQL's default name, tokens_role_check.
+constexpr absl::string_view kV5ViewerTokens = R"sql(
+ALTER TABLE tokens DROP CONSTRAINT tokens_role_check;
+ALTER TABLE tokens ADD CONSTRAINT tokens_role_check
+  CHECK (role IN ('robot', 'mapper', 'admin', 'viewer'));
+)sql";
+
 }  // namespace
 
 const std::vector<absl::string_view>& PostgresMigrations() {
   static const auto* const kSteps =
       new std::vector<absl::string_view>{kV1Tables, kV2SlamJournal, kV3SlamMapCheck,
-                                         kV4ViewHeadingKnown};
+                                         kV4ViewHeadingKnown, kV5ViewerTokens};
   return *kSteps;
 }
 

@@ -115,12 +115,14 @@ std::vector<RpcCase> AllRpcs() {
        }},
       {"CreateSession", TokenRole::kRobot,
        Unary<v1::CreateSessionRequest, v1::Session, SS>(&SS::CreateSession)},
-      {"GetMap", TokenRole::kRobot, Unary<v1::GetMapRequest, v1::SegmentMap, SS>(&SS::GetMap)},
-      {"GetTrajectory", TokenRole::kRobot,
+      {"GetMap", TokenRole::kViewer, Unary<v1::GetMapRequest, v1::SegmentMap, SS>(&SS::GetMap)},
+      {"GetTrajectory", TokenRole::kViewer,
        Unary<v1::GetTrajectoryRequest, v1::Trajectory, SS>(&SS::GetTrajectory)},
       {"CloseSession", TokenRole::kRobot,
        Unary<v1::CloseSessionRequest, v1::Session, SS>(&SS::CloseSession)},
-      {"ListSessions", TokenRole::kRobot,
+      {"GetOccupancyGrid", TokenRole::kViewer,
+       Unary<v1::GetOccupancyGridRequest, v1::OccupancyGrid, SS>(&SS::GetOccupancyGrid)},
+      {"ListSessions", TokenRole::kViewer,
        Unary<v1::ListSessionsRequest, v1::ListSessionsResponse, SS>(&SS::ListSessions)},
       {"DeleteSession", TokenRole::kRobot,
        Unary<v1::DeleteSessionRequest, v1::DeleteSessionResponse, SS>(&SS::DeleteSession)},
@@ -148,8 +150,12 @@ std::vector<RpcCase> AllRpcs() {
   return rpcs;
 }
 
+// viewer < robot < mapper < admin (the live view, the one exception, is not an RPC).
 int Rank(TokenRole role) {
-  return role == TokenRole::kRobot ? 0 : role == TokenRole::kMapper ? 1 : 2;
+  return role == TokenRole::kViewer  ? 0
+         : role == TokenRole::kRobot ? 1
+         : role == TokenRole::kMapper ? 2
+                                      : 3;
 }
 
 class AuthTest : public ::testing::Test {
@@ -170,6 +176,7 @@ class AuthTest : public ::testing::Test {
     add("r2", "robot-2", TokenRole::kRobot);
     add("m1", "mapper-1", TokenRole::kMapper);
     add("a1", "admin-1", TokenRole::kAdmin);
+    add("v1", "viewer-1", TokenRole::kViewer);
     add("expired", "robot-1", TokenRole::kAdmin, storage::NowSeconds() - 60);
     add("revoked", "robot-1", TokenRole::kAdmin);
     ASSERT_TRUE((*store)->RevokeToken("revoked").ok());
@@ -242,7 +249,8 @@ TEST_F(AuthTest, MalformedAuthorizationHeaderIsUnauthenticated) {
 
 TEST_F(AuthTest, EachRoleGetsExactlyItsRpcs) {
   const std::vector<std::pair<std::string, TokenRole>> roles = {
-      {"r1", TokenRole::kRobot}, {"m1", TokenRole::kMapper}, {"a1", TokenRole::kAdmin}};
+      {"v1", TokenRole::kViewer}, {"r1", TokenRole::kRobot}, {"m1", TokenRole::kMapper},
+      {"a1", TokenRole::kAdmin}};
   for (const RpcCase& rpc : AllRpcs()) {
     for (const auto& [token, role] : roles) {
       const grpc::Status status = rpc.call(As(token));
@@ -529,7 +537,7 @@ TEST_F(AuthTest, ServerTokenCommandWorksOnTheDatabaseWhileServing) {
   testing::CommandResult bad_role = testing::RunBinary(
       "waymark-server", "--db " + *db_ + " token create x --role superuser");
   EXPECT_NE(bad_role.code, 0);
-  EXPECT_THAT(bad_role.output, HasSubstr("robot, mapper or admin"));
+  EXPECT_THAT(bad_role.output, HasSubstr("robot, mapper, admin or viewer"));
 }
 
 }  // namespace

@@ -27,13 +27,19 @@ Caller Token(TokenRole role, const std::string& robot) {
 TEST(AccessPolicyTest, EachRoleMayDoExactlyItsActions) {
   const std::vector<Action> all = {Action::kReadCrossings, Action::kRecognize,
                                    Action::kEditCrossings, Action::kDeleteDatabase,
-                                   Action::kSlam,          Action::kManageTokens};
-  const std::vector<Action> robot = {Action::kReadCrossings, Action::kRecognize, Action::kSlam};
-  const std::vector<Action> mapper = {Action::kReadCrossings, Action::kRecognize, Action::kSlam,
-                                      Action::kEditCrossings};
+                                   Action::kWatchSlam,     Action::kSlam,
+                                   Action::kManageTokens,  Action::kLiveView};
+  const std::vector<Action> viewer = {Action::kWatchSlam, Action::kLiveView};
+  const std::vector<Action> robot = {Action::kReadCrossings, Action::kRecognize,
+                                     Action::kWatchSlam, Action::kSlam};
+  const std::vector<Action> mapper = {Action::kReadCrossings, Action::kRecognize,
+                                      Action::kWatchSlam, Action::kSlam, Action::kEditCrossings};
   for (Action action : all) {
+    const bool viewer_may = std::count(viewer.begin(), viewer.end(), action) > 0;
     const bool robot_may = std::count(robot.begin(), robot.end(), action) > 0;
     const bool mapper_may = std::count(mapper.begin(), mapper.end(), action) > 0;
+    EXPECT_EQ(CheckAction(Token(TokenRole::kViewer, "v1"), action).ok(), viewer_may)
+        << ActionName(action);
     EXPECT_EQ(CheckAction(Token(TokenRole::kRobot, "r1"), action).ok(), robot_may)
         << ActionName(action);
     EXPECT_EQ(CheckAction(Token(TokenRole::kMapper, "m1"), action).ok(), mapper_may)
@@ -63,6 +69,23 @@ TEST(AccessPolicyTest, RobotsSeeOnlyTheirOwnSessionsAdminsAll) {
   EXPECT_TRUE(CheckRobot(Token(TokenRole::kAdmin, "a1"), "r2").ok());
   EXPECT_FALSE(SeesAllRobots(Token(TokenRole::kMapper, "m1")));
   EXPECT_TRUE(SeesAllRobots(Token(TokenRole::kAdmin, "a1")));
+}
+
+// A viewer watches every robot, read-only; the live view is for viewers and admins only (a robot's
+// token must not show the fleet).
+TEST(AccessPolicyTest, ViewersWatchEveryRobotAndOnlyWatch) {
+  const Caller viewer = Token(TokenRole::kViewer, "v1");
+  EXPECT_TRUE(SeesAllRobots(viewer));
+  EXPECT_TRUE(CheckAction(viewer, Action::kWatchSlam).ok());
+  EXPECT_TRUE(CheckAction(viewer, Action::kLiveView).ok());
+  const absl::Status stream = CheckAction(viewer, Action::kSlam);
+  EXPECT_EQ(stream.code(), absl::StatusCode::kPermissionDenied);
+  EXPECT_THAT(stream.message(), HasSubstr("needs role robot"));
+  const absl::Status live = CheckAction(Token(TokenRole::kRobot, "r1"), Action::kLiveView);
+  EXPECT_EQ(live.code(), absl::StatusCode::kPermissionDenied);
+  EXPECT_THAT(live.message(), HasSubstr("viewer"));
+  EXPECT_FALSE(CheckAction(Token(TokenRole::kMapper, "m1"), Action::kLiveView).ok());
+  EXPECT_TRUE(CheckAction(Token(TokenRole::kAdmin, "a1"), Action::kLiveView).ok());
 }
 
 TEST(StreamLimiterTest, CapsStreamsPerRobotAndReleasesOnDestruction) {

@@ -76,7 +76,8 @@ class TokenStoreTest : public ::testing::TestWithParam<Backend> {
 INSTANTIATE_TEST_SUITE_P(Backends, TokenStoreTest, testing::kBothBackends, testing::BackendName);
 
 TEST(TokenRoleTest, RoleNamesRoundTrip) {
-  for (TokenRole role : {TokenRole::kRobot, TokenRole::kMapper, TokenRole::kAdmin}) {
+  for (TokenRole role :
+       {TokenRole::kRobot, TokenRole::kMapper, TokenRole::kAdmin, TokenRole::kViewer}) {
     ASSERT_OK_AND_ASSIGN(TokenRole parsed, ParseTokenRole(TokenRoleName(role)));
     EXPECT_EQ(parsed, role);
   }
@@ -110,6 +111,18 @@ TEST_P(TokenStoreTest, CreateThenAuthenticate) {
   EXPECT_EQ(admin.name, "admin");
   EXPECT_EQ(admin.role, TokenRole::kAdmin);
   EXPECT_EQ(admin.expires_at, kNow + 3600);
+}
+
+// Issue 37: the viewer role (the live view) is stored and read back by both backends: their
+// schemas' CHECK on the role accepts it after the migration.
+TEST_P(TokenStoreTest, ViewerTokensAreStoredAndAuthenticate) {
+  ASSERT_OK_AND_ASSIGN(CreatedToken created,
+                       store_->CreateToken("wall-screen", "ops", TokenRole::kViewer, std::nullopt));
+  ASSERT_OK_AND_ASSIGN(TokenRecord got, store_->Authenticate(created.secret, kNow));
+  EXPECT_EQ(got.role, TokenRole::kViewer);
+  ASSERT_OK_AND_ASSIGN(std::vector<TokenRecord> listed, store_->ListTokens());
+  ASSERT_EQ(listed.size(), 1u);
+  EXPECT_EQ(listed[0].role, TokenRole::kViewer);
 }
 
 TEST_P(TokenStoreTest, LastUsedIsWrittenAtMostOnceAMinute) {
@@ -257,6 +270,41 @@ TEST(TokenStoreSqliteTest, UpgradesAFileWrittenBeforeTokens) {
   EXPECT_EQ(count.ColumnInt64(0), 1);  // the old data survived the upgrade
 }
 
+// SQLite only: a file from before viewer tokens (schema v13) keeps its tokens and takes viewers.
+TEST(TokenStoreSqliteTest, UpgradesAFileWrittenBeforeViewerTokens) {
+  TempDir dir;
+  const std::string path = dir.File("v13.db");
+  {
+    ASSERT_OK_AND_ASSIGN(sqlite::Connection connection, sqlite::Connection::Open(path));
+    const std::vector<absl::string_view>& steps = SchemaMigrations();
+    ASSERT_GE(steps.size(), 14u);
+    ASSERT_OK(ApplyMigrations(connection, {steps.begin(), steps.begin() + 13}));
+    ASSERT_OK_AND_ASSIGN(int version, ReadSchemaVersion(connection));
+    ASSERT_EQ(version, 13);
+    const std::string insert =
+        "INSERT INTO tokens (name, robot_id, role, secret_hash, created_at, revoked_at) VALUES ";
+    ASSERT_OK(connection.Exec(insert + "('old-robot', 'robot-1', 'robot', x'01', 1, NULL)"));
+    ASSERT_OK(connection.Exec(insert + "('old-admin', 'ops', 'admin', x'02', 2, 3)"));
+    // v13's CHECK refuses the role, as a build before this one would have.
+    EXPECT_FALSE(connection.Exec(insert + "('v', 'ops', 'viewer', x'03', 4, NULL)").ok());
+  }
+  ASSERT_OK_AND_ASSIGN(auto store, OpenSqliteTokenStore(path));
+  ASSERT_OK_AND_ASSIGN(std::vector<TokenRecord> kept, store->ListTokens());
+  ASSERT_EQ(kept.size(), 2u);
+  EXPECT_EQ(kept[0].name, "old-robot");
+  EXPECT_EQ(kept[0].role, TokenRole::kRobot);
+  EXPECT_EQ(kept[1].name, "old-admin");
+  EXPECT_EQ(kept[1].role, TokenRole::kAdmin);
+  EXPECT_EQ(kept[1].revoked_at, 3);
+  ASSERT_OK_AND_ASSIGN(CreatedToken viewer,
+                       store->CreateToken("screen", "ops", TokenRole::kViewer, std::nullopt));
+  ASSERT_OK_AND_ASSIGN(TokenRecord got, store->Authenticate(viewer.secret, kNow));
+  EXPECT_EQ(got.role, TokenRole::kViewer);
+  ASSERT_OK_AND_ASSIGN(sqlite::Connection connection, sqlite::Connection::Open(path));
+  ASSERT_OK_AND_ASSIGN(int version, ReadSchemaVersion(connection));
+  EXPECT_EQ(version, CurrentSchemaVersion());
+}
+
 TEST_P(TokenStoreTest, SchemaRejectsAnUnknownRole) {
   // The CHECK constraint guards the database against writers other than this store.
   const std::string hash = GetParam() == Backend::kSqlite ? "x'00'" : "'\\x00'::bytea";
@@ -264,6 +312,10 @@ TEST_P(TokenStoreTest, SchemaRejectsAnUnknownRole) {
       "INSERT INTO tokens (name, robot_id, role, secret_hash, created_at) VALUES ('x', 'r', ";
   EXPECT_FALSE(database_.Exec(absl::StrCat(insert, "'root', ", hash, ", 1)")).ok());
   EXPECT_OK(database_.Exec(absl::StrCat(insert, "'robot', ", hash, ", 1)")));
+  EXPECT_OK(database_.Exec(absl::StrCat("INSERT INTO tokens (name, robot_id, role, secret_hash, "
+                                        "created_at) VALUES ('v', 'r', 'viewer', ",
+                                        GetParam() == Backend::kSqlite ? "x'01'" : "'\\x01'::bytea",
+                                        ", 1)")));
 }
 
 }  // namespace

@@ -21,6 +21,10 @@ const char* ActionName(Action action) {
       return "run SLAM sessions";
     case Action::kManageTokens:
       return "manage tokens";
+    case Action::kWatchSlam:
+      return "read SLAM sessions";
+    case Action::kLiveView:
+      return "watch the live view";
   }
   return "do this";
 }
@@ -33,6 +37,9 @@ std::string Caller::Describe() const {
 
 TokenRole MinimumRole(Action action) {
   switch (action) {
+    case Action::kWatchSlam:
+    case Action::kLiveView:
+      return TokenRole::kViewer;
     case Action::kReadCrossings:
     case Action::kRecognize:
     case Action::kSlam:
@@ -49,14 +56,17 @@ TokenRole MinimumRole(Action action) {
 namespace {
 
 // Roles are nested: each one may do everything the one before it may.
+// The viewer, added last, ranks first: it may only watch.
 int Rank(TokenRole role) {
   switch (role) {
-    case TokenRole::kRobot:
+    case TokenRole::kViewer:
       return 0;
-    case TokenRole::kMapper:
+    case TokenRole::kRobot:
       return 1;
-    case TokenRole::kAdmin:
+    case TokenRole::kMapper:
       return 2;
+    case TokenRole::kAdmin:
+      return 3;
   }
   return 0;
 }
@@ -66,6 +76,14 @@ int Rank(TokenRole role) {
 absl::Status CheckAction(const Caller& caller, Action action) {
   if (caller.auth_off) return absl::OkStatus();
   const TokenRole needed = MinimumRole(action);
+  if (action == Action::kLiveView) {
+    if (caller.role == TokenRole::kViewer || caller.role == TokenRole::kAdmin) {
+      return absl::OkStatus();
+    }
+    return absl::PermissionDeniedError(absl::StrCat(
+        caller.Describe(), " may not ", ActionName(action),
+        ": that needs a viewer (or admin) token; robot and mapper tokens speak for one robot"));
+  }
   if (Rank(caller.role) >= Rank(needed)) return absl::OkStatus();
   return absl::PermissionDeniedError(absl::StrCat(caller.Describe(), " may not ",
                                                   ActionName(action), ": that needs role ",
@@ -73,7 +91,7 @@ absl::Status CheckAction(const Caller& caller, Action action) {
 }
 
 bool SeesAllRobots(const Caller& caller) {
-  return caller.auth_off || caller.role == TokenRole::kAdmin;
+  return caller.auth_off || caller.role == TokenRole::kAdmin || caller.role == TokenRole::kViewer;
 }
 
 absl::Status CheckRobot(const Caller& caller, const std::string& robot_id) {

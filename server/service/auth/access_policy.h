@@ -20,9 +20,12 @@ enum class Action {
   kEditCrossings,    // CreateDatabase, AddCrossing, DeleteCrossing, EnrollView, BulkEnroll,
                      // StreamEnroll, RebuildClusters
   kDeleteDatabase,   // DeleteDatabase: drops every robot's views at once, so admin only
-  kSlam,             // every SlamService RPC, DeleteSession included (further limited to the
-                     // caller's own sessions, like CloseSession)
+  kWatchSlam,        // reading SLAM sessions: ListSessions, GetSession, GetMap, GetTrajectory,
+                     // GetOccupancyGrid (a robot reads its own sessions, a viewer every robot's)
+  kSlam,             // every other SlamService RPC, DeleteSession included (further limited to
+                     // the caller's own sessions, like CloseSession)
   kManageTokens,     // TokenService
+  kLiveView,         // the live view (waymark-server --live): every robot's sessions as they run
 };
 
 // "recognize", "edit crossing databases", ... for error messages.
@@ -39,14 +42,19 @@ struct Caller {
   std::string Describe() const;
 };
 
-// The smallest role allowed to do `action`.
+// The smallest role allowed to do `action`. Roles rank viewer < robot < mapper < admin, and each
+// may do what the ones below it may, with one exception: the live view (kLiveView) is for viewer
+// and admin tokens only. It shows every robot's sessions, while a robot's or mapper's token speaks
+// for one robot (a token taken from a robot must not show the whole fleet).
 storage::TokenRole MinimumRole(Action action);
 
 // OK when the caller's role allows the action; PERMISSION_DENIED naming the action, the caller's
 // role and the role needed otherwise.
 absl::Status CheckAction(const Caller& caller, Action action);
 
-// Admins and auth off see every robot's sessions; robot and mapper tokens only their own.
+// Admins, viewers and auth off see every robot's sessions; robot and mapper tokens only their own.
+// A viewer's view is read-only: every action that changes a session needs a robot's role, checked
+// before the robot.
 bool SeesAllRobots(const Caller& caller);
 
 // OK when the caller may see or feed data of robot `robot_id` (its own, or any when admin or auth

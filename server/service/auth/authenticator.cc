@@ -59,6 +59,27 @@ absl::StatusOr<Caller> Authenticator::Authorize(const grpc::ServerContextBase& c
   return caller;
 }
 
+absl::StatusOr<Caller> Authenticator::AuthorizeSecret(const std::string& secret, Action action) {
+  Caller caller;
+  if (auth_off()) {
+    caller.role = storage::TokenRole::kAdmin;
+    caller.auth_off = true;
+    return caller;
+  }
+  if (secret.empty()) {
+    return absl::UnauthenticatedError(
+        "no token: give a viewer token as ?token=SECRET or \"Authorization: Bearer SECRET\" (an "
+        "admin creates one with `waymark token create NAME --role viewer`)");
+  }
+  absl::StatusOr<storage::TokenRecord> token = Lookup(secret, options_.now());
+  if (!token.ok()) return token.status();
+  caller.token_name = token->name;
+  caller.robot_id = token->robot_id;
+  caller.role = token->role;
+  if (absl::Status allowed = CheckAction(caller, action); !allowed.ok()) return allowed;
+  return caller;
+}
+
 absl::StatusOr<Caller> Authenticator::Authenticate(const grpc::ServerContextBase& context) {
   Caller caller;
   if (auth_off()) {

@@ -49,6 +49,11 @@ class Authenticator {
   // Also publishes the caller's robot id for the call's log line (call_identity.h).
   absl::StatusOr<Caller> Authorize(const grpc::ServerContextBase& context, Action action);
 
+  // The same check for a caller outside gRPC (the live view's page and WebSocket, which take the
+  // token from a `token` query parameter or an "Authorization: Bearer" header): `secret` is the
+  // token itself, "" when none was given (UNAUTHENTICATED).
+  absl::StatusOr<Caller> AuthorizeSecret(const std::string& secret, Action action);
+
   // Drops cached tokens so a revocation is seen by the next call.
   void Forget();
 

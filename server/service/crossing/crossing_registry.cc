@@ -379,6 +379,22 @@ absl::StatusOr<v1::RebuildClustersResponse> CrossingRegistry::RebuildClusters(
   return response;
 }
 
+void CrossingRegistry::SetRecognitionObserver(RecognitionObserver observer) {
+  absl::MutexLock lock(&observer_mutex_);
+  recognition_observer_ =
+      observer ? std::make_shared<const RecognitionObserver>(std::move(observer)) : nullptr;
+}
+
+void CrossingRegistry::NotifyRecognition(const std::string& database,
+                                         const v1::RecognizeResponse& response) {
+  std::shared_ptr<const RecognitionObserver> observer;
+  {
+    absl::MutexLock lock(&observer_mutex_);
+    observer = recognition_observer_;
+  }
+  if (observer) (*observer)(database, response);
+}
+
 absl::StatusOr<v1::RecognizeResponse> CrossingRegistry::Recognize(
     const v1::RecognizeRequest& request, crossing::RecognitionOptions* effective) {
   const auto start = Clock::now();
@@ -477,6 +493,7 @@ absl::StatusOr<v1::RecognizeResponse> CrossingRegistry::Recognize(
   t->set_verification_ms(result->verification_ms);
   t->set_retrieval_ms(timings.dense_ms + result->retrieval_ms);
   t->set_total_ms(MsSince(start));
+  NotifyRecognition(request.database(), response);
   return response;
 }
 

@@ -124,6 +124,13 @@ class CrossingRegistry {
     return store_->WatchChanges();
   }
 
+  // Sees every answer Recognize gives (unary and streamed, before a stream's evidence is applied),
+  // on the caller's thread with the database's reader lock held: it must only copy what it needs
+  // and return (the live view, server/service/live/). Null (the default) = none.
+  using RecognitionObserver =
+      std::function<void(const std::string& database, const v1::RecognizeResponse& response)>;
+  void SetRecognitionObserver(RecognitionObserver observer);
+
   // Blocks until the global stage's background work (vocabularies, codes; global_stage.h) is
   // done for every database: for tests, benchmarks and evaluations that need a settled state.
   void WaitForGlobalStage() { global_worker_->WaitIdle(); }
@@ -160,6 +167,9 @@ class CrossingRegistry {
   WorkGate extraction_gate_;
   absl::Mutex mutex_;  // guards databases_ (the map, not the databases)
   std::map<std::string, std::shared_ptr<Database>> databases_;
+  void NotifyRecognition(const std::string& database, const v1::RecognizeResponse& response);
+  absl::Mutex observer_mutex_;  // guards recognition_observer_ (copied out, called unlocked)
+  std::shared_ptr<const RecognitionObserver> recognition_observer_;
   // Last: destroyed first, while the store and the databases it works on still exist.
   std::unique_ptr<GlobalStageWorker> global_worker_;
 };

@@ -146,6 +146,9 @@ absl::Status SessionStreams::Submit(const std::shared_ptr<SlamSession>& owner, u
   // The engine is fixed once the session is built, and Admit reads only its fixed part: no lock.
   absl::StatusOr<AdmittedMessage> admitted = session.engine->Admit(data);
   if (!admitted.ok()) return reject(admitted.status());
+  for (const auto& [id, observer] : *Observers()) {
+    if (observer->on_input) observer->on_input(session.id, data);
+  }
   // Serialized outside the session's lock (a camera frame's bytes); dropped if it is refused.
   std::string journal_bytes;
   if (journal_ != nullptr) journal_bytes = data.SerializeAsString();
@@ -258,6 +261,9 @@ void SessionStreams::Process(SlamSession& session, QueuedMessage& message,
       observer = observer_;
     }
     if (observer) (*observer)(session.id, *answer);
+    for (const auto& [id, watcher] : *Observers()) {
+      if (watcher->on_update) watcher->on_update(session.id, *answer);
+    }
   }
   if (answer.has_value() && sink) sink(*answer);
   if (message.is_scan && error.ok()) persistence_->MaybeCheckpoint(session);
@@ -266,6 +272,29 @@ void SessionStreams::Process(SlamSession& session, QueuedMessage& message,
 void SessionStreams::SetUpdateObserver(SlamUpdateObserver observer) {
   std::lock_guard<std::mutex> lock(observer_mutex_);
   observer_ = observer ? std::make_shared<const SlamUpdateObserver>(std::move(observer)) : nullptr;
+}
+
+uint64_t SessionStreams::AddObserver(SlamObserver observer) {
+  std::lock_guard<std::mutex> lock(observer_mutex_);
+  auto list = std::make_shared<ObserverList>(*observers_);
+  const uint64_t id = next_observer_id_++;
+  list->emplace_back(id, std::make_shared<const SlamObserver>(std::move(observer)));
+  observers_ = std::move(list);
+  return id;
+}
+
+void SessionStreams::RemoveObserver(uint64_t id) {
+  std::lock_guard<std::mutex> lock(observer_mutex_);
+  auto list = std::make_shared<ObserverList>();
+  for (const auto& entry : *observers_) {
+    if (entry.first != id) list->push_back(entry);
+  }
+  observers_ = std::move(list);
+}
+
+std::shared_ptr<const SessionStreams::ObserverList> SessionStreams::Observers() {
+  std::lock_guard<std::mutex> lock(observer_mutex_);
+  return observers_;
 }
 
 }  // namespace waymark::service

@@ -11,6 +11,8 @@
 #include <memory>
 #include <mutex>
 #include <string>
+#include <utility>
+#include <vector>
 
 #include "absl/status/status.h"
 #include "absl/status/statusor.h"
@@ -51,6 +53,9 @@ class SessionStreams {
 
   // Null (the default) = none. Safe to set and clear while sessions run.
   void SetUpdateObserver(SlamUpdateObserver observer);
+  // More watchers beside the one above (SlamRegistry::AddObserver); safe while sessions run.
+  uint64_t AddObserver(SlamObserver observer);
+  void RemoveObserver(uint64_t id);
 
  private:
   const SlamRegistryOptions& options_;
@@ -59,8 +64,15 @@ class SessionStreams {
   SessionScheduler* const scheduler_;
   SessionPersistence* const persistence_;
 
+  std::shared_ptr<const std::vector<std::pair<uint64_t, std::shared_ptr<const SlamObserver>>>>
+  Observers();
+
   std::mutex observer_mutex_;  // guards observer_ (copied out per answer, called unlocked)
   std::shared_ptr<const SlamUpdateObserver> observer_;
+  // Copied out per message (copy on write), called unlocked.
+  using ObserverList = std::vector<std::pair<uint64_t, std::shared_ptr<const SlamObserver>>>;
+  std::shared_ptr<const ObserverList> observers_ = std::make_shared<const ObserverList>();
+  uint64_t next_observer_id_ = 1;
 };
 
 }  // namespace waymark::service

@@ -143,6 +143,12 @@ void SlamRegistry::SetUpdateObserver(UpdateObserver observer) {
   streams_->SetUpdateObserver(std::move(observer));
 }
 
+uint64_t SlamRegistry::AddObserver(SlamObserver observer) {
+  return streams_->AddObserver(std::move(observer));
+}
+
+void SlamRegistry::RemoveObserver(uint64_t id) { streams_->RemoveObserver(id); }
+
 absl::Status SlamRegistry::CheckpointAll() { return persistence_->CheckpointAll(*table_); }
 
 absl::Status SlamRegistry::Shutdown() {

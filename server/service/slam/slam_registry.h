@@ -162,6 +162,11 @@ class SlamRegistry {
   // Null (the default) = none. Safe to set and clear while sessions run.
   using UpdateObserver = SlamUpdateObserver;
   void SetUpdateObserver(UpdateObserver observer);
+  // More watchers beside that one (the live view, server/service/live/): each sees every answer
+  // as above and every admitted message (SlamInputObserver). Returns the id RemoveObserver takes;
+  // safe to add and remove while sessions run.
+  uint64_t AddObserver(SlamObserver observer);
+  void RemoveObserver(uint64_t id);
   // Where robots reach this server, for the leases (SlamRegistryOptions::lease), once known.
   void set_lease_address(const std::string& address) { leases_.set_address(address); }
 

@@ -28,6 +28,20 @@ using SlamUpdateSink = std::function<void(const v1::SlamUpdate& update)>;
 using SlamUpdateObserver =
     std::function<void(const std::string& session_id, const v1::SlamUpdate& update)>;
 
+// Sees every message its session's engine admitted, on the stream's thread, before it is queued
+// (it may still be refused for its order or a full queue): the live view keeps the latest scans
+// there, to draw each beside the pose its answer carries (server/service/live/).
+using SlamInputObserver =
+    std::function<void(const std::string& session_id, const v1::SensorData& data)>;
+
+// One watcher of the sessions (SlamRegistry::AddObserver); either part may be null. Both are
+// called without any of the registry's locks held and must return quickly: they run on the
+// threads that serve the robots.
+struct SlamObserver {
+  SlamUpdateObserver on_update;
+  SlamInputObserver on_input;
+};
+
 // Not thread-safe: one thread (the stream's reader) calls Submit and Close. Must not outlive the
 // registry.
 class SlamStream {
