@@ -298,6 +298,16 @@ void AddRestampFlags(CLI::App* command, bool* restamp, double* rate_hz) {
       ->needs(flag);
 }
 
+// --scan-topic and --odom-topic: which topics of a bag a replay reads.
+void AddBagTopicFlags(CLI::App* command, std::string* scan_topic, std::string* odom_topic) {
+  command->add_option("--scan-topic", *scan_topic,
+                      "Bags: the sensor_msgs/LaserScan topic (default: the bag's only one)");
+  command->add_option(
+      "--odom-topic", *odom_topic,
+      "Bags: the nav_msgs/Odometry topic (default: the bag's only one, else the odom -> base "
+      "chain of /tf); 'tf' forces TF, 'none' replays with no odometry (the robot at the origin)");
+}
+
 }  // namespace
 
 void AddSlamCommands(CLI::App& app, CommandRegistry& registry) {
@@ -307,14 +317,18 @@ void AddSlamCommands(CLI::App& app, CommandRegistry& registry) {
   auto replay_args = std::make_shared<ReplayArgs>();
   CLI::App* replay = slam->add_subcommand(
       "replay",
-      "Stream a CARMEN log (FLASER / ROBOTLASER1 lines; plain, .gz or .bz2) into a new session, "
+      "Stream a CARMEN log (FLASER / ROBOTLASER1 lines; plain, .gz or .bz2) or a ROS bag (ROS 1 "
+      ".bag, rosbag2 folder or .db3, MCAP: a LaserScan topic with odometry from an Odometry topic "
+      "or TF, the laser's mounting from TF) into a new session, "
       "close it, and write trajectory.txt (TUM), map.svg, map.png, summary.json and, when the "
       "session has an occupancy grid, map.pgm + map.yaml (ROS map_server) and occupancy.png. A log "
       "whose stamps are broken (most lines skipped) is reported and exits 1: use --restamp. A "
       "final map that contradicts itself (its self-check: a fold, a doubled corridor) is warned "
       "about and exits 3. Ctrl-C stops early: the session is closed and the outputs written, "
       "marked partial (exit 130)");
-  replay->add_option("LOG", replay_args->log, "CARMEN log file")->required();
+  replay->add_option("LOG", replay_args->log, "CARMEN log file, or a ROS bag (see --scan-topic)")
+      ->required();
+  AddBagTopicFlags(replay, &replay_args->scan_topic, &replay_args->odom_topic);
   replay->add_flag("--realtime", replay_args->realtime, "Send at the log's pace, not full speed");
   AddRestampFlags(replay, &replay_args->restamp, &replay_args->rate_hz);
   replay->add_option("--out", replay_args->out_dir,
@@ -356,7 +370,8 @@ void AddSlamCommands(CLI::App& app, CommandRegistry& registry) {
       "odometry",
       "Write the raw odometry of a CARMEN log's laser lines as a TUM trajectory (no server; the "
       "baseline for `eval relations`); broken stamps are reported and exit 1, as in replay");
-  odometry->add_option("LOG", odometry_args->log, "CARMEN log file")->required();
+  odometry->add_option("LOG", odometry_args->log, "CARMEN log file, or a ROS bag")->required();
+  AddBagTopicFlags(odometry, &odometry_args->scan_topic, &odometry_args->odom_topic);
   odometry->add_option("--out", odometry_args->out, "TUM file to write")->required();
   odometry->add_option("--max-scans", odometry_args->max_scans, "Stop after N scans (0 = all)")
       ->check(CLI::NonNegativeNumber);

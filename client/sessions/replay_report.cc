@@ -273,6 +273,11 @@ nlohmann::json ReplayJson(const ReplayReport& report) {
   if (!report.grid_note.empty()) json["grid_note"] = report.grid_note;
   json["self_check"] = SelfCheckJson(report);
   if (!report.localize_map.empty()) json["localization"] = LocalizationJson(report);
+  if (!report.source_facts.empty()) {
+    nlohmann::json bag = nlohmann::json::object();
+    for (const auto& [key, value] : report.source_facts) bag[key] = value;
+    json["bag"] = bag;
+  }
   if (!factor.value) json["realtime_factor_note"] = factor.problem;
   if (!report.map_problem.empty()) json["map_problem"] = report.map_problem;
   if (!report.close_error.empty()) json["close_error"] = report.close_error;
@@ -289,6 +294,13 @@ std::string ReplayText(const ReplayReport& report) {
     text += fmt::format("stopped by an error after {} scans sent, {} answered: {}; the outputs "
                         "are partial\n",
                         report.scans_sent, report.scans_answered, report.error);
+  }
+  if (!report.source_facts.empty()) {
+    std::vector<std::string> facts;
+    for (const auto& [key, value] : report.source_facts) {
+      if (!value.empty()) facts.push_back(key + " " + value);
+    }
+    text += "bag: " + fmt::format("{}", fmt::join(facts, "; ")) + "\n";
   }
   text += fmt::format(
       "session {}: {} scans processed ({} sent, {} rejected, {} skipped stamps), {} segments\n",

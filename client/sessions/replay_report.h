@@ -79,6 +79,9 @@ struct ReplayReport {
   int64_t odometry_lines = 0;
   bool stamps_broken = false;
   std::optional<double> restamp_rate_hz;  // set: stamps synthesized from the line order
+  // A bag's facts (format, scan topic, odometry source, frames, the laser's mounting); empty for a
+  // CARMEN log. summary.json's "bag" object and a line for people.
+  std::vector<std::pair<std::string, std::string>> source_facts;
   StampSpan span;
   double processing_s = 0;  // the stream: first scan sent to last answer
   double close_s = 0;       // CloseSession: the back end's last searches and optimisation

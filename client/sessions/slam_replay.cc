@@ -18,6 +18,7 @@
 #include "absl/strings/str_cat.h"
 #include "client/common/output.h"
 #include "client/common/progress_bar.h"
+#include "client/bags/bag_reader.h"
 #include "client/datasets/carmen_log.h"
 #include "client/datasets/tum_trajectory.h"
 #include "client/eval/eval_metrics.h"      // Percentile
@@ -25,6 +26,8 @@
 #include "client/render/occupancy_picture.h"
 #include "client/render/slam_output.h"
 #include "client/robot/laser_session.h"
+#include "client/ros/bag_laser_feed.h"
+#include "client/sessions/carmen_laser_source.h"
 #include "client/sessions/replay_report.h"
 #include "client/sessions/session_grid.h"
 
@@ -33,8 +36,9 @@ namespace {
 
 using adapters::CarmenLaser;
 using adapters::CarmenLaserFeed;
-using adapters::CarmenLogReader;
 using adapters::CarmenRecord;
+using adapters::LaserSample;
+using adapters::LaserSource;
 using Clock = std::chrono::steady_clock;
 
 double SecondsSince(Clock::time_point start) {
@@ -45,35 +49,55 @@ std::string StatusText(const absl::Status& status) {
   return absl::StrCat(absl::StatusCodeToString(status.code()), ": ", status.message());
 }
 
-void PrintReadProblems(CommandContext& context, CarmenLogReader& reader) {
-  if (reader.malformed_lines() == 0) return;
-  context.err << "warning: skipped " << reader.malformed_lines() << " malformed line(s)";
-  for (const std::string& error : reader.first_errors()) context.err << "\n  " << error;
-  context.err << "\n";
+void PrintReadProblems(CommandContext& context, const LaserSource& source) {
+  for (const std::string& warning : source.Warnings()) {
+    context.err << "warning: " << warning << "\n";
+  }
 }
 
-absl::StatusOr<std::unique_ptr<CarmenLaserFeed>> OpenFeed(const std::string& log, bool restamp,
-                                                          double rate_hz) {
-  auto reader = CarmenLogReader::Open(log);
-  if (!reader.ok()) return reader.status();
-  adapters::LaserFeedOptions options;
-  if (restamp) options.restamp_rate_hz = rate_hz;
-  return std::make_unique<CarmenLaserFeed>(*std::move(reader), options);
+// A bag: a folder (rosbag2), or a file that starts as a ROS 1 bag, an MCAP or an SQLite database
+// (rosbag2's .db3) does. OpenBag decides again by the same bytes; a CARMEN log (text, gzip or
+// bzip2) starts with none of them.
+bool LooksLikeBag(const std::string& path) {
+  std::error_code ec;
+  if (std::filesystem::is_directory(path, ec)) return true;
+  std::ifstream in(path, std::ios::binary);
+  char head[16] = {};
+  in.read(head, sizeof(head));
+  const std::string_view start(head, static_cast<size_t>(in.gcount()));
+  for (std::string_view magic : {std::string_view("#ROSBAG"), std::string_view("#ROSRECORD"),
+                                 std::string_view("\x89MCAP"),
+                                 std::string_view("SQLite format 3")}) {
+    if (start.substr(0, magic.size()) == magic) return true;
+  }
+  return false;
 }
 
-// The laser scans a replay of `log` sends when it is not stopped: the log read through a feed of
-// its own with the same options, so scans skipped for their stamps are not counted. For the
-// progress bar, which follows the scans sent (the reader itself reads ahead of what was sent: a
-// compressed log can be read whole while the first scans go out). 0 when the log cannot be read.
+// What a bag's index says its scan topic holds (0 when it cannot say).
+int64_t CountBagScans(const std::string& path, const std::string& scan_topic) {
+  auto reader = bags::OpenBag(path);
+  if (!reader.ok()) return 0;
+  auto summary = (*reader)->Summary();
+  if (!summary.ok()) return 0;
+  for (const bags::BagTopicSummary& topic : summary->topics) {
+    if (topic.topic == scan_topic) return topic.messages;
+  }
+  return 0;
+}
+
+// The laser scans a replay of a CARMEN `log` sends when it is not stopped: the log read through a
+// source of its own with the same options, so scans skipped for their stamps are not counted. For
+// the progress bar, which follows the scans sent (the reader itself reads ahead of what was sent:
+// a compressed log can be read whole while the first scans go out). 0 when the log cannot be read.
 // Gives up (0) once `cancel` is set.
-int64_t CountFeedScans(const std::string& log, bool restamp, double rate_hz,
-                       const std::atomic<bool>* cancel) {
-  auto feed = OpenFeed(log, restamp, rate_hz);
-  if (!feed.ok()) return 0;
-  CarmenRecord record;
+int64_t CountLogScans(const std::string& log, double restamp_rate_hz,
+                      const std::atomic<bool>* cancel) {
+  auto source = CarmenLaserSource::Open(log, restamp_rate_hz);
+  if (!source.ok()) return 0;
+  LaserSample sample;
   int64_t scans = 0;
   while (!cancel->load()) {
-    auto next = (*feed)->Next(&record);
+    auto next = (*source)->Next(&sample);
     if (!next.ok() || !*next) break;
     ++scans;
   }
@@ -84,11 +108,11 @@ int64_t CountFeedScans(const std::string& log, bool restamp, double rate_hz,
 // the log has been counted on a thread of its own (a bar with a total, never one of bytes read).
 class ReplayProgress {
  public:
-  ReplayProgress(CommandContext& context, const ReplayArgs& args)
+  ReplayProgress(CommandContext& context, const ReplayArgs& args,
+                 const std::function<int64_t(const std::atomic<bool>*)>& count_scans)
       : context_(context), max_scans_(args.max_scans) {
-    if (!context.err_is_tty) return;  // the bar is for a person watching
-    total_ = std::async(std::launch::async, CountFeedScans, args.log, args.restamp, args.rate_hz,
-                        &cancel_);
+    if (!context.err_is_tty || !count_scans) return;  // the bar is for a person watching
+    total_ = std::async(std::launch::async, count_scans, &cancel_);
   }
   ~ReplayProgress() { cancel_ = true; }  // the future's destructor then waits little
   // `sent` scans sent, `answered` answered so far. `final`: waits for the count.
@@ -114,30 +138,6 @@ class ReplayProgress {
   std::future<int64_t> total_;
   std::optional<ProgressBar> bar_;
 };
-
-// The loud warning when most laser lines were skipped for their stamps (how many, why, what to
-// do); empty when the stamps were usable.
-std::string BrokenStampsWarning(const CarmenLaserFeed& feed) {
-  if (!feed.StampsBroken()) return "";
-  const int64_t skipped = feed.skipped_stamps();
-  const int64_t earlier = skipped - feed.repeated_stamps();
-  std::vector<std::string> why;
-  if (feed.repeated_stamps() > 0) {
-    why.push_back(fmt::format("{} repeat the stamp {:.10g} of a line before them",
-                              feed.repeated_stamps(), feed.last_repeated_stamp()));
-  }
-  if (earlier > 0) {
-    why.push_back(fmt::format("{} are earlier than a line more than {} laser lines before them",
-                              earlier, CarmenLaserFeed::kReorderWindow));
-  }
-  return fmt::format(
-      "WARNING: {} of {} laser lines ({:.1f}%) were skipped because their stamps do not increase "
-      "({}): this log's stamps are broken, and only {} scans were used.\n"
-      "WARNING: run it again with --restamp to stamp the scans from their order in the log (at "
-      "{:g} Hz, or --rate HZ).\n",
-      skipped, feed.laser_lines(), 100.0 * static_cast<double>(skipped) / feed.laser_lines(),
-      fmt::join(why, "; "), feed.laser_lines() - skipped, adapters::kDefaultRestampRateHz);
-}
 
 // What the stream's answers say, gathered on its reader thread; read once the stream finished.
 class Answers {
@@ -401,32 +401,34 @@ std::string LogName(const std::string& path) {
   return name.empty() ? "log" : name.string();
 }
 
-v1::LaserGeometry GeometryOf(const CarmenLaser& laser) {
+v1::LaserGeometry GeometryOf(const LaserSample& sample) {
   v1::LaserGeometry geometry;
-  geometry.set_angle_min(laser.angle_min);
-  geometry.set_angle_increment(laser.angle_increment);
-  geometry.set_beam_count(static_cast<uint32_t>(laser.ranges.size()));
-  geometry.set_no_return_range(laser.no_return_range);
+  geometry.set_angle_min(sample.angle_min);
+  geometry.set_angle_increment(sample.angle_increment);
+  geometry.set_beam_count(static_cast<uint32_t>(sample.ranges.size()));
+  geometry.set_no_return_range(sample.no_return_range);
   return geometry;
 }
 
-ReplayStep ReplayStepOf(const CarmenLaser& laser) {
+ReplayStep ReplayStepOf(const LaserSample& sample) {
   ReplayStep step;
-  step.odometry.set_stamp(laser.stamp);
-  *step.odometry.mutable_pose() = ToProto(laser.odom_pose);
-  step.scan.set_stamp(laser.stamp);
-  *step.scan.mutable_geometry() = GeometryOf(laser);
-  step.scan.mutable_ranges()->Assign(laser.ranges.begin(), laser.ranges.end());
+  step.odometry.set_stamp(sample.stamp);
+  *step.odometry.mutable_pose() = ToProto(sample.odom);
+  step.scan.set_stamp(sample.stamp);
+  *step.scan.mutable_geometry() = GeometryOf(sample);
+  step.scan.mutable_ranges()->Assign(sample.ranges.begin(), sample.ranges.end());
   return step;
 }
 
-v1::CreateSessionRequest SessionRequest(const ReplayArgs& args, const CarmenLaser& first) {
+ReplayStep ReplayStepOf(const CarmenLaser& laser) { return ReplayStepOf(SampleOf(laser)); }
+
+v1::CreateSessionRequest SessionRequest(const ReplayArgs& args, const LaserSample& first,
+                                        const Pose2& mount) {
   v1::CreateSessionRequest create;
   create.set_robot_id(args.robot_id);
   create.set_name(args.name.empty() ? "replay of " + LogName(args.log) : args.name);
   v1::LaserSlamConfig* config = create.mutable_laser();
   *config->mutable_laser() = GeometryOf(first);
-  const Pose2 mount = LaserMount(first);
   config->mutable_laser_pose()->set_x(mount.x);
   config->mutable_laser_pose()->set_y(mount.y);
   config->mutable_laser_pose()->set_theta(mount.theta);
@@ -440,26 +442,78 @@ v1::CreateSessionRequest SessionRequest(const ReplayArgs& args, const CarmenLase
   return create;
 }
 
+v1::CreateSessionRequest SessionRequest(const ReplayArgs& args, const CarmenLaser& first) {
+  return SessionRequest(args, SampleOf(first), LaserMount(first));
+}
+
+absl::StatusOr<OpenedLaserSource> OpenLaserSource(const std::string& path, bool restamp,
+                                                  double rate_hz, const std::string& scan_topic,
+                                                  const std::string& odom_topic) {
+  OpenedLaserSource opened;
+  if (LooksLikeBag(path)) {
+    if (restamp) {
+      return absl::InvalidArgumentError(absl::StrCat(
+          path, " is a bag: --restamp is for CARMEN logs (a bag's scans are placed by their "
+                "header stamps)"));
+    }
+    auto reader = bags::OpenBag(path);
+    if (!reader.ok()) return reader.status();
+    ros::BagLaserOptions options;
+    options.scan_topic = scan_topic;
+    options.odom_topic = odom_topic;
+    auto summary_format = (*reader)->Summary();
+    if (summary_format.ok()) options.format = summary_format->format;
+    auto feed = ros::BagLaserFeed::Create(*std::move(reader), options);
+    if (!feed.ok()) {
+      return absl::Status(feed.status().code(),
+                          absl::StrCat(path, ": ", feed.status().message()));
+    }
+    const std::string topic = (*feed)->topics().scan_topic;
+    opened.count_scans = [path, topic](const std::atomic<bool>*) {
+      return CountBagScans(path, topic);
+    };
+    opened.source = *std::move(feed);
+    return opened;
+  }
+  if (!scan_topic.empty() || !odom_topic.empty()) {
+    return absl::InvalidArgumentError(absl::StrCat(
+        path, " is not a bag (a ROS 1 .bag, an .mcap, a rosbag2 folder or .db3): --scan-topic "
+              "and --odom-topic choose a bag's topics"));
+  }
+  const double restamp_rate = restamp ? rate_hz : 0;
+  auto source = CarmenLaserSource::Open(path, restamp_rate);
+  if (!source.ok()) return source.status();
+  opened.source = *std::move(source);
+  opened.count_scans = [path, restamp_rate](const std::atomic<bool>* cancel) {
+    return CountLogScans(path, restamp_rate, cancel);
+  };
+  return opened;
+}
+
 int RunSlamReplay(CommandContext& context, const ReplayArgs& args, const StopRequested& stop) {
-  auto opened = OpenFeed(args.log, args.restamp, args.rate_hz);
+  auto opened =
+      OpenLaserSource(args.log, args.restamp, args.rate_hz, args.scan_topic, args.odom_topic);
   if (!opened.ok()) return ReportError(context, opened.status());
-  CarmenLaserFeed& feed = **opened;
+  LaserSource& source = *opened->source;
   const SlamOutTarget target = SlamOutTargetOf(
       args.out_dir.empty() ? std::filesystem::path("out") / LogName(args.log)
                            : std::filesystem::path(args.out_dir));
 
-  CarmenRecord record;
-  auto first = feed.Next(&record);
+  LaserSample sample;
+  auto first = source.Next(&sample);
   if (!first.ok()) return ReportError(context, first.status(), args.log);
   if (!*first) {
-    PrintReadProblems(context, feed.reader());
-    return ReportError(context, absl::InvalidArgumentError(
-                                    "the log has no laser lines (FLASER or ROBOTLASER1)"),
+    PrintReadProblems(context, source);
+    return ReportError(context,
+                       absl::InvalidArgumentError(
+                           source.Facts().empty()
+                               ? "the log has no laser lines (FLASER or ROBOTLASER1)"
+                               : "the bag has no usable scans (see the warnings above)"),
                        args.log);
   }
 
   std::unique_ptr<client::SlamClient> client = context.ConnectSlam();
-  auto session = client->CreateSession(SessionRequest(args, record.laser));
+  auto session = client->CreateSession(SessionRequest(args, sample, source.LaserMount()));
   if (!session.ok()) return ReportError(context, session.status(), "CreateSession");
   ReplayReport report;
   report.log = args.log;
@@ -473,8 +527,8 @@ int RunSlamReplay(CommandContext& context, const ReplayArgs& args, const StopReq
       report.session_id, args.window, [&answers](const v1::SlamUpdate& u) { answers.Add(u); });
 
   const bool by_scans = args.max_scans > 0;
-  ReplayProgress progress(context, args);
-  const double first_stamp = record.laser.stamp;
+  ReplayProgress progress(context, args, opened->count_scans);
+  const double first_stamp = sample.stamp;
   std::vector<Vec2> odometry_path;
   const Clock::time_point start = Clock::now();
   absl::Status failure;
@@ -482,14 +536,14 @@ int RunSlamReplay(CommandContext& context, const ReplayArgs& args, const StopReq
   for (bool more = true; more;) {
     if (args.realtime) {
       SleepUntil(start + std::chrono::duration_cast<Clock::duration>(
-                             std::chrono::duration<double>(record.laser.stamp - first_stamp)),
+                             std::chrono::duration<double>(sample.stamp - first_stamp)),
                  stop);
     }
     if (stop && stop()) {
       report.end = ReplayEnd::kInterrupted;
       break;
     }
-    const ReplayStep step = ReplayStepOf(record.laser);
+    const ReplayStep step = ReplayStepOf(sample);
     if (failure = stream->SendOdometry(step.odometry); failure.ok()) {
       failure = stream->SendScan(step.scan);
     }
@@ -497,9 +551,9 @@ int RunSlamReplay(CommandContext& context, const ReplayArgs& args, const StopReq
       report.end = ReplayEnd::kFailed;
       break;
     }
-    report.span.Add(record.laser.stamp);
+    report.span.Add(sample.stamp);
     if (args.show_odometry) {
-      odometry_path.push_back({record.laser.odom_pose.x, record.laser.odom_pose.y});
+      odometry_path.push_back({sample.odom.x, sample.odom.y});
     }
     const int64_t sent = report.span.scans();
     if (sent % 16 == 0) progress.Update(sent, stream->stats().updates);
@@ -507,7 +561,7 @@ int RunSlamReplay(CommandContext& context, const ReplayArgs& args, const StopReq
       report.end = ReplayEnd::kMaxScans;
       break;
     }
-    auto next = feed.Next(&record);
+    auto next = source.Next(&sample);
     if (!next.ok()) {
       failure = absl::Status(next.status().code(),
                              absl::StrCat(next.status().message(), " (", args.log, ")"));
@@ -531,7 +585,7 @@ int RunSlamReplay(CommandContext& context, const ReplayArgs& args, const StopReq
   progress.Update(report.span.scans(), stream->stats().updates,
                   /*final=*/report.end != ReplayEnd::kInterrupted);
   progress.Finish();
-  PrintReadProblems(context, feed.reader());
+  PrintReadProblems(context, source);
   for (const std::string& r : answers.rejections()) context.err << "warning: rejected " << r << "\n";
 
   const client::SensorStream::Stats stats = stream->stats();
@@ -545,12 +599,14 @@ int RunSlamReplay(CommandContext& context, const ReplayArgs& args, const StopReq
   const std::vector<double> server_ms = answers.server_ms();
   report.server_ms_p50 = Percentile(server_ms, 50);
   report.server_ms_p99 = Percentile(server_ms, 99);
-  report.laser_lines = feed.laser_lines();
-  report.skipped_stamps = feed.skipped_stamps();
-  report.stamps_broken = feed.StampsBroken();
-  report.reordered_lines = feed.reordered_lines();
-  report.malformed_lines = feed.reader().malformed_lines();
-  report.odometry_lines = feed.odometry_lines();
+  const adapters::LaserSourceCounts counts = source.counts();
+  report.laser_lines = counts.laser_lines;
+  report.skipped_stamps = counts.skipped_stamps;
+  report.stamps_broken = counts.stamps_broken;
+  report.reordered_lines = counts.reordered_lines;
+  report.malformed_lines = counts.malformed_lines;
+  report.odometry_lines = counts.odometry_lines;
+  report.source_facts = source.Facts();
 
   report.loop_closures = answers.loop_closures();
   if (args.localize) {
@@ -580,7 +636,7 @@ int RunSlamReplay(CommandContext& context, const ReplayArgs& args, const StopReq
   } else {
     context.out << ReplayText(report);
   }
-  const std::string stamps_warning = BrokenStampsWarning(feed);
+  const std::string stamps_warning = source.BrokenStampsWarning();
   context.err << stamps_warning;
   context.err << InconsistentMapWarning(report);
   if (report.end == ReplayEnd::kFailed) return ReportError(context, failure, "replay");
@@ -596,43 +652,50 @@ int RunSlamReplay(CommandContext& context, const ReplayArgs& args, const StopReq
 }
 
 int RunSlamOdometry(CommandContext& context, const OdometryArgs& args) {
-  auto opened = OpenFeed(args.log, args.restamp, args.rate_hz);
+  auto opened =
+      OpenLaserSource(args.log, args.restamp, args.rate_hz, args.scan_topic, args.odom_topic);
   if (!opened.ok()) return ReportError(context, opened.status());
-  CarmenLaserFeed& feed = **opened;
+  LaserSource& source = *opened->source;
   std::vector<StampedPose> poses;
-  CarmenRecord record;
+  LaserSample sample;
   while (args.max_scans <= 0 || static_cast<int>(poses.size()) < args.max_scans) {
-    auto more = feed.Next(&record);
+    auto more = source.Next(&sample);
     if (!more.ok()) return ReportError(context, more.status(), args.log);
     if (!*more) break;
-    const auto& p = record.laser.odom_pose;
-    poses.push_back({record.laser.stamp, {p.x, p.y, p.theta}});
+    poses.push_back({sample.stamp, sample.odom});
   }
-  PrintReadProblems(context, feed.reader());
+  PrintReadProblems(context, source);
   if (absl::Status s = WriteTumFile(args.out, poses); !s.ok()) return ReportError(context, s);
+  const adapters::LaserSourceCounts counts = source.counts();
   if (context.globals.json) {
-    PrintJson(context.out, {{"log", args.log},
-                            {"out", args.out},
-                            {"poses", poses.size()},
-                            {"skipped_stamps", feed.skipped_stamps()},
-                            {"stamps_broken", feed.StampsBroken()},
-                            {"stamps", feed.restamped() ? "synthesized" : "log"},
-                            {"restamp_rate_hz", feed.restamped()
-                                                    ? nlohmann::json(feed.restamp_rate_hz())
-                                                    : nlohmann::json(nullptr)},
-                            {"reordered_lines", feed.reordered_lines()},
-                            {"malformed_lines", feed.reader().malformed_lines()}});
+    nlohmann::json json = {{"log", args.log},
+                           {"out", args.out},
+                           {"poses", poses.size()},
+                           {"skipped_stamps", counts.skipped_stamps},
+                           {"stamps_broken", counts.stamps_broken},
+                           {"stamps", args.restamp ? "synthesized" : "log"},
+                           {"restamp_rate_hz", args.restamp ? nlohmann::json(args.rate_hz)
+                                                            : nlohmann::json(nullptr)},
+                           {"reordered_lines", counts.reordered_lines},
+                           {"malformed_lines", counts.malformed_lines}};
+    const auto facts = source.Facts();
+    if (!facts.empty()) {
+      nlohmann::json bag = nlohmann::json::object();
+      for (const auto& [key, value] : facts) bag[key] = value;
+      json["bag"] = bag;
+    }
+    PrintJson(context.out, json);
   } else {
     context.out << "wrote " << poses.size() << " odometry poses to " << args.out;
-    if (feed.restamped()) {
+    if (args.restamp) {
       context.out << fmt::format(" (stamps synthesized from the line order at {:g} Hz)\n",
-                                 feed.restamp_rate_hz());
+                                 args.rate_hz);
     } else {
-      context.out << " (" << feed.reordered_lines() << " laser lines reordered by stamp, "
-                  << feed.skipped_stamps() << " with a repeated or out-of-order stamp skipped)\n";
+      context.out << " (" << counts.reordered_lines << " laser lines reordered by stamp, "
+                  << counts.skipped_stamps << " with a repeated or out-of-order stamp skipped)\n";
     }
   }
-  const std::string stamps_warning = BrokenStampsWarning(feed);
+  const std::string stamps_warning = source.BrokenStampsWarning();
   context.err << stamps_warning;
   return stamps_warning.empty() ? kExitOk : kExitFailure;
 }

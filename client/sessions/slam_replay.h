@@ -1,7 +1,13 @@
 #ifndef WAYMARK_CLIENT_SESSIONS_SLAM_REPLAY_H_
 #define WAYMARK_CLIENT_SESSIONS_SLAM_REPLAY_H_
 
-// `waymark slam replay LOG` and `waymark slam odometry LOG`: CARMEN logs into a SLAM session.
+// `waymark slam replay LOG` and `waymark slam odometry LOG`: CARMEN logs, or ROS bags (ROS 1 .bag,
+// rosbag2 folders and .db3, MCAP), into a SLAM session. Both are read through one LaserSource
+// (client/datasets/laser_source.h): CarmenLaserSource (carmen_laser_source.h) or, when the path
+// is a bag (a folder, or a file starting like one), BagLaserFeed (client/ros/bag_laser_feed.h:
+// the LaserScan topic, odometry from an Odometry topic or TF at each scan's header stamp, the
+// laser's mounting from TF; --scan-topic and --odom-topic choose when the bag has several). The
+// rest of this comment says what happens with a CARMEN log; a bag's scans go the same way.
 //
 // What is sent, per laser line (FLASER or ROBOTLASER1) in stamp order (CarmenLaserFeed: reordered
 // within a lookahead, lines whose stamp does not increase skipped; or, with --restamp, in file
@@ -39,12 +45,16 @@
 // With `localize` set the session localizes on a stored map instead of mapping; the summary then
 // counts the scans answered localized and names the first (the time to the first fix).
 
+#include <atomic>
+#include <cstdint>
 #include <functional>
+#include <memory>
 #include <optional>
 #include <string>
 
 #include "client/common/command_context.h"
 #include "client/datasets/carmen_laser_feed.h"
+#include "client/datasets/laser_source.h"
 #include "client/datasets/tum_trajectory.h"
 #include "waymark/v1/slam.pb.h"
 
@@ -55,7 +65,9 @@ namespace waymark::cli {
 using StopRequested = std::function<bool()>;
 
 struct ReplayArgs {
-  std::string log;
+  std::string log;  // a CARMEN log or a bag
+  std::string scan_topic;  // bags: --scan-topic (empty: the only LaserScan topic)
+  std::string odom_topic;  // bags: --odom-topic (empty: automatic; "tf"; "none")
   std::string out_dir;  // default ./out/<log name>; a .svg or .png path: only that picture
   bool restamp = false;  // stamps from the line order at rate_hz
   double rate_hz = adapters::kDefaultRestampRateHz;
@@ -84,16 +96,36 @@ struct ReplayStep {
   v1::Odometry odometry;
   v1::LaserScan scan;
 };
+ReplayStep ReplayStepOf(const adapters::LaserSample& sample);
 ReplayStep ReplayStepOf(const adapters::CarmenLaser& laser);
-v1::LaserGeometry GeometryOf(const adapters::CarmenLaser& laser);
-// The CreateSession a replay sends for a log whose first laser line is `first`.
+v1::LaserGeometry GeometryOf(const adapters::LaserSample& sample);
+// The CreateSession a replay sends for a recording whose first scan is `first`, the laser mounted
+// at `mount` on the robot.
+v1::CreateSessionRequest SessionRequest(const ReplayArgs& args, const adapters::LaserSample& first,
+                                        const Pose2& mount);
+// The same for a log whose first laser line is `first` (its mounting from LaserMount).
 v1::CreateSessionRequest SessionRequest(const ReplayArgs& args, const adapters::CarmenLaser& first);
+
+// A recording opened for a replay: the source, and how to count its scans on the side (for the
+// progress bar; gives up, returning 0, once the flag is set).
+struct OpenedLaserSource {
+  std::unique_ptr<adapters::LaserSource> source;
+  std::function<int64_t(const std::atomic<bool>* cancel)> count_scans;
+};
+// A bag (a folder, or a file whose first bytes are a ROS 1 bag's, an MCAP's or SQLite's) is read
+// with the topic flags; anything else as a CARMEN log (restamped at rate_hz when restamp). A bag
+// with --restamp is refused (its header stamps are what it is read by).
+absl::StatusOr<OpenedLaserSource> OpenLaserSource(const std::string& path, bool restamp,
+                                                  double rate_hz, const std::string& scan_topic,
+                                                  const std::string& odom_topic);
 
 int RunSlamReplay(CommandContext& context, const ReplayArgs& args,
                   const StopRequested& stop = {});
 
 struct OdometryArgs {
   std::string log;
+  std::string scan_topic;  // bags, as in ReplayArgs
+  std::string odom_topic;
   std::string out;  // TUM file
   int max_scans = 0;
   bool restamp = false;
