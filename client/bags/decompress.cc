@@ -94,8 +94,12 @@ absl::StatusOr<std::string> Lz4Frame(std::string_view input, uint64_t limit, boo
 }
 
 absl::StatusOr<std::string> Zstd(std::string_view input, uint64_t limit, bool cut_ok = false) {
-  std::unique_ptr<ZSTD_DCtx, decltype(&ZSTD_freeDCtx)> context(ZSTD_createDCtx(), &ZSTD_freeDCtx);
+  // One context per thread, reset per stream: creating one costs more than expanding a small
+  // rosbag2 message (per-message compression expands thousands of them).
+  thread_local std::unique_ptr<ZSTD_DCtx, decltype(&ZSTD_freeDCtx)> context(ZSTD_createDCtx(),
+                                                                             &ZSTD_freeDCtx);
   if (!context) return absl::InternalError("zstd: init failed");
+  ZSTD_DCtx_reset(context.get(), ZSTD_reset_session_only);
   std::string out(InitialSize(input, limit), '\0');
   ZSTD_inBuffer in{input.data(), input.size(), 0};
   size_t used = 0;
