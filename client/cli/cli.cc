@@ -57,6 +57,7 @@ int RunCli(int argc, const char* const* argv, std::ostream& out, std::ostream& e
   AddHealthCommand(app, registry);
   AddBenchLoadCommand(app, registry);
   AddTokenCommands(app, registry);
+  AddBagCommands(app, registry);
   AddVoCommands(app, registry);
 
   try {

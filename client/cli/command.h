@@ -51,6 +51,8 @@ void AddHealthCommand(CLI::App& app, CommandRegistry& registry);
 void AddBenchLoadCommand(CLI::App& app, CommandRegistry& registry);
 // `token create|list|revoke` (token_command.cc).
 void AddTokenCommands(CLI::App& app, CommandRegistry& registry);
+// `bag info` (bag_command.cc).
+void AddBagCommands(CLI::App& app, CommandRegistry& registry);
 
 }  // namespace waymark::cli
 
