@@ -1,6 +1,6 @@
 // `waymark slam replay BAG` against the real server (issue 37):
 //   - the same data as a CARMEN log, as a ROS 1 bag (Debian's rosbag) and as an MCAP file
-//     (Foxglove's writers) gives the same trajectory within float tolerance, odometry from the
+//     (Foxglove's writers), alone or as a rosbag2 folder, gives the same trajectory within float tolerance, odometry from the
 //     Odometry topic or from TF, the laser mounted off the robot's origin by /tf_static;
 //   - real bags: a Hokuyo robot's (zaki_urg subset.bag) and Stage's (LZ4 chunks, empty
 //     child_frame_id) replay end to end into a map;
@@ -100,6 +100,10 @@ TEST_F(BagReplayTest, BagAndMcapGiveTheCarmenTrajectory) {
                                  dir_ + "/mount.txt", dir_ + "/slice.mcap"}),
             0);
 
+  // A rosbag2 folder holding the MCAP file.
+  fs::create_directories(dir_ + "/rosbag2");
+  fs::copy_file(dir_ + "/slice.mcap", dir_ + "/rosbag2/slice_0.mcap");
+
   struct Replay {
     std::string name;
     std::string args;
@@ -109,6 +113,7 @@ TEST_F(BagReplayTest, BagAndMcapGiveTheCarmenTrajectory) {
       {"bag", dir_ + "/slice.bag"},
       {"bag-tf", dir_ + "/slice.bag --odom-topic tf"},
       {"mcap", dir_ + "/slice.mcap"},
+      {"rosbag2", dir_ + "/rosbag2"},
   };
   std::vector<std::vector<TumPose>> trajectories;
   for (const Replay& replay : replays) {
