@@ -380,6 +380,11 @@ int main(int argc, char** argv) {
                  "m per cell of the live view's occupancy grids (coarser for larger maps)")
       ->check(CLI::Range(0.01, 1.0))
       ->capture_default_str();
+  app.add_option("--live-stall-seconds", flags.live_options.stall_seconds,
+                 "a live viewer that takes nothing for this long while messages wait is dropped "
+                 "(slow link, or it stopped reading)")
+      ->check(CLI::Range(0.5, 3600.0))
+      ->capture_default_str();
   app.add_option("--live-max-viewers", flags.live_options.max_viewers,
                  "viewers the live view serves at once; more get HTTP 503")
       ->check(CLI::Range(1, 1000))

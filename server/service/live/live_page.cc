@@ -40,6 +40,8 @@ const byTopic = new Map();   // topic -> channel
 const subs = new Map();      // subscription id -> topic
 const subOfTopic = new Map();
 let nextSub = 1, ws = null, chosen = params.get("session"), sessions = [];
+// ?zoom=PIXELS_PER_M keeps a fixed scale around the map's origin (0, 0); the default fits the map.
+const zoom = Number(params.get("zoom")) || 0;
 const view = { grid: null, gridImage: null, pose: null, scan: null, trajectory: null, confidence: null };
 const canvas = document.getElementById("map");
 const ctx = canvas.getContext("2d");
@@ -112,9 +114,10 @@ function draw() {
   const w = canvas.clientWidth, h = canvas.clientHeight;
   if (canvas.width !== w || canvas.height !== h) { canvas.width = w; canvas.height = h; }
   ctx.fillStyle = "#cdcdcd"; ctx.fillRect(0, 0, w, h);
-  const b = bounds();
+  let b = bounds();
   if (!b) return;
-  const s = Math.min(w / (b.x1 - b.x0), h / (b.y1 - b.y0));
+  let s = Math.min(w / (b.x1 - b.x0), h / (b.y1 - b.y0));
+  if (zoom > 0) { s = zoom; b = { x0: -w / 2 / s, y0: -h / 2 / s }; }
   const X = (x) => (x - b.x0) * s, Y = (y) => h - (y - b.y0) * s;
   if (view.grid) {
     const p = view.grid.pose.position, cw = view.grid.cell_size.x, ch = view.grid.cell_size.y;
