@@ -40,7 +40,12 @@ void AddVoCommands(CLI::App& app, CommandRegistry& registry) {
       "frames/NNNNNN.png (features: static green, static in a box blue, dynamic red, potentially "
       "dynamic yellow, unmatched grey) and summary.json (with ATE/RPE when the folder has "
       "groundtruth.txt or poses.txt)");
-  run->add_option("SEQ_DIR", args->sequence, "Sequence folder")->required();
+  run->add_option("SEQ_DIR", args->sequence,
+                  "Sequence folder, or a ROS bag (ROS 1 .bag, rosbag2 folder or .db3, MCAP) with a "
+                  "sensor_msgs/Image or CompressedImage topic (intrinsics from its CameraInfo)")
+      ->required();
+  run->add_option("--image-topic", args->image_topic,
+                  "Bags: the Image or CompressedImage topic (default: the bag's only one)");
   run->add_option("--detector", args->detector,
                   "Movable-object detector: none, hog (OpenCV people detector), "
                   "yolo:CFG,WEIGHTS (darknet) or yolo:MODEL.onnx; model files are uploaded")

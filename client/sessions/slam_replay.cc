@@ -27,6 +27,7 @@
 #include "client/render/slam_output.h"
 #include "client/robot/laser_session.h"
 #include "client/ros/bag_laser_feed.h"
+#include "client/ros/bag_path.h"
 #include "client/sessions/carmen_laser_source.h"
 #include "client/sessions/replay_report.h"
 #include "client/sessions/session_grid.h"
@@ -53,24 +54,6 @@ void PrintReadProblems(CommandContext& context, const LaserSource& source) {
   for (const std::string& warning : source.Warnings()) {
     context.err << "warning: " << warning << "\n";
   }
-}
-
-// A bag: a folder (rosbag2), or a file that starts as a ROS 1 bag, an MCAP or an SQLite database
-// (rosbag2's .db3) does. OpenBag decides again by the same bytes; a CARMEN log (text, gzip or
-// bzip2) starts with none of them.
-bool LooksLikeBag(const std::string& path) {
-  std::error_code ec;
-  if (std::filesystem::is_directory(path, ec)) return true;
-  std::ifstream in(path, std::ios::binary);
-  char head[16] = {};
-  in.read(head, sizeof(head));
-  const std::string_view start(head, static_cast<size_t>(in.gcount()));
-  for (std::string_view magic : {std::string_view("#ROSBAG"), std::string_view("#ROSRECORD"),
-                                 std::string_view("\x89MCAP"),
-                                 std::string_view("SQLite format 3")}) {
-    if (start.substr(0, magic.size()) == magic) return true;
-  }
-  return false;
 }
 
 // What a bag's index says its scan topic holds (0 when it cannot say).
@@ -450,7 +433,7 @@ absl::StatusOr<OpenedLaserSource> OpenLaserSource(const std::string& path, bool 
                                                   double rate_hz, const std::string& scan_topic,
                                                   const std::string& odom_topic) {
   OpenedLaserSource opened;
-  if (LooksLikeBag(path)) {
+  if (ros::LooksLikeBag(path)) {
     if (restamp) {
       return absl::InvalidArgumentError(absl::StrCat(
           path, " is a bag: --restamp is for CARMEN logs (a bag's scans are placed by their "

@@ -112,8 +112,8 @@ struct OpenedLaserSource {
   std::unique_ptr<adapters::LaserSource> source;
   std::function<int64_t(const std::atomic<bool>* cancel)> count_scans;
 };
-// A bag (a folder, or a file whose first bytes are a ROS 1 bag's, an MCAP's or SQLite's) is read
-// with the topic flags; anything else as a CARMEN log (restamped at rate_hz when restamp). A bag
+// A bag (ros::LooksLikeBag: a rosbag2 folder, or a file whose first bytes are a ROS 1 bag's, an
+// MCAP's or SQLite's) is read with the topic flags; anything else as a CARMEN log (restamped at rate_hz when restamp). A bag
 // with --restamp is refused (its header stamps are what it is read by).
 absl::StatusOr<OpenedLaserSource> OpenLaserSource(const std::string& path, bool restamp,
                                                   double rate_hz, const std::string& scan_topic,

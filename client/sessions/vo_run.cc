@@ -1,4 +1,5 @@
-// `waymark vo run SEQ_DIR`: streams an image sequence into a visual odometry session and writes
+// `waymark vo run SEQ_DIR` (or a bag: its camera topic is written out as a sequence first, see
+// client/ros/bag_images.h): streams an image sequence into a visual odometry session and writes
 // what came back (see vo_session.h; the outputs are described in vo_command.cc's help).
 //
 // Frames are sent with at most --window unanswered (SensorStream's flow control), so a slow session
@@ -24,7 +25,10 @@
 #include "absl/strings/str_cat.h"
 #include "client/common/output.h"
 #include "client/common/progress_bar.h"
+#include "client/bags/bag_reader.h"
 #include "client/common/read_file.h"
+#include "client/ros/bag_images.h"
+#include "client/ros/bag_path.h"
 #include "client/render/vo_frames.h"
 #include "client/sessions/resumable_frames.h"
 #include "client/sessions/vo_pictures.h"
@@ -70,10 +74,44 @@ struct RunState {
   uint32_t best_dynamic_count = 0;
 };
 
+fs::path OutDir(const VoArgs& args) {
+  return args.out_dir.empty() ? fs::path("out") / ("vo-" + SequenceName(args.sequence))
+                              : fs::path(args.out_dir);
+}
+
+// The sequence folder, or a bag's camera topic written out as one into OUT/bag-frames
+// (client/ros/bag_images.h), its intrinsics from the bag's CameraInfo.
+absl::StatusOr<ImageSequence> OpenSequence(CommandContext& context, const VoArgs& args) {
+  if (!ros::LooksLikeBag(args.sequence)) {
+    if (!args.image_topic.empty()) {
+      return absl::InvalidArgumentError(absl::StrCat(
+          "--image-topic chooses a bag's topic; '", args.sequence, "' is not a bag"));
+    }
+    return ReadImageSequence(args.sequence);
+  }
+  absl::StatusOr<std::unique_ptr<bags::BagReader>> reader = bags::OpenBag(args.sequence);
+  if (!reader.ok()) return reader.status();
+  const fs::path dir = OutDir(args) / "bag-frames";
+  absl::StatusOr<ros::BagImages> images =
+      ros::ExtractBagImages(*std::move(reader), args.image_topic, args.max_frames, dir);
+  if (!images.ok()) {
+    return absl::Status(images.status().code(),
+                        absl::StrCat(args.sequence, ": ", images.status().message()));
+  }
+  for (const std::string& warning : images->warnings) context.err << "warning: " << warning << "\n";
+  context.err << fmt::format(
+      "vo: {} frames of {} written to {}{}\n", images->sequence.frames.size(), images->image_topic,
+      dir.string(),
+      images->sequence.intrinsics
+          ? fmt::format(" (intrinsics from {})", images->camera_info_topic)
+          : std::string(" (no CameraInfo intrinsics)"));
+  return images->sequence;
+}
+
 }  // namespace
 
 int RunVo(CommandContext& context, const VoArgs& args) {
-  absl::StatusOr<ImageSequence> sequence = ReadImageSequence(args.sequence);
+  absl::StatusOr<ImageSequence> sequence = OpenSequence(context, args);
   if (!sequence.ok()) return ReportError(context, sequence.status());
   absl::StatusOr<CameraIntrinsics> camera = ResolveIntrinsics(args, *sequence);
   if (!camera.ok()) return ReportError(context, camera.status());
@@ -107,9 +145,7 @@ int RunVo(CommandContext& context, const VoArgs& args) {
   absl::StatusOr<v1::CreateSessionRequest> request =
       VoSessionRequest(args, *camera, size->width, size->height);
   if (!request.ok()) return ReportError(context, request.status());
-  const fs::path out_dir = args.out_dir.empty()
-                               ? fs::path("out") / ("vo-" + SequenceName(args.sequence))
-                               : fs::path(args.out_dir);
+  const fs::path out_dir = OutDir(args);
   std::error_code ec;
   fs::create_directories(out_dir / "frames", ec);
   if (ec) {

@@ -17,7 +17,8 @@
 namespace waymark::cli {
 
 struct VoArgs {
-  std::string sequence;
+  std::string sequence;     // a sequence folder or a bag
+  std::string image_topic;  // bags: --image-topic (empty: the bag's only image topic)
   std::string detector = "none";  // none | hog | yolo:CFG,WEIGHTS | yolo:MODEL.onnx
   // Empty = the preset's (measured best: proven; --paper: full); else full | boxes | none | proven.
   std::string filter;

@@ -5,7 +5,9 @@
 //   - real bags: a Hokuyo robot's (zaki_urg subset.bag) and Stage's (LZ4 chunks, empty
 //     child_frame_id) replay end to end into a map;
 //   - a bag with two LaserScan topics lists them and names --scan-topic; a scan-only bag says it
-//     has no odometry and runs with --odom-topic none.
+//     has no odometry and runs with --odom-topic none;
+//   - `waymark vo run BAG`: a real camera's JPEG CompressedImage with the intrinsics of its
+//     CameraInfo; two image topics are listed and --image-topic chooses.
 // Skipped when ../shared is absent.
 #include <gmock/gmock.h>
 #include <gtest/gtest.h>
@@ -219,6 +221,40 @@ TEST_F(BagReplayTest, ScanOnlyBagSaysSoAndRunsWithOdomTopicNone) {
   EXPECT_THAT(run.output, HasSubstr("warning: no odometry"));
   // A frame id written "/laser" (ROS 1) is the frame "laser".
   EXPECT_THAT(run.output, HasSubstr("laser_frame laser;"));
+}
+
+TEST_F(BagReplayTest, VoRunReadsACameraBagWithItsCameraInfo) {
+  const fs::path bag = kBags / "fiducials_aruco_camera/aruco_images.bag";
+  const std::string out = dir_ + "/vo";
+  const testing::CommandResult run = Waymark("vo run " + bag.string() + " --out " + out, true);
+  ASSERT_EQ(run.code, 0) << run.output << server_->Log();
+  const nlohmann::json summary = nlohmann::json::parse(run.output);
+  EXPECT_EQ(summary["processed"], 1);
+  EXPECT_EQ(summary["rejected"], 0);
+  // /raspicam_node/camera_info's K and D, the JPEG's size.
+  EXPECT_NEAR(summary["camera"]["fx"].get<double>(), 1014.343103379204, 1e-9);
+  EXPECT_NEAR(summary["camera"]["cy"].get<double>(), 469.5663779911617, 1e-9);
+  EXPECT_NEAR(summary["camera"]["distortion"][0].get<double>(), 0.1570058008946036, 1e-12);
+  EXPECT_EQ(summary["camera"]["width"], 1280);
+  EXPECT_EQ(summary["camera"]["height"], 960);
+  EXPECT_TRUE(fs::exists(fs::path(out) / "bag-frames/rgb.txt"));
+}
+
+TEST_F(BagReplayTest, VoRunListsImageTopicsAndTakesImageTopic) {
+  const fs::path bag = kBags / "rosnumpy_test_fixture/test.bag";
+  const testing::CommandResult refused = Waymark("vo run " + bag.string() + " --out " + dir_);
+  EXPECT_NE(refused.code, 0);
+  EXPECT_THAT(refused.output, HasSubstr("2 image topics: /image, /compressedimage; choose one "
+                                        "with --image-topic"));
+  // /image is rgb8 with no CameraInfo: the intrinsics come from the flags.
+  const testing::CommandResult run =
+      Waymark("vo run " + bag.string() + " --image-topic /image --fx 300 --fy 300 --cx 180 "
+              "--cy 120 --out " + dir_ + "/vo", true);
+  ASSERT_EQ(run.code, 0) << run.output;
+  const nlohmann::json summary = nlohmann::json::parse(run.output);
+  EXPECT_EQ(summary["processed"], 1);
+  EXPECT_EQ(summary["camera"]["width"], 360);
+  EXPECT_EQ(summary["camera"]["height"], 240);
 }
 
 }  // namespace
