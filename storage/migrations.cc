@@ -283,6 +283,31 @@ DROP TABLE tokens;
 ALTER TABLE tokens_v14 RENAME TO tokens;
 )sql";
 
+// v15: maps shared by robots (issue 38, map_store.h): a named map with its revision, and its
+// trajectories, one per SLAM session (a session is in one map at most: session_id is UNIQUE), in
+// join order (ordinal), with where the session's frame lies in the map frame once tied in (the
+// three tie columns, all NULL until then). Deleting a session or a map removes its trajectory
+// rows; deleting a map never deletes a session.
+constexpr absl::string_view kV15SlamMaps = R"sql(
+CREATE TABLE slam_map (
+  id INTEGER PRIMARY KEY AUTOINCREMENT,
+  name TEXT NOT NULL UNIQUE,
+  created_at REAL NOT NULL,
+  updated_at REAL NOT NULL,
+  revision INTEGER NOT NULL DEFAULT 0
+);
+CREATE TABLE slam_map_trajectory (
+  map_id INTEGER NOT NULL REFERENCES slam_map(id) ON DELETE CASCADE,
+  session_id TEXT NOT NULL UNIQUE REFERENCES slam_session(id) ON DELETE CASCADE,
+  ordinal INTEGER NOT NULL,
+  joined_at REAL NOT NULL,
+  tie_x REAL,
+  tie_y REAL,
+  tie_theta REAL,
+  PRIMARY KEY (map_id, ordinal)
+);
+)sql";
+
 absl::Status TooNewError(sqlite::Connection& connection, int version, int latest) {
   return absl::FailedPreconditionError(absl::StrCat(
       "database \"", connection.path(), "\" has schema version ", version,
@@ -309,6 +334,7 @@ const std::vector<absl::string_view>& SchemaMigrations() {
       kV12SlamMapCheck,
       kV13ViewHeadingKnown,
       kV14ViewerTokens,
+      kV15SlamMaps,
   };
   return *kSteps;
 }

@@ -21,11 +21,13 @@ absl::StatusOr<Stores> OpenStores(const std::string& db) {
     stores.crossing = NewPostgresCrossingStore(pool);
     stores.slam = NewPostgresSlamStore(pool);
     stores.token = NewPostgresTokenStore(pool);
+    stores.map = NewPostgresMapStore(pool);
     return stores;
   }
   ASSIGN_OR_RETURN(stores.crossing, OpenSqliteCrossingStore(db));
   ASSIGN_OR_RETURN(stores.slam, OpenSqliteSlamStore(db));
   ASSIGN_OR_RETURN(stores.token, OpenSqliteTokenStore(db));
+  ASSIGN_OR_RETURN(stores.map, OpenSqliteMapStore(db));
   return stores;
 }
 
@@ -45,6 +47,12 @@ absl::StatusOr<std::unique_ptr<TokenStore>> OpenTokenStore(const std::string& db
   if (!IsPostgresDatabase(db)) return OpenSqliteTokenStore(db);
   ASSIGN_OR_RETURN(std::shared_ptr<pg::Pool> pool, OpenPostgres(db));
   return NewPostgresTokenStore(std::move(pool));
+}
+
+absl::StatusOr<std::unique_ptr<MapStore>> OpenMapStore(const std::string& db) {
+  if (!IsPostgresDatabase(db)) return OpenSqliteMapStore(db);
+  ASSIGN_OR_RETURN(std::shared_ptr<pg::Pool> pool, OpenPostgres(db));
+  return NewPostgresMapStore(std::move(pool));
 }
 
 }  // namespace waymark::storage

@@ -9,6 +9,7 @@
 
 #include "absl/status/statusor.h"
 #include "storage/crossing_store.h"
+#include "storage/map_store.h"
 #include "storage/slam_store.h"
 #include "storage/token_store.h"
 
@@ -25,6 +26,7 @@ struct Stores {
   std::unique_ptr<CrossingStore> crossing;
   std::unique_ptr<SlamStore> slam;
   std::unique_ptr<TokenStore> token;
+  std::unique_ptr<MapStore> map;  // maps shared by robots (issue 38)
 };
 absl::StatusOr<Stores> OpenStores(const std::string& db);
 
@@ -32,6 +34,7 @@ absl::StatusOr<Stores> OpenStores(const std::string& db);
 absl::StatusOr<std::unique_ptr<CrossingStore>> OpenCrossingStore(const std::string& db);
 absl::StatusOr<std::unique_ptr<SlamStore>> OpenSlamStore(const std::string& db);
 absl::StatusOr<std::unique_ptr<TokenStore>> OpenTokenStore(const std::string& db);
+absl::StatusOr<std::unique_ptr<MapStore>> OpenMapStore(const std::string& db);
 
 }  // namespace waymark::storage
 

@@ -10,6 +10,7 @@
 
 #include "absl/status/statusor.h"
 #include "storage/crossing_store.h"
+#include "storage/map_store.h"
 #include "storage/postgres/pg.h"
 #include "storage/slam_store.h"
 #include "storage/token_store.h"
@@ -25,6 +26,7 @@ absl::StatusOr<std::shared_ptr<pg::Pool>> OpenPostgres(const std::string& uri,
 std::unique_ptr<CrossingStore> NewPostgresCrossingStore(std::shared_ptr<pg::Pool> pool);
 std::unique_ptr<SlamStore> NewPostgresSlamStore(std::shared_ptr<pg::Pool> pool);
 std::unique_ptr<TokenStore> NewPostgresTokenStore(std::shared_ptr<pg::Pool> pool);
+std::unique_ptr<MapStore> NewPostgresMapStore(std::shared_ptr<pg::Pool> pool);
 
 }  // namespace waymark::storage
 

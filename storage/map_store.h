@@ -1,0 +1,86 @@
+#ifndef WAYMARK_STORAGE_MAP_STORE_H_
+#define WAYMARK_STORAGE_MAP_STORE_H_
+
+// Maps shared by robots (issue 38): a named map, its revision and its trajectories, each one SLAM
+// session's (slam_store.h) nodes, with where that session's own frame lies in the map frame once
+// the trajectory is tied in. Rows only: the map's own graph (the constraints between
+// trajectories) is the service's, stored with the merge in a later step.
+
+#include <cstdint>
+#include <memory>
+#include <optional>
+#include <string>
+#include <vector>
+
+#include "absl/status/status.h"
+#include "absl/status/statusor.h"
+#include "storage/slam_store.h"
+
+namespace waymark::storage {
+
+// Where a trajectory's frame (its session's map frame) lies in the shared map's frame.
+struct MapTie {
+  double x = 0;
+  double y = 0;
+  double theta = 0;
+};
+
+struct MapTrajectoryRecord {
+  std::string session_id;
+  int64_t ordinal = 0;   // the join order within the map: 1, 2, 3, ...
+  double joined_at = 0;  // unix seconds
+  std::optional<MapTie> tie;  // unset = not yet in the map
+  // Read-only, from the session's row.
+  std::string robot_id;
+  SlamSessionState session_state = SlamSessionState::kOpen;
+  int64_t scans_processed = 0;
+};
+
+struct MapRecord {
+  std::string name;
+  double created_at = 0;  // unix seconds
+  double updated_at = 0;
+  // Counts the changes of what the map holds: trajectories joining, tied in, leaving.
+  int64_t revision = 0;
+  std::vector<MapTrajectoryRecord> trajectories;  // in join order
+};
+
+// Every mutating call is one transaction, and each returns the map as it stands after it.
+// The map frame is its first trajectory's: a trajectory that joins (or, when the tied-in ones
+// left, remains in) a map with no trajectory tied in is tied in at the origin, in the same
+// transaction, so that two robots joining an empty map at once cannot both define it.
+// Errors: INVALID_ARGUMENT (a bad name: CheckMapName; a non-finite tie), NOT_FOUND (unknown map or
+// session), ALREADY_EXISTS (a name taken; a session already in a map, which may hold one only),
+// INTERNAL / UNAVAILABLE / DATA_LOSS as SlamStore's.
+class MapStore {
+ public:
+  virtual ~MapStore() = default;
+
+  // A new, empty map at revision 0.
+  virtual absl::StatusOr<MapRecord> CreateMap(const std::string& name) = 0;
+  virtual absl::StatusOr<MapRecord> GetMap(const std::string& name) = 0;
+  // Every map, by name (byte order).
+  virtual absl::StatusOr<std::vector<MapRecord>> ListMaps() = 0;
+  // Session `session_id` joins the map as its next trajectory (revision + 1).
+  virtual absl::StatusOr<MapRecord> AddTrajectory(const std::string& map,
+                                                  const std::string& session_id) = 0;
+  // Ties the trajectory in at `tie` (or moves it there), revision + 1. NOT_FOUND when the session
+  // has no trajectory in this map.
+  virtual absl::StatusOr<MapRecord> TieTrajectory(const std::string& map,
+                                                  const std::string& session_id,
+                                                  const MapTie& tie) = 0;
+  // The session left the map (it was deleted: deleting a session removes its trajectory row with
+  // it, so the row may be gone already): removes its row if there, revision + 1, and ties the
+  // oldest remaining trajectory in at the origin when no tied-in one remains.
+  virtual absl::StatusOr<MapRecord> RemoveTrajectory(const std::string& map,
+                                                     const std::string& session_id) = 0;
+  // Deletes the map and its trajectory rows (never the sessions). Returns it as it was.
+  virtual absl::StatusOr<MapRecord> DeleteMap(const std::string& name) = 0;
+};
+
+// A SQLite file's map store (see OpenSqliteSlamStore; it may share the file).
+absl::StatusOr<std::unique_ptr<MapStore>> OpenSqliteMapStore(const std::string& path);
+
+}  // namespace waymark::storage
+
+#endif  // WAYMARK_STORAGE_MAP_STORE_H_

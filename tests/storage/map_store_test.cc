@@ -1,0 +1,222 @@
+// The MapStore (issue 38) on both backends: maps created, listed, read and deleted, trajectories
+// joining in order, the first one anchoring the map frame, ties, sessions leaving (deleted with
+// their session, or removed), the name rules and the errors, and a reopened database.
+
+#include "storage/map_store.h"
+
+#include <limits>
+#include <memory>
+#include <string>
+#include <vector>
+
+#include "gtest/gtest.h"
+#include "storage/map_records.h"
+#include "storage/open_stores.h"
+#include "storage/slam_store.h"
+#include "tests/storage/status_testing.h"
+#include "tests/storage/store_backend.h"
+
+namespace waymark::storage {
+namespace {
+
+using ::waymark::storage::testing::Backend;
+using ::waymark::storage::testing::CodeOf;
+using ::waymark::storage::testing::TestDatabase;
+
+class MapStoreTest : public ::testing::TestWithParam<Backend> {
+ protected:
+  MapStoreTest() : database_(GetParam()) {}
+
+  void SetUp() override {
+    WAYMARK_SKIP_WITHOUT(database_);
+    ASSERT_OK_AND_ASSIGN(maps_, OpenMapStore(database_.db()));
+    ASSERT_OK_AND_ASSIGN(sessions_, OpenSlamStore(database_.db()));
+  }
+
+  void AddSession(const std::string& id, const std::string& robot) {
+    SlamSessionRecord session;
+    session.id = id;
+    session.robot_id = robot;
+    ASSERT_OK(sessions_->CreateSession(session));
+  }
+
+  TestDatabase database_;
+  std::unique_ptr<MapStore> maps_;
+  std::unique_ptr<SlamStore> sessions_;
+};
+
+INSTANTIATE_TEST_SUITE_P(Backends, MapStoreTest, testing::kBothBackends, testing::BackendName);
+
+TEST_P(MapStoreTest, CreatesListsAndReadsMaps) {
+  ASSERT_OK_AND_ASSIGN(MapRecord office, maps_->CreateMap("office"));
+  EXPECT_EQ(office.name, "office");
+  EXPECT_EQ(office.revision, 0);
+  EXPECT_GT(office.created_at, 0);
+  EXPECT_TRUE(office.trajectories.empty());
+  ASSERT_OK(maps_->CreateMap("Building-2.floor_1"));
+  EXPECT_EQ(CodeOf(maps_->CreateMap("office")), absl::StatusCode::kAlreadyExists);
+
+  ASSERT_OK_AND_ASSIGN(std::vector<MapRecord> listed, maps_->ListMaps());
+  ASSERT_EQ(listed.size(), 2u);
+  EXPECT_EQ(listed[0].name, "Building-2.floor_1");  // byte order: upper case first
+  EXPECT_EQ(listed[1].name, "office");
+  ASSERT_OK_AND_ASSIGN(MapRecord got, maps_->GetMap("office"));
+  EXPECT_DOUBLE_EQ(got.created_at, office.created_at);
+  EXPECT_EQ(CodeOf(maps_->GetMap("cellar")), absl::StatusCode::kNotFound);
+}
+
+TEST_P(MapStoreTest, RefusesBadNamesWithoutEchoingThem) {
+  for (const std::string& bad :
+       {std::string(), std::string(65, 'a'), std::string("a/b"), std::string("-lead"),
+        std::string(".hidden"), std::string("sp ace"), std::string("nul\0x", 5),
+        std::string("caf\xc3\xa9")}) {
+    const absl::StatusOr<MapRecord> created = maps_->CreateMap(bad);
+    EXPECT_EQ(CodeOf(created), absl::StatusCode::kInvalidArgument) << bad;
+    EXPECT_NE(created.status().message().find("map name"), std::string::npos);
+    if (bad.size() > 2) {
+      EXPECT_EQ(created.status().message().find(bad), std::string::npos) << bad;
+    }
+    EXPECT_EQ(CodeOf(maps_->GetMap(bad)), absl::StatusCode::kInvalidArgument);
+    EXPECT_EQ(CodeOf(maps_->DeleteMap(bad)), absl::StatusCode::kInvalidArgument);
+  }
+  EXPECT_OK(maps_->CreateMap(std::string(64, 'a')));
+  EXPECT_OK(maps_->CreateMap("7"));
+}
+
+TEST_P(MapStoreTest, TheFirstTrajectoryDefinesTheMapFrameTheOthersWait) {
+  AddSession("s1", "robot-1");
+  AddSession("s2", "robot-2");
+  AddSession("s3", "robot-1");
+  ASSERT_OK(maps_->CreateMap("office"));
+  ASSERT_OK_AND_ASSIGN(MapRecord one, maps_->AddTrajectory("office", "s1"));
+  EXPECT_EQ(one.revision, 1);
+  ASSERT_EQ(one.trajectories.size(), 1u);
+  EXPECT_EQ(one.trajectories[0].session_id, "s1");
+  EXPECT_EQ(one.trajectories[0].robot_id, "robot-1");
+  EXPECT_EQ(one.trajectories[0].ordinal, 1);
+  EXPECT_EQ(one.trajectories[0].session_state, SlamSessionState::kOpen);
+  ASSERT_TRUE(one.trajectories[0].tie.has_value());
+  EXPECT_EQ(one.trajectories[0].tie->x, 0);
+  EXPECT_EQ(one.trajectories[0].tie->theta, 0);
+
+  ASSERT_OK(maps_->AddTrajectory("office", "s2"));
+  ASSERT_OK_AND_ASSIGN(MapRecord three, maps_->AddTrajectory("office", "s3"));
+  EXPECT_EQ(three.revision, 3);
+  ASSERT_EQ(three.trajectories.size(), 3u);
+  EXPECT_EQ(three.trajectories[1].session_id, "s2");
+  EXPECT_EQ(three.trajectories[1].robot_id, "robot-2");
+  EXPECT_FALSE(three.trajectories[1].tie.has_value());  // not yet in the map
+  EXPECT_EQ(three.trajectories[2].ordinal, 3);
+  EXPECT_FALSE(three.trajectories[2].tie.has_value());
+
+  // What ties a robot in (the next slice) stores where its frame lies in the map frame.
+  ASSERT_OK_AND_ASSIGN(MapRecord tied, maps_->TieTrajectory("office", "s2", MapTie{1.5, -2, 0.25}));
+  EXPECT_EQ(tied.revision, 4);
+  ASSERT_TRUE(tied.trajectories[1].tie.has_value());
+  EXPECT_DOUBLE_EQ(tied.trajectories[1].tie->x, 1.5);
+  EXPECT_DOUBLE_EQ(tied.trajectories[1].tie->y, -2);
+  EXPECT_DOUBLE_EQ(tied.trajectories[1].tie->theta, 0.25);
+  EXPECT_EQ(CodeOf(maps_->TieTrajectory("office", "nobody", MapTie{})),
+            absl::StatusCode::kNotFound);
+  EXPECT_EQ(CodeOf(maps_->TieTrajectory(
+                "office", "s3", MapTie{std::numeric_limits<double>::quiet_NaN(), 0, 0})),
+            absl::StatusCode::kInvalidArgument);
+}
+
+TEST_P(MapStoreTest, ASessionJoinsOneMapOnce) {
+  AddSession("s1", "robot-1");
+  ASSERT_OK(maps_->CreateMap("office"));
+  ASSERT_OK(maps_->CreateMap("lab"));
+  ASSERT_OK(maps_->AddTrajectory("office", "s1"));
+  const absl::StatusOr<MapRecord> again = maps_->AddTrajectory("office", "s1");
+  EXPECT_EQ(CodeOf(again), absl::StatusCode::kAlreadyExists);
+  const absl::StatusOr<MapRecord> other = maps_->AddTrajectory("lab", "s1");
+  EXPECT_EQ(CodeOf(other), absl::StatusCode::kAlreadyExists);
+  EXPECT_NE(other.status().message().find("\"office\""), std::string::npos)
+      << other.status().message();
+  EXPECT_EQ(CodeOf(maps_->AddTrajectory("office", "missing")), absl::StatusCode::kNotFound);
+  EXPECT_EQ(CodeOf(maps_->AddTrajectory("cellar", "s1")), absl::StatusCode::kNotFound);
+  ASSERT_OK_AND_ASSIGN(MapRecord office, maps_->GetMap("office"));
+  EXPECT_EQ(office.revision, 1);  // the refusals changed nothing
+  EXPECT_EQ(office.trajectories.size(), 1u);
+}
+
+TEST_P(MapStoreTest, ADeletedSessionLeavesItsMapAndTheNextOldestAnchorsIt) {
+  AddSession("s1", "robot-1");
+  AddSession("s2", "robot-2");
+  AddSession("s3", "robot-3");
+  ASSERT_OK(maps_->CreateMap("office"));
+  ASSERT_OK(maps_->AddTrajectory("office", "s1"));
+  ASSERT_OK(maps_->AddTrajectory("office", "s2"));
+  ASSERT_OK(maps_->AddTrajectory("office", "s3"));
+  // Deleting the session removes its trajectory row with it (a cascade) ...
+  ASSERT_OK(sessions_->DeleteSession("s1"));
+  ASSERT_OK_AND_ASSIGN(MapRecord cascaded, maps_->GetMap("office"));
+  ASSERT_EQ(cascaded.trajectories.size(), 2u);
+  EXPECT_EQ(cascaded.trajectories[0].session_id, "s2");
+  // ... and RemoveTrajectory counts the change and gives the map a frame again.
+  ASSERT_OK_AND_ASSIGN(MapRecord removed, maps_->RemoveTrajectory("office", "s1"));
+  EXPECT_EQ(removed.revision, 4);
+  ASSERT_EQ(removed.trajectories.size(), 2u);
+  ASSERT_TRUE(removed.trajectories[0].tie.has_value());
+  EXPECT_FALSE(removed.trajectories[1].tie.has_value());
+  // A session still there is removed by the call itself.
+  ASSERT_OK_AND_ASSIGN(MapRecord again, maps_->RemoveTrajectory("office", "s3"));
+  EXPECT_EQ(again.trajectories.size(), 1u);
+  EXPECT_EQ(again.revision, 5);
+  ASSERT_OK_AND_ASSIGN(SlamSessionRecord s3, sessions_->GetSession("s3"));
+  EXPECT_EQ(s3.robot_id, "robot-3");  // the session itself stays
+  EXPECT_EQ(CodeOf(maps_->RemoveTrajectory("cellar", "s3")), absl::StatusCode::kNotFound);
+}
+
+TEST_P(MapStoreTest, DeletingAMapKeepsItsSessions) {
+  AddSession("s1", "robot-1");
+  ASSERT_OK(maps_->CreateMap("office"));
+  ASSERT_OK(maps_->AddTrajectory("office", "s1"));
+  ASSERT_OK_AND_ASSIGN(MapRecord deleted, maps_->DeleteMap("office"));
+  EXPECT_EQ(deleted.trajectories.size(), 1u);  // as it was
+  EXPECT_EQ(CodeOf(maps_->GetMap("office")), absl::StatusCode::kNotFound);
+  EXPECT_EQ(CodeOf(maps_->DeleteMap("office")), absl::StatusCode::kNotFound);
+  EXPECT_OK(sessions_->GetSession("s1"));
+  ASSERT_OK_AND_ASSIGN(int64_t rows, database_.CountRows("slam_map_trajectory"));
+  EXPECT_EQ(rows, 0);
+  // The session is free to join another map, and the name to be used again.
+  ASSERT_OK(maps_->CreateMap("office"));
+  ASSERT_OK_AND_ASSIGN(MapRecord rejoined, maps_->AddTrajectory("office", "s1"));
+  EXPECT_EQ(rejoined.revision, 1);
+}
+
+TEST_P(MapStoreTest, ClosedSessionsShowAsClosedAndEverythingSurvivesReopening) {
+  AddSession("s1", "robot-1");
+  AddSession("s2", "robot-2");
+  ASSERT_OK(maps_->CreateMap("office"));
+  ASSERT_OK(maps_->AddTrajectory("office", "s1"));
+  ASSERT_OK(maps_->AddTrajectory("office", "s2"));
+  SlamCheckpoint final_checkpoint;
+  final_checkpoint.scans_processed = 42;
+  ASSERT_OK(sessions_->CloseSession("s1", final_checkpoint));
+  maps_.reset();
+  ASSERT_OK_AND_ASSIGN(maps_, OpenMapStore(database_.db()));
+  ASSERT_OK_AND_ASSIGN(std::vector<MapRecord> listed, maps_->ListMaps());
+  ASSERT_EQ(listed.size(), 1u);
+  const MapRecord& office = listed[0];
+  EXPECT_EQ(office.revision, 2);
+  ASSERT_EQ(office.trajectories.size(), 2u);
+  EXPECT_EQ(office.trajectories[0].session_state, SlamSessionState::kClosed);
+  EXPECT_EQ(office.trajectories[0].scans_processed, 42);
+  EXPECT_TRUE(office.trajectories[0].tie.has_value());
+  EXPECT_EQ(office.trajectories[1].session_state, SlamSessionState::kOpen);
+  EXPECT_FALSE(office.trajectories[1].tie.has_value());
+}
+
+TEST_P(MapStoreTest, ATieStoredInPartIsDataLoss) {
+  AddSession("s1", "robot-1");
+  ASSERT_OK(maps_->CreateMap("office"));
+  ASSERT_OK(maps_->AddTrajectory("office", "s1"));
+  ASSERT_OK(database_.Exec("UPDATE slam_map_trajectory SET tie_y = NULL"));
+  EXPECT_EQ(CodeOf(maps_->GetMap("office")), absl::StatusCode::kDataLoss);
+  EXPECT_EQ(CodeOf(maps_->ListMaps()), absl::StatusCode::kDataLoss);
+}
+
+}  // namespace
+}  // namespace waymark::storage
