@@ -162,20 +162,15 @@ bool SetMappingOption(const std::string& assignment, ls::MappingOptions* m) {
     m->local_prior = static_cast<ls::MappingOptions::LocalPrior>(static_cast<int>(value));
     return true;
   }
-  if (name == "local_odometry_hypothesis") {
-    m->local_odometry_hypothesis = value != 0.0;
-    return true;
-  }
-  if (name == "global_within_window") {
-    m->global_within_window = value != 0.0;
-    return true;
-  }
-  if (name == "loosen_ridges") {
-    m->loosen_ridges = value != 0.0;
-    return true;
-  }
-  if (name == "local_matching") {
-    m->local_matching = value != 0.0;
+  const std::map<std::string, bool*> bools = {
+      {"local_odometry_hypothesis", &m->local_odometry_hypothesis},
+      {"local_learned_prior", &m->local_learned_prior},
+      {"local_ignore_edge_translation", &m->local_ignore_edge_translation},
+      {"global_within_window", &m->global_within_window},
+      {"loosen_ridges", &m->loosen_ridges},
+      {"local_matching", &m->local_matching}};
+  if (auto it = bools.find(name); it != bools.end()) {
+    *it->second = value != 0.0;
     return true;
   }
   const std::map<std::string, int*> ints = {

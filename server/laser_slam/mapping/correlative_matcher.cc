@@ -387,6 +387,9 @@ std::optional<GridMatch> MatchInWindow(const SearchPyramid& target, const PointC
   GridMatch result;
   result.candidates = found->candidates;
   result.lattice_score = found->lattice_score;
+  const long half_cells = static_cast<long>(std::ceil(window.xy / res));
+  result.at_window_edge = std::labs(std::lround((found->pose.x - initial.x) / res)) >= half_cells ||
+                          std::labs(std::lround((found->pose.y - initial.y) / res)) >= half_cells;
 
   // Below a cell: the discrete optimum refined on the interpolated field, in a small grid of
   // sub-cell shifts and sub-step turns around it (the first best in (i, j, k) order). The cloud

@@ -29,6 +29,9 @@ struct GridMatch {
   // FindRival's scores compare with (they are not refined either).
   double lattice_score = 0.0;
   long candidates = 0;  // scored (for the cost report)
+  // MatchInWindow: the best lattice pose lies on the window's outer ring of cells in x or y, so
+  // the cells beyond it, which may score higher still, were not scored: no maximum was found.
+  bool at_window_edge = false;
 };
 
 // A branch-and-bound search that stops once it has spent a budget of work and resumes where it

@@ -88,21 +88,31 @@ std::optional<LocalMatchResult> MatchLocally(const PointCloud& local_map, const 
   LocalMatchResult result;
   result.matched = match->pose;
   result.score = match->score;
-  // Gaussian fusion of the match with the prior, in (x, y, theta) of the local map's frame.
-  const Eigen::Matrix3d match_information =
+  result.at_window_edge = match->at_window_edge;
+  result.information =
       MatchInformation(pyramid.base(), query, match->pose,
                        static_cast<double>(query.size()) / settings.points_per_observation);
+  if (result.at_window_edge && settings.ignore_edge_translation) {
+    result.information.topRows<2>().setZero();
+    result.information.leftCols<2>().setZero();
+  }
+  FuseWithPrior(prior, prior_covariance, &result);
+  return result;
+}
+
+void FuseWithPrior(const Pose2& prior, const Eigen::Matrix3d& prior_covariance,
+                   LocalMatchResult* match) {
+  // Gaussian fusion of the match with the prior, in (x, y, theta) of the local map's frame.
   const Eigen::Matrix3d prior_information = prior_covariance.inverse();
-  const Eigen::Matrix3d information = match_information + prior_information;
+  const Eigen::Matrix3d information = match->information + prior_information;
   const Eigen::LDLT<Eigen::Matrix3d> solver(information);
-  const Eigen::Vector3d matched(match->pose.x, match->pose.y, match->pose.theta);
+  const Eigen::Vector3d matched(match->matched.x, match->matched.y, match->matched.theta);
   Eigen::Vector3d from_prior(prior.x, prior.y, prior.theta);
   from_prior(2) = matched(2) + NormalizeAngle(from_prior(2) - matched(2));
   const Eigen::Vector3d fused =
-      solver.solve(match_information * matched + prior_information * from_prior);
-  result.pose = Pose2{fused(0), fused(1), NormalizeAngle(fused(2))};
-  result.covariance = solver.solve(Eigen::Matrix3d::Identity());
-  return result;
+      solver.solve(match->information * matched + prior_information * from_prior);
+  match->pose = Pose2{fused(0), fused(1), NormalizeAngle(fused(2))};
+  match->covariance = solver.solve(Eigen::Matrix3d::Identity());
 }
 
 }  // namespace waymark::laser_slam

@@ -7,7 +7,6 @@
 #include "server/laser_slam/geometry.h"
 #include "server/laser_slam/mapping/chain_uncertainty.h"
 #include "server/laser_slam/mapping/correlative_matcher.h"
-#include "server/laser_slam/mapping/local_matcher.h"
 #include "server/laser_slam/mapping/loop_search.h"
 
 namespace waymark::laser_slam {
@@ -164,113 +163,6 @@ void MappingBackend::Process(int index) {
   if (due) Optimize(index);
   std::lock_guard<std::mutex> lock(mu_);
   processed_ = index;
-}
-
-SearchWindow MappingBackend::LocalWindow(const Eigen::Vector3d& sigma) const {
-  SearchWindow window;
-  window.xy = std::min(options_.max_window_xy,
-                       std::max(options_.local_window_min_xy,
-                                options_.local_window_sigmas * std::max(sigma(0), sigma(1))));
-  window.theta = std::min(M_PI, std::max(options_.local_window_min_theta,
-                                         options_.local_window_sigmas * sigma(2)));
-  return window;
-}
-
-void MappingBackend::MatchLocalMap(int index) {
-  const auto start = Clock::now();
-  PointCloud local_map;
-  Pose2 step;
-  SearchWindow window;
-  Eigen::Vector3d step_sigma;
-  Eigen::Vector3d disagreement = Eigen::Vector3d::Zero();
-  std::shared_ptr<const PointCloud> query;
-  int chain = -1;
-  // The odometry's step as a second hypothesis (MappingOptions::local_odometry_hypothesis).
-  std::optional<Pose2> odometry_hypothesis;
-  Eigen::Vector3d odometry_sigma;
-  {
-    std::lock_guard<std::mutex> lock(mu_);
-    const Node& previous = nodes_[index - 1];
-    const Node& node = nodes_[index];
-    const Pose2 ekf_step = Relative(previous.local, node.local);
-    const Pose2 odometry_step = Relative(previous.odometry, node.odometry);
-    step = options_.local_prior == MappingOptions::LocalPrior::kOdometry ? odometry_step
-                                                                         : ekf_step;
-    // Two estimates of one step: where they disagree, the prior is as uncertain as their
-    // difference (the EKF associated wrongly, or the wheels slipped), and the walls decide.
-    disagreement = Eigen::Vector3d(ekf_step.x - odometry_step.x, ekf_step.y - odometry_step.y,
-                                   NormalizeAngle(ekf_step.theta - odometry_step.theta));
-    query = node.points;
-    // The local map in the previous node's frame, so that the prior is the EKF's step itself.
-    for (int j = std::max(0, index - options_.local_map_nodes); j < index; ++j) {
-      AppendTransformed(*nodes_[j].points, Relative(previous.global, nodes_[j].global),
-                        &local_map);
-    }
-    chain = ChainConstraintLocked(index);
-    if (chain < 0) return;
-    const Eigen::Vector3d floor(options_.local_sigma_xy, options_.local_sigma_xy,
-                                options_.local_sigma_theta);
-    Eigen::Vector3d sigma = constraints_[chain].sigma;
-    if (options_.local_prior == MappingOptions::LocalPrior::kOdometry) {
-      sigma = nodes_[index].odometry_variance.cwiseSqrt().cwiseMax(floor);
-    } else if (options_.local_prior == MappingOptions::LocalPrior::kEkfWithinOdometry) {
-      sigma = (nodes_[index].odometry_variance + disagreement.cwiseAbs2()).cwiseSqrt().cwiseMax(
-          floor);
-    }
-    step_sigma = sigma;
-    window = LocalWindow(sigma);
-    odometry_sigma = nodes_[index].odometry_variance.cwiseSqrt().cwiseMax(floor);
-    if (options_.local_prior == MappingOptions::LocalPrior::kEkfWithinOdometry &&
-        options_.local_odometry_hypothesis &&
-        (disagreement.array().abs() > options_.local_window_sigmas * odometry_sigma.array())
-            .any()) {
-      odometry_hypothesis = odometry_step;
-    }
-  }
-  LocalMatchSettings settings;
-  settings.grid_resolution = options_.grid_resolution;
-  settings.grid_sigma = options_.grid_sigma;
-  settings.min_score = options_.local_min_score;
-  settings.points_per_observation = options_.local_points_per_observation;
-  const PointCloud thinned = ThinPoints(local_map, options_.point_cell);
-  std::optional<LocalMatchResult> match = MatchLocally(
-      thinned, *query, step, step_sigma.cwiseAbs2().asDiagonal(), window, settings);
-  bool odometry_won = false;
-  if (odometry_hypothesis) {
-    // The walls decide between the two steps: the better-scoring match is kept.
-    std::optional<LocalMatchResult> around_odometry =
-        MatchLocally(thinned, *query, *odometry_hypothesis,
-                     odometry_sigma.cwiseAbs2().asDiagonal(), LocalWindow(odometry_sigma),
-                     settings);
-    if (around_odometry && (!match || around_odometry->score > match->score)) {
-      match = std::move(around_odometry);
-      odometry_won = true;
-    }
-  }
-  std::lock_guard<std::mutex> lock(mu_);
-  if (odometry_won) ++stats_.local_odometry_wins;
-  GraphConstraint& c = constraints_[chain];
-  if (!match) {
-    // The prior alone: with the odometry prior, its step and its noise replace the EKF's.
-    if (options_.local_prior != MappingOptions::LocalPrior::kEkf) {
-      c.relative = step;
-      c.sigma = step_sigma;
-      nodes_[index].global = Compose(nodes_[index - 1].global, step);
-      FollowPredecessorsLocked(index + 1);
-    }
-    ++stats_.local_unmatched;
-    return;
-  }
-  c.relative = match->pose;
-  // The fused step's marginal sigmas, at least local_sigma_xy / _theta: the Laplace
-  // approximation knows the walls, not how well the local map itself was placed.
-  c.sigma = match->covariance.diagonal().cwiseSqrt().cwiseMax(
-      Eigen::Vector3d(options_.local_sigma_xy, options_.local_sigma_xy, options_.local_sigma_theta));
-  c.score = match->score;
-  nodes_[index].global = Compose(nodes_[index - 1].global, match->pose);
-  FollowPredecessorsLocked(index + 1);
-  ++stats_.local_matches;
-  stats_.local_ms.push_back(MsSince(start));
 }
 
 void MappingBackend::SearchLoops(int index) {

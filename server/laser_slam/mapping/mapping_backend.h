@@ -23,6 +23,7 @@
 #include <deque>
 #include <memory>
 #include <mutex>
+#include <optional>
 #include <string>
 #include <thread>
 #include <vector>
@@ -31,7 +32,9 @@
 #include "absl/strings/string_view.h"
 #include "server/laser_slam/mapping/chain_uncertainty.h"
 #include "server/laser_slam/mapping/correlative_matcher.h"
+#include "server/laser_slam/mapping/ekf_step_agreement.h"
 #include "server/laser_slam/mapping/likelihood_grid.h"
+#include "server/laser_slam/mapping/local_matcher.h"
 #include "server/laser_slam/mapping/loop_search.h"
 #include "server/laser_slam/mapping/mapping_options.h"
 #include "server/laser_slam/mapping/point_cloud.h"
@@ -73,6 +76,8 @@ struct MappingStats {
   int local_matches = 0;        // nodes whose chain constraint comes from local matching
   int local_unmatched = 0;      // nodes left with the EKF's step (nothing scored local_min_score)
   int local_odometry_wins = 0;  // matches around the odometry's step that beat the EKF's
+  int local_ekf_trusted = 0;    // steps whose EKF was trusted on every axis (ekf_step_agreement.h)
+  int local_ekf_redecided = 0;  // earlier steps made the EKF's when it was first trusted
   int pending_nodes = 0;        // waiting for the back end's thread (filled by Stats())
   std::vector<double> search_ms;    // per searched node, all candidates
   std::vector<double> optimize_ms;  // per optimisation
@@ -152,6 +157,22 @@ class MappingBackend {
   // The front end: node `index`'s scan against the nodes before it (local_matcher.h); sets its
   // chain constraint and its pose, and moves the nodes after it along.
   void MatchLocalMap(int index);
+  // Where the session has shown the EKF's steps better than the matches on an axis
+  // (ekf_step_agreement.h), fuses the match again with the EKF's step trusted to its learned
+  // variance there; then records the step's disagreement. Returns the prior's variance when every
+  // axis was so trusted (nullopt otherwise). Caller holds search_mu_ (ekf_agreement_ is the
+  // front end's).
+  std::optional<Eigen::Vector3d> TrustEkfWhereShown(const Pose2& ekf_step,
+                                                    const Eigen::Vector3d& ekf_minus_odometry,
+                                                    const Eigen::Vector3d& odometry_sigma,
+                                                    const Eigen::Vector3d& prior_sigma,
+                                                    LocalMatchResult* match);
+  // The first time the session shows its EKF better than its matches on every axis (node
+  // `index`), the steps before, fused while nothing was known, are decided again: the EKF's step,
+  // to `variance`, where it stayed within the odometry's noise. An early heading error turns the
+  // whole map (5 mrad at the simulator's first turns in place put the corridor's far end 0.1 m
+  // off). Only while the graph is the chain alone. Caller holds mu_ and search_mu_.
+  void RedecideEarlierStepsLocked(int index, const Eigen::Vector3d& variance);
   // The local search window of a step with these sigmas (x, y, theta).
   SearchWindow LocalWindow(const Eigen::Vector3d& sigma) const;
   void SearchLoops(int index);
@@ -191,6 +212,8 @@ class MappingBackend {
   int last_global_search_ = kNoGlobalSearchYet;  // node of the last global search
   int global_cursor_ = -1;     // submap searched globally last (they are searched in turn)
   ChainUncertainty chain_;     // of the processed nodes, in order
+  EkfStepAgreement ekf_agreement_;  // the front end's (search_mu_), checkpointed
+  bool ekf_shown_ = false;  // RedecideEarlierStepsLocked ran, checkpointed
   // Appends node `index` (processed, its chain constraint final, of 1 sigma `sigma`) to chain_.
   // Caller holds mu_.
   void AppendChainUncertaintyLocked(int index, const Eigen::Vector3d& sigma);

@@ -17,7 +17,9 @@ constexpr std::uint32_t kMagic = 0x5047574d;  // "MWGP"
 // processed after a resume (version 1 counted them as processed: their loop searches were lost,
 // and a session resumed from a checkpoint ended 0.3 m away from the uninterrupted one on Intel).
 // 3: the node of the last closure and the global searches' turn (issue 33's loop search).
-constexpr std::uint32_t kVersion = 3;
+// 4: what the front end learned of the EKF's steps (ekf_step_agreement.h); older checkpoints
+// start it afresh.
+constexpr std::uint32_t kVersion = 4;
 
 void PutPose(BinaryWriter& w, const Pose2& p) {
   w.Put(p.x);
@@ -95,6 +97,10 @@ std::string MappingBackend::Serialize() const {
   PutPose(w, dead_reckoning_);
   for (int i = 0; i < 3; ++i) w.Put(motion_variance_(i));
   PutPose(w, last_local_);
+  double agreement[EkfStepAgreement::kValues];
+  ekf_agreement_.Values(agreement);
+  for (double v : agreement) w.Put(v);
+  w.Put<std::uint8_t>(ekf_shown_);
   return w.Take();
 }
 
@@ -218,6 +224,17 @@ absl::StatusOr<std::unique_ptr<MappingBackend>> MappingBackend::Deserialize(
   if (version < 3 && b.tie_travel_ >= 0.0) {
     // Older checkpoints kept the travel of the last closure: its last node at that travel.
     for (int i = 0; i < nodes && b.nodes_[i].travel <= b.tie_travel_; ++i) b.tie_node_ = i;
+  }
+  if (version >= 4) {
+    double agreement[EkfStepAgreement::kValues];
+    for (double& v : agreement) {
+      if (!r.Get(&v)) return corrupt("front end state");
+    }
+    std::optional<EkfStepAgreement> restored = EkfStepAgreement::FromValues(agreement);
+    std::uint8_t shown = 0;
+    if (!restored || !r.Get(&shown) || shown > 1) return corrupt("front end state");
+    b.ekf_agreement_ = *restored;
+    b.ekf_shown_ = shown == 1;
   }
   if (!r.done()) return corrupt("trailing bytes");
   // The chain's uncertainty of the processed nodes, from their chain constraints.
