@@ -9,8 +9,11 @@ namespace waymark::bags {
 namespace {
 
 // Expanded chunks kept: ROS 1 chunks are ~768 KiB and MCAP's a few MiB, so a handful covers
-// chunks that overlap in time without holding much of the file.
+// chunks that overlap in time without holding much of the file. Bounded in bytes too: a chunk
+// may declare up to kMaxExpandedBytes (2 GiB), and a few KB of zstd can expand to hundreds of MB,
+// so eight of them would hold gigabytes; the chunk just read is always kept.
 constexpr size_t kCachedChunks = 8;
+constexpr size_t kCachedBytes = size_t{256} << 20;
 
 }  // namespace
 
@@ -73,7 +76,12 @@ const std::string* ChunkedReader::LoadChunk(uint32_t index) {
     return nullptr;
   }
   cache_.emplace_front(index, *std::move(expanded));
-  if (cache_.size() > kCachedChunks) cache_.pop_back();
+  size_t bytes = 0;
+  for (const auto& [cached, data] : cache_) bytes += data.size();
+  while (cache_.size() > 1 && (cache_.size() > kCachedChunks || bytes > kCachedBytes)) {
+    bytes -= cache_.back().second.size();
+    cache_.pop_back();
+  }
   return &cache_.front().second;
 }
 
@@ -105,7 +113,7 @@ std::vector<BagTopicSummary> ChunkedReader::TopicRows(const std::map<int, int64_
     row.topic = connection.topic;
     if (row.type.empty()) row.type = connection.type;
     auto it = counts.find(connection.id);
-    if (it != counts.end()) row.messages += it->second;
+    if (it != counts.end()) row.messages = AddCounts(row.messages, it->second);
   }
   std::vector<BagTopicSummary> rows;
   for (auto& [topic, row] : by_topic) rows.push_back(std::move(row));

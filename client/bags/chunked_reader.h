@@ -8,6 +8,7 @@
 // the order jumps between more chunks than the cache holds.
 
 #include <cstdint>
+#include <limits>
 #include <list>
 #include <map>
 #include <set>
@@ -85,6 +86,18 @@ class ChunkedReader : public BagReader {
   std::list<std::pair<uint32_t, std::string>> cache_;  // most recent first
   std::set<std::string> warned_;
 };
+
+// Message counts a file claims (MCAP's statistics record: uint64 per channel) as int64, and their
+// sums, held at the int64 limits instead of overflowing: a damaged file may claim 2^64 messages.
+inline int64_t CountFrom(uint64_t claimed) {
+  constexpr uint64_t kMax = static_cast<uint64_t>(std::numeric_limits<int64_t>::max());
+  return static_cast<int64_t>(claimed > kMax ? kMax : claimed);
+}
+inline int64_t AddCounts(int64_t a, int64_t b) {
+  int64_t sum = 0;
+  if (!__builtin_add_overflow(a, b, &sum)) return sum;
+  return b > 0 ? std::numeric_limits<int64_t>::max() : std::numeric_limits<int64_t>::min();
+}
 
 // "sensor_msgs/msg/LaserScan" -> "sensor_msgs/LaserScan"; other names unchanged.
 std::string NormalizeType(std::string_view raw_type);

@@ -149,7 +149,7 @@ bool McapFile::TakeRecord(uint8_t op, std::string_view content) {
         uint16_t channel = 0;
         uint64_t count = 0;
         if (!entries.Read(&channel) || !entries.Read(&count)) return false;
-        stat_counts_[channel] += static_cast<int64_t>(count);
+        stat_counts_[channel] = AddCounts(stat_counts_[channel], CountFrom(count));
       }
       has_statistics_ = true;
       return true;
@@ -359,7 +359,7 @@ absl::StatusOr<BagSummary> McapFile::Summary() {
     summary.format = format;
     summary.files = {file_.path()};
     summary.compression = compressions_.empty() ? "none" : absl::StrJoin(compressions_, ", ");
-    summary.messages = static_cast<int64_t>(stat_messages_);
+    summary.messages = CountFrom(stat_messages_);
     summary.start_ns = stat_start_;
     summary.end_ns = stat_end_;
     summary.topics = TopicRows(stat_counts_);

@@ -12,6 +12,7 @@
 #include "absl/strings/str_cat.h"
 #include "absl/strings/str_join.h"
 #include "client/bags/byte_cursor.h"
+#include "client/bags/chunked_reader.h"
 #include "client/bags/db3_file.h"
 #include "client/bags/decompress.h"
 #include "client/bags/mcap_file.h"
@@ -135,9 +136,11 @@ class MergedBag final : public BagReader {
         if (summary.messages == 0 || one->start_ns < summary.start_ns) summary.start_ns = one->start_ns;
         if (summary.messages == 0 || one->end_ns > summary.end_ns) summary.end_ns = one->end_ns;
       }
-      summary.messages += one->messages;
+      summary.messages = AddCounts(summary.messages, one->messages);
       for (const std::string& file : one->files) summary.files.push_back(file);
-      for (const BagTopicSummary& row : one->topics) rows[row.topic].messages += row.messages;
+      for (const BagTopicSummary& row : one->topics) {
+        rows[row.topic].messages = AddCounts(rows[row.topic].messages, row.messages);
+      }
       compressions.insert(one->compression);
     }
     summary.compression =
