@@ -77,6 +77,7 @@ nlohmann::json MappingJson(const ls::MappingBackend& backend) {
           {"local_odometry_wins", stats.local_odometry_wins},
           {"local_ekf_trusted", stats.local_ekf_trusted},
           {"local_ekf_redecided", stats.local_ekf_redecided},
+          {"local_edge_translations_dropped", stats.local_edge_translations_dropped},
           {"local_s_total", std::accumulate(stats.local_ms.begin(), stats.local_ms.end(), 0.0) / 1000},
           {"search_s_total", std::accumulate(stats.search_ms.begin(), stats.search_ms.end(), 0.0) / 1000},
           {"optimize_s_total",

@@ -76,7 +76,8 @@ struct MappingStats {
   int local_matches = 0;        // nodes whose chain constraint comes from local matching
   int local_unmatched = 0;      // nodes left with the EKF's step (nothing scored local_min_score)
   int local_odometry_wins = 0;  // matches around the odometry's step that beat the EKF's
-  int local_ekf_trusted = 0;    // steps whose EKF was trusted on every axis (ekf_step_agreement.h)
+  int local_ekf_trusted = 0;    // steps whose EKF was trusted on an axis (ekf_step_agreement.h)
+  int local_edge_translations_dropped = 0;  // matches on their window's edge, translation unused
   int local_ekf_redecided = 0;  // earlier steps made the EKF's when it was first trusted
   int pending_nodes = 0;        // waiting for the back end's thread (filled by Stats())
   std::vector<double> search_ms;    // per searched node, all candidates
@@ -159,14 +160,16 @@ class MappingBackend {
   void MatchLocalMap(int index);
   // Where the session has shown the EKF's steps better than the matches on an axis
   // (ekf_step_agreement.h), fuses the match again with the EKF's step trusted to its learned
-  // variance there; then records the step's disagreement. Returns the prior's variance when every
-  // axis was so trusted (nullopt otherwise). Caller holds search_mu_ (ekf_agreement_ is the
-  // front end's).
-  std::optional<Eigen::Vector3d> TrustEkfWhereShown(const Pose2& ekf_step,
-                                                    const Eigen::Vector3d& ekf_minus_odometry,
-                                                    const Eigen::Vector3d& odometry_sigma,
-                                                    const Eigen::Vector3d& prior_sigma,
-                                                    LocalMatchResult* match);
+  // variance there; then records the step's disagreement. Caller holds search_mu_
+  // (ekf_agreement_ is the front end's).
+  struct EkfTrust {
+    int axes = 0;                      // on which the EKF's step was trusted
+    bool translation_dropped = false;  // an edge match's
+    Eigen::Vector3d variance = Eigen::Vector3d::Zero();  // of the prior the match was fused with
+  };
+  EkfTrust TrustEkfWhereShown(const Pose2& ekf_step, const Eigen::Vector3d& ekf_minus_odometry,
+                              const Eigen::Vector3d& odometry_sigma,
+                              const Eigen::Vector3d& prior_sigma, LocalMatchResult* match);
   // The first time the session shows its EKF better than its matches on every axis (node
   // `index`), the steps before, fused while nothing was known, are decided again: the EKF's step,
   // to `variance`, where it stayed within the odometry's noise. An early heading error turns the

@@ -97,14 +97,15 @@ void MappingBackend::MatchLocalMap(int index) {
       odometry_won = true;
     }
   }
-  std::optional<Eigen::Vector3d> ekf_trusted;
+  EkfTrust trust;
   if (match && !odometry_won &&
       options_.local_prior == MappingOptions::LocalPrior::kEkfWithinOdometry) {
-    ekf_trusted = TrustEkfWhereShown(step, disagreement, odometry_sigma, step_sigma, &*match);
+    trust = TrustEkfWhereShown(step, disagreement, odometry_sigma, step_sigma, &*match);
   }
   std::lock_guard<std::mutex> lock(mu_);
   if (odometry_won) ++stats_.local_odometry_wins;
-  if (ekf_trusted) ++stats_.local_ekf_trusted;
+  if (trust.axes > 0) ++stats_.local_ekf_trusted;
+  if (trust.translation_dropped) ++stats_.local_edge_translations_dropped;
   GraphConstraint& c = constraints_[chain];
   if (!match) {
     // The prior alone: with the odometry prior, its step and its noise replace the EKF's.
@@ -127,9 +128,9 @@ void MappingBackend::MatchLocalMap(int index) {
   FollowPredecessorsLocked(index + 1);
   ++stats_.local_matches;
   stats_.local_ms.push_back(MsSince(start));
-  if (ekf_trusted && !ekf_shown_) {
+  if (trust.axes == 3 && !ekf_shown_) {
     ekf_shown_ = true;
-    RedecideEarlierStepsLocked(index, *ekf_trusted);
+    RedecideEarlierStepsLocked(index, trust.variance);
   }
 }
 
@@ -181,7 +182,7 @@ void MappingBackend::RedecideEarlierStepsLocked(int index, const Eigen::Vector3d
   }
 }
 
-std::optional<Eigen::Vector3d> MappingBackend::TrustEkfWhereShown(
+MappingBackend::EkfTrust MappingBackend::TrustEkfWhereShown(
     const Pose2& ekf_step, const Eigen::Vector3d& ekf_minus_odometry,
     const Eigen::Vector3d& odometry_sigma, const Eigen::Vector3d& prior_sigma,
     LocalMatchResult* match) {
@@ -198,7 +199,7 @@ std::optional<Eigen::Vector3d> MappingBackend::TrustEkfWhereShown(
   const double sigmas = options_.local_window_sigmas;
   const Eigen::Vector3d floor(options_.local_sigma_xy, options_.local_sigma_xy,
                               options_.local_sigma_theta);
-  std::optional<Eigen::Vector3d> trusted;
+  EkfTrust trust;
   if (options_.local_learned_prior) {
     // An axis where the session has shown its EKF's steps better than its matches and not biased
     // against them, and where this step stays within the odometry's noise of the odometry's step
@@ -242,7 +243,9 @@ std::optional<Eigen::Vector3d> MappingBackend::TrustEkfWhereShown(
       }
     }
     if (axes > 0 || drop_translation) FuseWithPrior(ekf_step, variance.asDiagonal(), match);
-    if (axes == 3) trusted = variance;
+    trust.axes = axes;
+    trust.translation_dropped = drop_translation;
+    trust.variance = variance;
   }
   if (!match->at_window_edge) {
     // Only axes where the match knows more than the prior (along a corridor without ends it
@@ -251,7 +254,7 @@ std::optional<Eigen::Vector3d> MappingBackend::TrustEkfWhereShown(
         (match_variance.array() < prior_sigma.cwiseAbs2().array()).cast<int>();
     ekf_agreement_.Add(ekf_minus_match, match_variance, informative);
   }
-  return trusted;
+  return trust;
 }
 
 }  // namespace waymark::laser_slam
