@@ -302,7 +302,9 @@ absl::StatusOr<std::unique_ptr<LiveServer>> LiveServer::Start(const LiveOptions&
       },
       [hub = &server->hub_](const std::string& id, const v1::SensorData& data) {
         hub->OnInput(id, data);
-      }});
+      },
+      // Its slots go with it, before the next session list would drop them.
+      [hub = &server->hub_](const std::string& id) { hub->Forget(id); }});
   if (crossing != nullptr) {
     crossing->SetRecognitionObserver(
         [hub = &server->hub_](const std::string& database, const v1::RecognizeResponse& response) {

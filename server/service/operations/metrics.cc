@@ -193,6 +193,18 @@ class Metrics::SlamSessionStats {
     }
   }
 
+  // A session left memory (SlamReleasedObserver): its entry goes at once, not at the next scrape
+  // (a server nobody scrapes would keep one per session it ever held).
+  void Forget(const std::string& session_id) {
+    std::lock_guard<std::mutex> lock(mutex_);
+    sessions_.erase(session_id);
+  }
+
+  size_t size() {
+    std::lock_guard<std::mutex> lock(mutex_);
+    return sessions_.size();
+  }
+
   // The entries of the sessions in `resident`; every other entry is dropped.
   std::map<std::string, Entry> Keep(const std::set<std::string>& resident) {
     std::lock_guard<std::mutex> lock(mutex_);
@@ -350,11 +362,17 @@ Metrics::Metrics(const MetricsSources& sources)
         [stats, registry](const std::string& session_id, const v1::SlamUpdate& update) {
           stats->Observe(session_id, update);
         });
+    SlamObserver released;
+    released.on_released = [stats](const std::string& session_id) { stats->Forget(session_id); };
+    slam_observer_ = slam_->AddObserver(std::move(released));
   }
 }
 
 Metrics::~Metrics() {
-  if (slam_ != nullptr) slam_->SetUpdateObserver(nullptr);
+  if (slam_ != nullptr) {
+    slam_->SetUpdateObserver(nullptr);
+    slam_->RemoveObserver(slam_observer_);
+  }
   // Stop serving before the families and the collector go away.
   StopExposer(std::move(exposer_), host_, port());
 }
@@ -389,6 +407,10 @@ std::string Metrics::Render() const {
   families.insert(families.end(), std::make_move_iterator(state.begin()),
                   std::make_move_iterator(state.end()));
   return prometheus::TextSerializer().Serialize(families);
+}
+
+size_t Metrics::slam_sessions_tracked() const {
+  return slam_stats_ != nullptr ? slam_stats_->size() : 0;
 }
 
 int Metrics::port() const {

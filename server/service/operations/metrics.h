@@ -16,6 +16,8 @@
 
 #include <grpcpp/support/status.h>
 
+#include <cstddef>
+#include <cstdint>
 #include <memory>
 #include <string>
 
@@ -67,6 +69,9 @@ class Metrics {
   std::string Render() const;
   // The port the endpoint listens on (0 without one).
   int port() const;
+  // Sessions whose recent scan times and loop closures are kept (the per-session metrics): those
+  // in memory that have answered a scan; a session's entry goes when it leaves memory.
+  size_t slam_sessions_tracked() const;
 
  private:
   friend absl::StatusOr<std::unique_ptr<Metrics>> StartMetrics(const std::string& listen,
@@ -77,7 +82,8 @@ class Metrics {
   std::shared_ptr<prometheus::Registry> registry_;
   std::shared_ptr<SlamSessionStats> slam_stats_;  // shared with the registry's observer
   std::shared_ptr<StateCollector> state_;
-  SlamRegistry* slam_ = nullptr;  // whose observer this installed
+  SlamRegistry* slam_ = nullptr;  // whose observers this installed
+  uint64_t slam_observer_ = 0;    // SlamRegistry::AddObserver's id (sessions leaving memory)
   prometheus::Family<prometheus::Counter>* requests_;
   prometheus::Family<prometheus::Histogram>* latency_;
   prometheus::Family<prometheus::Gauge>* in_flight_;

@@ -162,8 +162,7 @@ absl::StatusOr<v1::Session> SessionLifecycle::StoreNewSession(const std::string&
     return DescribeSession(*stored, nullptr);
   }
 
-  auto session = std::make_shared<SlamSession>();
-  session->id = created->id;
+  std::shared_ptr<SlamSession> session = persistence_->memory().NewSession(created->id);
   session->robot_id = created->robot_id;
   session->name = created->name;
   session->kind = created->kind;

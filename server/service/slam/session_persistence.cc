@@ -172,8 +172,7 @@ SessionPersistence::LoadLocalizationMap(const std::string& map_session_id) {
 
 absl::StatusOr<std::shared_ptr<SlamSession>> SessionPersistence::LoadSession(
     const storage::SlamSessionRecord& record) {
-  auto session = std::make_shared<SlamSession>();
-  session->id = record.id;
+  std::shared_ptr<SlamSession> session = memory_.NewSession(record.id);
   session->robot_id = record.robot_id;
   session->name = record.name;
   session->kind = record.kind;

@@ -19,6 +19,7 @@
 #include "server/service/slam/folder.h"
 #include "server/service/slam/session_engine.h"
 #include "server/service/slam/session_leases.h"
+#include "server/service/slam/session_memory.h"
 #include "server/service/slam/slam_registry_options.h"
 #include "server/service/slam/slam_session.h"
 #include "storage/slam_store.h"
@@ -45,6 +46,9 @@ class SessionPersistence {
   // when it is open, replays its journal after the checkpoint. Not made resident.
   absl::StatusOr<std::shared_ptr<SlamSession>> LoadSession(
       const storage::SlamSessionRecord& record);
+  // The registry's sessions in memory: every session is built through it (LoadSession here,
+  // new ones by SessionLifecycle), so each is counted and its release told (session_memory.h).
+  SessionMemory& memory() { return memory_; }
 
   // Writes the session's engine state, counters and the trajectory poses not yet stored (one
   // transaction); `close` stores it closed with the map's self-check, after which it is never
@@ -66,6 +70,7 @@ class SessionPersistence {
   storage::SlamStore* const store_;
   const SlamRegistryOptions& options_;
   SessionLeases* const leases_;
+  SessionMemory memory_;
 };
 
 }  // namespace waymark::service

@@ -278,6 +278,7 @@ uint64_t SessionStreams::AddObserver(SlamObserver observer) {
   std::lock_guard<std::mutex> lock(observer_mutex_);
   auto list = std::make_shared<ObserverList>(*observers_);
   const uint64_t id = next_observer_id_++;
+  if (observer.on_released) persistence_->memory().AddObserver(id, observer.on_released);
   list->emplace_back(id, std::make_shared<const SlamObserver>(std::move(observer)));
   observers_ = std::move(list);
   return id;
@@ -290,6 +291,7 @@ void SessionStreams::RemoveObserver(uint64_t id) {
     if (entry.first != id) list->push_back(entry);
   }
   observers_ = std::move(list);
+  persistence_->memory().RemoveObserver(id);
 }
 
 std::shared_ptr<const SessionStreams::ObserverList> SessionStreams::Observers() {

@@ -54,6 +54,7 @@ class SessionStreams {
   // Null (the default) = none. Safe to set and clear while sessions run.
   void SetUpdateObserver(SlamUpdateObserver observer);
   // More watchers beside the one above (SlamRegistry::AddObserver); safe while sessions run.
+  // Their on_released goes to the sessions' memory (SessionPersistence::memory()).
   uint64_t AddObserver(SlamObserver observer);
   void RemoveObserver(uint64_t id);
 

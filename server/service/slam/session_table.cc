@@ -12,14 +12,17 @@ absl::StatusOr<std::shared_ptr<SlamSession>> SessionTable::Find(const std::strin
 }
 
 void SessionTable::Put(std::shared_ptr<SlamSession> session) {
+  std::shared_ptr<SlamSession> replaced;  // destroyed after the lock (see Erase)
   std::lock_guard<std::mutex> lock(mutex_);
   const std::string id = session->id;
-  sessions_[id] = std::move(session);
+  replaced = std::exchange(sessions_[id], std::move(session));
 }
 
 void SessionTable::Erase(const std::string& id) {
-  std::lock_guard<std::mutex> lock(mutex_);
-  sessions_.erase(id);
+  // When the table held the last reference, the session and its engine are destroyed here, and
+  // that takes time (a long session's nodes and grids) and tells the session's observers
+  // (session_memory.h): not under the lock every Find takes.
+  std::shared_ptr<SlamSession> erased = Take(id);
 }
 
 std::shared_ptr<SlamSession> SessionTable::Take(const std::string& id) {

@@ -34,12 +34,19 @@ using SlamUpdateObserver =
 using SlamInputObserver =
     std::function<void(const std::string& session_id, const v1::SensorData& data)>;
 
-// One watcher of the sessions (SlamRegistry::AddObserver); either part may be null. Both are
+// Sees a session leave this server's memory: its state and engine were just destroyed, after it
+// closed, was deleted, was taken over by another server, or was rebuilt from the store only to be
+// read (session_memory.h). Runs on the thread that let the session go (a close or delete call,
+// a stream ending, a worker, a reader); what was kept for the session can go.
+using SlamReleasedObserver = std::function<void(const std::string& session_id)>;
+
+// One watcher of the sessions (SlamRegistry::AddObserver); any part may be null. All are
 // called without any of the registry's locks held and must return quickly: they run on the
 // threads that serve the robots.
 struct SlamObserver {
   SlamUpdateObserver on_update;
   SlamInputObserver on_input;
+  SlamReleasedObserver on_released;
 };
 
 // Not thread-safe: one thread (the stream's reader) calls Submit and Close. Must not outlive the
