@@ -209,7 +209,10 @@ absl::StatusOr<std::unique_ptr<BagReader>> OpenPlan(const Plan& plan) {
   for (const std::string& listed : plan.files) {
     std::string path = listed;
     if (file_mode || absl::EndsWith(listed, ".zstd")) {
-      std::string pattern = (fs::temp_directory_path() / "waymark-bag-XXXXXX").string();
+      std::error_code error;
+      fs::path temp = fs::temp_directory_path(error);
+      if (error) temp = "/tmp";
+      std::string pattern = (temp / "waymark-bag-XXXXXX").string();
       if (mkdtemp(pattern.data()) == nullptr) {
         return absl::ResourceExhaustedError("cannot create a temporary folder for a compressed bag file");
       }
@@ -238,8 +241,12 @@ absl::StatusOr<std::unique_ptr<BagReader>> OpenPlan(const Plan& plan) {
     } else if (storage == Storage::kMcap) {
       absl::StatusOr<RandomFile> file = RandomFile::Open(path);
       reader = file.ok() ? OpenMcapFile(*std::move(file), "rosbag2 mcap") : file.status();
-    } else if (!fs::exists(path)) {
-      reader = absl::NotFoundError(absl::StrCat(listed, ": listed by the bag's metadata but missing"));
+    } else if (std::error_code error; !fs::exists(path, error)) {
+      // The non-throwing overloads throughout: a listed name may be anything (one too long for
+      // the file system threw std::filesystem_error out of the reader, found by fuzzing).
+      reader = absl::NotFoundError(absl::StrCat(
+          listed, ": listed by the bag's metadata but ",
+          error ? absl::StrCat("unreadable (", error.message(), ")") : std::string("missing")));
     } else {
       reader = absl::InvalidArgumentError(
           absl::StrCat(listed, ": neither an sqlite3 (.db3) nor an MCAP storage file"));
@@ -297,9 +304,12 @@ absl::StatusOr<std::unique_ptr<BagReader>> OpenRosbag2(const std::string& path) 
     return OpenPlan(*plan);
   }
   Plan plan;
-  for (const fs::directory_entry& entry : fs::directory_iterator(path, error)) {
-    const std::string name = entry.path().string();
-    if (entry.is_regular_file() && (absl::EndsWith(name, ".db3") || absl::EndsWith(name, ".mcap"))) {
+  for (fs::directory_iterator it(path, error); !error && it != fs::directory_iterator();
+       it.increment(error)) {
+    const std::string name = it->path().string();
+    std::error_code type_error;
+    if (it->is_regular_file(type_error) &&
+        (absl::EndsWith(name, ".db3") || absl::EndsWith(name, ".mcap"))) {
       plan.files.push_back(name);
     }
   }

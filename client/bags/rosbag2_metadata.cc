@@ -18,7 +18,9 @@ namespace fs = std::filesystem;
 
 std::string Resolve(const fs::path& folder, const std::string& relative) {
   const fs::path listed(relative);
-  if (listed.is_absolute() && fs::exists(listed)) return listed.string();
+  // Never the throwing overloads: a listed name may be anything (too long, say).
+  std::error_code absolute_error;
+  if (listed.is_absolute() && fs::exists(listed, absolute_error)) return listed.string();
   for (const fs::path& candidate :
        {folder / listed, folder.parent_path() / listed, folder / listed.filename()}) {
     std::error_code error;
