@@ -58,6 +58,7 @@ int RunCli(int argc, const char* const* argv, std::ostream& out, std::ostream& e
   AddBenchLoadCommand(app, registry);
   AddTokenCommands(app, registry);
   AddBagCommands(app, registry);
+  AddMapCommands(app, registry);
   AddVoCommands(app, registry);
 
   try {

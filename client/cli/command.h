@@ -53,6 +53,8 @@ void AddBenchLoadCommand(CLI::App& app, CommandRegistry& registry);
 void AddTokenCommands(CLI::App& app, CommandRegistry& registry);
 // `bag info` (bag_command.cc).
 void AddBagCommands(CLI::App& app, CommandRegistry& registry);
+// `waymark map create|list|show|grid|delete`: maps shared by robots (map_command.cc).
+void AddMapCommands(CLI::App& app, CommandRegistry& registry);
 
 }  // namespace waymark::cli
 

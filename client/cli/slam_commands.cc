@@ -360,6 +360,17 @@ void AddSlamCommands(CLI::App& app, CommandRegistry& registry) {
   replay->add_flag("--allow-inconsistent-map", replay_args->allow_inconsistent_map,
                    "Exit 0 even when the final map contradicts itself (still warned about)");
   AddLocalizeFlags(replay, &replay_args->localize);
+  replay->add_option("--map", replay_args->map,
+                     "Join this shared map (`waymark map create NAME`) as one robot's trajectory");
+  replay->add_option_function<std::string>(
+      "--scans",
+      [replay_args](const std::string& value) {
+        absl::StatusOr<ScanSlice> slice = ParseScanSlice(value);
+        if (!slice.ok()) throw CLI::ValidationError("--scans", std::string(slice.status().message()));
+        replay_args->scans = *slice;
+      },
+      "Only scans FIRST to LAST-1 of the recording (0-based; FIRST: to the end), as one robot "
+      "driving that stretch");
   registry.Add(replay, [replay_args](CommandContext& c) {
     StopSignals signals;  // Ctrl-C: stop sending, close the session, write partial outputs
     return RunSlamReplay(c, *replay_args, [&signals] { return signals.stop_requested().load(); });

@@ -350,6 +350,49 @@ absl::StatusOr<v1::Session> SlamClient::ImportMap(const std::string& robot_id,
       [&](auto* context, auto* response) { return stub_->ImportMap(context, request, response); });
 }
 
+absl::StatusOr<v1::Map> SlamClient::CreateMap(const std::string& name) {
+  v1::CreateMapRequest request;
+  request.set_name(name);
+  return CallUnary<v1::Map>(
+      options_.timeout, options_.retry, Idempotency::kWrite,
+      [&](auto* context, auto* response) { return stub_->CreateMap(context, request, response); });
+}
+
+absl::StatusOr<v1::ListMapsResponse> SlamClient::ListMaps() {
+  v1::ListMapsRequest request;
+  return CallUnary<v1::ListMapsResponse>(
+      options_.timeout, options_.retry, Idempotency::kRead,
+      [&](auto* context, auto* response) { return stub_->ListMaps(context, request, response); });
+}
+
+absl::StatusOr<v1::Map> SlamClient::GetMapInfo(const std::string& name) {
+  v1::GetMapInfoRequest request;
+  request.set_name(name);
+  return CallUnary<v1::Map>(
+      options_.timeout, options_.retry, Idempotency::kRead,
+      [&](auto* context, auto* response) { return stub_->GetMapInfo(context, request, response); });
+}
+
+absl::StatusOr<v1::DeleteMapResponse> SlamClient::DeleteMap(const std::string& name, bool force) {
+  v1::DeleteMapRequest request;
+  request.set_name(name);
+  request.set_force(force);
+  return CallUnary<v1::DeleteMapResponse>(
+      options_.timeout, options_.retry, Idempotency::kWrite,
+      [&](auto* context, auto* response) { return stub_->DeleteMap(context, request, response); });
+}
+
+absl::StatusOr<v1::MapOccupancyGrid> SlamClient::GetMapOccupancyGrid(
+    const std::string& name, std::optional<double> resolution) {
+  v1::GetMapOccupancyGridRequest request;
+  request.set_name(name);
+  if (resolution.has_value()) request.set_resolution(*resolution);
+  return CallUnary<v1::MapOccupancyGrid>(
+      options_.timeout, options_.retry, Idempotency::kRead, [&](auto* context, auto* response) {
+        return stub_->GetMapOccupancyGrid(context, request, response);
+      });
+}
+
 template <typename Response, typename Call>
 absl::StatusOr<Response> SlamClient::AtSessionServer(const std::string& session_id,
                                                      absl::Duration timeout, Call call) {

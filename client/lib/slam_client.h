@@ -198,6 +198,15 @@ class SlamClient {
   absl::StatusOr<v1::DeleteSessionResponse> DeleteSession(const std::string& session_id,
                                                           bool force = false);
 
+  // Maps shared by robots (slam.proto, CreateMap ...). Reads are retried as the session reads;
+  // CreateMap and DeleteMap never are.
+  absl::StatusOr<v1::Map> CreateMap(const std::string& name);
+  absl::StatusOr<v1::ListMapsResponse> ListMaps();
+  absl::StatusOr<v1::Map> GetMapInfo(const std::string& name);
+  absl::StatusOr<v1::DeleteMapResponse> DeleteMap(const std::string& name, bool force = false);
+  absl::StatusOr<v1::MapOccupancyGrid> GetMapOccupancyGrid(
+      const std::string& name, std::optional<double> resolution = std::nullopt);
+
   // Makes the channel try to connect now instead of at the end of gRPC's reconnect backoff, which
   // after a server restart can hold calls failing for seconds. A robot calls it before reopening
   // a broken stream. No-op for a client built on a stub.

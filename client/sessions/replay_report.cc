@@ -273,6 +273,17 @@ nlohmann::json ReplayJson(const ReplayReport& report) {
   if (!report.grid_note.empty()) json["grid_note"] = report.grid_note;
   json["self_check"] = SelfCheckJson(report);
   if (!report.localize_map.empty()) json["localization"] = LocalizationJson(report);
+  if (!report.shared_map.empty()) {
+    json["shared_map"] = {{"name", report.shared_map},
+                          {"tied_in", report.shared_map_tied_in},
+                          {"trajectory", report.shared_map_trajectory},
+                          {"trajectories", report.shared_map_trajectories},
+                          {"revision", report.shared_map_revision},
+                          {"map_pose_answers", report.map_pose_answers},
+                          {"map_pose_tied", report.map_pose_tied}};
+    if (!report.shared_map_note.empty()) json["shared_map"]["note"] = report.shared_map_note;
+  }
+  if (!report.scan_slice.empty()) json["scan_slice"] = report.scan_slice;
   if (!report.source_facts.empty()) {
     nlohmann::json bag = nlohmann::json::object();
     for (const auto& [key, value] : report.source_facts) bag[key] = value;
@@ -342,6 +353,19 @@ std::string ReplayText(const ReplayReport& report) {
   if (!report.grid_note.empty()) text += report.grid_note + "\n";
   text += SelfCheckText(report);
   if (!report.localize_map.empty()) text += LocalizationText(report) + DrawnMapText(report);
+  if (!report.shared_map.empty()) {
+    if (!report.shared_map_note.empty()) {
+      text += fmt::format("map {}: {}\n", report.shared_map, report.shared_map_note);
+    } else {
+      text += fmt::format("map {}: trajectory {} of {}, {} (revision {}; {} of {} answers had a "
+                          "map-frame pose)\n",
+                          report.shared_map, report.shared_map_trajectory,
+                          report.shared_map_trajectories,
+                          report.shared_map_tied_in ? "tied in" : "not yet in the map",
+                          report.shared_map_revision, report.map_pose_tied,
+                          report.map_pose_answers);
+    }
+  }
   if (report.trajectory_source != "server") {
     text += fmt::format("trajectory: the {} poses of the {}\n", report.trajectory_poses,
                         report.trajectory_source);

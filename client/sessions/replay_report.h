@@ -134,6 +134,19 @@ struct ReplayReport {
   int drawn_segments = 0;
   std::string drawn_map_problem;
 
+  // --map: the shared map the session joined and its trajectory there after the replay
+  // (GetMapInfo): tied in, or not yet in the map; map_note says why the map could not be read.
+  std::string shared_map;  // empty: the session joined no map
+  bool shared_map_tied_in = false;
+  int shared_map_trajectory = 0;  // its place in the join order, 1 = the first
+  int shared_map_trajectories = 0;
+  uint64_t shared_map_revision = 0;
+  uint64_t map_pose_answers = 0;  // answers that carried map_pose
+  uint64_t map_pose_tied = 0;     // of which tied in (a map-frame pose)
+  std::string shared_map_note;
+  // --scans FIRST:LAST as given ("" = all).
+  std::string scan_slice;
+
   bool partial() const { return end == ReplayEnd::kInterrupted || end == ReplayEnd::kFailed; }
 };
 

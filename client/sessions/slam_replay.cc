@@ -15,6 +15,7 @@
 #include <thread>
 #include <vector>
 
+#include "absl/strings/numbers.h"
 #include "absl/strings/str_cat.h"
 #include "client/common/output.h"
 #include "client/common/progress_bar.h"
@@ -422,11 +423,73 @@ v1::CreateSessionRequest SessionRequest(const ReplayArgs& args, const LaserSampl
   if (args.odom_theta_per_m) params->set_odom_theta_per_m(*args.odom_theta_per_m);
   if (args.match_chi2) params->set_match_chi2(*args.match_chi2);
   if (args.localize) *config->mutable_localize() = *args.localize;
+  create.set_map(args.map);
   return create;
 }
 
 v1::CreateSessionRequest SessionRequest(const ReplayArgs& args, const CarmenLaser& first) {
   return SessionRequest(args, SampleOf(first), LaserMount(first));
+}
+
+absl::StatusOr<ScanSlice> ParseScanSlice(const std::string& text) {
+  const size_t colon = text.find(':');
+  const auto bad = [&](absl::string_view why) {
+    return absl::InvalidArgumentError(
+        absl::StrCat("--scans \"", text, "\": ", why, " (FIRST:LAST, scans FIRST to LAST-1 "
+                     "counted from 0; FIRST: to the end)"));
+  };
+  if (colon == std::string::npos) return bad("no ':'");
+  ScanSlice slice;
+  if (!absl::SimpleAtoi(text.substr(0, colon), &slice.first)) return bad("FIRST is not a number");
+  if (slice.first < 0) return bad("FIRST is negative");
+  const std::string last = text.substr(colon + 1);
+  if (!last.empty()) {
+    int64_t value = 0;
+    if (!absl::SimpleAtoi(last, &value)) return bad("LAST is not a number");
+    if (value <= slice.first) return bad("LAST must be above FIRST");
+    slice.last = value;
+  }
+  return slice;
+}
+
+namespace {
+
+// SliceLaserSource's source: skips the first scans, ends after the last.
+class SlicedSource final : public LaserSource {
+ public:
+  SlicedSource(std::unique_ptr<LaserSource> source, const ScanSlice& slice)
+      : source_(std::move(source)), slice_(slice) {}
+
+  absl::StatusOr<bool> Next(LaserSample* sample) override {
+    while (next_ < slice_.first) {
+      absl::StatusOr<bool> more = source_->Next(sample);
+      if (!more.ok() || !*more) return more;
+      ++next_;
+    }
+    if (slice_.last.has_value() && next_ >= *slice_.last) return false;
+    absl::StatusOr<bool> more = source_->Next(sample);
+    if (more.ok() && *more) ++next_;
+    return more;
+  }
+  Pose2 LaserMount() const override { return source_->LaserMount(); }
+  adapters::LaserSourceCounts counts() const override { return source_->counts(); }
+  std::vector<std::string> Warnings() const override { return source_->Warnings(); }
+  std::string BrokenStampsWarning() const override { return source_->BrokenStampsWarning(); }
+  std::vector<std::pair<std::string, std::string>> Facts() const override {
+    return source_->Facts();
+  }
+
+ private:
+  std::unique_ptr<LaserSource> source_;
+  const ScanSlice slice_;
+  int64_t next_ = 0;  // index of the next scan the source gives
+};
+
+}  // namespace
+
+std::unique_ptr<LaserSource> SliceLaserSource(std::unique_ptr<LaserSource> source,
+                                              const ScanSlice& slice) {
+  return std::make_unique<SlicedSource>(std::move(source), slice);
 }
 
 absl::StatusOr<OpenedLaserSource> OpenLaserSource(const std::string& path, bool restamp,
@@ -477,6 +540,15 @@ int RunSlamReplay(CommandContext& context, const ReplayArgs& args, const StopReq
   auto opened =
       OpenLaserSource(args.log, args.restamp, args.rate_hz, args.scan_topic, args.odom_topic);
   if (!opened.ok()) return ReportError(context, opened.status());
+  if (args.scans.has_value()) {
+    opened->source = SliceLaserSource(std::move(opened->source), *args.scans);
+    opened->count_scans = [count = std::move(opened->count_scans),
+                           slice = *args.scans](const std::atomic<bool>* cancel) -> int64_t {
+      int64_t total = count(cancel);
+      if (slice.last.has_value()) total = std::min(total, *slice.last);
+      return std::max<int64_t>(0, total - slice.first);
+    };
+  }
   LaserSource& source = *opened->source;
   const SlamOutTarget target = SlamOutTargetOf(
       args.out_dir.empty() ? std::filesystem::path("out") / LogName(args.log)
@@ -505,9 +577,22 @@ int RunSlamReplay(CommandContext& context, const ReplayArgs& args, const StopReq
   report.realtime = args.realtime;
   if (args.restamp) report.restamp_rate_hz = args.rate_hz;
 
+  if (args.scans.has_value()) {
+    report.scan_slice =
+        absl::StrCat(args.scans->first, ":", args.scans->last ? absl::StrCat(*args.scans->last) : "");
+  }
+
   Answers answers;
+  std::atomic<uint64_t> map_pose_answers{0};
+  std::atomic<uint64_t> map_pose_tied{0};
   std::unique_ptr<client::SensorStream> stream = client->StreamSensorData(
-      report.session_id, args.window, [&answers](const v1::SlamUpdate& u) { answers.Add(u); });
+      report.session_id, args.window, [&](const v1::SlamUpdate& u) {
+        answers.Add(u);
+        if (u.has_map_pose()) {
+          ++map_pose_answers;
+          if (u.map_pose().tied_in()) ++map_pose_tied;
+        }
+      });
 
   const bool by_scans = args.max_scans > 0;
   ReplayProgress progress(context, args, opened->count_scans);
@@ -607,6 +692,25 @@ int RunSlamReplay(CommandContext& context, const ReplayArgs& args, const StopReq
   }
 
   SessionResults results = CloseAndCollect(*client, report.session_id, answers, report);
+  if (!args.map.empty()) {
+    report.shared_map = args.map;
+    report.map_pose_answers = map_pose_answers;
+    report.map_pose_tied = map_pose_tied;
+    if (absl::StatusOr<v1::Map> map = client->GetMapInfo(args.map); map.ok()) {
+      report.shared_map_revision = map->revision();
+      report.shared_map_trajectories = map->trajectories_size();
+      for (int i = 0; i < map->trajectories_size(); ++i) {
+        if (map->trajectories(i).session_id() != report.session_id) continue;
+        report.shared_map_trajectory = i + 1;
+        report.shared_map_tied_in = map->trajectories(i).tied_in();
+      }
+      if (report.shared_map_trajectory == 0) {
+        report.shared_map_note = "the session is no longer in the map (the map was replaced)";
+      }
+    } else {
+      report.shared_map_note = "could not read the map: GetMapInfo: " + StatusText(map.status());
+    }
+  }
   if (args.localize) {
     CollectLocalizationMap(*client, report.localize_map, args.grid_resolution, results, report);
   } else if (target.is_folder()) {

@@ -61,6 +61,19 @@
 namespace waymark::cli {
 
 
+// A stretch of a recording's scans: FIRST:LAST is scans first .. last-1 (0-based); "FIRST:" runs to
+// the end (last unset).
+struct ScanSlice {
+  int64_t first = 0;
+  std::optional<int64_t> last;
+};
+// "FIRST:LAST" or "FIRST:"; INVALID_ARGUMENT naming what is wrong (not numbers, negative, LAST not
+// above FIRST).
+absl::StatusOr<ScanSlice> ParseScanSlice(const std::string& text);
+// The source's scans in `slice` only (those before are read and dropped).
+std::unique_ptr<adapters::LaserSource> SliceLaserSource(
+    std::unique_ptr<adapters::LaserSource> source, const ScanSlice& slice);
+
 // Asked before each scan is sent: true ends the replay early (Ctrl-C). Empty: never.
 using StopRequested = std::function<bool()>;
 
@@ -89,6 +102,13 @@ struct ReplayArgs {
   bool allow_inconsistent_map = false;
   // Set: a localization session on this map (LaserSlamConfig.localize) instead of a mapping one.
   std::optional<v1::LocalizationConfig> localize;
+  // --map NAME: the session joins this shared map (CreateSessionRequest.map); the summary says
+  // whether its trajectory is in the map. Empty = none.
+  std::string map;
+  // --scans FIRST:LAST: only the recording's scans FIRST .. LAST-1 (0-based, in the order the
+  // source gives them), as one robot driving that stretch; unset = all. --max-scans still counts
+  // the scans sent.
+  std::optional<ScanSlice> scans;
 };
 
 // One laser line as a replay sends it: the odometry pose at its stamp, then the scan.

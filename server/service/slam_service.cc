@@ -236,4 +236,41 @@ grpc::Status SlamServiceImpl::ListSessions(grpc::ServerContext* context,
       });
 }
 
+grpc::Status SlamServiceImpl::CreateMap(grpc::ServerContext* context,
+                                        const v1::CreateMapRequest* request, v1::Map* response) {
+  return ReplyAuthorized(*auth_, *context, Action::kEditMaps, response,
+                         [&](const Caller&) { return registry_->CreateMap(request->name()); });
+}
+
+grpc::Status SlamServiceImpl::ListMaps(grpc::ServerContext* context, const v1::ListMapsRequest*,
+                                       v1::ListMapsResponse* response) {
+  return ReplyAuthorized(*auth_, *context, Action::kReadMaps, response,
+                         [&](const Caller&) { return registry_->ListMaps(); });
+}
+
+grpc::Status SlamServiceImpl::GetMapInfo(grpc::ServerContext* context,
+                                         const v1::GetMapInfoRequest* request,
+                                         v1::Map* response) {
+  return ReplyAuthorized(*auth_, *context, Action::kReadMaps, response,
+                         [&](const Caller&) { return registry_->GetMapInfo(request->name()); });
+}
+
+grpc::Status SlamServiceImpl::DeleteMap(grpc::ServerContext* context,
+                                        const v1::DeleteMapRequest* request,
+                                        v1::DeleteMapResponse* response) {
+  return ReplyAuthorized(*auth_, *context, Action::kEditMaps, response, [&](const Caller&) {
+    return registry_->DeleteMap(request->name(), request->force());
+  });
+}
+
+grpc::Status SlamServiceImpl::GetMapOccupancyGrid(grpc::ServerContext* context,
+                                                  const v1::GetMapOccupancyGridRequest* request,
+                                                  v1::MapOccupancyGrid* response) {
+  return ReplyAuthorized(*auth_, *context, Action::kReadMaps, response, [&](const Caller&) {
+    return registry_->GetMapOccupancyGrid(
+        request->name(),
+        request->has_resolution() ? std::optional<double>(request->resolution()) : std::nullopt);
+  });
+}
+
 }  // namespace waymark::service

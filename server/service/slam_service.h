@@ -56,6 +56,20 @@ class SlamServiceImpl final : public v1::SlamService::Service {
                                 v1::OccupancyGrid* response) override;
   grpc::Status ImportMap(grpc::ServerContext*, const v1::ImportMapRequest* request,
                          v1::Session* response) override;
+  // Maps shared by robots: a mapper (or admin) creates and deletes them, anyone with a token
+  // reads them (every robot's trajectories in a map are the map's), a robot joins one with
+  // CreateSession.
+  grpc::Status CreateMap(grpc::ServerContext*, const v1::CreateMapRequest* request,
+                         v1::Map* response) override;
+  grpc::Status ListMaps(grpc::ServerContext*, const v1::ListMapsRequest* request,
+                        v1::ListMapsResponse* response) override;
+  grpc::Status GetMapInfo(grpc::ServerContext*, const v1::GetMapInfoRequest* request,
+                          v1::Map* response) override;
+  grpc::Status DeleteMap(grpc::ServerContext*, const v1::DeleteMapRequest* request,
+                         v1::DeleteMapResponse* response) override;
+  grpc::Status GetMapOccupancyGrid(grpc::ServerContext*,
+                                   const v1::GetMapOccupancyGridRequest* request,
+                                   v1::MapOccupancyGrid* response) override;
 
  private:
   // OK when `caller` may use session `session_id`; NOT_FOUND for an unknown session.

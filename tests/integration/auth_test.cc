@@ -126,6 +126,15 @@ std::vector<RpcCase> AllRpcs() {
        Unary<v1::ListSessionsRequest, v1::ListSessionsResponse, SS>(&SS::ListSessions)},
       {"DeleteSession", TokenRole::kRobot,
        Unary<v1::DeleteSessionRequest, v1::DeleteSessionResponse, SS>(&SS::DeleteSession)},
+      {"CreateMap", TokenRole::kMapper, Unary<v1::CreateMapRequest, v1::Map, SS>(&SS::CreateMap)},
+      {"ListMaps", TokenRole::kViewer,
+       Unary<v1::ListMapsRequest, v1::ListMapsResponse, SS>(&SS::ListMaps)},
+      {"GetMapInfo", TokenRole::kViewer,
+       Unary<v1::GetMapInfoRequest, v1::Map, SS>(&SS::GetMapInfo)},
+      {"DeleteMap", TokenRole::kMapper,
+       Unary<v1::DeleteMapRequest, v1::DeleteMapResponse, SS>(&SS::DeleteMap)},
+      {"GetMapOccupancyGrid", TokenRole::kViewer,
+       Unary<v1::GetMapOccupancyGridRequest, v1::MapOccupancyGrid, SS>(&SS::GetMapOccupancyGrid)},
       {"StreamSensorData", TokenRole::kRobot,
        [](const std::shared_ptr<grpc::Channel>& channel) {
          SS stub(channel);

@@ -28,12 +28,14 @@ TEST(AccessPolicyTest, EachRoleMayDoExactlyItsActions) {
   const std::vector<Action> all = {Action::kReadCrossings, Action::kRecognize,
                                    Action::kEditCrossings, Action::kDeleteDatabase,
                                    Action::kWatchSlam,     Action::kSlam,
-                                   Action::kManageTokens,  Action::kLiveView};
-  const std::vector<Action> viewer = {Action::kWatchSlam, Action::kLiveView};
+                                   Action::kManageTokens,  Action::kLiveView,
+                                   Action::kReadMaps,      Action::kEditMaps};
+  const std::vector<Action> viewer = {Action::kWatchSlam, Action::kLiveView, Action::kReadMaps};
   const std::vector<Action> robot = {Action::kReadCrossings, Action::kRecognize,
-                                     Action::kWatchSlam, Action::kSlam};
+                                     Action::kWatchSlam, Action::kSlam, Action::kReadMaps};
   const std::vector<Action> mapper = {Action::kReadCrossings, Action::kRecognize,
-                                      Action::kWatchSlam, Action::kSlam, Action::kEditCrossings};
+                                      Action::kWatchSlam, Action::kSlam, Action::kEditCrossings,
+                                      Action::kReadMaps, Action::kEditMaps};
   for (Action action : all) {
     const bool viewer_may = std::count(viewer.begin(), viewer.end(), action) > 0;
     const bool robot_may = std::count(robot.begin(), robot.end(), action) > 0;

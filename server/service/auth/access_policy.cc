@@ -25,6 +25,10 @@ const char* ActionName(Action action) {
       return "read SLAM sessions";
     case Action::kLiveView:
       return "watch the live view";
+    case Action::kReadMaps:
+      return "read maps";
+    case Action::kEditMaps:
+      return "create and delete maps";
   }
   return "do this";
 }
@@ -39,12 +43,14 @@ TokenRole MinimumRole(Action action) {
   switch (action) {
     case Action::kWatchSlam:
     case Action::kLiveView:
+    case Action::kReadMaps:
       return TokenRole::kViewer;
     case Action::kReadCrossings:
     case Action::kRecognize:
     case Action::kSlam:
       return TokenRole::kRobot;
     case Action::kEditCrossings:
+    case Action::kEditMaps:
       return TokenRole::kMapper;
     case Action::kDeleteDatabase:
     case Action::kManageTokens:

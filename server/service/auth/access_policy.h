@@ -26,6 +26,9 @@ enum class Action {
                      // the caller's own sessions, like CloseSession)
   kManageTokens,     // TokenService
   kLiveView,         // the live view (waymark-server --live): every robot's sessions as they run
+  kReadMaps,         // maps shared by robots: ListMaps, GetMapInfo, GetMapOccupancyGrid (every
+                     // robot's trajectories in them; a robot joins one with CreateSession, kSlam)
+  kEditMaps,         // CreateMap, DeleteMap
 };
 
 // "recognize", "edit crossing databases", ... for error messages.

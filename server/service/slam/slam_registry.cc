@@ -10,6 +10,7 @@
 #include <vector>
 
 #include "absl/strings/str_cat.h"
+#include "server/service/slam/map_registry.h"
 #include "server/service/slam/session_lifecycle.h"
 #include "server/service/slam/session_persistence.h"
 #include "server/service/slam/session_queries.h"
@@ -21,7 +22,8 @@
 namespace waymark::service {
 
 absl::StatusOr<std::unique_ptr<SlamRegistry>> SlamRegistry::Create(
-    std::unique_ptr<storage::SlamStore> store, const SlamRegistryOptions& options) {
+    std::unique_ptr<storage::SlamStore> store, const SlamRegistryOptions& options,
+    std::unique_ptr<storage::MapStore> maps) {
   if (store == nullptr) return absl::InvalidArgumentError("no SLAM store");
   if (options.queue_capacity < 1 || options.queue_capacity > 100000) {
     return absl::InvalidArgumentError(absl::StrCat("SLAM queue capacity must be in [1, 100000], got ",
@@ -47,12 +49,19 @@ absl::StatusOr<std::unique_ptr<SlamRegistry>> SlamRegistry::Create(
   if (options.max_queued_frame_bytes < 1) {
     return absl::InvalidArgumentError("max_queued_frame_bytes must be at least 1");
   }
-  return std::unique_ptr<SlamRegistry>(new SlamRegistry(std::move(store), options));
+  std::unique_ptr<SlamRegistry> registry(
+      new SlamRegistry(std::move(store), options, std::move(maps)));
+  if (absl::Status s = registry->maps_->Load(); !s.ok()) {
+    return absl::Status(s.code(), absl::StrCat("cannot load the SLAM maps: ", s.message()));
+  }
+  return registry;
 }
 
 SlamRegistry::SlamRegistry(std::unique_ptr<storage::SlamStore> store,
-                           const SlamRegistryOptions& options)
-    : options_(options), store_(std::move(store)), leases_(store_.get(), options.lease) {
+                           const SlamRegistryOptions& options,
+                           std::unique_ptr<storage::MapStore> maps)
+    : options_(options), store_(std::move(store)), map_store_(std::move(maps)),
+      leases_(store_.get(), options.lease) {
   if (options_.journal) {
     journal_ = std::make_unique<SlamJournal>(store_.get(), [this] { return leases_.owner(); });
   }
@@ -71,6 +80,8 @@ SlamRegistry::SlamRegistry(std::unique_ptr<storage::SlamStore> store,
       });
   streams_ = std::make_unique<SessionStreams>(options_, &shutting_down_, journal_.get(),
                                               scheduler_.get(), persistence_.get());
+  // With several servers on one database, a session may have joined its map on another one.
+  maps_ = std::make_unique<MapRegistry>(map_store_.get(), /*find_in_store=*/leases_.enabled());
   // Idle sessions' time-based checkpoints (a processed scan checks its own session).
   if (options_.checkpoint_seconds > 0) {
     scheduler_->Every(std::chrono::duration<double>(
@@ -89,7 +100,20 @@ SlamRegistry::~SlamRegistry() {
 }
 
 absl::StatusOr<v1::Session> SlamRegistry::CreateSession(const v1::CreateSessionRequest& request) {
-  return lifecycle_->CreateSession(request);
+  if (request.map().empty()) return lifecycle_->CreateSession(request);
+  // Refused (bad name, unknown map, a session that cannot be a map's trajectory) before anything
+  // is stored.
+  if (absl::Status s = maps_->CheckJoin(request); !s.ok()) return s;
+  absl::StatusOr<v1::Session> session = lifecycle_->CreateSession(request);
+  if (!session.ok()) return session;
+  if (absl::StatusOr<v1::Map> joined = maps_->Join(request.map(), session->session_id());
+      !joined.ok()) {
+    // The map went meanwhile (deleted by another call): no session half in it.
+    (void)lifecycle_->DeleteSession(session->session_id(), /*force=*/true);
+    return joined.status();
+  }
+  session->set_map(request.map());
+  return session;
 }
 
 absl::StatusOr<v1::Session> SlamRegistry::ImportMap(const v1::ImportMapRequest& request) {
@@ -106,20 +130,39 @@ absl::StatusOr<std::unique_ptr<SlamRegistry::Stream>> SlamRegistry::OpenStream(
   absl::StatusOr<std::shared_ptr<SlamSession>> session =
       lifecycle_->ResidentOrLoad(session_id, &loaded);
   if (!session.ok()) return session.status();
+  if (std::shared_ptr<MapMembership> member = maps_->Membership(session_id); member != nullptr) {
+    // A session in a map: each answer says where the robot is in the map frame, or that it is
+    // not yet in the map.
+    sink = [member, sink = std::move(sink)](const v1::SlamUpdate& update) {
+      if (update.has_rejection() || !update.has_pose()) return sink(update);
+      v1::SlamUpdate decorated = update;
+      member->Decorate(&decorated);
+      sink(decorated);
+    };
+  }
   return streams_->Attach(*session, loaded, std::move(sink), std::move(cancel));
 }
 
 absl::StatusOr<v1::Session> SlamRegistry::CloseSession(const std::string& session_id) {
-  return lifecycle_->CloseSession(session_id);
+  absl::StatusOr<v1::Session> closed = lifecycle_->CloseSession(session_id);
+  if (closed.ok()) closed->set_map(maps_->MapOf(session_id));
+  return closed;
 }
 
 absl::StatusOr<v1::DeleteSessionResponse> SlamRegistry::DeleteSession(
     const std::string& session_id, bool force) {
-  return lifecycle_->DeleteSession(session_id, force);
+  absl::StatusOr<v1::DeleteSessionResponse> deleted = lifecycle_->DeleteSession(session_id, force);
+  if (deleted.ok()) {
+    deleted->mutable_session()->set_map(maps_->MapOf(session_id));
+    maps_->SessionDeleted(session_id);
+  }
+  return deleted;
 }
 
 absl::StatusOr<v1::Session> SlamRegistry::GetSession(const std::string& session_id) {
-  return queries_->GetSession(session_id);
+  absl::StatusOr<v1::Session> session = queries_->GetSession(session_id);
+  if (session.ok()) session->set_map(maps_->MapOf(session_id));
+  return session;
 }
 
 absl::StatusOr<v1::SegmentMap> SlamRegistry::GetMap(const std::string& session_id) {
@@ -136,7 +179,35 @@ absl::StatusOr<v1::OccupancyGrid> SlamRegistry::GetOccupancyGrid(
 }
 
 absl::StatusOr<v1::ListSessionsResponse> SlamRegistry::ListSessions(const std::string& robot_id) {
-  return queries_->ListSessions(robot_id);
+  absl::StatusOr<v1::ListSessionsResponse> listed = queries_->ListSessions(robot_id);
+  if (listed.ok()) {
+    for (v1::Session& session : *listed->mutable_sessions()) {
+      session.set_map(maps_->MapOf(session.session_id()));
+    }
+  }
+  return listed;
+}
+
+absl::StatusOr<v1::Map> SlamRegistry::CreateMap(const std::string& name) {
+  return maps_->CreateMap(name);
+}
+
+absl::StatusOr<v1::ListMapsResponse> SlamRegistry::ListMaps() { return maps_->ListMaps(); }
+
+absl::StatusOr<v1::Map> SlamRegistry::GetMapInfo(const std::string& name) {
+  return maps_->GetMap(name);
+}
+
+absl::StatusOr<v1::DeleteMapResponse> SlamRegistry::DeleteMap(const std::string& name,
+                                                              bool force) {
+  return maps_->DeleteMap(name, force);
+}
+
+absl::StatusOr<v1::MapOccupancyGrid> SlamRegistry::GetMapOccupancyGrid(
+    const std::string& name, std::optional<double> resolution) {
+  return maps_->GetMapGrid(name, [&](const std::string& session_id) {
+    return queries_->GetOccupancyGrid(session_id, resolution);
+  });
 }
 
 void SlamRegistry::SetUpdateObserver(UpdateObserver observer) {

@@ -79,7 +79,10 @@
 //   - session_streams.h   stream ownership and handover, admission, the answers;
 //   - session_scheduler.h the worker pool and the periodic threads;
 //   - session_persistence.h engines from the store, journal replay, checkpoints;
-//   - session_queries.h   descriptions, maps, trajectories, grids, lists.
+//   - session_queries.h   descriptions, maps, trajectories, grids, lists;
+//   - map_registry.h      maps shared by robots (issue 38): what several sessions share. A
+//                         session joins one at creation (CreateSessionRequest.map); its answers
+//                         then carry map_pose; deleting the session takes it out of the map.
 
 #include <atomic>
 #include <functional>
@@ -94,11 +97,13 @@
 #include "server/service/slam/session_leases.h"
 #include "server/service/slam/slam_registry_options.h"
 #include "server/service/slam/slam_stream.h"
+#include "storage/map_store.h"
 #include "storage/slam_store.h"
 #include "waymark/v1/slam.pb.h"
 
 namespace waymark::service {
 
+class MapRegistry;
 class SessionLifecycle;
 class SessionPersistence;
 class SessionQueries;
@@ -112,8 +117,11 @@ class SlamRegistry {
   // One client stream attached to a session (see OpenStream; slam_stream.h).
   using Stream = SlamStream;
 
+  // `maps` (optional) keeps the maps shared by robots; without it the map calls are
+  // FAILED_PRECONDITION. Its maps are loaded here.
   static absl::StatusOr<std::unique_ptr<SlamRegistry>> Create(
-      std::unique_ptr<storage::SlamStore> store, const SlamRegistryOptions& options = {});
+      std::unique_ptr<storage::SlamStore> store, const SlamRegistryOptions& options = {},
+      std::unique_ptr<storage::MapStore> maps = nullptr);
   ~SlamRegistry();  // Shutdown()
   SlamRegistry(const SlamRegistry&) = delete;
   SlamRegistry& operator=(const SlamRegistry&) = delete;
@@ -149,6 +157,14 @@ class SlamRegistry {
   absl::StatusOr<v1::Session> ImportMap(const v1::ImportMapRequest& request);
   absl::StatusOr<v1::ListSessionsResponse> ListSessions(const std::string& robot_id);
 
+  // Maps shared by robots (map_registry.h; the RPCs of the same names in slam.proto).
+  absl::StatusOr<v1::Map> CreateMap(const std::string& name);
+  absl::StatusOr<v1::ListMapsResponse> ListMaps();
+  absl::StatusOr<v1::Map> GetMapInfo(const std::string& name);
+  absl::StatusOr<v1::DeleteMapResponse> DeleteMap(const std::string& name, bool force);
+  absl::StatusOr<v1::MapOccupancyGrid> GetMapOccupancyGrid(const std::string& name,
+                                                           std::optional<double> resolution);
+
   // Checkpoints every resident session with unsaved work; returns the first error.
   absl::Status CheckpointAll();
   // Rejects new messages and streams (UNAVAILABLE), lets the queues drain, checkpoints every
@@ -171,10 +187,12 @@ class SlamRegistry {
   void set_lease_address(const std::string& address) { leases_.set_address(address); }
 
  private:
-  SlamRegistry(std::unique_ptr<storage::SlamStore> store, const SlamRegistryOptions& options);
+  SlamRegistry(std::unique_ptr<storage::SlamStore> store, const SlamRegistryOptions& options,
+               std::unique_ptr<storage::MapStore> maps);
 
   const SlamRegistryOptions options_;
   std::unique_ptr<storage::SlamStore> store_;
+  std::unique_ptr<storage::MapStore> map_store_;  // null: no maps
   std::atomic<bool> shutting_down_{false};
   SessionLeases leases_;
   std::unique_ptr<SlamJournal> journal_;  // null when options_.journal is off
@@ -186,6 +204,7 @@ class SlamRegistry {
   std::unique_ptr<SessionQueries> queries_;
   std::unique_ptr<SessionScheduler> scheduler_;
   std::unique_ptr<SessionStreams> streams_;
+  std::unique_ptr<MapRegistry> maps_;
 
   std::mutex shutdown_mutex_;
   bool shut_down_ = false;

@@ -1,0 +1,302 @@
+#include "server/service/slam/map_registry.h"
+
+#include <spdlog/spdlog.h>
+
+#include <cmath>
+#include <utility>
+#include <vector>
+
+#include "absl/strings/str_cat.h"
+#include "storage/map_records.h"
+
+namespace waymark::service {
+namespace {
+
+v1::Map ToProto(const storage::MapRecord& record) {
+  v1::Map map;
+  map.set_name(record.name);
+  map.set_created_at_unix(static_cast<int64_t>(record.created_at));
+  map.set_updated_at_unix(static_cast<int64_t>(record.updated_at));
+  map.set_revision(static_cast<uint64_t>(record.revision));
+  for (const storage::MapTrajectoryRecord& t : record.trajectories) {
+    v1::MapTrajectory* trajectory = map.add_trajectories();
+    trajectory->set_session_id(t.session_id);
+    trajectory->set_robot_id(t.robot_id);
+    trajectory->set_state(t.session_state == storage::SlamSessionState::kOpen
+                              ? v1::Session::OPEN
+                              : v1::Session::CLOSED);
+    trajectory->set_joined_at_unix(static_cast<int64_t>(t.joined_at));
+    trajectory->set_tied_in(t.tie.has_value());
+    if (t.tie.has_value()) {
+      trajectory->mutable_origin()->set_x(t.tie->x);
+      trajectory->mutable_origin()->set_y(t.tie->y);
+      trajectory->mutable_origin()->set_theta(t.tie->theta);
+    }
+    trajectory->set_scans_processed(static_cast<uint64_t>(t.scans_processed));
+  }
+  return map;
+}
+
+bool IsOrigin(const v1::Pose2D& pose) { return pose.x() == 0 && pose.y() == 0 && pose.theta() == 0; }
+
+}  // namespace
+
+v1::Pose2D InMapFrame(const storage::MapTie& tie, const v1::Pose2D& pose) {
+  const double c = std::cos(tie.theta);
+  const double s = std::sin(tie.theta);
+  v1::Pose2D out;
+  out.set_x(tie.x + c * pose.x() - s * pose.y());
+  out.set_y(tie.y + s * pose.x() + c * pose.y());
+  out.set_theta(std::remainder(tie.theta + pose.theta(), 2 * M_PI));
+  return out;
+}
+
+// ---------------------------------------------------------------------------------------------
+// MapMembership
+
+void MapMembership::Decorate(v1::SlamUpdate* update) const {
+  if (update->has_rejection() || !update->has_pose()) return;
+  std::lock_guard<std::mutex> lock(mutex_);
+  if (map_.empty()) return;
+  v1::MapPose* map_pose = update->mutable_map_pose();
+  map_pose->set_map(map_);
+  map_pose->set_map_revision(static_cast<uint64_t>(revision_));
+  map_pose->set_tied_in(tie_.has_value());
+  if (tie_.has_value()) *map_pose->mutable_pose() = InMapFrame(*tie_, update->pose());
+}
+
+void MapMembership::Set(std::optional<storage::MapTie> tie, int64_t revision) {
+  std::lock_guard<std::mutex> lock(mutex_);
+  tie_ = tie;
+  revision_ = revision;
+}
+
+void MapMembership::Detach() {
+  std::lock_guard<std::mutex> lock(mutex_);
+  map_.clear();
+}
+
+std::string MapMembership::map() const {
+  std::lock_guard<std::mutex> lock(mutex_);
+  return map_;
+}
+
+// ---------------------------------------------------------------------------------------------
+// MapRegistry
+
+absl::Status MapRegistry::CheckStore() const {
+  if (store_ == nullptr) {
+    return absl::FailedPreconditionError("this server keeps no maps (it has no map store)");
+  }
+  return absl::OkStatus();
+}
+
+void MapRegistry::Remember(const storage::MapRecord& map) {
+  std::lock_guard<std::mutex> lock(mutex_);
+  for (const storage::MapTrajectoryRecord& trajectory : map.trajectories) {
+    std::shared_ptr<MapMembership>& member = members_[trajectory.session_id];
+    if (member == nullptr || member->map() != map.name) {
+      member = std::make_shared<MapMembership>(map.name);
+    }
+    member->Set(trajectory.tie, map.revision);
+  }
+}
+
+absl::Status MapRegistry::Load() {
+  if (store_ == nullptr) return absl::OkStatus();
+  absl::StatusOr<std::vector<storage::MapRecord>> maps = store_->ListMaps();
+  if (!maps.ok()) return maps.status();
+  size_t trajectories = 0;
+  for (const storage::MapRecord& map : *maps) {
+    Remember(map);
+    trajectories += map.trajectories.size();
+  }
+  if (!maps->empty()) {
+    spdlog::info("SLAM maps: {} loaded with {} trajectories", maps->size(), trajectories);
+  }
+  return absl::OkStatus();
+}
+
+absl::StatusOr<v1::Map> MapRegistry::CreateMap(const std::string& name) {
+  if (absl::Status s = CheckStore(); !s.ok()) return s;
+  absl::StatusOr<storage::MapRecord> created = store_->CreateMap(name);
+  if (!created.ok()) return created.status();
+  spdlog::info("SLAM map \"{}\" created", name);
+  return ToProto(*created);
+}
+
+absl::StatusOr<v1::Map> MapRegistry::GetMap(const std::string& name) {
+  if (absl::Status s = CheckStore(); !s.ok()) return s;
+  absl::StatusOr<storage::MapRecord> map = store_->GetMap(name);
+  if (!map.ok()) return map.status();
+  return ToProto(*map);
+}
+
+absl::StatusOr<v1::ListMapsResponse> MapRegistry::ListMaps() {
+  if (absl::Status s = CheckStore(); !s.ok()) return s;
+  absl::StatusOr<std::vector<storage::MapRecord>> maps = store_->ListMaps();
+  if (!maps.ok()) return maps.status();
+  v1::ListMapsResponse response;
+  for (const storage::MapRecord& map : *maps) *response.add_maps() = ToProto(map);
+  return response;
+}
+
+absl::StatusOr<v1::DeleteMapResponse> MapRegistry::DeleteMap(const std::string& name, bool force) {
+  if (absl::Status s = CheckStore(); !s.ok()) return s;
+  absl::StatusOr<storage::MapRecord> map = store_->GetMap(name);
+  if (!map.ok()) return map.status();
+  std::vector<std::string> open;
+  for (const storage::MapTrajectoryRecord& trajectory : map->trajectories) {
+    if (trajectory.session_state == storage::SlamSessionState::kOpen) {
+      open.push_back(trajectory.session_id);
+    }
+  }
+  if (!open.empty() && !force) {
+    return absl::FailedPreconditionError(absl::StrCat(
+        "map \"", name, "\" is in use: ", open.size(), " open session", open.size() == 1 ? "" : "s",
+        " (", open.front(), open.size() > 1 ? ", ..." : "",
+        ") joined it; close them first, or delete the map with force, which detaches them (they "
+        "go on alone)"));
+  }
+  absl::StatusOr<storage::MapRecord> deleted = store_->DeleteMap(name);
+  if (!deleted.ok()) return deleted.status();
+  uint32_t detached = 0;
+  {
+    std::lock_guard<std::mutex> lock(mutex_);
+    for (const storage::MapTrajectoryRecord& trajectory : deleted->trajectories) {
+      auto it = members_.find(trajectory.session_id);
+      if (it == members_.end()) continue;
+      it->second->Detach();
+      members_.erase(it);
+    }
+  }
+  for (const storage::MapTrajectoryRecord& trajectory : deleted->trajectories) {
+    if (trajectory.session_state == storage::SlamSessionState::kOpen) ++detached;
+  }
+  spdlog::info("SLAM map \"{}\" deleted ({} trajectories, {} open sessions detached)", name,
+               deleted->trajectories.size(), detached);
+  v1::DeleteMapResponse response;
+  *response.mutable_map() = ToProto(*deleted);
+  response.set_detached_sessions(detached);
+  return response;
+}
+
+absl::StatusOr<v1::MapOccupancyGrid> MapRegistry::GetMapGrid(const std::string& name,
+                                                              const SessionGrid& session_grid) {
+  absl::StatusOr<v1::Map> map = GetMap(name);
+  if (!map.ok()) return map.status();
+  std::vector<const v1::MapTrajectory*> tied;
+  uint32_t untied = 0;
+  for (const v1::MapTrajectory& trajectory : map->trajectories()) {
+    if (trajectory.tied_in()) {
+      tied.push_back(&trajectory);
+    } else {
+      ++untied;
+    }
+  }
+  if (tied.empty()) {
+    return absl::FailedPreconditionError(absl::StrCat(
+        "map \"", name, "\" has no trajectory yet: no session has joined it (CreateSession with "
+        "map, `waymark slam replay LOG --map ", name, "`)"));
+  }
+  if (tied.size() > 1 || !IsOrigin(tied.front()->origin())) {
+    return absl::UnimplementedError(absl::StrCat(
+        "map \"", name, "\" has ", tied.size(), " trajectories tied in; rendering several into "
+        "one grid comes with the map's merged graph (issue 38), not in this server yet"));
+  }
+  absl::StatusOr<v1::OccupancyGrid> grid = session_grid(tied.front()->session_id());
+  if (!grid.ok()) return grid.status();
+  v1::MapOccupancyGrid response;
+  response.set_map(name);
+  response.set_revision(map->revision());
+  *response.mutable_grid() = *std::move(grid);
+  response.add_session_ids(tied.front()->session_id());
+  response.set_untied_trajectories(untied);
+  return response;
+}
+
+absl::Status MapRegistry::CheckJoin(const v1::CreateSessionRequest& request) {
+  if (absl::Status s = CheckStore(); !s.ok()) return s;
+  if (request.has_visual()) {
+    return absl::InvalidArgumentError(
+        "a visual session cannot join a map: maps are built by laser sessions");
+  }
+  if (request.laser().has_localize()) {
+    return absl::InvalidArgumentError(
+        "a localization session cannot join a map: it does not change its map; join the map "
+        "with a mapping session instead");
+  }
+  if (request.laser().params().has_loop_closure() && !request.laser().params().loop_closure()) {
+    return absl::InvalidArgumentError(
+        "a session without the loop-closing back end (params.loop_closure = false) cannot join a "
+        "map: a map's trajectories are its scan nodes");
+  }
+  if (absl::Status s = storage::CheckMapName(request.map()); !s.ok()) return s;
+  return store_->GetMap(request.map()).status();
+}
+
+absl::StatusOr<v1::Map> MapRegistry::Join(const std::string& name, const std::string& session_id) {
+  if (absl::Status s = CheckStore(); !s.ok()) return s;
+  absl::StatusOr<storage::MapRecord> joined = store_->AddTrajectory(name, session_id);
+  if (!joined.ok()) return joined.status();
+  Remember(*joined);
+  const bool tied = !joined->trajectories.empty() && joined->trajectories.back().tie.has_value();
+  spdlog::info("SLAM session {} joined map \"{}\" as trajectory {} ({})", session_id, name,
+               joined->trajectories.size(),
+               tied ? "it defines the map frame" : "not yet in the map");
+  return ToProto(*joined);
+}
+
+void MapRegistry::SessionDeleted(const std::string& session_id) {
+  if (store_ == nullptr) return;
+  std::string map;
+  {
+    std::lock_guard<std::mutex> lock(mutex_);
+    auto it = members_.find(session_id);
+    if (it == members_.end()) return;
+    map = it->second->map();
+    it->second->Detach();
+    members_.erase(it);
+  }
+  if (map.empty()) return;
+  absl::StatusOr<storage::MapRecord> left = store_->RemoveTrajectory(map, session_id);
+  if (!left.ok()) {
+    // The session's row is gone with its trajectory row; only the revision and the frame's anchor
+    // are behind, and the next change of the map puts them right.
+    spdlog::warn("SLAM map \"{}\": session {} deleted, but the map was not updated: {}", map,
+                 session_id, left.status().ToString());
+    return;
+  }
+  Remember(*left);
+}
+
+std::shared_ptr<MapMembership> MapRegistry::Membership(const std::string& session_id) {
+  {
+    std::lock_guard<std::mutex> lock(mutex_);
+    auto it = members_.find(session_id);
+    if (it != members_.end()) return it->second;
+  }
+  if (!find_in_store_ || store_ == nullptr) return nullptr;
+  // Joined on another server of the fleet since this one loaded its maps.
+  absl::StatusOr<std::vector<storage::MapRecord>> maps = store_->ListMaps();
+  if (!maps.ok()) {
+    spdlog::warn("SLAM maps: cannot look session {} up: {}", session_id, maps.status().ToString());
+    return nullptr;
+  }
+  for (const storage::MapRecord& map : *maps) {
+    for (const storage::MapTrajectoryRecord& trajectory : map.trajectories) {
+      if (trajectory.session_id == session_id) Remember(map);
+    }
+  }
+  std::lock_guard<std::mutex> lock(mutex_);
+  auto it = members_.find(session_id);
+  return it == members_.end() ? nullptr : it->second;
+}
+
+std::string MapRegistry::MapOf(const std::string& session_id) const {
+  std::lock_guard<std::mutex> lock(mutex_);
+  auto it = members_.find(session_id);
+  return it == members_.end() ? std::string() : it->second->map();
+}
+
+}  // namespace waymark::service
