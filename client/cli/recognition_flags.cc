@@ -71,6 +71,13 @@ void RecognitionFlags::Register(CLI::App* command) {
                        "chance model decides [0]")
           ->check(CLI::Range(0.0, 2.0))
           ->group(group);
+  max_log10_global_efa_option_ =
+      command
+          ->add_option("--max-log10-global-efa", max_log10_global_efa_,
+                       "Retrieval mode, global path: accept when its chance model expects fewer "
+                       "than 10^X views of other places as similar [-2]")
+          ->check(CLI::Range(-10000.0, 100.0))
+          ->group(group);
   evidence_option_ =
       command
           ->add_option("--evidence", evidence_,
@@ -94,6 +101,9 @@ v1::RecognitionParams RecognitionFlags::ToParams() const {
   if (Given(evidence_option_)) params.set_evidence_threshold(evidence_);
   if (Given(global_shortlist_option_)) params.set_global_shortlist(global_shortlist_);
   if (Given(min_global_lift_option_)) params.set_min_global_lift(min_global_lift_);
+  if (Given(max_log10_global_efa_option_)) {
+    params.set_max_log10_global_efa(max_log10_global_efa_);
+  }
   return params;
 }
 

@@ -34,6 +34,7 @@ class RecognitionFlags {
   double evidence_ = 0;
   int global_shortlist_ = 0;
   double min_global_lift_ = 0;
+  double max_log10_global_efa_ = 0;
 
   CLI::Option* mode_option_ = nullptr;
   CLI::Option* ratio_option_ = nullptr;
@@ -47,6 +48,7 @@ class RecognitionFlags {
   CLI::Option* evidence_option_ = nullptr;
   CLI::Option* global_shortlist_option_ = nullptr;
   CLI::Option* min_global_lift_option_ = nullptr;
+  CLI::Option* max_log10_global_efa_option_ = nullptr;
 };
 
 }  // namespace waymark::cli

@@ -56,6 +56,14 @@ TEST(RecognitionFlagsTest, RejectsBadValues) {
   EXPECT_THROW(Parse({"--n2", "0"}), CLI::ValidationError);
 }
 
+// Issue 34: the global path's false-alarm bound is a per-request override like the NFA's.
+TEST(RecognitionFlagsTest, TheGlobalPathsFalseAlarmBoundIsAnOverride) {
+  EXPECT_FALSE(Parse({}).has_max_log10_global_efa());
+  const v1::RecognitionParams params = Parse({"--max-log10-global-efa", "-3"});
+  EXPECT_DOUBLE_EQ(params.max_log10_global_efa(), -3.0);
+  EXPECT_THROW(Parse({"--max-log10-global-efa", "1000"}), CLI::ValidationError);
+}
+
 // The default an option's help shows, "[X]" at its end ("" without one).
 std::string ShownDefault(const CLI::Option& option) {
   const std::string text = option.get_description();
@@ -75,6 +83,7 @@ TEST(RecognitionFlagsTest, TheHelpShowsTheServersDefaults) {
   const std::map<std::string, double> defaults = {
       {"--min-global-lift", server.min_global_lift},
       {"--max-log10-nfa", server.max_log10_nfa},
+      {"--max-log10-global-efa", server.max_log10_global_efa},
       {"--global-shortlist", server.global_shortlist},
       {"--evidence", server.evidence_threshold},
   };

@@ -46,6 +46,7 @@ absl::Status Overlay(const v1::RecognitionParams& p, crossing::RecognitionOption
   if (p.has_evidence_threshold()) options->evidence_threshold = p.evidence_threshold();
   if (p.has_global_shortlist()) options->global_shortlist = p.global_shortlist();
   if (p.has_min_global_lift()) options->min_global_lift = p.min_global_lift();
+  if (p.has_max_log10_global_efa()) options->max_log10_global_efa = p.max_log10_global_efa();
   return crossing::ValidateRecognitionOptions(*options);
 }
 
@@ -66,6 +67,7 @@ void FillRecognition(const crossing::RecognitionOptions& o, v1::RecognitionParam
   p->set_evidence_threshold(o.evidence_threshold);
   p->set_global_shortlist(o.global_shortlist);
   p->set_min_global_lift(o.min_global_lift);
+  p->set_max_log10_global_efa(o.max_log10_global_efa);
 }
 
 }  // namespace
