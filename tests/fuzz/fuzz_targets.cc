@@ -302,6 +302,8 @@ const std::vector<FuzzTarget>& Targets() {
       CrossingRequestsTarget(),
       SlamRequestsTarget(),
       TokenRequestsTarget(),
+      BagFilesTarget(),
+      RosMessagesTarget(),
   };
   return targets;
 }
