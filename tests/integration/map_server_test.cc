@@ -18,6 +18,7 @@
 #include <grpcpp/grpcpp.h>
 #include <gtest/gtest.h>
 
+#include "storage/map_store.h"
 #include "tests/client/carmen_test_log.h"
 #include "tests/client/test_util.h"
 #include "tests/service/slam_test_world.h"
@@ -364,6 +365,44 @@ TEST_F(MapServerTest, AMapAndItsTrajectoriesSurviveARestart) {
   ASSERT_TRUE(stub_->ListSessions(MapCtx().get(), {}, &listed).ok());
   ASSERT_EQ(listed.sessions_size(), 2);
   for (const v1::Session& s : listed.sessions()) EXPECT_EQ(s.map(), "office");
+}
+
+// What the next slice stores when it ties a robot in (MapStore::TieTrajectory) is loaded at
+// start-up and turns the session's poses into map-frame poses: origin * session pose.
+TEST_F(MapServerTest, ATiedInTrajectorysAnswersAreInTheMapFrame) {
+  ASSERT_TRUE(CreateMap("office").ok());
+  v1::Session first, second;
+  ASSERT_TRUE(Join("r1", "office", &first).ok());
+  ASSERT_TRUE(Join("r2", "office", &second).ok());
+  stub_.reset();
+  channel_.reset();
+  ASSERT_EQ(server_->Stop(SIGTERM), 0);
+  {
+    auto store = storage::OpenSqliteMapStore(dir_ + "/waymark.db");
+    ASSERT_TRUE(store.ok()) << store.status();
+    auto tied = (*store)->TieTrajectory("office", second.session_id(),
+                                        storage::MapTie{1.0, -2.0, M_PI / 2});
+    ASSERT_TRUE(tied.ok()) << tied.status();
+  }
+  StartServer();
+  grpc::Status status;
+  std::vector<v1::SlamUpdate> answers =
+      StreamInto(stub_.get(), second.session_id(), MapDrive(0, 6), &status);
+  ASSERT_TRUE(status.ok()) << status.error_message();
+  ASSERT_GE(answers.size(), 3u);
+  for (const v1::SlamUpdate& update : answers) {
+    ASSERT_TRUE(update.map_pose().tied_in());
+    EXPECT_EQ(update.map_pose().map_revision(), 3u);
+    // Rotated a quarter turn and moved by (1, -2): (x, y, t) -> (1 - y, -2 + x, t + pi/2).
+    EXPECT_NEAR(update.map_pose().pose().x(), 1.0 - update.pose().y(), 1e-9);
+    EXPECT_NEAR(update.map_pose().pose().y(), -2.0 + update.pose().x(), 1e-9);
+    EXPECT_NEAR(std::remainder(update.map_pose().pose().theta() - update.pose().theta() - M_PI / 2,
+                               2 * M_PI),
+                0.0, 1e-9);
+  }
+  // Two trajectories tied in: their merged grid is the next slice's.
+  v1::MapOccupancyGrid grid;
+  EXPECT_EQ(MapGrid("office", &grid).error_code(), grpc::StatusCode::UNIMPLEMENTED);
 }
 
 // The command lines: `waymark map ...` and a log replayed as two robots into one map.

@@ -151,6 +151,9 @@ absl::StatusOr<v1::Session> SlamRegistry::CloseSession(const std::string& sessio
 
 absl::StatusOr<v1::DeleteSessionResponse> SlamRegistry::DeleteSession(
     const std::string& session_id, bool force) {
+  // Known before the delete takes the trajectory row with it (on a fleet the session may have
+  // joined its map on another server: this looks it up in the store).
+  (void)maps_->Membership(session_id);
   absl::StatusOr<v1::DeleteSessionResponse> deleted = lifecycle_->DeleteSession(session_id, force);
   if (deleted.ok()) {
     deleted->mutable_session()->set_map(maps_->MapOf(session_id));
