@@ -66,10 +66,14 @@ int RunList(CommandContext& context, const std::string& robot) {
   // A fleet on PostgreSQL: which server serves each session (a column only then).
   const bool fleet = std::any_of(sessions->sessions().begin(), sessions->sessions().end(),
                                  [](const v1::Session& s) { return !s.served_by().empty(); });
+  // Sessions in shared maps (`waymark map`): which map (a column only then).
+  const bool in_maps = std::any_of(sessions->sessions().begin(), sessions->sessions().end(),
+                                   [](const v1::Session& s) { return !s.map().empty(); });
   std::vector<Table::Column> columns = {{"session"}, {"robot"}, {"state"}, {"scans", true},
                                         {"segments", true}, {"rejected", true}, {"map check"},
                                         {"resident"}, {"name"}};
   if (fleet) columns.insert(columns.end() - 1, {"served by"});
+  if (in_maps) columns.insert(columns.end() - 1, {"in map"});
   Table table(columns);
   for (const v1::Session& s : sessions->sessions()) {
     std::vector<std::string> row = {s.session_id(), s.robot_id(), StateName(s.state()),
@@ -78,6 +82,7 @@ int RunList(CommandContext& context, const std::string& robot) {
                                     std::to_string(s.messages_rejected()), MapCheckCell(s),
                                     s.resident() ? "yes" : "no", s.name()};
     if (fleet) row.insert(row.end() - 1, s.served_by().empty() ? "-" : s.served_by());
+    if (in_maps) row.insert(row.end() - 1, s.map().empty() ? "-" : s.map());
     table.AddRow(row);
   }
   if (table.empty()) {

@@ -456,6 +456,11 @@ TEST_F(MapServerTest, MapCommandsAndReplayIntoAMap) {
   EXPECT_NE(slice.code, 0);
   EXPECT_NE(slice.err.find("--scans"), std::string::npos) << slice.err;
 
+  testing::CliResult sessions = RunWaymark(address, {"slam", "list"});
+  ASSERT_EQ(sessions.code, 0) << sessions.err;
+  EXPECT_NE(sessions.out.find("in map"), std::string::npos) << sessions.out;
+  EXPECT_NE(sessions.out.find("office"), std::string::npos) << sessions.out;
+
   testing::CliResult shown = RunWaymark(address, {"map", "show", "office"});
   ASSERT_EQ(shown.code, 0) << shown.err;
   EXPECT_NE(shown.out.find("2 trajectories (1 tied in, 1 not yet in the map), revision 2"),
