@@ -126,6 +126,9 @@ class SlamRegistry {
   SlamRegistry(const SlamRegistry&) = delete;
   SlamRegistry& operator=(const SlamRegistry&) = delete;
 
+  // With request.map set the new session joins that map (map_registry.h): refused before
+  // anything is stored when it cannot (MapRegistry::CheckJoin), and deleted again should the map
+  // go before the join.
   absl::StatusOr<v1::Session> CreateSession(const v1::CreateSessionRequest& request);
   // Attaches a stream to an open session, loading it from its checkpoint when it is not in memory.
   // A stream already attached is taken over: it accepts nothing more (ABORTED), `cancel` of its
