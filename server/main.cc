@@ -162,10 +162,22 @@ int Run(const ServerFlags& flags) {
     spdlog::info("SLAM sessions leased as server {} at {} ({} s leases)", slam_options.lease.owner,
                  slam_options.lease.address, slam_options.lease.ttl_seconds);
   }
-  auto slam_registry = waymark::service::SlamRegistry::Create(std::move(stores->slam), slam_options);
+  // Freed heap back to the system after bursts and after SLAM sessions leave memory; declared
+  // before the registry, whose sessions tell it when they go (until the registry is destroyed).
+  waymark::service::MemoryTrimmer memory_trimmer;
+  auto slam_registry = waymark::service::SlamRegistry::Create(std::move(stores->slam), slam_options,
+                                                              std::move(stores->map));
   if (!slam_registry.ok()) {
     spdlog::error("cannot start SLAM sessions: {}", slam_registry.status().ToString());
     return 2;
+  }
+  {
+    // A closed session's engine is freed, but glibc keeps the pages in its arenas: give them back.
+    waymark::service::SlamObserver trim_after_release;
+    trim_after_release.on_released = [&memory_trimmer](const std::string&) {
+      memory_trimmer.TrimSoon();
+    };
+    (*slam_registry)->AddObserver(std::move(trim_after_release));
   }
 
   // Declared after the registries it reads, so it stops serving before they go away.
@@ -213,7 +225,6 @@ int Run(const ServerFlags& flags) {
   }
   waymark::service::StreamLimiter streams(flags.max_streams_per_robot);
   waymark::service::IdleStreamReaper idle_streams(flags.stream_idle_seconds);
-  waymark::service::MemoryTrimmer memory_trimmer;  // freed heap back to the system after bursts
 
   waymark::service::CrossingServiceImpl crossing_service(registry->get(), auth.get(), &streams,
                                                         &idle_streams);
