@@ -1,9 +1,9 @@
 #ifndef WAYMARK_SERVER_SERVICE_SLAM_SESSION_MEMORY_H_
 #define WAYMARK_SERVER_SERVICE_SLAM_SESSION_MEMORY_H_
 
-// The SLAM sessions of one registry that are in memory, from their construction to the moment
-// their last owner lets go (the session table, a stream still ending, a worker, a reader that
-// rebuilt a closed session to answer GetMap), and who is told when one goes.
+// Where the SLAM sessions of one registry are built, so that whoever cares is told when one leaves
+// memory: the moment its last owner lets go (the session table, a stream still ending, a worker,
+// a reader that rebuilt a closed session to answer GetMap), its engine destroyed with it.
 //
 // A session's engine is most of a server's memory (issue 38: about 2.4 KB per scan with loop
 // closure on). Freeing it is not enough: glibc keeps what was freed in its arenas, and the server's
@@ -14,7 +14,6 @@
 //
 // Header-only: its one job is the deleter below.
 
-#include <cstddef>
 #include <cstdint>
 #include <functional>
 #include <memory>
@@ -35,16 +34,12 @@ class SessionMemory {
   SessionMemory(const SessionMemory&) = delete;
   SessionMemory& operator=(const SessionMemory&) = delete;
 
-  // A new, empty session with `id`, counted until it is destroyed; then (its engine destroyed
-  // with it) every observer is called with its id, on the thread that dropped it, without the
-  // session table's lock (SessionTable destroys sessions after unlocking). Sessions may outlive
-  // this object: the count and the observers live as long as the last of them.
+  // A new, empty session with `id`. When it is destroyed (its engine with it), every observer is
+  // called with its id, on the thread that dropped it, without the session table's lock
+  // (SessionTable destroys sessions after unlocking). Sessions may outlive this object: the
+  // observers live as long as the last of them.
   std::shared_ptr<SlamSession> NewSession(const std::string& id) {
     std::shared_ptr<State> state = state_;
-    {
-      std::lock_guard<std::mutex> lock(state->mu);
-      ++state->live;
-    }
     auto* raw = new SlamSession;
     raw->id = id;
     return std::shared_ptr<SlamSession>(raw, [state](SlamSession* session) {
@@ -52,12 +47,6 @@ class SessionMemory {
       delete session;
       state->Released(gone);
     });
-  }
-
-  // Sessions built and not yet destroyed.
-  size_t live() const {
-    std::lock_guard<std::mutex> lock(state_->mu);
-    return state_->live;
   }
 
   // `id` is the caller's (SessionStreams uses its observer ids). Must return quickly and must not
@@ -81,15 +70,13 @@ class SessionMemory {
   using ObserverList =
       std::vector<std::pair<uint64_t, std::shared_ptr<const SlamReleasedObserver>>>;
   struct State {
-    std::mutex mu;  // guards live and observers (copied out, called unlocked)
-    size_t live = 0;
+    std::mutex mu;  // guards observers (copied out, called unlocked)
     std::shared_ptr<const ObserverList> observers = std::make_shared<const ObserverList>();
 
     void Released(const std::string& id) {
       std::shared_ptr<const ObserverList> watching;
       {
         std::lock_guard<std::mutex> lock(mu);
-        --live;
         watching = observers;
       }
       for (const auto& [observer_id, observer] : *watching) (*observer)(id);

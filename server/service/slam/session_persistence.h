@@ -47,7 +47,7 @@ class SessionPersistence {
   absl::StatusOr<std::shared_ptr<SlamSession>> LoadSession(
       const storage::SlamSessionRecord& record);
   // The registry's sessions in memory: every session is built through it (LoadSession here,
-  // new ones by SessionLifecycle), so each is counted and its release told (session_memory.h).
+  // new ones by SessionLifecycle), so that its release is told (session_memory.h).
   SessionMemory& memory() { return memory_; }
 
   // Writes the session's engine state, counters and the trajectory poses not yet stored (one
