@@ -100,10 +100,11 @@ class SlamMixin:
 
     # --- sessions --------------------------------------------------------------------------
 
-    def create_session(self, robot_id="", name="", laser=None, visual=None):
+    def create_session(self, robot_id="", name="", laser=None, visual=None, map=None):
         """Opens a session from a LaserSlamConfig or VisualSlamConfig (a message or a dict of its
-        fields); neither is a laser session with the defaults. Returns a waymark.Session."""
-        request = slam_pb2.CreateSessionRequest(robot_id=robot_id, name=name)
+        fields); neither is a laser session with the defaults. `map`: the name of a shared map the
+        (laser, mapping) session joins. Returns a waymark.Session."""
+        request = slam_pb2.CreateSessionRequest(robot_id=robot_id, name=name, map=map or "")
         if laser is not None and visual is not None:
             raise invalid_argument("a session is laser or visual, not both")
         if laser is not None:
@@ -116,7 +117,7 @@ class SlamMixin:
 
     def create_laser_session(self, robot_id="", name="", *, beam_count, angle_min,
                              angle_increment, no_return_range=0.0, laser_pose=(0.0, 0.0, 0.0),
-                             params=None, loop_closure=None):
+                             params=None, loop_closure=None, map=None):
         """A laser SLAM session for a laser of `beam_count` beams from `angle_min` every
         `angle_increment` radians, mounted at laser_pose (x, y, theta) on the robot. `params`: a
         LaserSlamParams or a dict of its fields (e.g. {"max_range": 20})."""
@@ -129,7 +130,7 @@ class SlamMixin:
             _inputs.params_message(slam_pb2.LaserSlamParams, params, "laser params"))
         if loop_closure is not None:
             config.params.loop_closure = loop_closure
-        return self.create_session(robot_id, name, laser=config)
+        return self.create_session(robot_id, name, laser=config, map=map)
 
     def create_visual_session(self, robot_id="", name="", *, fx, fy, cx, cy, width, height,
                               distortion=(), depth_scale=None, preset="measured_best",
@@ -196,6 +197,28 @@ class SlamMixin:
         message = grid.raw if isinstance(grid, OccupancyGrid) else grid
         request = slam_pb2.ImportMapRequest(robot_id=robot_id, name=name, grid=message)
         return Session.of(self._unary(self.slam_stub.ImportMap, request, read=False))
+
+    # --- maps shared by robots (docs/laser-slam.md, "Maps shared by robots") ----------------
+    # These return the API's messages (waymark.v1 Map: name, revision, trajectories with their
+    # session, robot and whether each is tied into the map frame).
+
+    def create_map(self, name):
+        return self._unary(self.slam_stub.CreateMap, slam_pb2.CreateMapRequest(name=name),
+                           read=False)
+
+    def list_maps(self):
+        return list(self._unary(self.slam_stub.ListMaps, slam_pb2.ListMapsRequest(),
+                                read=True).maps)
+
+    def get_map_info(self, name):
+        return self._unary(self.slam_stub.GetMapInfo, slam_pb2.GetMapInfoRequest(name=name),
+                           read=True)
+
+    def delete_map(self, name, force=False):
+        """Deletes a map (never a session); `force` detaches open sessions instead of refusing.
+        Returns the map as it was."""
+        request = slam_pb2.DeleteMapRequest(name=name, force=force)
+        return self._unary(self.slam_stub.DeleteMap, request, read=False).map
 
     # --- streams ---------------------------------------------------------------------------
 

@@ -294,6 +294,25 @@ class SlamTest(ServerCase):
         self.assertNotIn(session.session_id, [s.session_id for s in self.client.list_sessions()])
         self.assertRaisesCode(grpc.StatusCode.NOT_FOUND, self.client.get_map, session.session_id)
 
+    def test_a_session_joins_a_shared_map(self):
+        self.client.create_map("py-floor")
+        self.assertIn("py-floor", [m.name for m in self.client.list_maps()])
+        self.assertRaisesCode(grpc.StatusCode.ALREADY_EXISTS, self.client.create_map, "py-floor")
+        stamp, ranges, odom, laser = self.lines[0]
+        session = self.client.create_laser_session(
+            "py-robot", "python in a map", beam_count=len(ranges), angle_min=-1.5707963267948966,
+            angle_increment=replay_carmen.beam_step(len(ranges)),
+            laser_pose=replay_carmen.laser_mount(odom, laser), map="py-floor")
+        info = self.client.get_map_info("py-floor")
+        self.assertEqual([t.session_id for t in info.trajectories], [session.session_id])
+        self.assertTrue(info.trajectories[0].tied_in)  # the first robot defines the map frame
+        self.assertRaisesCode(grpc.StatusCode.FAILED_PRECONDITION, self.client.delete_map,
+                              "py-floor")  # an open session is in it
+        deleted = self.client.delete_map("py-floor", force=True)
+        self.assertEqual(deleted.name, "py-floor")
+        self.assertRaisesCode(grpc.StatusCode.NOT_FOUND, self.client.get_map_info, "py-floor")
+        self.client.delete_session(session.session_id, force=True)
+
     def test_rejections_are_answers_and_the_stream_goes_on(self):
         session = self._create("python rejections")
         lines = self.lines[:6]
