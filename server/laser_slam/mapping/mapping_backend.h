@@ -176,6 +176,8 @@ class MappingBackend {
   // whole map (5 mrad at the simulator's first turns in place put the corridor's far end 0.1 m
   // off). Only while the graph is the chain alone. Caller holds mu_ and search_mu_.
   void RedecideEarlierStepsLocked(int index, const Eigen::Vector3d& variance);
+  // The least sigmas (x, y, theta) a front-end step is trusted to (local_sigma_xy / _theta).
+  Eigen::Vector3d LocalSigmaFloor() const;
   // The local search window of a step with these sigmas (x, y, theta).
   SearchWindow LocalWindow(const Eigen::Vector3d& sigma) const;
   void SearchLoops(int index);

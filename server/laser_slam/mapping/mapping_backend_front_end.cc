@@ -14,6 +14,19 @@
 #include "server/laser_slam/mapping/local_matcher.h"
 
 namespace waymark::laser_slam {
+namespace {
+
+// a - b per axis, the heading difference wrapped.
+Eigen::Vector3d Difference(const Pose2& a, const Pose2& b) {
+  return Eigen::Vector3d(a.x - b.x, a.y - b.y, NormalizeAngle(a.theta - b.theta));
+}
+
+}  // namespace
+
+Eigen::Vector3d MappingBackend::LocalSigmaFloor() const {
+  return Eigen::Vector3d(options_.local_sigma_xy, options_.local_sigma_xy,
+                         options_.local_sigma_theta);
+}
 
 SearchWindow MappingBackend::LocalWindow(const Eigen::Vector3d& sigma) const {
   SearchWindow window;
@@ -47,8 +60,7 @@ void MappingBackend::MatchLocalMap(int index) {
                                                                          : ekf_step;
     // Two estimates of one step: where they disagree, the prior is as uncertain as their
     // difference (the EKF associated wrongly, or the wheels slipped), and the walls decide.
-    disagreement = Eigen::Vector3d(ekf_step.x - odometry_step.x, ekf_step.y - odometry_step.y,
-                                   NormalizeAngle(ekf_step.theta - odometry_step.theta));
+    disagreement = Difference(ekf_step, odometry_step);
     query = node.points;
     // The local map in the previous node's frame, so that the prior is the EKF's step itself.
     for (int j = std::max(0, index - options_.local_map_nodes); j < index; ++j) {
@@ -57,8 +69,7 @@ void MappingBackend::MatchLocalMap(int index) {
     }
     chain = ChainConstraintLocked(index);
     if (chain < 0) return;
-    const Eigen::Vector3d floor(options_.local_sigma_xy, options_.local_sigma_xy,
-                                options_.local_sigma_theta);
+    const Eigen::Vector3d floor = LocalSigmaFloor();
     Eigen::Vector3d sigma = constraints_[chain].sigma;
     if (options_.local_prior == MappingOptions::LocalPrior::kOdometry) {
       sigma = nodes_[index].odometry_variance.cwiseSqrt().cwiseMax(floor);
@@ -121,8 +132,7 @@ void MappingBackend::MatchLocalMap(int index) {
   c.relative = match->pose;
   // The fused step's marginal sigmas, at least local_sigma_xy / _theta: the Laplace
   // approximation knows the walls, not how well the local map itself was placed.
-  c.sigma = match->covariance.diagonal().cwiseSqrt().cwiseMax(
-      Eigen::Vector3d(options_.local_sigma_xy, options_.local_sigma_xy, options_.local_sigma_theta));
+  c.sigma = match->covariance.diagonal().cwiseSqrt().cwiseMax(LocalSigmaFloor());
   c.score = match->score;
   nodes_[index].global = Compose(nodes_[index - 1].global, match->pose);
   FollowPredecessorsLocked(index + 1);
@@ -139,8 +149,7 @@ void MappingBackend::RedecideEarlierStepsLocked(int index, const Eigen::Vector3d
   for (const GraphConstraint& c : constraints_) {
     if (c.kind != GraphConstraint::Kind::kChain) return;
   }
-  const Eigen::Vector3d floor(options_.local_sigma_xy, options_.local_sigma_xy,
-                              options_.local_sigma_theta);
+  const Eigen::Vector3d floor = LocalSigmaFloor();
   const double sigmas = options_.local_window_sigmas;
   for (int j = 1; j < index; ++j) {
     const int chain = ChainConstraintLocked(j);
@@ -148,8 +157,7 @@ void MappingBackend::RedecideEarlierStepsLocked(int index, const Eigen::Vector3d
     const Pose2 ekf = Relative(nodes_[j - 1].local, nodes_[j].local);
     const Pose2 odometry = Relative(nodes_[j - 1].odometry, nodes_[j].odometry);
     const Eigen::Vector3d odometry_sigma = nodes_[j].odometry_variance.cwiseSqrt().cwiseMax(floor);
-    const Eigen::Vector3d difference(ekf.x - odometry.x, ekf.y - odometry.y,
-                                     NormalizeAngle(ekf.theta - odometry.theta));
+    const Eigen::Vector3d difference = Difference(ekf, odometry);
     // As TrustEkfWhereShown: not a step where the EKF left the odometry's noise.
     if ((difference.array().abs() > sigmas * odometry_sigma.array()).any()) continue;
     constraints_[chain].relative = ekf;
@@ -186,9 +194,7 @@ MappingBackend::EkfTrust MappingBackend::TrustEkfWhereShown(
     const Pose2& ekf_step, const Eigen::Vector3d& ekf_minus_odometry,
     const Eigen::Vector3d& odometry_sigma, const Eigen::Vector3d& prior_sigma,
     LocalMatchResult* match) {
-  const Eigen::Vector3d ekf_minus_match(ekf_step.x - match->matched.x,
-                                        ekf_step.y - match->matched.y,
-                                        NormalizeAngle(ekf_step.theta - match->matched.theta));
+  const Eigen::Vector3d ekf_minus_match = Difference(ekf_step, match->matched);
   // The match's own variance per axis: the inverse of its information there (the others held).
   Eigen::Vector3d match_variance;
   for (int axis = 0; axis < 3; ++axis) {
@@ -197,21 +203,20 @@ MappingBackend::EkfTrust MappingBackend::TrustEkfWhereShown(
         information > 0.0 ? 1.0 / information : std::numeric_limits<double>::infinity();
   }
   const double sigmas = options_.local_window_sigmas;
-  const Eigen::Vector3d floor(options_.local_sigma_xy, options_.local_sigma_xy,
-                              options_.local_sigma_theta);
+  const Eigen::Vector3d floor = LocalSigmaFloor();
   EkfTrust trust;
   if (options_.local_learned_prior) {
     // An axis where the session has shown its EKF's steps better than its matches and not biased
     // against them, and where this step stays within the odometry's noise of the odometry's step
     // (a wrong association leaves it).
     std::array<bool, 3> shown;
-    std::array<double, 3> ekf_variance;
+    std::array<std::optional<double>, 3> ekf_variance;
     for (int axis = 0; axis < 3; ++axis) {
-      const std::optional<double> ekf = ekf_agreement_.EkfVariance(axis, floor(axis) * floor(axis));
+      const std::optional<double>& ekf = ekf_variance[axis] =
+          ekf_agreement_.EkfVariance(axis, floor(axis) * floor(axis));
       const std::optional<double> matches = ekf_agreement_.MatchVariance(axis);
       shown[axis] = ekf && matches && *ekf < *matches && !ekf_agreement_.Biased(axis, sigmas) &&
                     std::abs(ekf_minus_odometry(axis)) <= sigmas * odometry_sigma(axis);
-      ekf_variance[axis] = ekf.value_or(0.0);
     }
     // A match that found no maximum (on its window's edge) gives no translation where the EKF
     // has shown itself better: the simulator's ring corridor had two such matches 15-23 cm off,
@@ -225,7 +230,7 @@ MappingBackend::EkfTrust MappingBackend::TrustEkfWhereShown(
     // where one of them went wrong.
     bool agree = true;
     for (int axis = drop_translation ? 2 : 0; axis < 3; ++axis) {
-      const std::optional<double> ekf = ekf_agreement_.EkfVariance(axis, floor(axis) * floor(axis));
+      const std::optional<double>& ekf = ekf_variance[axis];
       if (ekf && ekf_minus_match(axis) * ekf_minus_match(axis) >
                      sigmas * sigmas * (*ekf + match_variance(axis))) {
         agree = false;
@@ -238,7 +243,7 @@ MappingBackend::EkfTrust MappingBackend::TrustEkfWhereShown(
     int axes = 0;
     for (int axis = 0; agree && axis < 3; ++axis) {
       if (shown[axis]) {
-        variance(axis) = std::min(variance(axis), ekf_variance[axis]);
+        variance(axis) = std::min(variance(axis), *ekf_variance[axis]);
         ++axes;
       }
     }
