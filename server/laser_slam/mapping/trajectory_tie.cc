@@ -1,0 +1,257 @@
+#include "server/laser_slam/mapping/trajectory_tie.h"
+
+#include <algorithm>
+#include <cmath>
+#include <utility>
+
+#include "absl/strings/str_cat.h"
+#include "server/laser_slam/geometry.h"
+#include "server/laser_slam/mapping/correlative_matcher.h"
+#include "server/laser_slam/mapping/occupancy_grid.h"
+#include "server/laser_slam/option_checks.h"
+
+namespace waymark::laser_slam {
+
+struct TrajectoryTie::Grids {
+  SearchPyramid fine;    // refinement (depth 6, as the localizer's tracking grid)
+  SearchPyramid coarse;  // the global search
+};
+
+namespace {
+
+// The window both a match and its rival are refined in again before they are compared: wider
+// than GlobalSearch's (0.05 rad), never reaching from a rival to its match (rival_xy, rival_theta
+// are larger).
+constexpr double kRivalRefineXy = 0.3;
+constexpr double kRivalRefineTheta = 0.15;
+
+}  // namespace
+
+absl::Status ValidateTieOptions(const TieOptions& o) {
+  for (const auto& [value, name] :
+       {std::pair{o.point_cell, "tie.point_cell"}, {o.grid_resolution, "tie.grid_resolution"},
+        {o.grid_sigma, "tie.grid_sigma"}, {o.global_query_cell, "tie.global_query_cell"},
+        {o.rival_xy, "tie.rival_xy"}, {o.rival_theta, "tie.rival_theta"},
+        {o.agreement_xy, "tie.agreement_xy"}, {o.agreement_theta, "tie.agreement_theta"},
+        {o.min_separation, "tie.min_separation"}, {o.refine_window_xy, "tie.refine_window_xy"},
+        {o.refine_window_theta, "tie.refine_window_theta"}, {o.map_growth, "tie.map_growth"}}) {
+    if (absl::Status s = Positive(value, name); !s.ok()) return s;
+  }
+  if (o.query_nodes < 1 || o.query_nodes > 50 || o.refine_nodes < o.query_nodes ||
+      o.refine_nodes > 200 || o.min_query_points < 1 || o.global_coarsening < 1 ||
+      o.global_coarsening > 8 || o.global_depth < 0 || o.global_depth > 10 ||
+      o.max_candidates < 1 || o.max_candidates > 100 || !(o.min_score > 0 && o.min_score < 1)) {
+    return absl::InvalidArgumentError(
+        "tie: query_nodes must be in [1, 50], refine_nodes in [query_nodes, 200], "
+        "global_coarsening in [1, 8], global_depth in [0, 10], max_candidates in [1, 100], "
+        "min_score in (0, 1)");
+  }
+  if (o.rival_xy < 2 * kRivalRefineXy || o.rival_theta < 2 * kRivalRefineTheta) {
+    return absl::InvalidArgumentError(absl::StrCat(
+        "tie: rival_xy must be at least ", 2 * kRivalRefineXy, " m and rival_theta at least ",
+        2 * kRivalRefineTheta, " rad (a rival and its match are refined again ", kRivalRefineXy,
+        " m and ", kRivalRefineTheta, " rad around each, which must not meet)"));
+  }
+  if (!(o.rival_floor > 0 && o.rival_floor <= o.rival_ratio && o.rival_ratio <= 1)) {
+    return absl::InvalidArgumentError(
+        "tie: 0 < rival_floor <= rival_ratio <= 1 (a rival is looked for down to rival_floor)");
+  }
+  return absl::OkStatus();
+}
+
+PointCloud MapCloud(const std::vector<TiedTrajectory>& trajectories, double cell) {
+  PointCloud map;
+  for (const TiedTrajectory& trajectory : trajectories) {
+    for (const NodeView& node : trajectory.nodes) {
+      if (node.points == nullptr) continue;
+      AppendTransformed(*node.points, Compose(trajectory.origin, node.global), &map);
+    }
+  }
+  return ThinPoints(map, cell);
+}
+
+absl::StatusOr<std::unique_ptr<TrajectoryTie>> TrajectoryTie::Create(const TieOptions& options) {
+  if (absl::Status s = ValidateTieOptions(options); !s.ok()) return s;
+  return std::unique_ptr<TrajectoryTie>(new TrajectoryTie(options));
+}
+
+bool TrajectoryTie::WantsMap(std::size_t map_nodes) const {
+  if (grids_ == nullptr) return map_nodes > 0;
+  return static_cast<double>(map_nodes) >
+         (1.0 + options_.map_growth) * static_cast<double>(grid_nodes_);
+}
+
+absl::Status TrajectoryTie::SetMap(const PointCloud& map_points, std::size_t map_nodes) {
+  if (map_points.empty()) return absl::FailedPreconditionError("the map has no points yet");
+  const double k = options_.global_coarsening;
+  // A whole map, not a submap: as large as an occupancy grid may be (as the localizer's).
+  LikelihoodGrid fine = BuildLikelihoodGrid(ThinPoints(map_points, options_.point_cell),
+                                            options_.grid_resolution, options_.grid_sigma,
+                                            kMaxOccupancyCells);
+  if (fine.empty()) {
+    return absl::InvalidArgumentError(absl::StrCat("the map spans more than ", kMaxOccupancyCells,
+                                                   " cells at ", options_.grid_resolution, " m"));
+  }
+  LikelihoodGrid coarse = BuildLikelihoodGrid(ThinPoints(map_points, k * options_.point_cell),
+                                              k * options_.grid_resolution,
+                                              k * options_.grid_sigma, kMaxOccupancyCells);
+  grids_ = std::make_shared<const Grids>(
+      Grids{SearchPyramid(std::move(fine), 6), SearchPyramid(std::move(coarse),
+                                                             options_.global_depth)});
+  grid_nodes_ = map_nodes;
+  return absl::OkStatus();
+}
+
+PointCloud TrajectoryTie::Query(const std::vector<NodeView>& joining, int first, int last,
+                                double cell) const {
+  PointCloud query;
+  const Pose2& frame = joining[last].global;
+  for (int i = std::max(0, first); i <= last; ++i) {
+    if (joining[i].points == nullptr) continue;
+    AppendTransformed(*joining[i].points, Relative(frame, joining[i].global), &query);
+  }
+  return ThinPoints(query, cell);
+}
+
+void TrajectoryTie::StartSearch(const std::vector<NodeView>& joining) {
+  const int newest = static_cast<int>(joining.size()) - 1;
+  PointCloud query = Query(joining, newest - options_.query_nodes + 1, newest, options_.point_cell);
+  search_node_ = newest;
+  if (static_cast<int>(query.size()) < options_.min_query_points) return;
+  GlobalSearchSettings settings;
+  settings.min_score = options_.min_score;
+  settings.rival_xy = options_.rival_xy;
+  settings.rival_theta = options_.rival_theta;
+  settings.rival_floor = options_.rival_floor;
+  settings.query_cell = options_.global_query_cell;
+  search_grids_ = grids_;
+  search_ = std::make_unique<GlobalSearch>(search_grids_->coarse, search_grids_->fine, settings,
+                                           joining[newest].scan, joining[newest].stamp,
+                                           joining[newest].global, query);
+  progress_.state = TieState::kSearching;
+}
+
+const TieProgress& TrajectoryTie::Advance(const std::vector<NodeView>& joining,
+                                          std::int64_t budget) {
+  while (!progress_.tie && budget > 0) {
+    if (search_ == nullptr) {
+      const int newest = static_cast<int>(joining.size()) - 1;
+      // A new search needs a map, enough nodes, and a node not searched yet.
+      if (grids_ == nullptr || newest + 1 < options_.query_nodes || newest <= search_node_) break;
+      StartSearch(joining);
+      if (search_ == nullptr) break;
+    }
+    const std::int64_t before = search_->outcome().reads;
+    const bool over = search_->Resume(budget);
+    const std::int64_t spent = search_->outcome().reads - before;
+    progress_.reads += spent;
+    budget -= std::max<std::int64_t>(spent, 1);
+    if (!over) break;
+    TakeAnswer(joining);
+    search_.reset();
+    search_grids_.reset();
+  }
+  return progress_;
+}
+
+bool TrajectoryTie::Agree(const std::vector<NodeView>& joining, const Candidate& a,
+                          const Candidate& b) const {
+  // The motion between the two nodes as the joining trajectory's graph now has it.
+  const Pose2 motion = Relative(joining[a.node].global, joining[b.node].global);
+  const auto close = [this](const Pose2& d) {
+    return std::hypot(d.x, d.y) <= options_.agreement_xy &&
+           std::abs(NormalizeAngle(d.theta)) <= options_.agreement_theta;
+  };
+  // Both ways: a heading error of the first match swings the second node about the first.
+  return close(Relative(Compose(a.match, motion), b.match)) &&
+         close(Relative(Compose(b.match, Invert(motion)), a.match));
+}
+
+Pose2 TrajectoryTie::Refine(const std::vector<NodeView>& joining, const Candidate& a,
+                            const Candidate& b) const {
+  const Pose2 agreed = Compose(b.match, Invert(joining[b.node].global));
+  const int first = std::max(a.node - options_.query_nodes + 1,
+                             b.node - options_.refine_nodes + 1);
+  const PointCloud query = Query(joining, first, b.node, options_.point_cell);
+  const std::optional<GridMatch> refined =
+      MatchInWindow(grids_->fine, query, b.match,
+                    SearchWindow{options_.refine_window_xy, options_.refine_window_theta}, 0.0);
+  // A stretch reaching beyond the mapped part scores lower (its points off the map count as
+  // misses); the refinement is kept only when it still scores as a match.
+  if (!refined || refined->score < options_.min_score) return agreed;
+  return Compose(refined->pose, Invert(joining[b.node].global));
+}
+
+void TrajectoryTie::TakeAnswer(const std::vector<NodeView>& joining) {
+  const GlobalSearchOutcome& outcome = search_->outcome();
+  ++progress_.searches;
+  progress_.last_score = outcome.match ? outcome.match->score : 0.0;
+  progress_.last_rival_ratio = 0.0;
+  if (!outcome.match) {
+    if (candidates_.empty()) progress_.state = TieState::kSearching;
+    return;
+  }
+  if (outcome.rival && outcome.match->score > 0) {
+    // GlobalSearch refines each from its coarse lattice pose in a window of 0.05 rad, narrower
+    // than the coarse search's angular step: the twin of a match in two identical rooms came out
+    // anywhere from 0.80 to 1.00 of it. Both are refined again here in one wider window, so that
+    // the two peaks are compared alike (a tie is never undone; the localizer's fix is).
+    const PointCloud query = Query(joining, search_node_ - options_.query_nodes + 1, search_node_,
+                                   options_.point_cell);
+    const SearchWindow window{kRivalRefineXy, kRivalRefineTheta};
+    double match_score = outcome.match->score, rival_score = outcome.rival->score;
+    for (auto [pose, score] : {std::pair{outcome.match->pose, &match_score},
+                               std::pair{outcome.rival->pose, &rival_score}}) {
+      const std::optional<GridMatch> again =
+          MatchInWindow(search_grids_->fine, query, pose, window, 0.0);
+      if (!again) continue;
+      progress_.reads += again->candidates * static_cast<std::int64_t>(query.size());
+      *score = std::max(*score, again->score);
+    }
+    progress_.last_rival_ratio = std::min(1.0, rival_score / match_score);
+  }
+  if (progress_.last_rival_ratio >= options_.rival_ratio) {
+    // Either place could be the robot's: this match is no evidence for any transform, and the
+    // unique matches before it are dropped too, as the localizer drops the one waiting for
+    // agreement. Where the map holds a look-alike of the robot's place, a "unique" match nearby
+    // may be the look-alike winning by the grid's phase: in two identical rooms the wrong twin
+    // scored 0.98 against the right one's 0.87 (walls on cell boundaries), three such matches
+    // agreed, and the robot was tied into the wrong room.
+    candidates_.clear();
+    ++progress_.ambiguous;
+    progress_.state = TieState::kAmbiguous;
+    return;
+  }
+  ++progress_.matches;
+  const Candidate fresh{search_node_, outcome.match->pose, outcome.match->score};
+  // Travel along the joining trajectory, node by node (its graph poses now).
+  std::vector<double> travel(joining.size(), 0.0);
+  for (size_t i = 1; i < joining.size(); ++i) {
+    travel[i] = travel[i - 1] + std::hypot(joining[i].global.x - joining[i - 1].global.x,
+                                           joining[i].global.y - joining[i - 1].global.y);
+  }
+  // The newest agreeing candidate: the least drift of the joining trajectory between the two.
+  for (auto it = candidates_.rbegin(); it != candidates_.rend(); ++it) {
+    const Candidate& older = *it;
+    // Independent: no scan in both queries, and the robot moved on between them.
+    if (fresh.node - older.node < options_.query_nodes ||
+        travel[fresh.node] - travel[older.node] < options_.min_separation) {
+      continue;
+    }
+    if (!Agree(joining, older, fresh)) {
+      ++progress_.disagreements;
+      continue;
+    }
+    progress_.tie = Refine(joining, older, fresh);
+    progress_.tie_scan = joining[fresh.node].scan;
+    progress_.state = TieState::kTied;
+    return;
+  }
+  candidates_.push_back(fresh);
+  if (static_cast<int>(candidates_.size()) > options_.max_candidates) {
+    candidates_.erase(candidates_.begin());
+  }
+  progress_.state = TieState::kCandidate;
+}
+
+}  // namespace waymark::laser_slam

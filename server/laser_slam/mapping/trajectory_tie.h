@@ -1,0 +1,163 @@
+#ifndef WAYMARK_SERVER_LASER_SLAM_MAPPING_TRAJECTORY_TIE_H_
+#define WAYMARK_SERVER_LASER_SLAM_MAPPING_TRAJECTORY_TIE_H_
+
+// Where a robot that joined a shared map is in it (issue 38; docs/laser-slam.md, "Maps shared by
+// robots"): the transform from the joining trajectory's own frame (its session's map frame) to
+// the shared map's frame, found from its scans alone. No start pose is needed.
+//
+// The map is what the tied-in trajectories hold: their nodes' points at their graph poses, moved
+// into the map frame by each trajectory's origin, drawn into one likelihood grid (and a coarser
+// one for the search). The joining trajectory's newest nodes are searched for over the whole map
+// and every heading (GlobalSearch, the localizer's resumable branch and bound) under a budget of
+// cell reads, one search after the other. A match counts only when no rival place far from it
+// scores nearly as well (two look-alike rooms, a corridor seen the other way round: either
+// could be the robot's). And one unique match is not enough: the localizer measured 4 wrong
+// unique matches in 306 searches on real maps. The tie needs two matches of nodes that share no
+// scan and lie at least min_separation metres of travel apart which agree, through the joining
+// trajectory's own motion between them, on the same transform within the localizer's
+// agreement (0.3 m, 0.1 rad). A wrong match must then be repeated, at another place, with the
+// same error. The agreed transform is refined once with the points of every node between the two
+// (a longer stretch of wall pins it better than five scans).
+//
+// Plain C++, no threads: the caller decides when to run it and with how much budget (the server
+// runs it on its own thread, a budget per scan the joining session processed, so that no answer
+// waits on it: server/service/slam/map_tie_worker.h).
+
+#include <cstdint>
+#include <memory>
+#include <optional>
+#include <vector>
+
+#include "absl/status/status.h"
+#include "absl/status/statusor.h"
+#include "server/laser_slam/mapping/global_localization.h"
+#include "server/laser_slam/mapping/likelihood_grid.h"
+#include "server/laser_slam/mapping/mapping_backend.h"
+#include "server/laser_slam/mapping/point_cloud.h"
+#include "server/laser_slam/types.h"
+
+namespace waymark::laser_slam {
+
+struct TieOptions {
+  // The query: the points of the newest query_nodes nodes in the newest one's frame (as the
+  // localizer's global search: several scans tell a corridor's length apart where one cannot).
+  int query_nodes = 5;
+  int min_query_points = 30;  // fewer (a robot in the open) wait for the next node
+  // The map's grids: fine (refinement) and global_coarsening times coarser (the search), the
+  // query thinned to global_query_cell there. The localizer's measured settings (localizer.h).
+  double point_cell = 0.05;
+  double grid_resolution = 0.05;
+  double grid_sigma = 0.05;
+  int global_coarsening = 4;
+  int global_depth = 5;
+  double global_query_cell = 0.3;
+  double min_score = 0.65;
+  // Rivals: a pose farther than rival_xy / rival_theta from the match scoring at least
+  // rival_ratio of it makes the match ambiguous (the back end's and the localizer's 0.9).
+  double rival_xy = 1.0;
+  double rival_theta = 0.5;
+  double rival_floor = 0.8;
+  double rival_ratio = 0.9;
+  // Two matches agree when the first, carried by the joining trajectory's motion to the second
+  // node, lands within these of the second match (and the other way round).
+  double agreement_xy = 0.3;
+  double agreement_theta = 0.1;
+  // Travel (m) between the two agreeing nodes: the same place searched twice is no evidence.
+  double min_separation = 2.0;
+  // The final refinement: at most this many nodes, in a window of this size around the agreed
+  // transform.
+  int refine_nodes = 25;
+  double refine_window_xy = 0.3;
+  double refine_window_theta = 0.05;
+  // Unique matches kept to agree with later ones (the oldest go first).
+  int max_candidates = 8;
+  // The map's grids are drawn again before the next search once the map holds this fraction
+  // more nodes than when they were drawn (a tied-in robot still exploring widens the map).
+  double map_growth = 0.1;
+};
+
+absl::Status ValidateTieOptions(const TieOptions& options);
+
+// One tied-in trajectory of the map: its nodes (their graph poses in its own frame) and where
+// that frame lies in the map frame.
+struct TiedTrajectory {
+  Pose2 origin;
+  std::vector<NodeView> nodes;
+};
+
+// The tied-in trajectories' points in the map frame, thinned to one per `cell`.
+PointCloud MapCloud(const std::vector<TiedTrajectory>& trajectories, double cell);
+
+enum class TieState {
+  kWaiting,     // no map yet, or too few nodes to search with
+  kSearching,   // a search under way, or the last one found nothing
+  kCandidate,   // unique matches found, none yet agreeing with another
+  kAmbiguous,   // the last match had a rival place and was refused
+  kTied,        // two matches agreed: tie() holds the transform
+};
+
+struct TieProgress {
+  TieState state = TieState::kWaiting;
+  int searches = 0;       // global searches finished
+  int matches = 0;        // ... with a unique match (a candidate)
+  int ambiguous = 0;      // ... refused for a rival place
+  int disagreements = 0;  // candidate pairs far enough apart that did not agree
+  double last_score = 0.0;
+  double last_rival_ratio = 0.0;  // the last match's rival's score over its own (0: none)
+  std::int64_t reads = 0;         // cell reads spent in all
+  // Once tied: the joining trajectory's frame in the map frame (map = tie (+) session), and the
+  // scan of the node that completed it.
+  std::optional<Pose2> tie;
+  std::uint64_t tie_scan = 0;
+};
+
+class TrajectoryTie {
+ public:
+  static absl::StatusOr<std::unique_ptr<TrajectoryTie>> Create(const TieOptions& options);
+  TrajectoryTie(const TrajectoryTie&) = delete;
+  TrajectoryTie& operator=(const TrajectoryTie&) = delete;
+
+  // Whether SetMap should be called with a map of `map_nodes` nodes: none yet, or it grew by
+  // map_growth since the grids were drawn.
+  bool WantsMap(std::size_t map_nodes) const;
+  // The map to search in (MapCloud of the tied-in trajectories). A search under way goes on in
+  // the grids it started with; the next one uses these. INVALID_ARGUMENT for a map too large.
+  absl::Status SetMap(const PointCloud& map_points, std::size_t map_nodes);
+
+  // Spends about `budget` cell reads on the searches (never much more: the refinement after an
+  // agreement is a few windowed matches). `joining`: the joining trajectory's nodes as its
+  // session's graph places them now, oldest first (MappingBackend::Nodes): node i must stay
+  // node i from call to call. Nothing more once tied.
+  const TieProgress& Advance(const std::vector<NodeView>& joining, std::int64_t budget);
+  const TieProgress& progress() const { return progress_; }
+
+ private:
+  struct Grids;
+  struct Candidate {
+    int node = 0;        // index in the joining trajectory
+    Pose2 match;         // the node's pose in the map frame
+    double score = 0.0;
+  };
+  explicit TrajectoryTie(const TieOptions& options) : options_(options) {}
+  // The points of nodes [first, last] in node `last`'s frame (their current graph poses).
+  PointCloud Query(const std::vector<NodeView>& joining, int first, int last, double cell) const;
+  void StartSearch(const std::vector<NodeView>& joining);
+  void TakeAnswer(const std::vector<NodeView>& joining);
+  // Whether candidates a and b (a older) agree through the joining trajectory's motion.
+  bool Agree(const std::vector<NodeView>& joining, const Candidate& a, const Candidate& b) const;
+  // The agreed transform refined with the nodes from a's query to b.
+  Pose2 Refine(const std::vector<NodeView>& joining, const Candidate& a, const Candidate& b) const;
+
+  const TieOptions options_;
+  std::shared_ptr<const Grids> grids_;  // the newest map
+  std::size_t grid_nodes_ = 0;          // the map's nodes when grids_ was drawn
+  std::shared_ptr<const Grids> search_grids_;  // what search_ reads (it must outlive it)
+  std::unique_ptr<GlobalSearch> search_;
+  int search_node_ = -1;  // the node search_ (or the last search) was for
+  std::vector<Candidate> candidates_;
+  TieProgress progress_;
+};
+
+}  // namespace waymark::laser_slam
+
+#endif  // WAYMARK_SERVER_LASER_SLAM_MAPPING_TRAJECTORY_TIE_H_
