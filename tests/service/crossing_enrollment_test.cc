@@ -221,8 +221,7 @@ TEST_F(CrossingEnrollmentTest, AViewWithNoHeadingAnswersItsCrossingOnly) {
 // enrollment went on before the worker got to the database. A user's bulk enrollment recorded
 // 44, 95, 228 and 301 views: the worker learnt from every view present when it looked. Here a
 // database of 44 views loses its vocabulary and a restarted server learns it again: from the
-// first 32. DISABLED until server/service/crossing/global_stage.cc (not this test's owner) learns from
-// crossing::VocabularyScheduleSize(...) views with TrainOnFirstImages (see the issue-34 report).
+// first 32 (global_stage.cc: crossing::VocabularyScheduleSize and TrainOnFirstImages).
 TEST(VocabularyScheduleServiceTest, LearntFromTheFirstViewsOfTheSchedule) {
   TempDir dir;
   const std::string path = dir.File("waymark.db");

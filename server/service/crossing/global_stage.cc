@@ -206,12 +206,13 @@ bool GlobalStageWorker::Round(ResidentDatabase& db) {
       // here (it used to learn from all of them: 44, 95, 228, 301 under a bulk enrollment).
       learn_from =
           crossing::VocabularyScheduleSize(views, kFirstVocabularyViews, kLastVocabularyViews);
+      // Slots are in enrollment order (view ids increase with them); a view without a sample
+      // (enrolled without a working image) keeps its place as an empty one, so "the first N"
+      // counts views, not samples.
       const std::vector<crossing::ViewEntry>& all = db.views->views();
-      for (size_t i = 0; i < all.size(); ++i) {
-        ids.push_back(all[i].view_id);
-        if (static_cast<int>(i) < learn_from && !all[i].global_sample.empty()) {
-          samples.push_back(all[i].global_sample);
-        }
+      for (const crossing::ViewEntry& v : all) {
+        ids.push_back(v.view_id);
+        if (static_cast<int>(samples.size()) < learn_from) samples.push_back(v.global_sample);
       }
     } else {
       ids.assign(db.global.uncoded.begin(), db.global.uncoded.end());
@@ -219,7 +220,8 @@ bool GlobalStageWorker::Round(ResidentDatabase& db) {
     }
   }
   if (train) {
-    vocabulary = crossing::VladVocabulary::TrainOnImages(samples, crossing::kVladWords);
+    vocabulary =
+        crossing::VladVocabulary::TrainOnFirstImages(samples, learn_from, crossing::kVladWords);
     if (vocabulary.empty()) {
       spdlog::warn("database \"{}\": {} views hold too few samples to learn a vocabulary",
                    db.record.name, views);
