@@ -16,28 +16,39 @@ constexpr int kCells = 4;  // per side
 constexpr int kLength = kCells * kCells * kOrientations;
 static_assert(kLength == kDescriptorSize);
 
-// The gradient magnitude of `gray` split into kOrientations images by orientation, each pixel's
-// magnitude shared linearly between its two nearest orientation bins.
-std::array<cv::Mat, kOrientations> OrientationChannels(const cv::Mat& gray) {
-  cv::Mat dx, dy, magnitude, angle;
-  cv::Sobel(gray, dx, CV_32F, 1, 0, 1, 0.5);  // central differences
-  cv::Sobel(gray, dy, CV_32F, 0, 1, 1, 0.5);
-  cv::cartToPolar(dx, dy, magnitude, angle);  // radians in [0, 2 pi)
+// The buffers of one extraction, reused from one cell size to the next: the server allocates
+// blocks of 256 KB and more with their own mapping (server/main.cc), so a fresh image per step
+// cost a page fault per 4 KB touched, about as much as the arithmetic (issue 34).
+struct Workspace {
+  cv::Mat smooth, dx, dy, magnitude, angle;
   std::array<cv::Mat, kOrientations> channels;
-  for (cv::Mat& c : channels) c = cv::Mat::zeros(gray.size(), CV_32F);
+};
+
+// The gradient magnitude of `gray` split into kOrientations images by orientation (into
+// ws->channels), each pixel's magnitude shared linearly between its two nearest orientation bins.
+void OrientationChannels(const cv::Mat& gray, Workspace* ws) {
+  cv::Sobel(gray, ws->dx, CV_32F, 1, 0, 1, 0.5);  // central differences
+  cv::Sobel(gray, ws->dy, CV_32F, 0, 1, 1, 0.5);
+  cv::cartToPolar(ws->dx, ws->dy, ws->magnitude, ws->angle);  // radians in [0, 2 pi)
+  std::array<cv::Mat, kOrientations>& channels = ws->channels;
+  for (cv::Mat& c : channels) {
+    c.create(gray.size(), CV_32F);
+    c.setTo(0);
+  }
   const float to_bins = kOrientations / static_cast<float>(2 * CV_PI);
+  std::array<float*, kOrientations> rows{};
   for (int y = 0; y < gray.rows; ++y) {
-    const float* m = magnitude.ptr<float>(y);
-    const float* a = angle.ptr<float>(y);
+    const float* m = ws->magnitude.ptr<float>(y);
+    const float* a = ws->angle.ptr<float>(y);
+    for (int o = 0; o < kOrientations; ++o) rows[o] = channels[o].ptr<float>(y);
     for (int x = 0; x < gray.cols; ++x) {
       const float t = a[x] * to_bins;
       const int lower = static_cast<int>(t);
       const float upper_share = t - lower;
-      channels[lower % kOrientations].ptr<float>(y)[x] += m[x] * (1 - upper_share);
-      channels[(lower + 1) % kOrientations].ptr<float>(y)[x] += m[x] * upper_share;
+      rows[lower % kOrientations][x] += m[x] * (1 - upper_share);
+      rows[(lower + 1) % kOrientations][x] += m[x] * upper_share;
     }
   }
-  return channels;
 }
 
 // SIFT's normalisation: unit length, values clamped at 0.2, unit length again; then OpenCV's
@@ -82,14 +93,15 @@ cv::Mat DenseRootSift(const cv::Mat& image, const DenseSiftOptions& options) {
   cv::Mat out(total, kLength, CV_8U);
   int row = 0;
   std::array<float, kLength> raw{};
+  Workspace ws;
+  const std::array<cv::Mat, kOrientations>& channels = ws.channels;
   for (int cell : options.cell_sizes) {
     if (cell < 1 || grid(cell, gray.cols) * grid(cell, gray.rows) == 0) continue;
     // vl_phow's pre-smoothing for the cell size (sigma = cell / 6), then the orientation images
     // integrated over each cell with a triangular window of half-width `cell` (a box twice).
-    cv::Mat smooth;
-    cv::GaussianBlur(gray, smooth, cv::Size(), cell / 6.0);
-    std::array<cv::Mat, kOrientations> channels = OrientationChannels(smooth);
-    for (cv::Mat& c : channels) {
+    cv::GaussianBlur(gray, ws.smooth, cv::Size(), cell / 6.0);
+    OrientationChannels(ws.smooth, &ws);
+    for (cv::Mat& c : ws.channels) {
       cv::boxFilter(c, c, -1, cv::Size(cell, cell), cv::Point(-1, -1), false, cv::BORDER_CONSTANT);
       cv::boxFilter(c, c, -1, cv::Size(cell, cell), cv::Point(-1, -1), false, cv::BORDER_CONSTANT);
     }
