@@ -2,6 +2,7 @@
 
 #include <algorithm>
 #include <array>
+#include <limits>
 #include <numeric>
 #include <utility>
 #include <queue>
@@ -57,12 +58,17 @@ KdForest::KdForest(const DescriptorStore& store, std::vector<uint32_t> ids, int 
     tree.ids = t + 1 < trees_.size() ? ids : std::move(ids);
     tree.nodes.reserve(2 * n / leaf_size_ + 1);
     if (n > 0) BuildNode(&tree, 0, n, &rng);
+    // Leaves hold fewer than leaf_size on average, so the reserve was short and the vector had
+    // doubled: give back what the tree does not use.
+    tree.nodes.shrink_to_fit();
   }
 }
 
 uint32_t KdForest::BuildNode(Tree* tree, uint32_t first, uint32_t last, uint32_t* rng) {
   const uint32_t index = static_cast<uint32_t>(tree->nodes.size());
-  tree->nodes.push_back(Node{-1, 0, first, last});
+  constexpr uint32_t kMaxLeaf = std::numeric_limits<uint16_t>::max();
+  tree->nodes.push_back(
+      Node{Node::kLeaf, 0, static_cast<uint16_t>(std::min(last - first, kMaxLeaf)), first});
   if (last - first <= static_cast<uint32_t>(leaf_size_)) return index;
 
   // Mean and variance per dimension over a sample of the node's descriptors, in integers: sums
@@ -89,7 +95,9 @@ uint32_t KdForest::BuildNode(Tree* tree, uint32_t first, uint32_t last, uint32_t
   std::partial_sort(dims.begin(), dims.begin() + kRandomDims, dims.end(),
                     [&](int a, int b) { return spread[a] > spread[b]; });
   const int dim = dims[NextRandom(rng) % kRandomDims];
-  if (spread[dim] <= 0) return index;  // all sampled descriptors equal: keep them as one leaf
+  // All sampled descriptors equal: keep them as one leaf (split by position below when they are
+  // more than a leaf's count can say).
+  if (spread[dim] <= 0 && count <= kMaxLeaf) return index;
 
   // Split at the mean; descriptors with value <= split go left.
   const double mean = static_cast<double>(sum[dim]) / sampled;
@@ -99,13 +107,13 @@ uint32_t KdForest::BuildNode(Tree* tree, uint32_t first, uint32_t last, uint32_t
   uint32_t mid = static_cast<uint32_t>(middle - tree->ids.begin());
   if (mid == first || mid == last) mid = first + count / 2;  // degenerate: split by position
 
-  const uint32_t left = BuildNode(tree, first, mid, rng);
+  BuildNode(tree, first, mid, rng);  // the left child: node index + 1
   const uint32_t right = BuildNode(tree, mid, last, rng);
   Node& node = tree->nodes[index];
-  node.dim = static_cast<int16_t>(dim);
+  node.dim = static_cast<uint8_t>(dim);
   node.value = split;
-  node.left_or_first = left;
-  node.right_or_last = right;
+  node.count = 0;
+  node.index = right;
   return index;
 }
 
@@ -116,12 +124,12 @@ void KdForest::Search(const uint8_t* query, int checks, KnnList* result) const {
   // Descends from `node` to a leaf, queueing the far side of every split on the way.
   auto descend = [&](uint16_t t, uint32_t node) {
     const Tree& tree = trees_[t];
-    while (tree.nodes[node].dim >= 0) {
+    while (tree.nodes[node].dim != Node::kLeaf) {
       const Node& n = tree.nodes[node];
       const int diff = static_cast<int>(query[n.dim]) - static_cast<int>(n.value);
       const bool go_left = diff <= 0;
-      const uint32_t near = go_left ? n.left_or_first : n.right_or_last;
-      const uint32_t far = go_left ? n.right_or_last : n.left_or_first;
+      const uint32_t near = go_left ? node + 1 : n.index;
+      const uint32_t far = go_left ? n.index : node + 1;
       const int32_t bound = go_left ? (diff - 1) * (diff - 1) : diff * diff;
       if (!result->full() || bound < result->worst()) {
         branches.push(Branch{bound, t, far});
@@ -129,7 +137,7 @@ void KdForest::Search(const uint8_t* query, int checks, KnnList* result) const {
       node = near;
     }
     const Node& leaf = tree.nodes[node];
-    for (uint32_t i = leaf.left_or_first; i < leaf.right_or_last; ++i) {
+    for (uint32_t i = leaf.index; i < leaf.index + leaf.count; ++i) {
       const uint32_t id = tree.ids[i];
       result->Offer(id, SquaredL2(query, store_.Get(id)));
       ++checked;
