@@ -92,7 +92,7 @@ uint32_t DescriptorIndex::Add(const uint8_t* descriptors, uint32_t count, uint32
 }
 
 size_t DescriptorIndex::memory_bytes() const {
-  return static_cast<size_t>(store_.size()) * sizeof(uint32_t) + all_.memory_bytes();
+  return store_.label_bytes() + all_.memory_bytes();
 }
 
 }  // namespace waymark::crossing

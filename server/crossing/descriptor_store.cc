@@ -17,7 +17,10 @@ uint32_t DescriptorStore::Append(const uint8_t* descriptors, uint32_t count, uin
     size_ += n;
     i += n;
   }
-  labels_.insert(labels_.end(), count, view);
+  if (count > 0) {
+    first_ids_.push_back(first);
+    views_.push_back(view);
+  }
   return first;
 }
 

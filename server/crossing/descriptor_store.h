@@ -6,6 +6,7 @@
 // fixed-size blocks: appending never moves what is already stored, so index levels built over a
 // prefix stay valid while new views arrive.
 
+#include <algorithm>
 #include <cstdint>
 #include <memory>
 #include <vector>
@@ -23,14 +24,25 @@ class DescriptorStore {
   const uint8_t* Get(uint32_t id) const {
     return blocks_[id >> kBlockShift].get() + static_cast<size_t>(id & (kBlockSize - 1)) * 128;
   }
-  uint32_t ViewOf(uint32_t id) const { return labels_[id]; }
+  // The view of descriptor `id` (ids past the end: the last view appended). A binary search over
+  // the appends, one entry per view, where a label per descriptor cost 4 bytes each (issue 34).
+  uint32_t ViewOf(uint32_t id) const {
+    const auto after = std::upper_bound(first_ids_.begin(), first_ids_.end(), id);
+    return after == first_ids_.begin() ? 0 : views_[after - first_ids_.begin() - 1];
+  }
   uint32_t size() const { return size_; }
+  // Bytes of the view labels (ViewOf).
+  size_t label_bytes() const {
+    return (first_ids_.capacity() + views_.capacity()) * sizeof(uint32_t);
+  }
   // Bytes of descriptor data held (allocated blocks).
   size_t descriptor_bytes() const { return blocks_.size() * static_cast<size_t>(kBlockSize) * 128; }
 
  private:
   std::vector<std::unique_ptr<uint8_t[]>> blocks_;
-  std::vector<uint32_t> labels_;
+  // Per Append with descriptors, in order: the first id it stored and its view.
+  std::vector<uint32_t> first_ids_;
+  std::vector<uint32_t> views_;
   uint32_t size_ = 0;
 };
 
