@@ -53,15 +53,38 @@ KdForest::KdForest(const DescriptorStore& store, std::vector<uint32_t> ids, int 
   trees_.resize(std::max(1, trees));
   uint32_t rng = seed * 2654435761u + 1;
   const uint32_t n = static_cast<uint32_t>(ids.size());
+  size_ = n;
+  if (n > 0) base_ = *std::min_element(ids.begin(), ids.end());
   for (size_t t = 0; t < trees_.size(); ++t) {
     Tree& tree = trees_[t];
     tree.ids = t + 1 < trees_.size() ? ids : std::move(ids);
     tree.nodes.reserve(2 * n / leaf_size_ + 1);
     if (n > 0) BuildNode(&tree, 0, n, &rng);
+    Pack(&tree);
     // Leaves hold fewer than leaf_size on average, so the reserve was short and the vector had
     // doubled: give back what the tree does not use.
     tree.nodes.shrink_to_fit();
   }
+}
+
+void KdForest::Pack(Tree* tree) const {
+  if (tree->ids.empty()) return;
+  const uint32_t top = *std::max_element(tree->ids.begin(), tree->ids.end());
+  if (top - base_ >= (1u << 24)) return;  // kept as 4-byte ids
+  tree->packed.resize(3 * tree->ids.size() + 1);
+  for (size_t i = 0; i < tree->ids.size(); ++i) {
+    const uint32_t offset = tree->ids[i] - base_;
+    tree->packed[3 * i] = static_cast<uint8_t>(offset);
+    tree->packed[3 * i + 1] = static_cast<uint8_t>(offset >> 8);
+    tree->packed[3 * i + 2] = static_cast<uint8_t>(offset >> 16);
+  }
+  std::vector<uint32_t>().swap(tree->ids);  // (= {} would keep the capacity)
+}
+
+std::vector<uint32_t> KdForest::ids() const {
+  std::vector<uint32_t> out(size_);
+  for (uint32_t i = 0; i < size_; ++i) out[i] = Id(trees_.front(), i);
+  return out;
 }
 
 uint32_t KdForest::BuildNode(Tree* tree, uint32_t first, uint32_t last, uint32_t* rng) {
@@ -138,7 +161,7 @@ void KdForest::Search(const uint8_t* query, int checks, KnnList* result) const {
     }
     const Node& leaf = tree.nodes[node];
     for (uint32_t i = leaf.index; i < leaf.index + leaf.count; ++i) {
-      const uint32_t id = tree.ids[i];
+      const uint32_t id = Id(tree, i);
       result->Offer(id, SquaredL2(query, store_.Get(id)));
       ++checked;
     }
@@ -155,7 +178,8 @@ void KdForest::Search(const uint8_t* query, int checks, KnnList* result) const {
 size_t KdForest::memory_bytes() const {
   size_t bytes = 0;
   for (const Tree& t : trees_) {
-    bytes += t.nodes.capacity() * sizeof(Node) + t.ids.capacity() * sizeof(uint32_t);
+    bytes += t.nodes.capacity() * sizeof(Node) + t.ids.capacity() * sizeof(uint32_t) +
+             t.packed.capacity();
   }
   return bytes;
 }

@@ -7,6 +7,7 @@
 // cannot grow; this one indexes the uint8 store in place.
 
 #include <cstdint>
+#include <cstring>
 #include <vector>
 
 #include "server/crossing/descriptor_store.h"
@@ -43,9 +44,9 @@ class KdForest {
   // Adds to `result` the neighbours of `query` found by visiting at most `checks` descriptors.
   void Search(const uint8_t* query, int checks, KnnList* result) const;
 
-  // The indexed ids (in tree order).
-  const std::vector<uint32_t>& ids() const { return trees_.front().ids; }
-  uint32_t size() const { return static_cast<uint32_t>(trees_.front().ids.size()); }
+  // The indexed ids (in the first tree's order).
+  std::vector<uint32_t> ids() const;
+  uint32_t size() const { return size_; }
   size_t memory_bytes() const;
 
  private:
@@ -60,15 +61,28 @@ class KdForest {
     uint32_t index;  // inner node: its right child; leaf: its first id in the tree's permutation
   };
   static_assert(sizeof(Node) == 8);
+  // A tree's permutation of the ids (leaves are slices of it). Once built, it is held as 3-byte
+  // offsets from the smallest id when the ids span fewer than 2^24 (every level of a database of
+  // up to about 45,000 views): 12 instead of 16 bytes per descriptor for 4 trees (issue 34).
   struct Tree {
     std::vector<Node> nodes;
-    std::vector<uint32_t> ids;  // permutation of the range; leaves are slices of it
+    std::vector<uint32_t> ids;   // while building, or when the ids span too much to pack
+    std::vector<uint8_t> packed;  // 3 bytes per id, little-endian, then one byte of padding
   };
+  uint32_t Id(const Tree& tree, uint32_t i) const {
+    if (tree.packed.empty()) return tree.ids[i];
+    uint32_t offset;
+    std::memcpy(&offset, tree.packed.data() + 3 * static_cast<size_t>(i), sizeof offset);
+    return base_ + (offset & 0xFFFFFFu);
+  }
+  void Pack(Tree* tree) const;
 
   uint32_t BuildNode(Tree* tree, uint32_t first, uint32_t last, uint32_t* rng);
 
   const DescriptorStore& store_;
   int leaf_size_;
+  uint32_t size_ = 0;
+  uint32_t base_ = 0;  // the smallest id
   std::vector<Tree> trees_;
 };
 
