@@ -26,6 +26,13 @@
 //     correction map-from-odometry interpolated between the keyframes around the scan), scored
 //     against the published relations. Also the raw log's own odometry on those relations.
 //
+//   waymark-laser-reference restamp --raw RAW --relations OFFICIAL.relations --out FILE.relations
+//     Published relations onto a log whose stamps were regenerated (MIT Killian's rawlog-derived
+//     CARMEN log): the original scan clock (period, offset) fitted from the raw odometry's agreement
+//     with the local relations (client/eval/scan_clock_fit.h), each relation stamp replaced by the
+//     stamp of the scan the clock names. Where the log's own stamps match the relations (ACES,
+//     Intel: a test of the fit) the summary also says how many stamps the fit puts on the right scan.
+//
 // Every subcommand prints a JSON summary on stdout; the noisy one includes the regenerated
 // odometry's own relations error (all, and local: t2 - t1 <= 10 s), the figure that
 // waymark-laser-eval reports as "odometry" for the written log.
@@ -49,6 +56,7 @@
 #include "client/eval/odometry_noise.h"
 #include "client/eval/relation_builder.h"
 #include "client/eval/relations_metric.h"
+#include "client/eval/scan_clock_fit.h"
 
 namespace waymark::bench {
 namespace {
@@ -66,7 +74,8 @@ void Usage() {
          "       waymark-laser-reference noisy --corrected LOG --strength none|low|medium|high\n"
          "                               --seed N --out-log OUT.log --out-relations OUT.relations\n"
          "                               [--raw RAW]\n"
-         "       waymark-laser-reference check --corrected LOG --raw RAW --relations FILE\n";
+         "       waymark-laser-reference check --corrected LOG --raw RAW --relations FILE\n"
+         "       waymark-laser-reference restamp --raw RAW --relations FILE --out FILE\n";
 }
 
 // --flag value pairs after the subcommand.
@@ -398,6 +407,90 @@ int RunCheck(const std::map<std::string, std::string>& flags) {
   return 0;
 }
 
+// Where the log's stamps are the relations' own (a test of the fit): how far the fitted clock puts
+// each relation stamp from the scan that carries it.
+nlohmann::json AgainstLogStamps(const cli::ScanClockFit& fit, const std::vector<double>& stamps,
+                                const std::vector<cli::Relation>& relations) {
+  std::map<double, int> index_of;  // stamp -> scan index (the first on repeats)
+  for (size_t i = 0; i < stamps.size(); ++i) index_of.emplace(stamps[i], static_cast<int>(i));
+  int found = 0, exact = 0, within_one = 0, worst = 0;
+  for (const cli::Relation& r : relations) {
+    for (double t : {r.t1, r.t2}) {
+      auto it = index_of.lower_bound(t - 1e-3);
+      if (it == index_of.end() || it->first > t + 1e-3) continue;
+      ++found;
+      const int off = std::abs(fit.IndexOf(t, static_cast<int>(stamps.size())) - it->second);
+      exact += off == 0;
+      within_one += off <= 1;
+      worst = std::max(worst, off);
+    }
+  }
+  if (found < static_cast<int>(relations.size())) return nullptr;  // not the relations' log
+  return {{"stamps", found}, {"on_the_right_scan", exact}, {"within_one_scan", within_one},
+          {"worst_scans_off", worst}};
+}
+
+int RunRestamp(const std::map<std::string, std::string>& flags) {
+  for (const char* required : {"raw", "relations", "out"}) {
+    if (!flags.count(required)) {
+      std::cerr << "restamp needs --" << required << "\n";
+      return 2;
+    }
+  }
+  absl::StatusOr<std::vector<CarmenLaser>> raw = ReadNonEmpty(flags.at("raw"));
+  absl::StatusOr<std::vector<cli::Relation>> official =
+      cli::ReadRelationsFile(flags.at("relations"));
+  for (const absl::Status& s : {raw.status(), official.status()}) {
+    if (!s.ok()) {
+      std::cerr << s << "\n";
+      return 1;
+    }
+  }
+  std::vector<Pose2> odometry;
+  std::vector<double> stamps;
+  for (const CarmenLaser& scan : *raw) {
+    odometry.push_back({scan.odom_pose.x, scan.odom_pose.y, scan.odom_pose.theta});
+    stamps.push_back(scan.stamp);
+  }
+  absl::StatusOr<cli::ScanClockFit> fit = cli::FitScanClock(odometry, *official);
+  if (!fit.ok()) {
+    std::cerr << fit.status() << "\n";
+    return 1;
+  }
+  int dropped = 0;
+  const std::vector<cli::Relation> moved = cli::RestampRelations(*official, *fit, stamps, &dropped);
+  const std::string header = absl::StrFormat(
+      "%s restamped by waymark-laser-reference: scan = (t - %.3f) / %.6f + %.2f",
+      flags.at("relations"), fit->t0, fit->period, fit->offset);
+  absl::Status written = cli::WriteFileBytes(flags.at("out"),
+                                                     cli::FormatRelations(moved, {header}));
+  if (!written.ok()) {
+    std::cerr << written << "\n";
+    return 1;
+  }
+  std::vector<StampedPose> raw_odometry;
+  for (size_t i = 0; i < odometry.size(); ++i) raw_odometry.push_back({stamps[i], odometry[i]});
+  nlohmann::json j = {{"raw", flags.at("raw")},
+                      {"relations", flags.at("relations")},
+                      {"out", flags.at("out")},
+                      {"scans", odometry.size()},
+                      {"fit",
+                       {{"t0", fit->t0},
+                        {"period_s", fit->period},
+                        {"offset_scans", fit->offset},
+                        {"local_relations", fit->local_relations},
+                        {"cost", fit->cost},
+                        {"cost_one_scan_earlier", fit->cost_minus_one},
+                        {"cost_one_scan_later", fit->cost_plus_one}}},
+                      {"relations_written", moved.size()},
+                      {"relations_dropped", dropped},
+                      {"raw_odometry", ScoreJson(raw_odometry, moved)}};
+  nlohmann::json check = AgainstLogStamps(*fit, stamps, *official);
+  if (!check.is_null()) j["against_log_stamps"] = check;
+  std::cout << j.dump(2) << "\n";
+  return 0;
+}
+
 }  // namespace
 }  // namespace waymark::bench
 
@@ -419,6 +512,9 @@ int main(int argc, char** argv) {
   } else if (command == "check") {
     known = {"corrected", "raw", "relations"};
     run = RunCheck;
+  } else if (command == "restamp") {
+    known = {"raw", "relations", "out"};
+    run = RunRestamp;
   } else {
     Usage();
     return 2;
