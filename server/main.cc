@@ -5,7 +5,7 @@
 //                  [--max-message-mb 32] [--max-streams-per-robot 8] [--stream-idle-seconds 300]
 //                  [--metrics-listen HOST:PORT] [--live [HOST:]PORT] [--slam-queue 64]
 //                  [--slam-workers N] [--slam-checkpoint-seconds 30] [--max-sessions 64]
-//                  [--slam-journal true] [--slam-checkpoint-journal-mb 64]
+//                  [--slam-journal true] [--slam-checkpoint-journal-mb 64] [--slam-map-tie true]
 //   waymark-server --db FILE token create NAME --role admin|mapper|robot|viewer [--robot-id ID]
 //   waymark-server --db FILE token list | token revoke NAME
 //
@@ -365,6 +365,10 @@ int main(int argc, char** argv) {
                  "store every accepted SLAM message before processing it, so that a session "
                  "resumed after a crash has everything the server answered (false: it goes back "
                  "to its last checkpoint)")
+      ->capture_default_str();
+  app.add_option("--slam-map-tie", flags.slam.map_tie,
+                 "find a robot that joined a shared map in it from its scans and tie it in "
+                 "(false: only a session created with an initial map pose is tied in)")
       ->capture_default_str();
   app.add_option("--slam-checkpoint-journal-mb", flags.slam_checkpoint_journal_mb,
                  "also checkpoint a SLAM session once its journal since the last checkpoint "

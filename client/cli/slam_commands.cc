@@ -3,6 +3,7 @@
 #include <fmt/format.h>
 
 #include <algorithm>
+#include <cmath>
 #include <filesystem>
 #include <memory>
 #include <optional>
@@ -190,10 +191,55 @@ int RunImportMap(CommandContext& context, const ImportMapArgs& args) {
   return kExitOk;
 }
 
+absl::StatusOr<v1::Session> FindSession(client::SlamClient& client, const std::string& session_id);
+
+// The session's poses moved into its shared map's frame (`--frame map`): origin (+) pose, with
+// the origin its trajectory was tied in at. FAILED_PRECONDITION when the session is in no map or
+// not yet tied into it.
+absl::Status ToMapFrame(client::SlamClient& client, const std::string& session_id,
+                        v1::Trajectory* trajectory) {
+  absl::StatusOr<v1::Session> session = FindSession(client, session_id);
+  if (!session.ok()) return session.status();
+  if (session->map().empty()) {
+    return absl::FailedPreconditionError(absl::StrCat(
+        "session ", session_id, " is in no shared map: it has only its own frame (leave out "
+        "--frame map)"));
+  }
+  absl::StatusOr<v1::Map> map = client.GetMapInfo(session->map());
+  if (!map.ok()) return map.status();
+  for (const v1::MapTrajectory& t : map->trajectories()) {
+    if (t.session_id() != session_id) continue;
+    if (!t.tied_in()) {
+      return absl::FailedPreconditionError(absl::StrCat(
+          "session ", session_id, " is not yet in map \"", session->map(),
+          "\": the server has not found where its robot is in it (`waymark map show ",
+          session->map(), "`)"));
+    }
+    const double c = std::cos(t.origin().theta()), s = std::sin(t.origin().theta());
+    for (v1::TrajectoryPose& pose : *trajectory->mutable_poses()) {
+      if (!pose.has_pose()) continue;
+      v1::Pose2D* p = pose.mutable_pose();
+      const double x = p->x(), y = p->y();
+      p->set_x(t.origin().x() + c * x - s * y);
+      p->set_y(t.origin().y() + s * x + c * y);
+      p->set_theta(std::remainder(p->theta() + t.origin().theta(), 2 * M_PI));
+    }
+    return absl::OkStatus();
+  }
+  return absl::NotFoundError(
+      absl::StrCat("map \"", session->map(), "\" does not list session ", session_id));
+}
+
 int RunTrajectory(CommandContext& context, const std::string& session_id,
-                  const std::string& out) {
-  auto trajectory = context.ConnectSlam()->GetTrajectory(session_id);
+                  const std::string& out, const std::string& frame) {
+  auto client = context.ConnectSlam();
+  auto trajectory = client->GetTrajectory(session_id);
   if (!trajectory.ok()) return ReportError(context, trajectory.status());
+  if (frame == "map") {
+    if (absl::Status s = ToMapFrame(*client, session_id, &*trajectory); !s.ok()) {
+      return ReportError(context, s);
+    }
+  }
   if (!out.empty()) {
     if (absl::Status s = WriteTumFile(out, PosesOf(*trajectory)); !s.ok()) {
       return ReportError(context, s);
@@ -364,9 +410,19 @@ void AddSlamCommands(CLI::App& app, CommandRegistry& registry) {
   AddGridResolutionOption(replay, &replay_args->grid_resolution);
   replay->add_flag("--allow-inconsistent-map", replay_args->allow_inconsistent_map,
                    "Exit 0 even when the final map contradicts itself (still warned about)");
-  AddLocalizeFlags(replay, &replay_args->localize);
+  CLI::Option* localize_on = AddLocalizeFlags(replay, &replay_args->localize);
   replay->add_option("--map", replay_args->map,
                      "Join this shared map (`waymark map create NAME`) as one robot's trajectory");
+  // --initial-pose is the start in the map either way: the one localized on (--localize-on) or
+  // the shared one joined (--map; without it the server finds the robot from its scans). Its
+  // parser (localize_flags.h) puts it in the localization config; RunReplay moves it for --map.
+  if (CLI::Option* initial = replay->get_option_no_throw("--initial-pose")) {
+    initial->remove_needs(localize_on);
+    initial->description(
+        "Where the robot starts: X,Y,THETA (m, m, rad) in the --localize-on map (else the "
+        "whole map is searched for the first fix) or in the --map's frame (else the server finds "
+        "it from the scans)");
+  }
   replay->add_option_function<std::string>(
       "--scans",
       [replay_args](const std::string& value) {
@@ -377,6 +433,16 @@ void AddSlamCommands(CLI::App& app, CommandRegistry& registry) {
       "Only scans FIRST to LAST-1 of the recording (0-based; FIRST: to the end), as one robot "
       "driving that stretch");
   registry.Add(replay, [replay_args](CommandContext& c) {
+    if (replay_args->localize && replay_args->localize->map_session_id().empty()) {
+      // Only --initial-pose: a start in the shared map, not a localization.
+      if (replay_args->map.empty()) {
+        return ReportError(c, absl::InvalidArgumentError(
+                                  "--initial-pose needs --localize-on (a map to localize on) or "
+                                  "--map (a shared map to join)"));
+      }
+      replay_args->initial_map_pose = replay_args->localize->initial_pose();
+      replay_args->localize.reset();
+    }
     StopSignals signals;  // Ctrl-C: stop sending, close the session, write partial outputs
     return RunSlamReplay(c, *replay_args, [&signals] { return signals.stop_requested().load(); });
   });
@@ -426,6 +492,7 @@ void AddSlamCommands(CLI::App& app, CommandRegistry& registry) {
   struct SessionArgs {
     std::string session_id;
     std::string out;
+    std::string frame = "session";
   };
 
   auto trajectory_args = std::make_shared<SessionArgs>();
@@ -433,8 +500,13 @@ void AddSlamCommands(CLI::App& app, CommandRegistry& registry) {
       slam->add_subcommand("trajectory", "Print a session's trajectory (TUM format)");
   trajectory->add_option("SESSION", trajectory_args->session_id, "Session id")->required();
   trajectory->add_option("--out", trajectory_args->out, "Write to FILE instead of stdout");
+  trajectory
+      ->add_option("--frame", trajectory_args->frame,
+                   "session (its own frame) or map (its shared map's frame, once tied in)")
+      ->check(CLI::IsMember({"session", "map"}));
   registry.Add(trajectory, [trajectory_args](CommandContext& c) {
-    return RunTrajectory(c, trajectory_args->session_id, trajectory_args->out);
+    return RunTrajectory(c, trajectory_args->session_id, trajectory_args->out,
+                         trajectory_args->frame);
   });
 
   auto close_id = std::make_shared<std::string>();

@@ -424,6 +424,7 @@ v1::CreateSessionRequest SessionRequest(const ReplayArgs& args, const LaserSampl
   if (args.match_chi2) params->set_match_chi2(*args.match_chi2);
   if (args.localize) *config->mutable_localize() = *args.localize;
   create.set_map(args.map);
+  if (args.initial_map_pose) *create.mutable_initial_map_pose() = *args.initial_map_pose;
   return create;
 }
 

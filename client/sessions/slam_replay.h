@@ -109,6 +109,9 @@ struct ReplayArgs {
   // source gives them), as one robot driving that stretch; unset = all. --max-scans still counts
   // the scans sent.
   std::optional<ScanSlice> scans;
+  // --initial-pose X,Y,THETA with --map: where the robot starts in the map frame
+  // (CreateSessionRequest.initial_map_pose); unset = found by the server.
+  std::optional<v1::Pose2D> initial_map_pose;
 };
 
 // One laser line as a replay sends it: the odometry pose at its stamp, then the scan.

@@ -367,8 +367,8 @@ TEST_F(MapServerTest, AMapAndItsTrajectoriesSurviveARestart) {
   for (const v1::Session& s : listed.sessions()) EXPECT_EQ(s.map(), "office");
 }
 
-// What the next slice stores when it ties a robot in (MapStore::TieTrajectory) is loaded at
-// start-up and turns the session's poses into map-frame poses: origin * session pose.
+// A tie stored by MapStore::TieTrajectory (as the tie worker stores one) is loaded at start-up
+// and turns the session's poses into map-frame poses: origin * session pose.
 TEST_F(MapServerTest, ATiedInTrajectorysAnswersAreInTheMapFrame) {
   ASSERT_TRUE(CreateMap("office").ok());
   v1::Session first, second;
@@ -400,9 +400,12 @@ TEST_F(MapServerTest, ATiedInTrajectorysAnswersAreInTheMapFrame) {
                                2 * M_PI),
                 0.0, 1e-9);
   }
-  // Two trajectories tied in: their merged grid is the next slice's.
+  // Two trajectories tied in: one grid of both, in the map frame.
   v1::MapOccupancyGrid grid;
-  EXPECT_EQ(MapGrid("office", &grid).error_code(), grpc::StatusCode::UNIMPLEMENTED);
+  ASSERT_TRUE(MapGrid("office", &grid).ok());
+  EXPECT_EQ(grid.session_ids_size(), 2);
+  EXPECT_EQ(grid.untied_trajectories(), 0u);
+  EXPECT_GT(grid.grid().width() * grid.grid().height(), 0u);
 }
 
 // The command lines: `waymark map ...` and a log replayed as two robots into one map.

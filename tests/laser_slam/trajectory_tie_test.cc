@@ -69,29 +69,39 @@ struct TieRun {
   size_t nodes_fed = 0;  // nodes the joining robot had when it was tied (all: never)
 };
 
-// Feeds the joining robot's nodes one at a time, `budget` reads each, as the server does per
-// scan.
-TieRun RunTie(const std::vector<TiedTrajectory>& map, const std::vector<NodeView>& joining,
-           std::int64_t budget) {
-  absl::StatusOr<std::unique_ptr<TrajectoryTie>> tie = TrajectoryTie::Create(TieOptions{});
+std::unique_ptr<TrajectoryTie> TieOn(const std::vector<TiedTrajectory>& map,
+                                     std::int64_t reads_per_scan) {
+  TieOptions options;
+  options.reads_per_scan = reads_per_scan;
+  absl::StatusOr<std::unique_ptr<TrajectoryTie>> tie = TrajectoryTie::Create(options);
   EXPECT_TRUE(tie.ok()) << tie.status();
   size_t map_nodes = 0;
   for (const TiedTrajectory& t : map) map_nodes += t.nodes.size();
   EXPECT_TRUE((*tie)->WantsMap(map_nodes));
   EXPECT_TRUE((*tie)->SetMap(MapCloud(map, 0.05), map_nodes).ok());
   EXPECT_FALSE((*tie)->WantsMap(map_nodes));
+  return *std::move(tie);
+}
+
+constexpr std::int64_t kUnbounded = std::int64_t{1} << 50;
+
+// Feeds the joining robot's nodes one at a time, as a robot at its own pace sends them, with
+// `reads_per_scan` granted per scan.
+TieRun RunTie(const std::vector<TiedTrajectory>& map, const std::vector<NodeView>& joining,
+              std::int64_t reads_per_scan) {
+  std::unique_ptr<TrajectoryTie> tie = TieOn(map, reads_per_scan);
   TieRun run;
   std::vector<NodeView> seen;
   for (const NodeView& node : joining) {
     seen.push_back(node);
-    run.progress = (*tie)->Advance(seen, budget);
+    run.progress = tie->Advance(seen, kUnbounded);
     run.nodes_fed = seen.size();
     if (run.progress.tie) break;
   }
   return run;
 }
 
-constexpr std::int64_t kUnbounded = std::int64_t{1} << 50;
+constexpr std::int64_t kManyReads = std::int64_t{1} << 40;  // per scan: every search at once
 
 TEST(TrajectoryTieTest, TwoRobotsInOneOfficeAreTiedInAgreeingWithTheTruth) {
   const std::vector<Wall> walls = Office();
@@ -103,7 +113,7 @@ TEST(TrajectoryTieTest, TwoRobotsInOneOfficeAreTiedInAgreeingWithTheTruth) {
   // The truth: the second robot's start in the map frame.
   const Pose2 truth = Compose(origin_a, Relative(a.front(), b.front()));
 
-  const TieRun run = RunTie(map, NodesOf(walls, b), kUnbounded);
+  const TieRun run = RunTie(map, NodesOf(walls, b), kManyReads);
   ASSERT_TRUE(run.progress.tie.has_value())
       << "searches " << run.progress.searches << ", matches " << run.progress.matches
       << ", ambiguous " << run.progress.ambiguous;
@@ -119,8 +129,10 @@ TEST(TrajectoryTieTest, TwoRobotsInOneOfficeAreTiedInAgreeingWithTheTruth) {
   EXPECT_LE(run.progress.tie_scan, 3 * (run.nodes_fed - 1) + 1);
 }
 
-// The searches spread over the nodes under a budget: the tie comes later and is as right.
-TEST(TrajectoryTieTest, ABudgetPerScanSpreadsTheSearchesAndTheTieIsAsRight) {
+// The searches spread over the scans under a budget: the tie comes later and is as right; and
+// it comes at the same scan whether the nodes arrive one by one (a robot at its pace) or all at
+// once (a replay far faster than real time, the searches catching up after it).
+TEST(TrajectoryTieTest, ABudgetPerScanSpreadsTheSearchesWhateverThePaceOfTheCalls) {
   const std::vector<Wall> walls = Office();
   const std::vector<Pose2> a = Path({{2.0, 4.5}, {12.0, 4.5}, {12.0, 7.0}, {3.0, 7.0}}, 0.25);
   const std::vector<Pose2> b = Path({{15.5, 6.5}, {6.0, 6.5}, {6.5, 3.5}}, 0.25);
@@ -128,16 +140,33 @@ TEST(TrajectoryTieTest, ABudgetPerScanSpreadsTheSearchesAndTheTieIsAsRight) {
   const Pose2 truth = Relative(a.front(), b.front());
   const std::vector<NodeView> joining = NodesOf(walls, b);
 
-  const TieRun whole = RunTie(map, joining, kUnbounded);
+  const TieRun whole = RunTie(map, joining, kManyReads);
   ASSERT_TRUE(whole.progress.tie.has_value());
-  // A fifth of one search's reads per node.
-  const std::int64_t per_search = whole.progress.reads / whole.progress.searches;
-  const TieRun spread = RunTie(map, joining, per_search / 5);
+  // About five nodes (three scans each) per search.
+  const std::int64_t per_scan = whole.progress.reads / whole.progress.searches / 15;
+  const TieRun spread = RunTie(map, joining, per_scan);
   ASSERT_TRUE(spread.progress.tie.has_value());
   EXPECT_GT(spread.nodes_fed, whole.nodes_fed);
+  EXPECT_GT(spread.progress.tied_at_scan, whole.progress.tied_at_scan);
+  EXPECT_LT(spread.progress.searches, static_cast<int>(spread.nodes_fed));
   EXPECT_NEAR(spread.progress.tie->x, truth.x, 0.03);
   EXPECT_NEAR(spread.progress.tie->y, truth.y, 0.03);
   EXPECT_NEAR(NormalizeAngle(spread.progress.tie->theta - truth.theta), 0.0, 1.0 * M_PI / 180);
+
+  // Every node at once, then the searches in small slices: the same searches, the same tie.
+  std::unique_ptr<TrajectoryTie> late = TieOn(map, per_scan);
+  TieProgress progress;
+  for (int call = 0; call < 100000 && !progress.tie; ++call) {
+    progress = late->Advance(joining, per_scan / 3);
+  }
+  ASSERT_TRUE(progress.tie.has_value());
+  // The clock within a scan or two: a search cut into other slices overruns them differently.
+  EXPECT_NEAR(static_cast<double>(progress.tied_at_scan),
+              static_cast<double>(spread.progress.tied_at_scan), 2.0);
+  EXPECT_EQ(progress.tie_scan, spread.progress.tie_scan);
+  EXPECT_EQ(progress.searches, spread.progress.searches);
+  EXPECT_DOUBLE_EQ(progress.tie->x, spread.progress.tie->x);
+  EXPECT_DOUBLE_EQ(progress.tie->theta, spread.progress.tie->theta);
 }
 
 // Two closed rooms 12 m apart, 8 m x 6 m with a pillar at the same place in each (the
@@ -174,7 +203,7 @@ TEST(TrajectoryTieTest, InTwoIdenticalRoomsNoTieIsMade) {
     const double angle = 0.3 * i;
     truth.push_back(Pose2{16.0 + std::cos(angle), 3.0 + std::sin(angle), angle + M_PI / 2});
   }
-  const TieRun run = RunTie(map, NodesOf(walls, truth), kUnbounded);
+  const TieRun run = RunTie(map, NodesOf(walls, truth), kManyReads);
   EXPECT_FALSE(run.progress.tie.has_value());
   EXPECT_NE(run.progress.state, TieState::kTied);
   EXPECT_EQ(run.nodes_fed, truth.size());

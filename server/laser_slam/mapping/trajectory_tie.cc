@@ -37,6 +37,9 @@ absl::Status ValidateTieOptions(const TieOptions& o) {
         {o.refine_window_theta, "tie.refine_window_theta"}, {o.map_growth, "tie.map_growth"}}) {
     if (absl::Status s = Positive(value, name); !s.ok()) return s;
   }
+  if (o.reads_per_scan < 1000 || o.reads_per_scan > (std::int64_t{1} << 50)) {
+    return absl::InvalidArgumentError("tie: reads_per_scan must be in [1000, 2^50]");
+  }
   if (o.query_nodes < 1 || o.query_nodes > 50 || o.refine_nodes < o.query_nodes ||
       o.refine_nodes > 200 || o.min_query_points < 1 || o.global_coarsening < 1 ||
       o.global_coarsening > 8 || o.global_depth < 0 || o.global_depth > 10 ||
@@ -113,11 +116,10 @@ PointCloud TrajectoryTie::Query(const std::vector<NodeView>& joining, int first,
   return ThinPoints(query, cell);
 }
 
-void TrajectoryTie::StartSearch(const std::vector<NodeView>& joining) {
-  const int newest = static_cast<int>(joining.size()) - 1;
-  PointCloud query = Query(joining, newest - options_.query_nodes + 1, newest, options_.point_cell);
-  search_node_ = newest;
-  if (static_cast<int>(query.size()) < options_.min_query_points) return;
+bool TrajectoryTie::StartSearch(const std::vector<NodeView>& joining, int node) {
+  search_node_ = node;
+  PointCloud query = Query(joining, node - options_.query_nodes + 1, node, options_.point_cell);
+  if (static_cast<int>(query.size()) < options_.min_query_points) return false;
   GlobalSearchSettings settings;
   settings.min_score = options_.min_score;
   settings.rival_xy = options_.rival_xy;
@@ -126,30 +128,60 @@ void TrajectoryTie::StartSearch(const std::vector<NodeView>& joining) {
   settings.query_cell = options_.global_query_cell;
   search_grids_ = grids_;
   search_ = std::make_unique<GlobalSearch>(search_grids_->coarse, search_grids_->fine, settings,
-                                           joining[newest].scan, joining[newest].stamp,
-                                           joining[newest].global, query);
+                                           joining[node].scan, joining[node].stamp,
+                                           joining[node].global, query);
   progress_.state = TieState::kSearching;
+  return true;
 }
 
 const TieProgress& TrajectoryTie::Advance(const std::vector<NodeView>& joining,
-                                          std::int64_t budget) {
-  while (!progress_.tie && budget > 0) {
+                                          std::int64_t max_reads) {
+  if (joining.empty()) return progress_;
+  const double newest_scan = static_cast<double>(joining.back().scan);
+  if (progress_.clock_scan < static_cast<double>(joining.front().scan)) {
+    progress_.clock_scan = static_cast<double>(joining.front().scan);
+  }
+  const double per_scan = static_cast<double>(options_.reads_per_scan);
+  while (!progress_.tie && max_reads > 0) {
     if (search_ == nullptr) {
-      const int newest = static_cast<int>(joining.size()) - 1;
-      // A new search needs a map, enough nodes, and a node not searched yet.
-      if (grids_ == nullptr || newest + 1 < options_.query_nodes || newest <= search_node_) break;
-      StartSearch(joining);
-      if (search_ == nullptr) break;
+      if (grids_ == nullptr) {
+        progress_.clock_scan = newest_scan;  // nothing to search in yet
+        break;
+      }
+      // The newest node the clock has reached, if not searched yet and with enough before it.
+      int node = static_cast<int>(joining.size()) - 1;
+      while (node >= 0 && static_cast<double>(joining[node].scan) > progress_.clock_scan) --node;
+      const int first_searchable = std::max(search_node_ + 1, options_.query_nodes - 1);
+      if (node < first_searchable) {
+        // Nothing new at the clock's scan: it moves on to the next searchable node (the robot
+        // had nothing to search in between), or to the newest scan.
+        if (first_searchable >= static_cast<int>(joining.size())) {
+          progress_.clock_scan = newest_scan;
+          break;
+        }
+        progress_.clock_scan = static_cast<double>(joining[first_searchable].scan);
+        continue;
+      }
+      if (!StartSearch(joining, node)) continue;  // too few points: the next node then
     }
+    // What the scans up to the newest have granted and the clock has not spent yet.
+    const double granted = (newest_scan - progress_.clock_scan) * per_scan;
+    if (granted < 1.0) break;
+    const std::int64_t budget =
+        std::min<std::int64_t>(max_reads, static_cast<std::int64_t>(granted));
     const std::int64_t before = search_->outcome().reads;
     const bool over = search_->Resume(budget);
-    const std::int64_t spent = search_->outcome().reads - before;
+    const std::int64_t spent = std::max<std::int64_t>(search_->outcome().reads - before, 1);
     progress_.reads += spent;
-    budget -= std::max<std::int64_t>(spent, 1);
-    if (!over) break;
+    progress_.clock_scan = std::min(newest_scan, progress_.clock_scan + spent / per_scan);
+    max_reads -= spent;
+    if (!over) continue;
     TakeAnswer(joining);
     search_.reset();
     search_grids_.reset();
+  }
+  if (progress_.tie && progress_.tied_at_scan == 0) {
+    progress_.tied_at_scan = static_cast<std::uint64_t>(std::ceil(progress_.clock_scan));
   }
   return progress_;
 }

@@ -74,6 +74,9 @@ struct TieOptions {
   // The map's grids are drawn again before the next search once the map holds this fraction
   // more nodes than when they were drawn (a tied-in robot still exploring widens the map).
   double map_growth = 0.1;
+  // The budget: cell reads granted per scan the joining robot processes (the localizer's
+  // global_reads_per_scan: 4 M reads are 5-10 ms here, a scan period 25-200 ms).
+  std::int64_t reads_per_scan = 4'000'000;
 };
 
 absl::Status ValidateTieOptions(const TieOptions& options);
@@ -105,10 +108,14 @@ struct TieProgress {
   double last_score = 0.0;
   double last_rival_ratio = 0.0;  // the last match's rival's score over its own (0: none)
   std::int64_t reads = 0;         // cell reads spent in all
-  // Once tied: the joining trajectory's frame in the map frame (map = tie (+) session), and the
-  // scan of the node that completed it.
+  // The scan the searches' clock stands at: the budget of the scans up to it is spent.
+  double clock_scan = 0.0;
+  // Once tied: the joining trajectory's frame in the map frame (map = tie (+) session), the
+  // scan of the node that completed it, and the scan at which the robot had it (the clock's
+  // scan when the search that completed it ended: a robot at its own pace is tied in then).
   std::optional<Pose2> tie;
   std::uint64_t tie_scan = 0;
+  std::uint64_t tied_at_scan = 0;
 };
 
 class TrajectoryTie {
@@ -124,11 +131,18 @@ class TrajectoryTie {
   // the grids it started with; the next one uses these. INVALID_ARGUMENT for a map too large.
   absl::Status SetMap(const PointCloud& map_points, std::size_t map_nodes);
 
-  // Spends about `budget` cell reads on the searches (never much more: the refinement after an
-  // agreement is a few windowed matches). `joining`: the joining trajectory's nodes as its
-  // session's graph places them now, oldest first (MappingBackend::Nodes): node i must stay
-  // node i from call to call. Nothing more once tied.
-  const TieProgress& Advance(const std::vector<NodeView>& joining, std::int64_t budget);
+  // Goes on with the searches, spending at most `max_reads` cell reads now (about: the
+  // refinements are a few windowed matches) of what the joining robot's scans granted.
+  // `joining`: its nodes as its session's graph places them now, oldest first
+  // (MappingBackend::Nodes): node i must stay node i from call to call. Nothing more once tied.
+  //
+  // The searches run on a clock of scans, not of calls: reads_per_scan for every scan since the
+  // first node, and each new search is for the newest node at or before the scan the clock has
+  // reached (a scan period with nothing new to search is not saved up). So the same scans give
+  // the same searches and the same tie however the calls are spread: a replay at 200 times real
+  // time and a robot at its own pace are tied in at the same scan, the replay later in seconds
+  // (the caller's thread then catches up, at most the scans' budget behind).
+  const TieProgress& Advance(const std::vector<NodeView>& joining, std::int64_t max_reads);
   const TieProgress& progress() const { return progress_; }
 
  private:
@@ -141,7 +155,8 @@ class TrajectoryTie {
   explicit TrajectoryTie(const TieOptions& options) : options_(options) {}
   // The points of nodes [first, last] in node `last`'s frame (their current graph poses).
   PointCloud Query(const std::vector<NodeView>& joining, int first, int last, double cell) const;
-  void StartSearch(const std::vector<NodeView>& joining);
+  // A search for node `node` (its query has too few points: none, and false).
+  bool StartSearch(const std::vector<NodeView>& joining, int node);
   void TakeAnswer(const std::vector<NodeView>& joining);
   // Whether candidates a and b (a older) agree through the joining trajectory's motion.
   bool Agree(const std::vector<NodeView>& joining, const Candidate& a, const Candidate& b) const;

@@ -69,6 +69,11 @@ absl::StatusOr<ls::PointCloud> LaserSessionEngine::MapPointsForLocalization() co
   return slam_->MapPoints();
 }
 
+std::vector<ls::NodeView> LaserSessionEngine::Nodes() const {
+  const ls::MappingBackend* backend = slam_->backend();
+  return backend == nullptr ? std::vector<ls::NodeView>{} : backend->Nodes();
+}
+
 absl::StatusOr<std::unique_ptr<LaserSessionEngine>> LaserSessionEngine::FromCheckpoint(
     const v1::LaserSlamConfig& config, const std::string& state,
     const std::vector<storage::TrajectoryPoseRecord>& stored, MapPoints map) {

@@ -38,6 +38,9 @@ class LaserSessionEngine final : public SessionEngine {
 
   // The map as points for localizing on it; FAILED_PRECONDITION when the session keeps none.
   absl::StatusOr<laser_slam::PointCloud> MapPointsForLocalization() const;
+  // The back end's nodes as its graph now places them (none without a back end). Thread-safe:
+  // the back end serves them from any thread, so a reader need not wait for the strand.
+  std::vector<laser_slam::NodeView> Nodes() const;
 
   const char* kind() const override { return "laser"; }
   absl::StatusOr<AdmittedMessage> Admit(const v1::SensorData& data) const override;

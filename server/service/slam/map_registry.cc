@@ -3,10 +3,14 @@
 #include <spdlog/spdlog.h>
 
 #include <cmath>
+#include <set>
 #include <utility>
 #include <vector>
 
 #include "absl/strings/str_cat.h"
+#include "server/laser_slam/geometry.h"
+#include "server/laser_slam/mapping/occupancy_grid.h"
+#include "server/service/slam/slam_params.h"
 #include "storage/map_records.h"
 
 namespace waymark::service {
@@ -79,6 +83,11 @@ void MapMembership::Detach() {
 std::string MapMembership::map() const {
   std::lock_guard<std::mutex> lock(mutex_);
   return map_;
+}
+
+bool MapMembership::tied_in() const {
+  std::lock_guard<std::mutex> lock(mutex_);
+  return tie_.has_value();
 }
 
 // ---------------------------------------------------------------------------------------------
@@ -182,7 +191,9 @@ absl::StatusOr<v1::DeleteMapResponse> MapRegistry::DeleteMap(const std::string& 
 }
 
 absl::StatusOr<v1::MapOccupancyGrid> MapRegistry::GetMapGrid(const std::string& name,
-                                                              const SessionGrid& session_grid) {
+                                                              std::optional<double> resolution,
+                                                              const SessionGrid& session_grid,
+                                                              const SessionNodes& session_nodes) {
   absl::StatusOr<v1::Map> map = GetMap(name);
   if (!map.ok()) return map.status();
   std::vector<const v1::MapTrajectory*> tied;
@@ -199,19 +210,50 @@ absl::StatusOr<v1::MapOccupancyGrid> MapRegistry::GetMapGrid(const std::string& 
         "map \"", name, "\" has no trajectory yet: no session has joined it (CreateSession with "
         "map, `waymark slam replay LOG --map ", name, "`)"));
   }
-  if (tied.size() > 1 || !IsOrigin(tied.front()->origin())) {
-    return absl::UnimplementedError(absl::StrCat(
-        "map \"", name, "\" has ", tied.size(), " trajectories tied in; rendering several into "
-        "one grid comes with the map's merged graph (issue 38), not in this server yet"));
-  }
-  absl::StatusOr<v1::OccupancyGrid> grid = session_grid(tied.front()->session_id());
-  if (!grid.ok()) return grid.status();
   v1::MapOccupancyGrid response;
   response.set_map(name);
   response.set_revision(map->revision());
-  *response.mutable_grid() = *std::move(grid);
-  response.add_session_ids(tied.front()->session_id());
   response.set_untied_trajectories(untied);
+  for (const v1::MapTrajectory* trajectory : tied) {
+    response.add_session_ids(trajectory->session_id());
+  }
+  if (tied.size() == 1 && IsOrigin(tied.front()->origin())) {
+    // The map is that session's: its grid cell for cell.
+    absl::StatusOr<v1::OccupancyGrid> grid = session_grid(tied.front()->session_id());
+    if (!grid.ok()) return grid.status();
+    *response.mutable_grid() = *std::move(grid);
+    return response;
+  }
+  const double cell = resolution.value_or(0.05);
+  if (absl::Status s = InRange(cell, "resolution", 0.01, 1.0, false, "m"); !s.ok()) return s;
+  std::vector<laser_slam::NodeView> nodes;
+  for (const v1::MapTrajectory* trajectory : tied) {
+    absl::StatusOr<std::vector<laser_slam::NodeView>> own =
+        session_nodes(trajectory->session_id());
+    if (!own.ok()) {
+      return absl::Status(own.status().code(),
+                          absl::StrCat("map \"", name, "\": trajectory of session ",
+                                       trajectory->session_id(), ": ", own.status().message()));
+    }
+    const laser_slam::Pose2 origin{trajectory->origin().x(), trajectory->origin().y(),
+                                   trajectory->origin().theta()};
+    for (laser_slam::NodeView& node : *own) {
+      node.global = laser_slam::Compose(origin, node.global);
+      nodes.push_back(std::move(node));
+    }
+  }
+  // As a session's grid (LaserSessionEngine::FillOccupancyGrid): one answer within gRPC's
+  // message limit, a coarser resolution when the map needs it.
+  constexpr std::int64_t kMaxGridCells = 16'000'000;
+  absl::StatusOr<laser_slam::OccupancyGrid> grid = laser_slam::RenderOccupancy(
+      nodes, laser_slam::ResolutionThatFits(nodes, cell, kMaxGridCells), kMaxGridCells);
+  if (!grid.ok()) {
+    return absl::Status(grid.status().code(),
+                        absl::StrCat("map \"", name, "\": ", grid.status().message()));
+  }
+  *response.mutable_grid() = ToProtoGrid(*grid);
+  response.mutable_grid()->set_map_revision(map->revision());
+  response.mutable_grid()->set_scans(static_cast<uint32_t>(nodes.size()));
   return response;
 }
 
@@ -297,6 +339,40 @@ std::string MapRegistry::MapOf(const std::string& session_id) const {
   std::lock_guard<std::mutex> lock(mutex_);
   auto it = members_.find(session_id);
   return it == members_.end() ? std::string() : it->second->map();
+}
+
+std::vector<storage::MapRecord> MapRegistry::MapsToTie() {
+  if (store_ == nullptr) return {};
+  std::set<std::string> names;
+  {
+    std::lock_guard<std::mutex> lock(mutex_);
+    for (const auto& [session_id, member] : members_) {
+      if (!member->tied_in()) {
+        if (std::string map = member->map(); !map.empty()) names.insert(std::move(map));
+      }
+    }
+  }
+  std::vector<storage::MapRecord> maps;
+  for (const std::string& name : names) {
+    absl::StatusOr<storage::MapRecord> map = store_->GetMap(name);
+    if (!map.ok()) continue;  // deleted meanwhile, or the store is down: the next pass asks again
+    Remember(*map);           // another server of the fleet may have tied one in
+    bool tied = false, untied = false;
+    for (const storage::MapTrajectoryRecord& trajectory : map->trajectories) {
+      (trajectory.tie ? tied : untied) = true;
+    }
+    if (tied && untied) maps.push_back(*std::move(map));
+  }
+  return maps;
+}
+
+absl::Status MapRegistry::Tie(const std::string& map, const std::string& session_id,
+                              const storage::MapTie& tie) {
+  if (absl::Status s = CheckStore(); !s.ok()) return s;
+  absl::StatusOr<storage::MapRecord> tied = store_->TieTrajectory(map, session_id, tie);
+  if (!tied.ok()) return tied.status();
+  Remember(*tied);
+  return absl::OkStatus();
 }
 
 }  // namespace waymark::service

@@ -5,9 +5,9 @@
 // SLAM registry that several sessions share, beside the session table and the lifecycle (the
 // facade, slam_registry.h, wires it in). A map is named and stored (storage/map_store.h); a laser
 // session joins one when it is created, as one more trajectory. The map frame is its first
-// trajectory's, tied in at once; the others are "not yet in the map" until cross-trajectory
-// matching ties them in (the next step of issue 38: it will call MapStore::TieTrajectory and
-// Retie here).
+// trajectory's, tied in at once; the others are "not yet in the map" until the tie worker
+// (map_tie_worker.h) finds them in it from their scans, or CreateSessionRequest.initial_map_pose
+// puts them there, and calls Tie.
 //
 // What the answers need is kept in memory per session in a map (MapMembership), shared with that
 // session's streams so that each answer is decorated without a lookup; it is read from the store
@@ -23,9 +23,11 @@
 #include <optional>
 #include <string>
 #include <utility>
+#include <vector>
 
 #include "absl/status/status.h"
 #include "absl/status/statusor.h"
+#include "server/laser_slam/mapping/mapping_backend.h"
 #include "server/service/slam/folder.h"
 #include "storage/map_store.h"
 #include "waymark/v1/slam.pb.h"
@@ -42,6 +44,7 @@ class MapMembership {
   void Set(std::optional<storage::MapTie> tie, int64_t revision);
   void Detach();
   std::string map() const;
+  bool tied_in() const;
 
  private:
   mutable std::mutex mutex_;
@@ -66,11 +69,18 @@ class MapRegistry {
   absl::StatusOr<v1::ListMapsResponse> ListMaps();
   // FAILED_PRECONDITION when an open session is in the map, unless `force`, which detaches them.
   absl::StatusOr<v1::DeleteMapResponse> DeleteMap(const std::string& name, bool force);
-  // The map's grid (MapOccupancyGrid, slam.proto): its one tied-in trajectory's session grid,
-  // which `session_grid` renders.
+  // The map's grid (MapOccupancyGrid, slam.proto). One trajectory tied in at the origin: its
+  // session's grid, which `session_grid` renders. Otherwise every tied-in trajectory's nodes
+  // (`session_nodes`), moved into the map frame by its origin, cast into one grid: the rays of
+  // all robots add their evidence in log odds, so a wall one robot saw and another saw through
+  // (a door opened since) is weighed, not drawn twice.
   using SessionGrid = std::function<absl::StatusOr<v1::OccupancyGrid>(const std::string& id)>;
+  using SessionNodes =
+      std::function<absl::StatusOr<std::vector<laser_slam::NodeView>>(const std::string& id)>;
   absl::StatusOr<v1::MapOccupancyGrid> GetMapGrid(const std::string& name,
-                                                  const SessionGrid& session_grid);
+                                                  std::optional<double> resolution,
+                                                  const SessionGrid& session_grid,
+                                                  const SessionNodes& session_nodes);
 
   // Whether `request` may join its map (request.map() set): a laser mapping session with loop
   // closure, a valid name of a map that exists. Checked before the session is created.
@@ -85,6 +95,14 @@ class MapRegistry {
   std::shared_ptr<MapMembership> Membership(const std::string& session_id);
   // The map the session is in; empty when none. Known sessions only (no store lookup).
   std::string MapOf(const std::string& session_id) const;
+
+  // What the tie worker searches (map_tie_worker.h): the maps, as stored, where a session known
+  // here is not yet tied in. No store read while every known session is tied in.
+  std::vector<storage::MapRecord> MapsToTie();
+  // Ties the session's trajectory in at `tie` (MapStore::TieTrajectory: revision + 1); its
+  // answers then carry its map-frame pose.
+  absl::Status Tie(const std::string& map, const std::string& session_id,
+                   const storage::MapTie& tie);
 
  private:
   absl::Status CheckStore() const;

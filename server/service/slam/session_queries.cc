@@ -6,6 +6,7 @@
 
 #include "absl/strings/str_cat.h"
 #include "server/service/slam/session_persistence.h"
+#include "server/service/slam/laser_session_engine.h"
 #include "server/service/slam/session_table.h"
 #include "server/service/slam/slam_params.h"
 #include "server/service/slam/visual_params.h"
@@ -174,6 +175,27 @@ absl::StatusOr<v1::OccupancyGrid> SessionQueries::GetOccupancyGrid(
                         absl::StrCat("SLAM session ", QuotedId(session_id), ": ", s.message()));
   }
   return grid;
+}
+
+absl::StatusOr<TrajectoryNodes> SessionQueries::TrajectoryNodesOf(const std::string& session_id) {
+  absl::StatusOr<std::shared_ptr<SlamSession>> session = SessionToRead(
+      session_id, absl::FailedPreconditionError(absl::StrCat(
+                      "SLAM session ", QuotedId(session_id), " is a visual session: no nodes")));
+  if (!session.ok()) return session.status();
+  // The engine is fixed once the session is built; the shared pointer keeps it alive.
+  const auto* laser = dynamic_cast<const LaserSessionEngine*>((*session)->engine.get());
+  if (laser == nullptr) {
+    return absl::FailedPreconditionError(
+        absl::StrCat("SLAM session ", QuotedId(session_id), " is not a laser session"));
+  }
+  TrajectoryNodes out;
+  out.nodes = laser->Nodes();
+  out.resident = table_->Find(session_id).ok();
+  return out;
+}
+
+bool SessionQueries::IsResident(const std::string& session_id) const {
+  return table_->Find(session_id).ok();
 }
 
 }  // namespace waymark::service

@@ -12,6 +12,7 @@
 #include "absl/status/status.h"
 #include "absl/status/statusor.h"
 #include "server/service/slam/folder.h"
+#include "server/service/slam/map_tie_worker.h"
 #include "server/service/slam/slam_session.h"
 #include "storage/slam_store.h"
 #include "waymark/v1/slam.pb.h"
@@ -39,6 +40,12 @@ class SessionQueries {
   absl::StatusOr<v1::OccupancyGrid> GetOccupancyGrid(const std::string& session_id,
                                                      std::optional<double> resolution);
   absl::StatusOr<v1::ListSessionsResponse> ListSessions(const std::string& robot_id);
+  // A laser session's nodes, for tying it into its shared map (map_tie_worker.h): a resident
+  // session's without taking its engine lock (the back end serves them from any thread, so the
+  // strand never waits on this), a stored one's from its checkpoint. FAILED_PRECONDITION for a
+  // visual session.
+  absl::StatusOr<TrajectoryNodes> TrajectoryNodesOf(const std::string& session_id);
+  bool IsResident(const std::string& session_id) const;
 
  private:
   // A session to read from: the resident one, or one built from its checkpoint (not made

@@ -11,6 +11,7 @@
 
 #include "absl/strings/str_cat.h"
 #include "server/service/slam/map_registry.h"
+#include "server/service/slam/map_tie_worker.h"
 #include "server/service/slam/session_lifecycle.h"
 #include "server/service/slam/session_persistence.h"
 #include "server/service/slam/session_queries.h"
@@ -82,6 +83,16 @@ SlamRegistry::SlamRegistry(std::unique_ptr<storage::SlamStore> store,
                                               scheduler_.get(), persistence_.get());
   // With several servers on one database, a session may have joined its map on another one.
   maps_ = std::make_unique<MapRegistry>(map_store_.get(), /*find_in_store=*/leases_.enabled());
+  if (map_store_ != nullptr && options_.map_tie) {
+    // Ties robots into their maps, on its own thread (map_tie_worker.h).
+    MapTieWorker::Sources sources;
+    sources.maps_to_tie = [this] { return maps_->MapsToTie(); };
+    sources.nodes = [this](const std::string& id) { return queries_->TrajectoryNodesOf(id); };
+    sources.resident = [this](const std::string& id) { return queries_->IsResident(id); };
+    sources.tie = [this](const std::string& map, const std::string& id,
+                         const storage::MapTie& tie) { return maps_->Tie(map, id, tie); };
+    tie_worker_ = std::make_unique<MapTieWorker>(std::move(sources), MapTieWorker::Options{});
+  }
   // Idle sessions' time-based checkpoints (a processed scan checks its own session).
   if (options_.checkpoint_seconds > 0) {
     scheduler_->Every(std::chrono::duration<double>(
@@ -100,6 +111,18 @@ SlamRegistry::~SlamRegistry() {
 }
 
 absl::StatusOr<v1::Session> SlamRegistry::CreateSession(const v1::CreateSessionRequest& request) {
+  if (request.has_initial_map_pose()) {
+    const v1::Pose2D& pose = request.initial_map_pose();
+    if (request.map().empty()) {
+      return absl::InvalidArgumentError(
+          "initial_map_pose is where the robot starts in a shared map: set map too");
+    }
+    if (!std::isfinite(pose.x()) || !std::isfinite(pose.y()) || !std::isfinite(pose.theta()) ||
+        std::abs(pose.x()) > 1e6 || std::abs(pose.y()) > 1e6) {
+      return absl::InvalidArgumentError(
+          "initial_map_pose must be finite, with x and y within 1e6 m");
+    }
+  }
   if (request.map().empty()) return lifecycle_->CreateSession(request);
   // Refused (bad name, unknown map, a session that cannot be a map's trajectory) before anything
   // is stored.
@@ -113,6 +136,20 @@ absl::StatusOr<v1::Session> SlamRegistry::CreateSession(const v1::CreateSessionR
     return joined.status();
   }
   session->set_map(request.map());
+  if (request.has_initial_map_pose()) {
+    // The session's frame starts at its first pose, so its origin in the map frame is the
+    // robot's start there. Stored as a found tie would be (the first robot's too: the map frame
+    // is then wherever its given start puts it).
+    const v1::Pose2D& pose = request.initial_map_pose();
+    if (absl::Status s = maps_->Tie(request.map(), session->session_id(),
+                                    storage::MapTie{pose.x(), pose.y(),
+                                                    std::remainder(pose.theta(), 2 * M_PI)});
+        !s.ok()) {
+      (void)lifecycle_->DeleteSession(session->session_id(), /*force=*/true);
+      maps_->SessionDeleted(session->session_id());
+      return s;
+    }
+  }
   return session;
 }
 
@@ -208,9 +245,17 @@ absl::StatusOr<v1::DeleteMapResponse> SlamRegistry::DeleteMap(const std::string&
 
 absl::StatusOr<v1::MapOccupancyGrid> SlamRegistry::GetMapOccupancyGrid(
     const std::string& name, std::optional<double> resolution) {
-  return maps_->GetMapGrid(name, [&](const std::string& session_id) {
-    return queries_->GetOccupancyGrid(session_id, resolution);
-  });
+  return maps_->GetMapGrid(
+      name, resolution,
+      [&](const std::string& session_id) {
+        return queries_->GetOccupancyGrid(session_id, resolution);
+      },
+      [&](const std::string& session_id)
+          -> absl::StatusOr<std::vector<laser_slam::NodeView>> {
+        absl::StatusOr<TrajectoryNodes> nodes = queries_->TrajectoryNodesOf(session_id);
+        if (!nodes.ok()) return nodes.status();
+        return std::move(nodes->nodes);
+      });
 }
 
 void SlamRegistry::SetUpdateObserver(UpdateObserver observer) {
@@ -230,6 +275,7 @@ absl::Status SlamRegistry::Shutdown() {
   if (shut_down_) return absl::OkStatus();
   shut_down_ = true;
   shutting_down_ = true;  // Submit and OpenStream refuse from now on
+  if (tie_worker_ != nullptr) tie_worker_->Stop();  // it reads the sessions stopped below
   const std::vector<std::shared_ptr<SlamSession>> sessions = table_->All();
   // The workers still run: let every accepted message be processed (and answered) first.
   for (const std::shared_ptr<SlamSession>& session : sessions) WaitIdle(*session);

@@ -83,6 +83,8 @@
 //   - map_registry.h      maps shared by robots (issue 38): what several sessions share. A
 //                         session joins one at creation (CreateSessionRequest.map); its answers
 //                         then carry map_pose; deleting the session takes it out of the map.
+//   - map_tie_worker.h    finds a joined robot in its map from its scans and ties it in (its
+//                         own thread: no answer waits on it).
 
 #include <atomic>
 #include <functional>
@@ -104,6 +106,7 @@
 namespace waymark::service {
 
 class MapRegistry;
+class MapTieWorker;
 class SessionLifecycle;
 class SessionPersistence;
 class SessionQueries;
@@ -208,6 +211,7 @@ class SlamRegistry {
   std::unique_ptr<SessionScheduler> scheduler_;
   std::unique_ptr<SessionStreams> streams_;
   std::unique_ptr<MapRegistry> maps_;
+  std::unique_ptr<MapTieWorker> tie_worker_;  // null without a map store
 
   std::mutex shutdown_mutex_;
   bool shut_down_ = false;

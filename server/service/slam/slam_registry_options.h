@@ -32,6 +32,9 @@ struct SlamRegistryOptions {
   // old stream's accepted messages to be answered, then takes the session over; UNAVAILABLE
   // after it.
   std::chrono::milliseconds stream_handover_wait{10000};
+  // Maps shared by robots: find a joined robot in its map from its scans and tie it in
+  // (map_tie_worker.h). False: only CreateSessionRequest.initial_map_pose ties a robot in.
+  bool map_tie = true;
   // Several servers on one database (PostgreSQL): each session is served by the one holding its
   // lease (session_leases.h). Off (owner empty) with one server per database.
   SessionLeaseOptions lease;

@@ -1,0 +1,159 @@
+#include "server/service/slam/map_tie_worker.h"
+
+#include <spdlog/spdlog.h>
+
+#include <algorithm>
+#include <chrono>
+#include <iterator>
+#include <set>
+#include <utility>
+
+namespace waymark::service {
+namespace {
+
+// Reads one session may spend in one turn: the others (and Stop) wait at most that long
+// (20-60 ms here).
+constexpr std::int64_t kTurnReads = 20'000'000;
+
+}  // namespace
+
+MapTieWorker::MapTieWorker(Sources sources, Options options)
+    : sources_(std::move(sources)), options_(std::move(options)) {
+  thread_ = std::thread([this] { Loop(); });
+}
+
+MapTieWorker::~MapTieWorker() { Stop(); }
+
+void MapTieWorker::Stop() {
+  {
+    std::lock_guard<std::mutex> lock(mu_);
+    stop_ = true;
+  }
+  cv_.notify_all();
+  if (thread_.joinable()) thread_.join();
+}
+
+void MapTieWorker::Loop() {
+  while (true) {
+    bool more = false;
+    try {
+      more = Pass();
+    } catch (const std::exception& e) {
+      // Never let the thread die with the server running on (std::thread would terminate).
+      spdlog::error("SLAM maps: tying trajectories in failed: {}", e.what());
+    }
+    std::unique_lock<std::mutex> lock(mu_);
+    if (stop_) return;
+    if (!more) {
+      cv_.wait_for(lock, std::chrono::duration<double>(options_.poll_seconds),
+                   [this] { return stop_; });
+      if (stop_) return;
+    }
+  }
+}
+
+absl::StatusOr<TrajectoryNodes> MapTieWorker::NodesOf(const std::string& session_id) {
+  if (auto it = stored_.find(session_id); it != stored_.end()) {
+    if (!sources_.resident(session_id)) return it->second;
+    stored_.erase(it);  // its robot came back: its nodes change again
+  }
+  absl::StatusOr<TrajectoryNodes> nodes = sources_.nodes(session_id);
+  if (nodes.ok() && !nodes->resident) stored_[session_id] = *nodes;
+  return nodes;
+}
+
+bool MapTieWorker::Pass() {
+  const std::vector<storage::MapRecord> maps = sources_.maps_to_tie();
+  std::set<std::string> untied, referenced;
+  bool more = false;
+  for (const storage::MapRecord& map : maps) {
+    std::vector<laser_slam::TiedTrajectory> tied;
+    std::size_t map_nodes = 0;
+    for (const storage::MapTrajectoryRecord& trajectory : map.trajectories) {
+      referenced.insert(trajectory.session_id);
+      if (!trajectory.tie) continue;
+      absl::StatusOr<TrajectoryNodes> nodes = NodesOf(trajectory.session_id);
+      if (!nodes.ok()) continue;  // deleted meanwhile: the map no longer holds it
+      map_nodes += nodes->nodes.size();
+      tied.push_back(laser_slam::TiedTrajectory{
+          laser_slam::Pose2{trajectory.tie->x, trajectory.tie->y, trajectory.tie->theta},
+          std::move(nodes->nodes)});
+    }
+    if (map_nodes == 0) continue;
+    for (const storage::MapTrajectoryRecord& trajectory : map.trajectories) {
+      if (trajectory.tie) continue;
+      untied.insert(trajectory.session_id);
+      {
+        std::lock_guard<std::mutex> lock(mu_);
+        if (stop_) return false;
+      }
+      more = Turn(map.name, trajectory.session_id, tied, map_nodes) || more;
+    }
+  }
+  // Sessions tied in, gone or detached meanwhile; stored nodes nobody reads any more.
+  const auto erase_unless = [](auto& by_id, const std::set<std::string>& keep) {
+    for (auto it = by_id.begin(); it != by_id.end();) {
+      it = keep.count(it->first) ? std::next(it) : by_id.erase(it);
+    }
+  };
+  erase_unless(joining_, untied);
+  erase_unless(stored_, referenced);
+  return more;
+}
+
+bool MapTieWorker::Turn(const std::string& map, const std::string& session_id,
+                        const std::vector<laser_slam::TiedTrajectory>& tied,
+                        std::size_t map_nodes) {
+  Joining& joining = joining_[session_id];
+  if (joining.tie == nullptr || joining.map != map) {
+    absl::StatusOr<std::unique_ptr<laser_slam::TrajectoryTie>> tie =
+        laser_slam::TrajectoryTie::Create(options_.tie);
+    if (!tie.ok()) {
+      spdlog::error("SLAM map \"{}\": cannot search for session {}: {}", map, session_id,
+                    tie.status().ToString());
+      return false;
+    }
+    joining = Joining{map, *std::move(tie)};
+  }
+  absl::StatusOr<TrajectoryNodes> nodes = NodesOf(session_id);
+  if (!nodes.ok() || nodes->nodes.empty()) return false;
+  if (joining.tie->WantsMap(map_nodes)) {
+    if (absl::Status s = joining.tie->SetMap(laser_slam::MapCloud(tied, options_.tie.point_cell),
+                                             map_nodes);
+        !s.ok()) {
+      spdlog::warn("SLAM map \"{}\": cannot search it for session {}: {}", map, session_id,
+                   s.ToString());
+      return false;
+    }
+  }
+  // The engine spends what the session's scans granted (TieOptions::reads_per_scan), at most a
+  // turn's worth now.
+  const std::int64_t before = joining.tie->progress().reads;
+  const laser_slam::TieProgress& progress = joining.tie->Advance(nodes->nodes, kTurnReads);
+  if (!progress.tie) return progress.reads > before;  // more to do now, or wait for scans
+  const storage::MapTie tie{progress.tie->x, progress.tie->y, progress.tie->theta};
+  if (absl::Status s = sources_.tie(map, session_id, tie); !s.ok()) {
+    spdlog::warn("SLAM map \"{}\": session {} was found in it but not tied in: {}", map,
+                 session_id, s.ToString());
+  } else {
+    const laser_slam::NodeView& first = nodes->nodes.front();
+    // The robot's clock at the scan it was tied in at: the newest node's stamp at or before it.
+    double tied_stamp = first.stamp;
+    for (const laser_slam::NodeView& node : nodes->nodes) {
+      if (node.scan <= progress.tied_at_scan) tied_stamp = node.stamp;
+    }
+    // What results.md measures: the time from the robot's first scan to its tie, in its scans
+    // and its own clock (as at its own pace: the searches run on a clock of scans).
+    spdlog::info(
+        "SLAM map \"{}\": session {} tied in at ({:.3f}, {:.3f}, {:.4f}) at its scan {} ({:.1f} s "
+        "after its first node, scan {}), matched at scan {}; {} searches, {} unique matches, {} "
+        "ambiguous, {} disagreeing pairs, {:.0f} M cell reads",
+        map, session_id, tie.x, tie.y, tie.theta, progress.tied_at_scan,
+        tied_stamp - first.stamp, first.scan, progress.tie_scan, progress.searches,
+        progress.matches, progress.ambiguous, progress.disagreements, progress.reads / 1e6);
+  }
+  joining_.erase(session_id);
+  return false;
+}
+
+}  // namespace waymark::service

@@ -1,0 +1,98 @@
+#ifndef WAYMARK_SERVER_SERVICE_SLAM_MAP_TIE_WORKER_H_
+#define WAYMARK_SERVER_SERVICE_SLAM_MAP_TIE_WORKER_H_
+
+// Ties robots into their shared maps (issue 38; docs/laser-slam.md, "Maps shared by robots"):
+// for every session of a map that is not yet in it, the search of laser_slam::TrajectoryTie
+// (server/laser_slam/mapping/trajectory_tie.h) over what the map's tied-in trajectories hold,
+// and on success the tie, stored (MapStore::TieTrajectory, the map's revision + 1), after which
+// the robot's answers carry its map-frame pose.
+//
+// On its own thread, never on a session's strand: no answer waits on it. It reads the sessions
+// only through snapshots of their nodes (MappingBackend::Nodes, which the back end serves from
+// any thread; a closed session's once, from its checkpoint). Rate-limited as the localizer's
+// global search is: each joining session grants TieOptions::reads_per_scan cell reads for every
+// scan it processed (4 M reads are 5-10 ms here, a scan period 25-200 ms), and the searches run
+// on that clock of scans (trajectory_tie.h), so a replay faster than real time is tied in at the
+// scan a robot at its pace would be, the thread catching up after it.
+
+#include <condition_variable>
+#include <cstdint>
+#include <functional>
+#include <map>
+#include <memory>
+#include <mutex>
+#include <string>
+#include <thread>
+#include <vector>
+
+#include "absl/status/status.h"
+#include "absl/status/statusor.h"
+#include "server/laser_slam/mapping/mapping_backend.h"
+#include "server/laser_slam/mapping/trajectory_tie.h"
+#include "server/service/slam/folder.h"
+#include "storage/map_store.h"
+
+namespace waymark::service {
+
+// A session's nodes as its graph now places them (its own frame).
+struct TrajectoryNodes {
+  std::vector<laser_slam::NodeView> nodes;
+  bool resident = false;  // false: read from its checkpoint (closed: it no longer changes)
+};
+
+class MapTieWorker {
+ public:
+  struct Sources {
+    // The maps with a trajectory tied in and one not yet (MapRegistry::MapsToTie).
+    std::function<std::vector<storage::MapRecord>()> maps_to_tie;
+    // A session's nodes (SessionQueries::TrajectoryNodesOf).
+    std::function<absl::StatusOr<TrajectoryNodes>(const std::string& session_id)> nodes;
+    // Whether the session is in memory (a stored session's nodes are read once, until it is).
+    std::function<bool(const std::string& session_id)> resident;
+    // Stores the tie and updates the answers (MapRegistry::Tie).
+    std::function<absl::Status(const std::string& map, const std::string& session_id,
+                               const storage::MapTie& tie)>
+        tie;
+  };
+  struct Options {
+    double poll_seconds = 0.2;
+    laser_slam::TieOptions tie;  // its reads_per_scan is the budget
+  };
+
+  // Starts the thread.
+  MapTieWorker(Sources sources, Options options);
+  ~MapTieWorker();  // Stop()
+  MapTieWorker(const MapTieWorker&) = delete;
+  MapTieWorker& operator=(const MapTieWorker&) = delete;
+  // Stops the thread (a search under way is dropped; it starts again after a restart).
+  void Stop();
+
+ private:
+  struct Joining {
+    std::string map;
+    std::unique_ptr<laser_slam::TrajectoryTie> tie;
+  };
+  void Loop();
+  // One pass over the maps to tie; true when some session still has work it could do now.
+  bool Pass();
+  // One joining session's turn: spends some of its budget, ties it in when found; true when it
+  // has more to do now.
+  bool Turn(const std::string& map, const std::string& session_id,
+            const std::vector<laser_slam::TiedTrajectory>& tied, std::size_t map_nodes);
+  absl::StatusOr<TrajectoryNodes> NodesOf(const std::string& session_id);
+
+  const Sources sources_;
+  const Options options_;
+  // The thread's own (no lock): the sessions being searched for, and the nodes of sessions read
+  // from their checkpoints (closed: they do not change).
+  std::map<std::string, Joining> joining_;
+  std::map<std::string, TrajectoryNodes> stored_;
+  std::mutex mu_;
+  std::condition_variable cv_;
+  bool stop_ = false;
+  std::thread thread_;
+};
+
+}  // namespace waymark::service
+
+#endif  // WAYMARK_SERVER_SERVICE_SLAM_MAP_TIE_WORKER_H_
