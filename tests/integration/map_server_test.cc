@@ -85,8 +85,11 @@ class MapServerTest : public ::testing::Test {
     std::filesystem::remove_all(dir_);
   }
   void StartServer() {
-    auto server =
-        ServerProcess::Start(testing::ServerBinary(), dir_ + "/waymark.db", {"--slam-workers", "2"});
+    // The search that ties robots in from their scans is off: these tests check what a map
+    // holds and answers, and a robot tied in while a test reads "not yet in the map" would make
+    // them race. The tie itself: map_tie_test.cc.
+    auto server = ServerProcess::Start(testing::ServerBinary(), dir_ + "/waymark.db",
+                                       {"--slam-workers", "2", "--slam-map-tie", "false"});
     ASSERT_TRUE(server.ok()) << server.status();
     server_ = std::move(*server);
     channel_ = grpc::CreateChannel(server_->address(), grpc::InsecureChannelCredentials());
@@ -489,10 +492,50 @@ TEST_F(MapServerTest, MapCommandsAndReplayIntoAMap) {
   // The map's grid is the first robot's session grid, written the same way.
   EXPECT_EQ(testing::ReadAll(grid_dir / "map.pgm"), testing::ReadAll(temp.path() / "r1" / "map.pgm"));
 
-  // Both sessions are closed: the map is not in use.
+  // Poses in the map frame: the first robot's are its own (tied in at the origin); the second
+  // is not yet in the map.
+  const std::string r1_id = shown_json.Json()["trajectories"][0]["session_id"];
+  const std::string r2_id = shown_json.Json()["trajectories"][1]["session_id"];
+  testing::CliResult own = RunWaymark(address, {"slam", "trajectory", r1_id});
+  testing::CliResult in_map = RunWaymark(address, {"slam", "trajectory", r1_id, "--frame", "map"});
+  ASSERT_EQ(in_map.code, 0) << in_map.err;
+  EXPECT_EQ(in_map.out, own.out);
+  testing::CliResult untied = RunWaymark(address, {"slam", "trajectory", r2_id, "--frame", "map"});
+  EXPECT_NE(untied.code, 0);
+  EXPECT_NE(untied.err.find("not yet in map"), std::string::npos) << untied.err;
+
+  // A third robot with a known start is tied in there at once; its poses move with it.
+  testing::CliResult three = RunWaymark(
+      address, {"--json", "slam", "replay", log.string(), "--map", "office", "--scans", "0:20",
+                "--initial-pose", "2,-1,1.5707963267948966", "--robot", "r3", "--out",
+                temp.Make("r3").string()});
+  ASSERT_EQ(three.code, 0) << three.err;
+  EXPECT_EQ(three.Json()["shared_map"]["tied_in"], true);
+  EXPECT_EQ(three.Json()["shared_map"]["map_pose_tied"], three.Json()["shared_map"]["map_pose_answers"]);
+  const nlohmann::json with_three = RunWaymark(address, {"--json", "map", "show", "office"}).Json();
+  ASSERT_EQ(with_three["trajectories"].size(), 3u);
+  EXPECT_EQ(with_three["trajectories"][2]["origin"]["x"], 2.0);
+  EXPECT_EQ(with_three["trajectories"][2]["origin"]["y"], -1.0);
+  const std::string r3_id = with_three["trajectories"][2]["session_id"];
+  testing::CliResult r3_map = RunWaymark(address, {"slam", "trajectory", r3_id, "--frame", "map"});
+  ASSERT_EQ(r3_map.code, 0) << r3_map.err;
+  // Its first pose is its start: (2, -1) in the map frame.
+  const std::string first_line = r3_map.out.substr(r3_map.out.find('\n') + 1);
+  EXPECT_NE(first_line.find(" 2.000000 -1.000000 "), std::string::npos) << r3_map.out;
+  // Two trajectories tied in (r1 at the origin, r3 at its start): one grid of both.
+  testing::CliResult merged =
+      RunWaymark(address, {"--json", "map", "grid", "office", "--out", grid_dir.string()});
+  ASSERT_EQ(merged.code, 0) << merged.err;
+  EXPECT_EQ(merged.Json()["untied_trajectories"], 1);
+  testing::CliResult lonely = RunWaymark(
+      address, {"slam", "replay", log.string(), "--scans", "0:5", "--initial-pose", "0,0,0"});
+  EXPECT_NE(lonely.code, 0);
+  EXPECT_NE(lonely.err.find("--initial-pose needs"), std::string::npos) << lonely.err;
+
+  // Every session is closed: the map is not in use.
   testing::CliResult deleted = RunWaymark(address, {"--json", "map", "delete", "office"});
   ASSERT_EQ(deleted.code, 0) << deleted.err;
-  EXPECT_EQ(deleted.Json()["map"]["trajectories"].size(), 2u);
+  EXPECT_EQ(deleted.Json()["map"]["trajectories"].size(), 3u);
   testing::CliResult gone = RunWaymark(address, {"map", "show", "office"});
   EXPECT_NE(gone.code, 0);
   EXPECT_NE(gone.err.find("NOT_FOUND"), std::string::npos) << gone.err;
