@@ -98,12 +98,19 @@ bool MapTieWorker::Pass() {
   };
   erase_unless(joining_, untied);
   erase_unless(stored_, referenced);
+  erase_unless(exhausted_, untied);
   return more;
 }
 
 bool MapTieWorker::Turn(const std::string& map, const std::string& session_id,
                         const std::vector<laser_slam::TiedTrajectory>& tied,
                         std::size_t map_nodes) {
+  if (auto it = exhausted_.find(session_id); it != exhausted_.end()) {
+    const bool grown = static_cast<double>(map_nodes) >
+                       (1.0 + options_.tie.map_growth) * static_cast<double>(it->second);
+    if (!grown && !sources_.resident(session_id)) return false;
+    exhausted_.erase(it);
+  }
   Joining& joining = joining_[session_id];
   if (joining.tie == nullptr || joining.map != map) {
     absl::StatusOr<std::unique_ptr<laser_slam::TrajectoryTie>> tie =
@@ -130,7 +137,20 @@ bool MapTieWorker::Turn(const std::string& map, const std::string& session_id,
   // turn's worth now.
   const std::int64_t before = joining.tie->progress().reads;
   const laser_slam::TieProgress& progress = joining.tie->Advance(nodes->nodes, kTurnReads);
-  if (!progress.tie) return progress.reads > before;  // more to do now, or wait for scans
+  if (!progress.tie) {
+    if (progress.reads > before) return true;  // more to do now
+    if (!nodes->resident &&
+        progress.clock_scan >= static_cast<double>(nodes->nodes.back().scan)) {
+      spdlog::info(
+          "SLAM map \"{}\": session {} (closed) was searched for to its last scan and not found "
+          "in the map ({} searches, {} unique matches, {} ambiguous, {} disagreeing pairs)",
+          map, session_id, progress.searches, progress.matches, progress.ambiguous,
+          progress.disagreements);
+      exhausted_[session_id] = map_nodes;
+      joining_.erase(session_id);
+    }
+    return false;  // waits for scans
+  }
   const storage::MapTie tie{progress.tie->x, progress.tie->y, progress.tie->theta};
   if (absl::Status s = sources_.tie(map, session_id, tie); !s.ok()) {
     spdlog::warn("SLAM map \"{}\": session {} was found in it but not tied in: {}", map,

@@ -87,6 +87,10 @@ class MapTieWorker {
   // from their checkpoints (closed: they do not change).
   std::map<std::string, Joining> joining_;
   std::map<std::string, TrajectoryNodes> stored_;
+  // Closed sessions searched to their last scan without a tie, with the map's nodes then: their
+  // search (and its grids, megabytes) is dropped, and run again only once the map has grown by
+  // TieOptions::map_growth or the robot resumes its session.
+  std::map<std::string, std::size_t> exhausted_;
   std::mutex mu_;
   std::condition_variable cv_;
   bool stop_ = false;
