@@ -100,11 +100,17 @@ class SlamMixin:
 
     # --- sessions --------------------------------------------------------------------------
 
-    def create_session(self, robot_id="", name="", laser=None, visual=None, map=None):
+    def create_session(self, robot_id="", name="", laser=None, visual=None, map=None,
+                       initial_map_pose=None):
         """Opens a session from a LaserSlamConfig or VisualSlamConfig (a message or a dict of its
         fields); neither is a laser session with the defaults. `map`: the name of a shared map the
-        (laser, mapping) session joins. Returns a waymark.Session."""
+        (laser, mapping) session joins; `initial_map_pose` (x, y, theta): where the robot starts
+        in that map's frame, when known (it is then tied in at once; else the server finds it from
+        its scans). Returns a waymark.Session."""
         request = slam_pb2.CreateSessionRequest(robot_id=robot_id, name=name, map=map or "")
+        if initial_map_pose is not None:
+            (request.initial_map_pose.x, request.initial_map_pose.y,
+             request.initial_map_pose.theta) = (float(v) for v in initial_map_pose)
         if laser is not None and visual is not None:
             raise invalid_argument("a session is laser or visual, not both")
         if laser is not None:
@@ -117,7 +123,8 @@ class SlamMixin:
 
     def create_laser_session(self, robot_id="", name="", *, beam_count, angle_min,
                              angle_increment, no_return_range=0.0, laser_pose=(0.0, 0.0, 0.0),
-                             params=None, loop_closure=None, map=None):
+                             params=None, loop_closure=None, map=None,
+                             initial_map_pose=None):
         """A laser SLAM session for a laser of `beam_count` beams from `angle_min` every
         `angle_increment` radians, mounted at laser_pose (x, y, theta) on the robot. `params`: a
         LaserSlamParams or a dict of its fields (e.g. {"max_range": 20})."""
@@ -130,7 +137,8 @@ class SlamMixin:
             _inputs.params_message(slam_pb2.LaserSlamParams, params, "laser params"))
         if loop_closure is not None:
             config.params.loop_closure = loop_closure
-        return self.create_session(robot_id, name, laser=config, map=map)
+        return self.create_session(robot_id, name, laser=config, map=map,
+                                   initial_map_pose=initial_map_pose)
 
     def create_visual_session(self, robot_id="", name="", *, fx, fy, cx, cy, width, height,
                               distortion=(), depth_scale=None, preset="measured_best",

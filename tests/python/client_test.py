@@ -306,12 +306,23 @@ class SlamTest(ServerCase):
         info = self.client.get_map_info("py-floor")
         self.assertEqual([t.session_id for t in info.trajectories], [session.session_id])
         self.assertTrue(info.trajectories[0].tied_in)  # the first robot defines the map frame
+        # A second robot with a known start is tied in there at once.
+        second = self.client.create_laser_session(
+            "py-robot-2", "python in a map, known start", beam_count=len(ranges),
+            angle_min=-1.5707963267948966, angle_increment=replay_carmen.beam_step(len(ranges)),
+            laser_pose=replay_carmen.laser_mount(odom, laser), map="py-floor",
+            initial_map_pose=(1.5, -2.0, 0.25))
+        info = self.client.get_map_info("py-floor")
+        self.assertTrue(info.trajectories[1].tied_in)
+        self.assertEqual((info.trajectories[1].origin.x, info.trajectories[1].origin.y,
+                          info.trajectories[1].origin.theta), (1.5, -2.0, 0.25))
         self.assertRaisesCode(grpc.StatusCode.FAILED_PRECONDITION, self.client.delete_map,
                               "py-floor")  # an open session is in it
         deleted = self.client.delete_map("py-floor", force=True)
         self.assertEqual(deleted.name, "py-floor")
         self.assertRaisesCode(grpc.StatusCode.NOT_FOUND, self.client.get_map_info, "py-floor")
         self.client.delete_session(session.session_id, force=True)
+        self.client.delete_session(second.session_id, force=True)
 
     def test_rejections_are_answers_and_the_stream_goes_on(self):
         session = self._create("python rejections")
