@@ -68,6 +68,8 @@ nlohmann::json MappingJson(const ls::MappingBackend& backend) {
           {"closures_switched_off", stats.closures_switched_off},
           {"closures_ambiguous", stats.closures_ambiguous},
           {"closures_loosened", stats.closures_loosened},
+          {"closures_pending", stats.closures_pending},
+          {"closures_unconfirmed", stats.closures_unconfirmed},
           {"global_searches", stats.global_searches},
           {"closures_in_graph", enabled},
           {"closures_disagreeing_with_final_graph", disagreeing},

@@ -167,6 +167,8 @@ bool SetMappingOption(const std::string& assignment, ls::MappingOptions* m) {
       {"local_learned_prior", &m->local_learned_prior},
       {"local_ignore_edge_translation", &m->local_ignore_edge_translation},
       {"global_within_window", &m->global_within_window},
+      {"window_through_ties", &m->window_through_ties},
+      {"confirm_global_closures", &m->confirm_global_closures},
       {"loosen_ridges", &m->loosen_ridges},
       {"local_matching", &m->local_matching}};
   if (auto it = bools.find(name); it != bools.end()) {
@@ -180,7 +182,8 @@ bool SetMappingOption(const std::string& assignment, ls::MappingOptions* m) {
       {"optimize_every_closures", &m->optimize_every_closures},
       {"max_iterations", &m->max_iterations}, {"local_map_nodes", &m->local_map_nodes},
       {"global_search_every_nodes", &m->global_search_every_nodes},
-      {"coarse_search_factor", &m->coarse_search_factor}};
+      {"coarse_search_factor", &m->coarse_search_factor},
+      {"confirm_within_nodes", &m->confirm_within_nodes}};
   if (auto it = doubles.find(name); it != doubles.end()) {
     *it->second = value;
     return true;

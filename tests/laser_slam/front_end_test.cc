@@ -9,6 +9,7 @@
 
 #include "server/laser_slam/geometry.h"
 #include "server/laser_slam/mapping/chain_uncertainty.h"
+#include "server/laser_slam/mapping/closure_uncertainty.h"
 #include "server/laser_slam/mapping/correlative_matcher.h"
 #include "server/laser_slam/mapping/likelihood_grid.h"
 #include "server/laser_slam/mapping/local_matcher.h"
@@ -114,6 +115,39 @@ TEST(ChainUncertaintyTest, HeadingAddsUpAndItsSwingGrowsWithTheLeverArm) {
   // Longer untied chains are more uncertain; a later anchor (a closure) resets it.
   EXPECT_GT(chain.Between(0, 10).xy, chain.Between(0, 5).xy);
   EXPECT_GT(chain.Between(0, 10).xy, chain.Between(5, 10).xy);
+}
+
+// A robot drives 300 nodes a metre apart along a line, out and back, in submaps of 25 nodes
+// (submap 0: nodes 0-24, submap 10: nodes 250-274). A closure at node 290 on submap 10 ties the
+// robot to submap 10, and to submap 0 only through the chain between them: the window to submap 0
+// must stay wide (the old rule made every closure a tie to every submap). An earlier closure that
+// tied submap 10 to submap 0 (node 255 on submap 0) makes the two one place: then it shrinks.
+TEST(ClosureUncertaintyTest, AClosureTiesTheRobotToItsSubmapAndWhatThatIsTiedTo) {
+  ChainUncertainty chain;
+  for (int i = 0; i < 300; ++i) {
+    chain.Append(Eigen::Vector2d(i < 150 ? i : 300 - i, 0.0), Eigen::Vector3d(0.02, 0.02, 0.002));
+  }
+  std::vector<SubmapSpan> submaps;
+  for (int first = 0; first < 300; first += 25) submaps.push_back({first, first + 24});
+  const int index = 299;
+  const Eigen::Vector3d tight(0.05, 0.05, 0.01);
+  const double direct = chain.Between(24, index).xy;
+  const double since = chain.Between(290, index).xy;
+  const std::vector<ChainUncertainty::Sigma> none = UncertaintyToSubmaps(chain, submaps, {}, index);
+  EXPECT_DOUBLE_EQ(none[0].xy, direct);
+  const std::vector<ChainUncertainty::Sigma> far =
+      UncertaintyToSubmaps(chain, submaps, {{10, 290, tight}}, index);
+  EXPECT_GT(far[0].xy, 0.5 * direct);
+  EXPECT_GT(far[0].xy, 10 * since);
+  EXPECT_LT(far[10].xy, 0.2);  // the submap it closed on
+  const std::vector<ChainUncertainty::Sigma> linked =
+      UncertaintyToSubmaps(chain, submaps, {{0, 255, tight}, {10, 290, tight}}, index);
+  EXPECT_LT(linked[0].xy, 0.3 * far[0].xy);
+  EXPECT_LT(linked[1].xy, linked[2].xy);  // farther along the chain from submap 0, less tied
+  // A closure after the node is not known yet.
+  const std::vector<ChainUncertainty::Sigma> later =
+      UncertaintyToSubmaps(chain, submaps, {{0, 295, tight}}, 290);
+  EXPECT_DOUBLE_EQ(later[0].xy, chain.Between(24, 290).xy);
 }
 
 // Two rooms alike side by side: from inside one of them a scan fits both.
@@ -248,10 +282,14 @@ struct TwinRoomsRun {
   MappingStats stats;
   int closures_to_b = 0;  // loop constraints from a submap of room B to a node of the return
   int closures_to_a = 0;
+  int checkpoint_mismatches = 0;
 };
 
-TwinRoomsRun DriveTwinRooms(const MappingOptions& options) {
+// With `checkpoints`, every scan of the return is followed by a checkpoint round trip, and
+// `checkpoint_mismatches` counts those that did not give the same bytes back.
+TwinRoomsRun DriveTwinRooms(const MappingOptions& options, bool checkpoints = false) {
   MappingBackend backend(options);
+  int checkpoint_mismatches = 0;
   const std::vector<Wall> walls = TwinRooms();
   std::uint64_t scan = 0;
   int first_return_node = 0;
@@ -269,10 +307,18 @@ TwinRoomsRun DriveTwinRooms(const MappingOptions& options) {
       previous = truth;
       ++scan;
       backend.AddScan(scan, static_cast<double>(scan), truth, PointsFrom(walls, truth), motion);
+      if (checkpoints && visit == 2) {
+        backend.Flush();
+        const std::string bytes = backend.Serialize();
+        absl::StatusOr<std::unique_ptr<MappingBackend>> restored =
+            MappingBackend::Deserialize(options, bytes);
+        checkpoint_mismatches += !restored.ok() || (*restored)->Serialize() != bytes;
+      }
     }
   }
   backend.Flush();
   TwinRoomsRun run;
+  run.checkpoint_mismatches = checkpoint_mismatches;
   run.stats = backend.Stats();
   const std::vector<NodeView> nodes = backend.Nodes();
   for (const GraphConstraint& c : backend.Constraints()) {
@@ -319,6 +365,29 @@ TEST(LookAlikeRoomsTest, AGlobalSearchLooksOnlyWhereTheWindowReaches) {
   options.global_within_window = false;
   const TwinRoomsRun everywhere = DriveTwinRooms(options);
   EXPECT_GT(everywhere.closures_to_b, 0);
+}
+
+// A global match is a hypothesis until a later node, sharing no scan with it, matches where the
+// hypothesis and the chain since put it (confirm_global_closures): the return's global matches
+// are held, then enter the graph with their confirmations; held matches survive a checkpoint. With
+// no time to confirm (a window shorter than the query), no global match becomes a closure.
+TEST(LookAlikeRoomsTest, AGlobalMatchWaitsForASecondAgreeingMatch) {
+  MappingOptions options = TwinRoomsOptions(0.9);
+  options.loop_window_min_xy = 3.0;
+  options.max_window_xy = 2.0;
+  options.global_search_every_nodes = 1;
+  options.max_candidates = 1;
+  options.confirm_global_closures = true;
+  const TwinRoomsRun confirmed = DriveTwinRooms(options, /*checkpoints=*/true);
+  EXPECT_GT(confirmed.stats.closures_pending, 0);
+  EXPECT_GT(confirmed.closures_to_a, 0);
+  EXPECT_EQ(confirmed.closures_to_b, 0);
+  EXPECT_EQ(confirmed.checkpoint_mismatches, 0);
+  options.confirm_within_nodes = options.query_nodes - 1;
+  const TwinRoomsRun never = DriveTwinRooms(options);
+  EXPECT_GT(never.stats.closures_pending, 0);
+  EXPECT_GT(never.stats.closures_unconfirmed, 0);
+  EXPECT_EQ(never.closures_to_a + never.closures_to_b, 0);
 }
 
 }  // namespace

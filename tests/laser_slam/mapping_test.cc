@@ -426,11 +426,11 @@ TEST(MappingBackendTest, AVersionOneCheckpointStillLoads) {
   MappingBackend backend(options);
   const PointCloud points = PointsFrom(LRoom(), Pose2{2, 2, 0});
   for (int i = 0; i < 20; ++i) backend.AddScan(i + 1, i, Pose2{0.05 * i, 0, 0}, points);
-  const std::string v3 = backend.Serialize();  // the current version (4)
+  const std::string v3 = backend.Serialize();  // the current version (5)
   // Version 1 from the current one: each node without its odometry (a pose and three variances after
   // its points), and the end without the processed index, nor version 3's three int32 and three
   // poses' worth of doubles (dead reckoning, motion variance, last local pose), nor version 4's
-  // front end state.
+  // front end state, nor version 5's count of pending closures (none here).
   constexpr size_t kHeader = 3 * sizeof(std::uint32_t);
   constexpr size_t kNodeFixed = 8 + 8 + 8 + 2 * 24;  // scan, stamp, travel, local, global
   constexpr size_t kOdometry = 6 * sizeof(double);
@@ -447,7 +447,8 @@ TEST(MappingBackendTest, AVersionOneCheckpointStillLoads) {
   }
   constexpr size_t kV3Tail = 3 * sizeof(std::int32_t) + 9 * sizeof(double);
   constexpr size_t kV4Tail = EkfStepAgreement::kValues * sizeof(double) + 1;  // the front end's
-  const size_t processed_at = v3.size() - kV4Tail - kV3Tail - 7 * sizeof(std::int32_t);
+  constexpr size_t kV5Tail = sizeof(std::uint32_t);  // no pending closure
+  const size_t processed_at = v3.size() - kV5Tail - kV4Tail - kV3Tail - 7 * sizeof(std::int32_t);
   v1 += v3.substr(at, processed_at - at);
   v1 += v3.substr(processed_at + sizeof(std::int32_t), 6 * sizeof(std::int32_t));
   const std::uint32_t one = 1;

@@ -33,6 +33,9 @@ class ChainUncertainty {
   // Node b's pose relative to node a along the chain (a <= b < size()); zero for a == b.
   Sigma Between(int a, int b) const;
 
+  // The local position of node i (0 <= i < size()).
+  const Eigen::Vector2d& Position(int i) const { return prefix_[i].position; }
+
  private:
   struct Prefix {
     Eigen::Vector2d position = Eigen::Vector2d::Zero();

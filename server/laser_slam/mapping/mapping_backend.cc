@@ -6,6 +6,7 @@
 #include "server/common/stopwatch.h"
 #include "server/laser_slam/geometry.h"
 #include "server/laser_slam/mapping/chain_uncertainty.h"
+#include "server/laser_slam/mapping/closure_uncertainty.h"
 #include "server/laser_slam/mapping/correlative_matcher.h"
 #include "server/laser_slam/mapping/loop_search.h"
 
@@ -144,6 +145,25 @@ void MappingBackend::AppendChainUncertaintyLocked(int index, const Eigen::Vector
   chain_.Append(Eigen::Vector2d(local.x, local.y), sigma);
 }
 
+// Global matches held at once for confirmation: a bound, not a tuning (a search holds at most
+// max_candidates, and each waits confirm_within_nodes nodes at most).
+constexpr size_t kMaxPendingClosures = 16;
+
+std::vector<ChainUncertainty::Sigma> MappingBackend::UncertaintyToSubmapsLocked(int index) const {
+  std::vector<SubmapSpan> spans;
+  spans.reserve(submaps_.size());
+  for (const Submap& m : submaps_) spans.push_back({m.first, m.first + m.count - 1});
+  std::vector<ClosureTie> closures;
+  for (const GraphConstraint& c : constraints_) {
+    if (c.kind != GraphConstraint::Kind::kLoop || !c.enabled) continue;
+    const auto x = std::lower_bound(submaps_.begin(), submaps_.end(), c.from,
+                                    [](const Submap& m, int f) { return m.first < f; });
+    if (x == submaps_.end() || x->first != c.from) continue;
+    closures.push_back({static_cast<int>(x - submaps_.begin()), c.to, c.sigma});
+  }
+  return UncertaintyToSubmaps(chain_, spans, closures, index);
+}
+
 void MappingBackend::Process(int index) {
   std::lock_guard<std::mutex> one_at_a_time(search_mu_);
   if (options_.local_matching && index > 0) MatchLocalMap(index);
@@ -174,6 +194,7 @@ void MappingBackend::SearchLoops(int index) {
     SearchWindow window;
     bool global = false;  // the whole submap at every heading
     int first = 0;        // the submap's first node
+    int confirms = -1;    // the pending global match it would confirm (index), or -1
   };
   std::vector<Candidate> candidates;
   PointCloud query;
@@ -186,6 +207,8 @@ void MappingBackend::SearchLoops(int index) {
       AppendTransformed(*nodes_[j].points, Relative(node.global, nodes_[j].global), &query);
     }
     const bool global_due = index - last_global_search_ >= options_.global_search_every_nodes;
+    std::vector<ChainUncertainty::Sigma> through;
+    if (options_.window_through_ties) through = UncertaintyToSubmapsLocked(index);
     std::vector<Candidate> global;
     for (int s = 0; s < static_cast<int>(submaps_.size()); ++s) {
       const Submap& submap = submaps_[s];
@@ -194,7 +217,9 @@ void MappingBackend::SearchLoops(int index) {
       if (node.travel - nodes_[last].travel < options_.min_loop_travel) continue;
       // Tied to the submap by the chain since it ended, or since the last closure, whichever is
       // newer (a closure ties the robot to the map as it stood then).
-      const ChainUncertainty::Sigma sigma = chain_.Between(std::max(last, tie_node_), index);
+      const ChainUncertainty::Sigma sigma = options_.window_through_ties
+                                                ? through[s]
+                                                : chain_.Between(std::max(last, tie_node_), index);
       Candidate c;
       c.submap = s;
       c.first = submap.first;
@@ -236,10 +261,36 @@ void MappingBackend::SearchLoops(int index) {
       ++stats_.global_searches;
       candidates.insert(candidates.end(), global.begin(), global.end());
     }
+    // Pending global matches (confirm_global_closures): dropped when too old, otherwise matched
+    // again from this node, in a window around where the match and the chain since put it.
+    const auto expired = [&](const PendingClosure& p) {
+      return index - p.loop.to > options_.confirm_within_nodes;
+    };
+    stats_.closures_unconfirmed += static_cast<int>(
+        std::count_if(pending_closures_.begin(), pending_closures_.end(), expired));
+    pending_closures_.erase(
+        std::remove_if(pending_closures_.begin(), pending_closures_.end(), expired),
+        pending_closures_.end());
+    for (size_t k = 0; k < pending_closures_.size(); ++k) {
+      const PendingClosure& p = pending_closures_[k];
+      if (index - p.loop.to < options_.query_nodes) continue;  // would share scans with it
+      const ChainUncertainty::Sigma sigma = chain_.Between(p.loop.to, index);
+      Candidate c;
+      c.submap = p.submap;
+      c.first = p.loop.from;
+      c.initial = Compose(p.loop.relative, Relative(nodes_[p.loop.to].global, node.global));
+      c.window.xy = std::max(options_.loop_window_min_xy, options_.loop_window_sigmas * sigma.xy);
+      c.window.theta = std::min(
+          M_PI, std::max(options_.loop_window_min_theta, options_.loop_window_sigmas * sigma.theta));
+      c.confirms = static_cast<int>(k);
+      candidates.push_back(c);
+    }
   }
   const LoopQuery loop_query = MakeLoopQuery(query, options_);
   int accepted = 0, rejected = 0, ambiguous = 0, slid = 0;
   std::vector<GraphConstraint> found;  // matches that passed their own tests
+  std::vector<int> found_confirms;     // per found match: the pending match it confirms, or -1
+  std::vector<PendingClosure> held;    // global matches to confirm (confirm_global_closures)
   for (const Candidate& c : candidates) {
     SubmapGrids grids;
     grids.fine = [&] { return PyramidFor(c.submap, 1); };
@@ -263,7 +314,12 @@ void MappingBackend::SearchLoops(int index) {
     loop.relative = match.pose;
     loop.sigma = match.sigma;
     loop.score = match.score;
+    if (c.global && options_.confirm_global_closures) {
+      held.push_back({c.submap, loop});
+      continue;
+    }
     found.push_back(loop);
+    found_confirms.push_back(c.confirms);
   }
   std::lock_guard<std::mutex> lock(mu_);
   // Matches in different submaps that put the node in places further apart than rival_far are
@@ -281,13 +337,33 @@ void MappingBackend::SearchLoops(int index) {
   if (conflict) {
     ambiguous += static_cast<int>(found.size());
     found.clear();
+    held.clear();
   }
-  for (const GraphConstraint& loop : found) {
+  std::vector<bool> confirmed(pending_closures_.size(), false);
+  for (size_t i = 0; i < found.size(); ++i) {
+    const int k = found_confirms[i];
+    if (k >= 0 && !confirmed[k]) {
+      // The global match it confirms enters the graph with it.
+      confirmed[k] = true;
+      ++accepted;
+      constraints_.push_back(pending_closures_[k].loop);
+      ++closures_since_optimize_;
+    }
     ++accepted;
-    constraints_.push_back(loop);
+    constraints_.push_back(found[i]);
     ++closures_since_optimize_;
     tie_travel_ = nodes_[index].travel;
     tie_node_ = index;
+  }
+  for (size_t k = confirmed.size(); k-- > 0;) {
+    if (confirmed[k]) pending_closures_.erase(pending_closures_.begin() + static_cast<long>(k));
+  }
+  for (PendingClosure& p : held) {
+    ++stats_.closures_pending;
+    if (pending_closures_.size() >= kMaxPendingClosures) {
+      pending_closures_.erase(pending_closures_.begin());
+    }
+    pending_closures_.push_back(std::move(p));
   }
   ++stats_.searches;
   stats_.candidates += static_cast<int>(candidates.size());

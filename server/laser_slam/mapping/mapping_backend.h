@@ -79,6 +79,8 @@ struct MappingStats {
   int local_ekf_trusted = 0;    // steps whose EKF was trusted on an axis (ekf_step_agreement.h)
   int local_edge_translations_dropped = 0;  // matches on their window's edge, translation unused
   int local_ekf_redecided = 0;  // earlier steps made the EKF's when it was first trusted
+  int closures_pending = 0;     // global matches held for a second match (confirm_global_closures)
+  int closures_unconfirmed = 0; // of those, dropped: no agreeing match within confirm_within_nodes
   int pending_nodes = 0;        // waiting for the back end's thread (filled by Stats())
   std::vector<double> search_ms;    // per searched node, all candidates
   std::vector<double> optimize_ms;  // per optimisation
@@ -216,12 +218,22 @@ class MappingBackend {
   static constexpr int kNoGlobalSearchYet = -1000000;
   int last_global_search_ = kNoGlobalSearchYet;  // node of the last global search
   int global_cursor_ = -1;     // submap searched globally last (they are searched in turn)
+  // Global matches waiting for a second, agreeing match (MappingOptions::confirm_global_closures),
+  // oldest first; at most 16 (a newer one replaces the oldest).
+  struct PendingClosure {
+    int submap = 0;
+    GraphConstraint loop;  // from the submap's first node to the node matched
+  };
+  std::vector<PendingClosure> pending_closures_;
   ChainUncertainty chain_;     // of the processed nodes, in order
   EkfStepAgreement ekf_agreement_;  // the front end's (search_mu_), checkpointed
   bool ekf_shown_ = false;  // RedecideEarlierStepsLocked ran, checkpointed
   // Appends node `index` (processed, its chain constraint final, of 1 sigma `sigma`) to chain_.
   // Caller holds mu_.
   void AppendChainUncertaintyLocked(int index, const Eigen::Vector3d& sigma);
+  // Node `index`'s uncertainty relative to every submap through the chain and the closures
+  // (closure_uncertainty.h; MappingOptions::window_through_ties). Caller holds mu_.
+  std::vector<ChainUncertainty::Sigma> UncertaintyToSubmapsLocked(int index) const;
   // Nodes from `first` on are placed after their predecessor by the EKF's steps (they wait for
   // the thread). Caller holds mu_.
   void FollowPredecessorsLocked(int first);

@@ -19,7 +19,9 @@ constexpr std::uint32_t kMagic = 0x5047574d;  // "MWGP"
 // 3: the node of the last closure and the global searches' turn (issue 33's loop search).
 // 4: what the front end learned of the EKF's steps (ekf_step_agreement.h); older checkpoints
 // start it afresh.
-constexpr std::uint32_t kVersion = 4;
+// 5: global matches waiting for a second, agreeing match (confirm_global_closures); older
+// checkpoints have none.
+constexpr std::uint32_t kVersion = 5;
 
 void PutPose(BinaryWriter& w, const Pose2& p) {
   w.Put(p.x);
@@ -38,6 +40,32 @@ bool GetVariance(BinaryReader& r, Eigen::Vector3d* v) {
 // A stored pose, within the bounds of a map (input_bounds.h).
 bool GetPose(BinaryReader& r, Pose2* p) {
   return r.Get(&p->x) && r.Get(&p->y) && r.Get(&p->theta) && PlausibleMapPose(*p);
+}
+
+void PutConstraint(BinaryWriter& w, const GraphConstraint& c) {
+  w.Put<std::uint8_t>(static_cast<std::uint8_t>(c.kind));
+  w.Put<std::int32_t>(c.from);
+  w.Put<std::int32_t>(c.to);
+  PutPose(w, c.relative);
+  for (int i = 0; i < 3; ++i) w.Put(c.sigma(i));
+  w.Put<std::uint8_t>(c.enabled);
+  w.Put(c.score);
+}
+
+// A stored constraint between two of the `nodes` nodes, with positive finite sigmas.
+bool GetConstraint(BinaryReader& r, int nodes, GraphConstraint* c) {
+  std::uint8_t kind = 0, enabled = 0;
+  if (!r.Get(&kind) || kind > 1 || !r.Get(&c->from) || !r.Get(&c->to) || c->from < 0 ||
+      c->to < 0 || c->from >= nodes || c->to >= nodes || !GetPose(r, &c->relative)) {
+    return false;
+  }
+  for (int i = 0; i < 3; ++i) {
+    if (!r.Get(&c->sigma(i)) || !(c->sigma(i) > 0.0) || !std::isfinite(c->sigma(i))) return false;
+  }
+  if (!r.Get(&enabled) || !r.Get(&c->score)) return false;
+  c->kind = static_cast<GraphConstraint::Kind>(kind);
+  c->enabled = enabled != 0;
+  return true;
 }
 
 }  // namespace
@@ -74,15 +102,7 @@ std::string MappingBackend::Serialize() const {
     for (const Pose2& p : s.frozen) PutPose(w, p);
   }
   w.Put<std::uint32_t>(static_cast<std::uint32_t>(constraints_.size()));
-  for (const GraphConstraint& c : constraints_) {
-    w.Put<std::uint8_t>(static_cast<std::uint8_t>(c.kind));
-    w.Put<std::int32_t>(c.from);
-    w.Put<std::int32_t>(c.to);
-    PutPose(w, c.relative);
-    for (int i = 0; i < 3; ++i) w.Put(c.sigma(i));
-    w.Put<std::uint8_t>(c.enabled);
-    w.Put(c.score);
-  }
+  for (const GraphConstraint& c : constraints_) PutConstraint(w, c);
   w.Put(tie_travel_);
   w.Put<std::int32_t>(closures_since_optimize_);
   w.Put(revision_);
@@ -101,6 +121,11 @@ std::string MappingBackend::Serialize() const {
   ekf_agreement_.Values(agreement);
   for (double v : agreement) w.Put(v);
   w.Put<std::uint8_t>(ekf_shown_);
+  w.Put<std::uint32_t>(static_cast<std::uint32_t>(pending_closures_.size()));
+  for (const PendingClosure& p : pending_closures_) {
+    w.Put<std::int32_t>(p.submap);
+    PutConstraint(w, p.loop);
+  }
   return w.Take();
 }
 
@@ -180,19 +205,7 @@ absl::StatusOr<std::unique_ptr<MappingBackend>> MappingBackend::Deserialize(
   }
   b.constraints_.resize(count);
   for (GraphConstraint& c : b.constraints_) {
-    std::uint8_t kind = 0, enabled = 0;
-    if (!r.Get(&kind) || kind > 1 || !r.Get(&c.from) || !r.Get(&c.to) || c.from < 0 ||
-        c.to < 0 || c.from >= nodes || c.to >= nodes || !GetPose(r, &c.relative)) {
-      return corrupt("constraint");
-    }
-    for (int i = 0; i < 3; ++i) {
-      if (!r.Get(&c.sigma(i)) || !(c.sigma(i) > 0.0) || !std::isfinite(c.sigma(i))) {
-        return corrupt("constraint sigma");
-      }
-    }
-    if (!r.Get(&enabled) || !r.Get(&c.score)) return corrupt("constraint");
-    c.kind = static_cast<GraphConstraint::Kind>(kind);
-    c.enabled = enabled != 0;
+    if (!GetConstraint(r, nodes, &c)) return corrupt("constraint");
   }
   if (!r.Get(&b.tie_travel_) || !r.Get(&b.closures_since_optimize_) || !r.Get(&b.revision_)) {
     return corrupt("counters");
@@ -236,7 +249,21 @@ absl::StatusOr<std::unique_ptr<MappingBackend>> MappingBackend::Deserialize(
     b.ekf_agreement_ = *restored;
     b.ekf_shown_ = shown == 1;
   }
-  if (!r.done()) return corrupt("trailing bytes");
+  if (version >= 5) {
+    std::uint32_t pending = 0;
+    if (!r.Get(&pending) || pending > 64 || pending > r.remaining() / (4 + kConstraint)) {
+      return corrupt("pending closures");
+    }
+    b.pending_closures_.resize(pending);
+    for (PendingClosure& p : b.pending_closures_) {
+      if (!r.Get(&p.submap) || p.submap < 0 || p.submap >= static_cast<int>(b.submaps_.size()) ||
+          !GetConstraint(r, nodes, &p.loop) || p.loop.kind != GraphConstraint::Kind::kLoop ||
+          !b.submaps_[p.submap].complete || b.submaps_[p.submap].first != p.loop.from) {
+        return corrupt("pending closure");
+      }
+    }
+  }
+    if (!r.done()) return corrupt("trailing bytes");
   // The chain's uncertainty of the processed nodes, from their chain constraints.
   std::vector<Eigen::Vector3d> chain_sigma(nodes, Eigen::Vector3d::Zero());
   for (const GraphConstraint& c : b.constraints_) {

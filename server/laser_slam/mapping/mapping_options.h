@@ -113,6 +113,21 @@ struct MappingOptions {
   // freiburg-campus at low and medium strength; where the chain's sigmas understate the drift
   // (the high strength) the place to close lies beyond the window (docs/laser-slam.md).
   bool global_within_window = true;
+  // Windows from the graph's closures as well as its chain (closure_uncertainty.h): a closure
+  // ties the robot to the submap it closed on, and to other submaps only through what ties that
+  // submap to them. false: the chain since the newest closure, to every submap (before issue 33's
+  // fifth part: on MIT Killian a closure 15 m back shrank a 16 m window to a submap 1000 scans
+  // away to 0.2 m, the 1.9 km loop never closed, 7.3 m; with it 0.28 m).
+  bool window_through_ties = true;
+  // A closure found by a global search (the graph no longer knew where the robot was) only as a
+  // hypothesis until a second, independent match agrees with it: a node at least query_nodes
+  // later (no scan shared), matched in a window around where the hypothesis and the chain since
+  // put it; unconfirmed after confirm_within_nodes nodes, it is dropped (issue 33's "two
+  // independent agreeing matches"). Off: measured worse on the noisy-odometry benchmark (seed 1:
+  // geometric mean 0.148 -> 0.160 m, 3 fewer maps passing the self-check; seed 2 0.100 -> 0.101;
+  // with windows from the chain alone, docs/results.md).
+  bool confirm_global_closures = false;
+  int confirm_within_nodes = 20;
   // Global searches run on a grid coarse_search_factor times coarser (cells, thinned points,
   // angular step), then refine on the fine grid in a window of two coarse cells, as the
   // localizer's global search does (about 8x cheaper at 2). 1 = the fine grid. Windowed searches
