@@ -220,10 +220,6 @@ std::vector<std::string> RelationsHeader(const std::string& what, const Referenc
 }
 
 int RunRelations(const std::map<std::string, std::string>& flags) {
-  if (!flags.count("corrected") || !flags.count("out")) {
-    std::cerr << "relations needs --corrected and --out\n";
-    return 2;
-  }
   const std::string raw = flags.count("raw") ? flags.at("raw") : "";
   absl::StatusOr<Reference> ref = LoadReference(flags.at("corrected"), raw);
   if (!ref.ok()) {
@@ -249,12 +245,6 @@ int RunRelations(const std::map<std::string, std::string>& flags) {
 }
 
 int RunNoisy(const std::map<std::string, std::string>& flags) {
-  for (const char* required : {"corrected", "strength", "seed", "out-log", "out-relations"}) {
-    if (!flags.count(required)) {
-      std::cerr << "noisy needs --" << required << "\n";
-      return 2;
-    }
-  }
   absl::StatusOr<cli::NoiseStrength> strength = cli::ParseNoiseStrength(flags.at("strength"));
   if (!strength.ok()) {
     std::cerr << strength.status() << "\n";
@@ -343,12 +333,6 @@ Pose2 Interpolate(const Pose2& a, const Pose2& b, double f) {
 }
 
 int RunCheck(const std::map<std::string, std::string>& flags) {
-  for (const char* required : {"corrected", "raw", "relations"}) {
-    if (!flags.count(required)) {
-      std::cerr << "check needs --" << required << "\n";
-      return 2;
-    }
-  }
   absl::StatusOr<std::vector<CarmenLaser>> keyframes = ReadNonEmpty(flags.at("corrected"));
   absl::StatusOr<std::vector<CarmenLaser>> raw = ReadNonEmpty(flags.at("raw"));
   absl::StatusOr<std::vector<cli::Relation>> official =
@@ -431,12 +415,6 @@ nlohmann::json AgainstLogStamps(const cli::ScanClockFit& fit, const std::vector<
 }
 
 int RunRestamp(const std::map<std::string, std::string>& flags) {
-  for (const char* required : {"raw", "relations", "out"}) {
-    if (!flags.count(required)) {
-      std::cerr << "restamp needs --" << required << "\n";
-      return 2;
-    }
-  }
   absl::StatusOr<std::vector<CarmenLaser>> raw = ReadNonEmpty(flags.at("raw"));
   absl::StatusOr<std::vector<cli::Relation>> official =
       cli::ReadRelationsFile(flags.at("relations"));
@@ -501,19 +479,25 @@ int main(int argc, char** argv) {
     return 2;
   }
   const std::string command = argv[1];
+  // Each command's options, the first `required` of them required.
   std::vector<std::string> known;
+  size_t required = 0;
   int (*run)(const std::map<std::string, std::string>&) = nullptr;
   if (command == "relations") {
     known = {"corrected", "out", "raw"};
+    required = 2;
     run = RunRelations;
   } else if (command == "noisy") {
     known = {"corrected", "strength", "seed", "out-log", "out-relations", "raw"};
+    required = 5;
     run = RunNoisy;
   } else if (command == "check") {
     known = {"corrected", "raw", "relations"};
+    required = 3;
     run = RunCheck;
   } else if (command == "restamp") {
     known = {"raw", "relations", "out"};
+    required = 3;
     run = RunRestamp;
   } else {
     Usage();
@@ -524,6 +508,12 @@ int main(int argc, char** argv) {
     std::cerr << flags.status().message() << "\n";
     Usage();
     return 2;
+  }
+  for (size_t i = 0; i < required; ++i) {
+    if (!flags->count(known[i])) {
+      std::cerr << command << " needs --" << known[i] << "\n";
+      return 2;
+    }
   }
   return run(*flags);
 }
