@@ -154,7 +154,7 @@ TEST_F(LocalizeTest, AMappingReplayHasNoLocalizationReport) {
 TEST_F(LocalizeTest, ReplayArgumentAndServerErrors) {
   CliResult no_map = Run({"slam", "replay", WriteLog(5), "--initial-pose", "1,2,0"});
   EXPECT_NE(no_map.code, 0);
-  EXPECT_THAT(no_map.err, HasSubstr("--initial-pose requires --localize-on"));
+  EXPECT_THAT(no_map.err, HasSubstr("--initial-pose needs --localize-on"));
   CliResult bad_pose =
       Run({"slam", "replay", WriteLog(5), "--localize-on", "s1", "--initial-pose", "1,2"});
   EXPECT_NE(bad_pose.code, 0);
