@@ -67,7 +67,9 @@ PointCloud MapCloud(const std::vector<TiedTrajectory>& trajectories, double cell
   for (const TiedTrajectory& trajectory : trajectories) {
     for (const NodeView& node : trajectory.nodes) {
       if (node.points == nullptr) continue;
-      AppendTransformed(*node.points, Compose(trajectory.origin, node.global), &map);
+      const Pose2 origin = trajectory.samples.empty() ? trajectory.origin
+                                                      : OriginAt(trajectory.samples, node.stamp);
+      AppendTransformed(*node.points, Compose(origin, node.global), &map);
     }
   }
   return ThinPoints(map, cell);

@@ -34,6 +34,7 @@
 #include "server/laser_slam/mapping/likelihood_grid.h"
 #include "server/laser_slam/mapping/mapping_backend.h"
 #include "server/laser_slam/mapping/point_cloud.h"
+#include "server/laser_slam/mapping/trajectory_follow.h"
 #include "server/laser_slam/types.h"
 
 namespace waymark::laser_slam {
@@ -86,6 +87,9 @@ absl::Status ValidateTieOptions(const TieOptions& options);
 struct TiedTrajectory {
   Pose2 origin;
   std::vector<NodeView> nodes;
+  // When followed after its tie (trajectory_follow.h): the origin at each node's stamp
+  // (OriginAt), in place of `origin`. Empty: `origin` for every node.
+  std::vector<OriginSample> samples;
 };
 
 // The tied-in trajectories' points in the map frame, thinned to one per `cell`.

@@ -1,0 +1,154 @@
+#include "server/laser_slam/mapping/trajectory_follow.h"
+
+#include <algorithm>
+#include <cmath>
+#include <optional>
+
+#include "server/laser_slam/geometry.h"
+#include "server/laser_slam/mapping/correlative_matcher.h"
+#include "server/laser_slam/mapping/occupancy_grid.h"
+#include "server/laser_slam/option_checks.h"
+
+namespace waymark::laser_slam {
+
+Pose2 OriginAt(const std::vector<OriginSample>& samples, double stamp) {
+  if (samples.empty()) return Pose2{};
+  if (stamp <= samples.front().stamp) return samples.front().origin;
+  if (stamp >= samples.back().stamp) return samples.back().origin;
+  const auto after = std::upper_bound(
+      samples.begin(), samples.end(), stamp,
+      [](double s, const OriginSample& sample) { return s < sample.stamp; });
+  const OriginSample& b = *after;
+  const OriginSample& a = *(after - 1);
+  const double span = b.stamp - a.stamp;
+  const double f = span > 0 ? (stamp - a.stamp) / span : 1.0;
+  return Pose2{a.origin.x + f * (b.origin.x - a.origin.x),
+               a.origin.y + f * (b.origin.y - a.origin.y),
+               NormalizeAngle(a.origin.theta + f * NormalizeAngle(b.origin.theta - a.origin.theta))};
+}
+
+absl::Status ValidateFollowOptions(const FollowOptions& o) {
+  for (const auto& [value, name] :
+       {std::pair{o.point_cell, "follow.point_cell"}, {o.grid_resolution, "follow.grid_resolution"},
+        {o.grid_sigma, "follow.grid_sigma"}, {o.window_sigmas, "follow.window_sigmas"},
+        {o.sigma_xy_floor, "follow.sigma_xy_floor"},
+        {o.sigma_theta_floor, "follow.sigma_theta_floor"},
+        {o.max_window_xy, "follow.max_window_xy"}, {o.max_window_theta, "follow.max_window_theta"},
+        {o.rival_exclusion, "follow.rival_exclusion"}, {o.map_growth, "follow.map_growth"}}) {
+    if (absl::Status s = Positive(value, name); !s.ok()) return s;
+  }
+  if (o.every_nodes < 1 || o.every_nodes > 1000 || o.query_nodes < 1 || o.query_nodes > 50 ||
+      o.min_query_points < 1 || o.max_samples < 2 || !(o.sigma_xy_per_metre >= 0) ||
+      !(o.sigma_theta_per_metre >= 0) || !(o.min_score > 0 && o.min_score < 1) ||
+      !(o.rival_ratio > 0 && o.rival_ratio <= 1) || o.max_window_theta > M_PI) {
+    return absl::InvalidArgumentError(
+        "follow: every_nodes must be in [1, 1000], query_nodes in [1, 50], max_samples at least "
+        "2, the sigmas per metre >= 0, min_score in (0, 1), rival_ratio in (0, 1], "
+        "max_window_theta at most pi");
+  }
+  return absl::OkStatus();
+}
+
+absl::StatusOr<std::unique_ptr<TrajectoryFollow>> TrajectoryFollow::Create(
+    const FollowOptions& options, const OriginSample& tie) {
+  if (absl::Status s = ValidateFollowOptions(options); !s.ok()) return s;
+  return std::unique_ptr<TrajectoryFollow>(new TrajectoryFollow(options, tie));
+}
+
+bool TrajectoryFollow::WantsMap(std::size_t map_nodes) const {
+  if (grid_ == nullptr) return map_nodes > 0;
+  return static_cast<double>(map_nodes) >
+         (1.0 + options_.map_growth) * static_cast<double>(grid_nodes_);
+}
+
+absl::Status TrajectoryFollow::SetMap(const PointCloud& others, std::size_t map_nodes) {
+  if (others.empty()) return absl::FailedPreconditionError("no other trajectory has points yet");
+  LikelihoodGrid fine = BuildLikelihoodGrid(ThinPoints(others, options_.point_cell),
+                                            options_.grid_resolution, options_.grid_sigma,
+                                            kMaxOccupancyCells);
+  if (fine.empty()) {
+    return absl::InvalidArgumentError("the other trajectories span too many cells to match in");
+  }
+  grid_ = std::make_unique<SearchPyramid>(std::move(fine), 6);
+  grid_nodes_ = map_nodes;
+  return absl::OkStatus();
+}
+
+bool TrajectoryFollow::Advance(const std::vector<NodeView>& nodes, int max_attempts) {
+  if (nodes.empty() || grid_ == nullptr) return false;
+  const int n = static_cast<int>(nodes.size());
+  if (next_node_ < 0) {
+    // The first node after the tie's, plus a stride: the tie itself observed the origin there.
+    int first = 0;
+    while (first < n && nodes[first].stamp <= samples_.front().stamp) ++first;
+    if (first >= n) return false;
+    next_node_ = first + options_.every_nodes - 1;
+  }
+  bool added = false;
+  // In node order, at most max_attempts now: a caller behind (a replay faster than the matching)
+  // catches up over later calls, one attempt per every_nodes nodes in all.
+  while (max_attempts > 0 && next_node_ < n) {
+    added = Attempt(nodes, next_node_) || added;
+    next_node_ += options_.every_nodes;
+    --max_attempts;
+  }
+  return added;
+}
+
+bool TrajectoryFollow::Attempt(const std::vector<NodeView>& nodes, int node) {
+  const NodeView& at = nodes[node];
+  // The query: the newest query_nodes nodes' points in this node's frame.
+  PointCloud query;
+  for (int i = std::max(0, node - options_.query_nodes + 1); i <= node; ++i) {
+    if (nodes[i].points == nullptr) continue;
+    AppendTransformed(*nodes[i].points, Relative(at.global, nodes[i].global), &query);
+  }
+  query = ThinPoints(query, options_.point_cell);
+  if (static_cast<int>(query.size()) < options_.min_query_points) return false;
+
+  // How far the origin may have drifted since the last sample: the travel between.
+  const OriginSample& last = samples_.back();
+  double travel = 0.0;
+  for (int i = node; i > 0 && nodes[i].stamp > last.stamp; --i) {
+    travel += std::hypot(nodes[i].global.x - nodes[i - 1].global.x,
+                         nodes[i].global.y - nodes[i - 1].global.y);
+  }
+  const double s = options_.window_sigmas;
+  const SearchWindow window{
+      std::min(options_.max_window_xy,
+               s * (options_.sigma_xy_floor + options_.sigma_xy_per_metre * travel)),
+      std::min(options_.max_window_theta,
+               s * (options_.sigma_theta_floor + options_.sigma_theta_per_metre * travel))};
+  const Pose2 predicted = Compose(OriginAt(samples_, at.stamp), at.global);
+
+  ++progress_.attempts;
+  const std::optional<GridMatch> match =
+      MatchInWindow(*grid_, query, predicted, window, options_.min_score);
+  if (match) progress_.reads += match->candidates * static_cast<std::int64_t>(query.size());
+  if (!match || match->score < options_.min_score) {
+    ++progress_.weak;
+    return false;
+  }
+  // A rival in the same window: the match could slide (a corridor) or be a look-alike nearby.
+  const std::optional<GridMatch> rival =
+      FindRival(*grid_, query, predicted, window, match->pose, options_.rival_exclusion,
+                options_.rival_ratio * match->lattice_score);
+  if (rival) {
+    progress_.reads += rival->candidates * static_cast<std::int64_t>(query.size());
+    ++progress_.ambiguous;
+    return false;
+  }
+  ++progress_.matched;
+  samples_.push_back(OriginSample{at.scan, at.stamp, Compose(match->pose, Invert(at.global))});
+  if (static_cast<int>(samples_.size()) > options_.max_samples) {
+    // Bounded: every other sample dropped, the first (the tie) and the newest kept.
+    std::vector<OriginSample> thinned;
+    for (size_t i = 0; i < samples_.size(); ++i) {
+      if (i % 2 == 0 || i + 1 == samples_.size()) thinned.push_back(samples_[i]);
+    }
+    samples_ = std::move(thinned);
+  }
+  return true;
+}
+
+}  // namespace waymark::laser_slam

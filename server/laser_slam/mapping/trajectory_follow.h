@@ -1,0 +1,117 @@
+#ifndef WAYMARK_SERVER_LASER_SLAM_MAPPING_TRAJECTORY_FOLLOW_H_
+#define WAYMARK_SERVER_LASER_SLAM_MAPPING_TRAJECTORY_FOLLOW_H_
+
+// A tied-in robot kept on the shared map (issue 38; docs/laser-slam.md, "Maps shared by
+// robots"). TrajectoryTie finds where a joining robot's frame lies in the map once; after it, the
+// robot's own drift carries it away from the other robots' map (ACES split for two robots: up to
+// 3.8 m). Here its recent nodes are matched again, every `every_nodes` nodes, against the OTHER
+// tied-in trajectories' points, in a local window around where its current origin puts them: no
+// global search. The window is three sigmas of how far the origin may have drifted since the
+// last match (a floor plus a share of the travel since), capped. A match counts when it scores
+// at least min_score and no rival pose farther than rival_exclusion in the same window scores
+// rival_ratio of it (a corridor sliding along itself, a look-alike room nearby).
+//
+// Each match observes the origin at its node: the match pose in the map frame composed with the
+// inverse of the node's own pose. The origin is then not one transform but piecewise
+// (PiecewiseOrigin): one sample per matched node, interpolated between samples by the nodes'
+// stamps (the nodes are in stamp order), held before the first and after the last. Map-frame
+// poses and the merged grid use the origin at each pose's stamp.
+//
+// Not a constraint in a pose graph: the samples are kept as observed; a later loop closure
+// within the robot's own session that moves an already matched node is not reflected in its
+// sample. Plain C++, no threads (map_tie_worker.h runs it).
+
+#include <cstdint>
+#include <memory>
+#include <vector>
+
+#include "absl/status/status.h"
+#include "absl/status/statusor.h"
+#include "server/laser_slam/mapping/likelihood_grid.h"
+#include "server/laser_slam/mapping/mapping_backend.h"
+#include "server/laser_slam/mapping/point_cloud.h"
+#include "server/laser_slam/types.h"
+
+namespace waymark::laser_slam {
+
+// The origin observed at one node: map = origin (+) node pose.
+struct OriginSample {
+  std::uint64_t scan = 0;
+  double stamp = 0.0;
+  Pose2 origin;
+};
+
+// Samples in stamp order; At() interpolates in x, y and heading (the shorter way), holding the
+// first before it and the last after it. Empty: the identity.
+Pose2 OriginAt(const std::vector<OriginSample>& samples, double stamp);
+
+struct FollowOptions {
+  int every_nodes = 5;   // one match attempt every this many nodes (its newest)
+  int query_nodes = 5;   // the query: the points of this many nodes in the newest one's frame
+  int min_query_points = 30;
+  double point_cell = 0.05;
+  double grid_resolution = 0.05;
+  double grid_sigma = 0.05;
+  // The window: window_sigmas times (floor + per metre of travel since the last sample), capped.
+  double window_sigmas = 3.0;
+  double sigma_xy_floor = 0.1;         // m: the window's floor is 0.3 m
+  double sigma_theta_floor = 0.03;     // rad
+  double sigma_xy_per_metre = 0.02;    // the robot's own drift, per metre travelled
+  double sigma_theta_per_metre = 0.005;
+  double max_window_xy = 2.0;
+  double max_window_theta = 0.4;
+  double min_score = 0.6;
+  double rival_exclusion = 0.3;  // m (root mean square over the points)
+  double rival_ratio = 0.9;
+  // The grid of the other trajectories is drawn again once they hold this fraction more nodes.
+  double map_growth = 0.1;
+  // Samples kept (the oldest are thinned out beyond this: every other one dropped).
+  int max_samples = 20000;
+};
+
+absl::Status ValidateFollowOptions(const FollowOptions& options);
+
+struct FollowProgress {
+  int attempts = 0;   // windowed matches tried
+  int matched = 0;    // ... giving a sample
+  int weak = 0;       // ... scoring below min_score (the robot off the others' map)
+  int ambiguous = 0;  // ... refused for a rival pose
+  std::int64_t reads = 0;  // cell reads (candidates times points)
+};
+
+class TrajectoryFollow {
+ public:
+  // `tie`: the origin the robot was tied in at, observed at node `tie_stamp`/`tie_scan`.
+  static absl::StatusOr<std::unique_ptr<TrajectoryFollow>> Create(const FollowOptions& options,
+                                                                  const OriginSample& tie);
+  TrajectoryFollow(const TrajectoryFollow&) = delete;
+  TrajectoryFollow& operator=(const TrajectoryFollow&) = delete;
+
+  bool WantsMap(std::size_t map_nodes) const;
+  // The other tied-in trajectories' points in the map frame (MapCloud without this robot's).
+  absl::Status SetMap(const PointCloud& others, std::size_t map_nodes);
+
+  // Matches the robot's nodes (its session's graph poses, oldest first, node i staying node i)
+  // not looked at yet: at most `max_attempts` windowed matches now. True when a sample was added.
+  bool Advance(const std::vector<NodeView>& nodes, int max_attempts);
+
+  const std::vector<OriginSample>& samples() const { return samples_; }
+  const FollowProgress& progress() const { return progress_; }
+
+ private:
+  TrajectoryFollow(const FollowOptions& options, const OriginSample& tie)
+      : options_(options), samples_{tie} {}
+  // One attempt at node `node`; true when it gave a sample.
+  bool Attempt(const std::vector<NodeView>& nodes, int node);
+
+  const FollowOptions options_;
+  std::unique_ptr<SearchPyramid> grid_;
+  std::size_t grid_nodes_ = 0;
+  std::vector<OriginSample> samples_;
+  int next_node_ = -1;  // the next node to try (-1: the first after the tie's stamp)
+  FollowProgress progress_;
+};
+
+}  // namespace waymark::laser_slam
+
+#endif  // WAYMARK_SERVER_LASER_SLAM_MAPPING_TRAJECTORY_FOLLOW_H_

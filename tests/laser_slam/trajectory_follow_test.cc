@@ -1,0 +1,176 @@
+// A tied-in robot kept on the shared map after its tie (issue 38, trajectory_follow.h): the
+// second robot's own odometry drifts (a heading bias and a scale error, as a real robot's), so
+// one fixed origin carries its map-frame poses away from the truth; matched again in local
+// windows against the first robot's map, its piecewise origin keeps them within a few cm.
+
+#include <cmath>
+#include <memory>
+#include <vector>
+
+#include <gtest/gtest.h>
+
+#include "server/laser_slam/geometry.h"
+#include "server/laser_slam/mapping/trajectory_follow.h"
+#include "server/laser_slam/mapping/trajectory_tie.h"
+#include "tests/laser_slam/synthetic_scan.h"
+
+namespace waymark::laser_slam {
+namespace {
+
+using testing::Box;
+using testing::Wall;
+
+// The office of trajectory_tie_test.cc: a hall with irregular pillars and walls.
+std::vector<Wall> Office() {
+  std::vector<Wall> walls = Box(0.0, 0.0, 20.0, 12.0);
+  for (const std::vector<Wall>& pillar :
+       {Box(4.0, 3.0, 4.6, 3.6), Box(9.0, 8.0, 10.5, 8.4), Box(14.0, 2.0, 14.3, 4.5),
+        Box(16.0, 8.5, 17.2, 9.7)}) {
+    walls.insert(walls.end(), pillar.begin(), pillar.end());
+  }
+  walls.push_back({{6.0, 0.0}, {6.0, 2.5}});
+  walls.push_back({{11.0, 12.0}, {11.0, 9.5}});
+  walls.push_back({{0.0, 6.0}, {2.5, 6.0}});
+  walls.push_back({{17.0, 5.0}, {20.0, 5.0}});
+  walls.push_back({{7.0, 8.5}, {8.5, 9.7}});
+  return walls;
+}
+
+std::vector<Pose2> Path(const std::vector<Eigen::Vector2d>& corners, double step) {
+  std::vector<Pose2> path;
+  for (size_t leg = 0; leg + 1 < corners.size(); ++leg) {
+    const Eigen::Vector2d d = corners[leg + 1] - corners[leg];
+    const double heading = std::atan2(d.y(), d.x());
+    const int steps = static_cast<int>(d.norm() / step);
+    for (int i = 0; i < steps; ++i) {
+      const Eigen::Vector2d p = corners[leg] + d * (static_cast<double>(i) / steps);
+      path.push_back(Pose2{p.x(), p.y(), heading});
+    }
+  }
+  return path;
+}
+
+// The nodes a robot driving `truth` keeps in its own frame, its motion between nodes distorted by
+// `scale` (along) and `heading_bias` (rad per node): drift. Its scans are the true ones.
+std::vector<NodeView> DriftingNodes(const std::vector<Wall>& walls,
+                                    const std::vector<Pose2>& truth, double scale,
+                                    double heading_bias) {
+  std::vector<NodeView> nodes;
+  Pose2 own{};
+  for (size_t i = 0; i < truth.size(); ++i) {
+    if (i > 0) {
+      const Pose2 step = Relative(truth[i - 1], truth[i]);
+      own = Compose(own, Pose2{step.x * scale, step.y * scale, step.theta + heading_bias});
+    }
+    NodeView node;
+    node.scan = 3 * i + 1;
+    node.stamp = static_cast<double>(i);
+    node.global = own;
+    node.points = std::make_shared<const PointCloud>(testing::ScanPoints(walls, truth[i]));
+    nodes.push_back(node);
+  }
+  return nodes;
+}
+
+struct Errors {
+  double max = 0.0;   // m, over the nodes after the tie
+  double last = 0.0;  // m, at the last node
+};
+
+// Map-frame poses (origin at each node's stamp (+) its own pose) against the truth.
+Errors ErrorsOf(const std::vector<OriginSample>& samples, const std::vector<NodeView>& nodes,
+                const std::vector<Pose2>& truth) {
+  Errors e;
+  for (size_t i = 0; i < nodes.size(); ++i) {
+    const Pose2 map = Compose(OriginAt(samples, nodes[i].stamp), nodes[i].global);
+    const double d = std::hypot(map.x - truth[i].x, map.y - truth[i].y);
+    e.max = std::max(e.max, d);
+    e.last = d;
+  }
+  return e;
+}
+
+class TrajectoryFollowTest : public ::testing::Test {
+ protected:
+  void SetUp() override {
+    walls_ = Office();
+    // Robot 1 defines the map frame (its start is the map's origin): its truth relative to it.
+    const std::vector<Pose2> a =
+        Path({{2.0, 4.5}, {12.0, 4.5}, {12.0, 7.0}, {3.0, 7.0}, {3.0, 9.0}, {8.0, 10.5}}, 0.25);
+    map_ = {TiedTrajectory{Pose2{}, DriftingNodes(walls_, a, 1.0, 0.0)}};
+    const std::vector<Pose2> b =
+        Path({{15.5, 6.5}, {6.0, 6.5}, {5.0, 4.0}, {13.0, 5.5}, {15.5, 8.0}}, 0.25);
+    for (const Pose2& p : b) truth_.push_back(Relative(a.front(), p));  // in the map frame
+    // Robot 2 drifts: 1.5 % long, 0.004 rad per node to the left.
+    nodes_ = DriftingNodes(walls_, b, 1.015, 0.004);
+    // Tied in at its first node, right there (as TrajectoryTie ties in: 2-7 cm on real logs).
+    tie_ = OriginSample{nodes_.front().scan, nodes_.front().stamp,
+                        Compose(truth_.front(), Invert(nodes_.front().global))};
+  }
+
+  std::vector<Wall> walls_;
+  std::vector<TiedTrajectory> map_;
+  std::vector<Pose2> truth_;
+  std::vector<NodeView> nodes_;
+  OriginSample tie_;
+};
+
+TEST_F(TrajectoryFollowTest, FollowUpMatchesKeepADriftingRobotOnTheMap) {
+  // Without follow-up: one fixed origin, the drift carries the robot off the map.
+  const Errors fixed = ErrorsOf({tie_}, nodes_, truth_);
+  EXPECT_GT(fixed.max, 0.5) << "the synthetic drift is too small to test anything";
+
+  absl::StatusOr<std::unique_ptr<TrajectoryFollow>> follow =
+      TrajectoryFollow::Create(FollowOptions{}, tie_);
+  ASSERT_TRUE(follow.ok()) << follow.status();
+  size_t map_nodes = map_.front().nodes.size();
+  ASSERT_TRUE((*follow)->WantsMap(map_nodes));
+  ASSERT_TRUE((*follow)->SetMap(MapCloud(map_, 0.05), map_nodes).ok());
+  // The nodes arrive one at a time, as the robot drives; one attempt a call at most.
+  std::vector<NodeView> seen;
+  for (const NodeView& node : nodes_) {
+    seen.push_back(node);
+    (*follow)->Advance(seen, 1);
+  }
+  const FollowProgress& progress = (*follow)->progress();
+  EXPECT_LE(progress.attempts, static_cast<int>(nodes_.size()) / FollowOptions{}.every_nodes + 1);
+  EXPECT_GE(progress.matched, progress.attempts / 2)
+      << "weak " << progress.weak << ", ambiguous " << progress.ambiguous;
+  EXPECT_EQ((*follow)->samples().size(), static_cast<size_t>(progress.matched) + 1);
+  const Errors followed = ErrorsOf((*follow)->samples(), nodes_, truth_);
+  EXPECT_LT(followed.max, 0.08) << "fixed origin: max " << fixed.max;
+  EXPECT_LT(followed.last, 0.08);
+}
+
+TEST_F(TrajectoryFollowTest, NothingToMatchAgainstLeavesTheTieAlone) {
+  // A map far from where the robot is: every window misses it, no sample, the tie held.
+  std::vector<TiedTrajectory> elsewhere = map_;
+  elsewhere.front().origin = Pose2{100.0, 100.0, 0.0};
+  absl::StatusOr<std::unique_ptr<TrajectoryFollow>> follow =
+      TrajectoryFollow::Create(FollowOptions{}, tie_);
+  ASSERT_TRUE(follow.ok());
+  ASSERT_TRUE((*follow)->SetMap(MapCloud(elsewhere, 0.05), 1).ok());
+  for (int i = 0; i < 10; ++i) (*follow)->Advance(nodes_, 100);
+  EXPECT_EQ((*follow)->samples().size(), 1u);
+  EXPECT_EQ((*follow)->progress().matched, 0);
+  EXPECT_GT((*follow)->progress().weak, 0);
+}
+
+TEST(OriginAtTest, InterpolatesBetweenSamplesAndHoldsOutside) {
+  const std::vector<OriginSample> samples{{1, 10.0, Pose2{0.0, 0.0, 3.1}},
+                                          {5, 20.0, Pose2{1.0, -2.0, -3.1}}};
+  EXPECT_DOUBLE_EQ(OriginAt(samples, 0.0).x, 0.0);
+  EXPECT_DOUBLE_EQ(OriginAt(samples, 99.0).y, -2.0);
+  const Pose2 mid = OriginAt(samples, 15.0);
+  EXPECT_DOUBLE_EQ(mid.x, 0.5);
+  EXPECT_DOUBLE_EQ(mid.y, -1.0);
+  // The shorter way round: 3.1 -> -3.1 passes through pi, not 0.
+  EXPECT_NEAR(std::abs(mid.theta), M_PI, 1e-9);
+  EXPECT_EQ(OriginAt({}, 5.0).x, 0.0);
+  FollowOptions bad;
+  bad.every_nodes = 0;
+  EXPECT_FALSE(TrajectoryFollow::Create(bad, samples.front()).ok());
+}
+
+}  // namespace
+}  // namespace waymark::laser_slam
