@@ -193,8 +193,31 @@ int RunImportMap(CommandContext& context, const ImportMapArgs& args) {
 
 absl::StatusOr<v1::Session> FindSession(client::SlamClient& client, const std::string& session_id);
 
+// The trajectory's origin at `stamp`: its origin samples (a robot followed after its tie)
+// interpolated in stamp, held before the first and after the last; without samples its origin.
+v1::Pose2D OriginAt(const v1::MapTrajectory& t, double stamp) {
+  const auto& samples = t.origin_samples();
+  if (samples.empty()) return t.origin();
+  if (stamp <= samples[0].stamp()) return samples[0].origin();
+  for (int i = 1; i < samples.size(); ++i) {
+    if (stamp > samples[i].stamp()) continue;
+    const v1::Pose2D& a = samples[i - 1].origin();
+    const v1::Pose2D& b = samples[i].origin();
+    const double span = samples[i].stamp() - samples[i - 1].stamp();
+    const double f = span > 0 ? (stamp - samples[i - 1].stamp()) / span : 1.0;
+    v1::Pose2D out;
+    out.set_x(a.x() + f * (b.x() - a.x()));
+    out.set_y(a.y() + f * (b.y() - a.y()));
+    out.set_theta(std::remainder(
+        a.theta() + f * std::remainder(b.theta() - a.theta(), 2 * M_PI), 2 * M_PI));
+    return out;
+  }
+  return samples[samples.size() - 1].origin();
+}
+
 // The session's poses moved into its shared map's frame (`--frame map`): origin (+) pose, with
-// the origin its trajectory was tied in at. FAILED_PRECONDITION when the session is in no map or
+// the origin its trajectory was tied in at, or, when the server followed it after its tie, its
+// origin at each pose's stamp. FAILED_PRECONDITION when the session is in no map or
 // not yet tied into it.
 absl::Status ToMapFrame(client::SlamClient& client, const std::string& session_id,
                         v1::Trajectory* trajectory) {
@@ -215,14 +238,15 @@ absl::Status ToMapFrame(client::SlamClient& client, const std::string& session_i
           "\": the server has not found where its robot is in it (`waymark map show ",
           session->map(), "`)"));
     }
-    const double c = std::cos(t.origin().theta()), s = std::sin(t.origin().theta());
     for (v1::TrajectoryPose& pose : *trajectory->mutable_poses()) {
       if (!pose.has_pose()) continue;
+      const v1::Pose2D origin = OriginAt(t, pose.stamp());
+      const double c = std::cos(origin.theta()), s = std::sin(origin.theta());
       v1::Pose2D* p = pose.mutable_pose();
       const double x = p->x(), y = p->y();
-      p->set_x(t.origin().x() + c * x - s * y);
-      p->set_y(t.origin().y() + s * x + c * y);
-      p->set_theta(std::remainder(p->theta() + t.origin().theta(), 2 * M_PI));
+      p->set_x(origin.x() + c * x - s * y);
+      p->set_y(origin.y() + s * x + c * y);
+      p->set_theta(std::remainder(p->theta() + origin.theta(), 2 * M_PI));
     }
     return absl::OkStatus();
   }

@@ -215,8 +215,9 @@ void MappingBackend::SearchLoops(int index) {
       if (!submap.complete) continue;
       const int last = submap.first + submap.count - 1;
       if (node.travel - nodes_[last].travel < options_.min_loop_travel) continue;
-      // Tied to the submap by the chain since it ended, or since the last closure, whichever is
-      // newer (a closure ties the robot to the map as it stood then).
+      // Tied to the submap by the chain since it ended or through the closures
+      // (closure_uncertainty.h); without window_through_ties, by the chain since it ended or
+      // since the newest closure, whichever is newer.
       const ChainUncertainty::Sigma sigma = options_.window_through_ties
                                                 ? through[s]
                                                 : chain_.Between(std::max(last, tie_node_), index);

@@ -74,25 +74,26 @@ absl::Status TrajectoryFollow::SetMap(const PointCloud& others, std::size_t map_
   return absl::OkStatus();
 }
 
-bool TrajectoryFollow::Advance(const std::vector<NodeView>& nodes, int max_attempts) {
-  if (nodes.empty() || grid_ == nullptr) return false;
+int TrajectoryFollow::Advance(const std::vector<NodeView>& nodes, int max_attempts) {
+  if (nodes.empty() || grid_ == nullptr) return 0;
   const int n = static_cast<int>(nodes.size());
   if (next_node_ < 0) {
     // The first node after the tie's, plus a stride: the tie itself observed the origin there.
     int first = 0;
     while (first < n && nodes[first].stamp <= samples_.front().stamp) ++first;
-    if (first >= n) return false;
+    if (first >= n) return 0;
     next_node_ = first + options_.every_nodes - 1;
   }
-  bool added = false;
+  int looked = 0;
   // In node order, at most max_attempts now: a caller behind (a replay faster than the matching)
   // catches up over later calls, one attempt per every_nodes nodes in all.
   while (max_attempts > 0 && next_node_ < n) {
-    added = Attempt(nodes, next_node_) || added;
+    Attempt(nodes, next_node_);
     next_node_ += options_.every_nodes;
     --max_attempts;
+    ++looked;
   }
-  return added;
+  return looked;
 }
 
 bool TrajectoryFollow::Attempt(const std::vector<NodeView>& nodes, int node) {

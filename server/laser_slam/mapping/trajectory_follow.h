@@ -92,8 +92,9 @@ class TrajectoryFollow {
   absl::Status SetMap(const PointCloud& others, std::size_t map_nodes);
 
   // Matches the robot's nodes (its session's graph poses, oldest first, node i staying node i)
-  // not looked at yet: at most `max_attempts` windowed matches now. True when a sample was added.
-  bool Advance(const std::vector<NodeView>& nodes, int max_attempts);
+  // not looked at yet: at most `max_attempts` windowed matches now. Returns how many nodes it
+  // looked at (max_attempts: there may be more to do now).
+  int Advance(const std::vector<NodeView>& nodes, int max_attempts);
 
   const std::vector<OriginSample>& samples() const { return samples_; }
   const FollowProgress& progress() const { return progress_; }

@@ -138,7 +138,25 @@ absl::StatusOr<v1::Map> MapRegistry::GetMap(const std::string& name) {
   if (absl::Status s = CheckStore(); !s.ok()) return s;
   absl::StatusOr<storage::MapRecord> map = store_->GetMap(name);
   if (!map.ok()) return map.status();
-  return ToProto(*map);
+  v1::Map out = ToProto(*map);
+  AddSamples(&out);
+  return out;
+}
+
+void MapRegistry::AddSamples(v1::Map* map) const {
+  std::lock_guard<std::mutex> lock(mutex_);
+  for (v1::MapTrajectory& trajectory : *map->mutable_trajectories()) {
+    auto it = followed_.find(trajectory.session_id());
+    if (it == followed_.end() || !trajectory.tied_in()) continue;
+    for (const laser_slam::OriginSample& sample : it->second.samples) {
+      v1::MapOriginSample* out = trajectory.add_origin_samples();
+      out->set_scan(sample.scan);
+      out->set_stamp(sample.stamp);
+      out->mutable_origin()->set_x(sample.origin.x);
+      out->mutable_origin()->set_y(sample.origin.y);
+      out->mutable_origin()->set_theta(sample.origin.theta);
+    }
+  }
 }
 
 absl::StatusOr<v1::ListMapsResponse> MapRegistry::ListMaps() {
@@ -146,7 +164,10 @@ absl::StatusOr<v1::ListMapsResponse> MapRegistry::ListMaps() {
   absl::StatusOr<std::vector<storage::MapRecord>> maps = store_->ListMaps();
   if (!maps.ok()) return maps.status();
   v1::ListMapsResponse response;
-  for (const storage::MapRecord& map : *maps) *response.add_maps() = ToProto(map);
+  for (const storage::MapRecord& map : *maps) {
+    *response.add_maps() = ToProto(map);
+    AddSamples(&response.mutable_maps()->at(response.maps_size() - 1));
+  }
   return response;
 }
 
@@ -237,8 +258,15 @@ absl::StatusOr<v1::MapOccupancyGrid> MapRegistry::GetMapGrid(const std::string& 
     }
     const laser_slam::Pose2 origin{trajectory->origin().x(), trajectory->origin().y(),
                                    trajectory->origin().theta()};
+    std::vector<laser_slam::OriginSample> samples;  // followed after its tie: at each stamp
+    for (const v1::MapOriginSample& sample : trajectory->origin_samples()) {
+      samples.push_back(laser_slam::OriginSample{
+          sample.scan(), sample.stamp(),
+          laser_slam::Pose2{sample.origin().x(), sample.origin().y(), sample.origin().theta()}});
+    }
     for (laser_slam::NodeView& node : *own) {
-      node.global = laser_slam::Compose(origin, node.global);
+      node.global = laser_slam::Compose(
+          samples.empty() ? origin : laser_slam::OriginAt(samples, node.stamp), node.global);
       nodes.push_back(std::move(node));
     }
   }
@@ -299,6 +327,7 @@ void MapRegistry::SessionDeleted(const std::string& session_id) {
     map = it->second->map();
     it->second->Detach();
     members_.erase(it);
+    followed_.erase(session_id);
   }
   if (map.empty()) return;
   absl::StatusOr<storage::MapRecord> left = store_->RemoveTrajectory(map, session_id);
@@ -372,6 +401,60 @@ absl::Status MapRegistry::Tie(const std::string& map, const std::string& session
   absl::StatusOr<storage::MapRecord> tied = store_->TieTrajectory(map, session_id, tie);
   if (!tied.ok()) return tied.status();
   Remember(*tied);
+  return absl::OkStatus();
+}
+
+std::vector<storage::MapRecord> MapRegistry::MapsToFollow() {
+  if (store_ == nullptr) return {};
+  std::set<std::string> names;
+  {
+    std::lock_guard<std::mutex> lock(mutex_);
+    for (const auto& [session_id, member] : members_) {
+      if (member->tied_in()) {
+        if (std::string map = member->map(); !map.empty()) names.insert(std::move(map));
+      }
+    }
+  }
+  std::vector<storage::MapRecord> maps;
+  for (const std::string& name : names) {
+    absl::StatusOr<storage::MapRecord> map = store_->GetMap(name);
+    if (!map.ok()) continue;
+    int tied = 0;
+    for (const storage::MapTrajectoryRecord& trajectory : map->trajectories) {
+      tied += trajectory.tie.has_value() ? 1 : 0;
+    }
+    if (tied >= 2) maps.push_back(*std::move(map));
+  }
+  return maps;
+}
+
+absl::Status MapRegistry::Follow(const std::string& map, const std::string& session_id,
+                                 const std::vector<laser_slam::OriginSample>& samples) {
+  if (absl::Status s = CheckStore(); !s.ok()) return s;
+  if (samples.empty()) return absl::InvalidArgumentError("no origin samples");
+  // The store's single origin is the latest, written again when it moved by more than this.
+  constexpr double kStoreXy = 0.05, kStoreTheta = 0.01;
+  const laser_slam::Pose2 latest = samples.back().origin;
+  bool store = false;
+  {
+    std::lock_guard<std::mutex> lock(mutex_);
+    auto member = members_.find(session_id);
+    if (member == members_.end() || member->second->map() != map) {
+      return absl::NotFoundError(absl::StrCat("session ", session_id, " is not in map \"", map,
+                                              "\" here"));
+    }
+    Followed& followed = followed_[session_id];
+    if (followed.samples.empty()) followed.stored = samples.front().origin;
+    followed.samples = samples;
+    store = std::hypot(latest.x - followed.stored.x, latest.y - followed.stored.y) > kStoreXy ||
+            std::abs(std::remainder(latest.theta - followed.stored.theta, 2 * M_PI)) > kStoreTheta;
+    if (store) followed.stored = latest;
+  }
+  if (!store) return absl::OkStatus();
+  absl::StatusOr<storage::MapRecord> tied =
+      store_->TieTrajectory(map, session_id, storage::MapTie{latest.x, latest.y, latest.theta});
+  if (!tied.ok()) return tied.status();
+  Remember(*tied);  // its answers carry the latest origin
   return absl::OkStatus();
 }
 

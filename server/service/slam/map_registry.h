@@ -28,6 +28,7 @@
 #include "absl/status/status.h"
 #include "absl/status/statusor.h"
 #include "server/laser_slam/mapping/mapping_backend.h"
+#include "server/laser_slam/mapping/trajectory_follow.h"
 #include "server/service/slam/folder.h"
 #include "storage/map_store.h"
 #include "waymark/v1/slam.pb.h"
@@ -103,6 +104,14 @@ class MapRegistry {
   // answers then carry its map-frame pose.
   absl::Status Tie(const std::string& map, const std::string& session_id,
                    const storage::MapTie& tie);
+  // The maps, as stored, where a session known here is tied in beside other tied-in trajectories:
+  // what the tie worker follows after a tie (laser_slam::TrajectoryFollow).
+  std::vector<storage::MapRecord> MapsToFollow();
+  // The session's piecewise origin after its tie (trajectory_follow.h), in memory: map-frame poses
+  // and the map's grid use the origin at each pose's stamp. The store keeps one origin, the
+  // latest, written again when it moved by more than a few cm (revision + 1 then).
+  absl::Status Follow(const std::string& map, const std::string& session_id,
+                      const std::vector<laser_slam::OriginSample>& samples);
 
  private:
   absl::Status CheckStore() const;
@@ -113,6 +122,14 @@ class MapRegistry {
   const bool find_in_store_;
   mutable std::mutex mutex_;  // guards members_
   std::map<std::string, std::shared_ptr<MapMembership>> members_;  // by session id
+  // Followed trajectories: their origin samples, and the origin last written to the store.
+  struct Followed {
+    std::vector<laser_slam::OriginSample> samples;
+    laser_slam::Pose2 stored;
+  };
+  std::map<std::string, Followed> followed_;  // by session id; guarded by mutex_
+  // Fills each trajectory's origin_samples from followed_.
+  void AddSamples(v1::Map* map) const;
 };
 
 // The map frame pose of `pose` (a session frame pose) for a trajectory tied in at `tie`.

@@ -14,6 +14,8 @@ namespace {
 // Reads one session may spend in one turn: the others (and Stop) wait at most that long
 // (20-60 ms here).
 constexpr std::int64_t kTurnReads = 20'000'000;
+// Windowed matches one followed session may make in one turn (each a few ms).
+constexpr int kFollowAttempts = 20;
 
 }  // namespace
 
@@ -77,7 +79,7 @@ bool MapTieWorker::Pass() {
       map_nodes += nodes->nodes.size();
       tied.push_back(laser_slam::TiedTrajectory{
           laser_slam::Pose2{trajectory.tie->x, trajectory.tie->y, trajectory.tie->theta},
-          std::move(nodes->nodes)});
+          std::move(nodes->nodes), SamplesOf(trajectory.session_id)});
     }
     if (map_nodes == 0) continue;
     for (const storage::MapTrajectoryRecord& trajectory : map.trajectories) {
@@ -90,6 +92,7 @@ bool MapTieWorker::Pass() {
       more = Turn(map.name, trajectory.session_id, tied, map_nodes) || more;
     }
   }
+  more = FollowPass(&referenced) || more;
   // Sessions tied in, gone or detached meanwhile; stored nodes nobody reads any more.
   const auto erase_unless = [](auto& by_id, const std::set<std::string>& keep) {
     for (auto it = by_id.begin(); it != by_id.end();) {
@@ -174,6 +177,112 @@ bool MapTieWorker::Turn(const std::string& map, const std::string& session_id,
   }
   joining_.erase(session_id);
   return false;
+}
+
+std::vector<laser_slam::OriginSample> MapTieWorker::SamplesOf(
+    const std::string& session_id) const {
+  auto it = following_.find(session_id);
+  if (it == following_.end() || it->second.follow == nullptr) return {};
+  return it->second.follow->samples();
+}
+
+bool MapTieWorker::FollowPass(std::set<std::string>* referenced) {
+  if (!options_.follow || !sources_.maps_to_follow || !sources_.follow) return false;
+  bool more = false;
+  std::set<std::string> followed;
+  for (const storage::MapRecord& map : sources_.maps_to_follow()) {
+    std::vector<const storage::MapTrajectoryRecord*> tied;
+    for (const storage::MapTrajectoryRecord& trajectory : map.trajectories) {
+      if (trajectory.tie) tied.push_back(&trajectory);
+    }
+    // Every tied-in trajectory but the first (the map frame's) is followed; a closed one matched
+    // to its last node is done, and its map's nodes are not read for it again.
+    bool work = false;
+    for (std::size_t i = 1; i < tied.size(); ++i) {
+      const std::string& id = tied[i]->session_id;
+      followed.insert(id);
+      auto it = following_.find(id);
+      if (it == following_.end() || !it->second.done || sources_.resident(id)) work = true;
+    }
+    if (!work) continue;
+    std::vector<laser_slam::TiedTrajectory> all;
+    for (const storage::MapTrajectoryRecord* trajectory : tied) {
+      {
+        std::lock_guard<std::mutex> lock(mu_);
+        if (stop_) return false;
+      }
+      referenced->insert(trajectory->session_id);
+      absl::StatusOr<TrajectoryNodes> nodes = NodesOf(trajectory->session_id);
+      all.push_back(laser_slam::TiedTrajectory{
+          laser_slam::Pose2{trajectory->tie->x, trajectory->tie->y, trajectory->tie->theta},
+          nodes.ok() ? std::move(nodes->nodes) : std::vector<laser_slam::NodeView>{},
+          SamplesOf(trajectory->session_id)});
+    }
+    for (std::size_t i = 1; i < tied.size(); ++i) {
+      more = FollowTurn(map.name, tied[i]->session_id, all, i) || more;
+    }
+  }
+  for (auto it = following_.begin(); it != following_.end();) {
+    it = followed.count(it->first) ? std::next(it) : following_.erase(it);
+  }
+  return more;
+}
+
+bool MapTieWorker::FollowTurn(const std::string& map, const std::string& session_id,
+                              const std::vector<laser_slam::TiedTrajectory>& all,
+                              std::size_t self) {
+  const std::vector<laser_slam::NodeView>& nodes = all[self].nodes;
+  if (nodes.empty()) return false;
+  Following& following = following_[session_id];
+  if (following.follow == nullptr || following.map != map) {
+    // From the origin stored at its tie, observed from its first node on.
+    absl::StatusOr<std::unique_ptr<laser_slam::TrajectoryFollow>> follow =
+        laser_slam::TrajectoryFollow::Create(
+            options_.follow_options,
+            laser_slam::OriginSample{nodes.front().scan, nodes.front().stamp, all[self].origin});
+    if (!follow.ok()) {
+      spdlog::error("SLAM map \"{}\": cannot follow session {}: {}", map, session_id,
+                    follow.status().ToString());
+      following_.erase(session_id);
+      return false;
+    }
+    following = Following{map, *std::move(follow), false};
+  }
+  std::size_t others_nodes = 0;
+  for (std::size_t j = 0; j < all.size(); ++j) {
+    if (j != self) others_nodes += all[j].nodes.size();
+  }
+  if (following.follow->WantsMap(others_nodes)) {
+    std::vector<laser_slam::TiedTrajectory> others;
+    for (std::size_t j = 0; j < all.size(); ++j) {
+      if (j != self) others.push_back(all[j]);
+    }
+    if (absl::Status s = following.follow->SetMap(
+            laser_slam::MapCloud(others, options_.follow_options.point_cell), others_nodes);
+        !s.ok()) {
+      spdlog::warn("SLAM map \"{}\": cannot follow session {}: {}", map, session_id,
+                   s.ToString());
+      return false;
+    }
+  }
+  const std::size_t before = following.follow->samples().size();
+  const int looked = following.follow->Advance(nodes, kFollowAttempts);
+  if (following.follow->samples().size() != before) {
+    if (absl::Status s = sources_.follow(map, session_id, following.follow->samples()); !s.ok()) {
+      spdlog::warn("SLAM map \"{}\": session {}'s origin samples not kept: {}", map, session_id,
+                   s.ToString());
+    }
+  }
+  if (looked < kFollowAttempts && !sources_.resident(session_id) && !following.done) {
+    following.done = true;
+    const laser_slam::FollowProgress& p = following.follow->progress();
+    // What results.md reads: how often a closed robot was matched again after its tie.
+    spdlog::info(
+        "SLAM map \"{}\": session {} (closed) followed to its last node: {} windowed matches, {} "
+        "origin samples, {} weak, {} ambiguous, {:.0f} M cell reads",
+        map, session_id, p.attempts, p.matched, p.weak, p.ambiguous, p.reads / 1e6);
+  }
+  return looked == kFollowAttempts;
 }
 
 }  // namespace waymark::service

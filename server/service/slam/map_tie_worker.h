@@ -21,6 +21,7 @@
 #include <map>
 #include <memory>
 #include <mutex>
+#include <set>
 #include <string>
 #include <thread>
 #include <vector>
@@ -28,6 +29,7 @@
 #include "absl/status/status.h"
 #include "absl/status/statusor.h"
 #include "server/laser_slam/mapping/mapping_backend.h"
+#include "server/laser_slam/mapping/trajectory_follow.h"
 #include "server/laser_slam/mapping/trajectory_tie.h"
 #include "server/service/slam/folder.h"
 #include "storage/map_store.h"
@@ -53,10 +55,21 @@ class MapTieWorker {
     std::function<absl::Status(const std::string& map, const std::string& session_id,
                                const storage::MapTie& tie)>
         tie;
+    // After the tie (both may be null: no following). The maps with two trajectories tied in or
+    // more (MapRegistry::MapsToFollow), and a followed session's origin samples, all of them
+    // each time one is added (MapRegistry::Follow).
+    std::function<std::vector<storage::MapRecord>()> maps_to_follow;
+    std::function<absl::Status(const std::string& map, const std::string& session_id,
+                               const std::vector<laser_slam::OriginSample>& samples)>
+        follow;
   };
   struct Options {
     double poll_seconds = 0.2;
     laser_slam::TieOptions tie;  // its reads_per_scan is the budget
+    // Every tied-in trajectory but the map frame's first is matched again in local windows
+    // against the others (laser_slam::TrajectoryFollow): its origin becomes piecewise.
+    bool follow = true;
+    laser_slam::FollowOptions follow_options;
   };
 
   // Starts the thread.
@@ -80,6 +93,14 @@ class MapTieWorker {
   bool Turn(const std::string& map, const std::string& session_id,
             const std::vector<laser_slam::TiedTrajectory>& tied, std::size_t map_nodes);
   absl::StatusOr<TrajectoryNodes> NodesOf(const std::string& session_id);
+  // The following after the tie: one pass over the maps to follow; true when some session has
+  // more to do now. `referenced`: the sessions whose nodes it read.
+  bool FollowPass(std::set<std::string>* referenced);
+  // One followed trajectory's turn: `all` are the map's tied-in trajectories, `self` its index.
+  bool FollowTurn(const std::string& map, const std::string& session_id,
+                  const std::vector<laser_slam::TiedTrajectory>& all, std::size_t self);
+  // The samples of a followed session (empty: none).
+  std::vector<laser_slam::OriginSample> SamplesOf(const std::string& session_id) const;
 
   const Sources sources_;
   const Options options_;
@@ -91,6 +112,13 @@ class MapTieWorker {
   // search (and its grids, megabytes) is dropped, and run again only once the map has grown by
   // TieOptions::map_growth or the robot resumes its session.
   std::map<std::string, std::size_t> exhausted_;
+  // Tied-in sessions followed after their tie; `done`: closed and matched to its last node.
+  struct Following {
+    std::string map;
+    std::unique_ptr<laser_slam::TrajectoryFollow> follow;
+    bool done = false;
+  };
+  std::map<std::string, Following> following_;
   std::mutex mu_;
   std::condition_variable cv_;
   bool stop_ = false;

@@ -91,7 +91,14 @@ SlamRegistry::SlamRegistry(std::unique_ptr<storage::SlamStore> store,
     sources.resident = [this](const std::string& id) { return queries_->IsResident(id); };
     sources.tie = [this](const std::string& map, const std::string& id,
                          const storage::MapTie& tie) { return maps_->Tie(map, id, tie); };
-    tie_worker_ = std::make_unique<MapTieWorker>(std::move(sources), MapTieWorker::Options{});
+    sources.maps_to_follow = [this] { return maps_->MapsToFollow(); };
+    sources.follow = [this](const std::string& map, const std::string& id,
+                            const std::vector<laser_slam::OriginSample>& samples) {
+      return maps_->Follow(map, id, samples);
+    };
+    MapTieWorker::Options worker_options;
+    worker_options.follow = options_.map_follow;
+    tie_worker_ = std::make_unique<MapTieWorker>(std::move(sources), worker_options);
   }
   // Idle sessions' time-based checkpoints (a processed scan checks its own session).
   if (options_.checkpoint_seconds > 0) {

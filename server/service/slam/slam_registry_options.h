@@ -35,6 +35,9 @@ struct SlamRegistryOptions {
   // Maps shared by robots: find a joined robot in its map from its scans and tie it in
   // (map_tie_worker.h). False: only CreateSessionRequest.initial_map_pose ties a robot in.
   bool map_tie = true;
+  // After the tie, match every robot but the map frame's again against the others in local
+  // windows (laser_slam::TrajectoryFollow): its origin becomes piecewise. False: one origin.
+  bool map_follow = true;
   // Several servers on one database (PostgreSQL): each session is served by the one holding its
   // lease (session_leases.h). Off (owner empty) with one server per database.
   SessionLeaseOptions lease;
