@@ -10,6 +10,7 @@
 
 #include <opencv2/imgproc.hpp>
 
+#include "absl/strings/str_format.h"
 #include "bench/common/bench_timing.h"
 #include "client/render/occupancy_picture.h"
 #include "server/laser_slam/mapping/occupancy_grid.h"
@@ -119,6 +120,24 @@ absl::Status WriteNodesFile(const std::filesystem::path& path,
       out.write(reinterpret_cast<const char*>(n.points->data()),
                 static_cast<std::streamsize>(count * sizeof(Eigen::Vector2f)));
     }
+  }
+  if (!out) return absl::PermissionDeniedError("cannot write " + path.string());
+  return absl::OkStatus();
+}
+
+absl::Status WriteClosuresFile(const std::filesystem::path& path,
+                               const std::vector<ls::NodeView>& nodes,
+                               const std::vector<ls::GraphConstraint>& constraints) {
+  std::ofstream out(path);
+  out << "# from_stamp to_stamp x y theta sigma_x sigma_y sigma_theta enabled score\n";
+  const int n = static_cast<int>(nodes.size());
+  for (const ls::GraphConstraint& c : constraints) {
+    if (c.kind != ls::GraphConstraint::Kind::kLoop) continue;
+    if (c.from < 0 || c.from >= n || c.to < 0 || c.to >= n) continue;
+    out << absl::StrFormat("%.6f %.6f %.4f %.4f %.5f %.4f %.4f %.5f %d %.3f\n",
+                           nodes[c.from].stamp, nodes[c.to].stamp, c.relative.x, c.relative.y,
+                           c.relative.theta, c.sigma.x(), c.sigma.y(), c.sigma.z(),
+                           c.enabled ? 1 : 0, c.score);
   }
   if (!out) return absl::PermissionDeniedError("cannot write " + path.string());
   return absl::OkStatus();

@@ -47,6 +47,13 @@ absl::Status WriteNodesFile(const std::filesystem::path& path,
                             const std::vector<laser_slam::NodeView>& nodes, int submap_nodes);
 absl::StatusOr<SavedNodes> ReadNodesFile(const std::filesystem::path& path);
 
+// The graph's loop constraints as text, one line each: the stamps of their from and to nodes,
+// the relative pose (x y theta), its sigmas, enabled (0/1) and score. To check the closures
+// against a reference (relations or known poses) offline. PermissionDenied.
+absl::Status WriteClosuresFile(const std::filesystem::path& path,
+                               const std::vector<laser_slam::NodeView>& nodes,
+                               const std::vector<laser_slam::GraphConstraint>& constraints);
+
 // The check on the backend's nodes, grouped as `submap_nodes` (MappingOptions::submap_nodes).
 absl::StatusOr<MapCheck> RunMapCheck(const std::vector<laser_slam::NodeView>& nodes,
                                      int submap_nodes);

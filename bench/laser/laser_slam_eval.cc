@@ -36,7 +36,9 @@
 //
 // With loop closure on, the map's self-check (laser_map_check.h) runs on the final graph:
 // "self_check" in the JSON, its verdict on the last line. --save-nodes FILE keeps the graph's
-// nodes, for waymark-map-check to check again with other settings. --check-after-optimisations
+// nodes, for waymark-map-check to check again with other settings; --save-closures FILE the
+// loop constraints (one line each: from and to node stamps, the relative pose, its sigmas,
+// enabled, score) to check them against a reference. --check-after-optimisations
 // incremental|full also runs it after every optimisation (untimed as the engine's) and reports
 // what that costs ("self_check.after_optimisations"). --picture FILE.png writes a small picture
 // of the checked map (the occupancy grid, its longer side --picture-size pixels, default 360;
@@ -92,6 +94,7 @@ struct Args {
   std::string relations;
   std::string out;
   std::string save_nodes;  // --save-nodes FILE: the final graph's nodes (laser_map_check.h)
+  std::string save_closures;  // --save-closures FILE: the final graph's loop constraints
   std::string picture;     // --picture FILE.png: a small picture of the checked map
   int picture_size = 360;  // --picture-size N: its longer side (pixels)
   std::string check_after_optimisations;  // "incremental" or "full": OptimisationChecks
@@ -115,7 +118,7 @@ void Usage() {
          "                          [--json] [--max-active-segments N] [--active-radius M]\n"
          "                          [--freeze-after-scans N] [--min-travel M --min-turn R]\n"
          "                          [--match-chi2 X] [--mapping on|off]\n"
-         "                          [--mapping-opt NAME=VALUE ...] [--save-nodes FILE]\n"
+         "                          [--mapping-opt NAME=VALUE ...] [--save-nodes FILE] [--save-closures FILE]\n"
          "                          [--picture FILE.png [--picture-size N]]\n"
          "                          [--check-after-optimisations incremental|full]\n"
          "                          [--localize [--localize-from SCAN] [--localize-known-start]\n"
@@ -229,6 +232,8 @@ bool ParseArgs(int argc, char** argv, Args* args) {
         args->out = v;
       } else if (a == "--save-nodes") {
         args->save_nodes = v;
+      } else if (a == "--save-closures") {
+        args->save_closures = v;
       } else if (a == "--picture") {
         args->picture = v;
       } else if (a == "--picture-size") {
@@ -621,6 +626,14 @@ int Run(const Args& args) {
     if (!args.save_nodes.empty()) {
       if (absl::Status s = WriteNodesFile(args.save_nodes, slam.backend()->Nodes(),
                                           options.mapping.submap_nodes);
+          !s.ok()) {
+        std::cerr << s << "\n";
+        return 1;
+      }
+    }
+    if (!args.save_closures.empty()) {
+      if (absl::Status s = WriteClosuresFile(args.save_closures, slam.backend()->Nodes(),
+                                             slam.backend()->Constraints());
           !s.ok()) {
         std::cerr << s << "\n";
         return 1;
