@@ -172,5 +172,29 @@ TEST(OriginAtTest, InterpolatesBetweenSamplesAndHoldsOutside) {
   EXPECT_FALSE(TrajectoryFollow::Create(bad, samples.front()).ok());
 }
 
+// A matched sample's origin follows its node: the session's own closure moved the node after the
+// match, and the map-frame pose the match observed stays where it was.
+TEST(RefreshOriginsTest, AMatchedSampleFollowsItsNodeAndTheTieStays) {
+  const Pose2 tie_origin{1.0, 2.0, 0.3};
+  const Pose2 map_pose{5.0, -1.0, 1.2};
+  NodeView moved;
+  moved.scan = 7;
+  moved.stamp = 3.5;
+  moved.global = Pose2{2.0, 0.5, 0.4};  // where the node is now, after a closure
+  NodeView first;
+  first.scan = 1;
+  first.global = Pose2{0.0, 0.0, 0.0};
+  std::vector<OriginSample> samples{{1, 0.0, tie_origin},
+                                    {7, 3.5, Pose2{9.0, 9.0, 0.0}, true, map_pose},
+                                    {9, 4.0, Pose2{-3.0, 0.0, 0.0}, true, map_pose}};
+  RefreshOrigins({first, moved}, &samples);
+  EXPECT_DOUBLE_EQ(samples[0].origin.x, tie_origin.x);  // not a match: kept
+  const Pose2 again = Compose(samples[1].origin, moved.global);
+  EXPECT_NEAR(again.x, map_pose.x, 1e-12);
+  EXPECT_NEAR(again.y, map_pose.y, 1e-12);
+  EXPECT_NEAR(again.theta, map_pose.theta, 1e-12);
+  EXPECT_DOUBLE_EQ(samples[2].origin.x, -3.0);  // its node is not among the nodes: kept
+}
+
 }  // namespace
 }  // namespace waymark::laser_slam

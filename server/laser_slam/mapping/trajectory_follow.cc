@@ -27,6 +27,17 @@ Pose2 OriginAt(const std::vector<OriginSample>& samples, double stamp) {
                NormalizeAngle(a.origin.theta + f * NormalizeAngle(b.origin.theta - a.origin.theta))};
 }
 
+void RefreshOrigins(const std::vector<NodeView>& nodes, std::vector<OriginSample>* samples) {
+  for (OriginSample& sample : *samples) {
+    if (!sample.matched) continue;
+    const auto it = std::lower_bound(
+        nodes.begin(), nodes.end(), sample.scan,
+        [](const NodeView& node, std::uint64_t scan) { return node.scan < scan; });
+    if (it == nodes.end() || it->scan != sample.scan) continue;
+    sample.origin = Compose(sample.map_pose, Invert(it->global));
+  }
+}
+
 absl::Status ValidateFollowOptions(const FollowOptions& o) {
   for (const auto& [value, name] :
        {std::pair{o.point_cell, "follow.point_cell"}, {o.grid_resolution, "follow.grid_resolution"},
@@ -76,6 +87,7 @@ absl::Status TrajectoryFollow::SetMap(const PointCloud& others, std::size_t map_
 
 int TrajectoryFollow::Advance(const std::vector<NodeView>& nodes, int max_attempts) {
   if (nodes.empty() || grid_ == nullptr) return 0;
+  RefreshOrigins(nodes, &samples_);  // the session's closures since moved its nodes
   const int n = static_cast<int>(nodes.size());
   if (next_node_ < 0) {
     // The first node after the tie's, plus a stride: the tie itself observed the origin there.
@@ -140,7 +152,8 @@ bool TrajectoryFollow::Attempt(const std::vector<NodeView>& nodes, int node) {
     return false;
   }
   ++progress_.matched;
-  samples_.push_back(OriginSample{at.scan, at.stamp, Compose(match->pose, Invert(at.global))});
+  samples_.push_back(
+      OriginSample{at.scan, at.stamp, Compose(match->pose, Invert(at.global)), true, match->pose});
   if (static_cast<int>(samples_.size()) > options_.max_samples) {
     // Bounded: every other sample dropped, the first (the tie) and the newest kept.
     std::vector<OriginSample> thinned;

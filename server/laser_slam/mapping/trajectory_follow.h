@@ -39,7 +39,17 @@ struct OriginSample {
   std::uint64_t scan = 0;
   double stamp = 0.0;
   Pose2 origin;
+  // What a follow-up match observed: the node's pose in the map frame (not for the tie's
+  // sample). The robot's own loop closures move its nodes after they were matched, so the
+  // origin is derived again from the node's current pose (RefreshOrigins): the match is the
+  // observation, the origin at the time of the match is not.
+  bool matched = false;
+  Pose2 map_pose;
 };
+
+// For each matched sample whose node (by scan) is among `nodes` (oldest first, by scan): origin
+// = map_pose (-) the node's current pose. Other samples keep their origin.
+void RefreshOrigins(const std::vector<NodeView>& nodes, std::vector<OriginSample>* samples);
 
 // Samples in stamp order; At() interpolates in x, y and heading (the shorter way), holding the
 // first before it and the last after it. Empty: the identity.

@@ -65,10 +65,11 @@ absl::Status ValidateTieOptions(const TieOptions& o) {
 PointCloud MapCloud(const std::vector<TiedTrajectory>& trajectories, double cell) {
   PointCloud map;
   for (const TiedTrajectory& trajectory : trajectories) {
+    std::vector<OriginSample> samples = trajectory.samples;
+    RefreshOrigins(trajectory.nodes, &samples);
     for (const NodeView& node : trajectory.nodes) {
       if (node.points == nullptr) continue;
-      const Pose2 origin = trajectory.samples.empty() ? trajectory.origin
-                                                      : OriginAt(trajectory.samples, node.stamp);
+      const Pose2 origin = samples.empty() ? trajectory.origin : OriginAt(samples, node.stamp);
       AppendTransformed(*node.points, Compose(origin, node.global), &map);
     }
   }

@@ -155,6 +155,11 @@ void MapRegistry::AddSamples(v1::Map* map) const {
       out->mutable_origin()->set_x(sample.origin.x);
       out->mutable_origin()->set_y(sample.origin.y);
       out->mutable_origin()->set_theta(sample.origin.theta);
+      if (sample.matched) {
+        out->mutable_map_pose()->set_x(sample.map_pose.x);
+        out->mutable_map_pose()->set_y(sample.map_pose.y);
+        out->mutable_map_pose()->set_theta(sample.map_pose.theta);
+      }
     }
   }
 }
@@ -262,8 +267,12 @@ absl::StatusOr<v1::MapOccupancyGrid> MapRegistry::GetMapGrid(const std::string& 
     for (const v1::MapOriginSample& sample : trajectory->origin_samples()) {
       samples.push_back(laser_slam::OriginSample{
           sample.scan(), sample.stamp(),
-          laser_slam::Pose2{sample.origin().x(), sample.origin().y(), sample.origin().theta()}});
+          laser_slam::Pose2{sample.origin().x(), sample.origin().y(), sample.origin().theta()},
+          sample.has_map_pose(),
+          laser_slam::Pose2{sample.map_pose().x(), sample.map_pose().y(),
+                            sample.map_pose().theta()}});
     }
+    laser_slam::RefreshOrigins(*own, &samples);
     for (laser_slam::NodeView& node : *own) {
       node.global = laser_slam::Compose(
           samples.empty() ? origin : laser_slam::OriginAt(samples, node.stamp), node.global);
