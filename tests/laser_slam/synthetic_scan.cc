@@ -1,9 +1,9 @@
 #include "tests/laser_slam/synthetic_scan.h"
 
-#include "server/laser_slam/mapping/point_cloud.h"
-
 #include <cmath>
 #include <limits>
+
+#include "server/laser_slam/mapping/point_cloud.h"
 
 namespace waymark::laser_slam::testing {
 
@@ -87,6 +87,34 @@ std::vector<Eigen::Vector2f> ScanPoints(const std::vector<Wall>& walls, const Po
 
 std::vector<Wall> Box(double x0, double y0, double x1, double y1) {
   return {{{x0, y0}, {x1, y0}}, {{x1, y0}, {x1, y1}}, {{x1, y1}, {x0, y1}}, {{x0, y1}, {x0, y0}}};
+}
+
+std::vector<Wall> PillarOffice() {
+  std::vector<Wall> walls = Box(0.0, 0.0, 20.0, 12.0);
+  for (const std::vector<Wall>& pillar : {Box(4.0, 3.0, 4.6, 3.6), Box(9.0, 8.0, 10.5, 8.4),
+                                          Box(14.0, 2.0, 14.3, 4.5), Box(16.0, 8.5, 17.2, 9.7)}) {
+    walls.insert(walls.end(), pillar.begin(), pillar.end());
+  }
+  walls.push_back({{6.0, 0.0}, {6.0, 2.5}});
+  walls.push_back({{11.0, 12.0}, {11.0, 9.5}});
+  walls.push_back({{0.0, 6.0}, {2.5, 6.0}});
+  walls.push_back({{17.0, 5.0}, {20.0, 5.0}});
+  walls.push_back({{7.0, 8.5}, {8.5, 9.7}});
+  return walls;
+}
+
+std::vector<Pose2> PolylinePath(const std::vector<Eigen::Vector2d>& corners, double step) {
+  std::vector<Pose2> path;
+  for (size_t leg = 0; leg + 1 < corners.size(); ++leg) {
+    const Eigen::Vector2d d = corners[leg + 1] - corners[leg];
+    const double heading = std::atan2(d.y(), d.x());
+    const int steps = static_cast<int>(d.norm() / step);
+    for (int i = 0; i < steps; ++i) {
+      const Eigen::Vector2d p = corners[leg] + d * (static_cast<double>(i) / steps);
+      path.push_back(Pose2{p.x(), p.y(), heading});
+    }
+  }
+  return path;
 }
 
 }  // namespace waymark::laser_slam::testing

@@ -56,6 +56,13 @@ std::vector<Eigen::Vector2f> ScanPoints(const std::vector<Wall>& walls, const Po
 // Axis-aligned rectangle [x0, x1] x [y0, y1] as four walls.
 std::vector<Wall> Box(double x0, double y0, double x1, double y1);
 
+// A 20 x 12 m hall with irregular pillars and walls: no two places in it look alike (the shared
+// map's tests: trajectory_tie_test.cc, trajectory_follow_test.cc, map_tie_worker_test.cc).
+std::vector<Wall> PillarOffice();
+
+// True poses every `step` metres along the polyline, heading along each leg.
+std::vector<Pose2> PolylinePath(const std::vector<Eigen::Vector2d>& corners, double step);
+
 }  // namespace waymark::laser_slam::testing
 
 #endif  // WAYMARK_TESTS_LASER_SLAM_SYNTHETIC_SCAN_H_

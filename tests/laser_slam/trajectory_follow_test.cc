@@ -3,14 +3,15 @@
 // one fixed origin carries its map-frame poses away from the truth; matched again in local
 // windows against the first robot's map, its piecewise origin keeps them within a few cm.
 
+#include "server/laser_slam/mapping/trajectory_follow.h"
+
+#include <gtest/gtest.h>
+
 #include <cmath>
 #include <memory>
 #include <vector>
 
-#include <gtest/gtest.h>
-
 #include "server/laser_slam/geometry.h"
-#include "server/laser_slam/mapping/trajectory_follow.h"
 #include "server/laser_slam/mapping/trajectory_tie.h"
 #include "tests/laser_slam/synthetic_scan.h"
 
@@ -20,41 +21,13 @@ namespace {
 using testing::Box;
 using testing::Wall;
 
-// The office of trajectory_tie_test.cc: a hall with irregular pillars and walls.
-std::vector<Wall> Office() {
-  std::vector<Wall> walls = Box(0.0, 0.0, 20.0, 12.0);
-  for (const std::vector<Wall>& pillar :
-       {Box(4.0, 3.0, 4.6, 3.6), Box(9.0, 8.0, 10.5, 8.4), Box(14.0, 2.0, 14.3, 4.5),
-        Box(16.0, 8.5, 17.2, 9.7)}) {
-    walls.insert(walls.end(), pillar.begin(), pillar.end());
-  }
-  walls.push_back({{6.0, 0.0}, {6.0, 2.5}});
-  walls.push_back({{11.0, 12.0}, {11.0, 9.5}});
-  walls.push_back({{0.0, 6.0}, {2.5, 6.0}});
-  walls.push_back({{17.0, 5.0}, {20.0, 5.0}});
-  walls.push_back({{7.0, 8.5}, {8.5, 9.7}});
-  return walls;
-}
-
-std::vector<Pose2> Path(const std::vector<Eigen::Vector2d>& corners, double step) {
-  std::vector<Pose2> path;
-  for (size_t leg = 0; leg + 1 < corners.size(); ++leg) {
-    const Eigen::Vector2d d = corners[leg + 1] - corners[leg];
-    const double heading = std::atan2(d.y(), d.x());
-    const int steps = static_cast<int>(d.norm() / step);
-    for (int i = 0; i < steps; ++i) {
-      const Eigen::Vector2d p = corners[leg] + d * (static_cast<double>(i) / steps);
-      path.push_back(Pose2{p.x(), p.y(), heading});
-    }
-  }
-  return path;
-}
+using testing::PillarOffice;
+using testing::PolylinePath;
 
 // The nodes a robot driving `truth` keeps in its own frame, its motion between nodes distorted by
 // `scale` (along) and `heading_bias` (rad per node): drift. Its scans are the true ones.
-std::vector<NodeView> DriftingNodes(const std::vector<Wall>& walls,
-                                    const std::vector<Pose2>& truth, double scale,
-                                    double heading_bias) {
+std::vector<NodeView> DriftingNodes(const std::vector<Wall>& walls, const std::vector<Pose2>& truth,
+                                    double scale, double heading_bias) {
   std::vector<NodeView> nodes;
   Pose2 own{};
   for (size_t i = 0; i < truth.size(); ++i) {
@@ -93,13 +66,13 @@ Errors ErrorsOf(const std::vector<OriginSample>& samples, const std::vector<Node
 class TrajectoryFollowTest : public ::testing::Test {
  protected:
   void SetUp() override {
-    walls_ = Office();
+    walls_ = PillarOffice();
     // Robot 1 defines the map frame (its start is the map's origin): its truth relative to it.
-    const std::vector<Pose2> a =
-        Path({{2.0, 4.5}, {12.0, 4.5}, {12.0, 7.0}, {3.0, 7.0}, {3.0, 9.0}, {8.0, 10.5}}, 0.25);
+    const std::vector<Pose2> a = PolylinePath(
+        {{2.0, 4.5}, {12.0, 4.5}, {12.0, 7.0}, {3.0, 7.0}, {3.0, 9.0}, {8.0, 10.5}}, 0.25);
     map_ = {TiedTrajectory{Pose2{}, DriftingNodes(walls_, a, 1.0, 0.0)}};
     const std::vector<Pose2> b =
-        Path({{15.5, 6.5}, {6.0, 6.5}, {5.0, 4.0}, {13.0, 5.5}, {15.5, 8.0}}, 0.25);
+        PolylinePath({{15.5, 6.5}, {6.0, 6.5}, {5.0, 4.0}, {13.0, 5.5}, {15.5, 8.0}}, 0.25);
     for (const Pose2& p : b) truth_.push_back(Relative(a.front(), p));  // in the map frame
     // Robot 2 drifts: 1.5 % long, 0.004 rad per node to the left.
     nodes_ = DriftingNodes(walls_, b, 1.015, 0.004);

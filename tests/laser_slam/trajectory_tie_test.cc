@@ -3,14 +3,15 @@
 // start pose; and two identical rooms, where the second robot's place cannot be told and no tie
 // may come, however long it drives.
 
+#include "server/laser_slam/mapping/trajectory_tie.h"
+
+#include <gtest/gtest.h>
+
 #include <cmath>
 #include <memory>
 #include <vector>
 
-#include <gtest/gtest.h>
-
 #include "server/laser_slam/geometry.h"
-#include "server/laser_slam/mapping/trajectory_tie.h"
 #include "tests/laser_slam/synthetic_scan.h"
 
 namespace waymark::laser_slam {
@@ -19,36 +20,8 @@ namespace {
 using testing::Box;
 using testing::Wall;
 
-// A hall with irregular pillars and walls: no two places in it look alike.
-std::vector<Wall> Office() {
-  std::vector<Wall> walls = Box(0.0, 0.0, 20.0, 12.0);
-  for (const std::vector<Wall>& pillar :
-       {Box(4.0, 3.0, 4.6, 3.6), Box(9.0, 8.0, 10.5, 8.4), Box(14.0, 2.0, 14.3, 4.5),
-        Box(16.0, 8.5, 17.2, 9.7)}) {
-    walls.insert(walls.end(), pillar.begin(), pillar.end());
-  }
-  walls.push_back({{6.0, 0.0}, {6.0, 2.5}});
-  walls.push_back({{11.0, 12.0}, {11.0, 9.5}});
-  walls.push_back({{0.0, 6.0}, {2.5, 6.0}});
-  walls.push_back({{17.0, 5.0}, {20.0, 5.0}});
-  walls.push_back({{7.0, 8.5}, {8.5, 9.7}});
-  return walls;
-}
-
-// True poses every `step` metres along the polyline, heading along each leg.
-std::vector<Pose2> Path(const std::vector<Eigen::Vector2d>& corners, double step) {
-  std::vector<Pose2> path;
-  for (size_t leg = 0; leg + 1 < corners.size(); ++leg) {
-    const Eigen::Vector2d d = corners[leg + 1] - corners[leg];
-    const double heading = std::atan2(d.y(), d.x());
-    const int steps = static_cast<int>(d.norm() / step);
-    for (int i = 0; i < steps; ++i) {
-      const Eigen::Vector2d p = corners[leg] + d * (static_cast<double>(i) / steps);
-      path.push_back(Pose2{p.x(), p.y(), heading});
-    }
-  }
-  return path;
-}
+using testing::PillarOffice;
+using testing::PolylinePath;
 
 // The nodes a robot driving `truth` keeps, in its own frame (its start), scans from 1 on.
 std::vector<NodeView> NodesOf(const std::vector<Wall>& walls, const std::vector<Pose2>& truth) {
@@ -104,9 +77,10 @@ TieRun RunTie(const std::vector<TiedTrajectory>& map, const std::vector<NodeView
 constexpr std::int64_t kManyReads = std::int64_t{1} << 40;  // per scan: every search at once
 
 TEST(TrajectoryTieTest, TwoRobotsInOneOfficeAreTiedInAgreeingWithTheTruth) {
-  const std::vector<Wall> walls = Office();
-  const std::vector<Pose2> a = Path({{2.0, 4.5}, {12.0, 4.5}, {12.0, 7.0}, {3.0, 7.0}}, 0.25);
-  const std::vector<Pose2> b = Path({{15.5, 6.5}, {6.0, 6.5}, {6.5, 3.5}}, 0.25);
+  const std::vector<Wall> walls = PillarOffice();
+  const std::vector<Pose2> a =
+      PolylinePath({{2.0, 4.5}, {12.0, 4.5}, {12.0, 7.0}, {3.0, 7.0}}, 0.25);
+  const std::vector<Pose2> b = PolylinePath({{15.5, 6.5}, {6.0, 6.5}, {6.5, 3.5}}, 0.25);
   // The first robot's frame lies somewhere in the map frame (the map frame need not be its own).
   const Pose2 origin_a{1.0, -2.0, 0.3};
   const std::vector<TiedTrajectory> map{{origin_a, NodesOf(walls, a)}};
@@ -133,9 +107,10 @@ TEST(TrajectoryTieTest, TwoRobotsInOneOfficeAreTiedInAgreeingWithTheTruth) {
 // it comes at the same scan whether the nodes arrive one by one (a robot at its pace) or all at
 // once (a replay far faster than real time, the searches catching up after it).
 TEST(TrajectoryTieTest, ABudgetPerScanSpreadsTheSearchesWhateverThePaceOfTheCalls) {
-  const std::vector<Wall> walls = Office();
-  const std::vector<Pose2> a = Path({{2.0, 4.5}, {12.0, 4.5}, {12.0, 7.0}, {3.0, 7.0}}, 0.25);
-  const std::vector<Pose2> b = Path({{15.5, 6.5}, {6.0, 6.5}, {6.5, 3.5}}, 0.25);
+  const std::vector<Wall> walls = PillarOffice();
+  const std::vector<Pose2> a =
+      PolylinePath({{2.0, 4.5}, {12.0, 4.5}, {12.0, 7.0}, {3.0, 7.0}}, 0.25);
+  const std::vector<Pose2> b = PolylinePath({{15.5, 6.5}, {6.0, 6.5}, {6.5, 3.5}}, 0.25);
   const std::vector<TiedTrajectory> map{{Pose2{}, NodesOf(walls, a)}};
   const Pose2 truth = Relative(a.front(), b.front());
   const std::vector<NodeView> joining = NodesOf(walls, b);

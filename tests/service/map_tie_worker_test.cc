@@ -4,6 +4,10 @@
 // once at the truth, and ask nothing more of a map with no robot left to find. The real server
 // on a real log: tests/integration/map_tie_test.cc.
 
+#include "server/service/slam/map_tie_worker.h"
+
+#include <gtest/gtest.h>
+
 #include <chrono>
 #include <cmath>
 #include <condition_variable>
@@ -12,10 +16,7 @@
 #include <string>
 #include <vector>
 
-#include <gtest/gtest.h>
-
 #include "server/laser_slam/geometry.h"
-#include "server/service/slam/map_tie_worker.h"
 #include "tests/laser_slam/synthetic_scan.h"
 
 namespace waymark::service {
@@ -25,25 +26,11 @@ namespace ls = waymark::laser_slam;
 using ls::testing::Box;
 using ls::testing::Wall;
 
-std::vector<Wall> Office() {
-  std::vector<Wall> walls = Box(0.0, 0.0, 20.0, 12.0);
-  for (const std::vector<Wall>& pillar :
-       {Box(4.0, 3.0, 4.6, 3.6), Box(9.0, 8.0, 10.5, 8.4), Box(14.0, 2.0, 14.3, 4.5),
-        Box(16.0, 8.5, 17.2, 9.7)}) {
-    walls.insert(walls.end(), pillar.begin(), pillar.end());
-  }
-  walls.push_back({{6.0, 0.0}, {6.0, 2.5}});
-  walls.push_back({{11.0, 12.0}, {11.0, 9.5}});
-  walls.push_back({{0.0, 6.0}, {2.5, 6.0}});
-  walls.push_back({{17.0, 5.0}, {20.0, 5.0}});
-  walls.push_back({{7.0, 8.5}, {8.5, 9.7}});
-  return walls;
-}
+using ls::testing::PillarOffice;
 
 // A robot's nodes every 0.25 m along the polyline, in its own frame (its start).
 std::vector<ls::NodeView> Drive(const std::vector<Wall>& walls,
-                                const std::vector<Eigen::Vector2d>& corners,
-                                ls::Pose2* start) {
+                                const std::vector<Eigen::Vector2d>& corners, ls::Pose2* start) {
   std::vector<ls::NodeView> nodes;
   for (size_t leg = 0; leg + 1 < corners.size(); ++leg) {
     const Eigen::Vector2d d = corners[leg + 1] - corners[leg];
@@ -64,14 +51,14 @@ std::vector<ls::NodeView> Drive(const std::vector<Wall>& walls,
 }
 
 TEST(MapTieWorkerTest, ASecondRobotIsFoundAndTiedInOnceAtTheTruth) {
-  const std::vector<Wall> walls = Office();
+  const std::vector<Wall> walls = PillarOffice();
   ls::Pose2 start_a, start_b;
   const std::vector<ls::NodeView> a =
       Drive(walls, {{2.0, 4.5}, {12.0, 4.5}, {12.0, 7.0}, {3.0, 7.0}}, &start_a);
   const std::vector<ls::NodeView> b = Drive(walls, {{15.5, 6.5}, {6.0, 6.5}, {6.5, 3.5}}, &start_b);
   const storage::MapTie origin_a{1.0, -2.0, 0.3};
-  const ls::Pose2 truth =
-      ls::Compose(ls::Pose2{origin_a.x, origin_a.y, origin_a.theta}, ls::Relative(start_a, start_b));
+  const ls::Pose2 truth = ls::Compose(ls::Pose2{origin_a.x, origin_a.y, origin_a.theta},
+                                      ls::Relative(start_a, start_b));
 
   std::mutex mu;
   std::condition_variable tied_cv;
@@ -115,9 +102,9 @@ TEST(MapTieWorkerTest, ASecondRobotIsFoundAndTiedInOnceAtTheTruth) {
     std::unique_lock<std::mutex> lock(mu);
     // A bound far above the searches' cost (well under a second here), never reached when the
     // worker works: the test waits for what it does, not for a time.
-    ASSERT_TRUE(tied_cv.wait_for(lock, std::chrono::seconds(120),
-                                 [&] { return passes_after_tie >= 3; }))
-        << "no tie";
+    ASSERT_TRUE(tied_cv.wait_for(lock, std::chrono::seconds(120), [&] {
+      return passes_after_tie >= 3;
+    })) << "no tie";
   }
   worker.Stop();
   ASSERT_EQ(ties.size(), 1u);
