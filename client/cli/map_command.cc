@@ -12,6 +12,7 @@
 
 #include "absl/time/time.h"
 #include "client/cli/command.h"
+#include "client/cli/map_frame.h"
 #include "client/common/output.h"
 #include "client/common/proto_json.h"
 #include "client/render/slam_output.h"
@@ -113,12 +114,17 @@ int RunMapGrid(CommandContext& context, const MapCommandArgs& args) {
   auto client = context.ConnectSlam();
   auto grid = client->GetMapOccupancyGrid(args.name, args.resolution);
   if (!grid.ok()) return ReportError(context, grid.status(), "GetMapOccupancyGrid");
-  // The trajectories drawn on occupancy.png: the tied-in sessions' (their frame is the map's
-  // while only the first one is tied in).
+  // The trajectories drawn on occupancy.png: the tied-in sessions', each moved into the map
+  // frame as `slam trajectory --frame map` does.
+  auto map = client->GetMapInfo(args.name);
+  if (!map.ok()) return ReportError(context, map.status(), "GetMap");
   v1::Trajectory trajectory;
   for (const std::string& session_id : grid->session_ids()) {
     auto poses = client->GetTrajectory(session_id);
     if (!poses.ok()) return ReportError(context, poses.status(), "GetTrajectory");
+    for (const v1::MapTrajectory& t : map->trajectories()) {
+      if (t.session_id() == session_id && t.tied_in()) MoveToMapFrame(t, &*poses);
+    }
     for (const v1::TrajectoryPose& pose : poses->poses()) *trajectory.add_poses() = pose;
   }
   const std::filesystem::path dir =
