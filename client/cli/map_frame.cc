@@ -43,8 +43,8 @@ v1::Pose2D OriginAt(const v1::MapTrajectory& t, const std::vector<v1::MapOriginS
     v1::Pose2D out;
     out.set_x(a.x() + f * (b.x() - a.x()));
     out.set_y(a.y() + f * (b.y() - a.y()));
-    out.set_theta(std::remainder(
-        a.theta() + f * std::remainder(b.theta() - a.theta(), 2 * M_PI), 2 * M_PI));
+    out.set_theta(
+        std::remainder(a.theta() + f * std::remainder(b.theta() - a.theta(), 2 * M_PI), 2 * M_PI));
     return out;
   }
   return samples.back().origin();
