@@ -17,9 +17,10 @@
 // stamps (the nodes are in stamp order), held before the first and after the last. Map-frame
 // poses and the merged grid use the origin at each pose's stamp.
 //
-// Not a constraint in a pose graph: the samples are kept as observed; a later loop closure
-// within the robot's own session that moves an already matched node is not reflected in its
-// sample. Plain C++, no threads (map_tie_worker.h runs it).
+// Not a constraint in a pose graph: each sample is one match, kept as observed (the node's
+// map-frame pose); its origin is derived again from the node's current pose (RefreshOrigins), so
+// the robot's own loop closures after a match move the origin with them. Plain C++, no threads
+// (map_tie_worker.h runs it).
 
 #include <cstdint>
 #include <memory>

@@ -143,6 +143,13 @@ absl::StatusOr<v1::Map> MapRegistry::GetMap(const std::string& name) {
   return out;
 }
 
+std::vector<laser_slam::OriginSample> MapRegistry::FollowedSamples(
+    const std::string& session_id) const {
+  std::lock_guard<std::mutex> lock(mutex_);
+  auto it = followed_.find(session_id);
+  return it == followed_.end() ? std::vector<laser_slam::OriginSample>{} : it->second.samples;
+}
+
 void MapRegistry::AddSamples(v1::Map* map) const {
   std::lock_guard<std::mutex> lock(mutex_);
   for (v1::MapTrajectory& trajectory : *map->mutable_trajectories()) {
@@ -263,15 +270,8 @@ absl::StatusOr<v1::MapOccupancyGrid> MapRegistry::GetMapGrid(const std::string& 
     }
     const laser_slam::Pose2 origin{trajectory->origin().x(), trajectory->origin().y(),
                                    trajectory->origin().theta()};
-    std::vector<laser_slam::OriginSample> samples;  // followed after its tie: at each stamp
-    for (const v1::MapOriginSample& sample : trajectory->origin_samples()) {
-      samples.push_back(laser_slam::OriginSample{
-          sample.scan(), sample.stamp(),
-          laser_slam::Pose2{sample.origin().x(), sample.origin().y(), sample.origin().theta()},
-          sample.has_map_pose(),
-          laser_slam::Pose2{sample.map_pose().x(), sample.map_pose().y(),
-                            sample.map_pose().theta()}});
-    }
+    // Followed after its tie: the origin at each stamp, from the nodes' current poses.
+    std::vector<laser_slam::OriginSample> samples = FollowedSamples(trajectory->session_id());
     laser_slam::RefreshOrigins(*own, &samples);
     for (laser_slam::NodeView& node : *own) {
       node.global = laser_slam::Compose(

@@ -130,6 +130,8 @@ class MapRegistry {
   std::map<std::string, Followed> followed_;  // by session id; guarded by mutex_
   // Fills each trajectory's origin_samples from followed_.
   void AddSamples(v1::Map* map) const;
+  // A followed session's samples (empty: not followed here).
+  std::vector<laser_slam::OriginSample> FollowedSamples(const std::string& session_id) const;
 };
 
 // The map frame pose of `pose` (a session frame pose) for a trajectory tied in at `tie`.
