@@ -70,6 +70,9 @@ class SegmentEkf {
   void ApplyToCovariance(const std::vector<int>& dofs, const Eigen::MatrixXd& q);
   void TransformColumns(const std::vector<Transform>& transforms);
   void ApplyTransforms(const std::vector<Transform>& transforms);
+  // The upper triangle of Q C for the block-diagonal Q of `transforms` (ApplyTransforms' second
+  // pass; the lower triangle is left stale).
+  void TransformRowsOfUpper(const std::vector<Transform>& transforms);
   // Copies the covariance's lower triangle onto its upper one (exact symmetry).
   void MirrorLower();
   // Moves the frame back to the midpoint when it drifted far; returns the shift (0 = none).
