@@ -62,6 +62,9 @@ nlohmann::json MappingJson(const ls::MappingBackend& backend) {
   }
   return {{"nodes", stats.nodes},
           {"submaps", stats.submaps},
+          {"submaps_pruned", stats.submaps_pruned},
+          {"nodes_pruned", stats.nodes_pruned},
+          {"graph_nodes", stats.graph_nodes},
           {"searches", stats.searches},
           {"candidates", stats.candidates},
           {"closures_accepted", stats.closures_accepted},

@@ -159,7 +159,8 @@ bool SetMappingOption(const std::string& assignment, ls::MappingOptions* m) {
       {"local_window_min_theta", &m->local_window_min_theta},
       {"local_min_score", &m->local_min_score}, {"local_sigma_xy", &m->local_sigma_xy},
       {"local_sigma_theta", &m->local_sigma_theta},
-      {"local_points_per_observation", &m->local_points_per_observation}};
+      {"local_points_per_observation", &m->local_points_per_observation},
+      {"prune_max_new_fraction", &m->prune_max_new_fraction}, {"prune_cell", &m->prune_cell}};
   if (name == "local_prior") {  // 0: EKF within odometry, 1: odometry, 2: EKF
     if (value != 0.0 && value != 1.0 && value != 2.0) return false;
     m->local_prior = static_cast<ls::MappingOptions::LocalPrior>(static_cast<int>(value));
@@ -173,6 +174,8 @@ bool SetMappingOption(const std::string& assignment, ls::MappingOptions* m) {
       {"window_through_ties", &m->window_through_ties},
       {"confirm_global_closures", &m->confirm_global_closures},
       {"loosen_ridges", &m->loosen_ridges},
+      {"prune_redundant_submaps", &m->prune_redundant_submaps},
+      {"prune_keep_closures", &m->prune_keep_closures},
       {"local_matching", &m->local_matching}};
   if (auto it = bools.find(name); it != bools.end()) {
     *it->second = value != 0.0;
@@ -186,7 +189,8 @@ bool SetMappingOption(const std::string& assignment, ls::MappingOptions* m) {
       {"max_iterations", &m->max_iterations}, {"local_map_nodes", &m->local_map_nodes},
       {"global_search_every_nodes", &m->global_search_every_nodes},
       {"coarse_search_factor", &m->coarse_search_factor},
-      {"confirm_within_nodes", &m->confirm_within_nodes}};
+      {"confirm_within_nodes", &m->confirm_within_nodes},
+      {"prune_after_submaps", &m->prune_after_submaps}};
   if (auto it = doubles.find(name); it != doubles.end()) {
     *it->second = value;
     return true;

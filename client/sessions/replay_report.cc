@@ -256,6 +256,8 @@ nlohmann::json ReplayJson(const ReplayReport& report) {
            ? nlohmann::json(report.span.duration_s() / (report.processing_s + report.close_s))
            : nlohmann::json(nullptr)},
       {"loop_closures", report.loop_closures},
+      {"graph_nodes", report.graph_nodes},
+      {"pruned_nodes", report.pruned_nodes},
       {"log_duration_s", report.span.duration_s()},
       {"realtime_factor", OptionalJson(factor.value)},
       {"window", report.window},
@@ -347,6 +349,10 @@ std::string ReplayText(const ReplayReport& report) {
                                      : std::string());
   }
   if (report.loop_closures > 0) text += fmt::format("loop closures: {}\n", report.loop_closures);
+  if (report.pruned_nodes > 0) {
+    text += fmt::format("pruned: {} of {} scan nodes (their submaps added nothing the map held)\n",
+                        report.pruned_nodes, report.graph_nodes);
+  }
   if (!report.map_problem.empty()) {
     text += "the map pictures show no segments: " + report.map_problem + "\n";
   }

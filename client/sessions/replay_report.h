@@ -86,6 +86,8 @@ struct ReplayReport {
   double processing_s = 0;  // the stream: first scan sent to last answer
   double close_s = 0;       // CloseSession: the back end's last searches and optimisation
   uint64_t loop_closures = 0;  // in the final graph (GetMap), else as the last answers said
+  uint64_t graph_nodes = 0;    // the final graph's scan nodes (GetMap)
+  uint64_t pruned_nodes = 0;   // of those, pruned (their submaps added nothing new)
 
   // The results and where they went.
   int segments = 0;

@@ -315,6 +315,8 @@ void WriteOutputs(const SlamOutTarget& target, const SessionResults& results,
   report.segments = results.map.segments_size();
   if (results.map.has_self_check()) report.self_check = results.map.self_check();
   if (results.map.graph_nodes() > 0) report.loop_closures = results.map.loop_closures();
+  report.graph_nodes = results.map.graph_nodes();
+  report.pruned_nodes = results.map.pruned_nodes();
   report.map_revision = results.map.map_revision();
   report.trajectory_poses = results.trajectory.poses_size();
   const bool localizing = !report.localize_map.empty();

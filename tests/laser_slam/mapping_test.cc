@@ -426,14 +426,16 @@ TEST(MappingBackendTest, AVersionOneCheckpointStillLoads) {
   MappingBackend backend(options);
   const PointCloud points = PointsFrom(LRoom(), Pose2{2, 2, 0});
   for (int i = 0; i < 20; ++i) backend.AddScan(i + 1, i, Pose2{0.05 * i, 0, 0}, points);
-  const std::string v3 = backend.Serialize();  // the current version (5)
+  const std::string v3 = backend.Serialize();  // the current version (6)
   // Version 1 from the current one: each node without its odometry (a pose and three variances after
-  // its points), and the end without the processed index, nor version 3's three int32 and three
-  // poses' worth of doubles (dead reckoning, motion variance, last local pose), nor version 4's
-  // front end state, nor version 5's count of pending closures (none here).
+  // its points) nor version 6's pruning (a flag, two node indices, two poses, a weight and three
+  // sigmas), each submap without version 6's flags, and the end without the processed index, nor
+  // version 3's three int32 and three poses' worth of doubles (dead reckoning, motion variance,
+  // last local pose), nor version 4's front end state, nor version 5's count of pending closures
+  // (none here), nor version 6's count of coverage cells (none: nothing pruned).
   constexpr size_t kHeader = 3 * sizeof(std::uint32_t);
   constexpr size_t kNodeFixed = 8 + 8 + 8 + 2 * 24;  // scan, stamp, travel, local, global
-  constexpr size_t kOdometry = 6 * sizeof(double);
+  constexpr size_t kOdometry = 6 * sizeof(double) + 1 + 2 * 4 + 2 * 24 + 8 + 3 * sizeof(double);
   std::uint32_t count = 0;
   std::memcpy(&count, v3.data() + 2 * sizeof(std::uint32_t), sizeof(count));
   std::string v1 = v3.substr(0, kHeader);
@@ -447,8 +449,19 @@ TEST(MappingBackendTest, AVersionOneCheckpointStillLoads) {
   }
   constexpr size_t kV3Tail = 3 * sizeof(std::int32_t) + 9 * sizeof(double);
   constexpr size_t kV4Tail = EkfStepAgreement::kValues * sizeof(double) + 1;  // the front end's
-  constexpr size_t kV5Tail = sizeof(std::uint32_t);  // no pending closure
+  constexpr size_t kV5Tail = 2 * sizeof(std::uint32_t);  // no pending closure, no coverage
   const size_t processed_at = v3.size() - kV5Tail - kV4Tail - kV3Tail - 7 * sizeof(std::int32_t);
+  std::uint32_t submaps = 0;
+  std::memcpy(&submaps, v3.data() + at, sizeof(submaps));
+  v1 += v3.substr(at, sizeof(submaps));
+  at += sizeof(submaps);
+  for (std::uint32_t m = 0; m < submaps; ++m) {
+    std::uint32_t frozen = 0;
+    std::memcpy(&frozen, v3.data() + at + 9, sizeof(frozen));
+    const size_t submap = 9 + sizeof(frozen) + frozen * 24;  // first, count, complete, poses
+    v1 += v3.substr(at, submap);
+    at += submap + 1;  // version 6's flags
+  }
   v1 += v3.substr(at, processed_at - at);
   v1 += v3.substr(processed_at + sizeof(std::int32_t), 6 * sizeof(std::int32_t));
   const std::uint32_t one = 1;

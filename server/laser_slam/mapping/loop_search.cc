@@ -108,6 +108,19 @@ void PyramidCache::Insert(int submap, int coarsening,
   }
 }
 
+void PyramidCache::Erase(int submap) {
+  frames_.erase(submap);
+  for (auto it = entries_.begin(); it != entries_.end();) {
+    if (it->key / 64 != submap) {
+      ++it;
+      continue;
+    }
+    bytes_ -= it->bytes;
+    index_.erase(it->key);
+    it = entries_.erase(it);
+  }
+}
+
 std::optional<GridFrame> PyramidCache::Frame(int submap) const {
   const auto it = frames_.find(submap);
   if (it == frames_.end()) return std::nullopt;

@@ -65,6 +65,8 @@ class PyramidCache {
   void Insert(int submap, int coarsening, std::shared_ptr<const SearchPyramid> pyramid);
   std::optional<GridFrame> Frame(int submap) const;
   void SetFrame(int submap, const GridFrame& frame) { frames_[submap] = frame; }
+  // Forgets the submap's pyramids and frame (it was pruned).
+  void Erase(int submap);
   size_t bytes() const { return bytes_; }
 
  private:

@@ -142,6 +142,7 @@ int MappingBackend::ChainConstraintLocked(int index) const {
 
 void MappingBackend::AppendChainUncertaintyLocked(int index, const Eigen::Vector3d& sigma) {
   const Pose2& local = nodes_[index].local;
+  nodes_[index].chain_sigma = sigma;
   chain_.Append(Eigen::Vector2d(local.x, local.y), sigma);
 }
 
@@ -182,6 +183,7 @@ void MappingBackend::Process(int index) {
   }
   if (due) Optimize(index);
   std::lock_guard<std::mutex> lock(mu_);
+  if (options_.prune_redundant_submaps) DecidePruningLocked(index);
   processed_ = index;
 }
 
@@ -212,7 +214,7 @@ void MappingBackend::SearchLoops(int index) {
     std::vector<Candidate> global;
     for (int s = 0; s < static_cast<int>(submaps_.size()); ++s) {
       const Submap& submap = submaps_[s];
-      if (!submap.complete) continue;
+      if (!submap.complete || submap.pruned) continue;
       const int last = submap.first + submap.count - 1;
       if (node.travel - nodes_[last].travel < options_.min_loop_travel) continue;
       // Tied to the submap by the chain since it ended or through the closures
@@ -446,6 +448,11 @@ void MappingBackend::Optimize(int upto) {
   std::lock_guard<std::mutex> lock(mu_);
   const size_t solved = poses.size();
   for (size_t i = 0; i < solved; ++i) nodes_[i].global = poses[i];
+  // Pruned nodes are out of the graph: they move with their kept anchor.
+  for (size_t i = 0; i < solved; ++i) {
+    Node& n = nodes_[i];
+    if (n.pruned) n.global = PrunedPoseLocked(n);
+  }
   FollowPredecessorsLocked(static_cast<int>(solved));
   for (size_t i = 0; i < constraints.size(); ++i) {
     constraints_[indices[i]].enabled = constraints[i].enabled;
@@ -526,6 +533,7 @@ std::vector<GraphConstraint> MappingBackend::Constraints() const {
 MappingStats MappingBackend::Stats() const {
   std::lock_guard<std::mutex> lock(mu_);
   MappingStats s = stats_;
+  s.graph_nodes = stats_.nodes - stats_.nodes_pruned;
   s.pending_nodes = static_cast<int>(queue_.size()) + (busy_ ? 1 : 0);
   return s;
 }

@@ -26,6 +26,7 @@
 #include <optional>
 #include <string>
 #include <thread>
+#include <unordered_set>
 #include <vector>
 
 #include "absl/status/statusor.h"
@@ -81,6 +82,9 @@ struct MappingStats {
   int local_ekf_redecided = 0;  // earlier steps made the EKF's when it was first trusted
   int closures_pending = 0;     // global matches held for a second match (confirm_global_closures)
   int closures_unconfirmed = 0; // of those, dropped: no agreeing match within confirm_within_nodes
+  int submaps_pruned = 0;       // redundant submaps pruned (MappingOptions::prune_redundant_submaps)
+  int nodes_pruned = 0;         // their nodes, out of the graph, their points dropped
+  int graph_nodes = 0;          // nodes in the pose graph: nodes - nodes_pruned
   int pending_nodes = 0;        // waiting for the back end's thread (filled by Stats())
   std::vector<double> search_ms;    // per searched node, all candidates
   std::vector<double> optimize_ms;  // per optimisation
@@ -115,6 +119,7 @@ class MappingBackend {
   // node's pose changes when local matching handles it.
   void WaitForPending() const;
 
+  // Every node in scan order; a pruned node's points are empty (it still maps its scans' poses).
   std::vector<NodeView> Nodes() const;
   std::vector<GraphConstraint> Constraints() const;
   // Copies the per-search and per-optimisation times: not for every scan.
@@ -140,6 +145,18 @@ class MappingBackend {
     std::shared_ptr<const PointCloud> points;
     Pose2 odometry;  // dead reckoning of the odometry increments, own frame
     Eigen::Vector3d odometry_variance = Eigen::Vector3d::Zero();  // of the step from the previous
+    // A pruned node is out of the graph. It follows the kept nodes around its pruned stretch: at
+    // `from_anchor` of `anchor` (before it) and at `from_after` of `after` (after it), blended by
+    // its share `weight` of the travel between them, so that its pose moves with both ends.
+    bool pruned = false;
+    int anchor = -1;
+    int after = -1;
+    Pose2 from_anchor;
+    Pose2 from_after;
+    double weight = 0.0;
+    // 1 sigma of the chain step that reached it, once processed (chain_'s, kept for checkpoints:
+    // a pruned node's chain constraint is gone).
+    Eigen::Vector3d chain_sigma = Eigen::Vector3d::Zero();
   };
   struct Submap {
     int first = 0;  // node indices [first, first + count)
@@ -149,6 +166,8 @@ class MappingBackend {
     // is drawn with them, so a grid built once stays right (Cartographer's finished submaps) and
     // does not depend on when it was built.
     std::vector<Pose2> frozen;
+    bool decided = false;  // the pruning's decision taken (prune_redundant_submaps)
+    bool pruned = false;
   };
 
   // Appends the node and its chain constraint; returns its index. Caller holds mu_.
@@ -185,6 +204,20 @@ class MappingBackend {
   void SearchLoops(int index);
   // Optimises the graph of nodes [0, upto] and carries the later nodes along.
   void Optimize(int upto);
+  // Decides, for every complete submap with prune_after_submaps newer complete ones processed
+  // (their last node at or before `index`: not the stream's progress, which the thread lags), whether it
+  // is kept (its points join coverage_) or pruned. Caller holds mu_ and search_mu_.
+  void DecidePruningLocked(int index);
+  // Adds a loop constraint moved off pruned nodes, merged into an enabled one between the same
+  // two nodes if there is one. Caller holds mu_.
+  void MergeLoopLocked(const GraphConstraint& loop);
+  // A pruned node's pose from its two kept ends. Caller holds mu_.
+  Pose2 PrunedPoseLocked(const Node& node) const;
+  // Takes the submap's nodes out of the graph (see MappingOptions::prune_redundant_submaps).
+  // Caller holds mu_ and search_mu_.
+  void PruneSubmapLocked(int submap);
+  // The prune_cell cells of the points of a node at its global pose.
+  std::vector<Eigen::Vector2i> CoverageCells(const Node& node) const;
   // The submap's points in its first node's frame, as a search pyramid (cached).
   // `coarsening` 1: the search grid; coarse_search_factor: the coarse one of global searches.
   // Caller holds search_mu_ (the cache is the searches').
@@ -225,6 +258,8 @@ class MappingBackend {
     GraphConstraint loop;  // from the submap's first node to the node matched
   };
   std::vector<PendingClosure> pending_closures_;
+  // The prune_cell cells holding a point of a kept submap, at its poses when it was decided.
+  std::unordered_set<std::int64_t> coverage_;
   ChainUncertainty chain_;     // of the processed nodes, in order
   EkfStepAgreement ekf_agreement_;  // the front end's (search_mu_), checkpointed
   bool ekf_shown_ = false;  // RedecideEarlierStepsLocked ran, checkpointed

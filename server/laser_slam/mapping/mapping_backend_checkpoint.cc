@@ -3,6 +3,7 @@
 // The back end's checkpoint (MappingBackend::Serialize / Deserialize): nodes with their points,
 // submaps, constraints, counters and the loop search's state, versioned; older versions load.
 
+#include <algorithm>
 #include <cmath>
 
 #include "absl/strings/str_cat.h"
@@ -21,7 +22,10 @@ constexpr std::uint32_t kMagic = 0x5047574d;  // "MWGP"
 // start it afresh.
 // 5: global matches waiting for a second, agreeing match (confirm_global_closures); older
 // checkpoints have none.
-constexpr std::uint32_t kVersion = 5;
+// 6: pruning (prune_redundant_submaps): per node whether it is pruned, its anchor and its chain
+// step's sigma; per submap whether it was decided and pruned; the kept submaps' coverage cells.
+// Older checkpoints have nothing pruned and every submap undecided.
+constexpr std::uint32_t kVersion = 6;
 
 void PutPose(BinaryWriter& w, const Pose2& p) {
   w.Put(p.x);
@@ -92,6 +96,13 @@ std::string MappingBackend::Serialize() const {
     }
     PutPose(w, n.odometry);
     for (int i = 0; i < 3; ++i) w.Put(n.odometry_variance(i));
+    w.Put<std::uint8_t>(n.pruned);
+    w.Put<std::int32_t>(n.anchor);
+    w.Put<std::int32_t>(n.after);
+    PutPose(w, n.from_anchor);
+    PutPose(w, n.from_after);
+    w.Put(n.weight);
+    for (int i = 0; i < 3; ++i) w.Put(n.chain_sigma(i));
   }
   w.Put<std::uint32_t>(static_cast<std::uint32_t>(submaps_.size()));
   for (const Submap& s : submaps_) {
@@ -100,6 +111,7 @@ std::string MappingBackend::Serialize() const {
     w.Put<std::uint8_t>(s.complete);
     w.Put<std::uint32_t>(static_cast<std::uint32_t>(s.frozen.size()));
     for (const Pose2& p : s.frozen) PutPose(w, p);
+    w.Put<std::uint8_t>(static_cast<std::uint8_t>(s.decided | (s.pruned << 1)));
   }
   w.Put<std::uint32_t>(static_cast<std::uint32_t>(constraints_.size()));
   for (const GraphConstraint& c : constraints_) PutConstraint(w, c);
@@ -126,6 +138,11 @@ std::string MappingBackend::Serialize() const {
     w.Put<std::int32_t>(p.submap);
     PutConstraint(w, p.loop);
   }
+  // Sorted: the same set gives the same bytes whatever order it was filled in.
+  std::vector<std::int64_t> cells(coverage_.begin(), coverage_.end());
+  std::sort(cells.begin(), cells.end());
+  w.Put<std::uint32_t>(static_cast<std::uint32_t>(cells.size()));
+  for (const std::int64_t cell : cells) w.Put(cell);
   return w.Take();
 }
 
@@ -179,6 +196,22 @@ absl::StatusOr<std::unique_ptr<MappingBackend>> MappingBackend::Deserialize(
     } else {
       n.odometry = n.local;  // older graphs: the EKF's steps were the odometry
     }
+    if (version >= 6) {
+      std::uint8_t pruned = 0;
+      if (!r.Get(&pruned) || pruned > 1 || !r.Get(&n.anchor) || !r.Get(&n.after) ||
+          !GetPose(r, &n.from_anchor) || !GetPose(r, &n.from_after) || !r.Get(&n.weight) ||
+          !(n.weight >= 0.0 && n.weight <= 1.0) || !GetVariance(r, &n.chain_sigma)) {
+        return corrupt("node pruning");
+      }
+      n.pruned = pruned == 1;
+      const int index = static_cast<int>(&n - b.nodes_.data());
+      // A pruned node's ends are kept nodes before and after it; a kept node has none.
+      if (n.pruned ? (n.anchor < 0 || n.anchor >= index || n.after <= index ||
+                      n.after >= static_cast<int>(count) || points != 0)
+                   : (n.anchor != -1 || n.after != -1)) {
+        return corrupt("node pruning");
+      }
+    }
   }
   const int nodes = static_cast<int>(count);
   if (!r.Get(&count) || count > b.nodes_.size() || count > r.remaining() / kSubmap) {
@@ -198,6 +231,19 @@ absl::StatusOr<std::unique_ptr<MappingBackend>> MappingBackend::Deserialize(
     s.frozen.resize(frozen);
     for (Pose2& p : s.frozen) {
       if (!GetPose(r, &p)) return corrupt("submap pose");
+    }
+    if (version >= 6) {
+      std::uint8_t flags = 0;
+      if (!r.Get(&flags) || flags > 3 || flags == 2) return corrupt("submap pruning");
+      s.decided = (flags & 1) != 0;
+      s.pruned = (flags & 2) != 0;
+      if (s.pruned) {
+        for (int j = s.first; j < s.first + s.count; ++j) {
+          if (!b.nodes_[j].pruned) return corrupt("submap pruning");
+        }
+        ++b.stats_.submaps_pruned;
+        b.stats_.nodes_pruned += s.count;
+      }
     }
   }
   if (!r.Get(&count) || count > 100000000 || count > r.remaining() / kConstraint) {
@@ -263,11 +309,32 @@ absl::StatusOr<std::unique_ptr<MappingBackend>> MappingBackend::Deserialize(
       }
     }
   }
-    if (!r.done()) return corrupt("trailing bytes");
-  // The chain's uncertainty of the processed nodes, from their chain constraints.
+  if (version >= 6) {
+    std::uint32_t cells = 0;
+    if (!r.Get(&cells) || cells > r.remaining() / sizeof(std::int64_t)) {
+      return corrupt("coverage");
+    }
+    b.coverage_.reserve(cells);
+    for (std::uint32_t i = 0; i < cells; ++i) {
+      std::int64_t cell = 0;
+      if (!r.Get(&cell) || !b.coverage_.insert(cell).second) return corrupt("coverage");
+    }
+  }
+  for (const Node& n : b.nodes_) {
+    if (n.pruned && (b.nodes_[n.anchor].pruned || b.nodes_[n.after].pruned)) {
+      return corrupt("node pruning");
+    }
+  }
+  if (!r.done()) return corrupt("trailing bytes");
+  // The chain's uncertainty of the processed nodes: their steps' sigmas (version 6), or from
+  // their chain constraints (older checkpoints, which pruned nothing).
   std::vector<Eigen::Vector3d> chain_sigma(nodes, Eigen::Vector3d::Zero());
-  for (const GraphConstraint& c : b.constraints_) {
-    if (c.kind == GraphConstraint::Kind::kChain && c.to > 0) chain_sigma[c.to] = c.sigma;
+  if (version >= 6) {
+    for (int i = 0; i < nodes; ++i) chain_sigma[i] = b.nodes_[i].chain_sigma;
+  } else {
+    for (const GraphConstraint& c : b.constraints_) {
+      if (c.kind == GraphConstraint::Kind::kChain && c.to > 0) chain_sigma[c.to] = c.sigma;
+    }
   }
   for (int index = 0; index <= processed; ++index) {
     b.AppendChainUncertaintyLocked(index, chain_sigma[index]);

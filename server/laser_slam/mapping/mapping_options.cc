@@ -55,6 +55,18 @@ absl::Status ValidateMappingOptions(const MappingOptions& o) {
   if (o.local_window_min_xy > o.max_window_xy) {
     return absl::InvalidArgumentError("mapping.local_window_min_xy must not exceed mapping.max_window_xy");
   }
+  if (o.prune_after_submaps < 1 || o.prune_after_submaps > 1000) {
+    return absl::InvalidArgumentError(absl::StrCat(
+        "mapping.prune_after_submaps must be in [1, 1000], got ", o.prune_after_submaps));
+  }
+  if (!(o.prune_max_new_fraction >= 0.0 && o.prune_max_new_fraction <= 1.0)) {
+    return absl::InvalidArgumentError(absl::StrCat(
+        "mapping.prune_max_new_fraction must be in [0, 1], got ", o.prune_max_new_fraction));
+  }
+  if (!(o.prune_cell >= 0.01 && o.prune_cell <= 10.0)) {
+    return absl::InvalidArgumentError(
+        absl::StrCat("mapping.prune_cell must be in [0.01, 10] m, got ", o.prune_cell));
+  }
   if (o.submap_nodes < 2 || o.submap_nodes > 1000) {
     return absl::InvalidArgumentError(
         absl::StrCat("mapping.submap_nodes must be in [2, 1000], got ", o.submap_nodes));

@@ -167,7 +167,9 @@ void LaserSessionEngine::AppendTrajectory(v1::Trajectory* out) const {
 absl::Status LaserSessionEngine::FillMap(v1::SegmentMap* map) const {
   for (const ls::MapSegment& segment : slam_->Map()) *map->add_segments() = ToProtoSegment(segment);
   if (const ls::MappingBackend* backend = slam_->backend()) {
-    map->set_graph_nodes(static_cast<uint32_t>(backend->Stats().nodes));
+    const ls::MappingStats stats = backend->Stats();
+    map->set_graph_nodes(static_cast<uint32_t>(stats.nodes));
+    map->set_pruned_nodes(static_cast<uint32_t>(stats.nodes_pruned));
     map->set_loop_closures(static_cast<uint32_t>(backend->loop_closures()));
   }
   return absl::OkStatus();
