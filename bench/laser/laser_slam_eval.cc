@@ -293,15 +293,6 @@ double PeakRssMb() {
   return usage.ru_maxrss / 1024.0;  // Linux: KiB
 }
 
-double CurrentRssMb() {
-  std::ifstream status("/proc/self/status");
-  std::string line;
-  while (std::getline(status, line)) {
-    if (line.rfind("VmRSS:", 0) == 0) return std::stod(line.substr(6)) / 1024.0;
-  }
-  return 0;
-}
-
 struct LogLasers {
   std::vector<CarmenLaser> lasers;  // stamp order, no repeated stamp
   int64_t duplicate_stamps = 0;
@@ -480,7 +471,7 @@ int Run(const Args& args) {
   if (args.max_scans > 0 && static_cast<size_t>(args.max_scans) < log.lasers.size()) {
     log.lasers.resize(args.max_scans);
   }
-  const double rss_after_load_mb = CurrentRssMb();
+  const double rss_after_load_mb = waymark::bench::ResidentMb();
 
   ls::SlamOptions options = args.options;
   const cli::Pose2 mount = cli::LaserMount(log.lasers.front());

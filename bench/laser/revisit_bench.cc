@@ -10,10 +10,10 @@
 #include <algorithm>
 #include <cstdio>
 #include <cstring>
-#include <fstream>
 #include <string>
 #include <vector>
 
+#include "bench/common/bench_timing.h"
 #include "server/laser_slam/geometry.h"
 #include "server/laser_slam/mapping/mapping_backend.h"
 #include "tests/laser_slam/synthetic_scan.h"
@@ -21,21 +21,6 @@
 namespace ls = waymark::laser_slam;
 
 namespace {
-
-double ResidentMb() {
-  std::ifstream status("/proc/self/status");
-  std::string line;
-  while (std::getline(status, line)) {
-    if (line.rfind("VmRSS:", 0) == 0) return std::stod(line.substr(6)) / 1024.0;
-  }
-  return 0.0;
-}
-
-double Median(std::vector<double> v) {
-  if (v.empty()) return 0.0;
-  std::nth_element(v.begin(), v.begin() + v.size() / 2, v.end());
-  return v[v.size() / 2];
-}
 
 void Drive(bool prune, int laps, bool json) {
   ls::MappingOptions options;
@@ -66,10 +51,10 @@ void Drive(bool prune, int laps, bool json) {
       std::printf("{\"pruning\": %s, \"lap\": %d, \"nodes\": %d, \"graph_nodes\": %d, "
                   "\"constraints\": %zu, \"optimize_ms_p50\": %.2f, \"rss_mb\": %.1f}\n",
                   prune ? "true" : "false", l, stats.nodes, stats.graph_nodes, constraints,
-                  Median(lap_ms), ResidentMb());
+                  waymark::bench::Percentile(lap_ms, 0.5), waymark::bench::ResidentMb());
     } else {
       std::printf("| %s | %d | %d | %d | %zu | %.2f | %.1f |\n", prune ? "on" : "off", l,
-                  stats.nodes, stats.graph_nodes, constraints, Median(lap_ms), ResidentMb());
+                  stats.nodes, stats.graph_nodes, constraints, waymark::bench::Percentile(lap_ms, 0.5), waymark::bench::ResidentMb());
     }
     std::fflush(stdout);
   }
