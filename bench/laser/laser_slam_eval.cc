@@ -190,7 +190,7 @@ bool SetMappingOption(const std::string& assignment, ls::MappingOptions* m) {
       {"global_search_every_nodes", &m->global_search_every_nodes},
       {"coarse_search_factor", &m->coarse_search_factor},
       {"confirm_within_nodes", &m->confirm_within_nodes},
-      {"prune_after_submaps", &m->prune_after_submaps}};
+      {"prune_after_submaps", &m->prune_after_submaps}, {"prune_min_ties", &m->prune_min_ties}};
   if (auto it = doubles.find(name); it != doubles.end()) {
     *it->second = value;
     return true;

@@ -153,6 +153,24 @@ TEST(PruningTest, ACheckpointOfAPrunedGraphGoesOnAsTheUninterruptedOne) {
             absl::StatusCode::kDataLoss);
 }
 
+TEST(PruningTest, ItsOptionsAreCheckedWithTheirNames) {
+  EXPECT_TRUE(ValidateMappingOptions(MappingOptions()).ok());
+  const auto refused = [](auto change) {
+    MappingOptions o;
+    change(o);
+    return ValidateMappingOptions(o);
+  };
+  absl::Status s = refused([](MappingOptions& o) { o.prune_after_submaps = 0; });
+  EXPECT_EQ(s.code(), absl::StatusCode::kInvalidArgument);
+  EXPECT_NE(s.message().find("prune_after_submaps"), absl::string_view::npos);
+  s = refused([](MappingOptions& o) { o.prune_max_new_fraction = 1.5; });
+  EXPECT_NE(s.message().find("prune_max_new_fraction"), absl::string_view::npos);
+  s = refused([](MappingOptions& o) { o.prune_cell = 0.0; });
+  EXPECT_NE(s.message().find("prune_cell"), absl::string_view::npos);
+  s = refused([](MappingOptions& o) { o.prune_min_ties = 0; });
+  EXPECT_NE(s.message().find("prune_min_ties"), absl::string_view::npos);
+}
+
 // The same graph whether the back end has its own thread or runs inline (a replay gives the same
 // map at any speed). Not the same bytes: the thread's stream appends later nodes' chain
 // constraints before this node's loop constraints, so the list's order differs.

@@ -50,7 +50,7 @@ void MappingBackend::DecidePruningLocked(int index) {
     const int first = submap.first, last = submap.first + submap.count - 1;
     // Tied to the kept map: an enabled loop constraint from an older kept submap to one of its
     // nodes. Without one, its overlap with the map may be the graph's error, not the place.
-    bool tied = false;
+    std::vector<int> ties;  // the nodes tied, each once
     for (const GraphConstraint& c : constraints_) {
       if (c.kind != GraphConstraint::Kind::kLoop || !c.enabled || c.to < first || c.to > last ||
           c.from >= first) {
@@ -58,8 +58,10 @@ void MappingBackend::DecidePruningLocked(int index) {
       }
       const auto older = std::upper_bound(submaps_.begin(), submaps_.begin() + s, c.from,
                                           [](int node, const Submap& m) { return node < m.first; });
-      tied = tied || (older != submaps_.begin() && !std::prev(older)->pruned);
+      if (older != submaps_.begin() && !std::prev(older)->pruned) ties.push_back(c.to);
     }
+    std::sort(ties.begin(), ties.end());
+    const bool tied = std::unique(ties.begin(), ties.end()) - ties.begin() >= options_.prune_min_ties;
     size_t points = 0, fresh = 0;
     std::vector<Eigen::Vector2i> cells;
     for (int j = first; j <= last; ++j) {

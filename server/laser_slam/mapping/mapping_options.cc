@@ -59,6 +59,10 @@ absl::Status ValidateMappingOptions(const MappingOptions& o) {
     return absl::InvalidArgumentError(absl::StrCat(
         "mapping.prune_after_submaps must be in [1, 1000], got ", o.prune_after_submaps));
   }
+  if (o.prune_min_ties < 1 || o.prune_min_ties > 1000) {
+    return absl::InvalidArgumentError(
+        absl::StrCat("mapping.prune_min_ties must be in [1, 1000], got ", o.prune_min_ties));
+  }
   if (!(o.prune_max_new_fraction >= 0.0 && o.prune_max_new_fraction <= 1.0)) {
     return absl::InvalidArgumentError(absl::StrCat(
         "mapping.prune_max_new_fraction must be in [0, 1], got ", o.prune_max_new_fraction));
