@@ -146,6 +146,23 @@ TEST_F(LaserMapsTest, ThePapersMethodAloneKeepsNoScansAndSaysSo) {
       << localize.status();
 }
 
+// Pruning (lifelong mapping) is on unless a session turns it off, and the session says which.
+TEST_F(LaserMapsTest, PruningIsOnByDefaultAndASessionMayTurnItOff) {
+  auto registry = MakeRegistry();
+  v1::CreateSessionRequest request = TestSessionRequest("r1");
+  request.mutable_laser()->mutable_params()->set_prune_redundant_submaps(false);
+  ASSERT_OK_AND_ASSIGN(v1::Session session, registry->CreateSession(request));
+  EXPECT_FALSE(session.laser().params().prune_redundant_submaps());
+  ASSERT_OK_AND_ASSIGN(v1::Session defaults, registry->CreateSession(TestSessionRequest("r2")));
+  ASSERT_TRUE(defaults.laser().params().has_prune_redundant_submaps());
+  EXPECT_TRUE(defaults.laser().params().prune_redundant_submaps());
+  DriveAcross(*registry, session.session_id());
+  ASSERT_OK(registry->CloseSession(session.session_id()).status());
+  ASSERT_OK_AND_ASSIGN(v1::SegmentMap map, registry->GetMap(session.session_id()));
+  EXPECT_GT(map.graph_nodes(), 5u);
+  EXPECT_EQ(map.pruned_nodes(), 0u);
+}
+
 TEST_F(LaserMapsTest, ARobotLocalizesOnAClosedMapFromAKnownStart) {
   auto registry = MakeRegistry();
   const std::string map = MappedRoom(*registry);

@@ -126,6 +126,9 @@ absl::StatusOr<LaserSessionOptions> ToLaserSessionOptions(const v1::LaserSlamCon
     return s;
   }
   if (p.has_loop_closure()) options.slam.mapping.enabled = p.loop_closure();
+  if (p.has_prune_redundant_submaps()) {
+    options.slam.mapping.prune_redundant_submaps = p.prune_redundant_submaps();
+  }
   // The server never lets a search or an optimisation hold up a robot's stream.
   options.slam.mapping.threads = 1;
   if (config.has_localize()) {
@@ -185,6 +188,7 @@ absl::StatusOr<v1::LaserSlamConfig> EffectiveLaserConfig(const v1::LaserSlamConf
   p->set_min_travel(o.ekf.min_travel);
   p->set_min_turn(o.ekf.min_turn);
   p->set_loop_closure(o.mapping.enabled);
+  p->set_prune_redundant_submaps(o.mapping.prune_redundant_submaps);
   if (options->localize) {
     v1::LocalizationConfig* l = effective.mutable_localize();
     l->set_initial_sigma_xy(options->localize->initial_sigma_xy);
