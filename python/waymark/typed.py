@@ -256,6 +256,7 @@ class SegmentMap:
     map_revision: int
     segments: int
     graph_nodes: int
+    pruned_nodes: int  # of graph_nodes, pruned: their submaps added nothing the map held
     loop_closures: int
     consistent: typing.Optional[bool]  # the map's self-check; None when not checked
     raw: typing.Any = dataclasses.field(repr=False)
@@ -264,7 +265,7 @@ class SegmentMap:
     def of(cls, m):
         consistent = m.self_check.consistent if m.HasField("self_check") else None
         return cls(m.session_id, m.map_revision, len(m.segments), m.graph_nodes,
-                   m.loop_closures, consistent, m)
+                   m.pruned_nodes, m.loop_closures, consistent, m)
 
 
 @dataclasses.dataclass

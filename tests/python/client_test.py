@@ -277,6 +277,7 @@ class SlamTest(ServerCase):
         self.assertEqual(listed[session.session_id].scans_processed, len(self.lines))
         segment_map = self.client.get_map(session.session_id)
         self.assertGreater(segment_map.segments, 0)
+        self.assertLessEqual(segment_map.pruned_nodes, segment_map.graph_nodes)
         grid = self.client.get_grid(session.session_id, resolution=0.1)
         self.assertEqual(len(grid.cells), grid.width * grid.height)
         unknown, free, occupied = grid.counts()
