@@ -128,12 +128,22 @@ TEST(PruningTest, DrivingTheSameLoopAgainStopsGrowingTheGraphAndKeepsThePoses) {
   EXPECT_EQ(empty, pruned.stats.nodes_pruned);
 }
 
-TEST(PruningTest, ACheckpointOfAPrunedGraphGoesOnAsTheUninterruptedOne) {
-  const MappingOptions options = Pruning(true);
-  MappingBackend backend(options);
-  std::uint64_t scan = 0;
-  Pose2 own;
-  DriveLaps(backend, 0, 3, &scan, &own, nullptr);
+// A back end with pruning that drove three laps (some submaps pruned).
+class PrunedGraphTest : public ::testing::Test {
+ protected:
+  PrunedGraphTest() : backend_(options_) { DriveLaps(backend_, 0, 3, &scan_, &own_, nullptr); }
+
+  const MappingOptions options_ = Pruning(true);
+  MappingBackend backend_;
+  std::uint64_t scan_ = 0;
+  Pose2 own_;
+};
+
+TEST_F(PrunedGraphTest, ACheckpointGoesOnAsTheUninterruptedGraph) {
+  const MappingOptions& options = options_;
+  MappingBackend& backend = backend_;
+  std::uint64_t scan = scan_;
+  Pose2 own = own_;
   ASSERT_GT(backend.Stats().submaps_pruned, 0);
   const std::string bytes = backend.Serialize();
   absl::StatusOr<std::unique_ptr<MappingBackend>> restored =
@@ -157,12 +167,11 @@ TEST(PruningTest, ACheckpointOfAPrunedGraphGoesOnAsTheUninterruptedOne) {
 // A checkpoint comes back from storage: a pruned graph's new fields (anchors, flags, coverage)
 // damaged anywhere are refused or give a graph that works, never a crash. 600 bytes flipped one at
 // a time, spread over the whole checkpoint.
-TEST(PruningTest, ADamagedPrunedCheckpointIsRefusedOrWorks) {
-  const MappingOptions options = Pruning(true);
-  MappingBackend backend(options);
-  std::uint64_t scan = 0;
-  Pose2 own;
-  DriveLaps(backend, 0, 3, &scan, &own, nullptr);
+TEST_F(PrunedGraphTest, ADamagedCheckpointIsRefusedOrWorks) {
+  const MappingOptions& options = options_;
+  MappingBackend& backend = backend_;
+  const std::uint64_t scan = scan_;
+  const Pose2 own = own_;
   backend.Flush();
   ASSERT_GT(backend.Stats().submaps_pruned, 0);
   const std::string bytes = backend.Serialize();
