@@ -14,7 +14,6 @@
 #include <vector>
 
 #include "bench/common/bench_timing.h"
-#include "server/laser_slam/geometry.h"
 #include "server/laser_slam/mapping/mapping_backend.h"
 #include "tests/laser_slam/synthetic_scan.h"
 
@@ -27,17 +26,13 @@ void Drive(bool prune, int laps, bool json) {
   options.prune_redundant_submaps = prune;
   ls::MappingBackend backend(options);
   const std::vector<ls::testing::Wall> walls = ls::testing::PillarOffice();
-  const std::vector<ls::Pose2> lap = ls::testing::PolylinePath(
-      {{3.0, 5.0}, {15.5, 5.0}, {15.5, 7.5}, {3.0, 7.5}, {3.0, 5.0}}, 0.25);
+  const std::vector<ls::Pose2> lap = ls::testing::PillarOfficeLap();
   ls::Pose2 own, previous = lap.front();
   std::uint64_t scan = 0;
   size_t optimisations = 0;
   for (int l = 1; l <= laps; ++l) {
     for (const ls::Pose2& truth : lap) {
-      if (scan > 0) {
-        const ls::Pose2 step = ls::Relative(previous, truth);
-        own = ls::Compose(own, ls::Pose2{step.x * 1.01, step.y * 1.01, step.theta + 0.002});
-      }
+      if (scan > 0) own = ls::testing::DriftingStep(own, previous, truth);
       previous = truth;
       ++scan;
       backend.AddScan(scan, static_cast<double>(scan), own, ls::testing::ScanPoints(walls, truth));
@@ -47,14 +42,16 @@ void Drive(bool prune, int laps, bool json) {
     const std::vector<double> lap_ms(stats.optimize_ms.begin() + optimisations, stats.optimize_ms.end());
     optimisations = stats.optimize_ms.size();
     const size_t constraints = backend.Constraints().size();
+    const double optimize_ms = waymark::bench::Percentile(lap_ms, 0.5);
+    const double rss_mb = waymark::bench::ResidentMb();
     if (json) {
       std::printf("{\"pruning\": %s, \"lap\": %d, \"nodes\": %d, \"graph_nodes\": %d, "
                   "\"constraints\": %zu, \"optimize_ms_p50\": %.2f, \"rss_mb\": %.1f}\n",
                   prune ? "true" : "false", l, stats.nodes, stats.graph_nodes, constraints,
-                  waymark::bench::Percentile(lap_ms, 0.5), waymark::bench::ResidentMb());
+                  optimize_ms, rss_mb);
     } else {
       std::printf("| %s | %d | %d | %d | %zu | %.2f | %.1f |\n", prune ? "on" : "off", l,
-                  stats.nodes, stats.graph_nodes, constraints, waymark::bench::Percentile(lap_ms, 0.5), waymark::bench::ResidentMb());
+                  stats.nodes, stats.graph_nodes, constraints, optimize_ms, rss_mb);
     }
     std::fflush(stdout);
   }

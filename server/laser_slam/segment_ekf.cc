@@ -270,9 +270,10 @@ void SegmentEkf::TransformColumns(const std::vector<Transform>& transforms) {
 
 void SegmentEkf::ApplyTransforms(const std::vector<Transform>& transforms) {
   if (transforms.empty()) return;
-  // C' = Q C Q^T for a block-diagonal Q, as two passes over contiguous columns: C1 = C Q^T, and
-  // because C' is symmetric, C' = (Q C1)^T = C1^T Q^T. Row-wise updates of a column-major matrix
-  // would touch one cache line per element.
+  // C' = Q C Q^T for a block-diagonal Q, as two passes over contiguous columns: C1 = C Q^T, then
+  // the upper triangle of Q C1 column by column (a transform's rows within each column), and the
+  // lower triangle as its mirror. Row-wise updates of a column-major matrix would touch one cache
+  // line per element.
   TransformColumns(transforms);
   TransformRowsOfUpper(transforms);
   MirrorTriangle(state_.cov(), /*from_lower=*/false);
@@ -290,6 +291,7 @@ void SegmentEkf::TransformRowsOfUpper(const std::vector<Transform>& transforms) 
     for (const Transform& t : transforms) {
       const int k = t.size;
       // Rows above the diagonal only (row <= j); a transform's rows straddling it are all done.
+      // A transform's dofs ascend (the robot's 0, 1, 2; a segment's two consecutive ones).
       if (t.dofs[0] > j) continue;
       double x[3];
       for (int m = 0; m < k; ++m) x[m] = col[t.dofs[m]];

@@ -22,15 +22,12 @@ namespace waymark::laser_slam {
 namespace {
 
 using testing::PillarOffice;
-using testing::PolylinePath;
 using testing::Wall;
 
 constexpr int kLaps = 5;
 
 // One lap around the pillars of the hall, back to its start: 30 m, a pose every 0.25 m.
-std::vector<Pose2> Lap() {
-  return PolylinePath({{3.0, 5.0}, {15.5, 5.0}, {15.5, 7.5}, {3.0, 7.5}, {3.0, 5.0}}, 0.25);
-}
+std::vector<Pose2> Lap() { return testing::PillarOfficeLap(); }
 
 struct Drive {
   std::vector<int> graph_nodes;  // after each lap
@@ -51,10 +48,7 @@ void DriveLaps(MappingBackend& backend, int from, int to, std::uint64_t* scan, P
   for (int l = from; l < to; ++l) {
     for (size_t i = 0; i < lap.size(); ++i) {
       const Pose2& truth = lap[i];
-      if (*scan > 0) {
-        const Pose2 step = Relative(previous, truth);
-        *own = Compose(*own, Pose2{step.x * 1.01, step.y * 1.01, step.theta + 0.002});
-      }
+      if (*scan > 0) *own = testing::DriftingStep(*own, previous, truth);
       previous = truth;
       ++*scan;
       backend.AddScan(*scan, static_cast<double>(*scan), *own,

@@ -3,6 +3,7 @@
 #include <cmath>
 #include <limits>
 
+#include "server/laser_slam/geometry.h"
 #include "server/laser_slam/mapping/point_cloud.h"
 
 namespace waymark::laser_slam::testing {
@@ -115,6 +116,15 @@ std::vector<Pose2> PolylinePath(const std::vector<Eigen::Vector2d>& corners, dou
     }
   }
   return path;
+}
+
+std::vector<Pose2> PillarOfficeLap() {
+  return PolylinePath({{3.0, 5.0}, {15.5, 5.0}, {15.5, 7.5}, {3.0, 7.5}, {3.0, 5.0}}, 0.25);
+}
+
+Pose2 DriftingStep(const Pose2& own, const Pose2& from, const Pose2& to) {
+  const Pose2 step = Relative(from, to);
+  return Compose(own, Pose2{step.x * 1.01, step.y * 1.01, step.theta + 0.002});
 }
 
 }  // namespace waymark::laser_slam::testing

@@ -63,6 +63,14 @@ std::vector<Wall> PillarOffice();
 // True poses every `step` metres along the polyline, heading along each leg.
 std::vector<Pose2> PolylinePath(const std::vector<Eigen::Vector2d>& corners, double step);
 
+// One lap around the pillars of PillarOffice(), back to its start: 30 m, a pose every 0.25 m
+// (the lifelong tests and waymark-laser-revisit drive it again and again).
+std::vector<Pose2> PillarOfficeLap();
+
+// `own` moved by the true step from `from` to `to` as a drifting odometry counts it: 1 % long and
+// turning 0.002 rad to the left per step.
+Pose2 DriftingStep(const Pose2& own, const Pose2& from, const Pose2& to);
+
 }  // namespace waymark::laser_slam::testing
 
 #endif  // WAYMARK_TESTS_LASER_SLAM_SYNTHETIC_SCAN_H_

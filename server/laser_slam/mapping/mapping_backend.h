@@ -216,8 +216,11 @@ class MappingBackend {
   // Takes the submap's nodes out of the graph (see MappingOptions::prune_redundant_submaps).
   // Caller holds mu_ and search_mu_.
   void PruneSubmapLocked(int submap);
-  // The prune_cell cells of the points of a node at its global pose.
-  std::vector<Eigen::Vector2i> CoverageCells(const Node& node) const;
+  // Appends the prune_cell cells of the node's points at its global pose.
+  void AppendCoverageCells(const Node& node, std::vector<Eigen::Vector2i>* cells) const;
+  // Whether at least prune_min_ties of the submap's nodes have an enabled loop constraint from an
+  // older kept submap. Caller holds mu_.
+  bool TiedToKeptMapLocked(int submap) const;
   // The submap's points in its first node's frame, as a search pyramid (cached).
   // `coarsening` 1: the search grid; coarse_search_factor: the coarse one of global searches.
   // Caller holds search_mu_ (the cache is the searches').

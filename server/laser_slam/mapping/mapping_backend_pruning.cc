@@ -27,60 +27,59 @@ const std::shared_ptr<const PointCloud>& NoPoints() {
 
 }  // namespace
 
-std::vector<Eigen::Vector2i> MappingBackend::CoverageCells(const Node& node) const {
-  std::vector<Eigen::Vector2i> cells;
-  cells.reserve(node.points->size());
+void MappingBackend::AppendCoverageCells(const Node& node, std::vector<Eigen::Vector2i>* cells) const {
   const double c = std::cos(node.global.theta), s = std::sin(node.global.theta);
   for (const Eigen::Vector2f& p : *node.points) {
     const double x = node.global.x + c * p.x() - s * p.y();
     const double y = node.global.y + s * p.x() + c * p.y();
-    cells.emplace_back(static_cast<int>(std::floor(x / options_.prune_cell)),
-                       static_cast<int>(std::floor(y / options_.prune_cell)));
+    cells->emplace_back(static_cast<int>(std::floor(x / options_.prune_cell)),
+                        static_cast<int>(std::floor(y / options_.prune_cell)));
   }
-  return cells;
+}
+
+bool MappingBackend::TiedToKeptMapLocked(int s) const {
+  const int first = submaps_[s].first, last = first + submaps_[s].count - 1;
+  std::vector<int> ties;  // the nodes tied, each once
+  for (const GraphConstraint& c : constraints_) {
+    if (c.kind != GraphConstraint::Kind::kLoop || !c.enabled || c.to < first || c.to > last ||
+        c.from >= first) {
+      continue;
+    }
+    const auto older = std::upper_bound(submaps_.begin(), submaps_.begin() + s, c.from,
+                                        [](int node, const Submap& m) { return node < m.first; });
+    if (older != submaps_.begin() && !std::prev(older)->pruned) ties.push_back(c.to);
+  }
+  std::sort(ties.begin(), ties.end());
+  return std::unique(ties.begin(), ties.end()) - ties.begin() >= options_.prune_min_ties;
 }
 
 void MappingBackend::DecidePruningLocked(int index) {
+  // A cell is held when it or one of its 8 neighbours holds a kept submap's point.
+  const auto held = [&](const Eigen::Vector2i& cell) {
+    for (int dx = -1; dx <= 1; ++dx) {
+      for (int dy = -1; dy <= 1; ++dy) {
+        if (coverage_.count(CellKey(cell.x() + dx, cell.y() + dy)) > 0) return true;
+      }
+    }
+    return false;
+  };
   for (int s = 0; s + options_.prune_after_submaps < static_cast<int>(submaps_.size()); ++s) {
     Submap& submap = submaps_[s];
     if (submap.decided) continue;
     const Submap& newer = submaps_[s + options_.prune_after_submaps];
     if (!newer.complete || newer.first + newer.count - 1 > index) return;
     submap.decided = true;
-    const int first = submap.first, last = submap.first + submap.count - 1;
-    // Tied to the kept map: an enabled loop constraint from an older kept submap to one of its
-    // nodes. Without one, its overlap with the map may be the graph's error, not the place.
-    std::vector<int> ties;  // the nodes tied, each once
-    for (const GraphConstraint& c : constraints_) {
-      if (c.kind != GraphConstraint::Kind::kLoop || !c.enabled || c.to < first || c.to > last ||
-          c.from >= first) {
-        continue;
-      }
-      const auto older = std::upper_bound(submaps_.begin(), submaps_.begin() + s, c.from,
-                                          [](int node, const Submap& m) { return node < m.first; });
-      if (older != submaps_.begin() && !std::prev(older)->pruned) ties.push_back(c.to);
-    }
-    std::sort(ties.begin(), ties.end());
-    const bool tied = std::unique(ties.begin(), ties.end()) - ties.begin() >= options_.prune_min_ties;
-    size_t points = 0, fresh = 0;
     std::vector<Eigen::Vector2i> cells;
-    for (int j = first; j <= last; ++j) {
-      const std::vector<Eigen::Vector2i> node_cells = CoverageCells(nodes_[j]);
-      cells.insert(cells.end(), node_cells.begin(), node_cells.end());
+    for (int j = submap.first; j < submap.first + submap.count; ++j) {
+      AppendCoverageCells(nodes_[j], &cells);
     }
-    if (s > 0 && tied) {
-      for (const Eigen::Vector2i& cell : cells) {
-        bool covered = false;
-        for (int dx = -1; dx <= 1 && !covered; ++dx) {
-          for (int dy = -1; dy <= 1 && !covered; ++dy) {
-            covered = coverage_.count(CellKey(cell.x() + dx, cell.y() + dy)) > 0;
-          }
-        }
-        ++points;
-        fresh += covered ? 0 : 1;
-      }
+    // Tied to the kept map by a closure: without one, its overlap with the map may be the
+    // graph's error, not the place. The first submap holds the map's frame and stays.
+    if (s > 0 && TiedToKeptMapLocked(s)) {
+      const auto fresh = std::count_if(cells.begin(), cells.end(),
+                                       [&](const Eigen::Vector2i& cell) { return !held(cell); });
       if (static_cast<double>(fresh) <=
-          options_.prune_max_new_fraction * static_cast<double>(points)) {
+          options_.prune_max_new_fraction * static_cast<double>(cells.size())) {
         PruneSubmapLocked(s);
         continue;
       }
@@ -148,10 +147,10 @@ void MappingBackend::PruneSubmapLocked(int s) {
   const auto nearest_kept = [&](int j) {
     return nodes_[j].travel - nodes_[kept].travel <= end_travel - nodes_[j].travel ? kept : after;
   };
-  const auto widen = [&](Eigen::Vector3d sigma, int a, int b) {
+  const auto widen = [&](const Eigen::Vector3d& own, int a, int b) {
     const ChainUncertainty::Sigma chain = chain_.Between(std::min(a, b), std::max(a, b));
-    return Eigen::Vector3d(std::hypot(sigma(0), chain.xy), std::hypot(sigma(1), chain.xy),
-                           std::hypot(sigma(2), chain.theta));
+    return Eigen::Vector3d(std::hypot(own(0), chain.xy), std::hypot(own(1), chain.xy),
+                           std::hypot(own(2), chain.theta));
   };
   std::vector<GraphConstraint> moved;
   for (const GraphConstraint& c : constraints_) {

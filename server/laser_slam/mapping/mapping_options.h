@@ -83,11 +83,11 @@ struct MappingOptions {
   // Lifelong mapping (issue 38): a complete submap that adds (almost) nothing the older kept
   // submaps do not already hold is pruned: its nodes' points are dropped, its nodes leave the
   // pose graph (the chain across them becomes one constraint, at their optimised relative pose and
-  // the chain's own uncertainty; their loop constraints go) and it is no longer searched. So a
-  // robot driving loops through a mapped floor keeps a graph, a memory and optimisation times
-  // that stop growing. A submap is decided once, when prune_after_submaps newer submaps are
-  // complete: pruned when it is tied to an older kept submap by an enabled loop constraint and
-  // fewer than prune_max_new_fraction of its points land more than one prune_cell away from
+  // the chain's own uncertainty) and it is no longer searched. So a robot driving loops through a
+  // mapped floor keeps a graph, a memory and optimisation times that stop growing. A submap is
+  // decided once, when prune_after_submaps newer submaps are complete: pruned when prune_min_ties
+  // of its nodes are tied to an older kept submap by an enabled loop constraint and fewer than
+  // prune_max_new_fraction of its points land more than one prune_cell away from
   // every point of the kept submaps (as they lay when they were decided). The pruned nodes' loop
   // constraints move to the kept node nearest along the chain, widened by the chain's uncertainty
   // between the two, and merge with one already there (prune_keep_closures; without it Intel's
