@@ -75,13 +75,15 @@ MapRecord ReadMapRow(const StoredRow& row, int64_t* id) {
   map.created_at = row.Double(2);
   map.updated_at = row.Double(3);
   map.revision = row.Int64(4);
+  // NULL (never leased, or given up) reads as nobody's.
+  map.lease = SlamLease{row.Text(5), row.Text(6), row.OptionalDouble(7).value_or(0.0)};
   return map;
 }
 
 std::string SelectMapTrajectories(absl::string_view where) {
   return absl::StrCat(
       "SELECT t.map_id, t.session_id, t.ordinal, t.joined_at, t.tie_x, t.tie_y, t.tie_theta, "
-      "s.robot_id, s.state, s.scans_processed "
+      "s.robot_id, s.state, s.scans_processed, t.follow "
       "FROM slam_map_trajectory t JOIN slam_session s ON s.id = t.session_id ",
       where, " ORDER BY t.map_id, t.ordinal");
 }
@@ -111,6 +113,7 @@ absl::StatusOr<MapTrajectoryRecord> ReadMapTrajectoryRow(const StoredRow& row, i
                                             " has an unknown state ", Quoted(state)));
   }
   trajectory.scans_processed = row.Int64(9);
+  trajectory.follow = row.Text(10);
   return trajectory;
 }
 

@@ -37,7 +37,9 @@ absl::Status MapSessionNotFound(absl::string_view session_id);
 absl::Status MapTrajectoryNotFound(absl::string_view map, absl::string_view session_id);
 
 // slam_map's columns (alias m) in the order ReadMapRow reads: id, then the record's fields.
-inline constexpr absl::string_view kMapColumns = "m.id, m.name, m.created_at, m.updated_at, m.revision";
+inline constexpr absl::string_view kMapColumns =
+    "m.id, m.name, m.created_at, m.updated_at, m.revision, m.lease_owner, m.lease_address, "
+    "m.lease_expires_at";
 // Sets `id` to the row's map id.
 MapRecord ReadMapRow(const StoredRow& row, int64_t* id);
 

@@ -3,8 +3,9 @@
 
 // Maps shared by robots (issue 38): a named map, its revision and its trajectories, each one SLAM
 // session's (slam_store.h) nodes, with where that session's own frame lies in the map frame once
-// the trajectory is tied in. Rows only: the map's own graph (the constraints between
-// trajectories) is the service's, stored with the merge in a later step.
+// the trajectory is tied in, and what the follow after the tie observed (opaque to the store).
+// With several servers on one database, one server at a time holds a map's lease: it ties,
+// follows and optimises the map's trajectories (the service's map_tie_worker.h).
 
 #include <cstdint>
 #include <memory>
@@ -30,6 +31,9 @@ struct MapTrajectoryRecord {
   int64_t ordinal = 0;   // the join order within the map: 1, 2, 3, ...
   double joined_at = 0;  // unix seconds
   std::optional<MapTie> tie;  // unset = not yet in the map
+  // The follow's origin samples after the tie, encoded by the service (map_follow_codec.h);
+  // empty: none (a tie not followed yet, or one found again, which starts a new follow).
+  std::string follow;
   // Read-only, from the session's row.
   std::string robot_id;
   SlamSessionState session_state = SlamSessionState::kOpen;
@@ -43,6 +47,10 @@ struct MapRecord {
   // Counts the changes of what the map holds: trajectories joining, tied in, leaving.
   int64_t revision = 0;
   std::vector<MapTrajectoryRecord> trajectories;  // in join order
+  // The server that ties and follows the map's trajectories (empty owner: none holds it). Taken
+  // and renewed as a session's lease is (SlamLease): by the database's clock, expiring unless
+  // renewed, so a dead owner's maps pass to another server.
+  SlamLease lease;
 };
 
 // Every mutating call is one transaction, and each returns the map as it stands after it.
@@ -64,11 +72,12 @@ class MapStore {
   // Session `session_id` joins the map as its next trajectory (revision + 1).
   virtual absl::StatusOr<MapRecord> AddTrajectory(const std::string& map,
                                                   const std::string& session_id) = 0;
-  // Ties the trajectory in at `tie` (or moves it there), revision + 1. NOT_FOUND when the session
-  // has no trajectory in this map.
+  // Ties the trajectory in at `tie` (or moves it there) and stores `follow` (MapTrajectoryRecord;
+  // empty for a new tie), revision + 1. NOT_FOUND when the session has no trajectory in this map.
   virtual absl::StatusOr<MapRecord> TieTrajectory(const std::string& map,
                                                   const std::string& session_id,
-                                                  const MapTie& tie) = 0;
+                                                  const MapTie& tie,
+                                                  const std::string& follow) = 0;
   // The session left the map (it was deleted: deleting a session removes its trajectory row with
   // it, so the row may be gone already): removes its row if there, revision + 1, and ties the
   // oldest remaining trajectory in at the origin when no tied-in one remains.
@@ -76,6 +85,16 @@ class MapStore {
                                                      const std::string& session_id) = 0;
   // Deletes the map and its trajectory rows (never the sessions). Returns it as it was.
   virtual absl::StatusOr<MapRecord> DeleteMap(const std::string& name) = 0;
+
+  // Takes or renews the map's lease for `owner` (reachable at `address`) for `ttl_seconds`: the
+  // lease as it now stands, `owner`'s, or another server's unexpired one (then nothing changed).
+  // The revision does not change: the lease says who works on the map, not what it holds.
+  virtual absl::StatusOr<SlamLease> AcquireMapLease(const std::string& map,
+                                                    const std::string& owner,
+                                                    const std::string& address,
+                                                    double ttl_seconds) = 0;
+  // Gives the lease up when `owner` holds it (a clean shutdown); OK otherwise.
+  virtual absl::Status ReleaseMapLease(const std::string& map, const std::string& owner) = 0;
 };
 
 // A SQLite file's map store (see OpenSqliteSlamStore; it may share the file).

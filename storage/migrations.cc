@@ -308,6 +308,17 @@ CREATE TABLE slam_map_trajectory (
 );
 )sql";
 
+// v16: a map's lease (which server of a fleet ties and follows its trajectories, as a session's
+// lease says which serves the session) and each trajectory's follow (the origin samples after its
+// tie, the service's encoding), so that the follow survives a restart and passes to the next
+// owner.
+constexpr absl::string_view kV16SlamMapLeaseAndFollow = R"sql(
+ALTER TABLE slam_map ADD COLUMN lease_owner TEXT;
+ALTER TABLE slam_map ADD COLUMN lease_address TEXT;
+ALTER TABLE slam_map ADD COLUMN lease_expires_at REAL;
+ALTER TABLE slam_map_trajectory ADD COLUMN follow BLOB;
+)sql";
+
 absl::Status TooNewError(sqlite::Connection& connection, int version, int latest) {
   return absl::FailedPreconditionError(absl::StrCat(
       "database \"", connection.path(), "\" has schema version ", version,
@@ -335,6 +346,7 @@ const std::vector<absl::string_view>& SchemaMigrations() {
       kV13ViewHeadingKnown,
       kV14ViewerTokens,
       kV15SlamMaps,
+      kV16SlamMapLeaseAndFollow,
   };
   return *kSteps;
 }

@@ -139,7 +139,11 @@ absl::StatusOr<SlamLease> LeaseAfterAcquire(const SlamSessionRecord& session,
                                             absl::string_view owner, absl::string_view address,
                                             double ttl_seconds, double now) {
   if (session.state == SlamSessionState::kClosed) return SlamSessionClosed(session.id);
-  const SlamLease& held = session.lease;
+  return LeaseAfter(session.lease, owner, address, ttl_seconds, now);
+}
+
+SlamLease LeaseAfter(const SlamLease& held, absl::string_view owner, absl::string_view address,
+                     double ttl_seconds, double now) {
   if (!held.owner.empty() && held.owner != owner && held.expires_at >= now) return held;
   return SlamLease{std::string(owner), std::string(address), now + ttl_seconds};
 }

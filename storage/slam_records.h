@@ -60,6 +60,9 @@ absl::Status CheckLeaseRequest(absl::string_view owner, double ttl_seconds);
 absl::StatusOr<SlamLease> LeaseAfterAcquire(const SlamSessionRecord& session,
                                             absl::string_view owner, absl::string_view address,
                                             double ttl_seconds, double now);
+// The same rule for any leased row (a session's, a map's: map_store.h) holding `held`.
+SlamLease LeaseAfter(const SlamLease& held, absl::string_view owner, absl::string_view address,
+                     double ttl_seconds, double now);
 
 // The SET list that gives a session's lease up (ReleaseLease, and CloseSession: a closed session
 // has no holder), in both backends' syntax.

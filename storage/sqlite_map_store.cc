@@ -16,6 +16,7 @@
 #include "storage/map_records.h"
 #include "storage/map_store.h"
 #include "storage/migrations.h"
+#include "storage/slam_records.h"
 #include "storage/sqlite.h"
 #include "storage/status_macros.h"
 #include "storage/store_util.h"
@@ -126,7 +127,7 @@ class SqliteMapStore final : public MapStore {
   }
 
   absl::StatusOr<MapRecord> TieTrajectory(const std::string& map, const std::string& session_id,
-                                          const MapTie& tie) override {
+                                          const MapTie& tie, const std::string& follow) override {
     RETURN_IF_ERROR(CheckMapName(map));
     RETURN_IF_ERROR(CheckMapTie(tie));
     std::lock_guard<std::mutex> lock(mutex_);
@@ -134,7 +135,7 @@ class SqliteMapStore final : public MapStore {
     int64_t id = 0;
     ASSIGN_OR_RETURN(MapRecord record, GetMapLocked(map, &id));
     (void)record;
-    RETURN_IF_ERROR(SetTieLocked(id, session_id, tie));
+    RETURN_IF_ERROR(SetTieLocked(id, session_id, tie, follow));
     if (connection_.Changes() == 0) return MapTrajectoryNotFound(map, session_id);
     ASSIGN_OR_RETURN(MapRecord changed, ChangedLocked(map, id));
     RETURN_IF_ERROR(txn.Commit());
@@ -174,6 +175,41 @@ class SqliteMapStore final : public MapStore {
     return record;
   }
 
+  absl::StatusOr<SlamLease> AcquireMapLease(const std::string& map, const std::string& owner,
+                                            const std::string& address,
+                                            double ttl_seconds) override {
+    RETURN_IF_ERROR(CheckMapName(map));
+    RETURN_IF_ERROR(CheckLeaseRequest(owner, ttl_seconds));
+    std::lock_guard<std::mutex> lock(mutex_);
+    // The write transaction holds the file's write lock from the read to the commit.
+    ASSIGN_OR_RETURN(Transaction txn, Transaction::Begin(connection_));
+    int64_t id = 0;
+    ASSIGN_OR_RETURN(MapRecord record, GetMapLocked(map, &id));
+    const SlamLease lease = LeaseAfter(record.lease, owner, address, ttl_seconds, NowSeconds());
+    if (lease.owner != owner) return lease;  // held by another: nothing to write
+    ASSIGN_OR_RETURN(Statement update,
+                     connection_.Prepare("UPDATE slam_map SET lease_owner = ?, lease_address = ?, "
+                                         "lease_expires_at = ? WHERE id = ?"));
+    RETURN_IF_ERROR(update.BindText(1, lease.owner));
+    RETURN_IF_ERROR(update.BindText(2, lease.address));
+    RETURN_IF_ERROR(update.BindDouble(3, lease.expires_at));
+    RETURN_IF_ERROR(update.BindInt64(4, id));
+    RETURN_IF_ERROR(update.Run());
+    RETURN_IF_ERROR(txn.Commit());
+    return lease;
+  }
+
+  absl::Status ReleaseMapLease(const std::string& map, const std::string& owner) override {
+    RETURN_IF_ERROR(CheckMapName(map));
+    std::lock_guard<std::mutex> lock(mutex_);
+    ASSIGN_OR_RETURN(Statement update,
+                     connection_.Prepare(absl::StrCat("UPDATE slam_map SET ", kClearSlamLease,
+                                                      " WHERE name = ? AND lease_owner = ?")));
+    RETURN_IF_ERROR(update.BindText(1, map));
+    RETURN_IF_ERROR(update.BindText(2, owner));
+    return update.Run();
+  }
+
  private:
   absl::StatusOr<MapRecord> GetMapLocked(const std::string& name, int64_t* id) {
     ASSIGN_OR_RETURN(Statement select,
@@ -197,15 +233,22 @@ class SqliteMapStore final : public MapStore {
     return map;
   }
 
-  absl::Status SetTieLocked(int64_t id, const std::string& session_id, const MapTie& tie) {
+  absl::Status SetTieLocked(int64_t id, const std::string& session_id, const MapTie& tie,
+                            const std::string& follow) {
     ASSIGN_OR_RETURN(Statement update,
                      connection_.Prepare("UPDATE slam_map_trajectory SET tie_x = ?, tie_y = ?, "
-                                         "tie_theta = ? WHERE map_id = ? AND session_id = ?"));
+                                         "tie_theta = ?, follow = ? "
+                                         "WHERE map_id = ? AND session_id = ?"));
     RETURN_IF_ERROR(update.BindDouble(1, tie.x));
     RETURN_IF_ERROR(update.BindDouble(2, tie.y));
     RETURN_IF_ERROR(update.BindDouble(3, tie.theta));
-    RETURN_IF_ERROR(update.BindInt64(4, id));
-    RETURN_IF_ERROR(update.BindText(5, session_id));
+    if (follow.empty()) {
+      RETURN_IF_ERROR(update.BindNull(4));
+    } else {
+      RETURN_IF_ERROR(update.BindBlob(4, follow.data(), follow.size()));
+    }
+    RETURN_IF_ERROR(update.BindInt64(5, id));
+    RETURN_IF_ERROR(update.BindText(6, session_id));
     return update.Run();
   }
 
@@ -214,7 +257,7 @@ class SqliteMapStore final : public MapStore {
   absl::StatusOr<MapRecord> ChangedLocked(const std::string& name, int64_t id) {
     ASSIGN_OR_RETURN(MapRecord map, GetMapLocked(name, &id));
     if (std::optional<std::string> anchor = TrajectoryToAnchor(map); anchor.has_value()) {
-      RETURN_IF_ERROR(SetTieLocked(id, *anchor, MapTie{}));
+      RETURN_IF_ERROR(SetTieLocked(id, *anchor, MapTie{}, ""));
     }
     ASSIGN_OR_RETURN(Statement bump,
                      connection_.Prepare("UPDATE slam_map SET revision = revision + 1, "

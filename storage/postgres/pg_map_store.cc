@@ -20,6 +20,7 @@
 #include "storage/map_store.h"
 #include "storage/postgres/pg.h"
 #include "storage/postgres/pg_stores.h"
+#include "storage/slam_records.h"
 #include "storage/status_macros.h"
 #include "storage/store_util.h"
 #include "storage/stored_row.h"
@@ -125,13 +126,13 @@ class PostgresMapStore final : public MapStore {
   }
 
   absl::StatusOr<MapRecord> TieTrajectory(const std::string& map, const std::string& session_id,
-                                          const MapTie& tie) override {
+                                          const MapTie& tie, const std::string& follow) override {
     RETURN_IF_ERROR(CheckMapName(map));
     RETURN_IF_ERROR(CheckMapTie(tie));
     return pool_->Transaction<MapRecord>([&](Connection& connection) -> absl::StatusOr<MapRecord> {
       int64_t id = 0;
       RETURN_IF_ERROR(ReadMap(connection, map, /*lock=*/true, &id).status());
-      ASSIGN_OR_RETURN(int64_t changed, SetTie(connection, id, session_id, tie));
+      ASSIGN_OR_RETURN(int64_t changed, SetTie(connection, id, session_id, tie, follow));
       if (changed == 0) return MapTrajectoryNotFound(map, session_id);
       return Changed(connection, map, id);
     });
@@ -164,6 +165,45 @@ class PostgresMapStore final : public MapStore {
     });
   }
 
+  absl::StatusOr<SlamLease> AcquireMapLease(const std::string& map, const std::string& owner,
+                                            const std::string& address,
+                                            double ttl_seconds) override {
+    RETURN_IF_ERROR(CheckMapName(map));
+    RETURN_IF_ERROR(CheckLeaseRequest(owner, ttl_seconds));
+    return pool_->Transaction<SlamLease>([&](Connection& connection) -> absl::StatusOr<SlamLease> {
+      // The map's row locked: two servers asking at once queue, the second sees the first's lease.
+      int64_t id = 0;
+      ASSIGN_OR_RETURN(MapRecord record, ReadMap(connection, map, /*lock=*/true, &id));
+      // The database's clock, read after the lock was granted (as a session's lease).
+      ASSIGN_OR_RETURN(Result clock,
+                       connection.Execute("SELECT extract(epoch FROM clock_timestamp())::float8"));
+      const SlamLease lease =
+          LeaseAfter(record.lease, owner, address, ttl_seconds, clock.Double(0, 0));
+      if (lease.owner != owner) return lease;  // held by another: nothing to write
+      RETURN_IF_ERROR(connection
+                          .Execute("UPDATE slam_map SET lease_owner = $1, lease_address = $2, "
+                                   "lease_expires_at = $3 WHERE id = $4",
+                                   Params()
+                                       .Text(lease.owner)
+                                       .Text(lease.address)
+                                       .Double(lease.expires_at)
+                                       .Int64(id))
+                          .status());
+      return lease;
+    });
+  }
+
+  absl::Status ReleaseMapLease(const std::string& map, const std::string& owner) override {
+    RETURN_IF_ERROR(CheckMapName(map));
+    return pool_->Transaction([&](Connection& connection) {
+      return connection
+          .Execute(absl::StrCat("UPDATE slam_map SET ", kClearSlamLease,
+                                " WHERE name = $1 AND lease_owner = $2"),
+                   Params().Text(map).Text(owner))
+          .status();
+    });
+  }
+
  private:
   // The map with its trajectories; `lock` locks its row for the rest of the transaction.
   static absl::StatusOr<MapRecord> ReadMap(Connection& connection, const std::string& name,
@@ -189,14 +229,17 @@ class PostgresMapStore final : public MapStore {
 
   // Rows changed: 0 when the session has no trajectory in the map.
   static absl::StatusOr<int64_t> SetTie(Connection& connection, int64_t id,
-                                        const std::string& session_id, const MapTie& tie) {
+                                        const std::string& session_id, const MapTie& tie,
+                                        const std::string& follow) {
     ASSIGN_OR_RETURN(Result result,
                      connection.Execute("UPDATE slam_map_trajectory SET tie_x = $1, tie_y = $2, "
-                                        "tie_theta = $3 WHERE map_id = $4 AND session_id = $5",
+                                        "tie_theta = $3, follow = $4 "
+                                        "WHERE map_id = $5 AND session_id = $6",
                                         Params()
                                             .Double(tie.x)
                                             .Double(tie.y)
                                             .Double(tie.theta)
+                                            .OptionalBytes(follow)
                                             .Int64(id)
                                             .Text(session_id)));
     return result.affected();
@@ -207,7 +250,7 @@ class PostgresMapStore final : public MapStore {
                                            int64_t id) {
     ASSIGN_OR_RETURN(MapRecord map, ReadMap(connection, name, /*lock=*/false, &id));
     if (std::optional<std::string> anchor = TrajectoryToAnchor(map); anchor.has_value()) {
-      RETURN_IF_ERROR(SetTie(connection, id, *anchor, MapTie{}).status());
+      RETURN_IF_ERROR(SetTie(connection, id, *anchor, MapTie{}, "").status());
     }
     RETURN_IF_ERROR(connection
                         .Execute("UPDATE slam_map SET revision = revision + 1, updated_at = $1 "

@@ -172,13 +172,22 @@ CREATE TABLE slam_map_trajectory (
 );
 )sql";
 
+// v7: a map's lease and each trajectory's follow, as SQLite's version 16
+// (storage/migrations.cc, kV16SlamMapLeaseAndFollow).
+constexpr absl::string_view kV7SlamMapLeaseAndFollow = R"sql(
+ALTER TABLE slam_map ADD COLUMN lease_owner TEXT;
+ALTER TABLE slam_map ADD COLUMN lease_address TEXT;
+ALTER TABLE slam_map ADD COLUMN lease_expires_at DOUBLE PRECISION;
+ALTER TABLE slam_map_trajectory ADD COLUMN follow BYTEA;
+)sql";
+
 }  // namespace
 
 const std::vector<absl::string_view>& PostgresMigrations() {
   static const auto* const kSteps =
       new std::vector<absl::string_view>{kV1Tables, kV2SlamJournal, kV3SlamMapCheck,
                                          kV4ViewHeadingKnown, kV5ViewerTokens,
-                                         kV6SlamMaps};
+                                         kV6SlamMaps, kV7SlamMapLeaseAndFollow};
   return *kSteps;
 }
 

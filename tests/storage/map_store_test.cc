@@ -4,9 +4,11 @@
 
 #include "storage/map_store.h"
 
+#include <chrono>
 #include <limits>
 #include <memory>
 #include <string>
+#include <thread>
 #include <vector>
 
 #include "gtest/gtest.h"
@@ -110,16 +112,16 @@ TEST_P(MapStoreTest, TheFirstTrajectoryDefinesTheMapFrameTheOthersWait) {
   EXPECT_FALSE(three.trajectories[2].tie.has_value());
 
   // What ties a robot in (the next slice) stores where its frame lies in the map frame.
-  ASSERT_OK_AND_ASSIGN(MapRecord tied, maps_->TieTrajectory("office", "s2", MapTie{1.5, -2, 0.25}));
+  ASSERT_OK_AND_ASSIGN(MapRecord tied, maps_->TieTrajectory("office", "s2", MapTie{1.5, -2, 0.25}, ""));
   EXPECT_EQ(tied.revision, 4);
   ASSERT_TRUE(tied.trajectories[1].tie.has_value());
   EXPECT_DOUBLE_EQ(tied.trajectories[1].tie->x, 1.5);
   EXPECT_DOUBLE_EQ(tied.trajectories[1].tie->y, -2);
   EXPECT_DOUBLE_EQ(tied.trajectories[1].tie->theta, 0.25);
-  EXPECT_EQ(CodeOf(maps_->TieTrajectory("office", "nobody", MapTie{})),
+  EXPECT_EQ(CodeOf(maps_->TieTrajectory("office", "nobody", MapTie{}, "")),
             absl::StatusCode::kNotFound);
   EXPECT_EQ(CodeOf(maps_->TieTrajectory(
-                "office", "s3", MapTie{std::numeric_limits<double>::quiet_NaN(), 0, 0})),
+                "office", "s3", MapTie{std::numeric_limits<double>::quiet_NaN(), 0, 0}, "")),
             absl::StatusCode::kInvalidArgument);
 }
 
@@ -207,6 +209,74 @@ TEST_P(MapStoreTest, ClosedSessionsShowAsClosedAndEverythingSurvivesReopening) {
   EXPECT_TRUE(office.trajectories[0].tie.has_value());
   EXPECT_EQ(office.trajectories[1].session_state, SlamSessionState::kOpen);
   EXPECT_FALSE(office.trajectories[1].tie.has_value());
+}
+
+TEST_P(MapStoreTest, AFollowIsStoredWithItsTieAndANewTieStartsWithout) {
+  AddSession("s1", "robot-1");
+  AddSession("s2", "robot-2");
+  ASSERT_OK(maps_->CreateMap("office"));
+  ASSERT_OK(maps_->AddTrajectory("office", "s1"));
+  ASSERT_OK(maps_->AddTrajectory("office", "s2"));
+  // Any bytes (the service's encoding), zeros included.
+  const std::string follow("samples\0\x01\xff of s2", 17);
+  ASSERT_OK_AND_ASSIGN(MapRecord followed,
+                       maps_->TieTrajectory("office", "s2", MapTie{1, 2, 0.5}, follow));
+  EXPECT_EQ(followed.trajectories[1].follow, follow);
+  EXPECT_TRUE(followed.trajectories[0].follow.empty());
+  ASSERT_OK_AND_ASSIGN(std::vector<MapRecord> listed, maps_->ListMaps());
+  ASSERT_EQ(listed.size(), 1u);
+  EXPECT_EQ(listed[0].trajectories[1].follow, follow);
+  // It survives reopening the database (a restart).
+  ASSERT_OK_AND_ASSIGN(maps_, OpenMapStore(database_.db()));
+  ASSERT_OK_AND_ASSIGN(MapRecord reopened, maps_->GetMap("office"));
+  EXPECT_EQ(reopened.trajectories[1].follow, follow);
+  ASSERT_TRUE(reopened.trajectories[1].tie.has_value());
+  EXPECT_DOUBLE_EQ(reopened.trajectories[1].tie->theta, 0.5);
+  ASSERT_OK_AND_ASSIGN(MapRecord tied_again,
+                       maps_->TieTrajectory("office", "s2", MapTie{3, 4, 0}, ""));
+  EXPECT_TRUE(tied_again.trajectories[1].follow.empty());
+}
+
+TEST_P(MapStoreTest, OneServerAtATimeHoldsAMapsLease) {
+  AddSession("s1", "robot-1");
+  ASSERT_OK(maps_->CreateMap("office"));
+  ASSERT_OK_AND_ASSIGN(MapRecord joined, maps_->AddTrajectory("office", "s1"));
+  EXPECT_TRUE(joined.lease.owner.empty());
+  // A second server: its own connection to the same database.
+  ASSERT_OK_AND_ASSIGN(std::unique_ptr<MapStore> other, OpenMapStore(database_.db()));
+
+  ASSERT_OK_AND_ASSIGN(SlamLease a, maps_->AcquireMapLease("office", "server-a", "a:1", 60));
+  EXPECT_EQ(a.owner, "server-a");
+  EXPECT_EQ(a.address, "a:1");
+  ASSERT_OK_AND_ASSIGN(SlamLease refused, other->AcquireMapLease("office", "server-b", "b:1", 60));
+  EXPECT_EQ(refused.owner, "server-a");  // held: the holder comes back, nothing changed
+  EXPECT_EQ(refused.address, "a:1");
+  ASSERT_OK_AND_ASSIGN(SlamLease renewed, maps_->AcquireMapLease("office", "server-a", "a:1", 60));
+  EXPECT_EQ(renewed.owner, "server-a");
+  EXPECT_GE(renewed.expires_at, a.expires_at);
+  ASSERT_OK_AND_ASSIGN(MapRecord read, other->GetMap("office"));
+  EXPECT_EQ(read.lease.owner, "server-a");
+  EXPECT_EQ(read.revision, joined.revision);  // who works on a map is not what it holds
+
+  // Given up by a server that does not hold it: nothing happens.
+  ASSERT_OK(other->ReleaseMapLease("office", "server-b"));
+  ASSERT_OK_AND_ASSIGN(read, other->GetMap("office"));
+  EXPECT_EQ(read.lease.owner, "server-a");
+  // Given up by its holder: the next server takes it at once.
+  ASSERT_OK(maps_->ReleaseMapLease("office", "server-a"));
+  ASSERT_OK_AND_ASSIGN(SlamLease b, other->AcquireMapLease("office", "server-b", "b:1", 0.05));
+  EXPECT_EQ(b.owner, "server-b");
+  // Not renewed: once expired, another server takes it over.
+  std::this_thread::sleep_for(std::chrono::milliseconds(300));
+  ASSERT_OK_AND_ASSIGN(SlamLease taken, maps_->AcquireMapLease("office", "server-a", "a:1", 60));
+  EXPECT_EQ(taken.owner, "server-a");
+
+  EXPECT_EQ(CodeOf(maps_->AcquireMapLease("nowhere", "server-a", "a:1", 60)),
+            absl::StatusCode::kNotFound);
+  EXPECT_EQ(CodeOf(maps_->AcquireMapLease("office", "", "a:1", 60)),
+            absl::StatusCode::kInvalidArgument);
+  EXPECT_EQ(CodeOf(maps_->AcquireMapLease("office", "server-a", "a:1", 0)),
+            absl::StatusCode::kInvalidArgument);
 }
 
 TEST_P(MapStoreTest, ATieStoredInPartIsDataLoss) {
