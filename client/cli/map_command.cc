@@ -93,6 +93,8 @@ int RunMapShow(CommandContext& context, const MapCommandArgs& args) {
     return kExitOk;
   }
   context.out << MapSummary(*map) << "\n";
+  // Only on a fleet: the server that ties and follows the map's robots.
+  if (!map->owner().empty()) context.out << "tied and followed by the server at " << map->owner() << "\n";
   if (map->trajectories().empty()) return kExitOk;
   Table table({{"#", true}, {"session"}, {"robot"}, {"state"}, {"scans", true}, {"in the map"},
                {"joined"}});

@@ -1,13 +1,16 @@
 // Maps shared by robots (issue 38) on two waymark-server processes sharing one PostgreSQL
 // database: a map created on one server is joined by a session created on the other, both see
 // the same trajectory list, and a session that moves to the other server (its server stopped) is
-// still answered in its map there: the server found its membership in the database.
+// still answered in its map there: the server found its membership in the database. One server
+// at a time follows a map's robots (the map's lease): when it dies the other takes the map over
+// and goes on from the follow it stored.
 
 #include <grpcpp/grpcpp.h>
 #include <gtest/gtest.h>
 #include <signal.h>
 
 #include <chrono>
+#include <functional>
 #include <memory>
 #include <string>
 #include <thread>
@@ -125,6 +128,103 @@ TEST(MapFleetTest, ServersOnOneDatabaseShareAMapAndItsMembers) {
     EXPECT_EQ(update.map_pose().map(), "office");
     EXPECT_TRUE(update.map_pose().tied_in());
     EXPECT_NEAR(update.map_pose().pose().x(), update.pose().x(), 1e-12);
+  }
+}
+
+// Polls GetMapInfo on `stub` until `done` holds (a bound far above what the servers take, never
+// reached when they work: the test waits for what they do, not for a time).
+bool WaitForMap(v1::SlamService::Stub* stub, const std::function<bool(const v1::Map&)>& done,
+                v1::Map* map) {
+  v1::GetMapInfoRequest info;
+  info.set_name("office");
+  const auto until = std::chrono::steady_clock::now() + std::chrono::seconds(90);
+  while (std::chrono::steady_clock::now() < until) {
+    if (stub->GetMapInfo(FleetMapCtx().get(), info, map).ok() && done(*map)) return true;
+    std::this_thread::sleep_for(std::chrono::milliseconds(100));
+  }
+  return false;
+}
+
+TEST(MapFleetTest, OneServerAtATimeFollowsAMapsRobotsAndTheNextGoesOnFromItsFollow) {
+  TestDatabase database(Backend::kPostgres);
+  WAYMARK_SKIP_WITHOUT(database);
+  const std::vector<std::string> flags = {"--slam-workers", "2", "--session-lease-seconds", "2"};
+  auto a = ServerProcess::Start(testing::ServerBinary(), database.db(), flags);
+  ASSERT_TRUE(a.ok()) << a.status();
+  auto b = ServerProcess::Start(testing::ServerBinary(), database.db(), flags);
+  ASSERT_TRUE(b.ok()) << b.status();
+  auto on_a = FleetMapStub(**a);
+  auto on_b = FleetMapStub(**b);
+  v1::CreateMapRequest create;
+  create.set_name("office");
+  v1::Map map;
+  ASSERT_TRUE(on_a->CreateMap(FleetMapCtx().get(), create, &map).ok());
+  EXPECT_TRUE(map.owner().empty());
+
+  // Robot 1 defines the map frame; robot 2 drives the same room, its start given (the test room
+  // is square: a search could not tell its corners apart), and is followed.
+  v1::CreateSessionRequest join = TestSessionRequest("r1");
+  join.set_map("office");
+  v1::Session first, second;
+  ASSERT_TRUE(on_a->CreateSession(FleetMapCtx().get(), join, &first).ok());
+  grpc::Status status;
+  FleetMapStream(on_a.get(), first.session_id(), 0, 12, &status);
+  ASSERT_TRUE(status.ok()) << status.error_message();
+  join.set_robot_id("r2");
+  join.mutable_initial_map_pose();  // at the map frame's origin, as robot 1 started
+  ASSERT_TRUE(on_a->CreateSession(FleetMapCtx().get(), join, &second).ok());
+  FleetMapStream(on_a.get(), second.session_id(), 0, 8, &status);
+  ASSERT_TRUE(status.ok()) << status.error_message();
+
+  // A follows robot 2 (it holds the map's lease) and stores what the follow found.
+  const auto samples_of_second = [&](const v1::Map& m) {
+    for (const v1::MapTrajectory& t : m.trajectories()) {
+      if (t.session_id() == second.session_id()) return t.origin_samples_size();
+    }
+    return 0;
+  };
+  ASSERT_TRUE(WaitForMap(
+      on_a.get(), [&](const v1::Map& m) { return m.owner() == (*a)->address() && samples_of_second(m) >= 2; },
+      &map))
+      << "A never followed robot 2: owner '" << map.owner() << "'\n" << (*a)->Log();
+  v1::Map seen_by_b;
+  // B, which follows nobody, reads the same follow from the database.
+  ASSERT_TRUE(WaitForMap(
+      on_b.get(), [&](const v1::Map& m) { return samples_of_second(m) >= 2; }, &seen_by_b))
+      << (*b)->Log();
+  EXPECT_EQ(seen_by_b.owner(), (*a)->address());
+  const int followed_on_a = samples_of_second(seen_by_b);
+
+  // A dies without a word. Once its leases expire B serves robot 2, takes the map over and goes
+  // on from the stored follow: more samples, the first ones A's.
+  on_a.reset();
+  (*a)->Signal(SIGKILL);
+  ASSERT_TRUE((*a)->WaitForExit(absl::Seconds(30)).has_value());
+  std::this_thread::sleep_for(std::chrono::milliseconds(2500));  // the session lease (2 s)
+  FleetMapStream(on_b.get(), second.session_id(), 8, 8, &status);
+  ASSERT_TRUE(status.ok()) << status.error_message();
+  ASSERT_TRUE(WaitForMap(
+      on_b.get(),
+      [&](const v1::Map& m) {
+        return m.owner() == (*b)->address() && samples_of_second(m) > followed_on_a;
+      },
+      &map))
+      << "B never took the map over: owner '" << map.owner() << "', " << samples_of_second(map)
+      << " samples\n" << (*b)->Log();
+  const v1::MapTrajectory* on_b_second = nullptr;
+  for (const v1::MapTrajectory& t : map.trajectories()) {
+    if (t.session_id() == second.session_id()) on_b_second = &t;
+  }
+  ASSERT_NE(on_b_second, nullptr);
+  for (int i = 0; i < followed_on_a; ++i) {
+    EXPECT_EQ(on_b_second->origin_samples(i).scan(),
+              seen_by_b.trajectories(1).origin_samples(i).scan());
+  }
+  // The same room, the same start: every sample says robot 2's frame is the map frame.
+  for (const v1::MapOriginSample& sample : on_b_second->origin_samples()) {
+    EXPECT_NEAR(sample.origin().x(), 0.0, 0.05);
+    EXPECT_NEAR(sample.origin().y(), 0.0, 0.05);
+    EXPECT_NEAR(sample.origin().theta(), 0.0, 0.02);
   }
 }
 

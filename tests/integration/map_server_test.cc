@@ -384,7 +384,7 @@ TEST_F(MapServerTest, ATiedInTrajectorysAnswersAreInTheMapFrame) {
     auto store = storage::OpenSqliteMapStore(dir_ + "/waymark.db");
     ASSERT_TRUE(store.ok()) << store.status();
     auto tied = (*store)->TieTrajectory("office", second.session_id(),
-                                        storage::MapTie{1.0, -2.0, M_PI / 2});
+                                        storage::MapTie{1.0, -2.0, M_PI / 2}, "");
     ASSERT_TRUE(tied.ok()) << tied.status();
   }
   StartServer();

@@ -115,6 +115,42 @@ TEST_F(TrajectoryFollowTest, FollowUpMatchesKeepADriftingRobotOnTheMap) {
   EXPECT_LT(followed.last, 0.08);
 }
 
+// A follow stopped half-way (its server restarted, or another server took the map over) and
+// resumed from its stored samples matches only the nodes after them, and ends with the samples of
+// a follow never interrupted.
+TEST_F(TrajectoryFollowTest, AResumedFollowGoesOnWhereTheStoredOneStopped) {
+  const size_t map_nodes = map_.front().nodes.size();
+  const PointCloud map = MapCloud(map_, 0.05);
+  const auto follow_from = [&](absl::StatusOr<std::unique_ptr<TrajectoryFollow>> follow,
+                               size_t first, size_t last) {
+    EXPECT_TRUE(follow.ok()) << follow.status();
+    EXPECT_TRUE((*follow)->SetMap(map, map_nodes).ok());
+    std::vector<NodeView> seen(nodes_.begin(), nodes_.begin() + first);
+    for (size_t i = first; i < last; ++i) {
+      seen.push_back(nodes_[i]);
+      (*follow)->Advance(seen, 1);
+    }
+    return *std::move(follow);
+  };
+  const std::unique_ptr<TrajectoryFollow> whole =
+      follow_from(TrajectoryFollow::Create(FollowOptions{}, tie_), 0, nodes_.size());
+  const size_t half = nodes_.size() / 2;
+  const std::unique_ptr<TrajectoryFollow> first =
+      follow_from(TrajectoryFollow::Create(FollowOptions{}, tie_), 0, half);
+  ASSERT_GT(first->samples().size(), 2u);
+  const std::unique_ptr<TrajectoryFollow> resumed = follow_from(
+      TrajectoryFollow::Resume(FollowOptions{}, first->samples()), half, nodes_.size());
+  // Only the nodes after the last stored sample are matched again.
+  EXPECT_EQ(first->progress().attempts + resumed->progress().attempts, whole->progress().attempts);
+  ASSERT_EQ(resumed->samples().size(), whole->samples().size());
+  for (size_t i = 0; i < whole->samples().size(); ++i) {
+    EXPECT_EQ(resumed->samples()[i].scan, whole->samples()[i].scan) << i;
+    EXPECT_NEAR(resumed->samples()[i].origin.x, whole->samples()[i].origin.x, 1e-9) << i;
+    EXPECT_NEAR(resumed->samples()[i].origin.theta, whole->samples()[i].origin.theta, 1e-9) << i;
+  }
+  EXPECT_FALSE(TrajectoryFollow::Resume(FollowOptions{}, {}).ok());
+}
+
 TEST_F(TrajectoryFollowTest, NothingToMatchAgainstLeavesTheTieAlone) {
   // A map far from where the robot is: every window misses it, no sample, the tie held.
   std::vector<TiedTrajectory> elsewhere = map_;

@@ -114,6 +114,93 @@ TEST(MapTieWorkerTest, ASecondRobotIsFoundAndTiedInOnceAtTheTruth) {
   EXPECT_NEAR(std::remainder(ties[0].second.theta - truth.theta, 2 * M_PI), 0.0, M_PI / 180);
 }
 
+// On a fleet: a map whose lease another server holds is not searched (its nodes are not even
+// read); once this server owns it, a robot streaming to another server (not resident here, its
+// nodes read from its checkpoint) is read again only when its record shows more scans, and is
+// then tied in.
+TEST(MapTieWorkerTest, OnlyAnOwnedMapIsSearchedAndARobotElsewhereIsReadAsItGoesOn) {
+  const std::vector<Wall> walls = PillarOffice();
+  ls::Pose2 start_a, start_b;
+  const std::vector<ls::NodeView> a =
+      Drive(walls, {{2.0, 4.5}, {12.0, 4.5}, {12.0, 7.0}, {3.0, 7.0}}, &start_a);
+  const std::vector<ls::NodeView> b = Drive(walls, {{15.5, 6.5}, {6.0, 6.5}, {6.5, 3.5}}, &start_b);
+  // 0.75 m of travel: too little for two agreeing matches 2 m apart.
+  const std::vector<ls::NodeView> b_start(b.begin(), b.begin() + 3);
+
+  enum Phase { kOwnedElsewhere, kOwnedFewScans, kOwnedAllScans };
+  std::mutex mu;
+  std::condition_variable cv;
+  Phase phase = kOwnedElsewhere;
+  int passes = 0, b_reads = 0, own_asked = 0;
+  bool tied = false;
+  MapTieWorker::Sources sources;
+  sources.maps_to_tie = [&] {
+    std::lock_guard<std::mutex> lock(mu);
+    ++passes;
+    cv.notify_all();
+    if (tied) return std::vector<storage::MapRecord>{};
+    storage::MapRecord map;
+    map.name = "office";
+    storage::MapTrajectoryRecord first, second;
+    first.session_id = "a";
+    first.tie = storage::MapTie{};
+    first.session_state = storage::SlamSessionState::kClosed;
+    first.scans_processed = static_cast<int64_t>(a.back().scan);
+    second.session_id = "b";  // open, on another server
+    second.scans_processed =
+        static_cast<int64_t>(phase == kOwnedAllScans ? b.back().scan : b_start.back().scan);
+    map.trajectories = {first, second};
+    return std::vector<storage::MapRecord>{map};
+  };
+  sources.nodes = [&](const std::string& id) -> absl::StatusOr<TrajectoryNodes> {
+    std::lock_guard<std::mutex> lock(mu);
+    EXPECT_NE(phase, kOwnedElsewhere) << "read the nodes of a map another server owns";
+    if (id == "a") return TrajectoryNodes{a, /*resident=*/false};
+    if (id == "b") {
+      ++b_reads;
+      return TrajectoryNodes{phase == kOwnedAllScans ? b : b_start, /*resident=*/false};
+    }
+    return absl::NotFoundError(id);
+  };
+  sources.resident = [](const std::string&) { return false; };
+  sources.own = [&](const std::string& map) {
+    EXPECT_EQ(map, "office");
+    std::lock_guard<std::mutex> lock(mu);
+    ++own_asked;
+    return phase != kOwnedElsewhere;
+  };
+  sources.tie = [&](const std::string&, const std::string& id, const storage::MapTie&) {
+    std::lock_guard<std::mutex> lock(mu);
+    EXPECT_EQ(id, "b");
+    EXPECT_EQ(phase, kOwnedAllScans) << "tied in from 0.75 m of travel";
+    tied = true;
+    cv.notify_all();
+    return absl::OkStatus();
+  };
+  MapTieWorker::Options options;
+  options.poll_seconds = 0.01;
+  MapTieWorker worker(std::move(sources), options);
+  // Bounds far above what the passes cost, never reached when the worker works.
+  const auto wait_passes = [&](std::unique_lock<std::mutex>& lock, int more) {
+    const int until = passes + more;
+    return cv.wait_for(lock, std::chrono::seconds(120), [&] { return passes >= until; });
+  };
+  {
+    std::unique_lock<std::mutex> lock(mu);
+    ASSERT_TRUE(wait_passes(lock, 5));
+    EXPECT_GE(own_asked, 5);
+    EXPECT_EQ(b_reads, 0);
+    phase = kOwnedFewScans;
+    ASSERT_TRUE(wait_passes(lock, 10));
+    EXPECT_EQ(b_reads, 1);  // read once: its record shows no new scans
+    EXPECT_FALSE(tied);
+    phase = kOwnedAllScans;
+    ASSERT_TRUE(cv.wait_for(lock, std::chrono::seconds(120), [&] { return tied; })) << "no tie";
+    EXPECT_EQ(b_reads, 2);
+  }
+  worker.Stop();
+}
+
 TEST(MapTieWorkerTest, StopsWithNothingToDo) {
   MapTieWorker::Sources sources;
   sources.maps_to_tie = [] { return std::vector<storage::MapRecord>{}; };

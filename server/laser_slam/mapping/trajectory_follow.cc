@@ -66,6 +66,15 @@ absl::StatusOr<std::unique_ptr<TrajectoryFollow>> TrajectoryFollow::Create(
   return std::unique_ptr<TrajectoryFollow>(new TrajectoryFollow(options, tie));
 }
 
+absl::StatusOr<std::unique_ptr<TrajectoryFollow>> TrajectoryFollow::Resume(
+    const FollowOptions& options, std::vector<OriginSample> samples) {
+  if (samples.empty()) return absl::InvalidArgumentError("no origin samples to resume from");
+  absl::StatusOr<std::unique_ptr<TrajectoryFollow>> follow = Create(options, samples.front());
+  if (!follow.ok()) return follow.status();
+  (*follow)->samples_ = std::move(samples);
+  return follow;
+}
+
 bool TrajectoryFollow::WantsMap(std::size_t map_nodes) const {
   if (grid_ == nullptr) return map_nodes > 0;
   return static_cast<double>(map_nodes) >
@@ -90,9 +99,10 @@ int TrajectoryFollow::Advance(const std::vector<NodeView>& nodes, int max_attemp
   RefreshOrigins(nodes, &samples_);  // the session's closures since moved its nodes
   const int n = static_cast<int>(nodes.size());
   if (next_node_ < 0) {
-    // The first node after the tie's, plus a stride: the tie itself observed the origin there.
+    // The first node after the last sample's (the tie's, unless resumed), plus a stride: that
+    // sample observed the origin there.
     int first = 0;
-    while (first < n && nodes[first].stamp <= samples_.front().stamp) ++first;
+    while (first < n && nodes[first].stamp <= samples_.back().stamp) ++first;
     if (first >= n) return 0;
     next_node_ = first + options_.every_nodes - 1;
   }

@@ -95,6 +95,11 @@ class TrajectoryFollow {
   // `tie`: the origin the robot was tied in at, observed at node `tie_stamp`/`tie_scan`.
   static absl::StatusOr<std::unique_ptr<TrajectoryFollow>> Create(const FollowOptions& options,
                                                                   const OriginSample& tie);
+  // Goes on from the samples an earlier follow made (stored with the map: after a restart, or on
+  // the server that took the map over), matching from the node after the last one on.
+  // INVALID_ARGUMENT when `samples` is empty.
+  static absl::StatusOr<std::unique_ptr<TrajectoryFollow>> Resume(
+      const FollowOptions& options, std::vector<OriginSample> samples);
   TrajectoryFollow(const TrajectoryFollow&) = delete;
   TrajectoryFollow& operator=(const TrajectoryFollow&) = delete;
 

@@ -2,6 +2,7 @@
 
 #include <spdlog/spdlog.h>
 
+#include <chrono>
 #include <cmath>
 #include <set>
 #include <utility>
@@ -38,12 +39,75 @@ v1::Map ToProto(const storage::MapRecord& record) {
     }
     trajectory->set_scans_processed(static_cast<uint64_t>(t.scans_processed));
   }
+  if (!record.lease.owner.empty()) map.set_owner(record.lease.address);
   return map;
 }
 
 bool IsOrigin(const v1::Pose2D& pose) { return pose.x() == 0 && pose.y() == 0 && pose.theta() == 0; }
 
+void SetPose(const laser_slam::Pose2& pose, v1::Pose2D* out) {
+  out->set_x(pose.x);
+  out->set_y(pose.y);
+  out->set_theta(pose.theta);
+}
+
+void AddSampleTo(const laser_slam::OriginSample& sample, v1::MapTrajectory* trajectory) {
+  v1::MapOriginSample* out = trajectory->add_origin_samples();
+  out->set_scan(sample.scan);
+  out->set_stamp(sample.stamp);
+  SetPose(sample.origin, out->mutable_origin());
+  if (sample.matched) SetPose(sample.map_pose, out->mutable_map_pose());
+}
+
+double SteadySeconds() {
+  return std::chrono::duration<double>(std::chrono::steady_clock::now().time_since_epoch())
+      .count();
+}
+
 }  // namespace
+
+std::string EncodeFollow(const std::vector<laser_slam::OriginSample>& samples) {
+  v1::MapTrajectory trajectory;
+  for (const laser_slam::OriginSample& sample : samples) AddSampleTo(sample, &trajectory);
+  return trajectory.SerializeAsString();
+}
+
+std::vector<laser_slam::OriginSample> SamplesOf(const v1::MapTrajectory& trajectory) {
+  std::vector<laser_slam::OriginSample> samples;
+  for (const v1::MapOriginSample& in : trajectory.origin_samples()) {
+    laser_slam::OriginSample sample;
+    sample.scan = in.scan();
+    sample.stamp = in.stamp();
+    sample.origin = laser_slam::Pose2{in.origin().x(), in.origin().y(), in.origin().theta()};
+    sample.matched = in.has_map_pose();
+    if (sample.matched) {
+      sample.map_pose = laser_slam::Pose2{in.map_pose().x(), in.map_pose().y(),
+                                          in.map_pose().theta()};
+    }
+    samples.push_back(sample);
+  }
+  return samples;
+}
+
+absl::StatusOr<std::vector<laser_slam::OriginSample>> DecodeFollow(const std::string& bytes) {
+  v1::MapTrajectory trajectory;
+  if (!trajectory.ParseFromString(bytes)) {
+    return absl::DataLossError("a trajectory's stored follow is not a list of origin samples");
+  }
+  std::vector<laser_slam::OriginSample> samples = SamplesOf(trajectory);
+  for (size_t i = 0; i < samples.size(); ++i) {
+    const laser_slam::OriginSample& sample = samples[i];
+    const laser_slam::Pose2& o = sample.origin;
+    const laser_slam::Pose2& m = sample.map_pose;
+    if (!std::isfinite(sample.stamp) || !std::isfinite(o.x) || !std::isfinite(o.y) ||
+        !std::isfinite(o.theta) || !std::isfinite(m.x) || !std::isfinite(m.y) ||
+        !std::isfinite(m.theta) || (i > 0 && sample.stamp < samples[i - 1].stamp)) {
+      return absl::DataLossError("a trajectory's stored follow has a sample out of order or not "
+                                 "finite");
+    }
+  }
+  return samples;
+}
 
 v1::Pose2D InMapFrame(const storage::MapTie& tie, const v1::Pose2D& pose) {
   const double c = std::cos(tie.theta);
@@ -108,6 +172,33 @@ void MapRegistry::Remember(const storage::MapRecord& map) {
       member = std::make_shared<MapMembership>(map.name);
     }
     member->Set(trajectory.tie, map.revision);
+    // The follow as the map's owner stored it, unless this server follows the robot itself (its
+    // own samples are newer than the store's).
+    auto followed = followed_.find(trajectory.session_id);
+    if (followed != followed_.end() && (followed->second.here ||
+                                        followed->second.revision >= map.revision)) {
+      continue;
+    }
+    if (trajectory.follow.empty() || !trajectory.tie.has_value()) {
+      if (followed != followed_.end()) followed_.erase(followed);
+      continue;
+    }
+    absl::StatusOr<std::vector<laser_slam::OriginSample>> samples =
+        DecodeFollow(trajectory.follow);
+    if (!samples.ok() || samples->empty()) {
+      // The stored origin still holds for every pose; the follow starts again from it.
+      spdlog::warn("SLAM map \"{}\": session {}'s stored follow is unreadable ({}); its origin "
+                   "holds for every pose",
+                   map.name, trajectory.session_id, samples.status().ToString());
+      if (followed != followed_.end()) followed_.erase(followed);
+      continue;
+    }
+    Followed& entry = followed_[trajectory.session_id];
+    entry.stored = samples->back().origin;
+    entry.stored_count = samples->size();
+    entry.samples = *std::move(samples);
+    entry.here = false;
+    entry.revision = map.revision;
   }
 }
 
@@ -139,7 +230,7 @@ absl::StatusOr<v1::Map> MapRegistry::GetMap(const std::string& name) {
   absl::StatusOr<storage::MapRecord> map = store_->GetMap(name);
   if (!map.ok()) return map.status();
   v1::Map out = ToProto(*map);
-  AddSamples(&out);
+  AddSamples(*map, &out);
   return out;
 }
 
@@ -150,23 +241,27 @@ std::vector<laser_slam::OriginSample> MapRegistry::FollowedSamples(
   return it == followed_.end() ? std::vector<laser_slam::OriginSample>{} : it->second.samples;
 }
 
-void MapRegistry::AddSamples(v1::Map* map) const {
+void MapRegistry::AddSamples(const storage::MapRecord& record, v1::Map* map) const {
   std::lock_guard<std::mutex> lock(mutex_);
-  for (v1::MapTrajectory& trajectory : *map->mutable_trajectories()) {
+  for (int i = 0; i < map->trajectories_size(); ++i) {
+    v1::MapTrajectory& trajectory = *map->mutable_trajectories(i);
+    if (!trajectory.tied_in()) continue;
+    // This server's own follow is newer than the store's; otherwise the store's (written by the
+    // map's owner, maybe another server).
     auto it = followed_.find(trajectory.session_id());
-    if (it == followed_.end() || !trajectory.tied_in()) continue;
-    for (const laser_slam::OriginSample& sample : it->second.samples) {
-      v1::MapOriginSample* out = trajectory.add_origin_samples();
-      out->set_scan(sample.scan);
-      out->set_stamp(sample.stamp);
-      out->mutable_origin()->set_x(sample.origin.x);
-      out->mutable_origin()->set_y(sample.origin.y);
-      out->mutable_origin()->set_theta(sample.origin.theta);
-      if (sample.matched) {
-        out->mutable_map_pose()->set_x(sample.map_pose.x);
-        out->mutable_map_pose()->set_y(sample.map_pose.y);
-        out->mutable_map_pose()->set_theta(sample.map_pose.theta);
+    if (it != followed_.end() && it->second.here) {
+      for (const laser_slam::OriginSample& sample : it->second.samples) {
+        AddSampleTo(sample, &trajectory);
       }
+      continue;
+    }
+    const std::string& stored = record.trajectories[static_cast<size_t>(i)].follow;
+    if (stored.empty()) continue;
+    // Unreadable bytes (logged where the registry reads them, Remember) show no samples: the
+    // stored origin then holds for every pose.
+    v1::MapTrajectory parsed;
+    if (parsed.ParseFromString(stored)) {
+      *trajectory.mutable_origin_samples() = parsed.origin_samples();
     }
   }
 }
@@ -178,7 +273,7 @@ absl::StatusOr<v1::ListMapsResponse> MapRegistry::ListMaps() {
   v1::ListMapsResponse response;
   for (const storage::MapRecord& map : *maps) {
     *response.add_maps() = ToProto(map);
-    AddSamples(&response.mutable_maps()->at(response.maps_size() - 1));
+    AddSamples(map, &response.mutable_maps()->at(response.maps_size() - 1));
   }
   return response;
 }
@@ -271,7 +366,7 @@ absl::StatusOr<v1::MapOccupancyGrid> MapRegistry::GetMapGrid(const std::string& 
     const laser_slam::Pose2 origin{trajectory->origin().x(), trajectory->origin().y(),
                                    trajectory->origin().theta()};
     // Followed after its tie: the origin at each stamp, from the nodes' current poses.
-    std::vector<laser_slam::OriginSample> samples = FollowedSamples(trajectory->session_id());
+    std::vector<laser_slam::OriginSample> samples = SamplesOf(*trajectory);
     laser_slam::RefreshOrigins(*own, &samples);
     for (laser_slam::NodeView& node : *own) {
       node.global = laser_slam::Compose(
@@ -356,7 +451,7 @@ std::shared_ptr<MapMembership> MapRegistry::Membership(const std::string& sessio
     auto it = members_.find(session_id);
     if (it != members_.end()) return it->second;
   }
-  if (!find_in_store_ || store_ == nullptr) return nullptr;
+  if (!fleet() || store_ == nullptr) return nullptr;
   // Joined on another server of the fleet since this one loaded its maps.
   absl::StatusOr<std::vector<storage::MapRecord>> maps = store_->ListMaps();
   if (!maps.ok()) {
@@ -407,8 +502,13 @@ std::vector<storage::MapRecord> MapRegistry::MapsToTie() {
 absl::Status MapRegistry::Tie(const std::string& map, const std::string& session_id,
                               const storage::MapTie& tie) {
   if (absl::Status s = CheckStore(); !s.ok()) return s;
-  absl::StatusOr<storage::MapRecord> tied = store_->TieTrajectory(map, session_id, tie);
+  // A tie found again starts a new follow: the old samples go.
+  absl::StatusOr<storage::MapRecord> tied = store_->TieTrajectory(map, session_id, tie, "");
   if (!tied.ok()) return tied.status();
+  {
+    std::lock_guard<std::mutex> lock(mutex_);
+    followed_.erase(session_id);
+  }
   Remember(*tied);
   return absl::OkStatus();
 }
@@ -428,6 +528,7 @@ std::vector<storage::MapRecord> MapRegistry::MapsToFollow() {
   for (const std::string& name : names) {
     absl::StatusOr<storage::MapRecord> map = store_->GetMap(name);
     if (!map.ok()) continue;
+    Remember(*map);  // the owner (on a fleet, maybe another server) moved origins, stored follows
     int tied = 0;
     for (const storage::MapTrajectoryRecord& trajectory : map->trajectories) {
       tied += trajectory.tie.has_value() ? 1 : 0;
@@ -441,8 +542,11 @@ absl::Status MapRegistry::Follow(const std::string& map, const std::string& sess
                                  const std::vector<laser_slam::OriginSample>& samples) {
   if (absl::Status s = CheckStore(); !s.ok()) return s;
   if (samples.empty()) return absl::InvalidArgumentError("no origin samples");
-  // The store's single origin is the latest, written again when it moved by more than this.
+  // The store's origin is the latest, written with the samples at the first follow, and again
+  // when it moved by more than this, or when this many samples were added since (the next owner,
+  // or this server after a restart, goes on from what was stored).
   constexpr double kStoreXy = 0.05, kStoreTheta = 0.01;
+  constexpr std::size_t kStoreSamples = 10;
   const laser_slam::Pose2 latest = samples.back().origin;
   bool store = false;
   {
@@ -455,16 +559,73 @@ absl::Status MapRegistry::Follow(const std::string& map, const std::string& sess
     Followed& followed = followed_[session_id];
     if (followed.samples.empty()) followed.stored = samples.front().origin;
     followed.samples = samples;
+    followed.here = true;
     store = std::hypot(latest.x - followed.stored.x, latest.y - followed.stored.y) > kStoreXy ||
-            std::abs(std::remainder(latest.theta - followed.stored.theta, 2 * M_PI)) > kStoreTheta;
-    if (store) followed.stored = latest;
+            std::abs(std::remainder(latest.theta - followed.stored.theta, 2 * M_PI)) > kStoreTheta ||
+            samples.size() >= followed.stored_count + kStoreSamples || followed.stored_count == 0;
+    if (store) {
+      followed.stored = latest;
+      followed.stored_count = samples.size();
+    }
   }
   if (!store) return absl::OkStatus();
   absl::StatusOr<storage::MapRecord> tied =
-      store_->TieTrajectory(map, session_id, storage::MapTie{latest.x, latest.y, latest.theta});
+      store_->TieTrajectory(map, session_id, storage::MapTie{latest.x, latest.y, latest.theta},
+                            EncodeFollow(samples));
   if (!tied.ok()) return tied.status();
   Remember(*tied);  // its answers carry the latest origin
   return absl::OkStatus();
+}
+
+bool MapRegistry::Own(const std::string& map) {
+  if (!fleet() || store_ == nullptr) return true;
+  const double now = SteadySeconds();
+  {
+    std::lock_guard<std::mutex> lock(mutex_);
+    auto it = owned_.find(map);
+    if (it != owned_.end() && now < it->second) return true;
+  }
+  absl::StatusOr<storage::SlamLease> lease =
+      store_->AcquireMapLease(map, leases_->owner(), leases_->address(), leases_->ttl_seconds());
+  const bool own = lease.ok() && lease->owner == leases_->owner();
+  std::lock_guard<std::mutex> lock(mutex_);
+  const bool owned = owned_.count(map) > 0;
+  if (own) {
+    // Renewed every third of the ttl: the lease survives two missed renewals.
+    owned_[map] = now + leases_->ttl_seconds() / 3.0;
+    if (!owned) spdlog::info("SLAM map \"{}\": this server now ties and follows its robots", map);
+    return true;
+  }
+  if (owned) {
+    owned_.erase(map);
+    spdlog::warn("SLAM map \"{}\": no longer tied and followed here ({})", map,
+                 lease.ok() ? absl::StrCat("server ", lease->address, " holds its lease")
+                            : lease.status().ToString());
+    // Its samples come from the store again, as the new owner writes them.
+    for (auto& [session_id, followed] : followed_) {
+      auto member = members_.find(session_id);
+      if (member != members_.end() && member->second->map() == map) {
+        followed.here = false;
+        followed.revision = -1;
+      }
+    }
+  }
+  return false;
+}
+
+void MapRegistry::ReleaseLeases() {
+  if (!fleet() || store_ == nullptr) return;
+  std::map<std::string, double> owned;
+  {
+    std::lock_guard<std::mutex> lock(mutex_);
+    owned.swap(owned_);
+  }
+  for (const auto& [map, renew_at] : owned) {
+    if (absl::Status s = store_->ReleaseMapLease(map, leases_->owner()); !s.ok()) {
+      spdlog::warn("SLAM map \"{}\": its lease was not given up ({}); it expires", map,
+                   s.ToString());
+    }
+  }
 }
 
 }  // namespace waymark::service

@@ -13,7 +13,8 @@
 // session's streams so that each answer is decorated without a lookup; it is read from the store
 // at start-up (Load) and kept current by the changes made here. With several servers on one
 // database (leases), a session that joined on another server is found in the store when its
-// stream opens here.
+// stream opens here, and one server at a time ties and follows a map's trajectories: the one
+// holding the map's lease (Own). The others read the ties and follows it stores.
 
 #include <cstdint>
 #include <functional>
@@ -30,6 +31,7 @@
 #include "server/laser_slam/mapping/mapping_backend.h"
 #include "server/laser_slam/mapping/trajectory_follow.h"
 #include "server/service/slam/folder.h"
+#include "server/service/slam/session_leases.h"
 #include "storage/map_store.h"
 #include "waymark/v1/slam.pb.h"
 
@@ -57,10 +59,10 @@ class MapMembership {
 class MapRegistry {
  public:
   // `store` is not owned and may be null: a server without maps (every map call is then
-  // FAILED_PRECONDITION). `find_in_store`: look a session up in the store when it is in no map
-  // known here (several servers on one database).
-  MapRegistry(storage::MapStore* store, bool find_in_store)
-      : store_(store), find_in_store_(find_in_store) {}
+  // FAILED_PRECONDITION). `leases` (not owned; null or disabled: one server per database, which
+  // owns every map): this server's identity on a fleet, whose sessions may have joined their
+  // maps on another server (looked up in the store) and whose maps are leased (Own).
+  MapRegistry(storage::MapStore* store, SessionLeases* leases) : store_(store), leases_(leases) {}
 
   // Reads every map's trajectories (at start-up).
   absl::Status Load();
@@ -112,27 +114,54 @@ class MapRegistry {
   // latest, written again when it moved by more than a few cm (revision + 1 then).
   absl::Status Follow(const std::string& map, const std::string& session_id,
                       const std::vector<laser_slam::OriginSample>& samples);
+  // A followed session's samples (empty: none), as this server follows it or as the map's owner
+  // stored them.
+  std::vector<laser_slam::OriginSample> FollowedSamples(const std::string& session_id) const;
+
+  // Whether this server may tie and follow the map's trajectories now: always on a single server;
+  // on a fleet when it holds the map's lease, taken when free or expired and renewed every third
+  // of its ttl. A lease lost to another server is logged, and the map's samples are read from
+  // the store again from then on.
+  bool Own(const std::string& map);
+  // Gives up the maps' leases this server holds (a clean shutdown: the next owner need not wait
+  // for them to expire).
+  void ReleaseLeases();
 
  private:
   absl::Status CheckStore() const;
   // Records what `map` says about its sessions' memberships.
   void Remember(const storage::MapRecord& map);
 
+  bool fleet() const { return leases_ != nullptr && leases_->enabled(); }
+
   storage::MapStore* const store_;
-  const bool find_in_store_;
-  mutable std::mutex mutex_;  // guards members_
+  SessionLeases* const leases_;
+  mutable std::mutex mutex_;  // guards members_, followed_, owned_
   std::map<std::string, std::shared_ptr<MapMembership>> members_;  // by session id
-  // Followed trajectories: their origin samples, and the origin last written to the store.
+  // Followed trajectories: their origin samples, and the origin and sample count last written to
+  // the store. `here`: followed by this server (the store's copy is older); otherwise the store's
+  // as of map revision `revision`.
   struct Followed {
     std::vector<laser_slam::OriginSample> samples;
     laser_slam::Pose2 stored;
+    std::size_t stored_count = 0;
+    bool here = false;
+    int64_t revision = -1;
   };
   std::map<std::string, Followed> followed_;  // by session id; guarded by mutex_
-  // Fills each trajectory's origin_samples from followed_.
-  void AddSamples(v1::Map* map) const;
-  // A followed session's samples (empty: not followed here).
-  std::vector<laser_slam::OriginSample> FollowedSamples(const std::string& session_id) const;
+  // The maps whose lease this server holds, with when (steady clock, s) to renew it.
+  std::map<std::string, double> owned_;  // guarded by mutex_
+  // Fills each tied-in trajectory's origin_samples (`map` is `record` as ToProto made it): this
+  // server's own follow, else the one stored with the map.
+  void AddSamples(const storage::MapRecord& record, v1::Map* map) const;
 };
+
+// The follow's samples as MapTrajectoryRecord::follow stores them (MapTrajectory's
+// origin_samples, serialized), and back: DATA_LOSS for bytes that are not such a list.
+std::string EncodeFollow(const std::vector<laser_slam::OriginSample>& samples);
+absl::StatusOr<std::vector<laser_slam::OriginSample>> DecodeFollow(const std::string& bytes);
+// A trajectory's origin_samples as the follow's samples (no checks: a message this server made).
+std::vector<laser_slam::OriginSample> SamplesOf(const v1::MapTrajectory& trajectory);
 
 // The map frame pose of `pose` (a session frame pose) for a trajectory tied in at `tie`.
 v1::Pose2D InMapFrame(const storage::MapTie& tie, const v1::Pose2D& pose);

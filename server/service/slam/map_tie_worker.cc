@@ -54,13 +54,23 @@ void MapTieWorker::Loop() {
   }
 }
 
-absl::StatusOr<TrajectoryNodes> MapTieWorker::NodesOf(const std::string& session_id) {
+bool MapTieWorker::Moving(const storage::MapTrajectoryRecord& trajectory) const {
+  if (sources_.resident(trajectory.session_id)) return true;
+  auto it = stored_.find(trajectory.session_id);
+  return it != stored_.end() && trajectory.scans_processed > it->second.scans_processed;
+}
+
+absl::StatusOr<TrajectoryNodes> MapTieWorker::NodesOf(
+    const storage::MapTrajectoryRecord& trajectory) {
+  const std::string& session_id = trajectory.session_id;
   if (auto it = stored_.find(session_id); it != stored_.end()) {
-    if (!sources_.resident(session_id)) return it->second;
-    stored_.erase(it);  // its robot came back: its nodes change again
+    if (!Moving(trajectory)) return it->second.nodes;
+    stored_.erase(it);  // its robot came back here, or went on elsewhere: its nodes changed
   }
   absl::StatusOr<TrajectoryNodes> nodes = sources_.nodes(session_id);
-  if (nodes.ok() && !nodes->resident) stored_[session_id] = *nodes;
+  if (nodes.ok() && !nodes->resident) {
+    stored_[session_id] = Stored{*nodes, trajectory.scans_processed};
+  }
   return nodes;
 }
 
@@ -69,12 +79,13 @@ bool MapTieWorker::Pass() {
   std::set<std::string> untied, referenced;
   bool more = false;
   for (const storage::MapRecord& map : maps) {
+    if (!Owned(map.name)) continue;  // another server of the fleet ties its robots in
     std::vector<laser_slam::TiedTrajectory> tied;
     std::size_t map_nodes = 0;
     for (const storage::MapTrajectoryRecord& trajectory : map.trajectories) {
       referenced.insert(trajectory.session_id);
       if (!trajectory.tie) continue;
-      absl::StatusOr<TrajectoryNodes> nodes = NodesOf(trajectory.session_id);
+      absl::StatusOr<TrajectoryNodes> nodes = NodesOf(trajectory);
       if (!nodes.ok()) continue;  // deleted meanwhile: the map no longer holds it
       map_nodes += nodes->nodes.size();
       tied.push_back(laser_slam::TiedTrajectory{
@@ -89,7 +100,7 @@ bool MapTieWorker::Pass() {
         std::lock_guard<std::mutex> lock(mu_);
         if (stop_) return false;
       }
-      more = Turn(map.name, trajectory.session_id, tied, map_nodes) || more;
+      more = Turn(map.name, trajectory, tied, map_nodes) || more;
     }
   }
   more = FollowPass(&referenced) || more;
@@ -105,13 +116,14 @@ bool MapTieWorker::Pass() {
   return more;
 }
 
-bool MapTieWorker::Turn(const std::string& map, const std::string& session_id,
+bool MapTieWorker::Turn(const std::string& map, const storage::MapTrajectoryRecord& trajectory,
                         const std::vector<laser_slam::TiedTrajectory>& tied,
                         std::size_t map_nodes) {
+  const std::string& session_id = trajectory.session_id;
   if (auto it = exhausted_.find(session_id); it != exhausted_.end()) {
     const bool grown = static_cast<double>(map_nodes) >
                        (1.0 + options_.tie.map_growth) * static_cast<double>(it->second);
-    if (!grown && !sources_.resident(session_id)) return false;
+    if (!grown && !Moving(trajectory)) return false;
     exhausted_.erase(it);
   }
   Joining& joining = joining_[session_id];
@@ -125,7 +137,7 @@ bool MapTieWorker::Turn(const std::string& map, const std::string& session_id,
     }
     joining = Joining{map, *std::move(tie)};
   }
-  absl::StatusOr<TrajectoryNodes> nodes = NodesOf(session_id);
+  absl::StatusOr<TrajectoryNodes> nodes = NodesOf(trajectory);
   if (!nodes.ok() || nodes->nodes.empty()) return false;
   if (joining.tie->WantsMap(map_nodes)) {
     if (absl::Status s = joining.tie->SetMap(laser_slam::MapCloud(tied, options_.tie.point_cell),
@@ -142,7 +154,7 @@ bool MapTieWorker::Turn(const std::string& map, const std::string& session_id,
   const laser_slam::TieProgress& progress = joining.tie->Advance(nodes->nodes, kTurnReads);
   if (!progress.tie) {
     if (progress.reads > before) return true;  // more to do now
-    if (!nodes->resident &&
+    if (!nodes->resident && trajectory.session_state == storage::SlamSessionState::kClosed &&
         progress.clock_scan >= static_cast<double>(nodes->nodes.back().scan)) {
       spdlog::info(
           "SLAM map \"{}\": session {} (closed) was searched for to its last scan and not found "
@@ -182,8 +194,8 @@ bool MapTieWorker::Turn(const std::string& map, const std::string& session_id,
 std::vector<laser_slam::OriginSample> MapTieWorker::SamplesOf(
     const std::string& session_id) const {
   auto it = following_.find(session_id);
-  if (it == following_.end() || it->second.follow == nullptr) return {};
-  return it->second.follow->samples();
+  if (it != following_.end() && it->second.follow != nullptr) return it->second.follow->samples();
+  return sources_.samples ? sources_.samples(session_id) : std::vector<laser_slam::OriginSample>{};
 }
 
 bool MapTieWorker::FollowPass(std::set<std::string>* referenced) {
@@ -191,6 +203,7 @@ bool MapTieWorker::FollowPass(std::set<std::string>* referenced) {
   bool more = false;
   std::set<std::string> followed;
   for (const storage::MapRecord& map : sources_.maps_to_follow()) {
+    if (!Owned(map.name)) continue;  // another server of the fleet follows its robots
     std::vector<const storage::MapTrajectoryRecord*> tied;
     for (const storage::MapTrajectoryRecord& trajectory : map.trajectories) {
       if (trajectory.tie) tied.push_back(&trajectory);
@@ -202,7 +215,7 @@ bool MapTieWorker::FollowPass(std::set<std::string>* referenced) {
       const std::string& id = tied[i]->session_id;
       followed.insert(id);
       auto it = following_.find(id);
-      if (it == following_.end() || !it->second.done || sources_.resident(id)) work = true;
+      if (it == following_.end() || !it->second.done || Moving(*tied[i])) work = true;
     }
     if (!work) continue;
     std::vector<laser_slam::TiedTrajectory> all;
@@ -212,14 +225,14 @@ bool MapTieWorker::FollowPass(std::set<std::string>* referenced) {
         if (stop_) return false;
       }
       referenced->insert(trajectory->session_id);
-      absl::StatusOr<TrajectoryNodes> nodes = NodesOf(trajectory->session_id);
+      absl::StatusOr<TrajectoryNodes> nodes = NodesOf(*trajectory);
       all.push_back(laser_slam::TiedTrajectory{
           laser_slam::Pose2{trajectory->tie->x, trajectory->tie->y, trajectory->tie->theta},
           nodes.ok() ? std::move(nodes->nodes) : std::vector<laser_slam::NodeView>{},
           SamplesOf(trajectory->session_id)});
     }
     for (std::size_t i = 1; i < tied.size(); ++i) {
-      more = FollowTurn(map.name, tied[i]->session_id, all, i) || more;
+      more = FollowTurn(map.name, *tied[i], all, i) || more;
     }
   }
   for (auto it = following_.begin(); it != following_.end();) {
@@ -228,18 +241,24 @@ bool MapTieWorker::FollowPass(std::set<std::string>* referenced) {
   return more;
 }
 
-bool MapTieWorker::FollowTurn(const std::string& map, const std::string& session_id,
+bool MapTieWorker::FollowTurn(const std::string& map,
+                              const storage::MapTrajectoryRecord& trajectory,
                               const std::vector<laser_slam::TiedTrajectory>& all,
                               std::size_t self) {
+  const std::string& session_id = trajectory.session_id;
   const std::vector<laser_slam::NodeView>& nodes = all[self].nodes;
   if (nodes.empty()) return false;
   Following& following = following_[session_id];
   if (following.follow == nullptr || following.map != map) {
-    // From the origin stored at its tie, observed from its first node on.
+    // From the follow stored with the map (by this server before a restart, or by the map's
+    // previous owner), else from the origin stored at its tie, observed from its first node on.
     absl::StatusOr<std::unique_ptr<laser_slam::TrajectoryFollow>> follow =
-        laser_slam::TrajectoryFollow::Create(
-            options_.follow_options,
-            laser_slam::OriginSample{nodes.front().scan, nodes.front().stamp, all[self].origin});
+        all[self].samples.empty()
+            ? laser_slam::TrajectoryFollow::Create(
+                  options_.follow_options,
+                  laser_slam::OriginSample{nodes.front().scan, nodes.front().stamp,
+                                           all[self].origin})
+            : laser_slam::TrajectoryFollow::Resume(options_.follow_options, all[self].samples);
     if (!follow.ok()) {
       spdlog::error("SLAM map \"{}\": cannot follow session {}: {}", map, session_id,
                     follow.status().ToString());
@@ -273,7 +292,8 @@ bool MapTieWorker::FollowTurn(const std::string& map, const std::string& session
                    s.ToString());
     }
   }
-  if (looked < kFollowAttempts && !sources_.resident(session_id) && !following.done) {
+  if (looked < kFollowAttempts && !Moving(trajectory) &&
+      trajectory.session_state == storage::SlamSessionState::kClosed && !following.done) {
     following.done = true;
     const laser_slam::FollowProgress& p = following.follow->progress();
     // What results.md reads: how often a closed robot was matched again after its tie.

@@ -49,8 +49,17 @@ class MapTieWorker {
     std::function<std::vector<storage::MapRecord>()> maps_to_tie;
     // A session's nodes (SessionQueries::TrajectoryNodesOf).
     std::function<absl::StatusOr<TrajectoryNodes>(const std::string& session_id)> nodes;
-    // Whether the session is in memory (a stored session's nodes are read once, until it is).
+    // Whether the session is in memory here. Otherwise its nodes are read from its checkpoint,
+    // again only once the map's record shows more scans processed (its robot goes on on another
+    // server of the fleet, which checkpoints it).
     std::function<bool(const std::string& session_id)> resident;
+    // Whether this server ties and follows the map's robots now (MapRegistry::Own: the map's
+    // lease on a fleet); null: always.
+    std::function<bool(const std::string& map)> own;
+    // A session's follow as stored with the map (MapRegistry::FollowedSamples): what this server
+    // goes on from when it starts following a robot another server (or this one before a
+    // restart) followed; null or empty: from its tie.
+    std::function<std::vector<laser_slam::OriginSample>(const std::string& session_id)> samples;
     // Stores the tie and updates the answers (MapRegistry::Tie).
     std::function<absl::Status(const std::string& map, const std::string& session_id,
                                const storage::MapTie& tie)>
@@ -90,14 +99,18 @@ class MapTieWorker {
   bool Pass();
   // One joining session's turn: spends some of its budget, ties it in when found; true when it
   // has more to do now.
-  bool Turn(const std::string& map, const std::string& session_id,
+  bool Turn(const std::string& map, const storage::MapTrajectoryRecord& trajectory,
             const std::vector<laser_slam::TiedTrajectory>& tied, std::size_t map_nodes);
-  absl::StatusOr<TrajectoryNodes> NodesOf(const std::string& session_id);
+  absl::StatusOr<TrajectoryNodes> NodesOf(const storage::MapTrajectoryRecord& trajectory);
+  // Whether the trajectory's nodes may have changed since they were last read: its session is in
+  // memory here, or its record shows more scans than the checkpoint read.
+  bool Moving(const storage::MapTrajectoryRecord& trajectory) const;
+  bool Owned(const std::string& map) const { return !sources_.own || sources_.own(map); }
   // The following after the tie: one pass over the maps to follow; true when some session has
   // more to do now. `referenced`: the sessions whose nodes it read.
   bool FollowPass(std::set<std::string>* referenced);
   // One followed trajectory's turn: `all` are the map's tied-in trajectories, `self` its index.
-  bool FollowTurn(const std::string& map, const std::string& session_id,
+  bool FollowTurn(const std::string& map, const storage::MapTrajectoryRecord& trajectory,
                   const std::vector<laser_slam::TiedTrajectory>& all, std::size_t self);
   // The samples of a followed session (empty: none).
   std::vector<laser_slam::OriginSample> SamplesOf(const std::string& session_id) const;
@@ -105,9 +118,13 @@ class MapTieWorker {
   const Sources sources_;
   const Options options_;
   // The thread's own (no lock): the sessions being searched for, and the nodes of sessions read
-  // from their checkpoints (closed: they do not change).
+  // from their checkpoints, with the scans processed their record showed then.
   std::map<std::string, Joining> joining_;
-  std::map<std::string, TrajectoryNodes> stored_;
+  struct Stored {
+    TrajectoryNodes nodes;
+    int64_t scans_processed = 0;
+  };
+  std::map<std::string, Stored> stored_;
   // Closed sessions searched to their last scan without a tie, with the map's nodes then: their
   // search (and its grids, megabytes) is dropped, and run again only once the map has grown by
   // TieOptions::map_growth or the robot resumes its session.

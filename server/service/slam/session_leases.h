@@ -57,6 +57,7 @@ class SessionLeases {
   }
   // The owner to fence checkpoints with ("" when leases are off).
   const std::string& owner() const { return options_.owner; }
+  double ttl_seconds() const { return options_.ttl_seconds; }
 
   // OK when this server now holds the session's lease (taken or renewed; always OK when leases
   // are off); FAILED_PRECONDITION with the holder's address (SessionOwnerAddress) when another

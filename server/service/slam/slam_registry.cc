@@ -81,14 +81,17 @@ SlamRegistry::SlamRegistry(std::unique_ptr<storage::SlamStore> store,
       });
   streams_ = std::make_unique<SessionStreams>(options_, &shutting_down_, journal_.get(),
                                               scheduler_.get(), persistence_.get());
-  // With several servers on one database, a session may have joined its map on another one.
-  maps_ = std::make_unique<MapRegistry>(map_store_.get(), /*find_in_store=*/leases_.enabled());
+  // With several servers on one database, a session may have joined its map on another one, and
+  // a map is tied and followed by the server holding its lease.
+  maps_ = std::make_unique<MapRegistry>(map_store_.get(), &leases_);
   if (map_store_ != nullptr && options_.map_tie) {
     // Ties robots into their maps, on its own thread (map_tie_worker.h).
     MapTieWorker::Sources sources;
     sources.maps_to_tie = [this] { return maps_->MapsToTie(); };
     sources.nodes = [this](const std::string& id) { return queries_->TrajectoryNodesOf(id); };
     sources.resident = [this](const std::string& id) { return queries_->IsResident(id); };
+    sources.own = [this](const std::string& map) { return maps_->Own(map); };
+    sources.samples = [this](const std::string& id) { return maps_->FollowedSamples(id); };
     sources.tie = [this](const std::string& map, const std::string& id,
                          const storage::MapTie& tie) { return maps_->Tie(map, id, tie); };
     sources.maps_to_follow = [this] { return maps_->MapsToFollow(); };
@@ -283,6 +286,7 @@ absl::Status SlamRegistry::Shutdown() {
   shut_down_ = true;
   shutting_down_ = true;  // Submit and OpenStream refuse from now on
   if (tie_worker_ != nullptr) tie_worker_->Stop();  // it reads the sessions stopped below
+  maps_->ReleaseLeases();  // another server may tie and follow them at once
   const std::vector<std::shared_ptr<SlamSession>> sessions = table_->All();
   // The workers still run: let every accepted message be processed (and answered) first.
   for (const std::shared_ptr<SlamSession>& session : sessions) WaitIdle(*session);
