@@ -70,6 +70,8 @@ Memory ReadMemory(pid_t pid) {
 struct RunResult {
   std::string binary;
   Memory before, peak, at_close, after_idle;
+  // While the robots stream: the heap at each quarter of the run (a lifelong map stays flat).
+  std::vector<double> anon_quarters;
   int sessions_created = 0, sessions_closed = 0, resident_after_close = -1;
   int64_t scans_answered = 0;
 };
@@ -96,11 +98,18 @@ absl::StatusOr<RunResult> RunOnce(const std::string& binary, const Options& opti
   result.before = ReadMemory(pid);
   result.peak = result.before;
   std::atomic<bool> sampling{true};
+  const auto start = std::chrono::steady_clock::now();
   std::thread sampler([&] {
     while (sampling.load()) {
       const Memory now = ReadMemory(pid);
       result.peak.rss_mb = std::max(result.peak.rss_mb, now.rss_mb);
       result.peak.anon_mb = std::max(result.peak.anon_mb, now.anon_mb);
+      const double elapsed =
+          std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
+      const size_t quarter = result.anon_quarters.size() + 1;
+      if (quarter <= 3 && elapsed >= options.load.duration_s * static_cast<double>(quarter) / 4) {
+        result.anon_quarters.push_back(now.anon_mb);
+      }
       std::this_thread::sleep_for(std::chrono::milliseconds(250));
     }
   });
@@ -118,6 +127,7 @@ absl::StatusOr<RunResult> RunOnce(const std::string& binary, const Options& opti
   result.at_close = ReadMemory(pid);
   sampling = false;
   sampler.join();
+  result.anon_quarters.push_back(result.at_close.anon_mb);
   if (!load.ok()) return load.status();
   result.sessions_created = load->sessions_created;
   result.sessions_closed = load->sessions_closed;
@@ -140,6 +150,9 @@ absl::StatusOr<RunResult> RunOnce(const std::string& binary, const Options& opti
       result.after_idle.rss_mb, options.idle_seconds, result.before.anon_mb, result.peak.anon_mb,
       result.at_close.anon_mb, result.after_idle.anon_mb, result.sessions_closed,
       result.scans_answered, result.resident_after_close);
+  std::cerr << "  anon MiB at each quarter of the run:";
+  for (double mb : result.anon_quarters) std::cerr << fmt::format(" {:.1f}", mb);
+  std::cerr << (options.load.prune ? "\n" : " (sessions without pruning)\n");
   return result;
 }
 
@@ -177,6 +190,7 @@ json RunJson(const RunResult& r) {
           {"peak", ToJson(r.peak)},
           {"at_close", ToJson(r.at_close)},
           {"after_idle", ToJson(r.after_idle)},
+          {"anon_mb_at_quarters", r.anon_quarters},
           {"sessions_created", r.sessions_created},
           {"sessions_closed", r.sessions_closed},
           {"resident_after_close", r.resident_after_close},
@@ -200,6 +214,10 @@ int main(int argc, char** argv) {
   app.add_option("--server-binary", server_binary, "the server measured")->capture_default_str();
   app.add_option("--baseline-binary", baseline_binary,
                  "a server to compare with, run alternately with --server-binary");
+  bool baseline_no_pruning = false;
+  app.add_flag("--baseline-no-pruning", baseline_no_pruning,
+               "the baseline is --server-binary with sessions that keep every scan node "
+               "(LaserSlamParams.prune_redundant_submaps = false)");
   app.add_option("--robots", options.load.robots)->check(CLI::Range(1, 200))->capture_default_str();
   app.add_option("--duration", options.load.duration_s, "seconds the robots stream")
       ->check(CLI::Range(1.0, 3600.0))
@@ -216,20 +234,35 @@ int main(int argc, char** argv) {
   app.add_option("--out", out_dir)->capture_default_str();
   CLI11_PARSE(app, argc, argv);
 
-  std::vector<std::string> binaries;
-  if (!baseline_binary.empty()) binaries.push_back(baseline_binary);
-  binaries.push_back(server_binary);
+  if (baseline_no_pruning && !baseline_binary.empty()) {
+    std::cerr << "--baseline-binary or --baseline-no-pruning, not both\n";
+    return 2;
+  }
+  if (baseline_no_pruning) baseline_binary = server_binary;
+  // (label, binary, prune), the baseline first; they alternate run by run.
+  struct Config {
+    std::string label, binary;
+    bool prune = true;
+  };
+  std::vector<Config> configs;
+  if (!baseline_binary.empty()) configs.push_back({"baseline", baseline_binary, !baseline_no_pruning});
+  configs.push_back({"server", server_binary, true});
   std::map<std::string, std::vector<RunResult>> results;
   json runs_json = json::array();
   for (int run = 0; run < runs; ++run) {
-    for (const std::string& binary : binaries) {
-      absl::StatusOr<RunResult> result = RunOnce(binary, options, run);
+    for (const Config& config : configs) {
+      Options run_options = options;
+      run_options.load.prune = config.prune;
+      absl::StatusOr<RunResult> result = RunOnce(config.binary, run_options, run);
       if (!result.ok()) {
-        std::cerr << "run " << run << " of " << binary << ": " << result.status() << "\n";
+        std::cerr << "run " << run << " of " << config.binary << ": " << result.status() << "\n";
         return 1;
       }
-      runs_json.push_back(RunJson(*result));
-      results[binary].push_back(*std::move(result));
+      json run_json = RunJson(*result);
+      run_json["label"] = config.label;
+      run_json["prune"] = config.prune;
+      runs_json.push_back(run_json);
+      results[config.label].push_back(*std::move(result));
     }
   }
 
@@ -240,13 +273,17 @@ int main(int argc, char** argv) {
                  {"world", options.load.world},
                  {"idle_seconds", options.idle_seconds},
                  {"runs", runs_json}};
-  const json measured = Medians(results[server_binary]);
+  const json measured = Medians(results["server"]);
   report["server"] = {{"binary", server_binary}, {"medians", measured}};
   std::cout << fmt::format("{} robots x {:.0f} s at {} Hz scans, {} run(s) each; medians, MiB\n",
                            options.load.robots, options.load.duration_s, options.load.scan_hz, runs);
   std::cout << fmt::format("{:<26}{:>12}{:>12}{:>12}\n", "", "baseline", "server", "ratio");
-  const json baseline = baseline_binary.empty() ? json() : Medians(results[baseline_binary]);
-  if (!baseline_binary.empty()) report["baseline"] = {{"binary", baseline_binary}, {"medians", baseline}};
+  const json baseline = baseline_binary.empty() ? json() : Medians(results["baseline"]);
+  if (!baseline_binary.empty()) {
+    report["baseline"] = {{"binary", baseline_binary},
+                          {"prune", !baseline_no_pruning},
+                          {"medians", baseline}};
+  }
   json ratios;
   for (const auto& [name, value] : measured.items()) {
     const double base = baseline.is_null() ? -1 : baseline[name].get<double>();

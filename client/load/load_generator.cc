@@ -153,10 +153,11 @@ class Robot {
     adapters::Simulation sim(fleet_.world, sim_options);
     const adapters::LaserLayout layout = sim.laser_layout();
     const std::string robot_id = absl::StrCat(options.robot_prefix, "-", index_);
-    absl::StatusOr<v1::Session> session = Timed(kCreateSessionRpc, [&] {
-      return clients_.slam->CreateSession(LaserSessionRequest(
-          layout, robot_id, absl::StrCat("bench load ", robot_id), v1::ExplorationConfig::PASSIVE));
-    });
+    v1::CreateSessionRequest request = LaserSessionRequest(
+        layout, robot_id, absl::StrCat("bench load ", robot_id), v1::ExplorationConfig::PASSIVE);
+    if (!options.prune) request.mutable_laser()->mutable_params()->set_prune_redundant_submaps(false);
+    absl::StatusOr<v1::Session> session =
+        Timed(kCreateSessionRpc, [&] { return clients_.slam->CreateSession(request); });
     if (!session.ok()) return;
 
     // Scans waiting for their SlamUpdate, by stamp (an update carries its scan's stamp).

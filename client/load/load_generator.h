@@ -45,6 +45,9 @@ struct LoadOptions {
   std::string database;               // what the robots recognize against
   std::string world = "office";       // built-in simulator world (or a world file)
   std::string robot_prefix = "load";  // robot ids "load-0", "load-1", ...
+  // The sessions' LaserSlamParams.prune_redundant_submaps (the server's default: true); false
+  // keeps every scan node, what lifelong mapping is measured against.
+  bool prune = true;
 };
 
 // One robot's connection: its own clients (so its own channel), as a robot would have.

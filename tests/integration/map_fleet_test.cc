@@ -72,37 +72,52 @@ std::unique_ptr<v1::SlamService::Stub> FleetMapStub(const ServerProcess& server)
       grpc::CreateChannel(server.address(), grpc::InsecureChannelCredentials()));
 }
 
-TEST(MapFleetTest, ServersOnOneDatabaseShareAMapAndItsMembers) {
-  TestDatabase database(Backend::kPostgres);
-  WAYMARK_SKIP_WITHOUT(database);
-  const std::vector<std::string> flags = {"--slam-workers", "2", "--session-lease-seconds", "2"};
-  auto a = ServerProcess::Start(testing::ServerBinary(), database.db(), flags);
-  ASSERT_TRUE(a.ok()) << a.status();
-  auto b = ServerProcess::Start(testing::ServerBinary(), database.db(), flags);
-  ASSERT_TRUE(b.ok()) << b.status();
-  auto on_a = FleetMapStub(**a);
-  auto on_b = FleetMapStub(**b);
+// Two servers on one PostgreSQL database (session leases of 2 s), and the map "office" created
+// on the first.
+class MapFleetTest : public ::testing::Test {
+ protected:
+  MapFleetTest() : database_(Backend::kPostgres) {}
 
-  v1::CreateMapRequest create;
-  create.set_name("office");
+  void SetUp() override {
+    WAYMARK_SKIP_WITHOUT(database_);
+    const std::vector<std::string> flags = {"--slam-workers", "2", "--session-lease-seconds", "2"};
+    auto a = ServerProcess::Start(testing::ServerBinary(), database_.db(), flags);
+    ASSERT_TRUE(a.ok()) << a.status();
+    auto b = ServerProcess::Start(testing::ServerBinary(), database_.db(), flags);
+    ASSERT_TRUE(b.ok()) << b.status();
+    a_ = *std::move(a);
+    b_ = *std::move(b);
+    on_a_ = FleetMapStub(*a_);
+    on_b_ = FleetMapStub(*b_);
+    create_.set_name("office");
+    ASSERT_TRUE(on_a_->CreateMap(FleetMapCtx().get(), create_, &created_).ok());
+  }
+
+  TestDatabase database_;
+  std::unique_ptr<ServerProcess> a_, b_;
+  std::unique_ptr<v1::SlamService::Stub> on_a_, on_b_;
+  v1::CreateMapRequest create_;
+  v1::Map created_;
+};
+
+TEST_F(MapFleetTest, ServersOnOneDatabaseShareAMapAndItsMembers) {
   v1::Map map;
-  ASSERT_TRUE(on_a->CreateMap(FleetMapCtx().get(), create, &map).ok());
   // Both servers keep maps in the one database.
-  grpc::Status twice = on_b->CreateMap(FleetMapCtx().get(), create, &map);
+  grpc::Status twice = on_b_->CreateMap(FleetMapCtx().get(), create_, &map);
   EXPECT_EQ(twice.error_code(), grpc::StatusCode::ALREADY_EXISTS);
 
   v1::CreateSessionRequest join = TestSessionRequest("r1");
   join.set_map("office");
   v1::Session first, second;
-  ASSERT_TRUE(on_b->CreateSession(FleetMapCtx().get(), join, &first).ok());
+  ASSERT_TRUE(on_b_->CreateSession(FleetMapCtx().get(), join, &first).ok());
   join.set_robot_id("r2");
-  ASSERT_TRUE(on_a->CreateSession(FleetMapCtx().get(), join, &second).ok());
+  ASSERT_TRUE(on_a_->CreateSession(FleetMapCtx().get(), join, &second).ok());
 
   v1::GetMapInfoRequest info;
   info.set_name("office");
   v1::Map seen_by_a, seen_by_b;
-  ASSERT_TRUE(on_a->GetMapInfo(FleetMapCtx().get(), info, &seen_by_a).ok());
-  ASSERT_TRUE(on_b->GetMapInfo(FleetMapCtx().get(), info, &seen_by_b).ok());
+  ASSERT_TRUE(on_a_->GetMapInfo(FleetMapCtx().get(), info, &seen_by_a).ok());
+  ASSERT_TRUE(on_b_->GetMapInfo(FleetMapCtx().get(), info, &seen_by_b).ok());
   EXPECT_EQ(seen_by_a.SerializeAsString(), seen_by_b.SerializeAsString());
   ASSERT_EQ(seen_by_a.trajectories_size(), 2);
   EXPECT_EQ(seen_by_a.trajectories(0).session_id(), first.session_id());
@@ -111,16 +126,16 @@ TEST(MapFleetTest, ServersOnOneDatabaseShareAMapAndItsMembers) {
 
   grpc::Status status;
   std::vector<v1::SlamUpdate> answers =
-      FleetMapStream(on_b.get(), first.session_id(), 0, 4, &status);
+      FleetMapStream(on_b_.get(), first.session_id(), 0, 4, &status);
   ASSERT_TRUE(status.ok()) << status.error_message();
   ASSERT_FALSE(answers.empty());
   for (const v1::SlamUpdate& update : answers) EXPECT_TRUE(update.map_pose().tied_in());
 
   // B stops cleanly (hands its sessions over at once); A serves the session and, though A
   // loaded its maps before the session joined on B, still answers it in its map.
-  on_b.reset();
-  ASSERT_EQ((*b)->Stop(SIGTERM), 0);
-  answers = FleetMapStream(on_a.get(), first.session_id(), 4, 4, &status);
+  on_b_.reset();
+  ASSERT_EQ(b_->Stop(SIGTERM), 0);
+  answers = FleetMapStream(on_a_.get(), first.session_id(), 4, 4, &status);
   ASSERT_TRUE(status.ok()) << status.error_message();
   ASSERT_FALSE(answers.empty());
   for (const v1::SlamUpdate& update : answers) {
@@ -145,35 +160,23 @@ bool WaitForMap(v1::SlamService::Stub* stub, const std::function<bool(const v1::
   return false;
 }
 
-TEST(MapFleetTest, OneServerAtATimeFollowsAMapsRobotsAndTheNextGoesOnFromItsFollow) {
-  TestDatabase database(Backend::kPostgres);
-  WAYMARK_SKIP_WITHOUT(database);
-  const std::vector<std::string> flags = {"--slam-workers", "2", "--session-lease-seconds", "2"};
-  auto a = ServerProcess::Start(testing::ServerBinary(), database.db(), flags);
-  ASSERT_TRUE(a.ok()) << a.status();
-  auto b = ServerProcess::Start(testing::ServerBinary(), database.db(), flags);
-  ASSERT_TRUE(b.ok()) << b.status();
-  auto on_a = FleetMapStub(**a);
-  auto on_b = FleetMapStub(**b);
-  v1::CreateMapRequest create;
-  create.set_name("office");
+TEST_F(MapFleetTest, OneServerAtATimeFollowsAMapsRobotsAndTheNextGoesOnFromItsFollow) {
   v1::Map map;
-  ASSERT_TRUE(on_a->CreateMap(FleetMapCtx().get(), create, &map).ok());
-  EXPECT_TRUE(map.owner().empty());
+  EXPECT_TRUE(created_.owner().empty());
 
   // Robot 1 defines the map frame; robot 2 drives the same room, its start given (the test room
   // is square: a search could not tell its corners apart), and is followed.
   v1::CreateSessionRequest join = TestSessionRequest("r1");
   join.set_map("office");
   v1::Session first, second;
-  ASSERT_TRUE(on_a->CreateSession(FleetMapCtx().get(), join, &first).ok());
+  ASSERT_TRUE(on_a_->CreateSession(FleetMapCtx().get(), join, &first).ok());
   grpc::Status status;
-  FleetMapStream(on_a.get(), first.session_id(), 0, 12, &status);
+  FleetMapStream(on_a_.get(), first.session_id(), 0, 12, &status);
   ASSERT_TRUE(status.ok()) << status.error_message();
   join.set_robot_id("r2");
   join.mutable_initial_map_pose();  // at the map frame's origin, as robot 1 started
-  ASSERT_TRUE(on_a->CreateSession(FleetMapCtx().get(), join, &second).ok());
-  FleetMapStream(on_a.get(), second.session_id(), 0, 8, &status);
+  ASSERT_TRUE(on_a_->CreateSession(FleetMapCtx().get(), join, &second).ok());
+  FleetMapStream(on_a_.get(), second.session_id(), 0, 8, &status);
   ASSERT_TRUE(status.ok()) << status.error_message();
 
   // A follows robot 2 (it holds the map's lease) and stores what the follow found.
@@ -184,33 +187,33 @@ TEST(MapFleetTest, OneServerAtATimeFollowsAMapsRobotsAndTheNextGoesOnFromItsFoll
     return 0;
   };
   ASSERT_TRUE(WaitForMap(
-      on_a.get(), [&](const v1::Map& m) { return m.owner() == (*a)->address() && samples_of_second(m) >= 2; },
+      on_a_.get(), [&](const v1::Map& m) { return m.owner() == a_->address() && samples_of_second(m) >= 2; },
       &map))
-      << "A never followed robot 2: owner '" << map.owner() << "'\n" << (*a)->Log();
+      << "A never followed robot 2: owner '" << map.owner() << "'\n" << a_->Log();
   v1::Map seen_by_b;
   // B, which follows nobody, reads the same follow from the database.
   ASSERT_TRUE(WaitForMap(
-      on_b.get(), [&](const v1::Map& m) { return samples_of_second(m) >= 2; }, &seen_by_b))
-      << (*b)->Log();
-  EXPECT_EQ(seen_by_b.owner(), (*a)->address());
+      on_b_.get(), [&](const v1::Map& m) { return samples_of_second(m) >= 2; }, &seen_by_b))
+      << b_->Log();
+  EXPECT_EQ(seen_by_b.owner(), a_->address());
   const int followed_on_a = samples_of_second(seen_by_b);
 
   // A dies without a word. Once its leases expire B serves robot 2, takes the map over and goes
   // on from the stored follow: more samples, the first ones A's.
-  on_a.reset();
-  (*a)->Signal(SIGKILL);
-  ASSERT_TRUE((*a)->WaitForExit(absl::Seconds(30)).has_value());
+  on_a_.reset();
+  a_->Signal(SIGKILL);
+  ASSERT_TRUE(a_->WaitForExit(absl::Seconds(30)).has_value());
   std::this_thread::sleep_for(std::chrono::milliseconds(2500));  // the session lease (2 s)
-  FleetMapStream(on_b.get(), second.session_id(), 8, 8, &status);
+  FleetMapStream(on_b_.get(), second.session_id(), 8, 8, &status);
   ASSERT_TRUE(status.ok()) << status.error_message();
   ASSERT_TRUE(WaitForMap(
-      on_b.get(),
+      on_b_.get(),
       [&](const v1::Map& m) {
-        return m.owner() == (*b)->address() && samples_of_second(m) > followed_on_a;
+        return m.owner() == b_->address() && samples_of_second(m) > followed_on_a;
       },
       &map))
       << "B never took the map over: owner '" << map.owner() << "', " << samples_of_second(map)
-      << " samples\n" << (*b)->Log();
+      << " samples\n" << b_->Log();
   const v1::MapTrajectory* on_b_second = nullptr;
   for (const v1::MapTrajectory& t : map.trajectories()) {
     if (t.session_id() == second.session_id()) on_b_second = &t;
