@@ -97,18 +97,35 @@ int RunMapShow(CommandContext& context, const MapCommandArgs& args) {
   if (!map->owner().empty()) context.out << "tied and followed by the server at " << map->owner() << "\n";
   if (map->trajectories().empty()) return kExitOk;
   Table table({{"#", true}, {"session"}, {"robot"}, {"state"}, {"scans", true}, {"in the map"},
-               {"joined"}});
+               {"matches"}, {"joined"}});
   int index = 0;
   for (const v1::MapTrajectory& t : map->trajectories()) {
     const std::string place =
         t.tied_in() ? fmt::format("yes, origin ({:.3f}, {:.3f}, {:.3f})", t.origin().x(),
                                   t.origin().y(), t.origin().theta())
                     : "not yet";
+    // Searches while not in the map, follow-up matches after the tie.
+    const v1::MapMatchStats& m = t.tied_in() ? t.follow() : t.search();
+    const std::string matches =
+        m.tried() == 0 ? "-"
+                       : fmt::format("{} of {} {}{}", m.matched(), m.tried(),
+                                     t.tied_in() ? "held" : "unique",
+                                     m.ambiguous() > 0
+                                         ? fmt::format(", {} look-alike", m.ambiguous())
+                                         : "");
     table.AddRow({std::to_string(++index), t.session_id(), t.robot_id(),
                   t.state() == v1::Session::OPEN ? "open" : "closed",
-                  std::to_string(t.scans_processed()), place, MapTime(t.joined_at_unix())});
+                  std::to_string(t.scans_processed()), place, matches,
+                  MapTime(t.joined_at_unix())});
   }
   table.Print(context.out);
+  // The map's doubts, one line each, where people read them.
+  for (const v1::MapTrajectory& t : map->trajectories()) {
+    if (!t.warning().empty()) {
+      context.out << "warning: robot " << t.robot_id() << " (session " << t.session_id()
+                  << "): " << t.warning() << "\n";
+    }
+  }
   return kExitOk;
 }
 

@@ -219,6 +219,10 @@ TEST_F(MapFleetTest, OneServerAtATimeFollowsAMapsRobotsAndTheNextGoesOnFromItsFo
     if (t.session_id() == second.session_id()) on_b_second = &t;
   }
   ASSERT_NE(on_b_second, nullptr);
+  // The follow's counts went on from A's (stored with its samples); in one room, they all held.
+  EXPECT_GE(on_b_second->follow().tried(), seen_by_b.trajectories(1).follow().tried());
+  EXPECT_GT(seen_by_b.trajectories(1).follow().matched(), 0u);
+  EXPECT_EQ(on_b_second->warning(), "");
   for (int i = 0; i < followed_on_a; ++i) {
     EXPECT_EQ(on_b_second->origin_samples(i).scan(),
               seen_by_b.trajectories(1).origin_samples(i).scan());

@@ -11,6 +11,7 @@
 #include "absl/strings/str_cat.h"
 #include "server/laser_slam/geometry.h"
 #include "server/laser_slam/mapping/occupancy_grid.h"
+#include "server/service/slam/map_follow_codec.h"
 #include "server/service/slam/slam_params.h"
 #include "storage/map_records.h"
 
@@ -45,69 +46,12 @@ v1::Map ToProto(const storage::MapRecord& record) {
 
 bool IsOrigin(const v1::Pose2D& pose) { return pose.x() == 0 && pose.y() == 0 && pose.theta() == 0; }
 
-void SetPose(const laser_slam::Pose2& pose, v1::Pose2D* out) {
-  out->set_x(pose.x);
-  out->set_y(pose.y);
-  out->set_theta(pose.theta);
-}
-
-void AddSampleTo(const laser_slam::OriginSample& sample, v1::MapTrajectory* trajectory) {
-  v1::MapOriginSample* out = trajectory->add_origin_samples();
-  out->set_scan(sample.scan);
-  out->set_stamp(sample.stamp);
-  SetPose(sample.origin, out->mutable_origin());
-  if (sample.matched) SetPose(sample.map_pose, out->mutable_map_pose());
-}
-
 double SteadySeconds() {
   return std::chrono::duration<double>(std::chrono::steady_clock::now().time_since_epoch())
       .count();
 }
 
 }  // namespace
-
-std::string EncodeFollow(const std::vector<laser_slam::OriginSample>& samples) {
-  v1::MapTrajectory trajectory;
-  for (const laser_slam::OriginSample& sample : samples) AddSampleTo(sample, &trajectory);
-  return trajectory.SerializeAsString();
-}
-
-std::vector<laser_slam::OriginSample> SamplesOf(const v1::MapTrajectory& trajectory) {
-  std::vector<laser_slam::OriginSample> samples;
-  for (const v1::MapOriginSample& in : trajectory.origin_samples()) {
-    laser_slam::OriginSample sample;
-    sample.scan = in.scan();
-    sample.stamp = in.stamp();
-    sample.origin = laser_slam::Pose2{in.origin().x(), in.origin().y(), in.origin().theta()};
-    sample.matched = in.has_map_pose();
-    if (sample.matched) {
-      sample.map_pose = laser_slam::Pose2{in.map_pose().x(), in.map_pose().y(),
-                                          in.map_pose().theta()};
-    }
-    samples.push_back(sample);
-  }
-  return samples;
-}
-
-absl::StatusOr<std::vector<laser_slam::OriginSample>> DecodeFollow(const std::string& bytes) {
-  v1::MapTrajectory trajectory;
-  if (!trajectory.ParseFromString(bytes)) {
-    return absl::DataLossError("a trajectory's stored follow is not a list of origin samples");
-  }
-  std::vector<laser_slam::OriginSample> samples = SamplesOf(trajectory);
-  for (size_t i = 0; i < samples.size(); ++i) {
-    const laser_slam::OriginSample& sample = samples[i];
-    const laser_slam::Pose2& o = sample.origin;
-    const laser_slam::Pose2& m = sample.map_pose;
-    if (!std::isfinite(sample.stamp) || !std::isfinite(o.x) || !std::isfinite(o.y) ||
-        !std::isfinite(o.theta) || !std::isfinite(m.x) || !std::isfinite(m.y) ||
-        !std::isfinite(m.theta) || (i > 0 && sample.stamp < samples[i - 1].stamp)) {
-      return absl::DataLossError("a trajectory's stored follow has a sample out of order or not "
-                                 "finite");
-    }
-  }
-  return samples;
-}
 
 v1::Pose2D InMapFrame(const storage::MapTie& tie, const v1::Pose2D& pose) {
   const double c = std::cos(tie.theta);
@@ -183,20 +127,20 @@ void MapRegistry::Remember(const storage::MapRecord& map) {
       if (followed != followed_.end()) followed_.erase(followed);
       continue;
     }
-    absl::StatusOr<std::vector<laser_slam::OriginSample>> samples =
-        DecodeFollow(trajectory.follow);
-    if (!samples.ok() || samples->empty()) {
+    absl::StatusOr<StoredFollow> stored = DecodeFollow(trajectory.follow);
+    if (!stored.ok() || stored->samples.empty()) {
       // The stored origin still holds for every pose; the follow starts again from it.
       spdlog::warn("SLAM map \"{}\": session {}'s stored follow is unreadable ({}); its origin "
                    "holds for every pose",
-                   map.name, trajectory.session_id, samples.status().ToString());
+                   map.name, trajectory.session_id, stored.status().ToString());
       if (followed != followed_.end()) followed_.erase(followed);
       continue;
     }
     Followed& entry = followed_[trajectory.session_id];
-    entry.stored = samples->back().origin;
-    entry.stored_count = samples->size();
-    entry.samples = *std::move(samples);
+    entry.stored = stored->samples.back().origin;
+    entry.stored_count = stored->samples.size();
+    entry.samples = std::move(stored->samples);
+    entry.stats = stored->stats;
     entry.here = false;
     entry.revision = map.revision;
   }
@@ -245,24 +189,29 @@ void MapRegistry::AddSamples(const storage::MapRecord& record, v1::Map* map) con
   std::lock_guard<std::mutex> lock(mutex_);
   for (int i = 0; i < map->trajectories_size(); ++i) {
     v1::MapTrajectory& trajectory = *map->mutable_trajectories(i);
-    if (!trajectory.tied_in()) continue;
-    // This server's own follow is newer than the store's; otherwise the store's (written by the
-    // map's owner, maybe another server).
-    auto it = followed_.find(trajectory.session_id());
-    if (it != followed_.end() && it->second.here) {
+    if (!trajectory.tied_in()) {
+      if (auto it = searches_.find(trajectory.session_id()); it != searches_.end()) {
+        *trajectory.mutable_search() = it->second;
+      }
+    } else if (auto it = followed_.find(trajectory.session_id());
+               it != followed_.end() && it->second.here) {
+      // This server's own follow is newer than the store's.
       for (const laser_slam::OriginSample& sample : it->second.samples) {
         AddSampleTo(sample, &trajectory);
       }
-      continue;
+      *trajectory.mutable_follow() = it->second.stats;
+    } else if (const std::string& stored = record.trajectories[static_cast<size_t>(i)].follow;
+               !stored.empty()) {
+      // The store's, written by the map's owner (maybe another server). Unreadable bytes (logged
+      // where the registry reads them, Remember) show no samples: the stored origin then holds
+      // for every pose.
+      v1::MapTrajectory parsed;
+      if (parsed.ParseFromString(stored)) {
+        *trajectory.mutable_origin_samples() = parsed.origin_samples();
+        *trajectory.mutable_follow() = parsed.follow();
+      }
     }
-    const std::string& stored = record.trajectories[static_cast<size_t>(i)].follow;
-    if (stored.empty()) continue;
-    // Unreadable bytes (logged where the registry reads them, Remember) show no samples: the
-    // stored origin then holds for every pose.
-    v1::MapTrajectory parsed;
-    if (parsed.ParseFromString(stored)) {
-      *trajectory.mutable_origin_samples() = parsed.origin_samples();
-    }
+    trajectory.set_warning(MapTrajectoryWarning(trajectory));
   }
 }
 
@@ -432,6 +381,7 @@ void MapRegistry::SessionDeleted(const std::string& session_id) {
     it->second->Detach();
     members_.erase(it);
     followed_.erase(session_id);
+    searches_.erase(session_id);
   }
   if (map.empty()) return;
   absl::StatusOr<storage::MapRecord> left = store_->RemoveTrajectory(map, session_id);
@@ -508,6 +458,7 @@ absl::Status MapRegistry::Tie(const std::string& map, const std::string& session
   {
     std::lock_guard<std::mutex> lock(mutex_);
     followed_.erase(session_id);
+    searches_.erase(session_id);
   }
   Remember(*tied);
   return absl::OkStatus();
@@ -538,8 +489,15 @@ std::vector<storage::MapRecord> MapRegistry::MapsToFollow() {
   return maps;
 }
 
+void MapRegistry::Searched(const std::string& session_id,
+                           const laser_slam::TieProgress& progress) {
+  std::lock_guard<std::mutex> lock(mutex_);
+  searches_[session_id] = StatsOf(progress);
+}
+
 absl::Status MapRegistry::Follow(const std::string& map, const std::string& session_id,
-                                 const std::vector<laser_slam::OriginSample>& samples) {
+                                 const std::vector<laser_slam::OriginSample>& samples,
+                                 const laser_slam::FollowProgress& progress) {
   if (absl::Status s = CheckStore(); !s.ok()) return s;
   if (samples.empty()) return absl::InvalidArgumentError("no origin samples");
   // The store's origin is the latest, written with the samples at the first follow, and again
@@ -558,8 +516,15 @@ absl::Status MapRegistry::Follow(const std::string& map, const std::string& sess
     }
     Followed& followed = followed_[session_id];
     if (followed.samples.empty()) followed.stored = samples.front().origin;
+    // A follow resumed here counts on from what the stored one had counted.
+    if (!followed.here) followed.base = followed.stats;
     followed.samples = samples;
     followed.here = true;
+    followed.stats = StatsOf(progress);
+    followed.stats.set_tried(followed.stats.tried() + followed.base.tried());
+    followed.stats.set_matched(followed.stats.matched() + followed.base.matched());
+    followed.stats.set_weak(followed.stats.weak() + followed.base.weak());
+    followed.stats.set_ambiguous(followed.stats.ambiguous() + followed.base.ambiguous());
     store = std::hypot(latest.x - followed.stored.x, latest.y - followed.stored.y) > kStoreXy ||
             std::abs(std::remainder(latest.theta - followed.stored.theta, 2 * M_PI)) > kStoreTheta ||
             samples.size() >= followed.stored_count + kStoreSamples || followed.stored_count == 0;
@@ -569,9 +534,13 @@ absl::Status MapRegistry::Follow(const std::string& map, const std::string& sess
     }
   }
   if (!store) return absl::OkStatus();
-  absl::StatusOr<storage::MapRecord> tied =
-      store_->TieTrajectory(map, session_id, storage::MapTie{latest.x, latest.y, latest.theta},
-                            EncodeFollow(samples));
+  std::string follow;
+  {
+    std::lock_guard<std::mutex> lock(mutex_);
+    follow = EncodeFollow(StoredFollow{samples, followed_[session_id].stats});
+  }
+  absl::StatusOr<storage::MapRecord> tied = store_->TieTrajectory(
+      map, session_id, storage::MapTie{latest.x, latest.y, latest.theta}, follow);
   if (!tied.ok()) return tied.status();
   Remember(*tied);  // its answers carry the latest origin
   return absl::OkStatus();

@@ -30,6 +30,7 @@
 #include "absl/status/statusor.h"
 #include "server/laser_slam/mapping/mapping_backend.h"
 #include "server/laser_slam/mapping/trajectory_follow.h"
+#include "server/laser_slam/mapping/trajectory_tie.h"
 #include "server/service/slam/folder.h"
 #include "server/service/slam/session_leases.h"
 #include "storage/map_store.h"
@@ -113,7 +114,10 @@ class MapRegistry {
   // and the map's grid use the origin at each pose's stamp. The store keeps one origin, the
   // latest, written again when it moved by more than a few cm (revision + 1 then).
   absl::Status Follow(const std::string& map, const std::string& session_id,
-                      const std::vector<laser_slam::OriginSample>& samples);
+                      const std::vector<laser_slam::OriginSample>& samples,
+                      const laser_slam::FollowProgress& progress);
+  // How the searches for a session not yet in its map went (MapTrajectory.search; in memory).
+  void Searched(const std::string& session_id, const laser_slam::TieProgress& progress);
   // A followed session's samples (empty: none), as this server follows it or as the map's owner
   // stored them.
   std::vector<laser_slam::OriginSample> FollowedSamples(const std::string& session_id) const;
@@ -147,21 +151,18 @@ class MapRegistry {
     std::size_t stored_count = 0;
     bool here = false;
     int64_t revision = -1;
+    v1::MapMatchStats stats;  // counted in all, `base` by the follows before this server's
+    v1::MapMatchStats base;
   };
   std::map<std::string, Followed> followed_;  // by session id; guarded by mutex_
+  // Sessions searched for here and not yet tied in: how the searches went.
+  std::map<std::string, v1::MapMatchStats> searches_;  // guarded by mutex_
   // The maps whose lease this server holds, with when (steady clock, s) to renew it.
   std::map<std::string, double> owned_;  // guarded by mutex_
   // Fills each tied-in trajectory's origin_samples (`map` is `record` as ToProto made it): this
   // server's own follow, else the one stored with the map.
   void AddSamples(const storage::MapRecord& record, v1::Map* map) const;
 };
-
-// The follow's samples as MapTrajectoryRecord::follow stores them (MapTrajectory's
-// origin_samples, serialized), and back: DATA_LOSS for bytes that are not such a list.
-std::string EncodeFollow(const std::vector<laser_slam::OriginSample>& samples);
-absl::StatusOr<std::vector<laser_slam::OriginSample>> DecodeFollow(const std::string& bytes);
-// A trajectory's origin_samples as the follow's samples (no checks: a message this server made).
-std::vector<laser_slam::OriginSample> SamplesOf(const v1::MapTrajectory& trajectory);
 
 // The map frame pose of `pose` (a session frame pose) for a trajectory tied in at `tie`.
 v1::Pose2D InMapFrame(const storage::MapTie& tie, const v1::Pose2D& pose);

@@ -151,7 +151,11 @@ bool MapTieWorker::Turn(const std::string& map, const storage::MapTrajectoryReco
   // The engine spends what the session's scans granted (TieOptions::reads_per_scan), at most a
   // turn's worth now.
   const std::int64_t before = joining.tie->progress().reads;
+  const int searches_before = joining.tie->progress().searches;
   const laser_slam::TieProgress& progress = joining.tie->Advance(nodes->nodes, kTurnReads);
+  if (sources_.searched && progress.searches != searches_before) {
+    sources_.searched(session_id, progress);
+  }
   if (!progress.tie) {
     if (progress.reads > before) return true;  // more to do now
     if (!nodes->resident && trajectory.session_state == storage::SlamSessionState::kClosed &&
@@ -287,7 +291,9 @@ bool MapTieWorker::FollowTurn(const std::string& map,
   const std::size_t before = following.follow->samples().size();
   const int looked = following.follow->Advance(nodes, kFollowAttempts);
   if (following.follow->samples().size() != before) {
-    if (absl::Status s = sources_.follow(map, session_id, following.follow->samples()); !s.ok()) {
+    if (absl::Status s = sources_.follow(map, session_id, following.follow->samples(),
+                                         following.follow->progress());
+        !s.ok()) {
       spdlog::warn("SLAM map \"{}\": session {}'s origin samples not kept: {}", map, session_id,
                    s.ToString());
     }

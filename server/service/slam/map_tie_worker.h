@@ -69,8 +69,12 @@ class MapTieWorker {
     // each time one is added (MapRegistry::Follow).
     std::function<std::vector<storage::MapRecord>()> maps_to_follow;
     std::function<absl::Status(const std::string& map, const std::string& session_id,
-                               const std::vector<laser_slam::OriginSample>& samples)>
+                               const std::vector<laser_slam::OriginSample>& samples,
+                               const laser_slam::FollowProgress& progress)>
         follow;
+    // How the searches for a session not yet in its map go, after each one (may be null).
+    std::function<void(const std::string& session_id, const laser_slam::TieProgress& progress)>
+        searched;
   };
   struct Options {
     double poll_seconds = 0.2;

@@ -96,8 +96,12 @@ SlamRegistry::SlamRegistry(std::unique_ptr<storage::SlamStore> store,
                          const storage::MapTie& tie) { return maps_->Tie(map, id, tie); };
     sources.maps_to_follow = [this] { return maps_->MapsToFollow(); };
     sources.follow = [this](const std::string& map, const std::string& id,
-                            const std::vector<laser_slam::OriginSample>& samples) {
-      return maps_->Follow(map, id, samples);
+                            const std::vector<laser_slam::OriginSample>& samples,
+                            const laser_slam::FollowProgress& progress) {
+      return maps_->Follow(map, id, samples, progress);
+    };
+    sources.searched = [this](const std::string& id, const laser_slam::TieProgress& progress) {
+      maps_->Searched(id, progress);
     };
     MapTieWorker::Options worker_options;
     worker_options.follow = options_.map_follow;

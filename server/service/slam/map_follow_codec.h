@@ -1,0 +1,43 @@
+#ifndef WAYMARK_SERVER_SERVICE_SLAM_MAP_FOLLOW_CODEC_H_
+#define WAYMARK_SERVER_SERVICE_SLAM_MAP_FOLLOW_CODEC_H_
+
+// A trajectory's follow in a shared map (issue 38: the origin samples after its tie, and how the
+// matching went) as the map store keeps it (storage::MapTrajectoryRecord::follow: a MapTrajectory
+// message with only origin_samples and follow set, serialized) and as the API shows it, and the
+// warning a trajectory's counts call for.
+
+#include <string>
+#include <vector>
+
+#include "absl/status/statusor.h"
+#include "server/laser_slam/mapping/trajectory_follow.h"
+#include "server/laser_slam/mapping/trajectory_tie.h"
+#include "waymark/v1/slam.pb.h"
+
+namespace waymark::service {
+
+struct StoredFollow {
+  std::vector<laser_slam::OriginSample> samples;
+  v1::MapMatchStats stats;
+};
+
+std::string EncodeFollow(const StoredFollow& follow);
+// DATA_LOSS for bytes that are not such a message, or samples out of stamp order or not finite.
+absl::StatusOr<StoredFollow> DecodeFollow(const std::string& bytes);
+
+// MapTrajectory.origin_samples <-> the follow's samples (no checks: messages this server made).
+void AddSampleTo(const laser_slam::OriginSample& sample, v1::MapTrajectory* trajectory);
+std::vector<laser_slam::OriginSample> SamplesOf(const v1::MapTrajectory& trajectory);
+
+v1::MapMatchStats StatsOf(const laser_slam::FollowProgress& progress);
+v1::MapMatchStats StatsOf(const laser_slam::TieProgress& progress);
+
+// Why the map is unsure of `trajectory` (MapTrajectory.warning), from its counts; empty if not:
+// - not yet in the map, and searches found look-alike places (a tie waits until one place wins);
+// - followed, and fewer than half of at least 10 follow-up matches held: between the ones that
+//   did its map-frame pose drifts with its odometry.
+std::string MapTrajectoryWarning(const v1::MapTrajectory& trajectory);
+
+}  // namespace waymark::service
+
+#endif  // WAYMARK_SERVER_SERVICE_SLAM_MAP_FOLLOW_CODEC_H_
