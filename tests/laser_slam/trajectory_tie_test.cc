@@ -189,6 +189,24 @@ TEST(TrajectoryTieTest, InTwoIdenticalRoomsNoTieIsMade) {
   EXPECT_GT(run.progress.ambiguous, run.progress.matches);
 }
 
+// The vote on a fresh unique match (newest kept match first): the newest independent agreeing
+// one ties, unless more independent matches disagree with the transform than agree with it
+// (the fresh one counting for it). Matches sharing scans with the fresh one do not vote.
+TEST(TieWinnerTest, AgreeingMatchesMustOutnumberTheOnesThatDisagree) {
+  const TieVote agrees{true, true}, disagrees{true, false}, dependent{false, true};
+  EXPECT_EQ(TieWinner({}, true), -1);
+  EXPECT_EQ(TieWinner({agrees}, true), 0);                          // 2 against 0
+  EXPECT_EQ(TieWinner({dependent, agrees}, true), 1);              // the dependent one is skipped
+  EXPECT_EQ(TieWinner({disagrees, agrees}, true), 1);              // 2 against 1
+  EXPECT_EQ(TieWinner({disagrees, agrees, disagrees}, true), -1);  // 2 against 2: look-alikes
+  EXPECT_EQ(TieWinner({disagrees, disagrees, disagrees, agrees, disagrees}, true), -1);
+  EXPECT_EQ(TieWinner({agrees, disagrees, agrees, disagrees}, true), 0);  // 3 against 2
+  // Without the vote the first agreeing pair ties, whatever disagreed (the rule before).
+  EXPECT_EQ(TieWinner({disagrees, agrees, disagrees}, false), 1);
+  EXPECT_EQ(TieWinner({disagrees, disagrees, disagrees, agrees, disagrees}, false), 3);
+  EXPECT_EQ(TieWinner({disagrees, dependent}, false), -1);
+}
+
 TEST(TrajectoryTieTest, BadOptionsAndAnEmptyMapAreRefused) {
   TieOptions options;
   options.rival_floor = 0.95;  // above rival_ratio

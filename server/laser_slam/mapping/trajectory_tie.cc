@@ -189,6 +189,23 @@ const TieProgress& TrajectoryTie::Advance(const std::vector<NodeView>& joining,
   return progress_;
 }
 
+int TieWinner(const std::vector<TieVote>& votes, bool outvote) {
+  int winner = -1;
+  int support = 1;  // the fresh match itself
+  int against = 0;
+  for (size_t i = 0; i < votes.size(); ++i) {
+    if (!votes[i].independent) continue;
+    if (!votes[i].agrees) {
+      ++against;
+      continue;
+    }
+    ++support;
+    if (winner < 0) winner = static_cast<int>(i);
+    if (!outvote) return winner;
+  }
+  return support > against ? winner : -1;
+}
+
 bool TrajectoryTie::Agree(const std::vector<NodeView>& joining, const Candidate& a,
                           const Candidate& b) const {
   // The motion between the two nodes as the joining trajectory's graph now has it.
@@ -265,23 +282,33 @@ void TrajectoryTie::TakeAnswer(const std::vector<NodeView>& joining) {
     travel[i] = travel[i - 1] + std::hypot(joining[i].global.x - joining[i - 1].global.x,
                                            joining[i].global.y - joining[i - 1].global.y);
   }
-  // The newest agreeing candidate: the least drift of the joining trajectory between the two.
+  // Each kept candidate's vote on the fresh one's transform, newest first (the newest agreeing
+  // one has the least drift of the joining trajectory between the two).
+  std::vector<TieVote> votes;
+  bool any_agrees = false;
   for (auto it = candidates_.rbegin(); it != candidates_.rend(); ++it) {
     const Candidate& older = *it;
+    TieVote vote;
     // Independent: no scan in both queries, and the robot moved on between them.
-    if (fresh.node - older.node < options_.query_nodes ||
-        travel[fresh.node] - travel[older.node] < options_.min_separation) {
-      continue;
+    vote.independent = fresh.node - older.node >= options_.query_nodes &&
+                       travel[fresh.node] - travel[older.node] >= options_.min_separation;
+    // Without the vote the first agreeing one ties: the ones before it are not asked.
+    if (vote.independent && (options_.outvote_disagreements || !any_agrees)) {
+      vote.agrees = Agree(joining, older, fresh);
+      any_agrees = any_agrees || vote.agrees;
+      if (!vote.agrees) ++progress_.disagreements;
     }
-    if (!Agree(joining, older, fresh)) {
-      ++progress_.disagreements;
-      continue;
-    }
-    progress_.tie = Refine(joining, older, fresh);
+    votes.push_back(vote);
+  }
+  const int winner = TieWinner(votes, options_.outvote_disagreements);
+  if (winner >= 0) {
+    const Candidate& agreeing = candidates_[candidates_.size() - 1 - static_cast<size_t>(winner)];
+    progress_.tie = Refine(joining, agreeing, fresh);
     progress_.tie_scan = joining[fresh.node].scan;
     progress_.state = TieState::kTied;
     return;
   }
+  if (any_agrees) ++progress_.outvoted;
   candidates_.push_back(fresh);
   if (static_cast<int>(candidates_.size()) > options_.max_candidates) {
     candidates_.erase(candidates_.begin());

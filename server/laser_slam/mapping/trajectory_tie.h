@@ -72,6 +72,13 @@ struct TieOptions {
   double refine_window_theta = 0.05;
   // Unique matches kept to agree with later ones (the oldest go first).
   int max_candidates = 8;
+  // A tie needs more of the kept unique matches (the fresh one included) to agree with its
+  // transform than to disagree with it: where most "unique" matches point elsewhere, the rival
+  // test is not catching this place's look-alikes (a shift along a straight facade is the same
+  // for two matches), and two agreeing ones are no evidence. false: the first agreeing pair ties
+  // (as before; freiburg-campus-corrected-medium split for two robots was tied 5.4 m off after
+  // 6 disagreeing pairs).
+  bool outvote_disagreements = true;
   // The map's grids are drawn again before the next search once the map holds this fraction
   // more nodes than when they were drawn (a tied-in robot still exploring widens the map).
   double map_growth = 0.1;
@@ -109,6 +116,7 @@ struct TieProgress {
   int matches = 0;        // ... with a unique match (a candidate)
   int ambiguous = 0;      // ... refused for a rival place
   int disagreements = 0;  // candidate pairs far enough apart that did not agree
+  int outvoted = 0;       // agreeing pairs not taken: more kept matches disagreed with them
   double last_score = 0.0;
   double last_rival_ratio = 0.0;  // the last match's rival's score over its own (0: none)
   std::int64_t reads = 0;         // cell reads spent in all
@@ -121,6 +129,16 @@ struct TieProgress {
   std::uint64_t tie_scan = 0;
   std::uint64_t tied_at_scan = 0;
 };
+
+// How the kept unique matches vote on a fresh one's transform: for each, newest first, whether it
+// is independent of the fresh one (no shared scan, far enough along) and agrees with it. Returns
+// the newest independent agreeing one's index to tie with, or -1: none agrees, or (with
+// `outvote`) the agreeing ones and the fresh one are not more than the disagreeing ones.
+struct TieVote {
+  bool independent = false;
+  bool agrees = false;
+};
+int TieWinner(const std::vector<TieVote>& votes, bool outvote);
 
 class TrajectoryTie {
  public:

@@ -162,9 +162,10 @@ bool MapTieWorker::Turn(const std::string& map, const storage::MapTrajectoryReco
         progress.clock_scan >= static_cast<double>(nodes->nodes.back().scan)) {
       spdlog::info(
           "SLAM map \"{}\": session {} (closed) was searched for to its last scan and not found "
-          "in the map ({} searches, {} unique matches, {} ambiguous, {} disagreeing pairs)",
+          "in the map ({} searches, {} unique matches, {} ambiguous, {} disagreeing pairs, {} "
+          "agreeing pairs outvoted)",
           map, session_id, progress.searches, progress.matches, progress.ambiguous,
-          progress.disagreements);
+          progress.disagreements, progress.outvoted);
       exhausted_[session_id] = map_nodes;
       joining_.erase(session_id);
     }
@@ -186,10 +187,11 @@ bool MapTieWorker::Turn(const std::string& map, const storage::MapTrajectoryReco
     spdlog::info(
         "SLAM map \"{}\": session {} tied in at ({:.3f}, {:.3f}, {:.4f}) at its scan {} ({:.1f} s "
         "after its first node, scan {}), matched at scan {}; {} searches, {} unique matches, {} "
-        "ambiguous, {} disagreeing pairs, {:.0f} M cell reads",
+        "ambiguous, {} disagreeing pairs, {:.0f} M cell reads, {} agreeing pairs outvoted before",
         map, session_id, tie.x, tie.y, tie.theta, progress.tied_at_scan,
         tied_stamp - first.stamp, first.scan, progress.tie_scan, progress.searches,
-        progress.matches, progress.ambiguous, progress.disagreements, progress.reads / 1e6);
+        progress.matches, progress.ambiguous, progress.disagreements, progress.reads / 1e6,
+        progress.outvoted);
   }
   joining_.erase(session_id);
   return false;

@@ -38,6 +38,9 @@ struct SlamRegistryOptions {
   // After the tie, match every robot but the map frame's again against the others in local
   // windows (laser_slam::TrajectoryFollow): its origin becomes piecewise. False: one origin.
   bool map_follow = true;
+  // A tie needs the kept unique matches to outvote the ones disagreeing with it
+  // (laser_slam::TieOptions::outvote_disagreements); false: the first agreeing pair ties.
+  bool map_tie_outvote = true;
   // Several servers on one database (PostgreSQL): each session is served by the one holding its
   // lease (session_leases.h). Off (owner empty) with one server per database.
   SessionLeaseOptions lease;
