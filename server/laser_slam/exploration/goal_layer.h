@@ -18,6 +18,11 @@
 // reason says whether open boundary remains that no path reaches); STUCK when the planner could
 // not move for stuck_decisions decisions, or when every open region left was given up for lack of
 // progress. Everything is in the planner's frame (the EKF's local one).
+//
+// With teammates (several robots in one map, shared_exploration.h) a decision runs on this
+// robot's grid merged with theirs and their segments: DONE then means no target is left in what
+// the robots know together. A target within kClaimRadius of one a nearer teammate claimed costs
+// kClaimPenalty of utility (it stays a target: when nothing else is left, two robots may share it).
 
 #include <cstdint>
 #include <memory>
@@ -88,7 +93,13 @@ class ExplorationGoals {
   // The point `lookahead` metres along the path from `point` to the goal (the goal when nearer);
   // `point` itself where no path reaches the goal.
   Eigen::Vector2d AimFrom(const Eigen::Vector2d& point, double lookahead) const;
+  // The grid the last decision used: this robot's own, merged with its teammates' when it has
+  // any.
   const ExplorationGrid& grid() const { return grid_; }
+  // What this robot saw itself (what it tells its teammates).
+  const ExplorationGrid& own_grid() const { return own_grid_; }
+  // Where the robot stood at its decisions, thinned to one place per kStoodSpacing.
+  const std::vector<Eigen::Vector2d>& stood() const { return stood_; }
 
  private:
   struct Place {
@@ -106,6 +117,8 @@ class ExplorationGoals {
   std::optional<ExplorationTarget> WallTarget(const CostField& field, const GridRegion& region,
                                               int* goal_cell) const;
   double Utility(const ExplorationTarget& target) const;
+  // The claim penalty for a target looking at `look_at` (0 without teammates).
+  double ClaimPenalty(const Eigen::Vector2d& look_at, const ExplorationView& view) const;
   // The robot's position variance (x + y) after driving `length` from here.
   double VarianceAfter(double length, const ExplorationView& view) const;
   bool GivenUp(const Eigen::Vector2d& point) const;
@@ -113,7 +126,9 @@ class ExplorationGoals {
 
   ExplorationOptions options_;
   bool nearest_only_;
-  ExplorationGrid grid_;
+  ExplorationGrid own_grid_;  // this robot's scans
+  ExplorationGrid grid_;      // own_grid_ merged with the teammates' (a copy when there are none)
+  std::vector<Eigen::Vector2d> stood_;
   // Cell offsets within approach_radius: where a frontier cell may be reached from.
   std::vector<Eigen::Vector2i> approach_offsets_;
   std::vector<float> distance_;  // ObstacleDistance of grid_ at this decision
