@@ -260,6 +260,7 @@ std::shared_ptr<const ExplorationSnapshot> LaserSlam::TeamSnapshot() const {
   snapshot->segments = LocalMap();
   snapshot->robot = s.trajectory.back().pose;
   snapshot->stood = goals->stood();
+  snapshot->looked_at_open = goals->looked_at_open();
   const GoalProgress& progress = goals->progress();
   if (progress.target) snapshot->claim = progress.target->look_at;
   snapshot->finished = progress.state != ExplorationState::kExploring;

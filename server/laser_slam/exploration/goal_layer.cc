@@ -158,12 +158,13 @@ double ExplorationGoals::VarianceAfter(double length, const ExplorationView& vie
 }
 
 bool ExplorationGoals::GivenUp(const Eigen::Vector2d& point) const {
-  return WithinGivenUpRadius(given_up_, point);
+  return WithinGivenUpRadius(given_up_, point) || WithinGivenUpRadius(teammates_given_up_, point);
 }
 
 void ExplorationGoals::GiveUp(const Eigen::Vector2d& look_at, bool for_lack_of_progress) {
   given_up_.push_back(look_at);
   if (for_lack_of_progress) stalled_.push_back(look_at);
+  if (!for_lack_of_progress) looked_at_open_.push_back(look_at);
   ++progress_.given_up;
 }
 
@@ -289,7 +290,9 @@ std::vector<ExplorationTarget> ExplorationGoals::Targets(const CostField& field,
     t.gain = open * g.resolution();
     t.path_length = field.Length(best_goal);
     t.variance_after = VarianceAfter(t.path_length, view);
-    t.utility = Utility(t) - ClaimPenalty(t.look_at, view);
+    const double penalty = ClaimPenalty(t.look_at, view);
+    t.utility = Utility(t) - penalty;
+    t.claimed = penalty > 0.0;
     targets.push_back(t);
     goal_cells->push_back(best_goal);
   }
@@ -318,7 +321,9 @@ std::vector<ExplorationTarget> ExplorationGoals::Targets(const CostField& field,
       }
       t->gain = open.cells.size() * g.resolution();
       t->variance_after = VarianceAfter(t->path_length, view);
-      t->utility = Utility(*t) - ClaimPenalty(t->look_at, view);
+      const double penalty = ClaimPenalty(t->look_at, view);
+      t->utility = Utility(*t) - penalty;
+      t->claimed = penalty > 0.0;
       targets.push_back(*t);
       goal_cells->push_back(goal);
     }
@@ -359,6 +364,13 @@ const GoalProgress& ExplorationGoals::Update(const ExplorationView& view, bool b
                       options_.robot_radius);
   grid_ = own_grid_;
   MergeTeammates(view.teammates, options_.robot_radius, &grid_);
+  teammates_given_up_.clear();
+  for (const Teammate& t : view.teammates) {
+    if (t.snapshot == nullptr) continue;
+    for (const Eigen::Vector2d& p : t.snapshot->looked_at_open) {
+      teammates_given_up_.push_back(MoveBy(t.to_here, p));
+    }
+  }
   const Frontiers frontiers = FindFrontiers(grid_, options_.min_frontier_cells);
   to_goal_.reset();  // it refers to the old distances
   distance_ = ObstacleDistance(grid_, static_cast<float>(options_.comfort_distance + 1.0));
@@ -441,6 +453,19 @@ const GoalProgress& ExplorationGoals::Update(const ExplorationView& view, bool b
       (current < 0 || targets[best].utility > targets[current].utility + options_.switch_margin)) {
     chosen = best;
   }
+  // Several robots: when all that is left is claimed by nearer teammates, wait for them.
+  progress_.waiting = false;
+  if (chosen >= 0 && targets[chosen].claimed) {
+    bool all_claimed = true;
+    for (const ExplorationTarget& t : targets) {
+      all_claimed = all_claimed && (t.claimed || (t.kind != TargetKind::kRevisit &&
+                                                  GivenUp(t.look_at)));
+    }
+    if (all_claimed) {
+      progress_.waiting = true;
+      chosen = -1;
+    }
+  }
   if (chosen != current) {
     best_length_ = chosen >= 0 ? targets[chosen].path_length : 0.0;
     since_progress_ = 0;
@@ -466,7 +491,7 @@ const GoalProgress& ExplorationGoals::Update(const ExplorationView& view, bool b
   }
 
   // State.
-  without_target_ = chosen >= 0 ? 0 : without_target_ + 1;
+  without_target_ = chosen >= 0 || progress_.waiting ? 0 : without_target_ + 1;
   const int open_regions =
       static_cast<int>(frontiers.regions.size()) + progress_.unmapped_walls;
   if (blocked_streak_ >= options_.stuck_decisions) {
@@ -475,7 +500,9 @@ const GoalProgress& ExplorationGoals::Update(const ExplorationView& view, bool b
                                     " decisions in a row");
   } else if (chosen >= 0 || without_target_ < options_.done_decisions) {
     progress_.state = ExplorationState::kExploring;
-    progress_.reason = chosen >= 0 ? "" : "no target this decision: looking around";
+    progress_.reason = chosen >= 0           ? ""
+                       : progress_.waiting ? "waiting: the targets left are claimed by nearer robots"
+                                           : "no target this decision: looking around";
   } else if (open_regions > 0 && stalled_regions_ == open_regions) {
     // Every region left was given up because the robot never got closer to it, though a path
     // led there: exploring is not over, the robot cannot go on (STUCK, as goal_layer.h says;

@@ -10,8 +10,9 @@
 // What the goal layer does with them (goal_layer.h): it decides on its own grid with the unknown
 // cells filled from the others' grids (a frontier another robot already closed is no frontier),
 // their segments count as mapped walls, the cells where they stood are free (a robot the laser
-// saw is not a wall), and a target near one another robot claimed is penalised unless this robot
-// is the nearer one, so that the robots spread over the floor.
+// saw is not a wall), a target another robot looked at from its goal and found still open is
+// given up, and a target near one another robot claimed is penalised unless this robot is the
+// nearer one, so that the robots spread over the floor.
 
 #include <memory>
 #include <optional>
@@ -31,6 +32,10 @@ struct ExplorationSnapshot {
   Pose2 robot;                        // where it is
   std::vector<Eigen::Vector2d> stood; // where it has stood (at decisions, thinned)
   std::optional<Eigen::Vector2d> claim;  // what its current target looks at, if it has one
+  // Targets it reached, faced and found still open: beyond a robot's reach or its laser's, so
+  // given up by every robot of the map (not those it gave up for lack of progress: another
+  // robot, elsewhere, may get closer).
+  std::vector<Eigen::Vector2d> looked_at_open;
   bool finished = false;              // DONE or STUCK
   // Its planner frame in its session's frame (the back end's correction at that scan): the
   // service moves the snapshot on into the map frame with the session's origin.
