@@ -4,6 +4,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <limits>
 #include <map>
 #include <memory>
 #include <optional>
@@ -41,6 +42,8 @@ struct Member {
   std::unique_ptr<SimRobotLink> link;
   std::optional<FrameTransform> own_to_world, odometry_to_world;
   std::optional<Pose2> origin;  // its session frame in the map frame (from its last answer)
+  // Per scan: where it was in its session frame, and its origin in the map then (tied in only).
+  std::vector<std::pair<Pose2, Pose2>> origins;
   std::set<std::string> rooms;
   TeamRobot out;
 };
@@ -198,6 +201,7 @@ absl::StatusOr<TeamExploreResult> RunTeamExploration(
       const Pose2 in_map = ToPose2(update->map_pose().pose());
       record.estimate_world = map_to_world.Apply(in_map);
       m.origin = FrameTransform{in_map}.Apply(Inverse(record.estimate_map));
+      m.origins.emplace_back(record.estimate_map, *m.origin);
       if (m.out.tied_in_time_s < 0) m.out.tied_in_time_s = record.time;
     } else {
       record.estimate_world = m.own_to_world->Apply(record.estimate_map);
@@ -215,12 +219,28 @@ absl::StatusOr<TeamExploreResult> RunTeamExploration(
     record.exploration = update->exploration();
     auto segments = client.GetMap(m.session_id);
     if (!segments.ok()) return segments.status();
-    // Its segments in the world: through its origin in the map once tied in.
-    const FrameTransform to_world =
-        m.origin ? FrameTransform{map_to_world.Apply(*m.origin)} : *m.own_to_world;
+    // Its segments in the world: through its origin in the map once tied in. The origin is
+    // piecewise (the follow, trajectory_follow.h), and the map frame's grid moves each scan by the
+    // origin at its stamp; a segment carries no scan, so it takes the origin of the scan the robot
+    // was nearest to it at (before its tie: its own frame, placed at its true start).
     m.out.run.final_map_world.clear();
     for (const v1::MapSegment& segment : segments->segments()) {
-      m.out.run.final_map_world.push_back(to_world.Apply(SegmentEndpoints(segment)));
+      const SceneSegment local = SegmentEndpoints(segment);
+      FrameTransform to_world = *m.own_to_world;
+      if (!m.origins.empty()) {
+        const double mx = 0.5 * (local.a.x + local.b.x), my = 0.5 * (local.a.y + local.b.y);
+        size_t nearest = 0;
+        double best = std::numeric_limits<double>::infinity();
+        for (size_t i = 0; i < m.origins.size(); ++i) {
+          const double d = std::hypot(m.origins[i].first.x - mx, m.origins[i].first.y - my);
+          if (d < best) {
+            best = d;
+            nearest = i;
+          }
+        }
+        to_world = FrameTransform{map_to_world.Apply(m.origins[nearest].second)};
+      }
+      m.out.run.final_map_world.push_back(to_world.Apply(local));
     }
     record.completeness = Completeness(world.walls, m.out.run.final_map_world);
     if (record.exploration.state() == v1::ExplorationProgress::DONE) {

@@ -42,7 +42,8 @@ struct TeamExploreOptions {
 struct TeamRobot {
   // Its scans: estimate_world from its map-frame pose once tied in (the map frame placed in the
   // world by robot 1's start), before that from its own frame placed at its own start;
-  // final_map_world its segments moved by its origin in the map.
+  // final_map_world its segments, each moved by its origin in the map at the scan the robot was
+  // nearest to it at.
   ExploreResult run;
   adapters::BasePose start;
   double done_time_s = -1;     // since when its answers said DONE, to the end; -1: not DONE
