@@ -21,6 +21,7 @@
 #include "client/common/output.h"
 #include "client/common/progress_bar.h"
 #include "client/sessions/sim_explore.h"
+#include "client/sessions/sim_team_explore.h"
 #include "client/render/timeline_plot.h"
 #include "client/datasets/tum_trajectory.h"
 
@@ -38,6 +39,10 @@ struct ExploreArgs {
   double odometry_error = 1.0;
   std::string out_dir;  // default ./out/sim-<world>-<mode>-s<seed>
   std::string exploration;  // ExplorationConfig fields, protobuf text format
+  // Several robots in one map (sim_team_explore.h).
+  int robots = 1;
+  std::string map;
+  bool known_starts = true;
 };
 
 // A file-loaded world without a `name` line is called after its file.
@@ -224,6 +229,9 @@ void PrintSummary(std::ostream& out, const nlohmann::json& s) {
          "timeline.svg, timeline.png, summary.json\n";
 }
 
+int RunTeamExplore(CommandContext& context, const ExploreArgs& args, adapters::World world,
+                   ExploreOptions options);
+
 int RunExplore(CommandContext& context, const ExploreArgs& args) {
   auto world = adapters::LoadWorld(args.world);
   if (!world.ok()) return ReportError(context, world.status(), args.world);
@@ -248,6 +256,9 @@ int RunExplore(CommandContext& context, const ExploreArgs& args) {
   // Per scan: the server's processing and planning, bounded like any request (--timeout).
   options.answer_timeout =
       context.globals.timeout_s > 0 ? absl::Seconds(context.globals.timeout_s) : absl::Hours(24);
+  if (args.robots > 1 || !args.map.empty()) {
+    return RunTeamExplore(context, args, *std::move(world), std::move(options));
+  }
   const fs::path out_dir =
       args.out_dir.empty()
           ? fs::path("out") / fmt::format("sim-{}-{}-s{}", world->name, args.mode, args.seed)
@@ -270,6 +281,118 @@ int RunExplore(CommandContext& context, const ExploreArgs& args) {
     PrintJson(context.out, summary);
   } else {
     PrintSummary(context.out, summary);
+  }
+  return kExitOk;
+}
+
+// Several robots: every robot's true path in a colour of its own (its estimate wide and light
+// underneath) over the true walls, with the union of their mapped segments.
+MapScene TeamScene(const TeamExploreResult& result, const adapters::World& world) {
+  MapScene scene;
+  scene.title = fmt::format("{} ({}, {} robots, seed {}): {:.0f} s, completeness {:.0f}%",
+                            result.world, result.mode, result.robots.size(), result.seed,
+                            result.sim_time_s, 100 * result.completeness);
+  for (const adapters::Wall& wall : world.walls) {
+    ScenePolyline line;
+    line.points = {{wall.x1, wall.y1}, {wall.x2, wall.y2}};
+    line.color = {200, 200, 200};
+    line.width_px = 5;
+    line.label = scene.references.empty() ? "true walls" : "";
+    scene.references.push_back(std::move(line));
+  }
+  scene.segments = result.union_map_world;
+  const Rgb colours[] = {{200, 30, 30}, {20, 90, 200}, {20, 150, 60}, {200, 120, 0},
+                         {140, 40, 170}, {0, 150, 160}};
+  for (size_t k = 0; k < result.robots.size(); ++k) {
+    const Rgb c = colours[k % std::size(colours)];
+    const ExploreResult& run = result.robots[k].run;
+    ScenePolyline estimate = Path(run, &ScanRecord::estimate_world,
+                                  {static_cast<uint8_t>((c.r + 2 * 255) / 3),
+                                   static_cast<uint8_t>((c.g + 2 * 255) / 3),
+                                   static_cast<uint8_t>((c.b + 2 * 255) / 3)},
+                                  fmt::format("robot {} estimate", k + 1));
+    estimate.width_px = 3;
+    scene.polylines.push_back(std::move(estimate));
+    scene.polylines.push_back(
+        Path(run, &ScanRecord::true_pose, c, fmt::format("robot {} true path", k + 1)));
+  }
+  return scene;
+}
+
+void PrintTeamSummary(std::ostream& out, const nlohmann::json& s) {
+  Table table({{"robot"},
+               {"done at (s)", true},
+               {"completeness", true},
+               {"loc. error mean (m)", true},
+               {"distance (m)", true},
+               {"scans", true},
+               {"state"},
+               {"rooms entered"}});
+  auto time = [](double t) { return t < 0 ? std::string("-") : FormatNumber(t, 0); };
+  for (const nlohmann::json& r : s["per_robot"]) {
+    table.AddRow({std::to_string(r["robot"].get<int>()), time(r["done_time_s"].get<double>()),
+                  FormatPercent(r["completeness"].get<double>()),
+                  FormatNumber(r["loc_error_mean_m"].get<double>(), 3),
+                  FormatNumber(r["distance_m"].get<double>(), 1),
+                  std::to_string(r["scans"].get<int>()), r["final_state"].get<std::string>(),
+                  std::to_string(r["rooms_entered"].size())});
+  }
+  table.AddRow({"all", time(s["done_time_s"].get<double>()),
+                FormatPercent(s["completeness"].get<double>()),
+                FormatNumber(s["loc_error_mean_m"].get<double>(), 3),
+                FormatNumber(s["distance_m"].get<double>(), 1), "", "",
+                fmt::format("{} of {}, {} by several", s["rooms_entered"].get<int>(),
+                            s["rooms"].get<int>(), s["rooms_explored_twice"].get<int>())});
+  table.Print(out);
+  out << "wrote " << s["out_dir"].get<std::string>()
+      << "/map.svg, map.png, summary.json and robot<k>/ (each robot's files)\n";
+}
+
+int RunTeamExplore(CommandContext& context, const ExploreArgs& args, adapters::World world,
+                   ExploreOptions options) {
+  TeamExploreOptions team;
+  team.run = std::move(options);
+  team.robots = args.robots;
+  team.map = args.map;
+  team.known_starts = args.known_starts;
+  const fs::path out_dir =
+      args.out_dir.empty()
+          ? fs::path("out") / fmt::format("sim-{}-{}-{}robots-s{}", world.name, args.mode,
+                                          args.robots, args.seed)
+          : fs::path(args.out_dir);
+  ProgressBar progress(context.err, static_cast<int>(std::ceil(args.duration_s)), "s simulated",
+                       context.err_is_tty);
+  auto result = RunTeamExploration(*context.ConnectSlam(), world, team, [&](double t) {
+    progress.Update(static_cast<int>(t));
+  });
+  progress.Finish();
+  if (!result.ok()) return ReportError(context, result.status(), "sim explore " + world.name);
+  nlohmann::json summary = TeamExploreSummary(*result);
+  summary["out_dir"] = out_dir.string();
+  for (size_t k = 0; k < result->robots.size(); ++k) {
+    const fs::path dir = out_dir / fmt::format("robot{}", k + 1);
+    nlohmann::json robot = summary["per_robot"][k];
+    robot["out_dir"] = dir.string();
+    if (absl::Status s = WriteExploreFiles(dir, result->robots[k].run, world, robot); !s.ok()) {
+      return ReportError(context, s, dir.string());
+    }
+  }
+  if (absl::Status s = WriteMapPictures(TeamScene(*result, world), out_dir / "map.svg",
+                                        out_dir / "map.png");
+      !s.ok()) {
+    return ReportError(context, s, out_dir.string());
+  }
+  std::ofstream file(out_dir / "summary.json");
+  file << summary.dump(2) << "\n";
+  file.close();
+  if (!file) {
+    return ReportError(context, absl::PermissionDeniedError("cannot write summary.json"),
+                       out_dir.string());
+  }
+  if (context.globals.json) {
+    PrintJson(context.out, summary);
+  } else {
+    PrintTeamSummary(context.out, summary);
   }
   return kExitOk;
 }
@@ -334,6 +457,18 @@ void AddSimCommands(CLI::App& app, CommandRegistry& registry) {
                       "text format (e.g. 'travel_cost: 0.2 revisit_variance: 1'; see "
                       "docs/exploration.md). max_linear and max_angular are the simulated "
                       "base's limits too (default the paper's 0.15 m/s, 0.17 rad/s)");
+  explore->add_option("--robots", args->robots,
+                      "Robots exploring together, each its own session in the map --map "
+                      "(docs/exploration.md, \"Several robots\")")
+      ->check(CLI::Range(1, 6))
+      ->capture_default_str();
+  explore->add_option("--map", args->map,
+                      "Shared map the robots' sessions join (created when missing; it must hold "
+                      "no trajectory yet); needed with --robots above 1");
+  explore->add_option("--known-starts", args->known_starts,
+                      "Several robots: the robots after the first are tied into the map at their "
+                      "true starts (initial_map_pose); false: the server's search ties them in")
+      ->capture_default_str();
   explore->add_option("--out", args->out_dir,
                       "Output folder (default ./out/sim-<world>-<mode>-s<seed>)");
   registry.Add(explore, [args](CommandContext& context) { return RunExplore(context, *args); });

@@ -10,6 +10,7 @@
 
 #include "absl/strings/ascii.h"
 #include "client/lib/exploration_progress.h"
+#include "client/sessions/sim_explore_loop.h"
 #include "client/sim/sim_robot.h"
 #include "client/eval/eval_metrics.h"  // Percentile
 #include "client/eval/exploration_metrics.h"
@@ -25,107 +26,8 @@ using adapters::Simulation;
 Pose2 ToPose2(const BasePose& p) { return {p.x, p.y, p.theta}; }
 Pose2 ToPose2(const v1::Pose2D& p) { return {p.x(), p.y(), p.theta()}; }
 
-// Turns the stream's asynchronous answers into "wait for the answer to the scan just sent". Any
-// rejection (odometry ones arrive unprompted) is kept and ends the run at the next wait.
-class AnswerWaiter {
- public:
-  void OnUpdate(const v1::SlamUpdate& update) {
-    {
-      std::lock_guard<std::mutex> lock(mutex_);
-      if (update.has_rejection()) {
-        if (!rejection_) rejection_ = update;
-      } else {
-        latest_ = update;
-        ++answers_;
-      }
-    }
-    changed_.notify_all();
-  }
-
-  // Waits for answer number `n` (1-based) or a rejection.
-  absl::StatusOr<v1::SlamUpdate> Wait(uint64_t n, absl::Duration timeout) {
-    std::unique_lock<std::mutex> lock(mutex_);
-    const bool ready = changed_.wait_for(lock, absl::ToChronoNanoseconds(timeout),
-                                         [&] { return rejection_ || answers_ >= n; });
-    if (absl::Status s = RejectionLocked(); !s.ok()) return s;
-    if (!ready) {
-      return absl::DeadlineExceededError(
-          fmt::format("no answer to scan {} within {}", n, absl::FormatDuration(timeout)));
-    }
-    return latest_;
-  }
-
-  absl::Status Rejection() {
-    std::lock_guard<std::mutex> lock(mutex_);
-    return RejectionLocked();
-  }
-
- private:
-  absl::Status RejectionLocked() const {
-    if (!rejection_) return absl::OkStatus();
-    return absl::Status(static_cast<absl::StatusCode>(rejection_->rejection().code()),
-                        fmt::format("message {} rejected: {}", rejection_->sequence(),
-                                    rejection_->rejection().message()));
-  }
-
-  std::mutex mutex_;
-  std::condition_variable changed_;
-  std::optional<v1::SlamUpdate> rejection_;
-  v1::SlamUpdate latest_;
-  uint64_t answers_ = 0;
-};
-
-v1::CreateSessionRequest SessionRequest(const Simulation& sim, const adapters::World& world,
-                                        const ExploreOptions& options) {
-  v1::CreateSessionRequest request = LaserSessionRequest(
-      sim.laser_layout(), "sim",
-      !options.session_name.empty()
-          ? options.session_name
-          : fmt::format("sim explore {} {} s{}", world.name, RunModeName(options), options.seed),
-      options.mode);
-  v1::ExplorationConfig* exploration = request.mutable_laser()->mutable_exploration();
-  exploration->MergeFrom(options.exploration);
-  exploration->set_mode(options.mode);
-  if (options.mode == v1::ExplorationConfig::ACTIVE && !options.goal_layer) {
-    exploration->set_goal_layer(false);
-  }
-  return request;
-}
-
-// The sensor side of the loop: stamps and messages from the simulation onto the stream.
-class Robot {
- public:
-  Robot(Simulation& sim, client::SensorStream& stream, AnswerWaiter& waiter, absl::Duration timeout)
-      : sim_(sim), stream_(stream), waiter_(waiter), timeout_(timeout) {}
-
-  absl::Status SendOdometry() {
-    v1::Odometry odometry;
-    odometry.set_stamp(sim_.now());
-    *odometry.mutable_pose() = ToProto(sim_.odometry_pose());
-    return stream_.SendOdometry(odometry);
-  }
-
-  // Scans at the current instant and waits for the SlamUpdate.
-  absl::StatusOr<v1::SlamUpdate> ScanAndWait() {
-    auto reading = sim_.laser().Read();
-    if (!reading.ok()) return reading.status();
-    v1::LaserScan scan;
-    scan.set_stamp(sim_.now());
-    scan.mutable_ranges()->Assign(reading->ranges.begin(), reading->ranges.end());
-    if (absl::Status s = stream_.SendScan(scan); !s.ok()) return s;
-    return waiter_.Wait(++scans_, timeout_);
-  }
-
- private:
-  Simulation& sim_;
-  client::SensorStream& stream_;
-  AnswerWaiter& waiter_;
-  absl::Duration timeout_;
-  uint64_t scans_ = 0;
-};
-
 // Holds one suggestion for `hold` seconds (step 3 of the protocol). Returns whether a bump cut it.
-absl::StatusOr<bool> Execute(Simulation& sim, Robot& robot, const v1::SuggestedControl& control,
+absl::StatusOr<bool> Execute(Simulation& sim, SimRobotLink& robot, const v1::SuggestedControl& control,
                              double hold) {
   if (absl::Status s = sim.base().SetVelocity(control.linear(), control.angular()); !s.ok()) {
     return s;
@@ -164,25 +66,7 @@ absl::StatusOr<ExploreResult> RunExploration(client::SlamClient& client,
                                              const adapters::World& world,
                                              const ExploreOptions& options,
                                              const ScanCallback& on_scan) {
-  adapters::SimOptions sim_options;
-  sim_options.seed = options.seed;
-  sim_options.half_degree = options.half_degree;
-  // The simulated base drives as fast as the planner is told it may (the paper's limits unless
-  // --exploration sets others): a planner that plans 0.3 m/s arcs for a 0.15 m/s base would
-  // plan for places the robot never reaches.
-  if (options.exploration.has_max_linear()) sim_options.max_linear = options.exploration.max_linear();
-  if (options.exploration.has_max_angular()) {
-    sim_options.max_angular = options.exploration.max_angular();
-  }
-  adapters::OdometryError& e = sim_options.odometry;
-  const double k = options.odometry_error;
-  e.distance_scale = 1.0 + k * (e.distance_scale - 1.0);
-  e.turn_scale = 1.0 + k * (e.turn_scale - 1.0);
-  e.drift_per_m *= k;
-  e.distance_sigma *= k;
-  e.turn_sigma *= k;
-  e.turn_per_m_sigma *= k;
-  Simulation sim(world, sim_options);
+  Simulation sim(world, SimOptionsFor(options));
 
   auto session = client.CreateSession(SessionRequest(sim, world, options));
   if (!session.ok()) return session.status();
@@ -195,7 +79,7 @@ absl::StatusOr<ExploreResult> RunExploration(client::SlamClient& client,
   AnswerWaiter waiter;
   std::unique_ptr<client::SensorStream> stream = client.StreamSensorData(
       result.session_id, /*window=*/1, [&](const v1::SlamUpdate& u) { waiter.OnUpdate(u); });
-  Robot robot(sim, *stream, waiter, options.answer_timeout);
+  SimRobotLink robot(sim, *stream, waiter, options.answer_timeout);
 
   std::optional<FrameTransform> map_to_world, odometry_to_world;
   // One scan: send it, wait, record it with the map as it is now.

@@ -131,6 +131,12 @@ wall 11.5 3.2 12 3.2
 # A cabinet in the side room's south-east corner (two walls: the room's walls are its back).
 wall 14.5 5.5 14.5 6.5
 wall 14.5 6.5 15 6.5
+
+# Rooms (annotations, no walls): the main room split at x = 6 into its west half, where the
+# robots start, and its east half, and the side room.
+room west 0 0 6 9
+room east 6 0 12 9
+room side 12 5.5 15 9
 )";
 
 constexpr char kBuilding[] = R"(# building: a floor 40 m x 30 m (x 0..40, y 0..30), for explorers that only look nearby. A
@@ -197,6 +203,19 @@ wall 32.5 30 32.5 29.2
 wall 32.5 29.2 33 29.2
 box 35.5 14 37.5 15
 
+# Rooms (annotations, no walls): the twelve rooms; the corridor ring is not one.
+room south-west 7 0 15 7
+room south 15 0 25 7
+room south-east 25 0 33 7
+room north-west 7 23 15 30
+room north 15 23 25 30
+room north-east 25 23 33 30
+room block-south-west 9 9 20 15
+room block-south-east 20 9 31 15
+room block-north-west 9 15 20 21
+room block-north-east 20 15 31 21
+room wing-west 0 9 7 21
+room wing-east 33 9 40 21
 )";
 
 constexpr char kCluttered[] = R"(# cluttered: a 20 m x 15 m floor (x 0..20, y 0..15) full of furniture, with narrow doorways

@@ -2,6 +2,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <limits>
 #include <utility>
 
 #include "client/sim/sim_geometry.h"
@@ -83,7 +84,7 @@ Simulation::Simulation(World world, const SimOptions& options)
   if (!(options_.step > 0) || !std::isfinite(options_.step)) options_.step = kDefaultStep;
   options_.max_linear = std::abs(options_.max_linear);
   options_.max_angular = std::abs(options_.max_angular);
-  pose_ = world_.start;
+  pose_ = options_.start.value_or(world_.start);
   pose_.theta = geometry::WrapAngle(pose_.theta);
   odometry_ = pose_;  // the odometry frame is the world frame at the start
 }
@@ -125,9 +126,8 @@ void Simulation::Step(double dt) {
   geometry::ApplyArc(next, distance, turn);
   if (distance != 0) {
     const double radius = options_.body_radius;
-    const double clearance = geometry::Clearance(world_.walls, next.x, next.y);
-    const bool blocked =
-        clearance < radius && clearance < geometry::Clearance(world_.walls, pose_.x, pose_.y);
+    const double clearance = ClearanceAt(next.x, next.y);
+    const bool blocked = clearance < radius && clearance < ClearanceAt(pose_.x, pose_.y);
     if (blocked) {
       if (!bumped_) ++collisions_;  // one collision per contact
       bumped_ = true;
@@ -158,6 +158,30 @@ void Simulation::Step(double dt) {
   time_ += dt;
 }
 
+double Simulation::ClearanceAt(double x, double y) const {
+  double clearance = geometry::Clearance(world_.walls, x, y);
+  for (const OtherBody& b : others_) {
+    clearance = std::min(clearance, std::hypot(x - b.x, y - b.y) - b.radius);
+  }
+  return clearance;
+}
+
+namespace {
+
+// Distance along the ray (ox, oy) + t (dx, dy), unit (dx, dy), to the circle; +infinity when it
+// misses (or starts inside it).
+double RayDiscHit(double ox, double oy, double dx, double dy, const OtherBody& b) {
+  const double fx = ox - b.x, fy = oy - b.y;
+  const double along = fx * dx + fy * dy;
+  const double c = fx * fx + fy * fy - b.radius * b.radius;
+  const double disc = along * along - c;
+  if (c <= 0 || disc < 0) return std::numeric_limits<double>::infinity();
+  const double t = -along - std::sqrt(disc);
+  return t >= 0 ? t : std::numeric_limits<double>::infinity();
+}
+
+}  // namespace
+
 LaserLayout Simulation::laser_layout() const {
   LaserLayout layout;
   layout.angle_min = -kPi / 2;
@@ -176,8 +200,11 @@ LaserReading Simulation::Scan() {
   reading.ranges.reserve(layout.beam_count);
   for (std::uint32_t i = 0; i < layout.beam_count; ++i) {
     const double bearing = laser.theta + layout.angle_min + i * layout.angle_increment;
-    const double hit = geometry::CastRay(world_.walls, laser.x, laser.y, std::cos(bearing),
-                                         std::sin(bearing));
+    double hit = geometry::CastRay(world_.walls, laser.x, laser.y, std::cos(bearing),
+                                   std::sin(bearing));
+    for (const OtherBody& b : others_) {
+      hit = std::min(hit, RayDiscHit(laser.x, laser.y, std::cos(bearing), std::sin(bearing), b));
+    }
     double range = options_.no_return_range;
     if (hit <= options_.max_range) {
       range = std::max(0.0, hit + options_.range_sigma * StandardNormal(rng_));

@@ -19,6 +19,7 @@
 
 #include <cstdint>
 #include <memory>
+#include <optional>
 #include <random>
 #include <vector>
 
@@ -51,6 +52,16 @@ struct SimOptions {
   double no_return_range = 8.183;  // what a beam without a return reads (LMS200: 8183 mm)
   double range_sigma = 0.01;   // m, 1 sigma
   BasePose laser_mount{0.16, 0.0, 0.0};  // laser on the robot (P3-DX front mount)
+  // Where the robot starts; unset: the world's start (several robots in one world start apart).
+  std::optional<BasePose> start;
+};
+
+// Another robot in the same world (several robots exploring together): a disc the laser sees and
+// the base bumps into, like a wall.
+struct OtherBody {
+  double x = 0;
+  double y = 0;
+  double radius = 0.25;
 };
 
 // The simulation and its ground truth. Not thread-safe.
@@ -77,6 +88,9 @@ class Simulation {
   MobileBase& base();
   LaserScanner& laser();
 
+  // The other robots as they stand now (replaced at each call; none by default).
+  void SetOtherBodies(std::vector<OtherBody> bodies) { others_ = std::move(bodies); }
+
   // One scan from the current true pose (what laser().Read() returns).
   LaserReading Scan();
   LaserLayout laser_layout() const;
@@ -85,6 +99,8 @@ class Simulation {
   class Base;
   class Laser;
   void Step(double dt);
+  // Distance from (x, y) to the nearest wall or other robot's body.
+  double ClearanceAt(double x, double y) const;
 
   World world_;
   SimOptions options_;
@@ -99,6 +115,7 @@ class Simulation {
   int collisions_ = 0;
   bool bumped_ = false;
   double travelled_ = 0;
+  std::vector<OtherBody> others_;
   std::unique_ptr<Base> base_;
   std::unique_ptr<Laser> laser_;
 };

@@ -62,9 +62,23 @@ absl::StatusOr<World> ParseWorld(const std::string& text) {
       world.name = absl::StrJoin(tokens.begin() + 1, tokens.end(), " ");
       continue;
     }
+    if (keyword == "room") {  // a name, then a rectangle: not a wall, an annotation
+      if (tokens.size() != 6) return error("'room' takes a name and 4 numbers (NAME X1 Y1 X2 Y2)");
+      double r[4];
+      for (int i = 0; i < 4; ++i) {
+        if (!absl::SimpleAtod(tokens[i + 2], &r[i]) || !std::isfinite(r[i])) {
+          return error("'", tokens[i + 2], "' is not a finite number");
+        }
+      }
+      if (r[0] == r[2] || r[1] == r[3]) return error("room with zero width or height");
+      world.rooms.push_back(Room{std::string(tokens[1]), std::min(r[0], r[2]),
+                                 std::min(r[1], r[3]), std::max(r[0], r[2]),
+                                 std::max(r[1], r[3])});
+      continue;
+    }
     const int count = ArgumentCount(keyword);
     if (count < 0) {
-      return error("unknown keyword '", keyword, "' (expected name, start, wall or box)");
+      return error("unknown keyword '", keyword, "' (expected name, start, wall, box or room)");
     }
     if (static_cast<int>(tokens.size()) - 1 != count) {
       return error("'", keyword, "' takes ", count, " numbers (", ArgumentNames(keyword),

@@ -8,6 +8,8 @@
 //   start X Y THETA            the robot's start pose (required once)
 //   wall X1 Y1 X2 Y2           one wall
 //   box X1 Y1 X2 Y2            an axis-aligned obstacle: four walls around the rectangle
+//   room NAME X1 Y1 X2 Y2      a room's rectangle, no walls: which rooms a robot entered (several
+//                              robots exploring together count the rooms explored twice)
 // Errors name the line and what is wrong (INVALID_ARGUMENT); an unreadable file is NOT_FOUND.
 
 #include <string>
@@ -22,10 +24,17 @@ struct Wall {
   double x1 = 0, y1 = 0, x2 = 0, y2 = 0;
 };
 
+struct Room {
+  std::string name;
+  double x1 = 0, y1 = 0, x2 = 0, y2 = 0;  // x1 < x2, y1 < y2
+  bool Contains(double x, double y) const { return x >= x1 && x <= x2 && y >= y1 && y <= y2; }
+};
+
 struct World {
   std::string name;
   BasePose start;
   std::vector<Wall> walls;
+  std::vector<Room> rooms;  // annotations (room lines); may be empty
 
   double WallLength() const;  // total, m
 };

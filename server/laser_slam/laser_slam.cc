@@ -79,6 +79,8 @@ struct LaserSlam::Impl {
   std::vector<PoseEstimate> trajectory;
   std::uint64_t revision = 0;
   std::uint64_t scans = 0;
+  std::vector<Teammate> teammates;  // in the session's frame (SetTeammates)
+  Pose2 local_to_session;  // the back end's correction at the last scan
 
   PoseEstimate Current(double stamp) const {
     PoseEstimate p;
@@ -218,10 +220,17 @@ absl::StatusOr<ScanUpdate> LaserSlam::AddScan(const LaserScan& scan) {
   update.timings.total = MsSince(start);
   // Planning is timed on its own (Suggestion::planning_ms), not as part of the filter's total.
   if (s.planner) {
-    update.suggestion = s.planner->Decide(View());
+    // The goal layer works in the planner's (local) frame; answers are in the map frame.
+    const Pose2 to_map = Compose(update.pose.pose, Invert(s.trajectory.back().pose));
+    s.local_to_session = to_map;
+    ExplorationView view = View();
+    if (!s.teammates.empty()) {
+      const Pose2 from_session = Invert(to_map);
+      view.teammates = s.teammates;
+      for (Teammate& t : view.teammates) t.to_here = Compose(from_session, t.to_here);
+    }
+    update.suggestion = s.planner->Decide(view);
     if (const ExplorationGoals* goals = s.planner->goals()) {
-      // The goal layer works in the planner's (local) frame; answers are in the map frame.
-      const Pose2 to_map = Compose(update.pose.pose, Invert(s.trajectory.back().pose));
       auto move = [&](Eigen::Vector2d& p) {
         const Pose2 q = Compose(to_map, Pose2{p.x(), p.y(), 0.0});
         p = Eigen::Vector2d(q.x, q.y);
@@ -236,6 +245,27 @@ absl::StatusOr<ScanUpdate> LaserSlam::AddScan(const LaserScan& scan) {
     }
   }
   return update;
+}
+
+void LaserSlam::SetTeammates(std::vector<Teammate> teammates) {
+  impl_->teammates = std::move(teammates);
+}
+
+std::shared_ptr<const ExplorationSnapshot> LaserSlam::TeamSnapshot() const {
+  const Impl& s = *impl_;
+  const ExplorationGoals* goals = s.planner ? s.planner->goals() : nullptr;
+  if (goals == nullptr || s.trajectory.empty()) return nullptr;
+  auto snapshot = std::make_shared<ExplorationSnapshot>();
+  snapshot->grid = goals->own_grid();
+  snapshot->segments = LocalMap();
+  snapshot->robot = s.trajectory.back().pose;
+  snapshot->stood = goals->stood();
+  snapshot->looked_at_open = goals->looked_at_open();
+  const GoalProgress& progress = goals->progress();
+  if (progress.target) snapshot->claim = progress.target->look_at;
+  snapshot->finished = progress.state != ExplorationState::kExploring;
+  snapshot->local_to_session = s.local_to_session;
+  return snapshot;
 }
 
 PoseEstimate LaserSlam::CurrentPose() const {

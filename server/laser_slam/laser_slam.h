@@ -93,6 +93,13 @@ class LaserSlam {
   absl::StatusOr<ScanUpdate> AddScan(const LaserScan& scan);
 
   PoseEstimate CurrentPose() const;
+  // Several robots exploring one map (exploration/shared_exploration.h): the others as the next
+  // decision sees them, each Teammate::to_here into this session's frame (the map frame of its
+  // answers); AddScan moves them on into the planner's frame. Kept until set again.
+  void SetTeammates(std::vector<Teammate> teammates);
+  // This session's exploration after its last decision, for its teammates; null without a goal
+  // layer or before the first decision.
+  std::shared_ptr<const ExplorationSnapshot> TeamSnapshot() const;
   // What the exploration planner needs: pose, covariances, map, last scan, in the EKF's local
   // frame (the planner steers by what the robot sees around it; a loop closure does not move it).
   ExplorationView View() const;

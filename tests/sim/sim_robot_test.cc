@@ -335,3 +335,30 @@ TEST(SimulationTest, SameSeedSameRunDifferentSeedDifferentRun) {
 
 }  // namespace
 }  // namespace waymark::adapters
+
+namespace waymark::adapters {
+namespace {
+
+// Several robots in one world (client/sessions/sim_team_explore.h): another robot is a disc the
+// laser sees and the base bumps into, and a robot may start elsewhere than the world's start.
+TEST(SimulationTest, OtherRobotsAreSeenAndBumpedInto) {
+  SimOptions options = Exact();
+  options.start = BasePose{-1.0, 0.0, 0.0};
+  Simulation sim(Room(5), options);
+  EXPECT_DOUBLE_EQ(sim.true_pose().x, -1.0);
+  const size_t ahead = 90;  // the straight-ahead beam of 181
+  const double wall = sim.Scan().ranges[ahead];
+  EXPECT_NEAR(wall, 5.0 + 1.0 - 0.16, 1e-3);
+  sim.SetOtherBodies({OtherBody{1.0, 0.0, 0.25}});
+  EXPECT_NEAR(sim.Scan().ranges[ahead], 2.0 - 0.16 - 0.25, 1e-3);
+  ASSERT_TRUE(sim.base().SetVelocity(0.15, 0).ok());
+  sim.Advance(20);
+  EXPECT_TRUE(sim.bumped());
+  EXPECT_EQ(sim.collisions(), 1);
+  EXPECT_NEAR(sim.true_pose().x, 1.0 - 0.25 - options.body_radius, 0.01);
+  sim.SetOtherBodies({});
+  EXPECT_NEAR(sim.Scan().ranges[ahead], 5.0 - sim.true_pose().x - 0.16, 1e-3);
+}
+
+}  // namespace
+}  // namespace waymark::adapters

@@ -238,3 +238,29 @@ TEST(BuiltinWorldsTest, OnlyClutteredHasNarrowDoorways) {
 
 }  // namespace
 }  // namespace waymark::adapters
+
+namespace waymark::adapters {
+namespace {
+
+// `room` lines annotate rooms (several robots count the rooms explored twice): no walls.
+TEST(ParseWorldTest, RoomsAreAnnotationsNotWalls) {
+  auto world = ParseWorld("start 1 1 0\nwall 0 0 4 0\nroom kitchen 4 3 0 0   # corners either way\n");
+  ASSERT_TRUE(world.ok()) << world.status();
+  EXPECT_EQ(world->walls.size(), 1u);
+  ASSERT_EQ(world->rooms.size(), 1u);
+  EXPECT_EQ(world->rooms[0].name, "kitchen");
+  EXPECT_TRUE(world->rooms[0].Contains(1, 1));
+  EXPECT_FALSE(world->rooms[0].Contains(5, 1));
+  EXPECT_THAT(ParseWorld("start 0 0 0\nroom a 0 0 1\n").status().message(),
+              HasSubstr("line 2: 'room' takes a name and 4 numbers"));
+  EXPECT_THAT(ParseWorld("start 0 0 0\nroom a 0 0 0 1\n").status().message(),
+              HasSubstr("line 2: room with zero width"));
+  auto building = LoadWorld("building");
+  auto office = LoadWorld("office");
+  ASSERT_TRUE(building.ok() && office.ok());
+  EXPECT_EQ(building->rooms.size(), 12u);
+  EXPECT_EQ(office->rooms.size(), 3u);
+}
+
+}  // namespace
+}  // namespace waymark::adapters

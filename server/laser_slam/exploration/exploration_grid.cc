@@ -155,6 +155,49 @@ void ExplorationGrid::Set(const Eigen::Vector2d& point, GridCell cell) {
                                                               : -kClamp;
 }
 
+void ExplorationGrid::FillUnknownFrom(const ExplorationGrid& other, const Pose2& other_to_this) {
+  if (other.empty()) return;
+  const Eigen::Vector2d top = other.origin_ + other.resolution_ * Eigen::Vector2d(other.width_,
+                                                                                 other.height_);
+  Eigen::Vector2d lo = Eigen::Vector2d::Constant(std::numeric_limits<double>::infinity());
+  Eigen::Vector2d hi = -lo;
+  for (const Eigen::Vector2d& corner :
+       {other.origin_, top, Eigen::Vector2d(other.origin_.x(), top.y()),
+        Eigen::Vector2d(top.x(), other.origin_.y())}) {
+    const Pose2 p = Compose(other_to_this, Pose2{corner.x(), corner.y(), 0.0});
+    lo = lo.cwiseMin(Eigen::Vector2d(p.x, p.y));
+    hi = hi.cwiseMax(Eigen::Vector2d(p.x, p.y));
+  }
+  Cover(lo, hi);
+  const Pose2 this_to_other = Invert(other_to_this);
+  const Eigen::Vector2i a = CellOf(lo).cwiseMax(Eigen::Vector2i::Zero());
+  const Eigen::Vector2i b = CellOf(hi).cwiseMin(Eigen::Vector2i(width_ - 1, height_ - 1));
+  for (int y = a.y(); y <= b.y(); ++y) {
+    for (int x = a.x(); x <= b.x(); ++x) {
+      std::int8_t& v = cells_[Index(x, y)];
+      if (v != kUnknownValue) continue;
+      const Eigen::Vector2d c = Centre(x, y);
+      const Pose2 q = Compose(this_to_other, Pose2{c.x(), c.y(), 0.0});
+      const Eigen::Vector2i o = other.CellOf(Eigen::Vector2d(q.x, q.y));
+      if (other.Inside(o.x(), o.y())) v = other.cells_[other.Index(o.x(), o.y())];
+    }
+  }
+}
+
+void ExplorationGrid::FreeOccupiedDisc(const Eigen::Vector2d& centre, double radius) {
+  if (empty()) return;
+  const int r = static_cast<int>(std::ceil(radius / resolution_));
+  const Eigen::Vector2i c = CellOf(centre);
+  for (int dy = -r; dy <= r; ++dy) {
+    for (int dx = -r; dx <= r; ++dx) {
+      const int x = c.x() + dx, y = c.y() + dy;
+      if (!Inside(x, y) || (Centre(x, y) - centre).norm() > radius) continue;
+      std::int8_t& v = cells_[Index(x, y)];
+      if (v != kUnknownValue && v > 0) v = -kClamp;
+    }
+  }
+}
+
 double ExplorationGrid::KnownArea() const {
   const auto known = std::count_if(cells_.begin(), cells_.end(),
                                    [](std::int8_t v) { return v != kUnknownValue; });

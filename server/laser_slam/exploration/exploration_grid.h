@@ -59,6 +59,15 @@ class ExplorationGrid {
   // Known cells, in square metres (free and occupied).
   double KnownArea() const;
 
+  // Several robots (shared_exploration.h). Every cell unknown here that `other` knows takes its
+  // value, `other` placed here by `other_to_this`; the grid grows to hold all of `other`. Cells
+  // this grid knows keep their own value: a robot trusts what it saw over another's view through
+  // two estimates' error.
+  void FillUnknownFrom(const ExplorationGrid& other, const Pose2& other_to_this);
+  // Occupied cells whose centres lie within `radius` of `centre` become free (a robot stood
+  // there); unknown and free cells are left.
+  void FreeOccupiedDisc(const Eigen::Vector2d& centre, double radius);
+
  private:
   void Cover(const Eigen::Vector2d& lo, const Eigen::Vector2d& hi);
   void Add(int x, int y, int delta);

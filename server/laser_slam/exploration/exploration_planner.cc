@@ -247,7 +247,8 @@ Suggestion ExplorationPlanner::Decide(const ExplorationView& view) {
 
   std::optional<Control> chosen;
   if (progress) {
-    if (progress->state != ExplorationState::kExploring) {
+    if (progress->state != ExplorationState::kExploring || progress->waiting) {
+      // Over, or (several robots) waiting while nearer robots explore what is left: stand.
       s.behaviour = Behaviour::kFinished;
       chosen = Control{0.0, 0.0};
     } else if (progress->target && !progress->path.empty()) {

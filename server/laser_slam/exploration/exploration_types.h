@@ -11,6 +11,7 @@
 
 #include <Eigen/Core>
 
+#include "server/laser_slam/exploration/shared_exploration.h"
 #include "server/laser_slam/options.h"
 #include "server/laser_slam/types.h"
 
@@ -39,6 +40,10 @@ struct ExplorationView {
   // Loop constraints in the back end's graph; -1 without a back end (the paper's EKF alone), where
   // revisiting a place cannot close a loop.
   int loop_closures = -1;
+  // The other robots exploring the same map (shared_exploration.h), their transforms into this
+  // frame; empty for a session alone (in no map, or the only robot tied into it), which then
+  // decides exactly as it always did.
+  std::vector<Teammate> teammates;
 };
 
 enum class Behaviour : std::uint8_t {

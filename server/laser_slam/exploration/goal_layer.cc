@@ -24,6 +24,15 @@ constexpr double kVarianceFloor = 1e-4;
 constexpr double kStillOpenRadius = 0.25;
 // A given-up target's frontier cells within this distance are not targeted again (m).
 constexpr double kGivenUpRadius = 0.6;
+// Several robots: a target whose look-at point is within this distance of one a teammate
+// claimed is that teammate's (m; about half a room of the built-in worlds, so that two robots do
+// not explore one room from two of its frontiers) unless this robot is nearer to it, and costs
+// this much utility: travel_cost's 0.2 per m makes it worth a 10 m detour to go elsewhere.
+constexpr double kClaimRadius = 4.0;
+constexpr double kClaimPenalty = 2.0;
+// Places a robot stood at, told to its teammates (their grids free a disc there), are kept this
+// far apart (m).
+constexpr double kStoodSpacing = 0.2;
 
 // Whether the straight line between two cells' centres crosses no occupied cell: a frontier seen
 // through a gap in a mapped wall (rays that slipped past a corner into a box) cannot be looked at
@@ -100,7 +109,10 @@ Eigen::Vector2d ExplorationGoals::AimFrom(const Eigen::Vector2d& point, double l
 }
 
 ExplorationGoals::ExplorationGoals(const ExplorationOptions& options, bool nearest_only)
-    : options_(options), nearest_only_(nearest_only), grid_(options.grid_resolution) {
+    : options_(options),
+      nearest_only_(nearest_only),
+      own_grid_(options.grid_resolution),
+      grid_(options.grid_resolution) {
   const double r = options.grid_resolution;
   const int reach = static_cast<int>(std::floor(options.approach_radius / r));
   for (int dy = -reach; dy <= reach; ++dy) {
@@ -124,6 +136,9 @@ void ExplorationGoals::Track(const ExplorationView& view) {
   }
   last_loop_closures_ = std::max(last_loop_closures_, view.loop_closures);
   progress_.position_variance = view.robot_covariance(0, 0) + view.robot_covariance(1, 1);
+  if (stood_.empty() || (stood_.back() - Position(view.robot)).norm() >= kStoodSpacing) {
+    stood_.push_back(Position(view.robot));
+  }
   if (places_.empty() || progress_.travel - places_.back().travel >= kPlaceSpacing) {
     places_.push_back({Position(view.robot), progress_.travel, progress_.position_variance});
   }
@@ -143,12 +158,13 @@ double ExplorationGoals::VarianceAfter(double length, const ExplorationView& vie
 }
 
 bool ExplorationGoals::GivenUp(const Eigen::Vector2d& point) const {
-  return WithinGivenUpRadius(given_up_, point);
+  return WithinGivenUpRadius(given_up_, point) || WithinGivenUpRadius(teammates_given_up_, point);
 }
 
 void ExplorationGoals::GiveUp(const Eigen::Vector2d& look_at, bool for_lack_of_progress) {
   given_up_.push_back(look_at);
   if (for_lack_of_progress) stalled_.push_back(look_at);
+  if (!for_lack_of_progress) looked_at_open_.push_back(look_at);
   ++progress_.given_up;
 }
 
@@ -157,6 +173,20 @@ double ExplorationGoals::Utility(const ExplorationTarget& t) const {
   return options_.weight_gain * Lg(t.gain, options_.gain_floor) -
          options_.travel_cost * t.path_length -
          options_.weight_trip_uncertainty * Lg(t.variance_after, kVarianceFloor);
+}
+
+double ExplorationGoals::ClaimPenalty(const Eigen::Vector2d& look_at,
+                                     const ExplorationView& view) const {
+  const Eigen::Vector2d robot = Position(view.robot);
+  for (const Teammate& t : view.teammates) {
+    if (t.snapshot == nullptr || t.snapshot->finished || !t.snapshot->claim) continue;
+    const Eigen::Vector2d claim = MoveBy(t.to_here, *t.snapshot->claim);
+    if ((claim - look_at).norm() > kClaimRadius) continue;
+    const Eigen::Vector2d mate = MoveBy(t.to_here, Position(t.snapshot->robot));
+    // The nearer robot keeps it: both robots reach the same verdict from the same positions.
+    if ((mate - claim).norm() < (robot - claim).norm()) return kClaimPenalty;
+  }
+  return 0.0;
 }
 
 std::optional<ExplorationTarget> ExplorationGoals::WallTarget(const CostField& field,
@@ -260,7 +290,9 @@ std::vector<ExplorationTarget> ExplorationGoals::Targets(const CostField& field,
     t.gain = open * g.resolution();
     t.path_length = field.Length(best_goal);
     t.variance_after = VarianceAfter(t.path_length, view);
-    t.utility = Utility(t);
+    const double penalty = ClaimPenalty(t.look_at, view);
+    t.utility = Utility(t) - penalty;
+    t.claimed = penalty > 0.0;
     targets.push_back(t);
     goal_cells->push_back(best_goal);
   }
@@ -289,7 +321,9 @@ std::vector<ExplorationTarget> ExplorationGoals::Targets(const CostField& field,
       }
       t->gain = open.cells.size() * g.resolution();
       t->variance_after = VarianceAfter(t->path_length, view);
-      t->utility = Utility(*t);
+      const double penalty = ClaimPenalty(t->look_at, view);
+      t->utility = Utility(*t) - penalty;
+      t->claimed = penalty > 0.0;
       targets.push_back(*t);
       goal_cells->push_back(goal);
     }
@@ -326,8 +360,17 @@ std::vector<ExplorationTarget> ExplorationGoals::Targets(const CostField& field,
 const GoalProgress& ExplorationGoals::Update(const ExplorationView& view, bool blocked) {
   Track(view);
   blocked_streak_ = blocked ? blocked_streak_ + 1 : 0;
-  grid_.Integrate(view.robot, view.laser_pose, view.scan, view.max_range, view.max_range,
-                  options_.robot_radius);
+  own_grid_.Integrate(view.robot, view.laser_pose, view.scan, view.max_range, view.max_range,
+                      options_.robot_radius);
+  grid_ = own_grid_;
+  MergeTeammates(view.teammates, options_.robot_radius, &grid_);
+  teammates_given_up_.clear();
+  for (const Teammate& t : view.teammates) {
+    if (t.snapshot == nullptr) continue;
+    for (const Eigen::Vector2d& p : t.snapshot->looked_at_open) {
+      teammates_given_up_.push_back(MoveBy(t.to_here, p));
+    }
+  }
   const Frontiers frontiers = FindFrontiers(grid_, options_.min_frontier_cells);
   to_goal_.reset();  // it refers to the old distances
   distance_ = ObstacleDistance(grid_, static_cast<float>(options_.comfort_distance + 1.0));
@@ -345,8 +388,12 @@ const GoalProgress& ExplorationGoals::Update(const ExplorationView& view, bool b
   std::vector<int> goal_cells;
   // Walls shorter than 1 m (twice the frontier minimum) are not worth a trip: the extraction
   // needs several beams on a wall, and a map that drifted leaves short slivers off its segments.
-  const UnmappedWalls walls = FindUnmappedWalls(grid_, view.segments, options_.wall_explained,
-                                                2 * options_.min_frontier_cells);
+  // Walls a teammate mapped are mapped.
+  const UnmappedWalls walls = FindUnmappedWalls(
+      grid_,
+      view.teammates.empty() ? view.segments
+                             : WithTeammateSegments(view.segments, view.teammates),
+      options_.wall_explained, 2 * options_.min_frontier_cells);
   const std::vector<ExplorationTarget> targets =
       Targets(field, frontiers, walls, view, &goal_cells);
   // The boundary of the known free space is open where it is frontier or a wall not yet in the
@@ -406,6 +453,19 @@ const GoalProgress& ExplorationGoals::Update(const ExplorationView& view, bool b
       (current < 0 || targets[best].utility > targets[current].utility + options_.switch_margin)) {
     chosen = best;
   }
+  // Several robots: when all that is left is claimed by nearer teammates, wait for them.
+  progress_.waiting = false;
+  if (chosen >= 0 && targets[chosen].claimed) {
+    bool all_claimed = true;
+    for (const ExplorationTarget& t : targets) {
+      all_claimed = all_claimed && (t.claimed || (t.kind != TargetKind::kRevisit &&
+                                                  GivenUp(t.look_at)));
+    }
+    if (all_claimed) {
+      progress_.waiting = true;
+      chosen = -1;
+    }
+  }
   if (chosen != current) {
     best_length_ = chosen >= 0 ? targets[chosen].path_length : 0.0;
     since_progress_ = 0;
@@ -431,7 +491,7 @@ const GoalProgress& ExplorationGoals::Update(const ExplorationView& view, bool b
   }
 
   // State.
-  without_target_ = chosen >= 0 ? 0 : without_target_ + 1;
+  without_target_ = chosen >= 0 || progress_.waiting ? 0 : without_target_ + 1;
   const int open_regions =
       static_cast<int>(frontiers.regions.size()) + progress_.unmapped_walls;
   if (blocked_streak_ >= options_.stuck_decisions) {
@@ -440,7 +500,9 @@ const GoalProgress& ExplorationGoals::Update(const ExplorationView& view, bool b
                                     " decisions in a row");
   } else if (chosen >= 0 || without_target_ < options_.done_decisions) {
     progress_.state = ExplorationState::kExploring;
-    progress_.reason = chosen >= 0 ? "" : "no target this decision: looking around";
+    progress_.reason = chosen >= 0           ? ""
+                       : progress_.waiting ? "waiting: the targets left are claimed by nearer robots"
+                                           : "no target this decision: looking around";
   } else if (open_regions > 0 && stalled_regions_ == open_regions) {
     // Every region left was given up because the robot never got closer to it, though a path
     // led there: exploring is not over, the robot cannot go on (STUCK, as goal_layer.h says;

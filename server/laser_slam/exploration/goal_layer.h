@@ -18,6 +18,13 @@
 // reason says whether open boundary remains that no path reaches); STUCK when the planner could
 // not move for stuck_decisions decisions, or when every open region left was given up for lack of
 // progress. Everything is in the planner's frame (the EKF's local one).
+//
+// With teammates (several robots in one map, shared_exploration.h) a decision runs on this
+// robot's grid merged with theirs and their segments: DONE then means no target is left in what
+// the robots know together. A target within kClaimRadius of one a nearer teammate claimed costs
+// kClaimPenalty of utility (it stays a target: when nothing else is left, two robots may share it);
+// one a teammate reached and found still open is given up. When every target left is claimed so,
+// the robot waits (GoalProgress::waiting): it stands, EXPLORING, and claims nothing.
 
 #include <cstdint>
 #include <memory>
@@ -51,6 +58,7 @@ struct ExplorationTarget {
   double path_length = 0.0;  // m
   double variance_after = 0.0;  // m^2, predicted position variance on arrival
   double utility = 0.0;
+  bool claimed = false;  // near one a nearer teammate claimed (ClaimPenalty)
 };
 
 struct GoalProgress {
@@ -63,6 +71,9 @@ struct GoalProgress {
   int given_up = 0;          // targets abandoned so far
   std::optional<ExplorationTarget> target;
   bool arrived = false;      // at the target's goal: turn to face it
+  // Several robots: every target left is claimed by a nearer teammate; the robot stands and waits
+  // (EXPLORING, no target) rather than follow it into the same room.
+  bool waiting = false;
   std::vector<Eigen::Vector2d> path;  // robot to goal
   double known_area = 0.0;   // m^2
   double travel = 0.0;       // m driven, by the estimate
@@ -88,7 +99,15 @@ class ExplorationGoals {
   // The point `lookahead` metres along the path from `point` to the goal (the goal when nearer);
   // `point` itself where no path reaches the goal.
   Eigen::Vector2d AimFrom(const Eigen::Vector2d& point, double lookahead) const;
+  // The grid the last decision used: this robot's own, merged with its teammates' when it has
+  // any.
   const ExplorationGrid& grid() const { return grid_; }
+  // What this robot saw itself (what it tells its teammates).
+  const ExplorationGrid& own_grid() const { return own_grid_; }
+  // Where the robot stood at its decisions, thinned to one place per kStoodSpacing.
+  const std::vector<Eigen::Vector2d>& stood() const { return stood_; }
+  // Targets reached, faced and still open (given up, not for lack of progress).
+  const std::vector<Eigen::Vector2d>& looked_at_open() const { return looked_at_open_; }
 
  private:
   struct Place {
@@ -106,6 +125,8 @@ class ExplorationGoals {
   std::optional<ExplorationTarget> WallTarget(const CostField& field, const GridRegion& region,
                                               int* goal_cell) const;
   double Utility(const ExplorationTarget& target) const;
+  // The claim penalty for a target looking at `look_at` (0 without teammates).
+  double ClaimPenalty(const Eigen::Vector2d& look_at, const ExplorationView& view) const;
   // The robot's position variance (x + y) after driving `length` from here.
   double VarianceAfter(double length, const ExplorationView& view) const;
   bool GivenUp(const Eigen::Vector2d& point) const;
@@ -113,7 +134,9 @@ class ExplorationGoals {
 
   ExplorationOptions options_;
   bool nearest_only_;
-  ExplorationGrid grid_;
+  ExplorationGrid own_grid_;  // this robot's scans
+  ExplorationGrid grid_;      // own_grid_ merged with the teammates' (a copy when there are none)
+  std::vector<Eigen::Vector2d> stood_;
   // Cell offsets within approach_radius: where a frontier cell may be reached from.
   std::vector<Eigen::Vector2i> approach_offsets_;
   std::vector<float> distance_;  // ObstacleDistance of grid_ at this decision
@@ -127,6 +150,9 @@ class ExplorationGoals {
   std::vector<Place> places_;
   std::vector<Eigen::Vector2d> given_up_;  // look-at points never to be targeted again
   std::vector<Eigen::Vector2d> stalled_;   // ... of which given up for lack of progress
+  std::vector<Eigen::Vector2d> looked_at_open_;  // ... of which reached and still open
+  // The teammates' looked_at_open, in this frame at this decision: given up here too.
+  std::vector<Eigen::Vector2d> teammates_given_up_;
   int stalled_regions_ = 0;  // frontier regions left, given up for lack of progress (this decision)
   double best_length_ = 0.0;  // shortest path to the current target so far
   int since_progress_ = 0;

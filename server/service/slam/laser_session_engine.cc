@@ -132,12 +132,27 @@ absl::StatusOr<std::optional<v1::SlamUpdate>> LaserSessionEngine::Process(Engine
     if (absl::Status s = slam_->AddOdometry(input.odometry); !s.ok()) return s;
     return std::optional<v1::SlamUpdate>();
   }
+  std::shared_ptr<ExplorationTeam> team;
+  std::string team_id;
+  {
+    std::lock_guard<std::mutex> lock(team_mu_);
+    team = team_;
+    team_id = team_id_;
+  }
+  if (team != nullptr) slam_->SetTeammates(team->Teammates(team_id));
   absl::StatusOr<ls::ScanUpdate> result = slam_->AddScan(input.scan);
   if (!result.ok()) return result.status();
+  if (team != nullptr) team->Publish(team_id, slam_->TeamSnapshot());
   v1::SlamUpdate update;
   FillSlamUpdate(*result, &update);
   update.mutable_timings()->set_queue_ms(queue_ms);
   return std::optional<v1::SlamUpdate>(std::move(update));
+}
+
+void LaserSessionEngine::SetTeam(std::shared_ptr<ExplorationTeam> team, std::string session_id) {
+  std::lock_guard<std::mutex> lock(team_mu_);
+  team_ = std::move(team);
+  team_id_ = std::move(session_id);
 }
 
 std::string LaserSessionEngine::SerializeState() const { return slam_->SerializeState(); }

@@ -6,11 +6,13 @@
 // conversions and their error messages are slam_params.h's.
 
 #include <memory>
+#include <mutex>
 #include <string>
 #include <vector>
 
 #include "absl/status/statusor.h"
 #include "server/laser_slam/laser_slam.h"
+#include "server/service/slam/exploration_team.h"
 #include "server/service/slam/folder.h"
 #include "server/service/slam/session_engine.h"
 #include "server/service/slam/slam_params.h"
@@ -42,6 +44,11 @@ class LaserSessionEngine final : public SessionEngine {
   // the back end serves them from any thread, so a reader need not wait for the strand.
   std::vector<laser_slam::NodeView> Nodes() const;
 
+  // Several robots exploring one map: before each scan the session takes its teammates from
+  // `team`, after it publishes its own exploration there as `session_id`. Null: alone (the
+  // default). Thread-safe (set when a stream opens, read on the strand).
+  void SetTeam(std::shared_ptr<ExplorationTeam> team, std::string session_id);
+
   const char* kind() const override { return "laser"; }
   absl::StatusOr<AdmittedMessage> Admit(const v1::SensorData& data) const override;
   absl::StatusOr<std::optional<v1::SlamUpdate>> Process(EngineInput& input,
@@ -63,6 +70,9 @@ class LaserSessionEngine final : public SessionEngine {
   const v1::LaserSlamConfig config_;
   const LaserSessionOptions options_;
   std::unique_ptr<laser_slam::LaserSlam> slam_;
+  mutable std::mutex team_mu_;
+  std::shared_ptr<ExplorationTeam> team_;  // guarded by team_mu_
+  std::string team_id_;                    // guarded by team_mu_
 };
 
 }  // namespace waymark::service

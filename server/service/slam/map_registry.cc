@@ -93,6 +93,11 @@ std::string MapMembership::map() const {
   return map_;
 }
 
+std::optional<storage::MapTie> MapMembership::tie() const {
+  std::lock_guard<std::mutex> lock(mutex_);
+  return map_.empty() ? std::nullopt : tie_;
+}
+
 bool MapMembership::tied_in() const {
   std::lock_guard<std::mutex> lock(mutex_);
   return tie_.has_value();
@@ -422,6 +427,17 @@ std::string MapRegistry::MapOf(const std::string& session_id) const {
   std::lock_guard<std::mutex> lock(mutex_);
   auto it = members_.find(session_id);
   return it == members_.end() ? std::string() : it->second->map();
+}
+
+std::vector<std::pair<std::string, storage::MapTie>> MapRegistry::TiedMembers(
+    const std::string& map) const {
+  std::vector<std::pair<std::string, storage::MapTie>> out;
+  std::lock_guard<std::mutex> lock(mutex_);
+  for (const auto& [session_id, member] : members_) {
+    if (member->map() != map) continue;
+    if (std::optional<storage::MapTie> tie = member->tie()) out.emplace_back(session_id, *tie);
+  }
+  return out;
 }
 
 std::vector<storage::MapRecord> MapRegistry::MapsToTie() {

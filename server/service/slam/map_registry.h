@@ -49,6 +49,8 @@ class MapMembership {
   void Detach();
   std::string map() const;
   bool tied_in() const;
+  // Where the session's frame lies in the map frame (the latest origin); unset until tied in.
+  std::optional<storage::MapTie> tie() const;
 
  private:
   mutable std::mutex mutex_;
@@ -99,6 +101,9 @@ class MapRegistry {
   std::shared_ptr<MapMembership> Membership(const std::string& session_id);
   // The map the session is in; empty when none. Known sessions only (no store lookup).
   std::string MapOf(const std::string& session_id) const;
+  // The sessions known here that are tied into `map`, with their current origins (the latest
+  // followed one): what several robots exploring the map share (exploration_team.h).
+  std::vector<std::pair<std::string, storage::MapTie>> TiedMembers(const std::string& map) const;
 
   // What the tie worker searches (map_tie_worker.h): the maps, as stored, where a session known
   // here is not yet tied in. No store read while every known session is tied in.

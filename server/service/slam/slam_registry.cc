@@ -10,6 +10,8 @@
 #include <vector>
 
 #include "absl/strings/str_cat.h"
+#include "server/service/slam/exploration_team.h"
+#include "server/service/slam/laser_session_engine.h"
 #include "server/service/slam/map_registry.h"
 #include "server/service/slam/map_tie_worker.h"
 #include "server/service/slam/session_lifecycle.h"
@@ -84,6 +86,7 @@ SlamRegistry::SlamRegistry(std::unique_ptr<storage::SlamStore> store,
   // With several servers on one database, a session may have joined its map on another one, and
   // a map is tied and followed by the server holding its lease.
   maps_ = std::make_unique<MapRegistry>(map_store_.get(), &leases_);
+  team_ = std::make_shared<ExplorationTeam>(*maps_);
   if (map_store_ != nullptr && options_.map_tie) {
     // Ties robots into their maps, on its own thread (map_tie_worker.h).
     MapTieWorker::Sources sources;
@@ -191,6 +194,11 @@ absl::StatusOr<std::unique_ptr<SlamRegistry::Stream>> SlamRegistry::OpenStream(
       member->Decorate(&decorated);
       sink(decorated);
     };
+    // Its goal layer sees the map's other robots (an active session; the others ignore it).
+    // The engine is fixed once the session is built; SetTeam has its own lock.
+    if (auto* laser = dynamic_cast<LaserSessionEngine*>((*session)->engine.get())) {
+      laser->SetTeam(team_, session_id);
+    }
   }
   return streams_->Attach(*session, loaded, std::move(sink), std::move(cancel));
 }
@@ -210,6 +218,7 @@ absl::StatusOr<v1::DeleteSessionResponse> SlamRegistry::DeleteSession(
   if (deleted.ok()) {
     deleted->mutable_session()->set_map(maps_->MapOf(session_id));
     maps_->SessionDeleted(session_id);
+    team_->Forget(session_id);
   }
   return deleted;
 }

@@ -105,6 +105,7 @@
 
 namespace waymark::service {
 
+class ExplorationTeam;
 class MapRegistry;
 class MapTieWorker;
 class SessionLifecycle;
@@ -211,6 +212,7 @@ class SlamRegistry {
   std::unique_ptr<SessionScheduler> scheduler_;
   std::unique_ptr<SessionStreams> streams_;
   std::unique_ptr<MapRegistry> maps_;
+  std::shared_ptr<ExplorationTeam> team_;  // several robots exploring a map
   std::unique_ptr<MapTieWorker> tie_worker_;  // null without a map store
 
   std::mutex shutdown_mutex_;

@@ -1,0 +1,46 @@
+#include "client/sessions/sim_explore_loop.h"
+
+namespace waymark::cli {
+
+adapters::SimOptions SimOptionsFor(const ExploreOptions& options) {
+  adapters::SimOptions sim_options;
+  sim_options.seed = options.seed;
+  sim_options.half_degree = options.half_degree;
+  // The simulated base drives as fast as the planner is told it may (the paper's limits unless
+  // --exploration sets others): a planner that plans 0.3 m/s arcs for a 0.15 m/s base would
+  // plan for places the robot never reaches.
+  if (options.exploration.has_max_linear()) sim_options.max_linear = options.exploration.max_linear();
+  if (options.exploration.has_max_angular()) {
+    sim_options.max_angular = options.exploration.max_angular();
+  }
+  adapters::OdometryError& e = sim_options.odometry;
+  const double k = options.odometry_error;
+  e.distance_scale = 1.0 + k * (e.distance_scale - 1.0);
+  e.turn_scale = 1.0 + k * (e.turn_scale - 1.0);
+  e.drift_per_m *= k;
+  e.distance_sigma *= k;
+  e.turn_sigma *= k;
+  e.turn_per_m_sigma *= k;
+  return sim_options;
+}
+
+v1::CreateSessionRequest SessionRequest(const adapters::Simulation& sim,
+                                        const adapters::World& world,
+                                        const ExploreOptions& options,
+                                        const std::string& robot_id) {
+  v1::CreateSessionRequest request = LaserSessionRequest(
+      sim.laser_layout(), robot_id,
+      !options.session_name.empty()
+          ? options.session_name
+          : fmt::format("sim explore {} {} s{}", world.name, RunModeName(options), options.seed),
+      options.mode);
+  v1::ExplorationConfig* exploration = request.mutable_laser()->mutable_exploration();
+  exploration->MergeFrom(options.exploration);
+  exploration->set_mode(options.mode);
+  if (options.mode == v1::ExplorationConfig::ACTIVE && !options.goal_layer) {
+    exploration->set_goal_layer(false);
+  }
+  return request;
+}
+
+}  // namespace waymark::cli
