@@ -99,15 +99,7 @@ absl::StatusOr<ExploreResult> RunExploration(client::SlamClient& client,
     record.estimate_world = map_to_world->Apply(record.estimate_map);
     record.loc_error_m = PositionError(record.true_pose, record.estimate_world);
     record.odometry_error_m = PositionError(record.true_pose, record.odometry_world);
-    if (update->covariance_size() == 9) {
-      record.robot_cov_trace =
-          update->covariance(0) + update->covariance(4) + update->covariance(8);
-    }
-    record.cov_trace_mean = update->covariance_trace_mean();
-    record.segments = update->segments();
-    record.loop_closures = update->loop_closures();
-    record.suggestion = update->suggestion();
-    record.exploration = update->exploration();
+    RecordAnswer(*update, &record);
     auto map = client.GetMap(result.session_id);
     if (!map.ok()) return map.status();
     result.final_map_world.clear();

@@ -24,6 +24,17 @@ adapters::SimOptions SimOptionsFor(const ExploreOptions& options) {
   return sim_options;
 }
 
+void RecordAnswer(const v1::SlamUpdate& update, ScanRecord* record) {
+  if (update.covariance_size() == 9) {
+    record->robot_cov_trace = update.covariance(0) + update.covariance(4) + update.covariance(8);
+  }
+  record->cov_trace_mean = update.covariance_trace_mean();
+  record->segments = update.segments();
+  record->loop_closures = update.loop_closures();
+  record->suggestion = update.suggestion();
+  record->exploration = update.exploration();
+}
+
 v1::CreateSessionRequest SessionRequest(const adapters::Simulation& sim,
                                         const adapters::World& world,
                                         const ExploreOptions& options,

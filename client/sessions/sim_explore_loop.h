@@ -27,6 +27,10 @@ namespace waymark::cli {
 // --exploration sets them) and the odometry error scaled by options.odometry_error.
 adapters::SimOptions SimOptionsFor(const ExploreOptions& options);
 
+// What a scan's answer says besides the pose (covariance trace, segments, closures, the
+// suggestion and exploration's progress), into `record`.
+void RecordAnswer(const v1::SlamUpdate& update, ScanRecord* record);
+
 // The session of a run (robot "sim" unless `robot_id` says otherwise).
 v1::CreateSessionRequest SessionRequest(const adapters::Simulation& sim,
                                         const adapters::World& world,

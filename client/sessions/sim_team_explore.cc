@@ -208,15 +208,7 @@ absl::StatusOr<TeamExploreResult> RunTeamExploration(
     }
     record.loc_error_m = PositionError(record.true_pose, record.estimate_world);
     record.odometry_error_m = PositionError(record.true_pose, record.odometry_world);
-    if (update->covariance_size() == 9) {
-      record.robot_cov_trace =
-          update->covariance(0) + update->covariance(4) + update->covariance(8);
-    }
-    record.cov_trace_mean = update->covariance_trace_mean();
-    record.segments = update->segments();
-    record.loop_closures = update->loop_closures();
-    record.suggestion = update->suggestion();
-    record.exploration = update->exploration();
+    RecordAnswer(*update, &record);
     auto segments = client.GetMap(m.session_id);
     if (!segments.ok()) return segments.status();
     // Its segments in the world: through its origin in the map once tied in. The origin is

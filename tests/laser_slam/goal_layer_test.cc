@@ -33,7 +33,7 @@ using testing::DistanceToWalls;
 using testing::EngineLoop;
 using testing::Lms200OneDegreeGeometry;
 using testing::RayCastOptions;
-using testing::SegmentBetween;
+using testing::SegmentsOf;
 using testing::W;
 using testing::Wall;
 
@@ -41,16 +41,6 @@ using testing::Wall;
 // Helpers: worlds of walls and the views the robot has of them.
 
 Eigen::Vector2d At(const Pose2& pose) { return Eigen::Vector2d(pose.x, pose.y); }
-
-// Every wall as a mapped segment: the segment map a session would have once it saw them all.
-std::vector<MapSegment> SegmentsOf(const std::vector<Wall>& walls) {
-  std::vector<MapSegment> out;
-  for (const Wall& w : walls) {
-    out.push_back(SegmentBetween(out.size() + 1, w.a.x(), w.a.y(), w.b.x(), w.b.y(),
-                                 EndpointType::kReal, EndpointType::kReal));
-  }
-  return out;
-}
 
 // The robot at `pose` (laser at its centre) after one noise-free 1-degree LMS200 scan of `walls`,
 // with all the walls in its segment map.

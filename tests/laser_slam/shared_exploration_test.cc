@@ -22,20 +22,11 @@ namespace {
 using testing::CastScan;
 using testing::Lms200OneDegreeGeometry;
 using testing::RayCastOptions;
-using testing::SegmentBetween;
+using testing::SegmentsOf;
 using testing::Wall;
 
 Wall Line(double x1, double y1, double x2, double y2) {
   return Wall{Eigen::Vector2d(x1, y1), Eigen::Vector2d(x2, y2)};
-}
-
-std::vector<MapSegment> SegmentsOf(const std::vector<Wall>& walls) {
-  std::vector<MapSegment> out;
-  for (const Wall& w : walls) {
-    out.push_back(SegmentBetween(out.size() + 1, w.a.x(), w.a.y(), w.b.x(), w.b.y(),
-                                 EndpointType::kReal, EndpointType::kReal));
-  }
-  return out;
 }
 
 ExplorationView ViewAt(const std::vector<Wall>& walls, const Pose2& pose,

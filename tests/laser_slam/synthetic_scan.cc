@@ -40,6 +40,15 @@ MapSegment SegmentBetween(std::uint64_t id, double x1, double y1, double x2, dou
   return s;
 }
 
+std::vector<MapSegment> SegmentsOf(const std::vector<Wall>& walls) {
+  std::vector<MapSegment> out;
+  for (const Wall& w : walls) {
+    out.push_back(SegmentBetween(out.size() + 1, w.a.x(), w.a.y(), w.b.x(), w.b.y(),
+                                 EndpointType::kReal, EndpointType::kReal));
+  }
+  return out;
+}
+
 double CastRay(const std::vector<Wall>& walls, const Eigen::Vector2d& origin, double angle) {
   const Eigen::Vector2d d(std::cos(angle), std::sin(angle));
   double best = -1.0;

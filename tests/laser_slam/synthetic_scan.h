@@ -40,6 +40,10 @@ ScanGeometry Lms200OneDegreeGeometry();
 MapSegment SegmentBetween(std::uint64_t id, double x1, double y1, double x2, double y2,
                           EndpointType left_type, EndpointType right_type);
 
+// Every wall as a mapped segment (ids 1, 2, ...; real endpoints): the segment map a session would
+// have once it saw them all.
+std::vector<MapSegment> SegmentsOf(const std::vector<Wall>& walls);
+
 // Distance along the ray from `origin` in direction `angle` to the nearest wall, or a negative
 // value when no wall is hit.
 double CastRay(const std::vector<Wall>& walls, const Eigen::Vector2d& origin, double angle);
