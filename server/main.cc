@@ -5,7 +5,7 @@
 //                  [--max-message-mb 32] [--max-streams-per-robot 8] [--stream-idle-seconds 300]
 //                  [--metrics-listen HOST:PORT] [--live [HOST:]PORT] [--slam-queue 64]
 //                  [--slam-workers N] [--slam-checkpoint-seconds 30] [--max-sessions 64]
-//                  [--slam-journal true] [--slam-checkpoint-journal-mb 64] [--slam-map-tie true] [--slam-map-tie-outvote true] [--slam-map-follow true]
+//                  [--slam-journal true] [--slam-checkpoint-journal-mb 64] [--slam-map-tie true] [--slam-map-tie-outvote true] [--slam-map-tie-verify true] [--slam-map-follow true]
 //   waymark-server --db FILE token create NAME --role admin|mapper|robot|viewer [--robot-id ID]
 //   waymark-server --db FILE token list | token revoke NAME
 //
@@ -373,6 +373,11 @@ int main(int argc, char** argv) {
   app.add_option("--slam-map-tie-outvote", flags.slam.map_tie_outvote,
                  "tie a robot into a shared map only when more of its unique matches agree with "
                  "the tie than disagree with it (false: the first two that agree tie it)")
+      ->capture_default_str();
+  app.add_option("--slam-map-tie-verify", flags.slam.map_tie_verify,
+                 "keep a robot's tie into a shared map only when the map's self-check with the "
+                 "robot placed there finds no new contradicting area (false: every tie found is "
+                 "kept)")
       ->capture_default_str();
   app.add_option("--slam-map-follow", flags.slam.map_follow,
                  "after a robot is tied into a shared map, keep matching its scans against the "

@@ -9,6 +9,7 @@
 
 #include <cmath>
 #include <memory>
+#include <string>
 #include <vector>
 
 #include "server/laser_slam/geometry.h"
@@ -187,6 +188,27 @@ TEST(TrajectoryTieTest, InTwoIdenticalRoomsNoTieIsMade) {
   // (of the wrong room, as often as not) must never gather into a tie.
   EXPECT_GE(run.progress.ambiguous, 10);
   EXPECT_GT(run.progress.ambiguous, run.progress.matches);
+}
+
+// A tie is checked against the map's self-check: at the truth the second robot's walls lie on the
+// first robot's; placed 2 m along the hall, or 1 m aside and turned 0.1 rad, its walls stand in
+// the first robot's free space and the other way round: areas contradict themselves that did not.
+TEST(TrajectoryTieTest, AWrongTieContradictsTheMapAndTheRightOneDoesNot) {
+  const std::vector<Wall> walls = PillarOffice();
+  const std::vector<Pose2> a =
+      PolylinePath({{2.0, 4.5}, {12.0, 4.5}, {12.0, 7.0}, {3.0, 7.0}}, 0.25);
+  const std::vector<Pose2> b = PolylinePath({{15.5, 6.5}, {6.0, 6.5}, {6.5, 3.5}}, 0.25);
+  const Pose2 origin_a{1.0, -2.0, 0.3};
+  const std::vector<TiedTrajectory> map{{origin_a, NodesOf(walls, a), {}}};
+  const std::vector<NodeView> joining = NodesOf(walls, b);
+  const Pose2 truth = Compose(origin_a, Relative(a.front(), b.front()));
+  std::string why;
+  EXPECT_TRUE(TieKeepsTheMapConsistent(map, joining, truth, &why)) << why;
+  EXPECT_FALSE(TieKeepsTheMapConsistent(map, joining, Compose(truth, Pose2{2.0, 0.0, 0.0}), &why))
+      << why;
+  EXPECT_FALSE(TieKeepsTheMapConsistent(map, joining, Compose(truth, Pose2{0.0, 1.0, 0.1}), &why))
+      << why;
+  EXPECT_NE(why.find("areas of 5 m contradict themselves"), std::string::npos) << why;
 }
 
 // The vote on a fresh unique match (newest kept match first): the newest independent agreeing

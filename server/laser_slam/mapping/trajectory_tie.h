@@ -26,6 +26,7 @@
 #include <cstdint>
 #include <memory>
 #include <optional>
+#include <string>
 #include <vector>
 
 #include "absl/status/status.h"
@@ -99,6 +100,17 @@ struct TiedTrajectory {
   std::vector<OriginSample> samples;
 };
 
+// Whether tying `joining` (its nodes in its own frame) in at `tie` leaves the map consistent:
+// where the map self-check (map_consistency.h) finds the tied-in trajectories' nodes and the
+// joining ones each consistent on their own, it must find them consistent together, the joining
+// ones placed by `tie`. Where either contradicts itself already, the check cannot tell (true). A robot tied into a look-alike place its map does not hold yet (a floor
+// with point symmetry, a corridor ring) still contradicts the map wherever else its own scans
+// overlap it: its walls in the map's free space and the other way round. `why` (may be null)
+// says what was found.
+bool TieKeepsTheMapConsistent(const std::vector<TiedTrajectory>& map,
+                              const std::vector<NodeView>& joining, const Pose2& tie,
+                              std::string* why);
+
 // The tied-in trajectories' points in the map frame, thinned to one per `cell`.
 PointCloud MapCloud(const std::vector<TiedTrajectory>& trajectories, double cell);
 
@@ -117,6 +129,7 @@ struct TieProgress {
   int ambiguous = 0;      // ... refused for a rival place
   int disagreements = 0;  // candidate pairs far enough apart that did not agree
   int outvoted = 0;       // agreeing pairs not taken: more kept matches disagreed with them
+  int refused = 0;        // ties found and refused for contradicting the map (Refuse)
   double last_score = 0.0;
   double last_rival_ratio = 0.0;  // the last match's rival's score over its own (0: none)
   std::int64_t reads = 0;         // cell reads spent in all
@@ -166,6 +179,9 @@ class TrajectoryTie {
   // (the caller's thread then catches up, at most the scans' budget behind).
   const TieProgress& Advance(const std::vector<NodeView>& joining, std::int64_t max_reads);
   const TieProgress& progress() const { return progress_; }
+  // The tie found is refused (TieKeepsTheMapConsistent said no): it is dropped with the unique
+  // matches kept, and the searches go on.
+  void Refuse();
 
  private:
   struct Grids;

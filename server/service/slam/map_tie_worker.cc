@@ -171,6 +171,18 @@ bool MapTieWorker::Turn(const std::string& map, const storage::MapTrajectoryReco
     }
     return false;  // waits for scans
   }
+  if (options_.verify_ties) {
+    std::string why;
+    if (!laser_slam::TieKeepsTheMapConsistent(tied, nodes->nodes, *progress.tie, &why)) {
+      // A look-alike place the map does not hold yet: the robot's own scans elsewhere contradict
+      // the map there. The search goes on.
+      spdlog::info("SLAM map \"{}\": session {} found at ({:.3f}, {:.3f}, {:.4f}) but not tied "
+                   "in: {}",
+                   map, session_id, progress.tie->x, progress.tie->y, progress.tie->theta, why);
+      joining.tie->Refuse();
+      return true;
+    }
+  }
   const storage::MapTie tie{progress.tie->x, progress.tie->y, progress.tie->theta};
   if (absl::Status s = sources_.tie(map, session_id, tie); !s.ok()) {
     spdlog::warn("SLAM map \"{}\": session {} was found in it but not tied in: {}", map,

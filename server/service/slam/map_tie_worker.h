@@ -79,6 +79,9 @@ class MapTieWorker {
   struct Options {
     double poll_seconds = 0.2;
     laser_slam::TieOptions tie;  // its reads_per_scan is the budget
+    // A tie found is kept only when the map's self-check with the robot placed there finds no
+    // more contradicting areas than before (laser_slam::TieKeepsTheMapConsistent).
+    bool verify_ties = true;
     // Every tied-in trajectory but the map frame's first is matched again in local windows
     // against the others (laser_slam::TrajectoryFollow): its origin becomes piecewise.
     bool follow = true;

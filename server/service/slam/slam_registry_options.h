@@ -41,6 +41,9 @@ struct SlamRegistryOptions {
   // A tie needs the kept unique matches to outvote the ones disagreeing with it
   // (laser_slam::TieOptions::outvote_disagreements); false: the first agreeing pair ties.
   bool map_tie_outvote = true;
+  // A tie is kept only when the map's self-check with the robot placed there finds no new
+  // contradicting area (laser_slam::TieKeepsTheMapConsistent).
+  bool map_tie_verify = true;
   // Several servers on one database (PostgreSQL): each session is served by the one holding its
   // lease (session_leases.h). Off (owner empty) with one server per database.
   SessionLeaseOptions lease;
