@@ -23,8 +23,6 @@ namespace {
 using adapters::BasePose;
 using adapters::Simulation;
 
-Pose2 ToPose2(const BasePose& p) { return {p.x, p.y, p.theta}; }
-Pose2 ToPose2(const v1::Pose2D& p) { return {p.x(), p.y(), p.theta()}; }
 
 // Holds one suggestion for `hold` seconds (step 3 of the protocol). Returns whether a bump cut it.
 absl::StatusOr<bool> Execute(Simulation& sim, SimRobotLink& robot, const v1::SuggestedControl& control,

@@ -27,6 +27,10 @@ namespace waymark::cli {
 // --exploration sets them) and the odometry error scaled by options.odometry_error.
 adapters::SimOptions SimOptionsFor(const ExploreOptions& options);
 
+// The simulator's and the API's poses as the run's.
+inline Pose2 ToPose2(const adapters::BasePose& p) { return {p.x, p.y, p.theta}; }
+inline Pose2 ToPose2(const v1::Pose2D& p) { return {p.x(), p.y(), p.theta()}; }
+
 // What a scan's answer says besides the pose (covariance trace, segments, closures, the
 // suggestion and exploration's progress), into `record`.
 void RecordAnswer(const v1::SlamUpdate& update, ScanRecord* record);

@@ -25,8 +25,6 @@ namespace {
 using adapters::BasePose;
 using adapters::Simulation;
 
-Pose2 ToPose2(const BasePose& p) { return {p.x, p.y, p.theta}; }
-Pose2 ToPose2(const v1::Pose2D& p) { return {p.x(), p.y(), p.theta()}; }
 
 Pose2 Inverse(const Pose2& p) {
   const double c = std::cos(p.theta), s = std::sin(p.theta);
