@@ -20,9 +20,7 @@
 namespace waymark::cli {
 namespace {
 
-using adapters::BasePose;
 using adapters::Simulation;
-
 
 // Holds one suggestion for `hold` seconds (step 3 of the protocol). Returns whether a bump cut it.
 absl::StatusOr<bool> Execute(Simulation& sim, SimRobotLink& robot, const v1::SuggestedControl& control,

@@ -12,6 +12,7 @@
 #include <set>
 
 #include "client/eval/exploration_metrics.h"
+#include "client/eval/relations_metric.h"  // Inverse
 #include "client/lib/exploration_progress.h"
 #include "client/render/slam_output.h"  // SegmentEndpoints
 #include "client/sessions/sim_explore_loop.h"
@@ -24,12 +25,6 @@ namespace {
 
 using adapters::BasePose;
 using adapters::Simulation;
-
-
-Pose2 Inverse(const Pose2& p) {
-  const double c = std::cos(p.theta), s = std::sin(p.theta);
-  return {-c * p.x - s * p.y, s * p.x - c * p.y, -p.theta};
-}
 
 // One robot of the team while the run goes.
 struct Member {

@@ -64,6 +64,11 @@ inline Pose2 Compose(const Pose2& a, const Pose2& b) {
 inline Pose2 Invert(const Pose2& a) { return ToPose(Invert<double>(ToVector(a))); }
 // The location of b in frame a: (-)a (+) b.
 inline Pose2 Relative(const Pose2& a, const Pose2& b) { return Compose(Invert(a), b); }
+// A point `from` (the frame `to_here` maps from) moved by `to_here`.
+inline Eigen::Vector2d MoveBy(const Pose2& to_here, const Eigen::Vector2d& from) {
+  const Pose2 p = Compose(to_here, Pose2{from.x(), from.y(), 0.0});
+  return Eigen::Vector2d(p.x, p.y);
+}
 
 // d(a (+) b)/da and d(a (+) b)/db (the SP model's J1{+} and J2{+}).
 Eigen::Matrix3d ComposeJacobianFirst(const Pose2& a, const Pose2& b);

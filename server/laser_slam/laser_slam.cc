@@ -231,10 +231,7 @@ absl::StatusOr<ScanUpdate> LaserSlam::AddScan(const LaserScan& scan) {
     }
     update.suggestion = s.planner->Decide(view);
     if (const ExplorationGoals* goals = s.planner->goals()) {
-      auto move = [&](Eigen::Vector2d& p) {
-        const Pose2 q = Compose(to_map, Pose2{p.x(), p.y(), 0.0});
-        p = Eigen::Vector2d(q.x, q.y);
-      };
+      auto move = [&](Eigen::Vector2d& p) { p = MoveBy(to_map, p); };
       GoalProgress progress = goals->progress();
       if (progress.target) {
         move(progress.target->goal);

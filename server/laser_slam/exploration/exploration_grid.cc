@@ -164,9 +164,9 @@ void ExplorationGrid::FillUnknownFrom(const ExplorationGrid& other, const Pose2&
   for (const Eigen::Vector2d& corner :
        {other.origin_, top, Eigen::Vector2d(other.origin_.x(), top.y()),
         Eigen::Vector2d(top.x(), other.origin_.y())}) {
-    const Pose2 p = Compose(other_to_this, Pose2{corner.x(), corner.y(), 0.0});
-    lo = lo.cwiseMin(Eigen::Vector2d(p.x, p.y));
-    hi = hi.cwiseMax(Eigen::Vector2d(p.x, p.y));
+    const Eigen::Vector2d p = MoveBy(other_to_this, corner);
+    lo = lo.cwiseMin(p);
+    hi = hi.cwiseMax(p);
   }
   Cover(lo, hi);
   const Pose2 this_to_other = Invert(other_to_this);
@@ -177,8 +177,7 @@ void ExplorationGrid::FillUnknownFrom(const ExplorationGrid& other, const Pose2&
       std::int8_t& v = cells_[Index(x, y)];
       if (v != kUnknownValue) continue;
       const Eigen::Vector2d c = Centre(x, y);
-      const Pose2 q = Compose(this_to_other, Pose2{c.x(), c.y(), 0.0});
-      const Eigen::Vector2i o = other.CellOf(Eigen::Vector2d(q.x, q.y));
+      const Eigen::Vector2i o = other.CellOf(MoveBy(this_to_other, c));
       if (other.Inside(o.x(), o.y())) v = other.cells_[other.Index(o.x(), o.y())];
     }
   }

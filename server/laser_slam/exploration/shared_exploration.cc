@@ -4,11 +4,6 @@
 
 namespace waymark::laser_slam {
 
-Eigen::Vector2d MoveBy(const Pose2& to_here, const Eigen::Vector2d& from) {
-  const Pose2 p = Compose(to_here, Pose2{from.x(), from.y(), 0.0});
-  return Eigen::Vector2d(p.x, p.y);
-}
-
 void MergeTeammates(const std::vector<Teammate>& teammates, double body_radius,
                     ExplorationGrid* grid) {
   for (const Teammate& t : teammates) {

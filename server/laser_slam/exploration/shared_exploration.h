@@ -60,9 +60,6 @@ void MergeTeammates(const std::vector<Teammate>& teammates, double body_radius,
 std::vector<MapSegment> WithTeammateSegments(const std::vector<MapSegment>& own,
                                              const std::vector<Teammate>& teammates);
 
-// A place `from` (this frame) moved by `to_here`.
-Eigen::Vector2d MoveBy(const Pose2& to_here, const Eigen::Vector2d& from);
-
 }  // namespace waymark::laser_slam
 
 #endif  // WAYMARK_SERVER_LASER_SLAM_EXPLORATION_SHARED_EXPLORATION_H_

@@ -2,6 +2,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <iterator>
 #include <utility>
 
 #include "absl/strings/str_cat.h"
@@ -63,15 +64,22 @@ absl::Status ValidateTieOptions(const TieOptions& o) {
   return absl::OkStatus();
 }
 
+std::vector<NodeView> NodesInMapFrame(const TiedTrajectory& trajectory) {
+  std::vector<OriginSample> samples = trajectory.samples;
+  RefreshOrigins(trajectory.nodes, &samples);
+  std::vector<NodeView> nodes = trajectory.nodes;
+  for (NodeView& node : nodes) {
+    node.global = Compose(samples.empty() ? trajectory.origin : OriginAt(samples, node.stamp),
+                          node.global);
+  }
+  return nodes;
+}
+
 PointCloud MapCloud(const std::vector<TiedTrajectory>& trajectories, double cell) {
   PointCloud map;
   for (const TiedTrajectory& trajectory : trajectories) {
-    std::vector<OriginSample> samples = trajectory.samples;
-    RefreshOrigins(trajectory.nodes, &samples);
-    for (const NodeView& node : trajectory.nodes) {
-      if (node.points == nullptr) continue;
-      const Pose2 origin = samples.empty() ? trajectory.origin : OriginAt(samples, node.stamp);
-      AppendTransformed(*node.points, Compose(origin, node.global), &map);
+    for (const NodeView& node : NodesInMapFrame(trajectory)) {
+      if (node.points != nullptr) AppendTransformed(*node.points, node.global, &map);
     }
   }
   return ThinPoints(map, cell);
@@ -79,16 +87,14 @@ PointCloud MapCloud(const std::vector<TiedTrajectory>& trajectories, double cell
 
 namespace {
 
-// Nodes in the map frame, in whole submaps of the self-check's size (a trailing part is left
-// out, so that no submap of the check mixes two trajectories).
-void AppendInMapFrame(const std::vector<NodeView>& nodes, const std::vector<OriginSample>& samples,
-                      const Pose2& origin, int submap_nodes, std::vector<NodeView>* out) {
-  const size_t whole = nodes.size() - nodes.size() % static_cast<size_t>(submap_nodes);
-  for (size_t i = 0; i < whole; ++i) {
-    NodeView node = nodes[i];
-    node.global = Compose(samples.empty() ? origin : OriginAt(samples, node.stamp), node.global);
-    out->push_back(std::move(node));
-  }
+// The trajectory's nodes in the map frame, in whole submaps of the self-check's size (a trailing
+// part is left out, so that no submap of the check mixes two trajectories).
+void AppendWholeSubmaps(const TiedTrajectory& trajectory, int submap_nodes,
+                        std::vector<NodeView>* out) {
+  std::vector<NodeView> nodes = NodesInMapFrame(trajectory);
+  nodes.resize(nodes.size() - nodes.size() % static_cast<size_t>(submap_nodes));
+  out->insert(out->end(), std::make_move_iterator(nodes.begin()),
+              std::make_move_iterator(nodes.end()));
 }
 
 }  // namespace
@@ -99,12 +105,9 @@ bool TieKeepsTheMapConsistent(const std::vector<TiedTrajectory>& map,
   const MapConsistencyOptions options;
   std::vector<NodeView> map_nodes, joining_nodes;
   for (const TiedTrajectory& trajectory : map) {
-    std::vector<OriginSample> samples = trajectory.samples;
-    RefreshOrigins(trajectory.nodes, &samples);
-    AppendInMapFrame(trajectory.nodes, samples, trajectory.origin, options.submap_nodes,
-                     &map_nodes);
+    AppendWholeSubmaps(trajectory, options.submap_nodes, &map_nodes);
   }
-  AppendInMapFrame(joining, {}, tie, options.submap_nodes, &joining_nodes);
+  AppendWholeSubmaps(TiedTrajectory{tie, joining, {}}, options.submap_nodes, &joining_nodes);
   std::vector<NodeView> together = map_nodes;
   together.insert(together.end(), joining_nodes.begin(), joining_nodes.end());
   const absl::StatusOr<MapConsistencyReport> alone_map = CheckMapConsistency(map_nodes, options);

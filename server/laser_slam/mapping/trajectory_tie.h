@@ -111,6 +111,11 @@ bool TieKeepsTheMapConsistent(const std::vector<TiedTrajectory>& map,
                               const std::vector<NodeView>& joining, const Pose2& tie,
                               std::string* why);
 
+// A tied-in trajectory's nodes moved into the map frame: each by the origin at its stamp where
+// the trajectory is followed (the samples' origins derived again from the nodes' current poses,
+// RefreshOrigins), else by `origin`.
+std::vector<NodeView> NodesInMapFrame(const TiedTrajectory& trajectory);
+
 // The tied-in trajectories' points in the map frame, thinned to one per `cell`.
 PointCloud MapCloud(const std::vector<TiedTrajectory>& trajectories, double cell);
 

@@ -89,6 +89,15 @@ v1::MapMatchStats StatsOf(const laser_slam::TieProgress& progress) {
   return stats;
 }
 
+v1::MapMatchStats Sum(const v1::MapMatchStats& a, const v1::MapMatchStats& b) {
+  v1::MapMatchStats sum;
+  sum.set_tried(a.tried() + b.tried());
+  sum.set_matched(a.matched() + b.matched());
+  sum.set_weak(a.weak() + b.weak());
+  sum.set_ambiguous(a.ambiguous() + b.ambiguous());
+  return sum;
+}
+
 std::string MapTrajectoryWarning(const v1::MapTrajectory& trajectory) {
   if (!trajectory.tied_in()) {
     const v1::MapMatchStats& s = trajectory.search();

@@ -31,6 +31,8 @@ std::vector<laser_slam::OriginSample> SamplesOf(const v1::MapTrajectory& traject
 
 v1::MapMatchStats StatsOf(const laser_slam::FollowProgress& progress);
 v1::MapMatchStats StatsOf(const laser_slam::TieProgress& progress);
+// Field by field: the counts of two follows one after the other.
+v1::MapMatchStats Sum(const v1::MapMatchStats& a, const v1::MapMatchStats& b);
 
 // Why the map is unsure of `trajectory` (MapTrajectory.warning), from its counts; empty if not:
 // - not yet in the map, and searches found look-alike places (a tie waits until one place wins);

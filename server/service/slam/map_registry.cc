@@ -210,10 +210,11 @@ void MapRegistry::AddSamples(const storage::MapRecord& record, v1::Map* map) con
       // The store's, written by the map's owner (maybe another server). Unreadable bytes (logged
       // where the registry reads them, Remember) show no samples: the stored origin then holds
       // for every pose.
-      v1::MapTrajectory parsed;
-      if (parsed.ParseFromString(stored)) {
-        *trajectory.mutable_origin_samples() = parsed.origin_samples();
-        *trajectory.mutable_follow() = parsed.follow();
+      if (absl::StatusOr<StoredFollow> follow = DecodeFollow(stored); follow.ok()) {
+        for (const laser_slam::OriginSample& sample : follow->samples) {
+          AddSampleTo(sample, &trajectory);
+        }
+        *trajectory.mutable_follow() = follow->stats;
       }
     }
     trajectory.set_warning(MapTrajectoryWarning(trajectory));
@@ -317,14 +318,12 @@ absl::StatusOr<v1::MapOccupancyGrid> MapRegistry::GetMapGrid(const std::string& 
                           absl::StrCat("map \"", name, "\": trajectory of session ",
                                        trajectory->session_id(), ": ", own.status().message()));
     }
-    const laser_slam::Pose2 origin{trajectory->origin().x(), trajectory->origin().y(),
-                                   trajectory->origin().theta()};
     // Followed after its tie: the origin at each stamp, from the nodes' current poses.
-    std::vector<laser_slam::OriginSample> samples = SamplesOf(*trajectory);
-    laser_slam::RefreshOrigins(*own, &samples);
-    for (laser_slam::NodeView& node : *own) {
-      node.global = laser_slam::Compose(
-          samples.empty() ? origin : laser_slam::OriginAt(samples, node.stamp), node.global);
+    const laser_slam::TiedTrajectory in_map{
+        laser_slam::Pose2{trajectory->origin().x(), trajectory->origin().y(),
+                          trajectory->origin().theta()},
+        *std::move(own), SamplesOf(*trajectory)};
+    for (laser_slam::NodeView& node : laser_slam::NodesInMapFrame(in_map)) {
       nodes.push_back(std::move(node));
     }
   }
@@ -523,6 +522,7 @@ absl::Status MapRegistry::Follow(const std::string& map, const std::string& sess
   constexpr std::size_t kStoreSamples = 10;
   const laser_slam::Pose2 latest = samples.back().origin;
   bool store = false;
+  std::string follow;  // what is stored, encoded under the lock
   {
     std::lock_guard<std::mutex> lock(mutex_);
     auto member = members_.find(session_id);
@@ -536,25 +536,17 @@ absl::Status MapRegistry::Follow(const std::string& map, const std::string& sess
     if (!followed.here) followed.base = followed.stats;
     followed.samples = samples;
     followed.here = true;
-    followed.stats = StatsOf(progress);
-    followed.stats.set_tried(followed.stats.tried() + followed.base.tried());
-    followed.stats.set_matched(followed.stats.matched() + followed.base.matched());
-    followed.stats.set_weak(followed.stats.weak() + followed.base.weak());
-    followed.stats.set_ambiguous(followed.stats.ambiguous() + followed.base.ambiguous());
+    followed.stats = Sum(followed.base, StatsOf(progress));
     store = std::hypot(latest.x - followed.stored.x, latest.y - followed.stored.y) > kStoreXy ||
             std::abs(std::remainder(latest.theta - followed.stored.theta, 2 * M_PI)) > kStoreTheta ||
             samples.size() >= followed.stored_count + kStoreSamples || followed.stored_count == 0;
     if (store) {
       followed.stored = latest;
       followed.stored_count = samples.size();
+      follow = EncodeFollow(StoredFollow{samples, followed.stats});
     }
   }
   if (!store) return absl::OkStatus();
-  std::string follow;
-  {
-    std::lock_guard<std::mutex> lock(mutex_);
-    follow = EncodeFollow(StoredFollow{samples, followed_[session_id].stats});
-  }
   absl::StatusOr<storage::MapRecord> tied = store_->TieTrajectory(
       map, session_id, storage::MapTie{latest.x, latest.y, latest.theta}, follow);
   if (!tied.ok()) return tied.status();

@@ -116,8 +116,9 @@ class MapRegistry {
   // what the tie worker follows after a tie (laser_slam::TrajectoryFollow).
   std::vector<storage::MapRecord> MapsToFollow();
   // The session's piecewise origin after its tie (trajectory_follow.h), in memory: map-frame poses
-  // and the map's grid use the origin at each pose's stamp. The store keeps one origin, the
-  // latest, written again when it moved by more than a few cm (revision + 1 then).
+  // and the map's grid use the origin at each pose's stamp. The store keeps the latest origin and
+  // the samples with their counts (`progress`), written at the first follow and again when the
+  // origin moved by more than a few cm or 10 more samples came (revision + 1 then).
   absl::Status Follow(const std::string& map, const std::string& session_id,
                       const std::vector<laser_slam::OriginSample>& samples,
                       const laser_slam::FollowProgress& progress);
@@ -145,7 +146,7 @@ class MapRegistry {
 
   storage::MapStore* const store_;
   SessionLeases* const leases_;
-  mutable std::mutex mutex_;  // guards members_, followed_, owned_
+  mutable std::mutex mutex_;  // guards members_, followed_, searches_, owned_
   std::map<std::string, std::shared_ptr<MapMembership>> members_;  // by session id
   // Followed trajectories: their origin samples, and the origin and sample count last written to
   // the store. `here`: followed by this server (the store's copy is older); otherwise the store's
