@@ -72,6 +72,7 @@ nlohmann::json MappingJson(const ls::MappingBackend& backend) {
           {"closures_switched_off", stats.closures_switched_off},
           {"closures_ambiguous", stats.closures_ambiguous},
           {"closures_loosened", stats.closures_loosened},
+          {"closures_where_seen", stats.closures_where_seen},
           {"closures_pending", stats.closures_pending},
           {"closures_unconfirmed", stats.closures_unconfirmed},
           {"global_searches", stats.global_searches},

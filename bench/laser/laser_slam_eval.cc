@@ -148,6 +148,7 @@ bool SetMappingOption(const std::string& assignment, ls::MappingOptions* m) {
       {"rival_ratio", &m->rival_ratio}, {"rival_exclusion", &m->rival_exclusion},
       {"rival_far", &m->rival_far},
       {"min_score", &m->min_score},
+      {"global_min_overlap", &m->global_min_overlap},
       {"chain_sigma_xy", &m->chain_sigma_xy}, {"chain_sigma_xy_per_m", &m->chain_sigma_xy_per_m},
       {"chain_sigma_theta", &m->chain_sigma_theta},
       {"chain_sigma_theta_per_m", &m->chain_sigma_theta_per_m},

@@ -392,43 +392,70 @@ std::optional<GridMatch> MatchInWindow(const SearchPyramid& target, const PointC
                           std::labs(std::lround((found->pose.y - initial.y) / res)) >= half_cells;
 
   // Below a cell: the discrete optimum refined on the interpolated field, in a small grid of
-  // sub-cell shifts and sub-step turns around it (the first best in (i, j, k) order). The cloud
-  // is turned once per heading: the same products ScoreAt forms, so the same scores.
+  // sub-cell shifts and sub-step turns around it (the first best in (i, j, k) order), at two
+  // scales. The cloud is turned once per heading. A point's bilinear value at the five shifts in
+  // y is interpolated between the same few rows (the shifts span one cell at most), so each row
+  // is interpolated in x once per shift in x and shared by the five shifts in y: a third of the
+  // cell reads of interpolating each pose alone, the same values up to rounding.
   Pose2 pose = found->pose;
   double score = ScoreAt(grid, points, pose);
   const size_t n = points.size();
-  // Per heading, the cell and fraction of every point at each of the five shifts in x (the same
-  // for every shift in y) and in y: Interpolate's divisions once per point and shift.
-  std::vector<int> cell_x(5 * n), cell_y(5 * n);
-  std::vector<double> frac_x(5 * n), frac_y(5 * n);
   double scores[5][5][5];
+  double sums[5][5];
+  // The cell value at (x, y) of the lattice, 0 outside the grid (as Bilinear reads it).
+  const auto cell = [&grid](int x, int y) -> double { return grid.At(x, y); };
   for (double scale : {0.5, 0.25}) {
     const Pose2 centre = pose;
+    const double shift = scale * res / 2;
     for (int k = -2; k <= 2; ++k) {
       const double theta = centre.theta + k * scale * step / 2;
       const double c = std::cos(theta), s = std::sin(theta);
-      for (int i = -2; i <= 2; ++i) {
-        const double x = centre.x + i * scale * res / 2;
-        const double y = centre.y + i * scale * res / 2;
-        for (size_t m = 0; m < n; ++m) {
-          // As ScoreAt places the point, and Interpolate finds its cell.
-          const double gx = (x + c * points[m].x() - s * points[m].y() - grid.origin.x()) / res - 0.5;
-          const double gy = (y + s * points[m].x() + c * points[m].y() - grid.origin.y()) / res - 0.5;
-          const size_t at = (i + 2) * n + m;
-          cell_x[at] = static_cast<int>(std::floor(gx));
-          cell_y[at] = static_cast<int>(std::floor(gy));
-          frac_x[at] = gx - cell_x[at];
-          frac_y[at] = gy - cell_y[at];
+      for (auto& row : sums) std::fill(std::begin(row), std::end(row), 0.0);
+      for (size_t m = 0; m < n; ++m) {
+        const double px = points[m].x(), py = points[m].y();
+        // As ScoreAt places the point, and Interpolate finds its cell; a shift is scale / 2 of
+        // a cell (a binary fraction: no rounding in the steps).
+        const double gx0 = (centre.x + c * px - s * py - grid.origin.x()) / res - 0.5;
+        const double gy0 = (centre.y + s * px + c * py - grid.origin.y()) / res - 0.5;
+        const double cells_per_shift = scale / 2;
+        int cy[5];
+        double fy[5];
+        for (int j = 0; j < 5; ++j) {
+          const double gy = gy0 + (j - 2) * cells_per_shift;
+          cy[j] = static_cast<int>(std::floor(gy));
+          fy[j] = gy - cy[j];
+        }
+        const int lo = std::min(cy[0], cy[4]);
+        const int rows = std::max(cy[0], cy[4]) - lo + 2;  // the shifts span one cell or less
+        for (int i = 0; i < 5; ++i) {
+          const double gx = gx0 + (i - 2) * cells_per_shift;
+          const int cx = static_cast<int>(std::floor(gx));
+          const double fx = gx - cx;
+          double across[4];  // the rows lo.. interpolated in x
+          const int sx = cx - grid.x0, sy = lo - grid.y0;
+          if (rows <= 4 && sx >= 0 && sy >= 0 && sx + 1 < grid.width &&
+              sy + rows - 1 < grid.height) {
+            const std::uint8_t* at = grid.cells.data() + static_cast<size_t>(sy) * grid.width + sx;
+            for (int r = 0; r < rows; ++r, at += grid.width) {
+              across[r] = (1 - fx) * at[0] + fx * at[1];
+            }
+          } else if (rows <= 4) {
+            for (int r = 0; r < rows; ++r) {
+              across[r] = (1 - fx) * cell(cx, lo + r) + fx * cell(cx + 1, lo + r);
+            }
+          } else {
+            for (int j = 0; j < 5; ++j) sums[i][j] += 255.0 * grid.Bilinear(cx, cy[j], fx, fy[j]);
+            continue;
+          }
+          for (int j = 0; j < 5; ++j) {
+            const int r = cy[j] - lo;
+            sums[i][j] += (1 - fy[j]) * across[r] + fy[j] * across[r + 1];
+          }
         }
       }
-      for (int i = -2; i <= 2; ++i) {
-        for (int j = -2; j <= 2; ++j) {
-          double sum = 0.0;
-          const size_t ax = (i + 2) * n, ay = (j + 2) * n;
-          for (size_t m = 0; m < n; ++m) {
-            sum += grid.Bilinear(cell_x[ax + m], cell_y[ay + m], frac_x[ax + m], frac_y[ay + m]);
-          }
-          scores[i + 2][j + 2][k + 2] = sum / static_cast<double>(n);
+      for (int i = 0; i < 5; ++i) {
+        for (int j = 0; j < 5; ++j) {
+          scores[i][j][k + 2] = sums[i][j] / (255.0 * static_cast<double>(n));
         }
       }
     }
@@ -437,7 +464,7 @@ std::optional<GridMatch> MatchInWindow(const SearchPyramid& target, const PointC
         for (int k = -2; k <= 2; ++k) {
           if (scores[i + 2][j + 2][k + 2] > score) {
             score = scores[i + 2][j + 2][k + 2];
-            pose = Pose2{centre.x + i * scale * res / 2, centre.y + j * scale * res / 2,
+            pose = Pose2{centre.x + i * shift, centre.y + j * shift,
                          centre.theta + k * scale * step / 2};
           }
         }

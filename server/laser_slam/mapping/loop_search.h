@@ -21,6 +21,7 @@
 #include "server/laser_slam/mapping/likelihood_grid.h"
 #include "server/laser_slam/mapping/mapping_options.h"
 #include "server/laser_slam/mapping/point_cloud.h"
+#include "server/laser_slam/mapping/seen_mask.h"
 #include "server/laser_slam/types.h"
 
 namespace waymark::laser_slam {
@@ -30,6 +31,8 @@ struct LoopQuery {
   PointCloud points;  // one per point_cell: refinement and final score
   PointCloud sparse;  // one per 2 point_cell: the windowed search (and its rival tests)
   PointCloud coarse;  // one per 2 coarse_search_factor point_cell: the global search's
+  PointCloud coarser;  // one per 4 coarse_search_factor point_cell: a global search on what
+                       // the submap looked at (MappingOptions::global_min_overlap)
 };
 LoopQuery MakeLoopQuery(const PointCloud& points, const MappingOptions& options);
 
@@ -40,6 +43,9 @@ struct SubmapGrids {
   std::function<std::shared_ptr<const SearchPyramid>()> fine;
   std::function<std::shared_ptr<const SearchPyramid>()> coarse;
   std::function<GridFrame()> fine_frame;
+  // Where the submap's scans looked (a global search below min_score over the whole query asks;
+  // nullptr or an empty mask: the whole query only).
+  std::function<std::shared_ptr<const SeenMask>()> seen;
 };
 
 struct LoopMatch {
@@ -48,11 +54,13 @@ struct LoopMatch {
   bool loosened = false;   // accepted, trusted only to a near rival's offset
   Pose2 pose;              // of the node in the submap's frame
   Eigen::Vector3d sigma = Eigen::Vector3d::Zero();
-  double score = 0.0;
+  double score = 0.0;    // over the whole query
+  bool where_seen = false;  // accepted on the points where the submap looked (global_min_overlap)
 };
 
 // Matches the query against one submap: in `window` around `initial` (the node as the graph has
-// it), or with `global` the whole submap at every heading.
+// it), or with `global` the whole submap at every heading (which may accept a match on the points
+// where the submap looked: MappingOptions::global_min_overlap).
 LoopMatch MatchSubmap(const LoopQuery& query, const SubmapGrids& grids, const Pose2& initial,
                       const SearchWindow& window, bool global, const MappingOptions& options);
 

@@ -290,7 +290,7 @@ void MappingBackend::SearchLoops(int index) {
     }
   }
   const LoopQuery loop_query = MakeLoopQuery(query, options_);
-  int accepted = 0, rejected = 0, ambiguous = 0, slid = 0;
+  int accepted = 0, rejected = 0, ambiguous = 0, slid = 0, where_seen = 0;
   std::vector<GraphConstraint> found;  // matches that passed their own tests
   std::vector<int> found_confirms;     // per found match: the pending match it confirms, or -1
   std::vector<PendingClosure> held;    // global matches to confirm (confirm_global_closures)
@@ -299,6 +299,7 @@ void MappingBackend::SearchLoops(int index) {
     grids.fine = [&] { return PyramidFor(c.submap, 1); };
     grids.coarse = [&] { return PyramidFor(c.submap, options_.coarse_search_factor); };
     grids.fine_frame = [&] { return FineFrameOf(c.submap); };
+    grids.seen = [&] { return SeenMaskFor(c.submap); };
     const LoopMatch match =
         MatchSubmap(loop_query, grids, c.initial, c.window, c.global, options_);
     if (match.verdict == LoopMatch::Verdict::kRejected) {
@@ -310,6 +311,7 @@ void MappingBackend::SearchLoops(int index) {
       continue;
     }
     if (match.loosened) ++slid;
+    if (match.where_seen) ++where_seen;
     GraphConstraint loop;
     loop.kind = GraphConstraint::Kind::kLoop;
     loop.from = c.first;
@@ -374,7 +376,12 @@ void MappingBackend::SearchLoops(int index) {
   stats_.closures_rejected += rejected;
   stats_.closures_ambiguous += ambiguous;
   stats_.closures_loosened += slid;
+  stats_.closures_where_seen += where_seen;
   stats_.search_ms.push_back(MsSince(start));
+}
+
+Pose2 MappingBackend::InSubmapLocked(const Submap& s, const Pose2& anchor, int j) const {
+  return s.frozen.empty() ? Relative(anchor, nodes_[j].global) : s.frozen[j - s.first];
 }
 
 PointCloud MappingBackend::SubmapCloud(int submap) const {
@@ -383,8 +390,7 @@ PointCloud MappingBackend::SubmapCloud(int submap) const {
   const Submap& s = submaps_[submap];
   const Pose2 anchor = nodes_[s.first].global;
   for (int j = s.first; j < s.first + s.count; ++j) {
-    const Pose2 pose = s.frozen.empty() ? Relative(anchor, nodes_[j].global) : s.frozen[j - s.first];
-    AppendTransformed(*nodes_[j].points, pose, &cloud);
+    AppendTransformed(*nodes_[j].points, InSubmapLocked(s, anchor, j), &cloud);
   }
   return cloud;
 }
@@ -403,6 +409,26 @@ std::shared_ptr<const SearchPyramid> MappingBackend::PyramidFor(int submap, int 
       BuildLikelihoodGrid(thinned, resolution, sigma), options_.search_depth);
   pyramid_cache_.Insert(submap, coarsening, pyramid);
   return pyramid;
+}
+
+std::shared_ptr<const SeenMask> MappingBackend::SeenMaskFor(int submap) {
+  if (const auto it = seen_masks_.find(submap); it != seen_masks_.end()) return it->second;
+  std::vector<SeenScan> scans;
+  std::vector<std::shared_ptr<const PointCloud>> held;  // the scans' points, while they are read
+  {
+    std::lock_guard<std::mutex> lock(mu_);
+    const Submap& s = submaps_[submap];
+    const Pose2 anchor = nodes_[s.first].global;
+    for (int j = s.first; j < s.first + s.count; ++j) {
+      if (!nodes_[j].points) continue;
+      held.push_back(nodes_[j].points);
+      scans.push_back({InSubmapLocked(s, anchor, j), held.back().get()});
+    }
+  }
+  auto mask = std::make_shared<const SeenMask>(BuildSeenMask(scans, 4 * options_.grid_resolution));
+  if (seen_masks_.size() >= kSeenMasksKept) seen_masks_.clear();
+  seen_masks_[submap] = mask;
+  return mask;
 }
 
 GridFrame MappingBackend::FineFrameOf(int submap) {

@@ -27,6 +27,7 @@
 #include <string>
 #include <thread>
 #include <unordered_set>
+#include <unordered_map>
 #include <vector>
 
 #include "absl/status/statusor.h"
@@ -71,6 +72,7 @@ struct MappingStats {
   int closures_rejected = 0;    // candidates with no pose above min_score
   int closures_ambiguous = 0;   // matches refused: a rival place (rival_far away) fits as well
   int closures_loosened = 0;    // accepted with their sigma widened to a near rival
+  int closures_where_seen = 0;  // global matches accepted on the points where the submap looked
   int global_searches = 0;      // searches over whole submaps (the window outgrew max_window_xy)
   int closures_switched_off = 0;  // accepted, then found inconsistent by the graph
   int optimizations = 0;
@@ -227,8 +229,14 @@ class MappingBackend {
   std::shared_ptr<const SearchPyramid> PyramidFor(int submap, int coarsening);
   // The lattice of the submap's search grid, without building it (what a global search covers).
   GridFrame FineFrameOf(int submap);
+  // Where the submap's scans looked (seen_mask.h), in its first node's frame; the newest
+  // kSeenMasksKept are kept. Caller holds search_mu_.
+  std::shared_ptr<const SeenMask> SeenMaskFor(int submap);
   // The submap's points in its first node's frame (at its frozen poses once complete).
   PointCloud SubmapCloud(int submap) const;
+  // Node j of submap `s` in its first node's frame (`anchor`: that node's global pose): at its
+  // frozen pose once the submap is complete. Caller holds mu_.
+  Pose2 InSubmapLocked(const Submap& s, const Pose2& anchor, int j) const;
   void WorkerLoop();
   int NodeAtOrBeforeLocked(std::uint64_t scan) const;
 
@@ -284,6 +292,9 @@ class MappingBackend {
   // Pyramids of recently matched submaps, within kPyramidCacheBytes; guarded by search_mu_.
   static constexpr size_t kPyramidCacheBytes = 48u << 20;
   PyramidCache pyramid_cache_;
+  // SeenMaskFor's, guarded by search_mu_: a few tens of kilobytes each, rebuilt in milliseconds.
+  static constexpr size_t kSeenMasksKept = 64;
+  std::unordered_map<int, std::shared_ptr<const SeenMask>> seen_masks_;
   mutable std::mutex search_mu_;  // one search / optimisation at a time (Serialize waits too)
   std::thread worker_;
 };

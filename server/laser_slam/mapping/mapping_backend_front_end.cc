@@ -181,6 +181,7 @@ void MappingBackend::RedecideEarlierStepsLocked(int index, const Eigen::Vector3d
     }
   }
   pyramid_cache_ = PyramidCache(kPyramidCacheBytes);
+  seen_masks_.clear();
   // The chain's uncertainty of the nodes processed before this one, from their new sigmas.
   chain_.clear();
   for (int j = 0; j < index; ++j) {

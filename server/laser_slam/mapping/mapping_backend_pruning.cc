@@ -203,6 +203,7 @@ void MappingBackend::PruneSubmapLocked(int s) {
   submap.frozen.clear();
   submap.frozen.shrink_to_fit();
   pyramid_cache_.Erase(s);
+  seen_masks_.erase(s);
   ++stats_.submaps_pruned;
   stats_.nodes_pruned += submap.count;
 }

@@ -44,6 +44,10 @@ absl::Status ValidateMappingOptions(const MappingOptions& o) {
     return absl::InvalidArgumentError(
         absl::StrCat("mapping.min_score must be in (0, 1), got ", o.min_score));
   }
+  if (!(o.global_min_overlap > 0.0 && o.global_min_overlap <= 1.0)) {
+    return absl::InvalidArgumentError(absl::StrCat(
+        "mapping.global_min_overlap must be in (0, 1], got ", o.global_min_overlap));
+  }
   if (o.local_min_score <= 0.0 || o.local_min_score >= 1.0) {
     return absl::InvalidArgumentError(
         absl::StrCat("mapping.local_min_score must be in (0, 1), got ", o.local_min_score));

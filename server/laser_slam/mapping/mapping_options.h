@@ -160,6 +160,14 @@ struct MappingOptions {
   // Acceptance: mean likelihood of the query points at the match (0..1). Measured on ACES and
   // Intel (docs/results.md): true closures score 0.6-0.9, wrong places in corridors below 0.5.
   double min_score = 0.6;
+  // A global search's match may also be accepted on the part of the query that lies where the
+  // submap's scans looked (seen_mask.h): its points there score min_score on average, and they
+  // are at least global_min_overlap of the query. A robot driving back down a corridor it mapped
+  // the other way sees, with a 180-degree scanner, much that the submap never saw: MIT Killian's
+  // and fr-clinic's returns scored 0.34-0.57 over all their points at the right place, and were
+  // never closed. The branch and bound then keeps poses down to min_score * global_min_overlap.
+  // 1 = the whole query only (before). Windowed searches always score the whole query.
+  double global_min_overlap = 0.5;
   // Uniqueness, against the second-best hypothesis in the same window: a rival pose that puts
   // the query points on average (RMS) more than rival_far metres from where the match puts them
   // and scores at least rival_ratio times the match is another place that fits as well
