@@ -38,6 +38,15 @@ std::vector<NodeView> NodesOf(const std::vector<Wall>& walls, const std::vector<
   return nodes;
 }
 
+// Two robots in PillarOffice: the first drives a U along the hall, the second comes in from the
+// east end and turns south; their paths cross in the middle.
+std::vector<Pose2> FirstRobotPath() {
+  return PolylinePath({{2.0, 4.5}, {12.0, 4.5}, {12.0, 7.0}, {3.0, 7.0}}, 0.25);
+}
+std::vector<Pose2> SecondRobotPath() {
+  return PolylinePath({{15.5, 6.5}, {6.0, 6.5}, {6.5, 3.5}}, 0.25);
+}
+
 struct TieRun {
   TieProgress progress;
   size_t nodes_fed = 0;  // nodes the joining robot had when it was tied (all: never)
@@ -79,9 +88,8 @@ constexpr std::int64_t kManyReads = std::int64_t{1} << 40;  // per scan: every s
 
 TEST(TrajectoryTieTest, TwoRobotsInOneOfficeAreTiedInAgreeingWithTheTruth) {
   const std::vector<Wall> walls = PillarOffice();
-  const std::vector<Pose2> a =
-      PolylinePath({{2.0, 4.5}, {12.0, 4.5}, {12.0, 7.0}, {3.0, 7.0}}, 0.25);
-  const std::vector<Pose2> b = PolylinePath({{15.5, 6.5}, {6.0, 6.5}, {6.5, 3.5}}, 0.25);
+  const std::vector<Pose2> a = FirstRobotPath();
+  const std::vector<Pose2> b = SecondRobotPath();
   // The first robot's frame lies somewhere in the map frame (the map frame need not be its own).
   const Pose2 origin_a{1.0, -2.0, 0.3};
   const std::vector<TiedTrajectory> map{{origin_a, NodesOf(walls, a)}};
@@ -109,9 +117,8 @@ TEST(TrajectoryTieTest, TwoRobotsInOneOfficeAreTiedInAgreeingWithTheTruth) {
 // once (a replay far faster than real time, the searches catching up after it).
 TEST(TrajectoryTieTest, ABudgetPerScanSpreadsTheSearchesWhateverThePaceOfTheCalls) {
   const std::vector<Wall> walls = PillarOffice();
-  const std::vector<Pose2> a =
-      PolylinePath({{2.0, 4.5}, {12.0, 4.5}, {12.0, 7.0}, {3.0, 7.0}}, 0.25);
-  const std::vector<Pose2> b = PolylinePath({{15.5, 6.5}, {6.0, 6.5}, {6.5, 3.5}}, 0.25);
+  const std::vector<Pose2> a = FirstRobotPath();
+  const std::vector<Pose2> b = SecondRobotPath();
   const std::vector<TiedTrajectory> map{{Pose2{}, NodesOf(walls, a)}};
   const Pose2 truth = Relative(a.front(), b.front());
   const std::vector<NodeView> joining = NodesOf(walls, b);
@@ -195,9 +202,8 @@ TEST(TrajectoryTieTest, InTwoIdenticalRoomsNoTieIsMade) {
 // the first robot's free space and the other way round: areas contradict themselves that did not.
 TEST(TrajectoryTieTest, AWrongTieContradictsTheMapAndTheRightOneDoesNot) {
   const std::vector<Wall> walls = PillarOffice();
-  const std::vector<Pose2> a =
-      PolylinePath({{2.0, 4.5}, {12.0, 4.5}, {12.0, 7.0}, {3.0, 7.0}}, 0.25);
-  const std::vector<Pose2> b = PolylinePath({{15.5, 6.5}, {6.0, 6.5}, {6.5, 3.5}}, 0.25);
+  const std::vector<Pose2> a = FirstRobotPath();
+  const std::vector<Pose2> b = SecondRobotPath();
   const Pose2 origin_a{1.0, -2.0, 0.3};
   const std::vector<TiedTrajectory> map{{origin_a, NodesOf(walls, a), {}}};
   const std::vector<NodeView> joining = NodesOf(walls, b);

@@ -402,8 +402,6 @@ std::optional<GridMatch> MatchInWindow(const SearchPyramid& target, const PointC
   const size_t n = points.size();
   double scores[5][5][5];
   double sums[5][5];
-  // The cell value at (x, y) of the lattice, 0 outside the grid (as Bilinear reads it).
-  const auto cell = [&grid](int x, int y) -> double { return grid.At(x, y); };
   for (double scale : {0.5, 0.25}) {
     const Pose2 centre = pose;
     const double shift = scale * res / 2;
@@ -425,27 +423,26 @@ std::optional<GridMatch> MatchInWindow(const SearchPyramid& target, const PointC
           cy[j] = static_cast<int>(std::floor(gy));
           fy[j] = gy - cy[j];
         }
-        const int lo = std::min(cy[0], cy[4]);
-        const int rows = std::max(cy[0], cy[4]) - lo + 2;  // the shifts span one cell or less
+        // The five shifts span 2 * scale <= 1 cell: cy[4] is cy[0] or the row above, and the
+        // values read lie in rows cy[0] .. cy[0] + 2 at most.
+        const int lo = cy[0];
+        const int rows = cy[4] - lo + 2;
         for (int i = 0; i < 5; ++i) {
           const double gx = gx0 + (i - 2) * cells_per_shift;
           const int cx = static_cast<int>(std::floor(gx));
           const double fx = gx - cx;
-          double across[4];  // the rows lo.. interpolated in x
+          double across[3];  // the rows lo.. interpolated in x
           const int sx = cx - grid.x0, sy = lo - grid.y0;
-          if (rows <= 4 && sx >= 0 && sy >= 0 && sx + 1 < grid.width &&
-              sy + rows - 1 < grid.height) {
+          if (sx >= 0 && sy >= 0 && sx + 1 < grid.width && sy + rows - 1 < grid.height) {
             const std::uint8_t* at = grid.cells.data() + static_cast<size_t>(sy) * grid.width + sx;
             for (int r = 0; r < rows; ++r, at += grid.width) {
               across[r] = (1 - fx) * at[0] + fx * at[1];
             }
-          } else if (rows <= 4) {
-            for (int r = 0; r < rows; ++r) {
-              across[r] = (1 - fx) * cell(cx, lo + r) + fx * cell(cx + 1, lo + r);
-            }
           } else {
-            for (int j = 0; j < 5; ++j) sums[i][j] += 255.0 * grid.Bilinear(cx, cy[j], fx, fy[j]);
-            continue;
+            // At the grid's edge: cells outside read 0, as Bilinear reads them.
+            for (int r = 0; r < rows; ++r) {
+              across[r] = (1 - fx) * grid.At(cx, lo + r) + fx * grid.At(cx + 1, lo + r);
+            }
           }
           for (int j = 0; j < 5; ++j) {
             const int r = cy[j] - lo;

@@ -2,6 +2,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <vector>
 
 #include "server/laser_slam/mapping/likelihood_grid.h"
 
@@ -17,6 +18,11 @@ SeenMask BuildSeenMask(const std::vector<SeenScan>& scans, double resolution,
                        std::int64_t max_cells) {
   SeenMask mask;
   mask.resolution = resolution;
+  // Every beam as its origin and return, in the mask's frame, once.
+  struct Beam {
+    Eigen::Vector2d from, to;
+  };
+  std::vector<Beam> beams;
   Eigen::Vector2d lo(1e300, 1e300), hi(-1e300, -1e300);
   for (const SeenScan& s : scans) {
     if (s.points == nullptr) continue;
@@ -28,6 +34,7 @@ SeenMask BuildSeenMask(const std::vector<SeenScan>& scans, double resolution,
       const Eigen::Vector2d w(s.pose.x + c * p.x() - sn * p.y(), s.pose.y + sn * p.x() + c * p.y());
       lo = lo.cwiseMin(w);
       hi = hi.cwiseMax(w);
+      beams.push_back({o, w});
     }
   }
   if (!(lo.x() <= hi.x()) || !std::isfinite(lo.x()) || !std::isfinite(hi.x()) ||
@@ -41,25 +48,17 @@ SeenMask BuildSeenMask(const std::vector<SeenScan>& scans, double resolution,
   mask.width = static_cast<int>(w);
   mask.height = static_cast<int>(h);
   std::vector<std::uint8_t> hit(static_cast<size_t>(mask.width) * mask.height, 0);
-  const auto mark = [&](double x, double y) {
-    const int ix = static_cast<int>((x - mask.origin.x()) / resolution);
-    const int iy = static_cast<int>((y - mask.origin.y()) / resolution);
-    if (ix >= 0 && iy >= 0 && ix < mask.width && iy < mask.height) {
-      hit[static_cast<size_t>(iy) * mask.width + ix] = 1;
-    }
-  };
-  for (const SeenScan& s : scans) {
-    if (s.points == nullptr) continue;
-    const double c = std::cos(s.pose.theta), sn = std::sin(s.pose.theta);
-    for (const Eigen::Vector2f& p : *s.points) {
-      const double ex = s.pose.x + c * p.x() - sn * p.y();
-      const double ey = s.pose.y + sn * p.x() + c * p.y();
-      // Half-cell steps along the beam: no cell it crosses is skipped by more than a corner.
-      const double length = std::hypot(ex - s.pose.x, ey - s.pose.y);
-      const int steps = static_cast<int>(std::ceil(length / (0.5 * resolution)));
-      for (int k = 0; k <= steps; ++k) {
-        const double f = steps > 0 ? static_cast<double>(k) / steps : 1.0;
-        mark(s.pose.x + f * (ex - s.pose.x), s.pose.y + f * (ey - s.pose.y));
+  for (const Beam& beam : beams) {
+    // Half-cell steps along the beam: no cell it crosses is skipped by more than a corner.
+    const Eigen::Vector2d along = beam.to - beam.from;
+    const int steps = static_cast<int>(std::ceil(along.norm() / (0.5 * resolution)));
+    for (int k = 0; k <= steps; ++k) {
+      const Eigen::Vector2d at =
+          beam.from + (steps > 0 ? static_cast<double>(k) / steps : 1.0) * along;
+      const int ix = static_cast<int>((at.x() - mask.origin.x()) / resolution);
+      const int iy = static_cast<int>((at.y() - mask.origin.y()) / resolution);
+      if (ix >= 0 && iy >= 0 && ix < mask.width && iy < mask.height) {
+        hit[static_cast<size_t>(iy) * mask.width + ix] = 1;
       }
     }
   }
