@@ -12,33 +12,15 @@ closures more than 0.3 m off (all with --all), and how many were checked and how
 than 0.5 m off. What it cannot see: closures with no relation near both ends."""
 import argparse, bisect, math
 
+from tum_se2 import between, compose, read_tum
+
 p = argparse.ArgumentParser()
 p.add_argument('trajectory'); p.add_argument('relations'); p.add_argument('closures')
 p.add_argument('--within', type=float, default=15.0)
 p.add_argument('--all', action='store_true')
 a = p.parse_args()
 
-
-def compose(p, q):
-    c, s = math.cos(p[2]), math.sin(p[2])
-    return (p[0] + c * q[0] - s * q[1], p[1] + s * q[0] + c * q[1], p[2] + q[2])
-
-
-def inverse(p):
-    c, s = math.cos(p[2]), math.sin(p[2])
-    return (-c * p[0] - s * p[1], s * p[0] - c * p[1], -p[2])
-
-
-def between(p, q):
-    return compose(inverse(p), q)
-
-
-poses = {}
-for line in open(a.trajectory):
-    if line.startswith('#') or not line.strip():
-        continue
-    f = line.split()
-    poses[float(f[0])] = (float(f[1]), float(f[2]), 2 * math.atan2(float(f[6]), float(f[7])))
+poses = read_tum(a.trajectory)
 stamps = sorted(poses)
 
 

@@ -173,6 +173,8 @@ bool SetMappingOption(const std::string& assignment, ls::MappingOptions* m) {
       {"local_ignore_edge_translation", &m->local_ignore_edge_translation},
       {"global_within_window", &m->global_within_window},
       {"window_through_ties", &m->window_through_ties},
+      {"interpolate_corrections", &m->interpolate_corrections},
+      {"windowed_where_seen", &m->windowed_where_seen},
       {"confirm_global_closures", &m->confirm_global_closures},
       {"loosen_ridges", &m->loosen_ridges},
       {"prune_redundant_submaps", &m->prune_redundant_submaps},

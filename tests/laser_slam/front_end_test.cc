@@ -3,6 +3,7 @@
 // uncertainty, and look-alike places that must not close.
 
 #include <cmath>
+#include <memory>
 #include <vector>
 
 #include <gtest/gtest.h>
@@ -48,48 +49,89 @@ std::vector<Wall> Corridor() {
   return walls;
 }
 
-// Drives the corridor with odometry that turns 0.005 rad too much per metre (the bias the back
+// The corridor driven with odometry that turns 0.005 rad too much per metre (the bias the back
 // end's chain sigmas allow) and overestimates the distance by 3 %, as the EKF's local poses would
-// drift on a bad base; returns the largest error
-// of a node's graph pose (relative to the first node) against the truth.
-double CorridorDriftError(bool local_matching) {
-  MappingOptions options;
-  options.local_matching = local_matching;
-  MappingBackend backend(options);
+// drift on a bad base: a scan every 0.1 m, so two in three fall between nodes (0.25 m apart).
+struct CorridorRun {
+  std::unique_ptr<MappingBackend> backend;
+  std::vector<Pose2> truths;  // per scan (scan i + 1)
+  std::vector<Pose2> locals;  // the drifting EKF poses, per scan
+};
+
+CorridorRun DriveCorridor(const MappingOptions& options) {
+  CorridorRun run;
+  run.backend = std::make_unique<MappingBackend>(options);
   const std::vector<Wall> walls = Corridor();
   Pose2 local{1.0, 1.0, 0.0};
-  Pose2 previous_local = local;
-  std::vector<Pose2> truths;
-  std::vector<std::uint64_t> scans;
   for (int i = 0; i < 320; ++i) {
     const Pose2 truth{1.0 + 0.1 * i, 1.0 + 0.15 * std::sin(0.05 * i), 0.0};
     if (i > 0) {
-      const Pose2 step = Relative(truths.back(), truth);
+      const Pose2 step = Relative(run.truths.back(), truth);
       local = Compose(local, Pose2{1.03 * step.x, 1.03 * step.y, step.theta + 0.0005});
     }
     // The odometry says what the drifting steps say, with the session's default noise model
     // (5 % and 0.03 rad per metre, floors of 2 mm and 2 mrad): the drift is within it.
     ScanMotion motion;
     if (i > 0) {
-      motion.increment = Relative(previous_local, local);
+      motion.increment = Relative(run.locals.back(), local);
       const double d = std::hypot(motion.increment.x, motion.increment.y);
       const double sxy = 0.002 + 0.05 * d, st = 0.002 + 0.03 * d;
       motion.covariance = Eigen::Vector3d(sxy * sxy, sxy * sxy, st * st).asDiagonal();
     }
-    previous_local = local;
-    truths.push_back(truth);
-    backend.AddScan(i + 1, i, local, PointsFrom(walls, truth), motion);
+    run.locals.push_back(local);
+    run.truths.push_back(truth);
+    run.backend->AddScan(i + 1, i, local, PointsFrom(walls, truth), motion);
   }
-  backend.Flush();
+  run.backend->Flush();
+  return run;
+}
+
+// The largest error of a node's graph pose (relative to the first node) against the truth.
+double CorridorDriftError(bool local_matching) {
+  MappingOptions options;
+  options.local_matching = local_matching;
+  const CorridorRun run = DriveCorridor(options);
   double worst = 0.0;
-  const std::vector<NodeView> nodes = backend.Nodes();
-  const Pose2 first_truth = truths[nodes.front().scan - 1];
+  const std::vector<NodeView> nodes = run.backend->Nodes();
+  const Pose2 first_truth = run.truths[nodes.front().scan - 1];
   for (const NodeView& node : nodes) {
     const Pose2 estimated = Relative(nodes.front().global, node.global);
-    const Pose2 truth = Relative(first_truth, truths[node.scan - 1]);
+    const Pose2 truth = Relative(first_truth, run.truths[node.scan - 1]);
     worst = std::max(worst, std::hypot(estimated.x - truth.x, estimated.y - truth.y));
   }
   return worst;
+}
+
+// The mean error of the scans between nodes, each relative to the node before it (map frame,
+// ToGlobal) against the truth; and the largest difference of a node's own pose between the two.
+struct BetweenNodes {
+  double mean_error = 0.0;
+  std::vector<Pose2> node_poses;
+};
+BetweenNodes BetweenNodesError(bool interpolate) {
+  MappingOptions options;
+  options.interpolate_corrections = interpolate;
+  const CorridorRun run = DriveCorridor(options);
+  const std::vector<NodeView> nodes = run.backend->Nodes();
+  BetweenNodes out;
+  double sum = 0.0;
+  int count = 0;
+  size_t k = 0;  // the node at or before scan s
+  for (std::uint64_t s = nodes.front().scan; s <= run.truths.size(); ++s) {
+    while (k + 1 < nodes.size() && nodes[k + 1].scan <= s) ++k;
+    const Pose2 node_map = run.backend->ToGlobal(nodes[k].scan, run.locals[nodes[k].scan - 1]);
+    if (nodes[k].scan == s) {
+      out.node_poses.push_back(node_map);
+      continue;
+    }
+    if (k + 1 >= nodes.size()) break;  // after the newest node: nothing to interpolate to
+    const Pose2 estimated = Relative(node_map, run.backend->ToGlobal(s, run.locals[s - 1]));
+    const Pose2 truth = Relative(run.truths[nodes[k].scan - 1], run.truths[s - 1]);
+    sum += std::hypot(estimated.x - truth.x, estimated.y - truth.y);
+    ++count;
+  }
+  out.mean_error = count > 0 ? sum / count : 0.0;
+  return out;
 }
 
 TEST(FrontEndTest, LocalMatchingHoldsACorridorThatTheDriftingStepsBend) {
@@ -99,6 +141,23 @@ TEST(FrontEndTest, LocalMatchingHoldsACorridorThatTheDriftingStepsBend) {
   // and fused with them, 0.4 m (most of it along the corridor, where only doorways pin it).
   EXPECT_GT(drifting, 2.0);
   EXPECT_LT(matched, 0.3 * drifting);
+}
+
+TEST(FrontEndTest, ScansBetweenNodesTakeTheCorrectionsChangeAPieceAtATime) {
+  const BetweenNodes interpolated = BetweenNodesError(true);
+  const BetweenNodes before = BetweenNodesError(false);
+  // Placed by the node before's correction alone, a scan 0.1-0.2 m past a node carries the
+  // steps' 3 % (3-6 mm) until the next node takes the whole change: 4.5 mm on average. Moved
+  // along with it, 2.5 mm (what is left is the nodes' own matching noise, shared out too).
+  EXPECT_GT(before.mean_error, 0.003);
+  EXPECT_LT(interpolated.mean_error, 0.7 * before.mean_error) << before.mean_error;
+  // The nodes themselves are where the graph put them either way.
+  ASSERT_EQ(interpolated.node_poses.size(), before.node_poses.size());
+  for (size_t i = 0; i < before.node_poses.size(); ++i) {
+    EXPECT_NEAR(interpolated.node_poses[i].x, before.node_poses[i].x, 1e-12);
+    EXPECT_NEAR(interpolated.node_poses[i].y, before.node_poses[i].y, 1e-12);
+    EXPECT_NEAR(interpolated.node_poses[i].theta, before.node_poses[i].theta, 1e-12);
+  }
 }
 
 TEST(ChainUncertaintyTest, HeadingAddsUpAndItsSwingGrowsWithTheLeverArm) {

@@ -388,7 +388,13 @@ TEST_F(SlamRegistryTest, CheckpointAndResumeAfterARestart) {
   EXPECT_EQ(stored.scans_processed(), 8u);
   EXPECT_EQ(stored.last_scan_stamp(), 8.0);
   ASSERT_OK_AND_ASSIGN(v1::Trajectory stored_trajectory, registry->GetTrajectory(id));
-  EXPECT_EQ(stored_trajectory.poses_size(), 8);
+  ASSERT_EQ(stored_trajectory.poses_size(), 8);
+  // The restart changed nothing of it.
+  for (size_t i = 0; i < before.size(); ++i) {
+    EXPECT_EQ(stored_trajectory.poses(i).stamp(), before[i].stamp());
+    EXPECT_EQ(stored_trajectory.poses(i).pose().x(), before[i].pose().x());
+    EXPECT_EQ(stored_trajectory.poses(i).pose().y(), before[i].pose().y());
+  }
 
   Answers answers;
   ASSERT_OK_AND_ASSIGN(auto stream, registry->OpenStream(id, answers.Sink()));
@@ -410,10 +416,12 @@ TEST_F(SlamRegistryTest, CheckpointAndResumeAfterARestart) {
   EXPECT_EQ(resumed.scans_processed(), 14u);
   ASSERT_OK_AND_ASSIGN(v1::Trajectory trajectory, registry->GetTrajectory(id));
   ASSERT_EQ(trajectory.poses_size(), 14);
+  // Driving on adds a node after the old scans: those since the last node before the restart
+  // take their share of its correction (interpolate_corrections), by millimetres here.
   for (size_t i = 0; i < before.size(); ++i) {
     EXPECT_EQ(trajectory.poses(i).stamp(), before[i].stamp());
-    EXPECT_EQ(trajectory.poses(i).pose().x(), before[i].pose().x());
-    EXPECT_EQ(trajectory.poses(i).pose().y(), before[i].pose().y());
+    EXPECT_NEAR(trajectory.poses(i).pose().x(), before[i].pose().x(), 0.02);
+    EXPECT_NEAR(trajectory.poses(i).pose().y(), before[i].pose().y(), 0.02);
   }
 }
 

@@ -39,9 +39,11 @@ LoopMatch MatchSubmap(const LoopQuery& query, const SubmapGrids& grids, const Po
     area.theta = M_PI;
   }
   const bool coarse = options.coarse_search_factor > 1 && global;
-  // A global search keeps poses whose points where the submap looked may reach min_score, if they
-  // are global_min_overlap of the query (seen_mask.h); decided after the refinement.
-  const bool partial = global && options.global_min_overlap < 1.0 && grids.seen;
+  // A global search (and a windowed one with windowed_where_seen) keeps poses whose points where
+  // the submap looked may reach min_score, if they are global_min_overlap of the query
+  // (seen_mask.h); decided after the refinement.
+  const bool partial = (global || options.windowed_where_seen) &&
+                       options.global_min_overlap < 1.0 && grids.seen;
   const double floor = partial ? options.min_score * options.global_min_overlap : options.min_score;
   // With the lower floor the branch and bound keeps many more poses: the query is thinned
   // twice as much then (one point per 4 coarse_search_factor point_cell, on the same grid). In

@@ -532,15 +532,35 @@ int MappingBackend::NodeAtOrBeforeLocked(std::uint64_t scan) const {
   return static_cast<int>(it - nodes_.begin()) - 1;
 }
 
-Pose2 MappingBackend::CorrectionAt(std::uint64_t scan) const {
+Pose2 MappingBackend::CorrectionAt(std::uint64_t scan, const Pose2& local) const {
   std::lock_guard<std::mutex> lock(mu_);
   const int i = NodeAtOrBeforeLocked(scan);
   if (i < 0) return Pose2{};
-  return Compose(nodes_[i].global, Invert(nodes_[i].local));
+  const Node& a = nodes_[i];
+  const Pose2 before = Compose(a.global, Invert(a.local));
+  if (!options_.interpolate_corrections || a.scan == scan ||
+      i + 1 >= static_cast<int>(nodes_.size())) {
+    return before;
+  }
+  // The correction changes from node to node by what local matching and the graph found the
+  // EKF's steps in between to be off (a turn the EKF made a degree short, say): the scans in
+  // between took that change a piece at a time, measured as nodes are spaced (node_travel,
+  // node_turn), not all at the next node.
+  const Node& b = nodes_[i + 1];
+  const auto along = [&](const Pose2& from, const Pose2& to) {
+    const Pose2 d = Relative(from, to);
+    return std::max(std::hypot(d.x, d.y) / options_.node_travel,
+                    std::abs(d.theta) / options_.node_turn);
+  };
+  const double whole = along(a.local, b.local);
+  if (!(whole > 0.0)) return before;
+  const double w = std::clamp(along(a.local, local) / whole, 0.0, 1.0);
+  const Pose2 change = Relative(before, Compose(b.global, Invert(b.local)));
+  return Compose(before, Pose2{w * change.x, w * change.y, w * NormalizeAngle(change.theta)});
 }
 
 Pose2 MappingBackend::ToGlobal(std::uint64_t scan, const Pose2& local) const {
-  return Compose(CorrectionAt(scan), local);
+  return Compose(CorrectionAt(scan, local), local);
 }
 
 std::vector<NodeView> MappingBackend::Nodes() const {

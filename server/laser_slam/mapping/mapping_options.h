@@ -22,6 +22,11 @@ struct MappingOptions {
   // minimum travel; 0.25 m / 0.15 rad keep about one scan in four on ACES and Intel).
   double node_travel = 0.25;
   double node_turn = 0.15;
+  // A scan between two nodes is placed by the EKF's motion from the node before, corrected by
+  // the correction of that node moved towards the next one's as far as the scan is along the
+  // way (nodes' spacing as the measure). false: the node before's correction alone, the whole
+  // change at the next node. Live poses are unchanged either way (no node after them yet).
+  bool interpolate_corrections = true;
   // Scan points kept per node: readings within this range (m), thinned to one per cell of this
   // size (m). Longer than the EKF's 6 m: a loop is recognised by the shape of the whole room.
   double point_range = 12.0;
@@ -166,8 +171,11 @@ struct MappingOptions {
   // the other way sees, with a 180-degree scanner, much that the submap never saw: MIT Killian's
   // and fr-clinic's returns scored 0.34-0.57 over all their points at the right place, and were
   // never closed. The branch and bound then keeps poses down to min_score * global_min_overlap.
-  // 1 = the whole query only (before). Windowed searches always score the whole query.
+  // 1 = the whole query only (before).
   double global_min_overlap = 0.5;
+  // The same rule in windowed searches too. Tried and not kept (docs/results.md, issue 33's
+  // seventh part): it drew fr-clinic's start corridor once, and folded MIT Killian (2.0 m).
+  bool windowed_where_seen = false;
   // Uniqueness, against the second-best hypothesis in the same window: a rival pose that puts
   // the query points on average (RMS) more than rival_far metres from where the match puts them
   // and scores at least rival_ratio times the match is another place that fits as well
