@@ -317,7 +317,14 @@ std::vector<MapSegment> LaserSlam::Map() const {
   std::vector<MapSegment> out = LocalMap();
   if (impl_->backend) {
     impl_->backend->WaitForPending();  // local matching moves a node when the thread gets to it
-    for (MapSegment& m : out) m.frame = impl_->backend->ToGlobal(m.last_seen_scan, m.frame);
+    // Each segment by the correction at the scan that last matched it, where the robot was then
+    // (the correction between two nodes depends on how far along the robot is).
+    const std::vector<PoseEstimate>& robot = impl_->trajectory;
+    for (MapSegment& m : out) {
+      const std::uint64_t k = m.last_seen_scan;
+      const Pose2 at = k >= 1 && k <= robot.size() ? robot[k - 1].pose : Pose2{};
+      m.frame = Compose(impl_->backend->CorrectionAt(k, at), m.frame);
+    }
   }
   return out;
 }

@@ -532,7 +532,7 @@ int MappingBackend::NodeAtOrBeforeLocked(std::uint64_t scan) const {
   return static_cast<int>(it - nodes_.begin()) - 1;
 }
 
-Pose2 MappingBackend::CorrectionAt(std::uint64_t scan, const Pose2& local) const {
+Pose2 MappingBackend::CorrectionAt(std::uint64_t scan, const Pose2& robot) const {
   std::lock_guard<std::mutex> lock(mu_);
   const int i = NodeAtOrBeforeLocked(scan);
   if (i < 0) return Pose2{};
@@ -554,7 +554,7 @@ Pose2 MappingBackend::CorrectionAt(std::uint64_t scan, const Pose2& local) const
   };
   const double whole = along(a.local, b.local);
   if (!(whole > 0.0)) return before;
-  const double w = std::clamp(along(a.local, local) / whole, 0.0, 1.0);
+  const double w = std::clamp(along(a.local, robot) / whole, 0.0, 1.0);
   const Pose2 change = Relative(before, Compose(b.global, Invert(b.local)));
   return Compose(before, Pose2{w * change.x, w * change.y, w * NormalizeAngle(change.theta)});
 }

@@ -108,13 +108,14 @@ class MappingBackend {
   // The same with the EKF's own motion as the odometry (tests of the graph's bookkeeping).
   void AddScan(std::uint64_t scan, double stamp, const Pose2& local, const PointCloud& points);
 
-  // `local`, a pose of the EKF's frame at scan `scan`, in the map frame.
+  // `local`, the robot's EKF pose at scan `scan`, in the map frame.
   Pose2 ToGlobal(std::uint64_t scan, const Pose2& local) const;
-  // The transform from the local to the map frame at scan `scan` (whose EKF pose is `local`):
-  // ToGlobal(s, p) = it (+) p. A node's own; between two nodes, the one before's, moved towards
-  // the one after's as far as the scan is along the way (MappingOptions::
-  // interpolate_corrections); after the newest node, the newest's.
-  Pose2 CorrectionAt(std::uint64_t scan, const Pose2& local) const;
+  // The transform from the local to the map frame at scan `scan`, where the robot's EKF pose was
+  // `robot`: ToGlobal(s, p) = it (+) p. A node's own; between two nodes, the one before's, moved
+  // towards the one after's as far as the robot is along the way (MappingOptions::
+  // interpolate_corrections); after the newest node, the newest's. Anything of the EKF's frame
+  // seen at that scan (a segment) moves with it.
+  Pose2 CorrectionAt(std::uint64_t scan, const Pose2& robot) const;
 
   // Waits until the thread has handled every node, then optimises once more if any loop
   // constraint came since the last optimisation. The graph is then final for these scans.
