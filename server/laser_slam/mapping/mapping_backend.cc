@@ -44,13 +44,7 @@ void MappingBackend::AddScan(std::uint64_t scan, double stamp, const Pose2& loca
     last_local_ = local;
     dead_reckoning_ = Compose(dead_reckoning_, motion.increment);
     motion_variance_ += motion.covariance.diagonal();
-    if (!nodes_.empty()) {
-      const Pose2 moved = Relative(nodes_.back().local, local);
-      if (std::hypot(moved.x, moved.y) < options_.node_travel &&
-          std::abs(moved.theta) < options_.node_turn) {
-        return;
-      }
-    }
+    if (!nodes_.empty() && NodeSpacings(nodes_.back().local, local) < 1.0) return;
   }
   // Only this thread appends nodes, so the decision above still holds.
   const PointCloud thinned = ThinPoints(points, options_.point_cell);
@@ -526,6 +520,12 @@ void MappingBackend::Flush() {
   if (due) Optimize(processed_);
 }
 
+double MappingBackend::NodeSpacings(const Pose2& from, const Pose2& to) const {
+  const Pose2 d = Relative(from, to);
+  return std::max(std::hypot(d.x, d.y) / options_.node_travel,
+                  std::abs(d.theta) / options_.node_turn);
+}
+
 int MappingBackend::NodeAtOrBeforeLocked(std::uint64_t scan) const {
   const auto it = std::upper_bound(nodes_.begin(), nodes_.end(), scan,
                                    [](std::uint64_t s, const Node& n) { return s < n.scan; });
@@ -544,17 +544,12 @@ Pose2 MappingBackend::CorrectionAt(std::uint64_t scan, const Pose2& robot) const
   }
   // The correction changes from node to node by what local matching and the graph found the
   // EKF's steps in between to be off (a turn the EKF made a degree short, say): the scans in
-  // between took that change a piece at a time, measured as nodes are spaced (node_travel,
-  // node_turn), not all at the next node.
+  // between took that change a piece at a time, measured as nodes are spaced, not all at the
+  // next node.
   const Node& b = nodes_[i + 1];
-  const auto along = [&](const Pose2& from, const Pose2& to) {
-    const Pose2 d = Relative(from, to);
-    return std::max(std::hypot(d.x, d.y) / options_.node_travel,
-                    std::abs(d.theta) / options_.node_turn);
-  };
-  const double whole = along(a.local, b.local);
+  const double whole = NodeSpacings(a.local, b.local);
   if (!(whole > 0.0)) return before;
-  const double w = std::clamp(along(a.local, robot) / whole, 0.0, 1.0);
+  const double w = std::clamp(NodeSpacings(a.local, robot) / whole, 0.0, 1.0);
   const Pose2 change = Relative(before, Compose(b.global, Invert(b.local)));
   return Compose(before, Pose2{w * change.x, w * change.y, w * NormalizeAngle(change.theta)});
 }

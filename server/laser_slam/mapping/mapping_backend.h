@@ -72,7 +72,7 @@ struct MappingStats {
   int closures_rejected = 0;    // candidates with no pose above min_score
   int closures_ambiguous = 0;   // matches refused: a rival place (rival_far away) fits as well
   int closures_loosened = 0;    // accepted with their sigma widened to a near rival
-  int closures_where_seen = 0;  // global matches accepted on the points where the submap looked
+  int closures_where_seen = 0;  // matches accepted on the points where the submap looked
   int global_searches = 0;      // searches over whole submaps (the window outgrew max_window_xy)
   int closures_switched_off = 0;  // accepted, then found inconsistent by the graph
   int optimizations = 0;
@@ -243,6 +243,9 @@ class MappingBackend {
   Pose2 InSubmapLocked(const Submap& s, const Pose2& anchor, int j) const;
   void WorkerLoop();
   int NodeAtOrBeforeLocked(std::uint64_t scan) const;
+  // How far `to` is from `from` (EKF poses) in node spacings: the larger of travel / node_travel
+  // and turn / node_turn. A scan one spacing or more from the newest node becomes a node.
+  double NodeSpacings(const Pose2& from, const Pose2& to) const;
 
   const MappingOptions options_;
   mutable std::mutex mu_;
