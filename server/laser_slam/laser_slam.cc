@@ -159,7 +159,7 @@ absl::StatusOr<ScanUpdate> LaserSlam::AddScan(const LaserScan& scan) {
   } else {
     // The filter as it was, to go back to if this scan would leave it non-finite (bounded
     // inputs should never; an answer with NaN or inf must not leave the server either way).
-    s.before_scan = s.ekf;  // into buffers kept between scans: no allocation per scan
+    s.ekf.CopyForRollback(&s.before_scan);  // into buffers kept between scans: no allocation
     const Pose2 odometry_before = s.odometry_at_last_update;
     if (s.scans > 1) s.ekf.Predict(u, IncrementNoise(u, s.options.odometry));
     s.odometry_at_last_update = odom;
@@ -179,7 +179,7 @@ absl::StatusOr<ScanUpdate> LaserSlam::AddScan(const LaserScan& scan) {
     update.pose = s.Current(scan.stamp);
     if (!FinitePose(update.pose.pose) || !update.pose.covariance.allFinite() ||
         !s.ekf.state().cov().diagonal().allFinite()) {
-      s.ekf = s.before_scan;
+      s.ekf.RestoreFrom(s.before_scan);
       s.odometry_at_last_update = odometry_before;
       s.last_scan = std::move(previous_scan);
       s.have_scan = had_scan;

@@ -304,6 +304,19 @@ void SegmentEkf::TransformRowsOfUpper(const std::vector<Transform>& transforms) 
   }
 }
 
+void SegmentEkf::CopyForRollback(SegmentEkf* backup) const {
+  backup->options_ = options_;
+  backup->state_.AssignLowerTriangle(state_);
+  backup->next_id_ = next_id_;
+}
+
+void SegmentEkf::RestoreFrom(const SegmentEkf& backup) {
+  options_ = backup.options_;
+  state_.AssignLowerTriangle(backup.state_);
+  next_id_ = backup.next_id_;
+  MirrorLower();
+}
+
 void SegmentEkf::MirrorLower() {
   // The two passes (and ApplyToCovariance's rows-then-columns) round (i, j) and (j, i)
   // differently, by about 1e-16 relative. Kept exactly symmetric (this, Update's mirror and

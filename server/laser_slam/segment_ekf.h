@@ -48,6 +48,13 @@ class SegmentEkf {
   std::uint64_t next_segment_id() const { return next_id_; }
   void set_next_segment_id(std::uint64_t id) { next_id_ = id; }
 
+  // A copy to go back to (LaserSlam::AddScan keeps one before every scan): `backup` takes this
+  // filter with half its covariance (the lower triangle; the covariance is symmetric to the
+  // bit), and RestoreFrom makes this filter what it was, the upper triangle mirrored back.
+  // Copying the whole covariance was 2.6 % of a server's time on MIT CSAIL.
+  void CopyForRollback(SegmentEkf* backup) const;
+  void RestoreFrom(const SegmentEkf& backup);
+
  private:
   struct Match;
   struct Row;

@@ -12,14 +12,24 @@ SpState::SpState() {
 
 SpState& SpState::operator=(const SpState& other) {
   if (this == &other) return *this;
+  AssignLowerTriangle(other);
+  storage_.topLeftCorner(n_, n_).triangularView<Eigen::StrictlyUpper>() =
+      other.storage_.topLeftCorner(n_, n_).triangularView<Eigen::StrictlyUpper>();
+  return *this;
+}
+
+void SpState::AssignLowerTriangle(const SpState& other) {
+  if (this == &other) return;
   robot = other.robot;
   segments = other.segments;
   frozen = other.frozen;
   n_ = 0;  // nothing of the old covariance is kept by a Reserve
   Reserve(other.n_);
   n_ = other.n_;
-  storage_.topLeftCorner(n_, n_) = other.storage_.topLeftCorner(n_, n_);
-  return *this;
+  // Column by column, the part on and below the diagonal: contiguous in column-major storage.
+  for (int j = 0; j < n_; ++j) {
+    storage_.col(j).segment(j, n_ - j) = other.storage_.col(j).segment(j, n_ - j);
+  }
 }
 
 void SpState::Reserve(int capacity) {

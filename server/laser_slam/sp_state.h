@@ -55,6 +55,9 @@ class SpState {
   // filter before every scan (to go back to if the scan would make it non-finite); copying the
   // whole storage allocated and filled 0.5-2 MB per scan.
   SpState& operator=(const SpState& other);
+  // The same with only the covariance's lower triangle (half the bytes; the upper one is left
+  // as it was): for a copy kept to go back to, whose covariance is mirrored when it is used.
+  void AssignLowerTriangle(const SpState& other);
 
   int size() const { return n_; }
   // The covariance over all dofs. Only the first size() rows and columns are meaningful.

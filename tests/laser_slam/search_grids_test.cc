@@ -1,14 +1,16 @@
 // The search's speed-ups must not change what it finds (issue 33, "100x real time"): the pyramid
 // built row by row against its definition, a grid drawn on a larger cloud's lattice against the
-// whole cloud's grid, FindRivals against the two FindRival searches it replaces, and the submap
-// pyramid cache's memory budget.
+// whole cloud's grid, FindRivals against the two FindRival searches it replaces, the submap
+// pyramid cache's memory budget, and thinning against its definition.
 
 #include <algorithm>
+#include <cmath>
 #include <cstdint>
 #include <memory>
 #include <optional>
 #include <utility>
 #include <random>
+#include <set>
 #include <vector>
 
 #include <gtest/gtest.h>
@@ -139,6 +141,31 @@ TEST(PyramidCacheTest, KeepsTheRecentlyUsedWithinItsBudget) {
   ASSERT_TRUE(cache.Frame(1).has_value());  // frames stay
   EXPECT_EQ(cache.Frame(1)->height, 20);
   EXPECT_FALSE(cache.Frame(5).has_value());
+}
+
+// One point per cell, the first in the input's order, every other dropped: ThinPoints' own set of
+// cells against a std::set, on walls around the origin (negative cells, and the cell (-1, -1)
+// whose key has every bit set).
+TEST(ThinPointsTest, KeepsTheFirstPointOfEveryCellInOrder) {
+  for (unsigned seed : {1u, 2u, 3u}) {
+    PointCloud points = RandomWalls(40, 12.0f, seed);
+    for (Eigen::Vector2f& p : points) p -= Eigen::Vector2f(6.0f, 6.0f);
+    points.emplace_back(-0.01f, -0.02f);
+    points.emplace_back(-0.03f, -0.04f);  // the same cell (-1, -1) at 5 cm
+    for (double cell : {0.05, 0.1, 0.4}) {
+      std::set<std::pair<long, long>> seen;
+      PointCloud expected;
+      for (const Eigen::Vector2f& p : points) {
+        const std::pair<long, long> key(static_cast<long>(std::floor(p.x() / cell)),
+                                        static_cast<long>(std::floor(p.y() / cell)));
+        if (seen.insert(key).second) expected.push_back(p);
+      }
+      const PointCloud thinned = ThinPoints(points, cell);
+      ASSERT_EQ(thinned.size(), expected.size()) << "seed " << seed << ", cell " << cell;
+      EXPECT_TRUE(std::equal(thinned.begin(), thinned.end(), expected.begin()));
+      EXPECT_LT(thinned.size(), points.size());
+    }
+  }
 }
 
 }  // namespace

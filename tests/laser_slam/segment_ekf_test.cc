@@ -95,5 +95,40 @@ TEST(SegmentEkfTest, KeepsCollinearWallsWithADoorBetweenThemApart) {
   EXPECT_EQ(ekf.state().segments.size(), 2u);
 }
 
+// AddScan's rollback: the copy keeps half the covariance, and restoring it gives the filter back
+// to the bit, both triangles, after the filter moved on (a prediction, a segment more).
+TEST(SegmentEkfTest, RestoringTheRollbackCopyGivesTheFilterBackExactly) {
+  SegmentEkf ekf = MakeEkf();
+  AddSegment(ekf.state(), 1, Pose2{-1.0, 1.0, 0.0}, -1.0, 1.0, false, false);
+  AddSegment(ekf.state(), 2, Pose2{1.0, 1.01, M_PI}, -1.5, 1.5, true, false);
+  AddSegment(ekf.state(), 3, Pose2{0.0, -1.0, 0.0}, -2.0, 2.0, true, true);
+  ekf.set_next_segment_id(4);
+  Eigen::Matrix3d noise = Eigen::Matrix3d::Identity() * 1e-3;
+  noise(0, 2) = noise(2, 0) = 2e-4;
+  ekf.Predict(Pose2{0.3, 0.05, 0.1}, noise);  // the robot correlated with itself
+  const SpState before = ekf.state();
+  const Eigen::MatrixXd cov_before = before.cov();
+  ASSERT_TRUE(cov_before.isApprox(cov_before.transpose(), 0.0));
+
+  SegmentEkf backup = MakeEkf();
+  ekf.CopyForRollback(&backup);
+  ekf.Predict(Pose2{0.5, -0.1, 0.3}, noise);
+  AddSegment(ekf.state(), 4, Pose2{3.0, 0.0, 1.0}, -1.0, 1.0, true, true);
+  ekf.set_next_segment_id(7);
+  ASSERT_NE(ekf.state().size(), before.size());
+
+  ekf.RestoreFrom(backup);
+  ASSERT_EQ(ekf.state().size(), before.size());
+  EXPECT_TRUE((ekf.state().cov().array() == cov_before.array()).all());
+  EXPECT_EQ(ekf.next_segment_id(), 4u);
+  EXPECT_EQ(ekf.state().robot.x, before.robot.x);
+  EXPECT_EQ(ekf.state().robot.theta, before.robot.theta);
+  ASSERT_EQ(ekf.state().segments.size(), 3u);
+  for (size_t i = 0; i < 3; ++i) {
+    EXPECT_EQ(ekf.state().segments[i].id, before.segments[i].id);
+    EXPECT_EQ(ekf.state().segments[i].frame.y, before.segments[i].frame.y);
+  }
+}
+
 }  // namespace
 }  // namespace waymark::laser_slam
