@@ -273,4 +273,12 @@ grpc::Status SlamServiceImpl::GetMapOccupancyGrid(grpc::ServerContext* context,
   });
 }
 
+grpc::Status SlamServiceImpl::GetMapSegments(grpc::ServerContext* context,
+                                             const v1::GetMapSegmentsRequest* request,
+                                             v1::MapSegmentMap* response) {
+  return ReplyAuthorized(*auth_, *context, Action::kReadMaps, response, [&](const Caller&) {
+    return registry_->GetMapSegments(request->name());
+  });
+}
+
 }  // namespace waymark::service

@@ -70,6 +70,8 @@ class SlamServiceImpl final : public v1::SlamService::Service {
   grpc::Status GetMapOccupancyGrid(grpc::ServerContext*,
                                    const v1::GetMapOccupancyGridRequest* request,
                                    v1::MapOccupancyGrid* response) override;
+  grpc::Status GetMapSegments(grpc::ServerContext*, const v1::GetMapSegmentsRequest* request,
+                              v1::MapSegmentMap* response) override;
 
  private:
   // OK when `caller` may use session `session_id`; NOT_FOUND for an unknown session.

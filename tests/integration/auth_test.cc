@@ -135,6 +135,8 @@ std::vector<RpcCase> AllRpcs() {
        Unary<v1::DeleteMapRequest, v1::DeleteMapResponse, SS>(&SS::DeleteMap)},
       {"GetMapOccupancyGrid", TokenRole::kViewer,
        Unary<v1::GetMapOccupancyGridRequest, v1::MapOccupancyGrid, SS>(&SS::GetMapOccupancyGrid)},
+      {"GetMapSegments", TokenRole::kViewer,
+       Unary<v1::GetMapSegmentsRequest, v1::MapSegmentMap, SS>(&SS::GetMapSegments)},
       {"StreamSensorData", TokenRole::kRobot,
        [](const std::shared_ptr<grpc::Channel>& channel) {
          SS stub(channel);

@@ -119,6 +119,18 @@ class MapServerTest : public ::testing::Test {
     request.set_force(force);
     return stub_->DeleteMap(MapCtx().get(), request, response);
   }
+  grpc::Status MapSegments(const std::string& name, v1::MapSegmentMap* segments) {
+    v1::GetMapSegmentsRequest request;
+    request.set_name(name);
+    return stub_->GetMapSegments(MapCtx().get(), request, segments);
+  }
+  int SessionSegments(const std::string& session_id) {
+    v1::GetMapRequest request;
+    request.set_session_id(session_id);
+    v1::SegmentMap map;
+    EXPECT_TRUE(stub_->GetMap(MapCtx().get(), request, &map).ok());
+    return map.segments_size();
+  }
   grpc::Status MapGrid(const std::string& name, v1::MapOccupancyGrid* grid) {
     v1::GetMapOccupancyGridRequest request;
     request.set_name(name);
@@ -409,6 +421,56 @@ TEST_F(MapServerTest, ATiedInTrajectorysAnswersAreInTheMapFrame) {
   EXPECT_EQ(grid.session_ids_size(), 2);
   EXPECT_EQ(grid.untied_trajectories(), 0u);
   EXPECT_GT(grid.grid().width() * grid.grid().height(), 0u);
+}
+
+// Two robots that mapped the same walls, the second tied in where the first is (origin 0): the
+// map's segment map holds each wall once, the second trajectory's sightings fused into the
+// first's. Before any robot is tied in, there is no segment map to give.
+TEST_F(MapServerTest, AWallTwoRobotsMappedIsOneSegmentOfTheMap) {
+  ASSERT_TRUE(CreateMap("office").ok());
+  v1::MapSegmentMap segments;
+  EXPECT_EQ(MapSegments("office", &segments).error_code(), grpc::StatusCode::FAILED_PRECONDITION);
+  EXPECT_EQ(MapSegments("no-such-map", &segments).error_code(), grpc::StatusCode::NOT_FOUND);
+  v1::Session first, second;
+  ASSERT_TRUE(Join("r1", "office", &first).ok());
+  ASSERT_TRUE(Join("r2", "office", &second).ok());
+  grpc::Status status;
+  StreamInto(stub_.get(), first.session_id(), MapDrive(0, 8), &status);
+  ASSERT_TRUE(status.ok()) << status.error_message();
+  StreamInto(stub_.get(), second.session_id(), MapDrive(0, 8), &status);
+  ASSERT_TRUE(status.ok()) << status.error_message();
+  const int own_first = SessionSegments(first.session_id());
+  const int own_second = SessionSegments(second.session_id());
+  ASSERT_GT(own_first, 2);
+  ASSERT_GT(own_second, 2);
+
+  // Only the first is in the map: its segments, as its session has them.
+  ASSERT_TRUE(MapSegments("office", &segments).ok());
+  ASSERT_EQ(segments.session_ids_size(), 1);
+  EXPECT_EQ(segments.untied_trajectories(), 1u);
+  EXPECT_EQ(segments.segments_size(), own_first);
+  EXPECT_EQ(segments.fused_segments(), 0u);
+  for (const v1::MapSegment& s : segments.segments()) EXPECT_GT(s.last_seen_scan(), 0u);
+
+  stub_.reset();
+  channel_.reset();
+  ASSERT_EQ(server_->Stop(SIGTERM), 0);
+  {
+    auto store = storage::OpenSqliteMapStore(dir_ + "/waymark.db");
+    ASSERT_TRUE(store.ok()) << store.status();
+    ASSERT_TRUE((*store)->TieTrajectory("office", second.session_id(),
+                                        storage::MapTie{0.0, 0.0, 0.0}, "")
+                    .ok());
+  }
+  StartServer();
+  ASSERT_TRUE(MapSegments("office", &segments).ok());
+  EXPECT_EQ(segments.session_ids_size(), 2);
+  EXPECT_EQ(segments.untied_trajectories(), 0u);
+  EXPECT_GT(segments.fused_segments(), 0u);
+  EXPECT_EQ(segments.segments_size() + static_cast<int>(segments.fused_segments()),
+            own_first + own_second);
+  // The same drive twice: most walls are the first robot's, seen again.
+  EXPECT_LE(segments.segments_size(), own_first + own_second / 2);
 }
 
 // The command lines: `waymark map ...` and a log replayed as two robots into one map.

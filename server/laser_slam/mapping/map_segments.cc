@@ -1,6 +1,7 @@
 #include "server/laser_slam/mapping/map_segments.h"
 
 #include <algorithm>
+#include <iterator>
 #include <cmath>
 #include <numeric>
 
@@ -95,6 +96,25 @@ MapSegment SegmentInMapFrame(const MapSegment& segment, const Pose2& origin,
   MapSegment placed = segment;
   const Pose2 at = samples.empty() ? origin : OriginAt(samples, stamp_of_last_sighting);
   placed.frame = Compose(at, segment.frame);
+  return placed;
+}
+
+std::vector<MapSegment> SegmentsInMapFrame(const TiedTrajectory& trajectory,
+                                           const std::vector<MapSegment>& segments) {
+  std::vector<OriginSample> samples = trajectory.samples;
+  RefreshOrigins(trajectory.nodes, &samples);
+  std::vector<MapSegment> placed;
+  placed.reserve(segments.size());
+  for (const MapSegment& segment : segments) {
+    // The node at or before the last sighting (nodes oldest first, by scan), else the first.
+    const auto after = std::upper_bound(
+        trajectory.nodes.begin(), trajectory.nodes.end(), segment.last_seen_scan,
+        [](std::uint64_t scan, const NodeView& node) { return scan < node.scan; });
+    const double stamp = trajectory.nodes.empty() ? 0.0
+                         : after == trajectory.nodes.begin() ? after->stamp
+                                                             : std::prev(after)->stamp;
+    placed.push_back(SegmentInMapFrame(segment, trajectory.origin, samples, stamp));
+  }
   return placed;
 }
 

@@ -17,6 +17,7 @@
 #include <vector>
 
 #include "server/laser_slam/mapping/trajectory_follow.h"
+#include "server/laser_slam/mapping/trajectory_tie.h"
 #include "server/laser_slam/types.h"
 
 namespace waymark::laser_slam {
@@ -51,6 +52,12 @@ struct MergedSegments {
 MapSegment SegmentInMapFrame(const MapSegment& segment, const Pose2& origin,
                              const std::vector<OriginSample>& samples,
                              double stamp_of_last_sighting);
+
+// A trajectory's segments (its session's map frame) in the shared map's frame, each by the
+// origin at the stamp of the node at or before its last sighting (the samples derived again from
+// the nodes' current poses, as NodesInMapFrame does).
+std::vector<MapSegment> SegmentsInMapFrame(const TiedTrajectory& trajectory,
+                                           const std::vector<MapSegment>& segments);
 
 // Fuses the segments of different trajectories that map the same wall (see above), longest
 // first; a fused segment takes no second segment of a trajectory it already holds.

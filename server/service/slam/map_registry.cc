@@ -10,6 +10,7 @@
 
 #include "absl/strings/str_cat.h"
 #include "server/laser_slam/geometry.h"
+#include "server/laser_slam/mapping/map_segments.h"
 #include "server/laser_slam/mapping/occupancy_grid.h"
 #include "server/service/slam/map_follow_codec.h"
 #include "server/service/slam/slam_params.h"
@@ -273,6 +274,104 @@ absl::StatusOr<v1::DeleteMapResponse> MapRegistry::DeleteMap(const std::string& 
   return response;
 }
 
+namespace {
+
+// A map's tied-in trajectories (pointers into `map`) and how many are not tied in;
+// FAILED_PRECONDITION when none is.
+absl::Status SplitTied(const std::string& name, const v1::Map& map,
+                       std::vector<const v1::MapTrajectory*>* tied, uint32_t* untied) {
+  for (const v1::MapTrajectory& trajectory : map.trajectories()) {
+    if (trajectory.tied_in()) {
+      tied->push_back(&trajectory);
+    } else {
+      ++*untied;
+    }
+  }
+  if (!tied->empty()) return absl::OkStatus();
+  return absl::FailedPreconditionError(absl::StrCat(
+      "map \"", name, "\" has no trajectory yet: no session has joined it (CreateSession with "
+      "map, `waymark slam replay LOG --map ", name, "`)"));
+}
+
+// A trajectory's nodes and where it lies in the map (its origin and origin samples), or the
+// session's error naming the map.
+absl::StatusOr<laser_slam::TiedTrajectory> InMap(const std::string& name,
+                                                 const v1::MapTrajectory& trajectory,
+                                                 const MapRegistry::SessionNodes& session_nodes) {
+  absl::StatusOr<std::vector<laser_slam::NodeView>> own = session_nodes(trajectory.session_id());
+  if (!own.ok()) {
+    return absl::Status(own.status().code(),
+                        absl::StrCat("map \"", name, "\": trajectory of session ",
+                                     trajectory.session_id(), ": ", own.status().message()));
+  }
+  return laser_slam::TiedTrajectory{
+      laser_slam::Pose2{trajectory.origin().x(), trajectory.origin().y(),
+                        trajectory.origin().theta()},
+      *std::move(own), SamplesOf(trajectory)};
+}
+
+laser_slam::MapSegment FromProtoSegment(const v1::MapSegment& s) {
+  laser_slam::MapSegment segment;
+  segment.id = s.id();
+  segment.frame = laser_slam::Pose2{s.frame().x(), s.frame().y(), s.frame().theta()};
+  segment.left = s.left();
+  segment.right = s.right();
+  segment.left_type = s.left_type() == v1::MapSegment::REAL ? laser_slam::EndpointType::kReal
+                                                            : laser_slam::EndpointType::kVirtual;
+  segment.right_type = s.right_type() == v1::MapSegment::REAL ? laser_slam::EndpointType::kReal
+                                                              : laser_slam::EndpointType::kVirtual;
+  if (s.line_covariance_size() == 4) {
+    segment.line_covariance << s.line_covariance(0), s.line_covariance(1), s.line_covariance(2),
+        s.line_covariance(3);
+  }
+  segment.left_variance = s.left_variance();
+  segment.right_variance = s.right_variance();
+  segment.observations = static_cast<int>(s.observations());
+  segment.last_seen_scan = s.last_seen_scan();
+  segment.active = s.active();
+  return segment;
+}
+
+}  // namespace
+
+absl::StatusOr<v1::MapSegmentMap> MapRegistry::GetMapSegments(
+    const std::string& name, const SessionSegments& session_segments,
+    const SessionNodes& session_nodes) {
+  absl::StatusOr<v1::Map> map = GetMap(name);
+  if (!map.ok()) return map.status();
+  std::vector<const v1::MapTrajectory*> tied;
+  uint32_t untied = 0;
+  if (absl::Status s = SplitTied(name, *map, &tied, &untied); !s.ok()) return s;
+  v1::MapSegmentMap response;
+  response.set_map(name);
+  response.set_revision(map->revision());
+  response.set_untied_trajectories(untied);
+  std::vector<laser_slam::PlacedSegment> placed;
+  for (size_t t = 0; t < tied.size(); ++t) {
+    response.add_session_ids(tied[t]->session_id());
+    absl::StatusOr<v1::SegmentMap> own = session_segments(tied[t]->session_id());
+    if (!own.ok()) {
+      return absl::Status(own.status().code(),
+                          absl::StrCat("map \"", name, "\": trajectory of session ",
+                                       tied[t]->session_id(), ": ", own.status().message()));
+    }
+    absl::StatusOr<laser_slam::TiedTrajectory> in_map = InMap(name, *tied[t], session_nodes);
+    if (!in_map.ok()) return in_map.status();
+    std::vector<laser_slam::MapSegment> segments;
+    segments.reserve(own->segments_size());
+    for (const v1::MapSegment& s : own->segments()) segments.push_back(FromProtoSegment(s));
+    for (laser_slam::MapSegment& s : laser_slam::SegmentsInMapFrame(*in_map, segments)) {
+      placed.push_back({std::move(s), static_cast<int>(t)});
+    }
+  }
+  const laser_slam::MergedSegments merged = laser_slam::MergeTrajectorySegments(std::move(placed));
+  for (const laser_slam::MapSegment& s : merged.segments) {
+    *response.add_segments() = ToProtoSegment(s);
+  }
+  response.set_fused_segments(static_cast<uint32_t>(merged.fused));
+  return response;
+}
+
 absl::StatusOr<v1::MapOccupancyGrid> MapRegistry::GetMapGrid(const std::string& name,
                                                               std::optional<double> resolution,
                                                               const SessionGrid& session_grid,
@@ -281,18 +380,7 @@ absl::StatusOr<v1::MapOccupancyGrid> MapRegistry::GetMapGrid(const std::string& 
   if (!map.ok()) return map.status();
   std::vector<const v1::MapTrajectory*> tied;
   uint32_t untied = 0;
-  for (const v1::MapTrajectory& trajectory : map->trajectories()) {
-    if (trajectory.tied_in()) {
-      tied.push_back(&trajectory);
-    } else {
-      ++untied;
-    }
-  }
-  if (tied.empty()) {
-    return absl::FailedPreconditionError(absl::StrCat(
-        "map \"", name, "\" has no trajectory yet: no session has joined it (CreateSession with "
-        "map, `waymark slam replay LOG --map ", name, "`)"));
-  }
+  if (absl::Status s = SplitTied(name, *map, &tied, &untied); !s.ok()) return s;
   v1::MapOccupancyGrid response;
   response.set_map(name);
   response.set_revision(map->revision());
@@ -311,19 +399,10 @@ absl::StatusOr<v1::MapOccupancyGrid> MapRegistry::GetMapGrid(const std::string& 
   if (absl::Status s = InRange(cell, "resolution", 0.01, 1.0, false, "m"); !s.ok()) return s;
   std::vector<laser_slam::NodeView> nodes;
   for (const v1::MapTrajectory* trajectory : tied) {
-    absl::StatusOr<std::vector<laser_slam::NodeView>> own =
-        session_nodes(trajectory->session_id());
-    if (!own.ok()) {
-      return absl::Status(own.status().code(),
-                          absl::StrCat("map \"", name, "\": trajectory of session ",
-                                       trajectory->session_id(), ": ", own.status().message()));
-    }
     // Followed after its tie: the origin at each stamp, from the nodes' current poses.
-    const laser_slam::TiedTrajectory in_map{
-        laser_slam::Pose2{trajectory->origin().x(), trajectory->origin().y(),
-                          trajectory->origin().theta()},
-        *std::move(own), SamplesOf(*trajectory)};
-    for (laser_slam::NodeView& node : laser_slam::NodesInMapFrame(in_map)) {
+    absl::StatusOr<laser_slam::TiedTrajectory> in_map = InMap(name, *trajectory, session_nodes);
+    if (!in_map.ok()) return in_map.status();
+    for (laser_slam::NodeView& node : laser_slam::NodesInMapFrame(*in_map)) {
       nodes.push_back(std::move(node));
     }
   }

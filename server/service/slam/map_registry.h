@@ -88,6 +88,16 @@ class MapRegistry {
                                                   const SessionGrid& session_grid,
                                                   const SessionNodes& session_nodes);
 
+  // The map's segment map: each tied-in trajectory's segments (`session_segments`, its
+  // session's GetMap) moved into the map frame where each was last seen (by its nodes,
+  // `session_nodes`, and origin samples), and a wall several robots mapped fused into one
+  // (laser_slam/mapping/map_segments.h).
+  using SessionSegments =
+      std::function<absl::StatusOr<v1::SegmentMap>(const std::string& id)>;
+  absl::StatusOr<v1::MapSegmentMap> GetMapSegments(const std::string& name,
+                                                   const SessionSegments& session_segments,
+                                                   const SessionNodes& session_nodes);
+
   // Whether `request` may join its map (request.map() set): a laser mapping session with loop
   // closure, a valid name of a map that exists. Checked before the session is created.
   absl::Status CheckJoin(const v1::CreateSessionRequest& request);

@@ -291,6 +291,7 @@ v1::MapSegment ToProtoSegment(const ls::MapSegment& segment) {
   s.set_right_variance(segment.right_variance);
   s.set_observations(static_cast<uint32_t>(segment.observations < 0 ? 0 : segment.observations));
   s.set_active(segment.active);
+  s.set_last_seen_scan(segment.last_seen_scan);
   return s;
 }
 

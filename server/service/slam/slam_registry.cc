@@ -268,6 +268,20 @@ absl::StatusOr<v1::DeleteMapResponse> SlamRegistry::DeleteMap(const std::string&
   return maps_->DeleteMap(name, force);
 }
 
+namespace {
+
+// A session's scan nodes, as maps read them (their grid, their segments).
+MapRegistry::SessionNodes SessionNodesForMaps(SessionQueries& queries) {
+  return [&queries](const std::string& session_id)
+             -> absl::StatusOr<std::vector<laser_slam::NodeView>> {
+    absl::StatusOr<TrajectoryNodes> nodes = queries.TrajectoryNodesOf(session_id);
+    if (!nodes.ok()) return nodes.status();
+    return std::move(nodes->nodes);
+  };
+}
+
+}  // namespace
+
 absl::StatusOr<v1::MapOccupancyGrid> SlamRegistry::GetMapOccupancyGrid(
     const std::string& name, std::optional<double> resolution) {
   return maps_->GetMapGrid(
@@ -275,12 +289,13 @@ absl::StatusOr<v1::MapOccupancyGrid> SlamRegistry::GetMapOccupancyGrid(
       [&](const std::string& session_id) {
         return queries_->GetOccupancyGrid(session_id, resolution);
       },
-      [&](const std::string& session_id)
-          -> absl::StatusOr<std::vector<laser_slam::NodeView>> {
-        absl::StatusOr<TrajectoryNodes> nodes = queries_->TrajectoryNodesOf(session_id);
-        if (!nodes.ok()) return nodes.status();
-        return std::move(nodes->nodes);
-      });
+      SessionNodesForMaps(*queries_));
+}
+
+absl::StatusOr<v1::MapSegmentMap> SlamRegistry::GetMapSegments(const std::string& name) {
+  return maps_->GetMapSegments(
+      name, [&](const std::string& session_id) { return queries_->GetMap(session_id); },
+      SessionNodesForMaps(*queries_));
 }
 
 void SlamRegistry::SetUpdateObserver(UpdateObserver observer) {

@@ -171,6 +171,7 @@ class SlamRegistry {
   absl::StatusOr<v1::DeleteMapResponse> DeleteMap(const std::string& name, bool force);
   absl::StatusOr<v1::MapOccupancyGrid> GetMapOccupancyGrid(const std::string& name,
                                                            std::optional<double> resolution);
+  absl::StatusOr<v1::MapSegmentMap> GetMapSegments(const std::string& name);
 
   // Checkpoints every resident session with unsaved work; returns the first error.
   absl::Status CheckpointAll();
