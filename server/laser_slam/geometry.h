@@ -24,6 +24,23 @@ inline double NormalizeAngle(double a) {
   return a - M_PI;
 }
 
+// The same segment (ObservedSegment, MapSegment) described from its other end: frame turned by
+// pi, endpoints swapped. p_y changes sign with the frame's y axis; p_theta does not.
+template <class Segment>
+Segment Flipped(const Segment& s) {
+  Segment f = s;
+  f.frame.theta = NormalizeAngle(s.frame.theta + M_PI);
+  f.left = -s.right;
+  f.right = -s.left;
+  f.left_type = s.right_type;
+  f.right_type = s.left_type;
+  f.left_variance = s.right_variance;
+  f.right_variance = s.left_variance;
+  f.line_covariance(0, 1) = -s.line_covariance(0, 1);
+  f.line_covariance(1, 0) = -s.line_covariance(1, 0);
+  return f;
+}
+
 // Euclidean distance from p to the segment [a, b] (to a when the segment has zero length).
 inline double PointSegmentDistance(const Eigen::Vector2d& p, const Eigen::Vector2d& a,
                                    const Eigen::Vector2d& b) {

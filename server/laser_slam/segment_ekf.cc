@@ -30,22 +30,6 @@ constexpr double kCenteringSkip = 1e-5;
 // from it (m): any frame on the line is exact; the midpoint only keeps the angle's moment arm short.
 constexpr double kRecentreDistance = 0.25;
 
-// The same segment described from its other end: frame turned by pi, endpoints swapped.
-ObservedSegment Flipped(const ObservedSegment& s) {
-  ObservedSegment f = s;
-  f.frame.theta = NormalizeAngle(s.frame.theta + M_PI);
-  f.left = -s.right;
-  f.right = -s.left;
-  f.left_type = s.right_type;
-  f.right_type = s.left_type;
-  f.left_variance = s.right_variance;
-  f.right_variance = s.left_variance;
-  // p_y changes sign with the frame's y axis; p_theta does not.
-  f.line_covariance(0, 1) = -s.line_covariance(0, 1);
-  f.line_covariance(1, 0) = -s.line_covariance(1, 0);
-  return f;
-}
-
 double Sq(double v) { return v * v; }
 
 // Copies the strictly lower triangle of the square block onto the upper one (from_lower) or the

@@ -14,21 +14,6 @@
 namespace waymark::laser_slam {
 namespace {
 
-// The same segment described from its other end: frame turned by pi, endpoints swapped (as the
-// filter's Flipped; p_y changes sign with the frame's y axis, p_theta does not).
-MapSegment Flipped(const MapSegment& s) {
-  MapSegment f = s;
-  f.frame.theta = NormalizeAngle(s.frame.theta + M_PI);
-  f.left = -s.right;
-  f.right = -s.left;
-  f.left_type = s.right_type;
-  f.right_type = s.left_type;
-  f.left_variance = s.right_variance;
-  f.right_variance = s.left_variance;
-  f.line_covariance(0, 1) = f.line_covariance(1, 0) = -s.line_covariance(0, 1);
-  return f;
-}
-
 double Length(const MapSegment& s) { return s.right - s.left; }
 
 // Segment b's line seen from a's frame: its offset at a's origin and its direction, with b's

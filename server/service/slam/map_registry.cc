@@ -293,6 +293,14 @@ absl::Status SplitTied(const std::string& name, const v1::Map& map,
       "map, `waymark slam replay LOG --map ", name, "`)"));
 }
 
+// The head every answer about a map's contents shares: its name, revision and untied count.
+template <class Answer>
+void SetMapHead(const std::string& name, const v1::Map& map, uint32_t untied, Answer* answer) {
+  answer->set_map(name);
+  answer->set_revision(map.revision());
+  answer->set_untied_trajectories(untied);
+}
+
 // A trajectory's nodes and where it lies in the map (its origin and origin samples), or the
 // session's error naming the map.
 absl::StatusOr<laser_slam::TiedTrajectory> InMap(const std::string& name,
@@ -343,9 +351,7 @@ absl::StatusOr<v1::MapSegmentMap> MapRegistry::GetMapSegments(
   uint32_t untied = 0;
   if (absl::Status s = SplitTied(name, *map, &tied, &untied); !s.ok()) return s;
   v1::MapSegmentMap response;
-  response.set_map(name);
-  response.set_revision(map->revision());
-  response.set_untied_trajectories(untied);
+  SetMapHead(name, *map, untied, &response);
   std::vector<laser_slam::PlacedSegment> placed;
   for (size_t t = 0; t < tied.size(); ++t) {
     response.add_session_ids(tied[t]->session_id());
@@ -382,9 +388,7 @@ absl::StatusOr<v1::MapOccupancyGrid> MapRegistry::GetMapGrid(const std::string& 
   uint32_t untied = 0;
   if (absl::Status s = SplitTied(name, *map, &tied, &untied); !s.ok()) return s;
   v1::MapOccupancyGrid response;
-  response.set_map(name);
-  response.set_revision(map->revision());
-  response.set_untied_trajectories(untied);
+  SetMapHead(name, *map, untied, &response);
   for (const v1::MapTrajectory* trajectory : tied) {
     response.add_session_ids(trajectory->session_id());
   }
