@@ -151,6 +151,25 @@ int RunMapGrid(CommandContext& context, const MapCommandArgs& args) {
                        : std::filesystem::path(args.out);
   auto written = WriteGridFiles(dir, grid->grid(), trajectory);
   if (!written.ok()) return ReportError(context, written.status(), dir.string());
+  // The merged segment map beside the grid: map.svg and map.png, as a session's.
+  auto segments = client->GetMapSegments(args.name);
+  if (!segments.ok()) return ReportError(context, segments.status(), "GetMapSegments");
+  v1::SegmentMap segment_map;
+  segment_map.set_map_revision(segments->revision());
+  *segment_map.mutable_segments() = segments->segments();
+  const std::filesystem::path svg = dir / "map.svg", png = dir / "map.png";
+  if (absl::Status s = WriteMapPictures(
+          SlamScene(segment_map, trajectory,
+                    fmt::format("map {}: {} segments of {} trajector{} ({} fused)", args.name,
+                                segments->segments_size(), segments->session_ids_size(),
+                                segments->session_ids_size() == 1 ? "y" : "ies",
+                                segments->fused_segments())),
+          svg, png);
+      !s.ok()) {
+    return ReportError(context, s, svg.string());
+  }
+  written->push_back(svg);
+  written->push_back(png);
   if (context.globals.json) {
     nlohmann::json files = nlohmann::json::array();
     for (const auto& file : *written) files.push_back(file.string());
@@ -166,19 +185,21 @@ int RunMapGrid(CommandContext& context, const MapCommandArgs& args) {
                {"scans", grid->grid().scans()},
                {"session_ids", sessions},
                {"untied_trajectories", grid->untied_trajectories()},
+               {"segments", segments->segments_size()},
+               {"fused_segments", segments->fused_segments()},
                {"out_dir", dir.string()},
                {"files", files}});
   } else {
     context.out << fmt::format(
-        "map {} (revision {}): {} x {} cells at {:g} m from {} scans of {} tied-in trajector{}{}: "
-        "wrote {}\n",
+        "map {} (revision {}): {} x {} cells at {:g} m from {} scans of {} tied-in trajector{}{}; "
+        "{} segments ({} fused: walls several robots mapped): wrote {}\n",
         grid->map(), grid->revision(), grid->grid().width(), grid->grid().height(),
         grid->grid().resolution(), grid->grid().scans(), grid->session_ids_size(),
         grid->session_ids_size() == 1 ? "y" : "ies",
         grid->untied_trajectories() > 0
             ? fmt::format(" ({} not yet in the map, not drawn)", grid->untied_trajectories())
             : "",
-        DescribeWritten(*written));
+        segments->segments_size(), segments->fused_segments(), DescribeWritten(*written));
   }
   return kExitOk;
 }
@@ -228,8 +249,8 @@ void AddMapCommands(CLI::App& app, CommandRegistry& registry) {
   CLI::App* grid = map->add_subcommand(
       "grid",
       "Write the map's occupancy grid in the map frame as map.pgm + map.yaml (ROS map_server) "
-      "and occupancy.png: its tied-in trajectories (until trajectories are merged: the one that "
-      "defines the map frame)");
+      "and occupancy.png, and its segment map (walls several robots mapped fused into one) as "
+      "map.svg + map.png: its tied-in trajectories");
   grid->add_option("NAME", grid_args->name, name_help)->required();
   grid->add_option("--out", grid_args->out, "Output folder (default ./out/maps/<name>)");
   grid->add_option_function<double>(

@@ -393,6 +393,15 @@ absl::StatusOr<v1::MapOccupancyGrid> SlamClient::GetMapOccupancyGrid(
       });
 }
 
+absl::StatusOr<v1::MapSegmentMap> SlamClient::GetMapSegments(const std::string& name) {
+  v1::GetMapSegmentsRequest request;
+  request.set_name(name);
+  return CallUnary<v1::MapSegmentMap>(
+      options_.timeout, options_.retry, Idempotency::kRead, [&](auto* context, auto* response) {
+        return stub_->GetMapSegments(context, request, response);
+      });
+}
+
 template <typename Response, typename Call>
 absl::StatusOr<Response> SlamClient::AtSessionServer(const std::string& session_id,
                                                      absl::Duration timeout, Call call) {

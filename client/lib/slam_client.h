@@ -206,6 +206,7 @@ class SlamClient {
   absl::StatusOr<v1::DeleteMapResponse> DeleteMap(const std::string& name, bool force = false);
   absl::StatusOr<v1::MapOccupancyGrid> GetMapOccupancyGrid(
       const std::string& name, std::optional<double> resolution = std::nullopt);
+  absl::StatusOr<v1::MapSegmentMap> GetMapSegments(const std::string& name);
 
   // Makes the channel try to connect now instead of at the end of gRPC's reconnect backoff, which
   // after a server restart can hold calls failing for seconds. A robot calls it before reopening

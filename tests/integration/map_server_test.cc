@@ -548,7 +548,10 @@ TEST_F(MapServerTest, MapCommandsAndReplayIntoAMap) {
   ASSERT_EQ(grid.code, 0) << grid.err;
   EXPECT_EQ(grid.Json()["untied_trajectories"], 1);
   EXPECT_GT(grid.Json()["width"].get<int>(), 0);
-  for (const char* file : {"map.pgm", "map.yaml", "occupancy.png"}) {
+  // Beside the grid, the map's segment map: the tied-in robot's segments, none fused.
+  EXPECT_GT(grid.Json()["segments"].get<int>(), 0);
+  EXPECT_EQ(grid.Json()["fused_segments"], 0);
+  for (const char* file : {"map.pgm", "map.yaml", "occupancy.png", "map.svg", "map.png"}) {
     EXPECT_TRUE(std::filesystem::exists(grid_dir / file)) << file;
   }
   // The map's grid is the first robot's session grid, written the same way.
