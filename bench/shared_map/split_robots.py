@@ -165,7 +165,9 @@ try:
         for name, session in zip(names, ids):
             w('slam', 'trajectory', session, '--frame', 'map', '--out', f'{a.out}/{name}_map.txt')
             poses.append(tum(f'{a.out}/{name}_map.txt'))
-        w('map', 'grid', 'm', '--out', a.out + '/grid')
+        grid = json.loads(w('--json', 'map', 'grid', 'm', '--out', a.out + '/grid').stdout)
+        # The map's segment map: how many walls several robots mapped were fused into one.
+        res['segments'] = {'map': grid['segments'], 'fused': grid['fused_segments']}
         merged = {}
         for p_k in reversed(poses):
             merged.update(p_k)  # an earlier robot's poses where both have one
