@@ -276,18 +276,27 @@ absl::StatusOr<v1::DeleteMapResponse> MapRegistry::DeleteMap(const std::string& 
 
 namespace {
 
-// A map's tied-in trajectories (pointers into `map`) and how many are not tied in;
-// FAILED_PRECONDITION when none is.
-absl::Status SplitTied(const std::string& name, const v1::Map& map,
-                       std::vector<const v1::MapTrajectory*>* tied, uint32_t* untied) {
-  for (const v1::MapTrajectory& trajectory : map.trajectories()) {
-    if (trajectory.tied_in()) {
-      tied->push_back(&trajectory);
+// A map, its tied-in trajectories (indices into map.trajectories()) and how many are not tied
+// in: what the map's grid and segments are drawn from.
+struct TiedMap {
+  v1::Map map;
+  std::vector<int> tied;
+  uint32_t untied = 0;
+};
+
+// FAILED_PRECONDITION when no trajectory is tied in (or the map's own error).
+absl::StatusOr<TiedMap> SplitTied(const std::string& name, absl::StatusOr<v1::Map> map) {
+  if (!map.ok()) return map.status();
+  TiedMap split;
+  split.map = *std::move(map);
+  for (int i = 0; i < split.map.trajectories_size(); ++i) {
+    if (split.map.trajectories(i).tied_in()) {
+      split.tied.push_back(i);
     } else {
-      ++*untied;
+      ++split.untied;
     }
   }
-  if (!tied->empty()) return absl::OkStatus();
+  if (!split.tied.empty()) return split;
   return absl::FailedPreconditionError(absl::StrCat(
       "map \"", name, "\" has no trajectory yet: no session has joined it (CreateSession with "
       "map, `waymark slam replay LOG --map ", name, "`)"));
@@ -295,10 +304,10 @@ absl::Status SplitTied(const std::string& name, const v1::Map& map,
 
 // The head every answer about a map's contents shares: its name, revision and untied count.
 template <class Answer>
-void SetMapHead(const std::string& name, const v1::Map& map, uint32_t untied, Answer* answer) {
+void SetMapHead(const std::string& name, const TiedMap& split, Answer* answer) {
   answer->set_map(name);
-  answer->set_revision(map.revision());
-  answer->set_untied_trajectories(untied);
+  answer->set_revision(split.map.revision());
+  answer->set_untied_trajectories(split.untied);
 }
 
 // A trajectory's nodes and where it lies in the map (its origin and origin samples), or the
@@ -345,23 +354,21 @@ laser_slam::MapSegment FromProtoSegment(const v1::MapSegment& s) {
 absl::StatusOr<v1::MapSegmentMap> MapRegistry::GetMapSegments(
     const std::string& name, const SessionSegments& session_segments,
     const SessionNodes& session_nodes) {
-  absl::StatusOr<v1::Map> map = GetMap(name);
-  if (!map.ok()) return map.status();
-  std::vector<const v1::MapTrajectory*> tied;
-  uint32_t untied = 0;
-  if (absl::Status s = SplitTied(name, *map, &tied, &untied); !s.ok()) return s;
+  absl::StatusOr<TiedMap> split = SplitTied(name, GetMap(name));
+  if (!split.ok()) return split.status();
   v1::MapSegmentMap response;
-  SetMapHead(name, *map, untied, &response);
+  SetMapHead(name, *split, &response);
   std::vector<laser_slam::PlacedSegment> placed;
-  for (size_t t = 0; t < tied.size(); ++t) {
-    response.add_session_ids(tied[t]->session_id());
-    absl::StatusOr<v1::SegmentMap> own = session_segments(tied[t]->session_id());
+  for (size_t t = 0; t < split->tied.size(); ++t) {
+    const v1::MapTrajectory& trajectory = split->map.trajectories(split->tied[t]);
+    response.add_session_ids(trajectory.session_id());
+    absl::StatusOr<v1::SegmentMap> own = session_segments(trajectory.session_id());
     if (!own.ok()) {
       return absl::Status(own.status().code(),
                           absl::StrCat("map \"", name, "\": trajectory of session ",
-                                       tied[t]->session_id(), ": ", own.status().message()));
+                                       trajectory.session_id(), ": ", own.status().message()));
     }
-    absl::StatusOr<laser_slam::TiedTrajectory> in_map = InMap(name, *tied[t], session_nodes);
+    absl::StatusOr<laser_slam::TiedTrajectory> in_map = InMap(name, trajectory, session_nodes);
     if (!in_map.ok()) return in_map.status();
     std::vector<laser_slam::MapSegment> segments;
     segments.reserve(own->segments_size());
@@ -382,13 +389,12 @@ absl::StatusOr<v1::MapOccupancyGrid> MapRegistry::GetMapGrid(const std::string& 
                                                               std::optional<double> resolution,
                                                               const SessionGrid& session_grid,
                                                               const SessionNodes& session_nodes) {
-  absl::StatusOr<v1::Map> map = GetMap(name);
-  if (!map.ok()) return map.status();
-  std::vector<const v1::MapTrajectory*> tied;
-  uint32_t untied = 0;
-  if (absl::Status s = SplitTied(name, *map, &tied, &untied); !s.ok()) return s;
+  absl::StatusOr<TiedMap> split = SplitTied(name, GetMap(name));
+  if (!split.ok()) return split.status();
   v1::MapOccupancyGrid response;
-  SetMapHead(name, *map, untied, &response);
+  SetMapHead(name, *split, &response);
+  std::vector<const v1::MapTrajectory*> tied;
+  for (int i : split->tied) tied.push_back(&split->map.trajectories(i));
   for (const v1::MapTrajectory* trajectory : tied) {
     response.add_session_ids(trajectory->session_id());
   }
@@ -420,7 +426,7 @@ absl::StatusOr<v1::MapOccupancyGrid> MapRegistry::GetMapGrid(const std::string& 
                         absl::StrCat("map \"", name, "\": ", grid.status().message()));
   }
   *response.mutable_grid() = ToProtoGrid(*grid);
-  response.mutable_grid()->set_map_revision(map->revision());
+  response.mutable_grid()->set_map_revision(split->map.revision());
   response.mutable_grid()->set_scans(static_cast<uint32_t>(nodes.size()));
   return response;
 }
