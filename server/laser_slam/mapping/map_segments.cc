@@ -1,9 +1,8 @@
 #include "server/laser_slam/mapping/map_segments.h"
 
 #include <algorithm>
-#include <iterator>
 #include <cmath>
-#include <numeric>
+#include <iterator>
 
 #include <Eigen/Cholesky>
 #include <Eigen/Core>

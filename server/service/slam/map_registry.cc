@@ -310,44 +310,23 @@ void SetMapHead(const std::string& name, const TiedMap& split, Answer* answer) {
   answer->set_untied_trajectories(split.untied);
 }
 
-// A trajectory's nodes and where it lies in the map (its origin and origin samples), or the
-// session's error naming the map.
+// A session's error while reading one of the map's trajectories, naming the map and the session.
+absl::Status TrajectoryError(const std::string& name, const v1::MapTrajectory& trajectory,
+                             const absl::Status& status) {
+  return absl::Status(status.code(), absl::StrCat("map \"", name, "\": trajectory of session ",
+                                                  trajectory.session_id(), ": ", status.message()));
+}
+
+// A trajectory's nodes and where it lies in the map (its origin and origin samples).
 absl::StatusOr<laser_slam::TiedTrajectory> InMap(const std::string& name,
                                                  const v1::MapTrajectory& trajectory,
                                                  const MapRegistry::SessionNodes& session_nodes) {
   absl::StatusOr<std::vector<laser_slam::NodeView>> own = session_nodes(trajectory.session_id());
-  if (!own.ok()) {
-    return absl::Status(own.status().code(),
-                        absl::StrCat("map \"", name, "\": trajectory of session ",
-                                     trajectory.session_id(), ": ", own.status().message()));
-  }
-  return laser_slam::TiedTrajectory{
-      laser_slam::Pose2{trajectory.origin().x(), trajectory.origin().y(),
-                        trajectory.origin().theta()},
-      *std::move(own), SamplesOf(trajectory)};
+  if (!own.ok()) return TrajectoryError(name, trajectory, own.status());
+  return laser_slam::TiedTrajectory{FromProtoPose(trajectory.origin()), *std::move(own),
+                                    SamplesOf(trajectory)};
 }
 
-laser_slam::MapSegment FromProtoSegment(const v1::MapSegment& s) {
-  laser_slam::MapSegment segment;
-  segment.id = s.id();
-  segment.frame = laser_slam::Pose2{s.frame().x(), s.frame().y(), s.frame().theta()};
-  segment.left = s.left();
-  segment.right = s.right();
-  segment.left_type = s.left_type() == v1::MapSegment::REAL ? laser_slam::EndpointType::kReal
-                                                            : laser_slam::EndpointType::kVirtual;
-  segment.right_type = s.right_type() == v1::MapSegment::REAL ? laser_slam::EndpointType::kReal
-                                                              : laser_slam::EndpointType::kVirtual;
-  if (s.line_covariance_size() == 4) {
-    segment.line_covariance << s.line_covariance(0), s.line_covariance(1), s.line_covariance(2),
-        s.line_covariance(3);
-  }
-  segment.left_variance = s.left_variance();
-  segment.right_variance = s.right_variance();
-  segment.observations = static_cast<int>(s.observations());
-  segment.last_seen_scan = s.last_seen_scan();
-  segment.active = s.active();
-  return segment;
-}
 
 }  // namespace
 
@@ -363,11 +342,7 @@ absl::StatusOr<v1::MapSegmentMap> MapRegistry::GetMapSegments(
     const v1::MapTrajectory& trajectory = split->map.trajectories(split->tied[t]);
     response.add_session_ids(trajectory.session_id());
     absl::StatusOr<v1::SegmentMap> own = session_segments(trajectory.session_id());
-    if (!own.ok()) {
-      return absl::Status(own.status().code(),
-                          absl::StrCat("map \"", name, "\": trajectory of session ",
-                                       trajectory.session_id(), ": ", own.status().message()));
-    }
+    if (!own.ok()) return TrajectoryError(name, trajectory, own.status());
     absl::StatusOr<laser_slam::TiedTrajectory> in_map = InMap(name, trajectory, session_nodes);
     if (!in_map.ok()) return in_map.status();
     std::vector<laser_slam::MapSegment> segments;

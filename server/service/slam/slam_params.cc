@@ -295,6 +295,28 @@ v1::MapSegment ToProtoSegment(const ls::MapSegment& segment) {
   return s;
 }
 
+ls::MapSegment FromProtoSegment(const v1::MapSegment& s) {
+  ls::MapSegment segment;
+  segment.id = s.id();
+  segment.frame = FromProtoPose(s.frame());
+  segment.left = s.left();
+  segment.right = s.right();
+  segment.left_type = s.left_type() == v1::MapSegment::REAL ? ls::EndpointType::kReal
+                                                            : ls::EndpointType::kVirtual;
+  segment.right_type = s.right_type() == v1::MapSegment::REAL ? ls::EndpointType::kReal
+                                                              : ls::EndpointType::kVirtual;
+  if (s.line_covariance_size() == 4) {
+    segment.line_covariance << s.line_covariance(0), s.line_covariance(1), s.line_covariance(2),
+        s.line_covariance(3);
+  }
+  segment.left_variance = s.left_variance();
+  segment.right_variance = s.right_variance();
+  segment.observations = static_cast<int>(s.observations());
+  segment.last_seen_scan = s.last_seen_scan();
+  segment.active = s.active();
+  return segment;
+}
+
 namespace {
 
 v1::LocalizationStatus::State ToProtoLocalizationState(ls::LocalizationState state) {

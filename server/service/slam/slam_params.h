@@ -61,6 +61,7 @@ v1::Pose2D ToProtoPose(const laser_slam::Pose2& pose);
 laser_slam::Pose2 FromProtoPose(const v1::Pose2D& pose);
 v1::TrajectoryPose ToProtoTrajectoryPose(const laser_slam::PoseEstimate& pose);
 v1::MapSegment ToProtoSegment(const laser_slam::MapSegment& segment);
+laser_slam::MapSegment FromProtoSegment(const v1::MapSegment& segment);
 // The engine's grid as the API's OccupancyGrid (session id and revision left to the caller), and
 // back; the latter validates (INVALID_ARGUMENT naming the field).
 v1::OccupancyGrid ToProtoGrid(const laser_slam::OccupancyGrid& grid);
