@@ -12,7 +12,10 @@ std::vector<v1::MapOriginSample> CurrentOriginSamples(const v1::MapTrajectory& t
   for (const v1::TrajectoryPose& pose : poses.poses()) {
     if (pose.has_pose()) by_stamp[pose.stamp()] = pose.pose();
   }
-  std::vector<v1::MapOriginSample> out(t.origin_samples().begin(), t.origin_samples().end());
+  // The server's origins at every node (a pose graph of the trajectory's nodes) where it sent
+  // them, else the follow's samples, interpolated.
+  const auto& source = t.node_origins().empty() ? t.origin_samples() : t.node_origins();
+  std::vector<v1::MapOriginSample> out(source.begin(), source.end());
   for (v1::MapOriginSample& sample : out) {
     if (!sample.has_map_pose()) continue;
     const auto it = by_stamp.lower_bound(sample.stamp() - 1e-6);

@@ -3,8 +3,9 @@
 
 // A session's poses in its shared map's frame (issue 38; docs/laser-slam.md, "Maps shared by
 // robots"): the trajectory's origin, or, when the server followed the robot after its tie, the
-// origin at each pose's stamp, interpolated between the follow's samples. Used by `slam trajectory
-// --frame map` and by the tracks `map grid` draws.
+// origin at each pose's stamp, interpolated between the server's origins at the session's nodes
+// (MapTrajectory.node_origins), or between the follow's samples where it sent none. Used by
+// `slam trajectory --frame map` and by the tracks `map grid` draws.
 
 #include <vector>
 
@@ -12,10 +13,10 @@
 
 namespace waymark::cli {
 
-// The trajectory's origin samples with each matched sample's origin derived again from the
-// session's current pose at its stamp (`poses`): the node's matched map-frame pose (-) that pose,
-// since the session's own closures may have moved the node after it was matched. Samples with no
-// matched pose, or no pose at their stamp, keep theirs.
+// The trajectory's node origins (else its origin samples), each matched one's origin derived
+// again from the session's current pose at its stamp (`poses`): the node's map-frame pose (-)
+// that pose, since the session's own closures may have moved the node since. Samples with no
+// map-frame pose, or no pose at their stamp, keep theirs.
 std::vector<v1::MapOriginSample> CurrentOriginSamples(const v1::MapTrajectory& t,
                                                       const v1::Trajectory& poses);
 

@@ -85,8 +85,7 @@ MapSegment SegmentInMapFrame(const MapSegment& segment, const Pose2& origin,
 
 std::vector<MapSegment> SegmentsInMapFrame(const TiedTrajectory& trajectory,
                                            const std::vector<MapSegment>& segments) {
-  std::vector<OriginSample> samples = trajectory.samples;
-  RefreshOrigins(trajectory.nodes, &samples);
+  const std::vector<OriginSample> samples = CurrentOrigins(trajectory);
   std::vector<MapSegment> placed;
   placed.reserve(segments.size());
   for (const MapSegment& segment : segments) {

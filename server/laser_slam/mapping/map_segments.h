@@ -54,8 +54,8 @@ MapSegment SegmentInMapFrame(const MapSegment& segment, const Pose2& origin,
                              double stamp_of_last_sighting);
 
 // A trajectory's segments (its session's map frame) in the shared map's frame, each by the
-// origin at the stamp of the node at or before its last sighting (the samples derived again from
-// the nodes' current poses, as NodesInMapFrame does).
+// origin at the stamp of the node at or before its last sighting (CurrentOrigins, as
+// NodesInMapFrame places the nodes).
 std::vector<MapSegment> SegmentsInMapFrame(const TiedTrajectory& trajectory,
                                            const std::vector<MapSegment>& segments);
 

@@ -61,6 +61,8 @@ struct NodeView {
   double stamp = 0.0;
   Pose2 global;            // map frame
   std::shared_ptr<const PointCloud> points;  // robot frame
+  // 1 sigma of the chain step from the node before (x, y, theta); zero where none is known yet.
+  Eigen::Vector3d step_sigma = Eigen::Vector3d::Zero();
 };
 
 struct MappingStats {

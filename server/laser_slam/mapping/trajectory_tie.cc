@@ -10,6 +10,7 @@
 #include "server/laser_slam/mapping/correlative_matcher.h"
 #include "server/laser_slam/mapping/map_consistency.h"
 #include "server/laser_slam/mapping/occupancy_grid.h"
+#include "server/laser_slam/mapping/origin_smoothing.h"
 #include "server/laser_slam/option_checks.h"
 
 namespace waymark::laser_slam {
@@ -64,9 +65,12 @@ absl::Status ValidateTieOptions(const TieOptions& o) {
   return absl::OkStatus();
 }
 
+std::vector<OriginSample> CurrentOrigins(const TiedTrajectory& trajectory) {
+  return SmoothOrigins(trajectory.nodes, trajectory.samples);
+}
+
 std::vector<NodeView> NodesInMapFrame(const TiedTrajectory& trajectory) {
-  std::vector<OriginSample> samples = trajectory.samples;
-  RefreshOrigins(trajectory.nodes, &samples);
+  const std::vector<OriginSample> samples = CurrentOrigins(trajectory);
   std::vector<NodeView> nodes = trajectory.nodes;
   for (NodeView& node : nodes) {
     node.global = Compose(samples.empty() ? trajectory.origin : OriginAt(samples, node.stamp),

@@ -95,8 +95,9 @@ absl::Status ValidateTieOptions(const TieOptions& options);
 struct TiedTrajectory {
   Pose2 origin;
   std::vector<NodeView> nodes;
-  // When followed after its tie (trajectory_follow.h): the origin at each node's stamp
-  // (OriginAt), in place of `origin`. Empty: `origin` for every node.
+  // When followed after its tie (trajectory_follow.h): the follow's samples, from which the
+  // origin at each node comes (CurrentOrigins), in place of `origin`. Empty: `origin` for every
+  // node.
   std::vector<OriginSample> samples;
 };
 
@@ -111,9 +112,12 @@ bool TieKeepsTheMapConsistent(const std::vector<TiedTrajectory>& map,
                               const std::vector<NodeView>& joining, const Pose2& tie,
                               std::string* why);
 
-// A tied-in trajectory's nodes moved into the map frame: each by the origin at its stamp where
-// the trajectory is followed (the samples' origins derived again from the nodes' current poses,
-// RefreshOrigins), else by `origin`.
+// The origins a followed trajectory is placed by now: its samples smoothed through a pose graph
+// of its current nodes (origin_smoothing.h), one per node. Not followed (no samples): empty.
+std::vector<OriginSample> CurrentOrigins(const TiedTrajectory& trajectory);
+
+// A tied-in trajectory's nodes moved into the map frame: each by its origin (CurrentOrigins)
+// where the trajectory is followed, else by `origin`.
 std::vector<NodeView> NodesInMapFrame(const TiedTrajectory& trajectory);
 
 // The tied-in trajectories' points in the map frame, thinned to one per `cell`.

@@ -330,6 +330,23 @@ absl::StatusOr<laser_slam::TiedTrajectory> InMap(const std::string& name,
 
 }  // namespace
 
+absl::StatusOr<v1::Map> MapRegistry::GetMapWithNodeOrigins(const std::string& name,
+                                                            const SessionNodes& session_nodes) {
+  absl::StatusOr<v1::Map> map = GetMap(name);
+  if (!map.ok()) return map;
+  for (v1::MapTrajectory& trajectory : *map->mutable_trajectories()) {
+    if (!trajectory.tied_in() || trajectory.origin_samples().empty()) continue;
+    absl::StatusOr<laser_slam::TiedTrajectory> in_map = InMap(name, trajectory, session_nodes);
+    if (!in_map.ok()) continue;  // a session not readable here: its samples, interpolated
+    v1::MapTrajectory origins;  // AddSampleTo's list, moved into node_origins
+    for (const laser_slam::OriginSample& sample : laser_slam::CurrentOrigins(*in_map)) {
+      AddSampleTo(sample, &origins);
+    }
+    *trajectory.mutable_node_origins() = std::move(*origins.mutable_origin_samples());
+  }
+  return map;
+}
+
 absl::StatusOr<v1::MapSegmentMap> MapRegistry::GetMapSegments(
     const std::string& name, const SessionSegments& session_segments,
     const SessionNodes& session_nodes) {

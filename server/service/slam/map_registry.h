@@ -98,6 +98,11 @@ class MapRegistry {
                                                    const SessionSegments& session_segments,
                                                    const SessionNodes& session_nodes);
 
+  // GetMap, with each followed trajectory's node_origins (CurrentOrigins of its session's
+  // nodes, `session_nodes`); a trajectory whose nodes cannot be read keeps origin_samples only.
+  absl::StatusOr<v1::Map> GetMapWithNodeOrigins(const std::string& name,
+                                                const SessionNodes& session_nodes);
+
   // Whether `request` may join its map (request.map() set): a laser mapping session with loop
   // closure, a valid name of a map that exists. Checked before the session is created.
   absl::Status CheckJoin(const v1::CreateSessionRequest& request);

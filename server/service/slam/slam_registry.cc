@@ -259,9 +259,6 @@ absl::StatusOr<v1::Map> SlamRegistry::CreateMap(const std::string& name) {
 
 absl::StatusOr<v1::ListMapsResponse> SlamRegistry::ListMaps() { return maps_->ListMaps(); }
 
-absl::StatusOr<v1::Map> SlamRegistry::GetMapInfo(const std::string& name) {
-  return maps_->GetMap(name);
-}
 
 absl::StatusOr<v1::DeleteMapResponse> SlamRegistry::DeleteMap(const std::string& name,
                                                               bool force) {
@@ -281,6 +278,10 @@ MapRegistry::SessionNodes SessionNodesForMaps(SessionQueries& queries) {
 }
 
 }  // namespace
+
+absl::StatusOr<v1::Map> SlamRegistry::GetMapInfo(const std::string& name) {
+  return maps_->GetMapWithNodeOrigins(name, SessionNodesForMaps(*queries_));
+}
 
 absl::StatusOr<v1::MapOccupancyGrid> SlamRegistry::GetMapOccupancyGrid(
     const std::string& name, std::optional<double> resolution) {
