@@ -137,6 +137,10 @@ try:
             if m['trajectories'][k].get('tied_in'):
                 robot_tied = True
                 break
+            # The server searched the closed session to its last scan: no tie is coming.
+            if (m['trajectories'][k]['session_id'] + ' (closed) was searched for to its last scan'
+                    in server_log()):
+                break
             time.sleep(0.5)
         session = m['trajectories'][k]['session_id']
         if robot_tied:
