@@ -65,6 +65,21 @@ std::vector<OriginSample> Interpolated(const std::vector<NodeView>& nodes,
   return samples;
 }
 
+// The tie at node 0 (right) and a follow-up match at every 5th node that `matched` keeps, each
+// off by the match's error (seeded).
+template <class Matched>
+std::vector<OriginSample> Follow(const std::vector<NodeView>& nodes, const std::vector<Pose2>& truth,
+                                 unsigned seed, double sigma_xy, double sigma_theta,
+                                 Matched matched) {
+  std::mt19937 rng(seed);
+  std::vector<OriginSample> samples{
+      OriginSample{nodes[0].scan, nodes[0].stamp, Compose(truth[0], Invert(nodes[0].global))}};
+  for (size_t i = 5; i < nodes.size(); i += 5) {
+    if (matched(i)) samples.push_back(Match(nodes, truth, i, rng, sigma_xy, sigma_theta));
+  }
+  return samples;
+}
+
 // Round a 20 x 10 m block: 60 m, 240 nodes.
 std::vector<Pose2> Loop() {
   return PolylinePath({{0.0, 0.0}, {20.0, 0.0}, {20.0, 10.0}, {0.0, 10.0}, {0.0, 0.5}}, 0.25);
@@ -75,13 +90,9 @@ TEST(OriginSmoothingTest, ADetourOffTheMapIsBentAlongThePathNotAboutTheSessionOr
   // drift it gathered on the way round shows only at the end.
   const std::vector<Pose2> truth = Loop();
   const std::vector<NodeView> nodes = Drifting(truth, 0.002);
-  std::mt19937 rng(7);
-  std::vector<OriginSample> samples{
-      OriginSample{nodes[0].scan, nodes[0].stamp, Compose(truth[0], Invert(nodes[0].global))}};
   const size_t n = nodes.size(), edge = n * 15 / 100;
-  for (size_t i = 5; i < n; i += 5) {
-    if (i < edge || i >= n - edge) samples.push_back(Match(nodes, truth, i, rng, 0.02, 0.004));
-  }
+  const std::vector<OriginSample> samples = Follow(
+      nodes, truth, 7, 0.02, 0.004, [&](size_t i) { return i < edge || i >= n - edge; });
   const std::vector<OriginSample> smoothed = SmoothOrigins(nodes, samples);
   ASSERT_EQ(smoothed.size(), n);
   const double before = MeanError(Interpolated(nodes, samples), nodes, truth, edge, n - edge);
@@ -101,12 +112,8 @@ TEST(OriginSmoothingTest, EachMatchsErrorIsAveragedNotFollowed) {
   // against the robot's own motion.
   const std::vector<Pose2> truth = Loop();
   const std::vector<NodeView> nodes = Drifting(truth, 0.0005);
-  std::mt19937 rng(11);
-  std::vector<OriginSample> samples{
-      OriginSample{nodes[0].scan, nodes[0].stamp, Compose(truth[0], Invert(nodes[0].global))}};
-  for (size_t i = 5; i < nodes.size(); i += 5) {
-    samples.push_back(Match(nodes, truth, i, rng, 0.03, 0.01));
-  }
+  const std::vector<OriginSample> samples =
+      Follow(nodes, truth, 11, 0.03, 0.01, [](size_t) { return true; });
   const double before = MeanError(Interpolated(nodes, samples), nodes, truth, 0, nodes.size());
   const double after = MeanError(SmoothOrigins(nodes, samples), nodes, truth, 0, nodes.size());
   // 0.030 -> 0.015 m.
