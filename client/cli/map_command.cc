@@ -135,7 +135,7 @@ int RunMapGrid(CommandContext& context, const MapCommandArgs& args) {
   if (!grid.ok()) return ReportError(context, grid.status(), "GetMapOccupancyGrid");
   // The trajectories drawn on occupancy.png: the tied-in sessions', each moved into the map
   // frame as `slam trajectory --frame map` does.
-  auto map = client->GetMapInfo(args.name);
+  auto map = client->GetMapInfo(args.name, /*node_origins=*/true);
   if (!map.ok()) return ReportError(context, map.status(), "GetMap");
   v1::Trajectory trajectory;
   for (const std::string& session_id : grid->session_ids()) {

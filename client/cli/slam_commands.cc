@@ -209,7 +209,7 @@ absl::Status ToMapFrame(client::SlamClient& client, const std::string& session_i
         "session ", session_id, " is in no shared map: it has only its own frame (leave out "
         "--frame map)"));
   }
-  absl::StatusOr<v1::Map> map = client.GetMapInfo(session->map());
+  absl::StatusOr<v1::Map> map = client.GetMapInfo(session->map(), /*node_origins=*/true);
   if (!map.ok()) return map.status();
   for (const v1::MapTrajectory& t : map->trajectories()) {
     if (t.session_id() != session_id) continue;

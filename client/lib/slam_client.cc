@@ -365,9 +365,10 @@ absl::StatusOr<v1::ListMapsResponse> SlamClient::ListMaps() {
       [&](auto* context, auto* response) { return stub_->ListMaps(context, request, response); });
 }
 
-absl::StatusOr<v1::Map> SlamClient::GetMapInfo(const std::string& name) {
+absl::StatusOr<v1::Map> SlamClient::GetMapInfo(const std::string& name, bool node_origins) {
   v1::GetMapInfoRequest request;
   request.set_name(name);
+  request.set_node_origins(node_origins);
   return CallUnary<v1::Map>(
       options_.timeout, options_.retry, Idempotency::kRead,
       [&](auto* context, auto* response) { return stub_->GetMapInfo(context, request, response); });

@@ -202,7 +202,8 @@ class SlamClient {
   // CreateMap and DeleteMap never are.
   absl::StatusOr<v1::Map> CreateMap(const std::string& name);
   absl::StatusOr<v1::ListMapsResponse> ListMaps();
-  absl::StatusOr<v1::Map> GetMapInfo(const std::string& name);
+  // `node_origins`: also each followed trajectory's origin at every node (GetMapInfoRequest).
+  absl::StatusOr<v1::Map> GetMapInfo(const std::string& name, bool node_origins = false);
   absl::StatusOr<v1::DeleteMapResponse> DeleteMap(const std::string& name, bool force = false);
   absl::StatusOr<v1::MapOccupancyGrid> GetMapOccupancyGrid(
       const std::string& name, std::optional<double> resolution = std::nullopt);

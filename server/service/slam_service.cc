@@ -252,7 +252,9 @@ grpc::Status SlamServiceImpl::GetMapInfo(grpc::ServerContext* context,
                                          const v1::GetMapInfoRequest* request,
                                          v1::Map* response) {
   return ReplyAuthorized(*auth_, *context, Action::kReadMaps, response,
-                         [&](const Caller&) { return registry_->GetMapInfo(request->name()); });
+                         [&](const Caller&) {
+                           return registry_->GetMapInfo(request->name(), request->node_origins());
+                         });
 }
 
 grpc::Status SlamServiceImpl::DeleteMap(grpc::ServerContext* context,

@@ -233,12 +233,24 @@ TEST_F(MapFleetTest, OneServerAtATimeFollowsAMapsRobotsAndTheNextGoesOnFromItsFo
     EXPECT_NEAR(sample.origin().y(), 0.0, 0.05);
     EXPECT_NEAR(sample.origin().theta(), 0.0, 0.02);
   }
-  // And the origin at every node of robot 2, from the graph of its nodes and those samples (B
-  // serves its session now): at least one per sample, in scan order, every one the map frame.
-  EXPECT_GE(on_b_second->node_origins_size(), on_b_second->origin_samples_size());
-  for (int i = 0; i < on_b_second->node_origins_size(); ++i) {
-    const v1::MapOriginSample& origin = on_b_second->node_origins(i);
-    if (i > 0) EXPECT_GT(origin.scan(), on_b_second->node_origins(i - 1).scan());
+  // Only when asked: the origin at every node of robot 2, from the graph of its nodes and those
+  // samples (B serves its session now): at least one per sample, in scan order, every one the
+  // map frame.
+  EXPECT_EQ(on_b_second->node_origins_size(), 0);
+  v1::GetMapInfoRequest with_nodes;
+  with_nodes.set_name("office");
+  with_nodes.set_node_origins(true);
+  v1::Map detailed;
+  ASSERT_TRUE(on_b_->GetMapInfo(FleetMapCtx().get(), with_nodes, &detailed).ok());
+  const v1::MapTrajectory* nodes_of_second = nullptr;
+  for (const v1::MapTrajectory& t : detailed.trajectories()) {
+    if (t.session_id() == second.session_id()) nodes_of_second = &t;
+  }
+  ASSERT_NE(nodes_of_second, nullptr);
+  EXPECT_GE(nodes_of_second->node_origins_size(), on_b_second->origin_samples_size());
+  for (int i = 0; i < nodes_of_second->node_origins_size(); ++i) {
+    const v1::MapOriginSample& origin = nodes_of_second->node_origins(i);
+    if (i > 0) EXPECT_GT(origin.scan(), nodes_of_second->node_origins(i - 1).scan());
     EXPECT_TRUE(origin.has_map_pose());
     EXPECT_NEAR(origin.origin().x(), 0.0, 0.05);
     EXPECT_NEAR(origin.origin().y(), 0.0, 0.05);

@@ -279,7 +279,8 @@ MapRegistry::SessionNodes SessionNodesForMaps(SessionQueries& queries) {
 
 }  // namespace
 
-absl::StatusOr<v1::Map> SlamRegistry::GetMapInfo(const std::string& name) {
+absl::StatusOr<v1::Map> SlamRegistry::GetMapInfo(const std::string& name, bool node_origins) {
+  if (!node_origins) return maps_->GetMap(name);
   return maps_->GetMapWithNodeOrigins(name, SessionNodesForMaps(*queries_));
 }
 

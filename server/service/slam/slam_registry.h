@@ -167,7 +167,8 @@ class SlamRegistry {
   // Maps shared by robots (map_registry.h; the RPCs of the same names in slam.proto).
   absl::StatusOr<v1::Map> CreateMap(const std::string& name);
   absl::StatusOr<v1::ListMapsResponse> ListMaps();
-  absl::StatusOr<v1::Map> GetMapInfo(const std::string& name);
+  // `node_origins`: with each followed trajectory's origin at every node (GetMapInfoRequest).
+  absl::StatusOr<v1::Map> GetMapInfo(const std::string& name, bool node_origins = false);
   absl::StatusOr<v1::DeleteMapResponse> DeleteMap(const std::string& name, bool force);
   absl::StatusOr<v1::MapOccupancyGrid> GetMapOccupancyGrid(const std::string& name,
                                                            std::optional<double> resolution);
