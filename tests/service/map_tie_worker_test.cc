@@ -115,16 +115,25 @@ void ExpectTiedAt(const std::vector<std::pair<std::string, storage::MapTie>>& ti
   EXPECT_NEAR(std::remainder(ties[0].second.theta - truth.theta, 2 * M_PI), 0.0, M_PI / 180);
 }
 
-TEST(MapTieWorkerTest, ASecondRobotIsFoundAndTiedInOnceAtTheTruth) {
-  const std::vector<Wall> walls = PillarOffice();
+// Robot a's and robot b's drives through PillarOffice, each in its own frame (its start).
+struct OfficeDrives {
+  std::vector<ls::NodeView> a, b;
   ls::Pose2 start_a, start_b;
-  const std::vector<ls::NodeView> a =
-      Drive(walls, {{2.0, 4.5}, {12.0, 4.5}, {12.0, 7.0}, {3.0, 7.0}}, &start_a);
-  const std::vector<ls::NodeView> b = Drive(walls, {{15.5, 6.5}, {6.0, 6.5}, {6.5, 3.5}}, &start_b);
+};
+OfficeDrives PillarOfficeDrives() {
+  const std::vector<Wall> walls = PillarOffice();
+  OfficeDrives d;
+  d.a = Drive(walls, {{2.0, 4.5}, {12.0, 4.5}, {12.0, 7.0}, {3.0, 7.0}}, &d.start_a);
+  d.b = Drive(walls, {{15.5, 6.5}, {6.0, 6.5}, {6.5, 3.5}}, &d.start_b);
+  return d;
+}
+
+TEST(MapTieWorkerTest, ASecondRobotIsFoundAndTiedInOnceAtTheTruth) {
+  const OfficeDrives d = PillarOfficeDrives();
   const storage::MapTie origin_a{1.0, -2.0, 0.3};
   const ls::Pose2 truth = ls::Compose(ls::Pose2{origin_a.x, origin_a.y, origin_a.theta},
-                                      ls::Relative(start_a, start_b));
-  ExpectTiedAt(TieIn(a, origin_a, b), truth);
+                                      ls::Relative(d.start_a, d.start_b));
+  ExpectTiedAt(TieIn(d.a, origin_a, d.b), truth);
 }
 
 // The tie is checked against the map (TieKeepsTheMapConsistent) on the joining robot's nodes up to
@@ -176,11 +185,9 @@ TEST(MapTieWorkerTest, ATieIsJudgedOnTheNodesTheRobotHadWhenItWasFound) {
 // nodes read from its checkpoint) is read again only when its record shows more scans, and is
 // then tied in.
 TEST(MapTieWorkerTest, OnlyAnOwnedMapIsSearchedAndARobotElsewhereIsReadAsItGoesOn) {
-  const std::vector<Wall> walls = PillarOffice();
-  ls::Pose2 start_a, start_b;
-  const std::vector<ls::NodeView> a =
-      Drive(walls, {{2.0, 4.5}, {12.0, 4.5}, {12.0, 7.0}, {3.0, 7.0}}, &start_a);
-  const std::vector<ls::NodeView> b = Drive(walls, {{15.5, 6.5}, {6.0, 6.5}, {6.5, 3.5}}, &start_b);
+  const OfficeDrives drives = PillarOfficeDrives();
+  const std::vector<ls::NodeView>& a = drives.a;
+  const std::vector<ls::NodeView>& b = drives.b;
   // 0.75 m of travel: too little for two agreeing matches 2 m apart.
   const std::vector<ls::NodeView> b_start(b.begin(), b.begin() + 3);
 
