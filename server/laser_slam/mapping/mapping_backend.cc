@@ -562,7 +562,9 @@ std::vector<NodeView> MappingBackend::Nodes() const {
   std::lock_guard<std::mutex> lock(mu_);
   std::vector<NodeView> out;
   out.reserve(nodes_.size());
-  for (const Node& n : nodes_) out.push_back(NodeView{n.scan, n.stamp, n.global, n.points, n.chain_sigma});
+  for (const Node& n : nodes_) {
+    out.push_back(NodeView{n.scan, n.stamp, n.global, n.points, n.chain_sigma});
+  }
   return out;
 }
 

@@ -259,7 +259,6 @@ absl::StatusOr<v1::Map> SlamRegistry::CreateMap(const std::string& name) {
 
 absl::StatusOr<v1::ListMapsResponse> SlamRegistry::ListMaps() { return maps_->ListMaps(); }
 
-
 absl::StatusOr<v1::DeleteMapResponse> SlamRegistry::DeleteMap(const std::string& name,
                                                               bool force) {
   return maps_->DeleteMap(name, force);
