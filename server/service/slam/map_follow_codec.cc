@@ -20,8 +20,7 @@ bool Finite(const laser_slam::Pose2& p) {
 
 }  // namespace
 
-void AddSampleTo(const laser_slam::OriginSample& sample, v1::MapTrajectory* trajectory) {
-  v1::MapOriginSample* out = trajectory->add_origin_samples();
+void SetSample(const laser_slam::OriginSample& sample, v1::MapOriginSample* out) {
   out->set_scan(sample.scan);
   out->set_stamp(sample.stamp);
   SetPose(sample.origin, out->mutable_origin());
@@ -47,7 +46,9 @@ std::vector<laser_slam::OriginSample> SamplesOf(const v1::MapTrajectory& traject
 
 std::string EncodeFollow(const StoredFollow& follow) {
   v1::MapTrajectory trajectory;
-  for (const laser_slam::OriginSample& sample : follow.samples) AddSampleTo(sample, &trajectory);
+  for (const laser_slam::OriginSample& sample : follow.samples) {
+    SetSample(sample, trajectory.add_origin_samples());
+  }
   *trajectory.mutable_follow() = follow.stats;
   return trajectory.SerializeAsString();
 }

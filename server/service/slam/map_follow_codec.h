@@ -25,8 +25,9 @@ std::string EncodeFollow(const StoredFollow& follow);
 // DATA_LOSS for bytes that are not such a message, or samples out of stamp order or not finite.
 absl::StatusOr<StoredFollow> DecodeFollow(const std::string& bytes);
 
-// MapTrajectory.origin_samples <-> the follow's samples (no checks: messages this server made).
-void AddSampleTo(const laser_slam::OriginSample& sample, v1::MapTrajectory* trajectory);
+// MapTrajectory.origin_samples (and node_origins) <-> the follow's samples (no checks: messages
+// this server made).
+void SetSample(const laser_slam::OriginSample& sample, v1::MapOriginSample* out);
 std::vector<laser_slam::OriginSample> SamplesOf(const v1::MapTrajectory& trajectory);
 
 v1::MapMatchStats StatsOf(const laser_slam::FollowProgress& progress);

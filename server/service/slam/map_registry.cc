@@ -203,7 +203,7 @@ void MapRegistry::AddSamples(const storage::MapRecord& record, v1::Map* map) con
                it != followed_.end() && it->second.here) {
       // This server's own follow is newer than the store's.
       for (const laser_slam::OriginSample& sample : it->second.samples) {
-        AddSampleTo(sample, &trajectory);
+        SetSample(sample, trajectory.add_origin_samples());
       }
       *trajectory.mutable_follow() = it->second.stats;
     } else if (const std::string& stored = record.trajectories[static_cast<size_t>(i)].follow;
@@ -213,7 +213,7 @@ void MapRegistry::AddSamples(const storage::MapRecord& record, v1::Map* map) con
       // for every pose.
       if (absl::StatusOr<StoredFollow> follow = DecodeFollow(stored); follow.ok()) {
         for (const laser_slam::OriginSample& sample : follow->samples) {
-          AddSampleTo(sample, &trajectory);
+          SetSample(sample, trajectory.add_origin_samples());
         }
         *trajectory.mutable_follow() = follow->stats;
       }
@@ -327,7 +327,6 @@ absl::StatusOr<laser_slam::TiedTrajectory> InMap(const std::string& name,
                                     SamplesOf(trajectory)};
 }
 
-
 }  // namespace
 
 absl::StatusOr<v1::Map> MapRegistry::GetMapWithNodeOrigins(const std::string& name,
@@ -338,11 +337,9 @@ absl::StatusOr<v1::Map> MapRegistry::GetMapWithNodeOrigins(const std::string& na
     if (!trajectory.tied_in() || trajectory.origin_samples().empty()) continue;
     absl::StatusOr<laser_slam::TiedTrajectory> in_map = InMap(name, trajectory, session_nodes);
     if (!in_map.ok()) continue;  // a session not readable here: its samples, interpolated
-    v1::MapTrajectory origins;  // AddSampleTo's list, moved into node_origins
     for (const laser_slam::OriginSample& sample : laser_slam::CurrentOrigins(*in_map)) {
-      AddSampleTo(sample, &origins);
+      SetSample(sample, trajectory.add_node_origins());
     }
-    *trajectory.mutable_node_origins() = std::move(*origins.mutable_origin_samples());
   }
   return map;
 }
