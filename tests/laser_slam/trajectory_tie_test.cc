@@ -53,9 +53,11 @@ struct TieRun {
 };
 
 std::unique_ptr<TrajectoryTie> TieOn(const std::vector<TiedTrajectory>& map,
-                                     std::int64_t reads_per_scan) {
+                                     std::int64_t reads_per_scan,
+                                     std::int64_t reads_per_second = 0) {
   TieOptions options;
   options.reads_per_scan = reads_per_scan;
+  options.reads_per_second = reads_per_second;
   absl::StatusOr<std::unique_ptr<TrajectoryTie>> tie = TrajectoryTie::Create(options);
   EXPECT_TRUE(tie.ok()) << tie.status();
   size_t map_nodes = 0;
@@ -69,10 +71,10 @@ std::unique_ptr<TrajectoryTie> TieOn(const std::vector<TiedTrajectory>& map,
 constexpr std::int64_t kUnbounded = std::int64_t{1} << 50;
 
 // Feeds the joining robot's nodes one at a time, as a robot at its own pace sends them, with
-// `reads_per_scan` granted per scan.
+// `reads_per_scan` granted per scan (and `reads_per_second` per second of its stamps).
 TieRun RunTie(const std::vector<TiedTrajectory>& map, const std::vector<NodeView>& joining,
-              std::int64_t reads_per_scan) {
-  std::unique_ptr<TrajectoryTie> tie = TieOn(map, reads_per_scan);
+              std::int64_t reads_per_scan, std::int64_t reads_per_second = 0) {
+  std::unique_ptr<TrajectoryTie> tie = TieOn(map, reads_per_scan, reads_per_second);
   TieRun run;
   std::vector<NodeView> seen;
   for (const NodeView& node : joining) {
@@ -150,6 +152,39 @@ TEST(TrajectoryTieTest, ABudgetPerScanSpreadsTheSearchesWhateverThePaceOfTheCall
   EXPECT_EQ(progress.searches, spread.progress.searches);
   EXPECT_DOUBLE_EQ(progress.tie->x, spread.progress.tie->x);
   EXPECT_DOUBLE_EQ(progress.tie->theta, spread.progress.tie->theta);
+}
+
+// A robot that logs keyframes (one scan per node, seconds apart, as the corrected logs of
+// ../shared do) gets few scans' worth of searches over its whole drive; by the second, as a
+// robot scanning at its own rate would, it is tied in as early and as right as with no limit.
+TEST(TrajectoryTieTest, KeyframesSecondsApartGetTheirSearchesBySecond) {
+  const std::vector<Wall> walls = PillarOffice();
+  const std::vector<Pose2> a = FirstRobotPath();
+  const std::vector<Pose2> b = SecondRobotPath();
+  const std::vector<TiedTrajectory> map{{Pose2{}, NodesOf(walls, a)}};
+  const Pose2 truth = Relative(a.front(), b.front());
+  std::vector<NodeView> keyframes = NodesOf(walls, b);
+  for (size_t i = 0; i < keyframes.size(); ++i) {
+    keyframes[i].scan = i + 1;
+    keyframes[i].stamp = 4.0 * static_cast<double>(i);
+  }
+  const TieRun whole = RunTie(map, keyframes, kManyReads);
+  ASSERT_TRUE(whole.progress.tie.has_value());
+  const std::int64_t per_search = whole.progress.reads / whole.progress.searches;
+
+  // A twentieth of a search per scan: two or three searches over the whole drive.
+  const TieRun by_scan = RunTie(map, keyframes, per_search / 20);
+  EXPECT_LE(by_scan.progress.searches, 3);
+  // The same per scan, and a search's worth per 4 s of the robot's clock: a search per node,
+  // as with no limit.
+  const TieRun by_second = RunTie(map, keyframes, per_search / 20, per_search / 4);
+  ASSERT_TRUE(by_second.progress.tie.has_value());
+  EXPECT_LE(by_second.nodes_fed, whole.nodes_fed + 2);
+  EXPECT_GE(by_second.progress.searches, whole.progress.searches - 2);
+  if (by_scan.progress.tie) EXPECT_GT(by_scan.nodes_fed, by_second.nodes_fed + 5);
+  EXPECT_NEAR(by_second.progress.tie->x, truth.x, 0.03);
+  EXPECT_NEAR(by_second.progress.tie->y, truth.y, 0.03);
+  EXPECT_NEAR(NormalizeAngle(by_second.progress.tie->theta - truth.theta), 0.0, M_PI / 180);
 }
 
 // Two closed rooms 12 m apart, 8 m x 6 m with a pillar at the same place in each (the

@@ -11,6 +11,7 @@
 #include "server/laser_slam/mapping/map_consistency.h"
 #include "server/laser_slam/mapping/occupancy_grid.h"
 #include "server/laser_slam/mapping/origin_smoothing.h"
+#include "server/laser_slam/mapping/search_clock.h"
 #include "server/laser_slam/option_checks.h"
 
 namespace waymark::laser_slam {
@@ -40,8 +41,10 @@ absl::Status ValidateTieOptions(const TieOptions& o) {
         {o.refine_window_theta, "tie.refine_window_theta"}, {o.map_growth, "tie.map_growth"}}) {
     if (absl::Status s = Positive(value, name); !s.ok()) return s;
   }
-  if (o.reads_per_scan < 1000 || o.reads_per_scan > (std::int64_t{1} << 50)) {
-    return absl::InvalidArgumentError("tie: reads_per_scan must be in [1000, 2^50]");
+  if (o.reads_per_scan < 1000 || o.reads_per_scan > (std::int64_t{1} << 50) ||
+      o.reads_per_second < 0 || o.reads_per_second > (std::int64_t{1} << 50)) {
+    return absl::InvalidArgumentError(
+        "tie: reads_per_scan must be in [1000, 2^50] and reads_per_second in [0, 2^50]");
   }
   if (o.query_nodes < 1 || o.query_nodes > 50 || o.refine_nodes < o.query_nodes ||
       o.refine_nodes > 200 || o.min_query_points < 1 || o.global_coarsening < 1 ||
@@ -211,7 +214,8 @@ const TieProgress& TrajectoryTie::Advance(const std::vector<NodeView>& joining,
   if (progress_.clock_scan < static_cast<double>(joining.front().scan)) {
     progress_.clock_scan = static_cast<double>(joining.front().scan);
   }
-  const double per_scan = static_cast<double>(options_.reads_per_scan);
+  const SearchClockRates rates{static_cast<double>(options_.reads_per_scan),
+                               static_cast<double>(options_.reads_per_second)};
   while (!progress_.tie && max_reads > 0) {
     if (search_ == nullptr) {
       if (grids_ == nullptr) {
@@ -235,7 +239,7 @@ const TieProgress& TrajectoryTie::Advance(const std::vector<NodeView>& joining,
       if (!StartSearch(joining, node)) continue;  // too few points: the next node then
     }
     // What the scans up to the newest have granted and the clock has not spent yet.
-    const double granted = (newest_scan - progress_.clock_scan) * per_scan;
+    const double granted = ReadsGranted(joining, rates, progress_.clock_scan, newest_scan);
     if (granted < 1.0) break;
     const std::int64_t budget =
         std::min<std::int64_t>(max_reads, static_cast<std::int64_t>(granted));
@@ -243,7 +247,8 @@ const TieProgress& TrajectoryTie::Advance(const std::vector<NodeView>& joining,
     const bool over = search_->Resume(budget);
     const std::int64_t spent = std::max<std::int64_t>(search_->outcome().reads - before, 1);
     progress_.reads += spent;
-    progress_.clock_scan = std::min(newest_scan, progress_.clock_scan + spent / per_scan);
+    progress_.clock_scan = std::min(
+        newest_scan, ClockAfter(joining, rates, progress_.clock_scan, static_cast<double>(spent)));
     max_reads -= spent;
     if (!over) continue;
     TakeAnswer(joining);

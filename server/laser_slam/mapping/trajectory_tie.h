@@ -84,8 +84,12 @@ struct TieOptions {
   // more nodes than when they were drawn (a tied-in robot still exploring widens the map).
   double map_growth = 0.1;
   // The budget: cell reads granted per scan the joining robot processes (the localizer's
-  // global_reads_per_scan: 4 M reads are 5-10 ms here, a scan period 25-200 ms).
+  // global_reads_per_scan: 4 M reads are 5-10 ms here, a scan period 25-200 ms), or per second
+  // of the robot's own clock (its stamps) where that is more (search_clock.h): 20 M is what
+  // reads_per_scan gives a 5 Hz scanner, so a log of keyframes a metre apart gets its searches
+  // by the second. 0: the scans alone.
   std::int64_t reads_per_scan = 4'000'000;
+  std::int64_t reads_per_second = 20'000'000;
 };
 
 absl::Status ValidateTieOptions(const TieOptions& options);
@@ -181,7 +185,7 @@ class TrajectoryTie {
   // (MappingBackend::Nodes): node i must stay node i from call to call. Nothing more once tied.
   //
   // The searches run on a clock of scans, not of calls: reads_per_scan for every scan since the
-  // first node, and each new search is for the newest node at or before the scan the clock has
+  // first node (or reads_per_second for the seconds between them, search_clock.h), and each new search is for the newest node at or before the scan the clock has
   // reached (a scan period with nothing new to search is not saved up). So the same scans give
   // the same searches and the same tie however the calls are spread: a replay at 200 times real
   // time and a robot at its own pace are tied in at the same scan, the replay later in seconds

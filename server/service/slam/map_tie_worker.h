@@ -11,8 +11,9 @@
 // only through snapshots of their nodes (MappingBackend::Nodes, which the back end serves from
 // any thread; a closed session's once, from its checkpoint). Rate-limited as the localizer's
 // global search is: each joining session grants TieOptions::reads_per_scan cell reads for every
-// scan it processed (4 M reads are 5-10 ms here, a scan period 25-200 ms), and the searches run
-// on that clock of scans (trajectory_tie.h), so a replay faster than real time is tied in at the
+// scan it processed (4 M reads are 5-10 ms here, a scan period 25-200 ms), or reads_per_second
+// for the seconds of its stamps where that is more (keyframe logs: search_clock.h), and the
+// searches run on that clock of scans (trajectory_tie.h), so a replay faster than real time is tied in at the
 // scan a robot at its pace would be, the thread catching up after it.
 
 #include <condition_variable>
