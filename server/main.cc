@@ -5,7 +5,7 @@
 //                  [--max-message-mb 32] [--max-streams-per-robot 8] [--stream-idle-seconds 300]
 //                  [--metrics-listen HOST:PORT] [--live [HOST:]PORT] [--slam-queue 64]
 //                  [--slam-workers N] [--slam-checkpoint-seconds 30] [--max-sessions 64]
-//                  [--slam-journal true] [--slam-checkpoint-journal-mb 64] [--slam-map-tie true] [--slam-map-tie-outvote true] [--slam-map-tie-verify true] [--slam-map-follow true]
+//                  [--slam-journal true] [--slam-checkpoint-journal-mb 64] [--slam-map-tie true] [--slam-map-tie-outvote true] [--slam-map-tie-verify true] [--slam-map-follow true] [--slam-map-graph true]
 //   waymark-server --db FILE token create NAME --role admin|mapper|robot|viewer [--robot-id ID]
 //   waymark-server --db FILE token list | token revoke NAME
 //
@@ -383,6 +383,11 @@ int main(int argc, char** argv) {
                  "after a robot is tied into a shared map, keep matching its scans against the "
                  "other robots' map in local windows, so that its drift does not carry it off "
                  "(false: the origin found at the tie holds for all its poses)")
+      ->capture_default_str();
+  app.add_option("--slam-map-graph", flags.slam.map_graph,
+                 "place a shared map's trajectories by one pose graph over all of them, so that "
+                 "a robot that drives a loop another robot left open closes it (false: each "
+                 "followed robot is bent to meet the others, which hold still)")
       ->capture_default_str();
   app.add_option("--slam-checkpoint-journal-mb", flags.slam_checkpoint_journal_mb,
                  "also checkpoint a SLAM session once its journal since the last checkpoint "

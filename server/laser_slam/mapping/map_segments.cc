@@ -85,7 +85,12 @@ MapSegment SegmentInMapFrame(const MapSegment& segment, const Pose2& origin,
 
 std::vector<MapSegment> SegmentsInMapFrame(const TiedTrajectory& trajectory,
                                            const std::vector<MapSegment>& segments) {
-  const std::vector<OriginSample> samples = CurrentOrigins(trajectory);
+  return SegmentsInMapFrame(trajectory, segments, CurrentOrigins(trajectory));
+}
+
+std::vector<MapSegment> SegmentsInMapFrame(const TiedTrajectory& trajectory,
+                                           const std::vector<MapSegment>& segments,
+                                           const std::vector<OriginSample>& samples) {
   std::vector<MapSegment> placed;
   placed.reserve(segments.size());
   for (const MapSegment& segment : segments) {

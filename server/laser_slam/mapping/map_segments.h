@@ -58,6 +58,11 @@ MapSegment SegmentInMapFrame(const MapSegment& segment, const Pose2& origin,
 // NodesInMapFrame places the nodes).
 std::vector<MapSegment> SegmentsInMapFrame(const TiedTrajectory& trajectory,
                                            const std::vector<MapSegment>& segments);
+// The same with the trajectory's origins given (NodesPlacedBy: one per node from the map's
+// graph, or samples; empty: `origin`).
+std::vector<MapSegment> SegmentsInMapFrame(const TiedTrajectory& trajectory,
+                                           const std::vector<MapSegment>& segments,
+                                           const std::vector<OriginSample>& origins);
 
 // Fuses the segments of different trajectories that map the same wall (see above), longest
 // first; a fused segment takes no second segment of a trajectory it already holds.

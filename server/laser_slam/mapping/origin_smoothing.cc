@@ -8,11 +8,9 @@
 #include "server/laser_slam/mapping/pose_graph.h"
 
 namespace waymark::laser_slam {
-namespace {
 
-// The sigma of the step to `node` from the one before: its own (the session's chain constraint),
-// or, where it has none, the session graph's default chain sigmas for that step.
-Eigen::Vector3d StepSigma(const NodeView& node, const Pose2& step) {
+// The session graph's default chain sigmas where a node has none of its own.
+Eigen::Vector3d ChainStepSigma(const NodeView& node, const Pose2& step) {
   if (node.step_sigma.minCoeff() > 0.0) return node.step_sigma;
   static const MappingOptions kDefaults;
   const double distance = std::hypot(step.x, step.y);
@@ -22,7 +20,26 @@ Eigen::Vector3d StepSigma(const NodeView& node, const Pose2& step) {
                              kDefaults.chain_sigma_theta_per_rad * std::abs(step.theta));
 }
 
-}  // namespace
+int NodeOfScan(const std::vector<NodeView>& nodes, std::uint64_t scan) {
+  const auto it = std::lower_bound(
+      nodes.begin(), nodes.end(), scan,
+      [](const NodeView& node, std::uint64_t s) { return node.scan < s; });
+  return it == nodes.end() || it->scan != scan ? -1 : static_cast<int>(it - nodes.begin());
+}
+
+Pose2 ObservedMapPose(const OriginSample& sample, const NodeView& node) {
+  return sample.matched ? sample.map_pose : Compose(sample.origin, node.global);
+}
+
+OriginSample PlacedNode(const NodeView& node, const Pose2& map_pose) {
+  OriginSample sample;
+  sample.scan = node.scan;
+  sample.stamp = node.stamp;
+  sample.matched = true;
+  sample.map_pose = map_pose;
+  sample.origin = Compose(map_pose, Invert(node.global));
+  return sample;
+}
 
 std::vector<OriginSample> SmoothOrigins(const std::vector<NodeView>& nodes,
                                         const std::vector<OriginSample>& samples,
@@ -46,21 +63,18 @@ std::vector<OriginSample> SmoothOrigins(const std::vector<NodeView>& nodes,
     chain.from = i;
     chain.to = i + 1;
     chain.relative = Relative(nodes[i - 1].global, nodes[i].global);
-    chain.sigma = StepSigma(nodes[i], chain.relative);
+    chain.sigma = ChainStepSigma(nodes[i], chain.relative);
     constraints.push_back(chain);
   }
   int observed = 0;
   for (const OriginSample& sample : refreshed) {
-    const auto it = std::lower_bound(
-        nodes.begin(), nodes.end(), sample.scan,
-        [](const NodeView& node, std::uint64_t scan) { return node.scan < scan; });
-    if (it == nodes.end() || it->scan != sample.scan) continue;
+    const int node = NodeOfScan(nodes, sample.scan);
+    if (node < 0) continue;
     GraphConstraint seen;
     seen.kind = GraphConstraint::Kind::kLoop;  // under the Huber loss, as a closure
     seen.from = 0;
-    seen.to = static_cast<int>(it - nodes.begin()) + 1;
-    // The tie's sample has no matched pose: its origin at the node is the observation.
-    seen.relative = sample.matched ? sample.map_pose : Compose(sample.origin, it->global);
+    seen.to = node + 1;
+    seen.relative = ObservedMapPose(sample, nodes[node]);
     seen.sigma = Eigen::Vector3d(options.sample_sigma_xy, options.sample_sigma_xy,
                                  options.sample_sigma_theta);
     constraints.push_back(seen);
@@ -81,13 +95,7 @@ std::vector<OriginSample> SmoothOrigins(const std::vector<NodeView>& nodes,
           std::isfinite(map_pose.theta))) {
       return refreshed;  // the solver gave up: the samples as they were
     }
-    OriginSample sample;
-    sample.scan = nodes[i].scan;
-    sample.stamp = nodes[i].stamp;
-    sample.matched = true;
-    sample.map_pose = map_pose;
-    sample.origin = Compose(map_pose, Invert(nodes[i].global));
-    smoothed.push_back(sample);
+    smoothed.push_back(PlacedNode(nodes[i], map_pose));
   }
   return smoothed;
 }

@@ -21,7 +21,10 @@
 // (-) the node's own. The other trajectories stay as they are (a graph of the one robot, with
 // the map as its fixed root), so nothing already in the map moves.
 
+#include <cstdint>
 #include <vector>
+
+#include <Eigen/Core>
 
 #include "server/laser_slam/mapping/mapping_backend.h"
 #include "server/laser_slam/mapping/trajectory_follow.h"
@@ -36,6 +39,18 @@ struct OriginSmoothingOptions {
   double huber_scale = 1.0;  // MappingOptions::huber_scale
   int max_iterations = 30;
 };
+
+// The sigma of the step to `node` from the one before (`step`: the relative pose): its own (the
+// session's chain constraint), or, where it has none, the session graph's default chain sigmas.
+Eigen::Vector3d ChainStepSigma(const NodeView& node, const Pose2& step);
+
+// The index of the node of `nodes` (by scan, oldest first) with scan `scan`; -1: none (pruned).
+int NodeOfScan(const std::vector<NodeView>& nodes, std::uint64_t scan);
+// What a sample observed: the node's map-frame pose (the tie's sample has no matched pose: its
+// origin at the node is the observation).
+Pose2 ObservedMapPose(const OriginSample& sample, const NodeView& node);
+// A node placed at `map_pose`: a matched sample with the origin there.
+OriginSample PlacedNode(const NodeView& node, const Pose2& map_pose);
 
 // One sample per node of `nodes` (oldest first, by scan; matched, with the node's solved map
 // pose, and the origin there from the node's current pose), from the follow's `samples` (the

@@ -69,8 +69,13 @@ struct FollowOptions {
   double sigma_theta_floor = 0.03;     // rad
   double sigma_xy_per_metre = 0.02;    // the robot's own drift, per metre travelled
   double sigma_theta_per_metre = 0.005;
-  double max_window_xy = 2.0;
-  double max_window_theta = 0.4;
+  // The caps: a robot that comes back to the others' map after a long stretch off it is searched
+  // for as far as its drift may have carried it (ACES split at 10 %: the second robot reaches
+  // the first one's start 4.5 m from where that map has it). With the map's graph
+  // (map_graph.h) such a sample closes the loop; placed one at a time, it bent the robot instead
+  // (2 m and 0.4 rad were the caps then).
+  double max_window_xy = 30.0;
+  double max_window_theta = 1.5;
   double min_score = 0.6;
   double rival_exclusion = 0.3;  // m (root mean square over the points)
   double rival_ratio = 0.9;

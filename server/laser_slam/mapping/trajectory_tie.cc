@@ -73,11 +73,19 @@ std::vector<OriginSample> CurrentOrigins(const TiedTrajectory& trajectory) {
 }
 
 std::vector<NodeView> NodesInMapFrame(const TiedTrajectory& trajectory) {
-  const std::vector<OriginSample> samples = CurrentOrigins(trajectory);
+  return NodesPlacedBy(trajectory, CurrentOrigins(trajectory));
+}
+
+std::vector<NodeView> NodesPlacedBy(const TiedTrajectory& trajectory,
+                                    const std::vector<OriginSample>& origins) {
   std::vector<NodeView> nodes = trajectory.nodes;
-  for (NodeView& node : nodes) {
-    node.global = Compose(samples.empty() ? trajectory.origin : OriginAt(samples, node.stamp),
-                          node.global);
+  const bool per_node = origins.size() == nodes.size();
+  for (size_t i = 0; i < nodes.size(); ++i) {
+    nodes[i].global = per_node && origins[i].matched && origins[i].scan == nodes[i].scan
+                          ? origins[i].map_pose
+                          : Compose(origins.empty() ? trajectory.origin
+                                                    : OriginAt(origins, nodes[i].stamp),
+                                    nodes[i].global);
   }
   return nodes;
 }
@@ -114,7 +122,7 @@ bool TieKeepsTheMapConsistent(const std::vector<TiedTrajectory>& map,
   for (const TiedTrajectory& trajectory : map) {
     AppendWholeSubmaps(trajectory, options.submap_nodes, &map_nodes);
   }
-  AppendWholeSubmaps(TiedTrajectory{tie, joining, {}}, options.submap_nodes, &joining_nodes);
+  AppendWholeSubmaps(TiedTrajectory{tie, joining, {}, {}}, options.submap_nodes, &joining_nodes);
   std::vector<NodeView> together = map_nodes;
   together.insert(together.end(), joining_nodes.begin(), joining_nodes.end());
   const absl::StatusOr<MapConsistencyReport> alone_map = CheckMapConsistency(map_nodes, options);

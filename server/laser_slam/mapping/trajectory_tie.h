@@ -35,6 +35,7 @@
 #include "server/laser_slam/mapping/likelihood_grid.h"
 #include "server/laser_slam/mapping/mapping_backend.h"
 #include "server/laser_slam/mapping/point_cloud.h"
+#include "server/laser_slam/mapping/pose_graph.h"
 #include "server/laser_slam/mapping/trajectory_follow.h"
 #include "server/laser_slam/types.h"
 
@@ -103,6 +104,9 @@ struct TiedTrajectory {
   // origin at each node comes (CurrentOrigins), in place of `origin`. Empty: `origin` for every
   // node.
   std::vector<OriginSample> samples;
+  // Its session graph's loop closures in force, by node index (what holds its shape in the map's
+  // graph, map_graph.h); empty where not read.
+  std::vector<GraphConstraint> loops;
 };
 
 // Whether tying `joining` (its nodes in its own frame) in at `tie` leaves the map consistent:
@@ -123,6 +127,11 @@ std::vector<OriginSample> CurrentOrigins(const TiedTrajectory& trajectory);
 // A tied-in trajectory's nodes moved into the map frame: each by its origin (CurrentOrigins)
 // where the trajectory is followed, else by `origin`.
 std::vector<NodeView> NodesInMapFrame(const TiedTrajectory& trajectory);
+// The same with the trajectory's origins given: one per node (CurrentOrigins, or the map's
+// graph, map_graph.h: each node at its map_pose), or samples interpolated by stamp; empty:
+// `origin` for every node.
+std::vector<NodeView> NodesPlacedBy(const TiedTrajectory& trajectory,
+                                    const std::vector<OriginSample>& origins);
 
 // The tied-in trajectories' points in the map frame, thinned to one per `cell`.
 PointCloud MapCloud(const std::vector<TiedTrajectory>& trajectories, double cell);

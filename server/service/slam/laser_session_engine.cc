@@ -74,6 +74,16 @@ std::vector<ls::NodeView> LaserSessionEngine::Nodes() const {
   return backend == nullptr ? std::vector<ls::NodeView>{} : backend->Nodes();
 }
 
+std::vector<ls::GraphConstraint> LaserSessionEngine::Loops() const {
+  const ls::MappingBackend* backend = slam_->backend();
+  std::vector<ls::GraphConstraint> loops;
+  if (backend == nullptr) return loops;
+  for (const ls::GraphConstraint& c : backend->Constraints()) {
+    if (c.kind == ls::GraphConstraint::Kind::kLoop && c.enabled) loops.push_back(c);
+  }
+  return loops;
+}
+
 absl::StatusOr<std::unique_ptr<LaserSessionEngine>> LaserSessionEngine::FromCheckpoint(
     const v1::LaserSlamConfig& config, const std::string& state,
     const std::vector<storage::TrajectoryPoseRecord>& stored, MapPoints map) {

@@ -43,6 +43,8 @@ class LaserSessionEngine final : public SessionEngine {
   // The back end's nodes as its graph now places them (none without a back end). Thread-safe:
   // the back end serves them from any thread, so a reader need not wait for the strand.
   std::vector<laser_slam::NodeView> Nodes() const;
+  // The back end's loop closures in force (enabled), by node index; none without a back end.
+  std::vector<laser_slam::GraphConstraint> Loops() const;
 
   // Several robots exploring one map: before each scan the session takes its teammates from
   // `team`, after it publishes its own exploration there as `session_id`. Null: alone (the

@@ -10,6 +10,7 @@
 
 #include "absl/strings/str_cat.h"
 #include "server/laser_slam/geometry.h"
+#include "server/laser_slam/mapping/map_graph.h"
 #include "server/laser_slam/mapping/map_segments.h"
 #include "server/laser_slam/mapping/occupancy_grid.h"
 #include "server/service/slam/map_follow_codec.h"
@@ -321,10 +322,36 @@ absl::Status TrajectoryError(const std::string& name, const v1::MapTrajectory& t
 absl::StatusOr<laser_slam::TiedTrajectory> InMap(const std::string& name,
                                                  const v1::MapTrajectory& trajectory,
                                                  const MapRegistry::SessionNodes& session_nodes) {
-  absl::StatusOr<std::vector<laser_slam::NodeView>> own = session_nodes(trajectory.session_id());
+  absl::StatusOr<TrajectoryNodes> own = session_nodes(trajectory.session_id());
   if (!own.ok()) return TrajectoryError(name, trajectory, own.status());
-  return laser_slam::TiedTrajectory{FromProtoPose(trajectory.origin()), *std::move(own),
-                                    SamplesOf(trajectory)};
+  return laser_slam::TiedTrajectory{FromProtoPose(trajectory.origin()), std::move(own->nodes),
+                                    SamplesOf(trajectory), std::move(own->loops)};
+}
+
+// The map's tied-in trajectories (`tied`, indices into map.trajectories()) and where each node
+// of each lies: one graph over all of them, or each on its own (CurrentOrigins).
+struct PlacedMap {
+  std::vector<laser_slam::TiedTrajectory> trajectories;
+  std::vector<std::vector<laser_slam::OriginSample>> origins;
+};
+absl::StatusOr<PlacedMap> Place(const std::string& name, const v1::Map& map,
+                                const std::vector<int>& tied,
+                                const MapRegistry::SessionNodes& session_nodes, bool graph) {
+  PlacedMap placed;
+  for (int i : tied) {
+    absl::StatusOr<laser_slam::TiedTrajectory> in_map =
+        InMap(name, map.trajectories(i), session_nodes);
+    if (!in_map.ok()) return in_map.status();
+    placed.trajectories.push_back(*std::move(in_map));
+  }
+  if (graph) {
+    placed.origins = laser_slam::SolveMapGraph(placed.trajectories);
+  } else {
+    for (const laser_slam::TiedTrajectory& t : placed.trajectories) {
+      placed.origins.push_back(laser_slam::CurrentOrigins(t));
+    }
+  }
+  return placed;
 }
 
 }  // namespace
@@ -333,6 +360,23 @@ absl::StatusOr<v1::Map> MapRegistry::GetMapWithNodeOrigins(const std::string& na
                                                             const SessionNodes& session_nodes) {
   absl::StatusOr<v1::Map> map = GetMap(name);
   if (!map.ok()) return map;
+  if (map_graph_) {
+    std::vector<int> tied;
+    for (int i = 0; i < map->trajectories_size(); ++i) {
+      if (map->trajectories(i).tied_in()) tied.push_back(i);
+    }
+    absl::StatusOr<PlacedMap> placed = Place(name, *map, tied, session_nodes, true);
+    if (placed.ok() && tied.size() > 1) {
+      for (size_t t = 0; t < tied.size(); ++t) {
+        v1::MapTrajectory* trajectory = map->mutable_trajectories(tied[t]);
+        for (const laser_slam::OriginSample& sample : placed->origins[t]) {
+          SetSample(sample, trajectory->add_node_origins());
+        }
+      }
+      return map;
+    }
+    // A session not readable here: each trajectory as it can be placed on its own.
+  }
   for (v1::MapTrajectory& trajectory : *map->mutable_trajectories()) {
     if (!trajectory.tied_in() || trajectory.origin_samples().empty()) continue;
     absl::StatusOr<laser_slam::TiedTrajectory> in_map = InMap(name, trajectory, session_nodes);
@@ -351,18 +395,20 @@ absl::StatusOr<v1::MapSegmentMap> MapRegistry::GetMapSegments(
   if (!split.ok()) return split.status();
   v1::MapSegmentMap response;
   SetMapHead(name, *split, &response);
+  absl::StatusOr<PlacedMap> where =
+      Place(name, split->map, split->tied, session_nodes, map_graph_);
+  if (!where.ok()) return where.status();
   std::vector<laser_slam::PlacedSegment> placed;
   for (size_t t = 0; t < split->tied.size(); ++t) {
     const v1::MapTrajectory& trajectory = split->map.trajectories(split->tied[t]);
     response.add_session_ids(trajectory.session_id());
     absl::StatusOr<v1::SegmentMap> own = session_segments(trajectory.session_id());
     if (!own.ok()) return TrajectoryError(name, trajectory, own.status());
-    absl::StatusOr<laser_slam::TiedTrajectory> in_map = InMap(name, trajectory, session_nodes);
-    if (!in_map.ok()) return in_map.status();
     std::vector<laser_slam::MapSegment> segments;
     segments.reserve(own->segments_size());
     for (const v1::MapSegment& s : own->segments()) segments.push_back(FromProtoSegment(s));
-    for (laser_slam::MapSegment& s : laser_slam::SegmentsInMapFrame(*in_map, segments)) {
+    for (laser_slam::MapSegment& s : laser_slam::SegmentsInMapFrame(
+             where->trajectories[t], segments, where->origins[t])) {
       placed.push_back({std::move(s), static_cast<int>(t)});
     }
   }
@@ -396,12 +442,13 @@ absl::StatusOr<v1::MapOccupancyGrid> MapRegistry::GetMapGrid(const std::string& 
   }
   const double cell = resolution.value_or(0.05);
   if (absl::Status s = InRange(cell, "resolution", 0.01, 1.0, false, "m"); !s.ok()) return s;
+  absl::StatusOr<PlacedMap> where =
+      Place(name, split->map, split->tied, session_nodes, map_graph_);
+  if (!where.ok()) return where.status();
   std::vector<laser_slam::NodeView> nodes;
-  for (const v1::MapTrajectory* trajectory : tied) {
-    // Followed after its tie: the origin at each stamp, from the nodes' current poses.
-    absl::StatusOr<laser_slam::TiedTrajectory> in_map = InMap(name, *trajectory, session_nodes);
-    if (!in_map.ok()) return in_map.status();
-    for (laser_slam::NodeView& node : laser_slam::NodesInMapFrame(*in_map)) {
+  for (size_t t = 0; t < where->trajectories.size(); ++t) {
+    for (laser_slam::NodeView& node :
+         laser_slam::NodesPlacedBy(where->trajectories[t], where->origins[t])) {
       nodes.push_back(std::move(node));
     }
   }

@@ -33,6 +33,7 @@
 #include "server/laser_slam/mapping/trajectory_tie.h"
 #include "server/service/slam/folder.h"
 #include "server/service/slam/session_leases.h"
+#include "server/service/slam/trajectory_nodes.h"
 #include "storage/map_store.h"
 #include "waymark/v1/slam.pb.h"
 
@@ -67,6 +68,12 @@ class MapRegistry {
   // maps on another server (looked up in the store) and whose maps are leased (Own).
   MapRegistry(storage::MapStore* store, SessionLeases* leases) : store_(store), leases_(leases) {}
 
+  // How the map's grid, segment map and node_origins place its trajectories: true, one pose
+  // graph over all of them (laser_slam/mapping/map_graph.h: a loop one robot left open is closed
+  // by the robot that drives it); false, one at a time, each followed robot bent to meet the
+  // others (CurrentOrigins). Set before serving.
+  void set_map_graph(bool on) { map_graph_ = on; }
+
   // Reads every map's trajectories (at start-up).
   absl::Status Load();
 
@@ -81,8 +88,7 @@ class MapRegistry {
   // all robots add their evidence in log odds, so a wall one robot saw and another saw through
   // (a door opened since) is weighed, not drawn twice.
   using SessionGrid = std::function<absl::StatusOr<v1::OccupancyGrid>(const std::string& id)>;
-  using SessionNodes =
-      std::function<absl::StatusOr<std::vector<laser_slam::NodeView>>(const std::string& id)>;
+  using SessionNodes = std::function<absl::StatusOr<TrajectoryNodes>(const std::string& id)>;
   absl::StatusOr<v1::MapOccupancyGrid> GetMapGrid(const std::string& name,
                                                   std::optional<double> resolution,
                                                   const SessionGrid& session_grid,
@@ -99,7 +105,8 @@ class MapRegistry {
                                                    const SessionNodes& session_nodes);
 
   // GetMap, with each followed trajectory's node_origins (CurrentOrigins of its session's
-  // nodes, `session_nodes`); a trajectory whose nodes cannot be read keeps origin_samples only.
+  // nodes, `session_nodes`; with the map's graph, every tied-in trajectory's, the map frame's
+  // too); a trajectory whose nodes cannot be read keeps origin_samples only.
   absl::StatusOr<v1::Map> GetMapWithNodeOrigins(const std::string& name,
                                                 const SessionNodes& session_nodes);
 
@@ -161,6 +168,7 @@ class MapRegistry {
 
   storage::MapStore* const store_;
   SessionLeases* const leases_;
+  bool map_graph_ = true;
   mutable std::mutex mutex_;  // guards members_, followed_, searches_, owned_
   std::map<std::string, std::shared_ptr<MapMembership>> members_;  // by session id
   // Followed trajectories: their origin samples, and the origin and sample count last written to

@@ -90,7 +90,7 @@ bool MapTieWorker::Pass() {
       map_nodes += nodes->nodes.size();
       tied.push_back(laser_slam::TiedTrajectory{
           laser_slam::Pose2{trajectory.tie->x, trajectory.tie->y, trajectory.tie->theta},
-          std::move(nodes->nodes), SamplesOf(trajectory.session_id)});
+          std::move(nodes->nodes), SamplesOf(trajectory.session_id), {}});
     }
     if (map_nodes == 0) continue;
     for (const storage::MapTrajectoryRecord& trajectory : map.trajectories) {
@@ -255,7 +255,7 @@ bool MapTieWorker::FollowPass(std::set<std::string>* referenced) {
       all.push_back(laser_slam::TiedTrajectory{
           laser_slam::Pose2{trajectory->tie->x, trajectory->tie->y, trajectory->tie->theta},
           nodes.ok() ? std::move(nodes->nodes) : std::vector<laser_slam::NodeView>{},
-          SamplesOf(trajectory->session_id)});
+          SamplesOf(trajectory->session_id), {}});
     }
     for (std::size_t i = 1; i < tied.size(); ++i) {
       more = FollowTurn(map.name, *tied[i], all, i) || more;

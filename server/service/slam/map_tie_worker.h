@@ -33,15 +33,10 @@
 #include "server/laser_slam/mapping/trajectory_follow.h"
 #include "server/laser_slam/mapping/trajectory_tie.h"
 #include "server/service/slam/folder.h"
+#include "server/service/slam/trajectory_nodes.h"
 #include "storage/map_store.h"
 
 namespace waymark::service {
-
-// A session's nodes as its graph now places them (its own frame).
-struct TrajectoryNodes {
-  std::vector<laser_slam::NodeView> nodes;
-  bool resident = false;  // false: read from its checkpoint (closed: it no longer changes)
-};
 
 class MapTieWorker {
  public:

@@ -190,6 +190,7 @@ absl::StatusOr<TrajectoryNodes> SessionQueries::TrajectoryNodesOf(const std::str
   }
   TrajectoryNodes out;
   out.nodes = laser->Nodes();
+  out.loops = laser->Loops();
   out.resident = table_->Find(session_id).ok();
   return out;
 }

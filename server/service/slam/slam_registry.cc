@@ -86,6 +86,7 @@ SlamRegistry::SlamRegistry(std::unique_ptr<storage::SlamStore> store,
   // With several servers on one database, a session may have joined its map on another one, and
   // a map is tied and followed by the server holding its lease.
   maps_ = std::make_unique<MapRegistry>(map_store_.get(), &leases_);
+  maps_->set_map_graph(options_.map_graph);
   team_ = std::make_shared<ExplorationTeam>(*maps_);
   if (map_store_ != nullptr && options_.map_tie) {
     // Ties robots into their maps, on its own thread (map_tie_worker.h).
@@ -268,11 +269,8 @@ namespace {
 
 // A session's scan nodes, as maps read them (their grid, their segments).
 MapRegistry::SessionNodes SessionNodesForMaps(SessionQueries& queries) {
-  return [&queries](const std::string& session_id)
-             -> absl::StatusOr<std::vector<laser_slam::NodeView>> {
-    absl::StatusOr<TrajectoryNodes> nodes = queries.TrajectoryNodesOf(session_id);
-    if (!nodes.ok()) return nodes.status();
-    return std::move(nodes->nodes);
+  return [&queries](const std::string& session_id) {
+    return queries.TrajectoryNodesOf(session_id);
   };
 }
 

@@ -38,6 +38,9 @@ struct SlamRegistryOptions {
   // After the tie, match every robot but the map frame's again against the others in local
   // windows (laser_slam::TrajectoryFollow): its origin becomes piecewise. False: one origin.
   bool map_follow = true;
+  // The map's grid, segment map and node_origins from one pose graph over all its trajectories
+  // (MapRegistry::set_map_graph); false: each trajectory placed on its own.
+  bool map_graph = true;
   // A tie needs the kept unique matches to outvote the ones disagreeing with it
   // (laser_slam::TieOptions::outvote_disagreements); false: the first agreeing pair ties.
   bool map_tie_outvote = true;
