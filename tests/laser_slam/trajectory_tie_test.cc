@@ -114,16 +114,25 @@ TEST(TrajectoryTieTest, TwoRobotsInOneOfficeAreTiedInAgreeingWithTheTruth) {
   EXPECT_LE(run.progress.tie_scan, 3 * (run.nodes_fed - 1) + 1);
 }
 
+// The two robots of PillarOffice, the first one's frame the map's: its map, the second robot's
+// nodes and where the second one truly starts in the map.
+struct TwoRobots {
+  std::vector<Wall> walls = PillarOffice();
+  std::vector<Pose2> a = FirstRobotPath();
+  std::vector<Pose2> b = SecondRobotPath();
+  std::vector<TiedTrajectory> map{{Pose2{}, NodesOf(walls, a)}};
+  Pose2 truth = Relative(a.front(), b.front());
+  std::vector<NodeView> joining = NodesOf(walls, b);
+};
+
 // The searches spread over the scans under a budget: the tie comes later and is as right; and
 // it comes at the same scan whether the nodes arrive one by one (a robot at its pace) or all at
 // once (a replay far faster than real time, the searches catching up after it).
 TEST(TrajectoryTieTest, ABudgetPerScanSpreadsTheSearchesWhateverThePaceOfTheCalls) {
-  const std::vector<Wall> walls = PillarOffice();
-  const std::vector<Pose2> a = FirstRobotPath();
-  const std::vector<Pose2> b = SecondRobotPath();
-  const std::vector<TiedTrajectory> map{{Pose2{}, NodesOf(walls, a)}};
-  const Pose2 truth = Relative(a.front(), b.front());
-  const std::vector<NodeView> joining = NodesOf(walls, b);
+  const TwoRobots robots;
+  const std::vector<TiedTrajectory>& map = robots.map;
+  const Pose2& truth = robots.truth;
+  const std::vector<NodeView>& joining = robots.joining;
 
   const TieRun whole = RunTie(map, joining, kManyReads);
   ASSERT_TRUE(whole.progress.tie.has_value());
@@ -158,12 +167,10 @@ TEST(TrajectoryTieTest, ABudgetPerScanSpreadsTheSearchesWhateverThePaceOfTheCall
 // ../shared do) gets few scans' worth of searches over its whole drive; by the second, as a
 // robot scanning at its own rate would, it is tied in as early and as right as with no limit.
 TEST(TrajectoryTieTest, KeyframesSecondsApartGetTheirSearchesBySecond) {
-  const std::vector<Wall> walls = PillarOffice();
-  const std::vector<Pose2> a = FirstRobotPath();
-  const std::vector<Pose2> b = SecondRobotPath();
-  const std::vector<TiedTrajectory> map{{Pose2{}, NodesOf(walls, a)}};
-  const Pose2 truth = Relative(a.front(), b.front());
-  std::vector<NodeView> keyframes = NodesOf(walls, b);
+  const TwoRobots robots;
+  const std::vector<TiedTrajectory>& map = robots.map;
+  const Pose2& truth = robots.truth;
+  std::vector<NodeView> keyframes = robots.joining;
   for (size_t i = 0; i < keyframes.size(); ++i) {
     keyframes[i].scan = i + 1;
     keyframes[i].stamp = 4.0 * static_cast<double>(i);
