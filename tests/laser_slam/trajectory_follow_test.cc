@@ -207,3 +207,56 @@ TEST(RefreshOriginsTest, AMatchedSampleFollowsItsNodeAndTheTieStays) {
 
 }  // namespace
 }  // namespace waymark::laser_slam
+
+namespace waymark::laser_slam {
+namespace {
+
+// The window grows with the travel since the last sample, three sigmas of the floor plus the
+// drift per metre, up to its caps.
+TEST(FollowWindowTest, GrowsWithTheTravelUpToItsCaps) {
+  const FollowOptions options;
+  const SearchWindow none = FollowWindow(options, 0.0);
+  EXPECT_DOUBLE_EQ(none.xy, 3.0 * 0.1);
+  EXPECT_DOUBLE_EQ(none.theta, 3.0 * 0.03);
+  const SearchWindow after_20m = FollowWindow(options, 20.0);
+  EXPECT_DOUBLE_EQ(after_20m.xy, 3.0 * (0.1 + 0.02 * 20.0));
+  EXPECT_DOUBLE_EQ(after_20m.theta, 3.0 * (0.03 + 0.005 * 20.0));
+  const SearchWindow far = FollowWindow(options, 1e6);
+  EXPECT_DOUBLE_EQ(far.xy, options.max_window_xy);
+  EXPECT_DOUBLE_EQ(far.theta, options.max_window_theta);
+}
+
+// Two places close together in the map but at the two ends of one robot's loop are that loop
+// apart along the map; places nearest to two different robots' nodes, nothing (the tie and the
+// samples relate those, not a path).
+TEST(FollowWindowTest, TheMapsPathBetweenTwoPlacesIsAlongOneTrajectory) {
+  // Robot 0 drives a 10 m x 4 m loop that it did not close: its start at (0, 0), its end at
+  // (0, 0.5). Robot 1 stands 20 m east.
+  std::vector<TiedTrajectory> map(2);
+  const std::vector<Pose2> loop = PolylinePath({{0, 0}, {10, 0}, {10, 4}, {0, 4}, {0, 0.5}}, 0.5);
+  for (size_t i = 0; i < loop.size(); ++i) {
+    NodeView node;
+    node.scan = i + 1;
+    node.global = loop[i];
+    map[0].nodes.push_back(node);
+  }
+  for (int i = 0; i < 5; ++i) {
+    NodeView node;
+    node.scan = i + 1;
+    node.global = Pose2{20.0 + i, 0.0, 0.0};
+    map[1].nodes.push_back(node);
+  }
+  const std::vector<MapPathPoint> path = MapPath(map);
+  ASSERT_EQ(path.size(), loop.size() + 5);
+  EXPECT_NEAR(path[loop.size() - 1].along, 10.0 + 4.0 + 10.0 + 3.0, 0.5);
+  EXPECT_EQ(path.back().trajectory, 1);
+  EXPECT_NEAR(path.back().along, 4.0, 1e-9);
+  // The loop's start and end: 0.5 m apart in the map, 27 m along it.
+  EXPECT_NEAR(MapTravelBetween(path, Pose2{0.1, 0.0, 0.0}, Pose2{0.1, 0.6, 0.0}), 27.0, 0.6);
+  EXPECT_NEAR(MapTravelBetween(path, Pose2{5.0, 0.1, 0.0}, Pose2{6.0, 0.1, 0.0}), 1.0, 1e-9);
+  EXPECT_DOUBLE_EQ(MapTravelBetween(path, Pose2{5.0, 0.0, 0.0}, Pose2{21.0, 0.0, 0.0}), 0.0);
+  EXPECT_DOUBLE_EQ(MapTravelBetween({}, Pose2{}, Pose2{1.0, 0.0, 0.0}), 0.0);
+}
+
+}  // namespace
+}  // namespace waymark::laser_slam

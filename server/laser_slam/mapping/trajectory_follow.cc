@@ -7,6 +7,7 @@
 #include "server/laser_slam/geometry.h"
 #include "server/laser_slam/mapping/correlative_matcher.h"
 #include "server/laser_slam/mapping/occupancy_grid.h"
+#include "server/laser_slam/mapping/origin_smoothing.h"
 #include "server/laser_slam/option_checks.h"
 
 namespace waymark::laser_slam {
@@ -81,7 +82,8 @@ bool TrajectoryFollow::WantsMap(std::size_t map_nodes) const {
          (1.0 + options_.map_growth) * static_cast<double>(grid_nodes_);
 }
 
-absl::Status TrajectoryFollow::SetMap(const PointCloud& others, std::size_t map_nodes) {
+absl::Status TrajectoryFollow::SetMap(const PointCloud& others, std::size_t map_nodes,
+                                      std::vector<MapPathPoint> path) {
   if (others.empty()) return absl::FailedPreconditionError("no other trajectory has points yet");
   LikelihoodGrid fine = BuildLikelihoodGrid(ThinPoints(others, options_.point_cell),
                                             options_.grid_resolution, options_.grid_sigma,
@@ -91,7 +93,37 @@ absl::Status TrajectoryFollow::SetMap(const PointCloud& others, std::size_t map_
   }
   grid_ = std::make_unique<SearchPyramid>(std::move(fine), 6);
   grid_nodes_ = map_nodes;
+  path_ = std::move(path);
   return absl::OkStatus();
+}
+
+SearchWindow FollowWindow(const FollowOptions& options, double travel) {
+  const double s = options.window_sigmas;
+  return SearchWindow{
+      std::min(options.max_window_xy,
+               s * (options.sigma_xy_floor + options.sigma_xy_per_metre * travel)),
+      std::min(options.max_window_theta,
+               s * (options.sigma_theta_floor + options.sigma_theta_per_metre * travel))};
+}
+
+double MapTravelBetween(const std::vector<MapPathPoint>& path, const Pose2& from, const Pose2& to) {
+  // The nearest node to each place; a linear pass (an attempt every few nodes).
+  const auto nearest = [&path](const Pose2& p) {
+    const MapPathPoint* best = nullptr;
+    double best_sq = 0.0;
+    for (const MapPathPoint& q : path) {
+      const double sq = (q.x - p.x) * (q.x - p.x) + (q.y - p.y) * (q.y - p.y);
+      if (best == nullptr || sq < best_sq) {
+        best = &q;
+        best_sq = sq;
+      }
+    }
+    return best;
+  };
+  const MapPathPoint* a = nearest(from);
+  const MapPathPoint* b = nearest(to);
+  if (a == nullptr || b == nullptr || a->trajectory != b->trajectory) return 0.0;
+  return std::abs(a->along - b->along);
 }
 
 int TrajectoryFollow::Advance(const std::vector<NodeView>& nodes, int max_attempts) {
@@ -136,13 +168,15 @@ bool TrajectoryFollow::Attempt(const std::vector<NodeView>& nodes, int node) {
     travel += std::hypot(nodes[i].global.x - nodes[i - 1].global.x,
                          nodes[i].global.y - nodes[i - 1].global.y);
   }
-  const double s = options_.window_sigmas;
-  const SearchWindow window{
-      std::min(options_.max_window_xy,
-               s * (options_.sigma_xy_floor + options_.sigma_xy_per_metre * travel)),
-      std::min(options_.max_window_theta,
-               s * (options_.sigma_theta_floor + options_.sigma_theta_per_metre * travel))};
   const Pose2 predicted = Compose(OriginAt(samples_, at.stamp), at.global);
+  if (options_.window_for_map_drift && !path_.empty()) {
+    const int last_node = NodeOfScan(nodes, last.scan);
+    if (last_node >= 0) {
+      travel += MapTravelBetween(
+          path_, Compose(OriginAt(samples_, last.stamp), nodes[last_node].global), predicted);
+    }
+  }
+  const SearchWindow window = FollowWindow(options_, travel);
 
   ++progress_.attempts;
   const std::optional<GridMatch> match =

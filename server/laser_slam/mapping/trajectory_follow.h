@@ -56,6 +56,15 @@ void RefreshOrigins(const std::vector<NodeView>& nodes, std::vector<OriginSample
 // first before it and the last after it. Empty: the identity.
 Pose2 OriginAt(const std::vector<OriginSample>& samples, double stamp);
 
+// A node of the other trajectories, where the map has it, and how far along its own trajectory it
+// lies (metres from that trajectory's first node): what the window adds for the map's own drift.
+struct MapPathPoint {
+  double x = 0.0;
+  double y = 0.0;
+  int trajectory = 0;
+  double along = 0.0;
+};
+
 struct FollowOptions {
   int every_nodes = 5;   // one match attempt every this many nodes (its newest)
   int query_nodes = 5;   // the query: the points of this many nodes in the newest one's frame
@@ -74,6 +83,12 @@ struct FollowOptions {
   // the first one's start 4.5 m from where that map has it). With the map's graph
   // (map_graph.h) such a sample closes the loop; placed one at a time, it bent the robot instead
   // (2 m and 0.4 rad were the caps then).
+  // The window also grows with the map's own drift between the place of the last sample and the
+  // place searched (the map's path between them, at sigma_*_per_metre, where one trajectory of
+  // the map holds both): a robot that drives a loop another robot left open comes back to that
+  // robot's start as far from where its map has it as the other robot drifted round the loop
+  // (ACES at 10 %: 4.5 m, where its own travel since the last sample gave a 2.7 m window).
+  bool window_for_map_drift = true;
   double max_window_xy = 30.0;
   double max_window_theta = 1.5;
   double min_score = 0.6;
@@ -86,6 +101,17 @@ struct FollowOptions {
 };
 
 absl::Status ValidateFollowOptions(const FollowOptions& options);
+
+// The window of an attempt after `travel` metres (the robot's own since its last sample, plus the
+// map's path between there and here): window_sigmas times the floor plus the drift per metre,
+// capped.
+SearchWindow FollowWindow(const FollowOptions& options, double travel);
+
+// How far along one trajectory of the map two places lie apart: the distance along it between its
+// nodes nearest to each (0 when their nearest nodes belong to different trajectories, or there
+// are none). A robot's last sample and its next attempt near the two ends of a loop another robot
+// left open are that robot's whole loop apart, however close they are in the map.
+double MapTravelBetween(const std::vector<MapPathPoint>& path, const Pose2& from, const Pose2& to);
 
 struct FollowProgress {
   int attempts = 0;   // windowed matches tried
@@ -109,8 +135,10 @@ class TrajectoryFollow {
   TrajectoryFollow& operator=(const TrajectoryFollow&) = delete;
 
   bool WantsMap(std::size_t map_nodes) const;
-  // The other tied-in trajectories' points in the map frame (MapCloud without this robot's).
-  absl::Status SetMap(const PointCloud& others, std::size_t map_nodes);
+  // The other tied-in trajectories' points in the map frame (MapCloud without this robot's), and
+  // their nodes along their paths (MapPath; empty: the window knows nothing of the map's drift).
+  absl::Status SetMap(const PointCloud& others, std::size_t map_nodes,
+                      std::vector<MapPathPoint> path = {});
 
   // Matches the robot's nodes (its session's graph poses, oldest first, node i staying node i)
   // not looked at yet: at most `max_attempts` windowed matches now. Returns how many nodes it
@@ -128,6 +156,7 @@ class TrajectoryFollow {
 
   const FollowOptions options_;
   std::unique_ptr<SearchPyramid> grid_;
+  std::vector<MapPathPoint> path_;
   std::size_t grid_nodes_ = 0;
   std::vector<OriginSample> samples_;
   int next_node_ = -1;  // the next node to try (-1: the first after the tie's stamp)

@@ -90,6 +90,22 @@ std::vector<NodeView> NodesPlacedBy(const TiedTrajectory& trajectory,
   return nodes;
 }
 
+std::vector<MapPathPoint> MapPath(const std::vector<TiedTrajectory>& trajectories) {
+  std::vector<MapPathPoint> path;
+  for (size_t t = 0; t < trajectories.size(); ++t) {
+    double along = 0.0;
+    const std::vector<NodeView> nodes = NodesInMapFrame(trajectories[t]);
+    for (size_t i = 0; i < nodes.size(); ++i) {
+      if (i > 0) {
+        along += std::hypot(nodes[i].global.x - nodes[i - 1].global.x,
+                            nodes[i].global.y - nodes[i - 1].global.y);
+      }
+      path.push_back(MapPathPoint{nodes[i].global.x, nodes[i].global.y, static_cast<int>(t), along});
+    }
+  }
+  return path;
+}
+
 PointCloud MapCloud(const std::vector<TiedTrajectory>& trajectories, double cell) {
   PointCloud map;
   for (const TiedTrajectory& trajectory : trajectories) {

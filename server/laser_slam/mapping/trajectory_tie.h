@@ -133,6 +133,10 @@ std::vector<NodeView> NodesInMapFrame(const TiedTrajectory& trajectory);
 std::vector<NodeView> NodesPlacedBy(const TiedTrajectory& trajectory,
                                     const std::vector<OriginSample>& origins);
 
+// The tied-in trajectories' nodes in the map frame with the distance along each trajectory
+// (trajectory = its index in `trajectories`): what a follow's window adds for the map's drift.
+std::vector<MapPathPoint> MapPath(const std::vector<TiedTrajectory>& trajectories);
+
 // The tied-in trajectories' points in the map frame, thinned to one per `cell`.
 PointCloud MapCloud(const std::vector<TiedTrajectory>& trajectories, double cell);
 

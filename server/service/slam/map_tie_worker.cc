@@ -303,7 +303,8 @@ bool MapTieWorker::FollowTurn(const std::string& map,
       if (j != self) others.push_back(all[j]);
     }
     if (absl::Status s = following.follow->SetMap(
-            laser_slam::MapCloud(others, options_.follow_options.point_cell), others_nodes);
+            laser_slam::MapCloud(others, options_.follow_options.point_cell), others_nodes,
+            laser_slam::MapPath(others));
         !s.ok()) {
       spdlog::warn("SLAM map \"{}\": cannot follow session {}: {}", map, session_id,
                    s.ToString());
