@@ -107,8 +107,10 @@ def follow_line(session):
             'mreads': int(found.group(5)) if found.group(5) else None}
 
 
-scans = sum(1 for line in subprocess.run(['bzcat' if a.log.endswith('.bz2') else 'cat', a.log],
-                                         capture_output=True, text=True).stdout.splitlines()
+# The log as the server reads it: plain, bzip2 or gzip.
+reader = 'bzcat' if a.log.endswith('.bz2') else 'zcat' if a.log.endswith('.gz') else 'cat'
+scans = sum(1 for line in subprocess.run([reader, a.log], capture_output=True,
+                                         text=True).stdout.splitlines()
             if line.startswith(('FLASER', 'ROBOTLASER1')))
 n = a.robots
 length = int(round(scans / (n - (n - 1) * a.overlap)))
