@@ -256,6 +256,19 @@ TEST(FollowWindowTest, TheMapsPathBetweenTwoPlacesIsAlongOneTrajectory) {
   EXPECT_NEAR(MapTravelBetween(path, Pose2{5.0, 0.1, 0.0}, Pose2{6.0, 0.1, 0.0}), 1.0, 1e-9);
   EXPECT_DOUBLE_EQ(MapTravelBetween(path, Pose2{5.0, 0.0, 0.0}, Pose2{21.0, 0.0, 0.0}), 0.0);
   EXPECT_DOUBLE_EQ(MapTravelBetween({}, Pose2{}, Pose2{1.0, 0.0, 0.0}), 0.0);
+
+  // Had robot 0's session closed its loop (its last node with its first), the two ends are one
+  // place of its map: the way round the loop no longer counts.
+  GraphConstraint closure;
+  closure.kind = GraphConstraint::Kind::kLoop;
+  closure.from = static_cast<int>(loop.size()) - 1;
+  closure.to = 0;
+  map[0].loops = {closure};
+  const std::vector<MapPathPoint> closed = MapPath(map);
+  EXPECT_NEAR(MapTravelBetween(closed, Pose2{0.1, 0.0, 0.0}, Pose2{0.1, 0.6, 0.0}), 0.0, 1e-9);
+  // Half way round, the shorter way counts: (10, 2) is 12 m from the start one way and 15 m the
+  // other; from the start's neighbour (1, 0), 11 m.
+  EXPECT_NEAR(MapTravelBetween(closed, Pose2{1.0, 0.1, 0.0}, Pose2{10.1, 2.0, 0.0}), 11.0, 1e-9);
 }
 
 }  // namespace

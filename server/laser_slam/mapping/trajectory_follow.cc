@@ -2,7 +2,11 @@
 
 #include <algorithm>
 #include <cmath>
+#include <functional>
+#include <limits>
 #include <optional>
+#include <queue>
+#include <utility>
 
 #include "server/laser_slam/geometry.h"
 #include "server/laser_slam/mapping/correlative_matcher.h"
@@ -123,6 +127,35 @@ double MapTravelBetween(const std::vector<MapPathPoint>& path, const Pose2& from
   const MapPathPoint* a = nearest(from);
   const MapPathPoint* b = nearest(to);
   if (a == nullptr || b == nullptr || a->trajectory != b->trajectory) return 0.0;
+  // Dijkstra over the trajectory's points (contiguous in the path): its chain, weighted by the
+  // distance along it, and its closures, weighted 0.
+  const int start = static_cast<int>(a - path.data());
+  const int goal = static_cast<int>(b - path.data());
+  int first = start, last = start;
+  while (first > 0 && path[first - 1].trajectory == a->trajectory) --first;
+  while (last + 1 < static_cast<int>(path.size()) && path[last + 1].trajectory == a->trajectory) {
+    ++last;
+  }
+  std::vector<double> distance(static_cast<size_t>(last - first + 1),
+                               std::numeric_limits<double>::infinity());
+  using Entry = std::pair<double, int>;
+  std::priority_queue<Entry, std::vector<Entry>, std::greater<Entry>> queue;
+  distance[start - first] = 0.0;
+  queue.push({0.0, start});
+  while (!queue.empty()) {
+    const auto [d, i] = queue.top();
+    queue.pop();
+    if (i == goal) return d;
+    if (d > distance[i - first]) continue;
+    const auto relax = [&](int j, double w) {
+      if (j < first || j > last || d + w >= distance[j - first]) return;
+      distance[j - first] = d + w;
+      queue.push({d + w, j});
+    };
+    if (i > first) relax(i - 1, std::abs(path[i].along - path[i - 1].along));
+    if (i < last) relax(i + 1, std::abs(path[i + 1].along - path[i].along));
+    for (int j : path[i].closes_to) relax(j, 0.0);
+  }
   return std::abs(a->along - b->along);
 }
 

@@ -63,6 +63,9 @@ struct MapPathPoint {
   double y = 0.0;
   int trajectory = 0;
   double along = 0.0;
+  // The points (indices into the path) this node's own session closed a loop with: the map's
+  // path between two places takes such a closure as a shortcut.
+  std::vector<int> closes_to;
 };
 
 struct FollowOptions {
@@ -107,10 +110,11 @@ absl::Status ValidateFollowOptions(const FollowOptions& options);
 // capped.
 SearchWindow FollowWindow(const FollowOptions& options, double travel);
 
-// How far along one trajectory of the map two places lie apart: the distance along it between its
-// nodes nearest to each (0 when their nearest nodes belong to different trajectories, or there
-// are none). A robot's last sample and its next attempt near the two ends of a loop another robot
-// left open are that robot's whole loop apart, however close they are in the map.
+// How far along one trajectory of the map two places lie apart: the shortest way between its
+// nodes nearest to each along the trajectory and through its own loop closures (0 when their
+// nearest nodes belong to different trajectories, or there are none). A robot's last sample and
+// its next attempt near the two ends of a loop another robot left open are that robot's whole
+// loop apart, however close they are in the map; where that robot closed the loop, they are not.
 double MapTravelBetween(const std::vector<MapPathPoint>& path, const Pose2& from, const Pose2& to);
 
 struct FollowProgress {

@@ -94,13 +94,21 @@ std::vector<MapPathPoint> MapPath(const std::vector<TiedTrajectory>& trajectorie
   std::vector<MapPathPoint> path;
   for (size_t t = 0; t < trajectories.size(); ++t) {
     double along = 0.0;
+    const int first = static_cast<int>(path.size());
     const std::vector<NodeView> nodes = NodesInMapFrame(trajectories[t]);
     for (size_t i = 0; i < nodes.size(); ++i) {
       if (i > 0) {
         along += std::hypot(nodes[i].global.x - nodes[i - 1].global.x,
                             nodes[i].global.y - nodes[i - 1].global.y);
       }
-      path.push_back(MapPathPoint{nodes[i].global.x, nodes[i].global.y, static_cast<int>(t), along});
+      path.push_back(
+          MapPathPoint{nodes[i].global.x, nodes[i].global.y, static_cast<int>(t), along, {}});
+    }
+    const int n = static_cast<int>(nodes.size());
+    for (const GraphConstraint& loop : trajectories[t].loops) {
+      if (!loop.enabled || loop.from < 0 || loop.to < 0 || loop.from >= n || loop.to >= n) continue;
+      path[first + loop.from].closes_to.push_back(first + loop.to);
+      path[first + loop.to].closes_to.push_back(first + loop.from);
     }
   }
   return path;

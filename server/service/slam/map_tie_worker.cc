@@ -255,7 +255,8 @@ bool MapTieWorker::FollowPass(std::set<std::string>* referenced) {
       all.push_back(laser_slam::TiedTrajectory{
           laser_slam::Pose2{trajectory->tie->x, trajectory->tie->y, trajectory->tie->theta},
           nodes.ok() ? std::move(nodes->nodes) : std::vector<laser_slam::NodeView>{},
-          SamplesOf(trajectory->session_id), {}});
+          SamplesOf(trajectory->session_id),
+          nodes.ok() ? std::move(nodes->loops) : std::vector<laser_slam::GraphConstraint>{}});
     }
     for (std::size_t i = 1; i < tied.size(); ++i) {
       more = FollowTurn(map.name, *tied[i], all, i) || more;
