@@ -13,44 +13,35 @@
 namespace waymark::laser_slam {
 namespace {
 
-struct NodeRef {
-  int trajectory = -1;
-  int pose = -1;  // index in the graph's poses
-};
-
-// The nodes in square cells of the anchor radius, so that the nearest node within it is among
-// the 3 x 3 cells around a point (a map revisited for hours holds tens of thousands of nodes and
-// as many samples).
-class NodeCells {
+// The graph's poses in square cells of the anchor radius, so that the nearest pose within it is
+// among the 3 x 3 cells around a point (a map revisited for hours holds tens of thousands of nodes
+// and as many samples).
+class PoseCells {
  public:
-  NodeCells(const std::vector<std::vector<NodeView>>& placed, const std::vector<int>& first_pose,
-            double radius)
-      : placed_(placed), first_pose_(first_pose), radius_(radius) {
-    for (size_t t = 0; t < placed.size(); ++t) {
-      for (size_t i = 0; i < placed[t].size(); ++i) {
-        cells_[Key(placed[t][i].global.x, placed[t][i].global.y)].push_back(
-            NodeRef{static_cast<int>(t), static_cast<int>(i)});
-      }
+  // `owner[k]`: the trajectory pose k belongs to.
+  PoseCells(const std::vector<Pose2>& poses, const std::vector<int>& owner, double radius)
+      : poses_(poses), owner_(owner), radius_(radius) {
+    for (size_t k = 0; k < poses.size(); ++k) {
+      cells_[Key(poses[k].x, poses[k].y)].push_back(static_cast<int>(k));
     }
   }
 
-  // The nearest node of a trajectory other than `self` to `at` within the radius, by where the
-  // one-at-a-time placement has it (pose -1: none).
-  NodeRef NearestOther(int self, const Pose2& at) const {
-    NodeRef best;
+  // The nearest pose of a trajectory other than `self` to `at` within the radius (-1: none).
+  int NearestOther(int self, const Pose2& at) const {
+    int best = -1;
     double best_sq = radius_ * radius_;
     const auto [cx, cy] = Cell(at.x, at.y);
     for (std::int64_t dx = -1; dx <= 1; ++dx) {
       for (std::int64_t dy = -1; dy <= 1; ++dy) {
         const auto it = cells_.find(Pack(cx + dx, cy + dy));
         if (it == cells_.end()) continue;
-        for (const NodeRef& ref : it->second) {
-          if (ref.trajectory == self) continue;
-          const Pose2& p = placed_[ref.trajectory][ref.pose].global;
+        for (const int k : it->second) {
+          if (owner_[k] == self) continue;
+          const Pose2& p = poses_[k];
           const double sq = (p.x - at.x) * (p.x - at.x) + (p.y - at.y) * (p.y - at.y);
           if (sq <= best_sq) {
             best_sq = sq;
-            best = NodeRef{ref.trajectory, first_pose_[ref.trajectory] + ref.pose};
+            best = k;
           }
         }
       }
@@ -71,10 +62,10 @@ class NodeCells {
     return Pack(cx, cy);
   }
 
-  const std::vector<std::vector<NodeView>>& placed_;
-  const std::vector<int>& first_pose_;
+  const std::vector<Pose2>& poses_;
+  const std::vector<int>& owner_;
   const double radius_;
-  std::unordered_map<std::uint64_t, std::vector<NodeRef>> cells_;  // NodeRef::pose: node index
+  std::unordered_map<std::uint64_t, std::vector<int>> cells_;
 };
 
 bool Finite(const Pose2& p) {
@@ -86,14 +77,16 @@ bool Finite(const Pose2& p) {
 std::vector<std::vector<OriginSample>> SolveMapGraph(const std::vector<TiedTrajectory>& trajectories,
                                                      const MapGraphOptions& options) {
   // Where the one-at-a-time placement has every node: the start, and what the samples were
-  // matched against.
-  std::vector<std::vector<NodeView>> placed;
+  // matched against. Trajectory t's node i is pose first_pose[t] + i.
   std::vector<int> first_pose;
   std::vector<Pose2> poses;
-  for (const TiedTrajectory& trajectory : trajectories) {
-    placed.push_back(NodesInMapFrame(trajectory));
+  std::vector<int> owner;
+  for (size_t t = 0; t < trajectories.size(); ++t) {
     first_pose.push_back(static_cast<int>(poses.size()));
-    for (const NodeView& node : placed.back()) poses.push_back(node.global);
+    for (const NodeView& node : NodesInMapFrame(trajectories[t])) {
+      poses.push_back(node.global);
+      owner.push_back(static_cast<int>(t));
+    }
   }
   // Every node at `at` (its pose index).
   const auto placed_at = [&](const std::vector<Pose2>& at) {
@@ -107,31 +100,19 @@ std::vector<std::vector<OriginSample>> SolveMapGraph(const std::vector<TiedTraje
     }
     return out;
   };
-  if (trajectories.empty() || placed.front().empty()) return placed_at(poses);
+  if (trajectories.empty() || trajectories.front().nodes.empty()) return placed_at(poses);
 
-  const NodeCells cells(placed, first_pose, std::max(options.anchor_radius, 1e-3));
+  const PoseCells cells(poses, owner, std::max(options.anchor_radius, 1e-3));
   std::vector<GraphConstraint> constraints;
   int anchored = 0;
   for (size_t t = 0; t < trajectories.size(); ++t) {
     const std::vector<NodeView>& nodes = trajectories[t].nodes;
-    for (size_t i = 1; i < nodes.size(); ++i) {
-      GraphConstraint chain;
-      chain.kind = GraphConstraint::Kind::kChain;
-      chain.from = first_pose[t] + static_cast<int>(i) - 1;
-      chain.to = first_pose[t] + static_cast<int>(i);
-      chain.relative = Relative(nodes[i - 1].global, nodes[i].global);
-      chain.sigma = ChainStepSigma(nodes[i], chain.relative);
-      constraints.push_back(chain);
-    }
+    AppendChain(nodes, first_pose[t], &constraints);
     // Its own loop closures, at the relative poses its session's graph now gives them: with no
     // sample pulling, the trajectory keeps its shape, as stiff as its closures make it. Its own
     // session accepted them (and switched off the ones its graph contradicted), so they are held
     // as its chain is, not under the Huber loss the samples from other robots' maps are under.
-    for (const GraphConstraint& loop : trajectories[t].loops) {
-      if (loop.from < 0 || loop.to < 0 || loop.from >= static_cast<int>(nodes.size()) ||
-          loop.to >= static_cast<int>(nodes.size()) || !loop.enabled) {
-        continue;
-      }
+    for (const GraphConstraint& loop : LoopsInForce(trajectories[t])) {
       GraphConstraint held = loop;
       held.kind = GraphConstraint::Kind::kChain;
       held.from = first_pose[t] + loop.from;
@@ -147,16 +128,13 @@ std::vector<std::vector<OriginSample>> SolveMapGraph(const std::vector<TiedTraje
       const Pose2 observed = ObservedMapPose(sample, nodes[node]);
       // Relative to the nearest other node as the follow saw it; with none near, to the gauge
       // node (the map frame, which does not move).
-      NodeRef anchor = cells.NearestOther(static_cast<int>(t), observed);
-      if (anchor.pose < 0) anchor.pose = 0;
+      const int anchor = std::max(cells.NearestOther(static_cast<int>(t), observed), 0);
       GraphConstraint seen;
       seen.kind = GraphConstraint::Kind::kLoop;  // under the Huber loss, as a closure
-      seen.from = anchor.pose;
+      seen.from = anchor;
       seen.to = first_pose[t] + node;
-      seen.relative = Relative(poses[anchor.pose], observed);
-      seen.sigma = Eigen::Vector3d(options.samples.sample_sigma_xy,
-                                   options.samples.sample_sigma_xy,
-                                   options.samples.sample_sigma_theta);
+      seen.relative = Relative(poses[anchor], observed);
+      seen.sigma = options.samples.sample_sigma();
       constraints.push_back(seen);
       ++anchored;
     }
@@ -168,9 +146,7 @@ std::vector<std::vector<OriginSample>> SolveMapGraph(const std::vector<TiedTraje
       held.from = 0;
       held.to = first_pose[t];
       held.relative = Relative(poses[0], poses[first_pose[t]]);
-      held.sigma = Eigen::Vector3d(options.samples.sample_sigma_xy,
-                                   options.samples.sample_sigma_xy,
-                                   options.samples.sample_sigma_theta);
+      held.sigma = options.samples.sample_sigma();
       constraints.push_back(held);
     }
   }

@@ -20,6 +20,19 @@ Eigen::Vector3d ChainStepSigma(const NodeView& node, const Pose2& step) {
                              kDefaults.chain_sigma_theta_per_rad * std::abs(step.theta));
 }
 
+void AppendChain(const std::vector<NodeView>& nodes, int first_pose,
+                 std::vector<GraphConstraint>* constraints) {
+  for (size_t i = 1; i < nodes.size(); ++i) {
+    GraphConstraint chain;
+    chain.kind = GraphConstraint::Kind::kChain;
+    chain.from = first_pose + static_cast<int>(i) - 1;
+    chain.to = first_pose + static_cast<int>(i);
+    chain.relative = Relative(nodes[i - 1].global, nodes[i].global);
+    chain.sigma = ChainStepSigma(nodes[i], chain.relative);
+    constraints->push_back(chain);
+  }
+}
+
 int NodeOfScan(const std::vector<NodeView>& nodes, std::uint64_t scan) {
   const auto it = std::lower_bound(
       nodes.begin(), nodes.end(), scan,
@@ -57,15 +70,7 @@ std::vector<OriginSample> SmoothOrigins(const std::vector<NodeView>& nodes,
   }
   std::vector<GraphConstraint> constraints;
   constraints.reserve(static_cast<size_t>(n) + samples.size());
-  for (int i = 1; i < n; ++i) {
-    GraphConstraint chain;
-    chain.kind = GraphConstraint::Kind::kChain;
-    chain.from = i;
-    chain.to = i + 1;
-    chain.relative = Relative(nodes[i - 1].global, nodes[i].global);
-    chain.sigma = ChainStepSigma(nodes[i], chain.relative);
-    constraints.push_back(chain);
-  }
+  AppendChain(nodes, 1, &constraints);
   int observed = 0;
   for (const OriginSample& sample : refreshed) {
     const int node = NodeOfScan(nodes, sample.scan);
@@ -75,8 +80,7 @@ std::vector<OriginSample> SmoothOrigins(const std::vector<NodeView>& nodes,
     seen.from = 0;
     seen.to = node + 1;
     seen.relative = ObservedMapPose(sample, nodes[node]);
-    seen.sigma = Eigen::Vector3d(options.sample_sigma_xy, options.sample_sigma_xy,
-                                 options.sample_sigma_theta);
+    seen.sigma = options.sample_sigma();
     constraints.push_back(seen);
     ++observed;
   }

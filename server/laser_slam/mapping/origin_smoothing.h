@@ -27,6 +27,7 @@
 #include <Eigen/Core>
 
 #include "server/laser_slam/mapping/mapping_backend.h"
+#include "server/laser_slam/mapping/pose_graph.h"
 #include "server/laser_slam/mapping/trajectory_follow.h"
 
 namespace waymark::laser_slam {
@@ -38,11 +39,20 @@ struct OriginSmoothingOptions {
   double sample_sigma_theta = 0.01;
   double huber_scale = 1.0;  // MappingOptions::huber_scale
   int max_iterations = 30;
+
+  Eigen::Vector3d sample_sigma() const {
+    return Eigen::Vector3d(sample_sigma_xy, sample_sigma_xy, sample_sigma_theta);
+  }
 };
 
 // The sigma of the step to `node` from the one before (`step`: the relative pose): its own (the
 // session's chain constraint), or, where it has none, the session graph's default chain sigmas.
 Eigen::Vector3d ChainStepSigma(const NodeView& node, const Pose2& step);
+
+// Appends the chain of `nodes` (oldest first) to a pose graph whose pose first_pose + i is node i:
+// consecutive nodes at their current relative poses, each step with its ChainStepSigma.
+void AppendChain(const std::vector<NodeView>& nodes, int first_pose,
+                 std::vector<GraphConstraint>* constraints);
 
 // The index of the node of `nodes` (by scan, oldest first) with scan `scan`; -1: none (pruned).
 int NodeOfScan(const std::vector<NodeView>& nodes, std::uint64_t scan);

@@ -72,6 +72,17 @@ std::vector<OriginSample> CurrentOrigins(const TiedTrajectory& trajectory) {
   return SmoothOrigins(trajectory.nodes, trajectory.samples);
 }
 
+std::vector<GraphConstraint> LoopsInForce(const TiedTrajectory& trajectory) {
+  const int n = static_cast<int>(trajectory.nodes.size());
+  std::vector<GraphConstraint> loops;
+  for (const GraphConstraint& loop : trajectory.loops) {
+    if (loop.enabled && loop.from >= 0 && loop.to >= 0 && loop.from < n && loop.to < n) {
+      loops.push_back(loop);
+    }
+  }
+  return loops;
+}
+
 std::vector<NodeView> NodesInMapFrame(const TiedTrajectory& trajectory) {
   return NodesPlacedBy(trajectory, CurrentOrigins(trajectory));
 }
@@ -104,9 +115,7 @@ std::vector<MapPathPoint> MapPath(const std::vector<TiedTrajectory>& trajectorie
       path.push_back(
           MapPathPoint{nodes[i].global.x, nodes[i].global.y, static_cast<int>(t), along, {}});
     }
-    const int n = static_cast<int>(nodes.size());
-    for (const GraphConstraint& loop : trajectories[t].loops) {
-      if (!loop.enabled || loop.from < 0 || loop.to < 0 || loop.from >= n || loop.to >= n) continue;
+    for (const GraphConstraint& loop : LoopsInForce(trajectories[t])) {
       path[first + loop.from].closes_to.push_back(first + loop.to);
       path[first + loop.to].closes_to.push_back(first + loop.from);
     }

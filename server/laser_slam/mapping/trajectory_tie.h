@@ -120,6 +120,9 @@ bool TieKeepsTheMapConsistent(const std::vector<TiedTrajectory>& map,
                               const std::vector<NodeView>& joining, const Pose2& tie,
                               std::string* why);
 
+// The trajectory's own loop closures that are in force and name two of its nodes.
+std::vector<GraphConstraint> LoopsInForce(const TiedTrajectory& trajectory);
+
 // The origins a followed trajectory is placed by now: its samples smoothed through a pose graph
 // of its current nodes (origin_smoothing.h), one per node. Not followed (no samples): empty.
 std::vector<OriginSample> CurrentOrigins(const TiedTrajectory& trajectory);

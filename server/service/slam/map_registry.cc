@@ -286,17 +286,21 @@ struct TiedMap {
 };
 
 // FAILED_PRECONDITION when no trajectory is tied in (or the map's own error).
+// The indices of the map's tied-in trajectories.
+std::vector<int> TiedIndices(const v1::Map& map) {
+  std::vector<int> tied;
+  for (int i = 0; i < map.trajectories_size(); ++i) {
+    if (map.trajectories(i).tied_in()) tied.push_back(i);
+  }
+  return tied;
+}
+
 absl::StatusOr<TiedMap> SplitTied(const std::string& name, absl::StatusOr<v1::Map> map) {
   if (!map.ok()) return map.status();
   TiedMap split;
   split.map = *std::move(map);
-  for (int i = 0; i < split.map.trajectories_size(); ++i) {
-    if (split.map.trajectories(i).tied_in()) {
-      split.tied.push_back(i);
-    } else {
-      ++split.untied;
-    }
-  }
+  split.tied = TiedIndices(split.map);
+  split.untied = static_cast<uint32_t>(split.map.trajectories_size() - split.tied.size());
   if (!split.tied.empty()) return split;
   return absl::FailedPreconditionError(absl::StrCat(
       "map \"", name, "\" has no trajectory yet: no session has joined it (CreateSession with "
@@ -361,10 +365,7 @@ absl::StatusOr<v1::Map> MapRegistry::GetMapWithNodeOrigins(const std::string& na
   absl::StatusOr<v1::Map> map = GetMap(name);
   if (!map.ok()) return map;
   if (map_graph_) {
-    std::vector<int> tied;
-    for (int i = 0; i < map->trajectories_size(); ++i) {
-      if (map->trajectories(i).tied_in()) tied.push_back(i);
-    }
+    const std::vector<int> tied = TiedIndices(*map);
     absl::StatusOr<PlacedMap> placed = Place(name, *map, tied, session_nodes, true);
     if (placed.ok() && tied.size() > 1) {
       for (size_t t = 0; t < tied.size(); ++t) {

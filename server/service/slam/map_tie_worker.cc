@@ -305,7 +305,8 @@ bool MapTieWorker::FollowTurn(const std::string& map,
     }
     if (absl::Status s = following.follow->SetMap(
             laser_slam::MapCloud(others, options_.follow_options.point_cell), others_nodes,
-            laser_slam::MapPath(others));
+            options_.follow_options.window_for_map_drift ? laser_slam::MapPath(others)
+                                                         : std::vector<laser_slam::MapPathPoint>{});
         !s.ok()) {
       spdlog::warn("SLAM map \"{}\": cannot follow session {}: {}", map, session_id,
                    s.ToString());
