@@ -143,7 +143,9 @@ double MapTravelBetween(const std::vector<MapPathPoint>& path, const Pose2& from
   distance[start - first] = 0.0;
   queue.push({0.0, start});
   while (!queue.empty()) {
-    const auto [d, i] = queue.top();
+    // Plain copies, not a structured binding: C++17 lambdas cannot capture bindings (clang).
+    const double d = queue.top().first;
+    const int i = queue.top().second;
     queue.pop();
     if (i == goal) return d;
     if (d > distance[i - first]) continue;
