@@ -3,7 +3,8 @@
 # waymark-laser-eval (the engine in-process) on each log, one table row per log.
 #
 #   bench/laser/laser_benchmark.sh BUILD_DIR [--out DIR] [--only LIST] [--levels LIST] [--seed N]
-#                                  [--jobs N] [--peers] [--pictures DIR] [-- EXTRA_EVAL_ARGS...]
+#                                  [--jobs N] [--peers] [--pictures DIR] [--starts LIST]
+#                                  [-- EXTRA_EVAL_ARGS...]
 #     --out DIR    results and generated references (default out/bench/laser_benchmark; never the
 #                  data folder): table.md, table.tsv, results.json, refs/, noisy/, runs/, and bin/
 #                  (the copies of the two programs the run used)
@@ -24,6 +25,12 @@
 #                  cells in red, failing areas outlined in orange; 8-bit palette PNG), and
 #                  DIR/index.md, a markdown grid of them with each row's verdict and error
 #                  (docs/results.md, "Every map, looked at (issue 33)", is made this way)
+#     --starts LIST  comma-separated fractions of each log where its run starts (default 0: the
+#                  whole log). A row started at 0.5 is named NAME@0.5 and scored on the relations
+#                  its poses reach: the same building from another start, with the odometry's drift
+#                  and the loops in another order. A result that holds only from one start was that
+#                  start's luck (MIT Killian from its second half: 0.069 m from one scan, 2.09 m
+#                  from five scans later, docs/results.md)
 #     EXTRA_EVAL_ARGS  passed to every waymark-laser-eval run, e.g. `-- --mapping-opt min_score=0.55`
 #                  for leave-one-out tuning runs
 #   env: SHARED (default ../shared beside the repository)
@@ -63,6 +70,7 @@ SEED=1
 JOBS=2
 PEERS=0
 PICTURES=""
+STARTS=0
 EXTRA=()
 while [ $# -gt 0 ]; do
   case "$1" in
@@ -73,6 +81,7 @@ while [ $# -gt 0 ]; do
     --jobs) JOBS=$2; shift 2 ;;
     --peers) PEERS=1; shift ;;
     --pictures) PICTURES=$2; shift 2 ;;
+    --starts) STARTS=$2; shift 2 ;;
     --) shift; EXTRA=("$@"); break ;;
     -h|--help) usage ;;
     *) echo "unknown option $1" >&2; usage ;;
@@ -80,6 +89,10 @@ while [ $# -gt 0 ]; do
 done
 [[ "$JOBS" =~ ^[12]$ ]] || die "--jobs is 1 or 2 (a 2-core machine shared with builds), not '$JOBS'"
 [[ "$SEED" =~ ^[0-9]+$ ]] || die "--seed wants a non-negative integer, not '$SEED'"
+IFS=, read -r -a START_LIST <<< "$STARTS"
+for start in "${START_LIST[@]}"; do
+  [[ "$start" =~ ^(0|0\.[0-9]+)$ ]] || die "--starts wants fractions in [0, 1), not '$start'"
+done
 IFS=, read -r -a LEVEL_LIST <<< "$LEVELS"
 for level in "${LEVEL_LIST[@]}"; do
   case "$level" in none|low|medium|high) ;; *) die "unknown level '$level' (none, low, medium, high)" ;; esac
@@ -119,9 +132,15 @@ selected() {
 }
 
 # --- the rows ---------------------------------------------------------------------------------
-# ROWS: "name|kind|log|relations" (relations empty: not scored).
+# ROWS: "name|kind|log|relations|start" (relations empty: not scored), one per start.
 ROWS=()
-add_row() { if selected "$1"; then ROWS+=("$1|$2|$3|$4"); fi; }
+add_row() {
+  local start
+  selected "$1" || return 0
+  for start in "${START_LIST[@]}"; do
+    if [ "$start" = 0 ]; then ROWS+=("$1|$2|$3|$4|0"); else ROWS+=("$1@$start|$2|$3|$4|$start"); fi
+  done
+}
 add_row aces raw "$LASER/aces/aces.clf.bz2" "$LASER/aces/aces.relations"
 add_row intel raw "$LASER/intel/intel.clf.bz2" "$LASER/intel/intel.relations"
 add_row mit-csail raw-built-relations "$LASER/mit-csail/mit-csail.clf.bz2" "$OUT/refs/mit-csail.relations"
@@ -180,12 +199,13 @@ for corrected in "${CORRECTED[@]}"; do
 done
 
 # --- eval runs, JOBS at a time ----------------------------------------------------------------
-# run_one NAME LOG RELATIONS: runs/NAME.json (the eval's JSON), .err, .wall; never fails, so that
+# run_one NAME LOG RELATIONS START: runs/NAME.json (the eval's JSON), .err, .wall; never fails, so that
 # the other runs go on (a failed run has no .json and shows as FAILED).
 run_one() {
-  local name=$1 log=$2 relations=$3 start status=0
+  local name=$1 log=$2 relations=$3 from=$4 start status=0
   local args=(--log "$log" --json)
   [ -n "$relations" ] && args+=(--relations "$relations")
+  [ "$from" = 0 ] || args+=(--start-fraction "$from")
   [ -n "$PICTURES" ] && args+=(--picture "$PICTURES/$name.png")
   start=$EPOCHREALTIME
   "$EVAL" "${args[@]}" "${EXTRA[@]}" > "$OUT/runs/$name.out" 2> "$OUT/runs/$name.err" || status=$?
@@ -206,7 +226,7 @@ run_one() {
 # The cost guess only orders the runs: log bytes (compressed ones count 5 times), twice for the
 # high level, whose runs take longest.
 ORDER=$(for i in "${!ROWS[@]}"; do
-  IFS='|' read -r name kind log relations <<< "${ROWS[$i]}"
+  IFS='|' read -r name kind log relations from <<< "${ROWS[$i]}"
   cost=$(stat -L -c %s "$log")
   case "$log" in *.bz2|*.gz) cost=$((cost * 5)) ;; esac
   [ "$kind" = noisy-high ] && cost=$((cost * 2))
@@ -214,9 +234,9 @@ ORDER=$(for i in "${!ROWS[@]}"; do
 done | sort -rn | cut -d' ' -f2)
 echo "== ${#ROWS[@]} eval runs, $JOBS at a time, longest first${EXTRA[*]:+, extra arguments: ${EXTRA[*]}}"
 for i in $ORDER; do
-  IFS='|' read -r name kind log relations <<< "${ROWS[$i]}"
+  IFS='|' read -r name kind log relations from <<< "${ROWS[$i]}"
   while [ "$(jobs -rp | wc -l)" -ge "$JOBS" ]; do wait -n || true; done
-  run_one "$name" "$log" "$relations" &
+  run_one "$name" "$log" "$relations" "$from" &
 done
 wait
 
@@ -230,15 +250,16 @@ ROWS_JSON="$OUT/rows.jsonl"
 : > "$ROWS_JSON"
 FAILED=0
 for row in "${ROWS[@]}"; do
-  IFS='|' read -r name kind log relations <<< "$row"
-  if [ -f "$OUT/noisy/$name.json" ]; then
-    beams=$(jq '.beams' "$OUT/noisy/$name.json")
+  IFS='|' read -r name kind log relations from <<< "$row"
+  if [ -f "$OUT/noisy/${name%@*}.json" ]; then
+    beams=$(jq '.beams' "$OUT/noisy/${name%@*}.json")
   else
     beams=$(beams_of "$log"); beams=${beams:-null}
   fi
   run="$OUT/runs/$name.json"
   [ -f "$run" ] || { run=/dev/null; FAILED=$((FAILED + 1)); }
   jq -n -c --arg name "$name" --arg kind "$kind" --arg log "$log" --arg relations "$relations" \
+    --argjson start "$from" \
     --argjson beams "$beams" --argjson wall "$(cat "$OUT/runs/$name.wall" 2> /dev/null || echo null)" \
     --slurpfile run "$run" '
     ($run[0] // null) as $r
@@ -246,7 +267,7 @@ for row in "${ROWS[@]}"; do
                  else {trans_mean: $r.relations[$k].trans_abs_mean_m, trans_std: $r.relations[$k].trans_abs_std_m,
                        rot_mean: $r.relations[$k].rot_abs_mean_deg, used: $r.relations[$k].relations_used,
                        relations: $r.relations[$k].relations} end;
-    {name: $name, kind: $kind, log: $log, relations_file: (if $relations == "" then null else $relations end),
+    {name: $name, kind: $kind, log: $log, start_fraction: $start, relations_file: (if $relations == "" then null else $relations end),
      status: (if $r == null then "failed" else "ok" end),
      scans: $r.scans, beams: $beams,
      slam_local: m("slam_local"), slam_all: m("slam"),
@@ -330,8 +351,8 @@ if [ "$PEERS" -eq 1 ]; then
   mkdir -p "$PEER_IN"
   PEER_LOGS=()
   for row in "${ROWS[@]}"; do
-    IFS='|' read -r name kind log relations <<< "$row"
-    [ -n "$relations" ] || continue
+    IFS='|' read -r name kind log relations from <<< "$row"
+    [ -n "$relations" ] && [ "$from" = 0 ] || continue
     case "$kind" in
       noisy-*) PEER_LOGS+=("$log") ;;
       *) ln -sf "$log" "$PEER_IN/$name.clf${log##*.clf}"; ln -sf "$relations" "$PEER_IN/$name.relations"

@@ -1,6 +1,7 @@
 // waymark-laser-eval: the laser SLAM engine alone (in-process, no server) on a CARMEN log.
 //
-//   waymark-laser-eval --log LOG [--relations FILE] [--max-scans N] [--out DIR] [--json]
+//   waymark-laser-eval --log LOG [--relations FILE] [--max-scans N] [--start-fraction F]
+//                      [--out DIR] [--json]
 //                      [--max-active-segments N] [--active-radius M] [--freeze-after-scans N]
 //                      [--min-travel M --min-turn R] [--match-chi2 X]
 //
@@ -99,6 +100,7 @@ struct Args {
   int picture_size = 360;  // --picture-size N: its longer side (pixels)
   std::string check_after_optimisations;  // "incremental" or "full": OptimisationChecks
   int max_scans = 0;
+  double start_fraction = 0.0;  // --start-fraction F: the log from F of its laser lines on
   int resume_every = 0;  // --resume-every N: replace the engine by its checkpoint every N scans
   bool json = false;
   ls::SlamOptions options;
@@ -114,6 +116,7 @@ struct Args {
 void Usage() {
   std::cerr
       << "usage: waymark-laser-eval --log LOG [--relations FILE] [--max-scans N] [--out DIR]\n"
+         "                          [--start-fraction F]\n"
          "                          [--resume-every N]\n"
          "                          [--json] [--max-active-segments N] [--active-radius M]\n"
          "                          [--freeze-after-scans N] [--min-travel M --min-turn R]\n"
@@ -176,6 +179,8 @@ bool SetMappingOption(const std::string& assignment, ls::MappingOptions* m) {
       {"interpolate_corrections", &m->interpolate_corrections},
       {"windowed_where_seen", &m->windowed_where_seen},
       {"confirm_global_closures", &m->confirm_global_closures},
+      {"search_where_closures_put", &m->search_where_closures_put},
+      {"windows_wait_for_closures_that_move", &m->windows_wait_for_closures_that_move},
       {"loosen_ridges", &m->loosen_ridges},
       {"prune_redundant_submaps", &m->prune_redundant_submaps},
       {"prune_keep_closures", &m->prune_keep_closures},
@@ -251,6 +256,11 @@ bool ParseArgs(int argc, char** argv, Args* args) {
         args->check_after_optimisations = v;
       } else if (a == "--max-scans") {
         args->max_scans = std::stoi(v);
+      } else if (a == "--start-fraction") {
+        args->start_fraction = std::stod(v);
+        if (!(args->start_fraction >= 0.0 && args->start_fraction < 1.0)) {
+          throw std::invalid_argument(v);
+        }
       } else if (a == "--resume-every") {
         args->resume_every = std::stoi(v);
       } else if (a == "--max-active-segments") {
@@ -470,6 +480,12 @@ int Run(const Args& args) {
   if (log.lasers.empty()) {
     std::cerr << args.log << ": no laser lines (FLASER or ROBOTLASER1)\n";
     return 1;
+  }
+  if (args.start_fraction > 0.0) {
+    // A robot starting mid-log (as `waymark slam replay --scans FIRST:` sends it): the same
+    // building from another start, to see whether a result holds or was the start's luck.
+    const auto first = static_cast<long>(args.start_fraction * static_cast<double>(log.lasers.size()));
+    log.lasers.erase(log.lasers.begin(), log.lasers.begin() + first);
   }
   if (args.max_scans > 0 && static_cast<size_t>(args.max_scans) < log.lasers.size()) {
     log.lasers.resize(args.max_scans);

@@ -148,9 +148,16 @@ std::vector<ChainUncertainty::Sigma> MappingBackend::UncertaintyToSubmapsLocked(
   std::vector<SubmapSpan> spans;
   spans.reserve(submaps_.size());
   for (const Submap& m : submaps_) spans.push_back({m.first, m.first + m.count - 1});
+  // With windows_wait_for_closures_that_move, a closure the graph has not taken yet that moves its
+  // node beyond the smallest window ties nothing until the graph holds it.
+  std::vector<bool> waiting(constraints_.size(), false);
+  if (options_.windows_wait_for_closures_that_move) {
+    for (int k : ClosuresThatMoveLocked()) waiting[k] = true;
+  }
   std::vector<ClosureTie> closures;
-  for (const GraphConstraint& c : constraints_) {
-    if (c.kind != GraphConstraint::Kind::kLoop || !c.enabled) continue;
+  for (size_t k = 0; k < constraints_.size(); ++k) {
+    const GraphConstraint& c = constraints_[k];
+    if (c.kind != GraphConstraint::Kind::kLoop || !c.enabled || waiting[k]) continue;
     const auto x = std::lower_bound(submaps_.begin(), submaps_.end(), c.from,
                                     [](const Submap& m, int f) { return m.first < f; });
     if (x == submaps_.end() || x->first != c.from) continue;
@@ -181,6 +188,37 @@ void MappingBackend::Process(int index) {
   processed_ = index;
 }
 
+bool MappingBackend::MovesBeyondWindows(const Pose2& moved) const {
+  return std::hypot(moved.x, moved.y) > options_.loop_window_min_xy ||
+         std::abs(moved.theta) > options_.loop_window_min_theta;
+}
+
+std::vector<int> MappingBackend::ClosuresThatMoveLocked() const {
+  std::vector<int> moving;
+  // The closures not optimised yet are the newest loop constraints (appended in order).
+  int left = closures_since_optimize_;
+  for (int k = static_cast<int>(constraints_.size()) - 1; k >= 0 && left > 0; --k) {
+    const GraphConstraint& c = constraints_[k];
+    if (c.kind != GraphConstraint::Kind::kLoop) continue;
+    --left;
+    const Pose2 placed = Compose(nodes_[c.from].global, c.relative);  // node c.to, by c
+    if (c.enabled && MovesBeyondWindows(Relative(nodes_[c.to].global, placed))) {
+      moving.push_back(k);
+    }
+  }
+  return moving;
+}
+
+Pose2 MappingBackend::WhereClosuresPutLocked(int index) const {
+  const Pose2& node = nodes_[index].global;
+  if (!options_.search_where_closures_put) return node;
+  const std::vector<int> moving = ClosuresThatMoveLocked();
+  if (moving.empty()) return node;
+  const GraphConstraint& c = constraints_[moving.front()];  // the newest
+  const Pose2 placed = Compose(nodes_[c.from].global, c.relative);
+  return Compose(placed, Relative(nodes_[c.to].global, node));
+}
+
 void MappingBackend::SearchLoops(int index) {
   const auto start = Clock::now();
   struct Candidate {
@@ -202,6 +240,7 @@ void MappingBackend::SearchLoops(int index) {
     for (int j = std::max(0, index - options_.query_nodes + 1); j <= index; ++j) {
       AppendTransformed(*nodes_[j].points, Relative(node.global, nodes_[j].global), &query);
     }
+    const Pose2 here = WhereClosuresPutLocked(index);
     const bool global_due = index - last_global_search_ >= options_.global_search_every_nodes;
     std::vector<ChainUncertainty::Sigma> through;
     if (options_.window_through_ties) through = UncertaintyToSubmapsLocked(index);
@@ -220,14 +259,14 @@ void MappingBackend::SearchLoops(int index) {
       Candidate c;
       c.submap = s;
       c.first = submap.first;
-      c.initial = Relative(nodes_[submap.first].global, node.global);
+      c.initial = Relative(nodes_[submap.first].global, here);
       c.window.xy = std::max(options_.loop_window_min_xy, options_.loop_window_sigmas * sigma.xy);
       c.window.theta = std::min(
           M_PI, std::max(options_.loop_window_min_theta, options_.loop_window_sigmas * sigma.theta));
       c.distance = 1e300;
       for (int j = submap.first; j <= last; ++j) {
-        c.distance = std::min(c.distance, std::hypot(nodes_[j].global.x - node.global.x,
-                                                     nodes_[j].global.y - node.global.y));
+        c.distance = std::min(c.distance, std::hypot(nodes_[j].global.x - here.x,
+                                                     nodes_[j].global.y - here.y));
       }
       // A submap further than the window reaches cannot hold the robot, wherever within its
       // 3 sigma the graph is wrong; a global search looks at the whole of a submap the window

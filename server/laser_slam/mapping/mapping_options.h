@@ -212,6 +212,20 @@ struct MappingOptions {
   // optimisation time on Intel (10.4 -> 5.3 s) at the same accuracy (0.030 m; ACES 0.045 ->
   // 0.046 m): closures come in bursts, and the graph moves little between them.
   int optimize_every_closures = 3;
+  // A closure that puts the robot further from where the graph has it than the smallest window
+  // (loop_window_min_xy, loop_window_min_theta) closes a long loop the graph has not taken yet: it
+  // waits for optimize_every_closures. Until then it ties nothing in the windows
+  // (window_through_ties), so they stay as wide as the graph, which still has the robot where the
+  // drift put it, needs them. Counted at once, it shrank them to a few metres searched around
+  // that wrong place: the return missed its corridor and drew it a second time, 20-40 degrees
+  // off (MIT Killian from 43 % of its scans: 2.09 m, docs/results.md, ninth part). No constant:
+  // the smallest window is the one the search already uses.
+  bool windows_wait_for_closures_that_move = true;
+  // The other cure, measured worse and off: the windows searched where such a closure puts the
+  // robot (the newest one, and the chain since) instead of where the graph has it. It follows a
+  // wrong closure as readily as a right one (MIT Killian from 11 starts: geometric mean 0.54 ->
+  // 1.02 m; with the windows waiting 0.31 m).
+  bool search_where_closures_put = false;
   int max_iterations = 50;
 };
 
