@@ -484,7 +484,8 @@ int Run(const Args& args) {
   if (args.start_fraction > 0.0) {
     // A robot starting mid-log (as `waymark slam replay --scans FIRST:` sends it): the same
     // building from another start, to see whether a result holds or was the start's luck.
-    const auto first = static_cast<long>(args.start_fraction * static_cast<double>(log.lasers.size()));
+    const auto first =
+        static_cast<long>(args.start_fraction * static_cast<double>(log.lasers.size()));
     log.lasers.erase(log.lasers.begin(), log.lasers.begin() + first);
   }
   if (args.max_scans > 0 && static_cast<size_t>(args.max_scans) < log.lasers.size()) {

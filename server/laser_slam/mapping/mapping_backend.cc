@@ -188,9 +188,8 @@ void MappingBackend::Process(int index) {
   processed_ = index;
 }
 
-bool MappingBackend::MovesBeyondWindows(const Pose2& moved) const {
-  return std::hypot(moved.x, moved.y) > options_.loop_window_min_xy ||
-         std::abs(moved.theta) > options_.loop_window_min_theta;
+Pose2 MappingBackend::PlacedByLocked(const GraphConstraint& c) const {
+  return Compose(nodes_[c.from].global, c.relative);
 }
 
 std::vector<int> MappingBackend::ClosuresThatMoveLocked() const {
@@ -201,8 +200,9 @@ std::vector<int> MappingBackend::ClosuresThatMoveLocked() const {
     const GraphConstraint& c = constraints_[k];
     if (c.kind != GraphConstraint::Kind::kLoop) continue;
     --left;
-    const Pose2 placed = Compose(nodes_[c.from].global, c.relative);  // node c.to, by c
-    if (c.enabled && MovesBeyondWindows(Relative(nodes_[c.to].global, placed))) {
+    const Pose2 moved = Relative(nodes_[c.to].global, PlacedByLocked(c));
+    if (c.enabled && (std::hypot(moved.x, moved.y) > options_.loop_window_min_xy ||
+                      std::abs(moved.theta) > options_.loop_window_min_theta)) {
       moving.push_back(k);
     }
   }
@@ -215,8 +215,7 @@ Pose2 MappingBackend::WhereClosuresPutLocked(int index) const {
   const std::vector<int> moving = ClosuresThatMoveLocked();
   if (moving.empty()) return node;
   const GraphConstraint& c = constraints_[moving.front()];  // the newest
-  const Pose2 placed = Compose(nodes_[c.from].global, c.relative);
-  return Compose(placed, Relative(nodes_[c.to].global, node));
+  return Compose(PlacedByLocked(c), Relative(nodes_[c.to].global, node));
 }
 
 void MappingBackend::SearchLoops(int index) {
@@ -362,13 +361,10 @@ void MappingBackend::SearchLoops(int index) {
   std::lock_guard<std::mutex> lock(mu_);
   // Matches in different submaps that put the node in places further apart than rival_far are
   // rival hypotheses too (two look-alike rooms, each in its own submap): none is kept.
-  const auto place = [&](const GraphConstraint& loop) {
-    return Compose(nodes_[loop.from].global, loop.relative);
-  };
   bool conflict = false;
   for (size_t i = 0; i < found.size() && options_.rival_ratio > 0.0; ++i) {
     for (size_t j = 0; j < i; ++j) {
-      const Pose2 a = place(found[i]), b = place(found[j]);
+      const Pose2 a = PlacedByLocked(found[i]), b = PlacedByLocked(found[j]);
       conflict = conflict || std::hypot(a.x - b.x, a.y - b.y) > options_.rival_far;
     }
   }

@@ -286,17 +286,16 @@ class MappingBackend {
   // Appends node `index` (processed, its chain constraint final, of 1 sigma `sigma`) to chain_.
   // Caller holds mu_.
   void AppendChainUncertaintyLocked(int index, const Eigen::Vector3d& sigma);
-  // Node `index`'s uncertainty relative to every submap through the chain and the closures
-  // (closure_uncertainty.h; MappingOptions::window_through_ties). Caller holds mu_.
-  // Whether a closure moving a node by `moved` (from where the graph has it) reaches beyond the
-  // smallest loop window.
-  bool MovesBeyondWindows(const Pose2& moved) const;
-  // The closures not optimised yet that move their node beyond the smallest window, by index in
-  // constraints_, newest first.
+  // Where loop constraint `c` puts its newer node (c.to): c.from's graph pose and the match.
+  Pose2 PlacedByLocked(const GraphConstraint& c) const;
+  // The closures not optimised yet that move their node further from where the graph has it than
+  // the smallest loop window, by index in constraints_, newest first. Caller holds mu_.
   std::vector<int> ClosuresThatMoveLocked() const;
   // Where the node `index` is searched from: the graph's pose, or where the newest of those puts
-  // it (MappingOptions::search_where_closures_put).
+  // it (MappingOptions::search_where_closures_put). Caller holds mu_.
   Pose2 WhereClosuresPutLocked(int index) const;
+  // Node `index`'s uncertainty relative to every submap through the chain and the closures
+  // (closure_uncertainty.h; MappingOptions::window_through_ties). Caller holds mu_.
   std::vector<ChainUncertainty::Sigma> UncertaintyToSubmapsLocked(int index) const;
   // Nodes from `first` on are placed after their predecessor by the EKF's steps (they wait for
   // the thread). Caller holds mu_.
