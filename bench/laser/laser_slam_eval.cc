@@ -1,7 +1,7 @@
 // waymark-laser-eval: the laser SLAM engine alone (in-process, no server) on a CARMEN log.
 //
 //   waymark-laser-eval --log LOG [--relations FILE] [--max-scans N] [--start-fraction F]
-//                      [--out DIR] [--json]
+//                      [--odometry-lag auto|N] [--out DIR] [--json]
 //                      [--max-active-segments N] [--active-radius M] [--freeze-after-scans N]
 //                      [--min-travel M --min-turn R] [--match-chi2 X]
 //
@@ -71,6 +71,7 @@
 #include "bench/common/bench_timing.h"
 #include "bench/laser/laser_map_check.h"
 #include "client/datasets/carmen_log.h"
+#include "client/datasets/odometry_lag.h"
 #include "client/render/map_render.h"
 #include "client/eval/relations_metric.h"
 #include "client/sessions/slam_replay.h"
@@ -101,6 +102,10 @@ struct Args {
   std::string check_after_optimisations;  // "incremental" or "full": OptimisationChecks
   int max_scans = 0;
   double start_fraction = 0.0;  // --start-fraction F: the log from F of its laser lines on
+  // --odometry-lag auto|N: scan i takes the odometry the log gives scan i + N (N may be a
+  // fraction: interpolated); auto (the default): client/datasets/odometry_lag.h's estimate.
+  bool odometry_lag_auto = true;
+  double odometry_lag = 0;
   int resume_every = 0;  // --resume-every N: replace the engine by its checkpoint every N scans
   bool json = false;
   ls::SlamOptions options;
@@ -116,7 +121,7 @@ struct Args {
 void Usage() {
   std::cerr
       << "usage: waymark-laser-eval --log LOG [--relations FILE] [--max-scans N] [--out DIR]\n"
-         "                          [--start-fraction F]\n"
+         "                          [--start-fraction F] [--odometry-lag auto|N]\n"
          "                          [--resume-every N]\n"
          "                          [--json] [--max-active-segments N] [--active-radius M]\n"
          "                          [--freeze-after-scans N] [--min-travel M --min-turn R]\n"
@@ -260,6 +265,12 @@ bool ParseArgs(int argc, char** argv, Args* args) {
         args->start_fraction = std::stod(v);
         if (!(args->start_fraction >= 0.0 && args->start_fraction < 1.0)) {
           throw std::invalid_argument(v);
+        }
+      } else if (a == "--odometry-lag") {
+        args->odometry_lag_auto = v == "auto";
+        if (!args->odometry_lag_auto) {
+          args->odometry_lag = std::stod(v);
+          if (!(std::abs(args->odometry_lag) <= 1000)) throw std::invalid_argument(v);
         }
       } else if (a == "--resume-every") {
         args->resume_every = std::stoi(v);
@@ -481,6 +492,19 @@ int Run(const Args& args) {
     std::cerr << args.log << ": no laser lines (FLASER or ROBOTLASER1)\n";
     return 1;
   }
+  // Before any start is cut: the lag is the whole log's, as a replay's is.
+  const adapters::OdometryLag lag = adapters::EstimateOdometryLag(log.lasers);
+  const double applied_lag = args.odometry_lag_auto ? lag.lag_scans : args.odometry_lag;
+  adapters::ShiftOdometry(applied_lag, &log.lasers);
+  if (lag.decided()) {
+    std::cerr << "note: the log pairs each scan with the odometry of the scan "
+              << std::abs(lag.lag_scans) << (lag.lag_scans < 0 ? " after" : " before") << " it ("
+              << lag.for_lag << " of " << lag.for_lag + lag.for_in_step
+              << " turning scan pairs turn nearer the laser so); "
+              << (applied_lag == lag.lag_scans ? std::string("moved back (--odometry-lag 0: as logged)")
+                                               : absl::StrFormat("--odometry-lag %g given", applied_lag))
+              << "\n";
+  }
   if (args.start_fraction > 0.0) {
     // A robot starting mid-log (as `waymark slam replay --scans FIRST:` sends it): the same
     // building from another start, to see whether a result holds or was the start's luck.
@@ -592,6 +616,13 @@ int Run(const Args& args) {
       // pose graph), e.g. with and without --resume-every.
       {"final_state_digest", StateDigest(slam.SerializeState())},
       {"duplicate_stamps", log.duplicate_stamps},
+      {"odometry_lag",
+       {{"applied_scans", applied_lag},
+        {"estimated_scans", lag.lag_scans},
+        {"turning_pairs", lag.turning_pairs},
+        {"pairs_for_lag", lag.for_lag},
+        {"pairs_for_in_step", lag.for_in_step},
+        {"log10_chance", lag.log10_chance}}},
       {"reordered_lines", log.out_of_order},
       {"malformed_lines", log.malformed},
       {"trajectory_poses", trajectory.size()},

@@ -3,6 +3,7 @@
 #include <fmt/format.h>
 
 #include <algorithm>
+#include <charconv>
 #include <cmath>
 #include <filesystem>
 #include <map>
@@ -378,6 +379,26 @@ void AddSlamCommands(CLI::App& app, CommandRegistry& registry) {
   AddBagTopicFlags(replay, &replay_args->scan_topic, &replay_args->odom_topic);
   replay->add_flag("--realtime", replay_args->realtime, "Send at the log's pace, not full speed");
   AddRestampFlags(replay, &replay_args->restamp, &replay_args->rate_hz);
+  replay
+      ->add_option_function<std::string>(
+          "--odometry-lag",
+          [replay_args](const std::string& value) {
+            if (value == "auto") {
+              replay_args->odometry_lag.reset();
+              return;
+            }
+            int lag = 0;
+            const auto [end, error] = std::from_chars(value.data(), value.data() + value.size(), lag);
+            if (error != std::errc() || end != value.data() + value.size() || lag < -100 ||
+                lag > 100) {
+              throw CLI::ValidationError("--odometry-lag", "'auto' or a whole number of scans");
+            }
+            replay_args->odometry_lag = lag;
+          },
+          "CARMEN logs: each scan takes the odometry the log gives the scan N lines later; 'auto' "
+          "(the default) finds N from the log itself (a log that pairs its scans with the "
+          "odometry of other scans is put right and told), 0 keeps the log's pairing")
+      ->type_name("auto|N");
   replay->add_option("--out", replay_args->out_dir,
                      "Output folder (default ./out/<log name>); a path ending in .svg or .png "
                      "writes only that map picture");

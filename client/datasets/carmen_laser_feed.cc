@@ -12,18 +12,65 @@ bool CarmenLaserFeed::Later(const CarmenRecord& a, const CarmenRecord& b) {
   return a.laser.stamp > b.laser.stamp || (a.laser.stamp == b.laser.stamp && a.line > b.line);
 }
 
-absl::StatusOr<bool> CarmenLaserFeed::NextRestamped(CarmenRecord* record) {
-  while (true) {
-    absl::StatusOr<bool> more = reader_->Next(record);
-    if (!more.ok() || !*more) return more;
-    if (record->type == CarmenRecord::Type::kOdometry) {
-      ++odometry_lines_;
-      continue;
+namespace {
+
+void TakePosesOf(const CarmenLaser& from, CarmenLaser* to) {
+  to->odom_pose = from.odom_pose;
+  to->laser_pose = from.laser_pose;
+}
+
+}  // namespace
+
+absl::StatusOr<bool> CarmenLaserFeed::NextLaserLine(CarmenRecord* record) {
+  const int lag = options_.odometry_lag_scans;
+  const auto read = [&](CarmenRecord* out) -> absl::StatusOr<bool> {
+    while (true) {
+      absl::StatusOr<bool> more = reader_->Next(out);
+      if (!more.ok() || !*more) return more;
+      if (out->type == CarmenRecord::Type::kOdometry) {
+        ++odometry_lines_;
+        continue;
+      }
+      ++laser_lines_;
+      return true;
     }
-    record->laser.stamp = static_cast<double>(laser_lines_) / options_.restamp_rate_hz;
-    ++laser_lines_;
+  };
+  if (lag <= 0) {
+    absl::StatusOr<bool> more = read(record);
+    if (!more.ok() || !*more || lag == 0) return more;
+    // This line's poses are kept for the line -lag later; it takes the oldest kept (the first
+    // line's while fewer than -lag lines came before it).
+    lag_window_.push_back(*record);
+    if (static_cast<int>(lag_window_.size()) > -lag + 1) lag_window_.pop_front();
+    TakePosesOf(lag_window_.front().laser, &record->laser);
     return true;
   }
+  // Read ahead until the line lag lines after the oldest waiting one is in (or the log ended).
+  while (!lines_done_ && static_cast<int>(lag_window_.size()) <= lag) {
+    CarmenRecord next;
+    absl::StatusOr<bool> more = read(&next);
+    if (!more.ok()) return more.status();
+    if (!*more) {
+      lines_done_ = true;
+      break;
+    }
+    lag_window_.push_back(std::move(next));
+  }
+  if (lag_window_.empty()) return false;
+  *record = std::move(lag_window_.front());
+  lag_window_.pop_front();
+  if (!lag_window_.empty()) {
+    TakePosesOf(lag_window_[std::min<size_t>(lag - 1, lag_window_.size() - 1)].laser,
+                &record->laser);
+  }
+  return true;
+}
+
+absl::StatusOr<bool> CarmenLaserFeed::NextRestamped(CarmenRecord* record) {
+  absl::StatusOr<bool> more = NextLaserLine(record);
+  if (!more.ok() || !*more) return more;
+  record->laser.stamp = static_cast<double>(restamped_lines_++) / options_.restamp_rate_hz;
+  return true;
 }
 
 absl::StatusOr<bool> CarmenLaserFeed::Next(CarmenRecord* record) {
@@ -31,17 +78,12 @@ absl::StatusOr<bool> CarmenLaserFeed::Next(CarmenRecord* record) {
   while (true) {
     while (!eof_ && pending_.size() <= kReorderWindow) {
       CarmenRecord next;
-      absl::StatusOr<bool> more = reader_->Next(&next);
+      absl::StatusOr<bool> more = NextLaserLine(&next);
       if (!more.ok()) return more.status();
       if (!*more) {
         eof_ = true;
         break;
       }
-      if (next.type == CarmenRecord::Type::kOdometry) {
-        ++odometry_lines_;
-        continue;
-      }
-      ++laser_lines_;
       if (have_read_ && next.laser.stamp < max_read_) ++reordered_;
       max_read_ = have_read_ ? std::max(max_read_, next.laser.stamp) : next.laser.stamp;
       have_read_ = true;

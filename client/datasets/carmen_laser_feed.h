@@ -18,10 +18,13 @@
 // gets the stamp i / restamp_rate_hz, in file order; nothing is reordered or skipped.
 //
 // ODOM lines are read and counted but not returned: every laser line carries the odometry pose at
-// its own instant.
+// its own instant, or, with odometry_lag_scans = k, the one the log gives the laser line k lines
+// later in the file (clamped at the log's ends; its logged laser pose moves with it): the fix for
+// a log that pairs scans with another scan's odometry (client/datasets/odometry_lag.h).
 
 #include <cstddef>
 #include <cstdint>
+#include <deque>
 #include <memory>
 #include <vector>
 
@@ -37,6 +40,7 @@ inline constexpr double kDefaultRestampRateHz = 5.0;
 
 struct LaserFeedOptions {
   double restamp_rate_hz = 0;  // > 0: stamps from the line order (see the file comment)
+  int odometry_lag_scans = 0;  // see the file comment
 };
 
 class CarmenLaserFeed {
@@ -67,6 +71,8 @@ class CarmenLaserFeed {
 
  private:
   absl::StatusOr<bool> NextRestamped(CarmenRecord* record);
+  // The next laser line in file order, its odometry moved by odometry_lag_scans; counts the lines.
+  absl::StatusOr<bool> NextLaserLine(CarmenRecord* record);
   static bool Later(const CarmenRecord& a, const CarmenRecord& b);
 
   std::unique_ptr<CarmenLogReader> reader_;
@@ -83,6 +89,11 @@ class CarmenLaserFeed {
   int64_t skipped_repeated_ = 0;
   int64_t skipped_earlier_ = 0;
   double last_repeated_stamp_ = 0;
+  // odometry_lag_scans < 0: the last -lag + 1 laser lines read (for their poses); > 0: the
+  // lines read ahead, waiting for the poses lag lines later.
+  std::deque<CarmenRecord> lag_window_;
+  bool lines_done_ = false;
+  int64_t restamped_lines_ = 0;  // returned so far when restamped
 };
 
 }  // namespace waymark::adapters

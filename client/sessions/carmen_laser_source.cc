@@ -16,6 +16,7 @@ using adapters::CarmenRecord;
 using adapters::LaserFeedOptions;
 using adapters::LaserSample;
 using adapters::LaserSourceCounts;
+using adapters::OdometryLag;
 
 LaserSample SampleOf(const CarmenLaser& laser) {
   LaserSample sample;
@@ -28,18 +29,25 @@ LaserSample SampleOf(const CarmenLaser& laser) {
   return sample;
 }
 
-absl::StatusOr<std::unique_ptr<CarmenLaserSource>> CarmenLaserSource::Open(const std::string& log,
-                                                                           double restamp_rate_hz) {
+absl::StatusOr<std::unique_ptr<CarmenLaserSource>> CarmenLaserSource::Open(
+    const std::string& log, double restamp_rate_hz, std::optional<int> odometry_lag) {
   auto reader = CarmenLogReader::Open(log);
   if (!reader.ok()) return reader.status();
+  OdometryLag lag;
+  if (!odometry_lag) {
+    // A log that cannot be read whole keeps its pairing: the replay reports what is wrong.
+    absl::StatusOr<OdometryLag> estimated = adapters::EstimateOdometryLagOfLog(log);
+    if (estimated.ok()) lag = *estimated;
+  }
   LaserFeedOptions options;
   options.restamp_rate_hz = restamp_rate_hz;
+  options.odometry_lag_scans = odometry_lag ? *odometry_lag : lag.lag_scans;
   return std::make_unique<CarmenLaserSource>(
-      std::make_unique<CarmenLaserFeed>(*std::move(reader), options));
+      std::make_unique<CarmenLaserFeed>(*std::move(reader), options), lag);
 }
 
-CarmenLaserSource::CarmenLaserSource(std::unique_ptr<CarmenLaserFeed> feed)
-    : feed_(std::move(feed)) {}
+CarmenLaserSource::CarmenLaserSource(std::unique_ptr<CarmenLaserFeed> feed, OdometryLag lag)
+    : feed_(std::move(feed)), lag_(lag) {}
 
 absl::StatusOr<bool> CarmenLaserSource::Next(LaserSample* sample) {
   CarmenRecord record;
@@ -63,11 +71,21 @@ LaserSourceCounts CarmenLaserSource::counts() const {
 }
 
 std::vector<std::string> CarmenLaserSource::Warnings() const {
+  std::vector<std::string> warnings;
+  if (lag_.decided()) {
+    warnings.push_back(fmt::format(
+        "the log pairs each scan with the odometry of the scan {} {} it ({} of {} turning scan "
+        "pairs turn nearer the laser so; chance 1e{:.0f}): moved back (--odometry-lag 0 keeps "
+        "the log's pairing)",
+        std::abs(lag_.lag_scans), lag_.lag_scans < 0 ? "after" : "before", lag_.for_lag,
+        lag_.for_lag + lag_.for_in_step, lag_.log10_chance));
+  }
   const CarmenLogReader& reader = feed_->reader();
-  if (reader.malformed_lines() == 0) return {};
+  if (reader.malformed_lines() == 0) return warnings;
   std::string text = fmt::format("skipped {} malformed line(s)", reader.malformed_lines());
   for (const std::string& error : reader.first_errors()) text += "\n  " + error;
-  return {text};
+  warnings.push_back(text);
+  return warnings;
 }
 
 std::string CarmenLaserSource::BrokenStampsWarning() const {

@@ -497,9 +497,15 @@ std::unique_ptr<LaserSource> SliceLaserSource(std::unique_ptr<LaserSource> sourc
 
 absl::StatusOr<OpenedLaserSource> OpenLaserSource(const std::string& path, bool restamp,
                                                   double rate_hz, const std::string& scan_topic,
-                                                  const std::string& odom_topic) {
+                                                  const std::string& odom_topic,
+                                                  std::optional<int> odometry_lag) {
   OpenedLaserSource opened;
   if (ros::LooksLikeBag(path)) {
+    if (odometry_lag && *odometry_lag != 0) {
+      return absl::InvalidArgumentError(absl::StrCat(
+          path, " is a bag: --odometry-lag is for CARMEN logs (a bag's odometry is placed by its "
+                "stamps)"));
+    }
     if (restamp) {
       return absl::InvalidArgumentError(absl::StrCat(
           path, " is a bag: --restamp is for CARMEN logs (a bag's scans are placed by their "
@@ -530,7 +536,7 @@ absl::StatusOr<OpenedLaserSource> OpenLaserSource(const std::string& path, bool 
               "and --odom-topic choose a bag's topics"));
   }
   const double restamp_rate = restamp ? rate_hz : 0;
-  auto source = CarmenLaserSource::Open(path, restamp_rate);
+  auto source = CarmenLaserSource::Open(path, restamp_rate, odometry_lag);
   if (!source.ok()) return source.status();
   opened.source = *std::move(source);
   opened.count_scans = [path, restamp_rate](const std::atomic<bool>* cancel) {
@@ -540,8 +546,8 @@ absl::StatusOr<OpenedLaserSource> OpenLaserSource(const std::string& path, bool 
 }
 
 int RunSlamReplay(CommandContext& context, const ReplayArgs& args, const StopRequested& stop) {
-  auto opened =
-      OpenLaserSource(args.log, args.restamp, args.rate_hz, args.scan_topic, args.odom_topic);
+  auto opened = OpenLaserSource(args.log, args.restamp, args.rate_hz, args.scan_topic,
+                                args.odom_topic, args.odometry_lag);
   if (!opened.ok()) return ReportError(context, opened.status());
   if (args.scans.has_value()) {
     opened->source = SliceLaserSource(std::move(opened->source), *args.scans);

@@ -84,6 +84,9 @@ struct ReplayArgs {
   std::string out_dir;  // default ./out/<log name>; a .svg or .png path: only that picture
   bool restamp = false;  // stamps from the line order at rate_hz
   double rate_hz = adapters::kDefaultRestampRateHz;
+  // CARMEN logs: each scan with the odometry the log gives the scan this many lines later;
+  // unset: estimated from the log (client/datasets/odometry_lag.h).
+  std::optional<int> odometry_lag;
   std::string robot_id = "replay";
   std::string name;
   bool realtime = false;
@@ -137,10 +140,14 @@ struct OpenedLaserSource {
 };
 // A bag (ros::LooksLikeBag: a rosbag2 folder, or a file whose first bytes are a ROS 1 bag's, an
 // MCAP's or SQLite's) is read with the topic flags; anything else as a CARMEN log (restamped at rate_hz when restamp). A bag
-// with --restamp is refused (its header stamps are what it is read by).
+// with --restamp is refused (its header stamps are what it is read by). A CARMEN log's scans take
+// the odometry the log gives the scan odometry_lag lines later (nullopt: estimated from the log,
+// CarmenLaserSource::Open); a bag with a lag other than 0 is refused (its odometry is placed by
+// stamps, not lines).
 absl::StatusOr<OpenedLaserSource> OpenLaserSource(const std::string& path, bool restamp,
                                                   double rate_hz, const std::string& scan_topic,
-                                                  const std::string& odom_topic);
+                                                  const std::string& odom_topic,
+                                                  std::optional<int> odometry_lag = 0);
 
 int RunSlamReplay(CommandContext& context, const ReplayArgs& args,
                   const StopRequested& stop = {});

@@ -4,6 +4,8 @@
 
 #include <gtest/gtest.h>
 
+#include <algorithm>
+#include <array>
 #include <fstream>
 #include <string>
 #include <vector>
@@ -76,6 +78,59 @@ TEST_F(CarmenLaserFeedTest, RestampUsesTheLineOrderAndTheRate) {
   EXPECT_EQ(feed_->skipped_stamps(), 0);
   EXPECT_EQ(feed_->reordered_lines(), 0);
   EXPECT_FALSE(feed_->StampsBroken());
+}
+
+}  // namespace
+}  // namespace waymark::adapters
+
+namespace waymark::adapters {
+namespace {
+
+// Five FLASER lines whose odometry x is the line's index (and the laser pose 10 beyond it).
+std::string LogWithIndexedOdometry() {
+  std::string log = "ODOM 0 0 0 0 0 0 1 nohost 1\n";
+  for (int i = 0; i < 5; ++i) {
+    log += "FLASER 3 1 1 1 " + std::to_string(10 + i) + " 0 0 " + std::to_string(i) +
+           " 0 0 " + std::to_string(i + 1) + " nohost " + std::to_string(i + 1) + "\n";
+  }
+  return log;
+}
+
+// What each laser line returned carries: (stamp, odometry x, laser x).
+std::vector<std::array<double, 3>> FeedLagged(const std::string& path, LaserFeedOptions options) {
+  auto reader = CarmenLogReader::Open(path);
+  EXPECT_TRUE(reader.ok()) << reader.status();
+  CarmenLaserFeed feed(*std::move(reader), options);
+  std::vector<std::array<double, 3>> out;
+  CarmenRecord record;
+  while (true) {
+    auto more = feed.Next(&record);
+    EXPECT_TRUE(more.ok()) << more.status();
+    if (!more.ok() || !*more) break;
+    out.push_back({record.laser.stamp, record.laser.odom_pose.x, record.laser.laser_pose.x});
+  }
+  return out;
+}
+
+TEST(CarmenLaserFeedLagTest, EachLineTakesTheOdometryOfTheLineLagLater) {
+  ScopedTempDir dir;
+  const auto path = (dir.path() / "log.clf").string();
+  std::ofstream(path) << LogWithIndexedOdometry();
+  for (const bool restamped : {false, true}) {
+    LaserFeedOptions options;
+    options.restamp_rate_hz = restamped ? 2.0 : 0.0;
+    for (const int lag : {-2, -1, 0, 1, 3}) {
+      options.odometry_lag_scans = lag;
+      const auto fed = FeedLagged(path, options);
+      ASSERT_EQ(fed.size(), 5u) << lag;
+      for (int i = 0; i < 5; ++i) {
+        const int from = std::clamp(i + lag, 0, 4);
+        EXPECT_EQ(fed[i][0], restamped ? i / 2.0 : i + 1.0) << "stamps stay the line's own";
+        EXPECT_EQ(fed[i][1], from) << "lag " << lag << " line " << i;
+        EXPECT_EQ(fed[i][2], 10 + from) << "the laser pose moves with its odometry";
+      }
+    }
+  }
 }
 
 }  // namespace
