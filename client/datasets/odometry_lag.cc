@@ -12,9 +12,6 @@ namespace {
 // write 50 m or 81.9 m); closer than kMinRange, for the robot itself.
 constexpr double kMaxRange = 40.0;
 constexpr double kMinRange = 0.1;
-// A range difference counts at most this much (m): a scan pair that also moved forward reads
-// some beams on other walls, and they must not outvote the rest.
-constexpr double kMaxDifference = 1.0;
 // The laser turned "clearly" between two scans at two beam increments or more.
 constexpr int kTurningBeams = 2;
 // Turns faster than this per scan are not looked for (rad).
