@@ -136,27 +136,29 @@ std::vector<CarmenPose> OdometryOf(const std::vector<CarmenLaser>& lasers) {
 
 }  // namespace
 
-OdometryLag EstimateOdometryLag(const std::vector<CarmenLaser>& lasers) {
-  constexpr int kLags = 2 * kMaxOdometryLagScans + 1;  // index l: lag l - kMaxOdometryLagScans
-  const int n = static_cast<int>(lasers.size());
-  OdometryLag result;
-  // Per turning pair: how far each lag's odometry turn is from the laser's.
-  std::vector<std::array<double, kLags>> misses;
-  for (int i = kMaxOdometryLagScans; i + 1 + kMaxOdometryLagScans < n; ++i) {
-    std::array<double, kLags> turn;
-    bool any_turn = false;
-    for (int l = 0; l < kLags; ++l) {
-      const int lag = l - kMaxOdometryLagScans;
-      turn[l] = WrapAngle(lasers[i + 1 + lag].odom_pose.theta - lasers[i + lag].odom_pose.theta);
-      any_turn = any_turn || std::abs(turn[l]) >= kTurningBeams * lasers[i].angle_increment;
-    }
-    if (!any_turn) continue;  // no lag would turn: the pair cannot tell them apart
-    const double laser = ScanRotation(lasers[i], lasers[i + 1], kMaxTurnPerScan);
-    if (std::abs(laser) < kTurningBeams * lasers[i].angle_increment) continue;
-    for (int l = 0; l < kLags; ++l) turn[l] = std::abs(WrapAngle(laser - turn[l]));
-    misses.push_back(turn);
+void OdometryLagEstimator::Add(const CarmenLaser& laser) {
+  window_.push_back(laser);
+  if (window_.size() < kWindow) return;
+  if (window_.size() > kWindow) window_.pop_front();
+  // The pair (i, i + 1) with i = kMaxOdometryLagScans, its odometry lagged both ways.
+  const int i = kMaxOdometryLagScans;
+  Misses turn;
+  bool any_turn = false;
+  for (int l = 0; l < kLags; ++l) {
+    const int lag = l - kMaxOdometryLagScans;
+    turn[l] = WrapAngle(window_[i + 1 + lag].odom_pose.theta - window_[i + lag].odom_pose.theta);
+    any_turn = any_turn || std::abs(turn[l]) >= kTurningBeams * window_[i].angle_increment;
   }
-  result.turning_pairs = static_cast<int>(misses.size());
+  if (!any_turn) return;  // no lag would turn: the pair cannot tell them apart
+  const double turned = ScanRotation(window_[i], window_[i + 1], kMaxTurnPerScan);
+  if (std::abs(turned) < kTurningBeams * window_[i].angle_increment) return;
+  for (int l = 0; l < kLags; ++l) turn[l] = std::abs(WrapAngle(turned - turn[l]));
+  misses_.push_back(turn);
+}
+
+OdometryLag OdometryLagEstimator::Result() const {
+  OdometryLag result;
+  result.turning_pairs = static_cast<int>(misses_.size());
   // Whole scans only, one at a time: from 0 towards the side that is nearer, as long as the next
   // lag is nearer than the current one on so many more pairs than the reverse that a fair coin
   // would do as well once in 10^6 tries. (Lags between whole scans would need the odometry
@@ -165,7 +167,7 @@ OdometryLag EstimateOdometryLag(const std::vector<CarmenLaser>& lasers) {
   const auto test = [&](int from, int to, int* wins, int* losses) {
     *wins = 0;
     *losses = 0;
-    for (const auto& m : misses) {
+    for (const Misses& m : misses_) {
       *wins += m[to] < m[from];
       *losses += m[to] > m[from];
     }
@@ -195,18 +197,24 @@ OdometryLag EstimateOdometryLag(const std::vector<CarmenLaser>& lasers) {
   return result;
 }
 
+OdometryLag EstimateOdometryLag(const std::vector<CarmenLaser>& lasers) {
+  OdometryLagEstimator estimator;
+  for (const CarmenLaser& laser : lasers) estimator.Add(laser);
+  return estimator.Result();
+}
+
 absl::StatusOr<OdometryLag> EstimateOdometryLagOfLog(const std::string& path) {
   auto reader = CarmenLogReader::Open(path);
   if (!reader.ok()) return reader.status();
-  std::vector<CarmenLaser> lasers;
+  OdometryLagEstimator estimator;
   CarmenRecord record;
   while (true) {
     absl::StatusOr<bool> more = (*reader)->Next(&record);
     if (!more.ok()) return more.status();
     if (!*more) break;
-    if (record.type == CarmenRecord::Type::kLaser) lasers.push_back(std::move(record.laser));
+    if (record.type == CarmenRecord::Type::kLaser) estimator.Add(record.laser);
   }
-  return EstimateOdometryLag(lasers);
+  return estimator.Result();
 }
 
 void ShiftOdometry(double lag_scans, std::vector<CarmenLaser>* lasers) {

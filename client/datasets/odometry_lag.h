@@ -21,6 +21,8 @@
 // whose odometry is in step keeps it as it is, and a lag that is not clearly a whole scan (a
 // driver's latency of part of one) is left alone.
 
+#include <array>
+#include <deque>
 #include <string>
 #include <vector>
 
@@ -47,7 +49,22 @@ inline constexpr double kOdometryLagLog10Chance = -6.0;
 // either way), from the directions of the walls both see; 0 when either sees no wall.
 double ScanRotation(const CarmenLaser& a, const CarmenLaser& b, double max_shift_rad);
 
-// Over the lasers in log order (odom_pose as logged).
+// The estimate over lasers added in log order (odom_pose as logged), holding a few lasers and
+// five numbers per turning pair, so that a long log is read once in bounded memory.
+class OdometryLagEstimator {
+ public:
+  void Add(const CarmenLaser& laser);
+  OdometryLag Result() const;
+
+ private:
+  static constexpr int kLags = 2 * kMaxOdometryLagScans + 1;  // index l: lag l - kMax...
+  static constexpr size_t kWindow = 2 * kMaxOdometryLagScans + 2;
+  using Misses = std::array<double, kLags>;  // per lag: its odometry's turn off the laser's
+  std::deque<CarmenLaser> window_;
+  std::vector<Misses> misses_;
+};
+
+// The same over a vector of lasers in log order.
 OdometryLag EstimateOdometryLag(const std::vector<CarmenLaser>& lasers);
 // Over the laser lines of the log at `path` (plain, .gz or .bz2), read in file order; the
 // reader's error when it cannot be opened or a line is broken.
