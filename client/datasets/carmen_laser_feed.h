@@ -54,6 +54,7 @@ class CarmenLaserFeed {
 
   CarmenLogReader& reader() { return *reader_; }
   bool restamped() const { return options_.restamp_rate_hz > 0; }
+  int odometry_lag_scans() const { return options_.odometry_lag_scans; }
   double restamp_rate_hz() const { return options_.restamp_rate_hz; }
 
   int64_t laser_lines() const { return laser_lines_; }  // read from the log so far

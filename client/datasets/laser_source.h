@@ -34,6 +34,9 @@ struct LaserSourceCounts {
   int64_t malformed_lines = 0;  // records that could not be read, skipped
   int64_t odometry_lines = 0;   // odometry records read
   bool stamps_broken = false;   // most scans were skipped for their stamps
+  // Each scan was sent with the odometry its log gives the scan this many lines later
+  // (odometry_lag.h; CARMEN logs).
+  int odometry_lag_scans = 0;
 };
 
 class LaserSource {

@@ -67,6 +67,7 @@ LaserSourceCounts CarmenLaserSource::counts() const {
   counts.malformed_lines = feed_->reader().malformed_lines();
   counts.odometry_lines = feed_->odometry_lines();
   counts.stamps_broken = feed_->StampsBroken();
+  counts.odometry_lag_scans = feed_->odometry_lag_scans();
   return counts;
 }
 

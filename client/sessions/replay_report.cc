@@ -244,6 +244,7 @@ nlohmann::json ReplayJson(const ReplayReport& report) {
       {"reordered_lines", report.reordered_lines},
       {"malformed_lines", report.malformed_lines},
       {"odometry_lines_not_sent", report.odometry_lines},
+      {"odometry_lag_scans", report.odometry_lag_scans},
       {"segments", report.segments},
       {"map_revision", report.map_revision},
       {"trajectory_poses", report.trajectory_poses},

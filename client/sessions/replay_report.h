@@ -77,6 +77,7 @@ struct ReplayReport {
   int64_t reordered_lines = 0;
   int64_t malformed_lines = 0;
   int64_t odometry_lines = 0;
+  int odometry_lag_scans = 0;  // LaserSourceCounts::odometry_lag_scans
   bool stamps_broken = false;
   std::optional<double> restamp_rate_hz;  // set: stamps synthesized from the line order
   // A bag's facts (format, scan topic, odometry source, frames, the laser's mounting); empty for a

@@ -683,6 +683,7 @@ int RunSlamReplay(CommandContext& context, const ReplayArgs& args, const StopReq
   report.reordered_lines = counts.reordered_lines;
   report.malformed_lines = counts.malformed_lines;
   report.odometry_lines = counts.odometry_lines;
+  report.odometry_lag_scans = counts.odometry_lag_scans;
   report.source_facts = source.Facts();
 
   report.loop_closures = answers.loop_closures();

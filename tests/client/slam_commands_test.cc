@@ -44,6 +44,19 @@ int PoseLines(const std::filesystem::path& path) {
 
 using SlamCliTest = ::waymark::testing::FakeSlamCliTest;
 
+TEST_F(SlamCliTest, ReplayOdometryLagIsTakenAsGivenAndCheckedAndRecorded) {
+  const std::string log = WriteLog(20);
+  const auto out = dir_.path() / "out";
+  CliResult r = Run({"--json", "slam", "replay", log, "--out", out.string(), "--odometry-lag", "-1"});
+  ASSERT_EQ(r.code, 0) << r.err;
+  EXPECT_EQ(r.Json()["odometry_lag_scans"], -1);
+  for (const char* bad : {"x", "1.5", "101", ""}) {
+    CliResult refused = Run({"slam", "replay", log, "--out", out.string(), "--odometry-lag", bad});
+    EXPECT_NE(refused.code, 0) << bad;
+    EXPECT_THAT(refused.err, HasSubstr("--odometry-lag")) << bad;
+  }
+}
+
 TEST_F(SlamCliTest, ReplayStreamsEveryScanWithinTheWindowAndWritesTheOutputs) {
   server_.service().set_scan_delay(absl::Milliseconds(2));
   // Nothing is answered before the window is full: the window is used on any machine.
@@ -61,6 +74,7 @@ TEST_F(SlamCliTest, ReplayStreamsEveryScanWithinTheWindowAndWritesTheOutputs) {
   EXPECT_EQ(json["rejected"], 0);
   EXPECT_EQ(json["segments"], 10);
   EXPECT_EQ(json["odometry_lines_not_sent"], 100);
+  EXPECT_EQ(json["odometry_lag_scans"], 0) << "a log with no turns keeps its pairing";
   EXPECT_NEAR(json["log_duration_s"].get<double>(), 19.8, 1e-6);
   EXPECT_GT(json["processing_s"].get<double>(), 0);
   EXPECT_NEAR(json["realtime_factor"].get<double>(),
