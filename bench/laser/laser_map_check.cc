@@ -82,6 +82,7 @@ nlohmann::json MappingJson(const ls::MappingBackend& backend) {
           {"local_matches", stats.local_matches},
           {"local_unmatched", stats.local_unmatched},
           {"local_odometry_wins", stats.local_odometry_wins},
+          {"local_widened", stats.local_widened},
           {"local_ekf_trusted", stats.local_ekf_trusted},
           {"local_ekf_redecided", stats.local_ekf_redecided},
           {"local_edge_translations_dropped", stats.local_edge_translations_dropped},

@@ -169,6 +169,8 @@ bool SetMappingOption(const std::string& assignment, ls::MappingOptions* m) {
       {"local_min_score", &m->local_min_score}, {"local_sigma_xy", &m->local_sigma_xy},
       {"local_sigma_theta", &m->local_sigma_theta},
       {"local_points_per_observation", &m->local_points_per_observation},
+      {"local_wide_window_xy", &m->local_wide_window_xy},
+      {"local_wide_window_theta", &m->local_wide_window_theta},
       {"prune_max_new_fraction", &m->prune_max_new_fraction}, {"prune_cell", &m->prune_cell}};
   if (name == "local_prior") {  // 0: EKF within odometry, 1: odometry, 2: EKF
     if (value != 0.0 && value != 1.0 && value != 2.0) return false;
@@ -178,6 +180,7 @@ bool SetMappingOption(const std::string& assignment, ls::MappingOptions* m) {
   const std::map<std::string, bool*> bools = {
       {"local_odometry_hypothesis", &m->local_odometry_hypothesis},
       {"local_learned_prior", &m->local_learned_prior},
+      {"local_widen_at_heading_edge", &m->local_widen_at_heading_edge},
       {"local_ignore_edge_translation", &m->local_ignore_edge_translation},
       {"global_within_window", &m->global_within_window},
       {"window_through_ties", &m->window_through_ties},

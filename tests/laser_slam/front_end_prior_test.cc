@@ -1,6 +1,6 @@
 // The front end's prior (issue 33, fourth part): what the session learns of the EKF's steps from
-// their disagreement with the local matches (ekf_step_agreement.h), and matches whose best pose
-// lies on their window's edge.
+// their disagreement with the local matches (ekf_step_agreement.h), matches whose best pose lies
+// on their window's edge, and a turn the odometry did not see (issue 33, tenth part).
 
 #include <cmath>
 #include <optional>
@@ -201,6 +201,73 @@ TEST(FrontEndTest, AnEkfTheMatchesShowExactKeepsItsStepsDownALongRoom) {
     learned_sum += learned;
   }
   EXPECT_LT(learned_sum, 0.75 * fused_sum);
+}
+
+// A robot drives 0.5 m a step down a room with pillars and, at step 20, turns by `slip` rad
+// that neither its odometry nor its EKF sees (wheels slipping on the spot); both carry on from
+// the heading they believe. Returns how far the graph's heading change from the first node to the
+// last is from the truth's (rad).
+double UnseenTurnHeadingError(bool widen, double slip) {
+  MappingOptions options;
+  options.local_widen_at_heading_edge = widen;
+  options.min_loop_travel = 1e4;  // the front end alone
+  MappingBackend backend(options);
+  std::vector<Wall> walls = Box(0.0, 0.0, 30.0, 9.0);
+  for (double x = 3.0; x < 30.0; x += 4.3) {
+    for (const Wall& w : Box(x, 0.0, x + 0.3, 0.4)) walls.push_back(w);
+    for (const Wall& w : Box(x + 1.5, 8.6, x + 1.9, 9.0)) walls.push_back(w);
+  }
+  std::mt19937 rng(5);
+  std::vector<Pose2> truths, believed;
+  for (int i = 0; i < 40; ++i) {
+    const double heading = i < 20 ? 0.0 : slip;
+    const Pose2 truth = i == 0 ? Pose2{1.0, 2.5, 0.0}
+                               : Compose(truths.back(), Pose2{0.5, 0.0, heading - truths.back().theta});
+    // What the robot believes: every step as the truth's but the slip's turn.
+    Pose2 step = i == 0 ? Pose2{} : Relative(truths.back(), truth);
+    if (i == 20) step.theta = 0.0;
+    ScanMotion motion;
+    if (i > 0) {
+      motion.increment = step;
+      motion.covariance = Eigen::Vector3d(1e-4, 1e-4, 4e-6).asDiagonal();
+    }
+    believed.push_back(i == 0 ? truth : Compose(believed.back(), step));
+    truths.push_back(truth);
+    backend.AddScan(i + 1, i, believed.back(), NoisyScan(walls, truth, &rng), motion);
+  }
+  backend.Flush();
+  const std::vector<NodeView> nodes = backend.Nodes();
+  const double estimated = nodes.back().global.theta - nodes.front().global.theta;
+  const double truth = truths[nodes.back().scan - 1].theta - truths[nodes.front().scan - 1].theta;
+  return std::abs(NormalizeAngle(estimated - truth));
+}
+
+TEST(FrontEndTest, ATurnTheOdometryDidNotSeeIsFoundInAWiderWindow) {
+  // 0.4 rad unseen: the window of the odometry's noise (0.035 rad) holds its best heading on the
+  // edge; matched again in the wide window, the turn is found.
+  EXPECT_LT(UnseenTurnHeadingError(true, 0.4), 0.03);
+  EXPECT_GT(UnseenTurnHeadingError(false, 0.4), 0.2);
+  // Nothing unseen: the same either way.
+  EXPECT_LT(UnseenTurnHeadingError(true, 0.0), 0.03);
+}
+
+TEST(LocalMatcherTest, ABestHeadingOnTheWindowsEdgeIsSaidSo) {
+  const std::vector<Wall> room = Box(0.0, 0.0, 8.0, 6.0);
+  const Pose2 truth{3.0, 3.0, 0.3};
+  PointCloud local_map;
+  AppendTransformed(testing::ScanPoints(room, Pose2{4.0, 2.5, 0.0}), Pose2{4.0, 2.5, 0.0}, &local_map);
+  const PointCloud query = testing::ScanPoints(room, truth);
+  const Pose2 prior{3.0, 3.0, 0.0};
+  const Eigen::Matrix3d covariance = Eigen::Vector3d(0.01, 0.01, 0.01).asDiagonal();
+  LocalMatchSettings settings;
+  settings.min_score = 0.01;  // the narrow window's best scores little: it is still returned
+  const auto narrow = MatchLocally(local_map, query, prior, covariance, SearchWindow{0.2, 0.1}, settings);
+  ASSERT_TRUE(narrow.has_value());
+  EXPECT_TRUE(narrow->at_heading_edge);
+  const auto wide = MatchLocally(local_map, query, prior, covariance, SearchWindow{0.2, 0.5}, settings);
+  ASSERT_TRUE(wide.has_value());
+  EXPECT_FALSE(wide->at_heading_edge);
+  EXPECT_NEAR(wide->matched.theta, truth.theta, 0.01);
 }
 
 }  // namespace

@@ -7,6 +7,8 @@
 
 #include <Eigen/Geometry>
 
+#include "server/laser_slam/geometry.h"
+
 namespace waymark::laser_slam {
 namespace {
 
@@ -388,6 +390,11 @@ std::optional<GridMatch> MatchInWindow(const SearchPyramid& target, const PointC
   result.candidates = found->candidates;
   result.lattice_score = found->lattice_score;
   const long half_cells = static_cast<long>(std::ceil(window.xy / res));
+  const long half_rotations = static_cast<long>(std::ceil(window.theta / step));
+  result.at_heading_edge =
+      window.theta < M_PI &&
+      std::labs(std::lround(NormalizeAngle(found->pose.theta - initial.theta) / step)) >=
+          half_rotations;
   result.at_window_edge = std::labs(std::lround((found->pose.x - initial.x) / res)) >= half_cells ||
                           std::labs(std::lround((found->pose.y - initial.y) / res)) >= half_cells;
 

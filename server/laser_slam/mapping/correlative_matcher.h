@@ -32,6 +32,9 @@ struct GridMatch {
   // MatchInWindow: the best lattice pose lies on the window's outer ring of cells in x or y, so
   // the cells beyond it, which may score higher still, were not scored: no maximum was found.
   bool at_window_edge = false;
+  // MatchInWindow: the best lattice heading is the window's first or last (and the window is
+  // less than a full turn), so headings beyond it were not scored.
+  bool at_heading_edge = false;
 };
 
 // A branch-and-bound search that stops once it has spent a budget of work and resumes where it

@@ -89,6 +89,7 @@ std::optional<LocalMatchResult> MatchLocally(const PointCloud& local_map, const 
   result.matched = match->pose;
   result.score = match->score;
   result.at_window_edge = match->at_window_edge;
+  result.at_heading_edge = match->at_heading_edge;
   result.information =
       MatchInformation(pyramid.base(), query, match->pose,
                        static_cast<double>(query.size()) / settings.points_per_observation);

@@ -43,6 +43,7 @@ struct LocalMatchResult {
   // window says nothing of where the walls are best met (in the simulator's corridors such
   // matches were 12-21 cm off, ten times the others, each claiming 2-3 cm).
   bool at_window_edge = false;
+  bool at_heading_edge = false;  // the best lattice heading was the window's first or last
 };
 
 // The best pose of `query` (its own frame) in `local_map` (points in the map's frame) within

@@ -96,6 +96,20 @@ void MappingBackend::MatchLocalMap(int index) {
   const PointCloud thinned = ThinPoints(local_map, options_.point_cell);
   std::optional<LocalMatchResult> match = MatchLocally(
       thinned, *query, step, step_sigma.cwiseAbs2().asDiagonal(), window, settings);
+  bool widened = false;
+  if ((!match || match->at_heading_edge) && options_.local_widen_at_heading_edge) {
+    SearchWindow wide;
+    wide.xy = std::max(window.xy, options_.local_wide_window_xy);
+    wide.theta = std::min(M_PI, std::max(window.theta, options_.local_wide_window_theta));
+    const double sigmas = options_.local_window_sigmas;
+    const Eigen::Vector3d wide_sigma(wide.xy / sigmas, wide.xy / sigmas, wide.theta / sigmas);
+    std::optional<LocalMatchResult> again = MatchLocally(
+        thinned, *query, step, wide_sigma.cwiseAbs2().asDiagonal(), wide, settings);
+    if (again && (!match || again->score > match->score)) {
+      match = std::move(again);
+      widened = true;
+    }
+  }
   bool odometry_won = false;
   if (odometry_hypothesis) {
     // The walls decide between the two steps: the better-scoring match is kept.
@@ -109,12 +123,13 @@ void MappingBackend::MatchLocalMap(int index) {
     }
   }
   EkfTrust trust;
-  if (match && !odometry_won &&
+  if (match && !odometry_won && !widened &&
       options_.local_prior == MappingOptions::LocalPrior::kEkfWithinOdometry) {
     trust = TrustEkfWhereShown(step, disagreement, odometry_sigma, step_sigma, &*match);
   }
   std::lock_guard<std::mutex> lock(mu_);
   if (odometry_won) ++stats_.local_odometry_wins;
+  if (widened) ++stats_.local_widened;
   if (trust.axes > 0) ++stats_.local_ekf_trusted;
   if (trust.translation_dropped) ++stats_.local_edge_translations_dropped;
   GraphConstraint& c = constraints_[chain];
@@ -158,8 +173,17 @@ void MappingBackend::RedecideEarlierStepsLocked(int index, const Eigen::Vector3d
     const Pose2 odometry = Relative(nodes_[j - 1].odometry, nodes_[j].odometry);
     const Eigen::Vector3d odometry_sigma = nodes_[j].odometry_variance.cwiseSqrt().cwiseMax(floor);
     const Eigen::Vector3d difference = Difference(ekf, odometry);
-    // As TrustEkfWhereShown: not a step where the EKF left the odometry's noise.
+    // As TrustEkfWhereShown: not a step where the EKF left the odometry's noise, nor one where
+    // the walls left both (a turn the odometry did not see, found in the wide window).
     if ((difference.array().abs() > sigmas * odometry_sigma.array()).any()) continue;
+    const Eigen::Vector3d matched = Difference(constraints_[chain].relative, ekf);
+    if ((matched.array().abs() > sigmas * odometry_sigma.array() +
+                                     Eigen::Array3d(options_.local_window_min_xy,
+                                                    options_.local_window_min_xy,
+                                                    options_.local_window_min_theta))
+            .any()) {
+      continue;
+    }
     constraints_[chain].relative = ekf;
     constraints_[chain].sigma = variance.cwiseSqrt().cwiseMax(floor);
     ++stats_.local_ekf_redecided;

@@ -52,6 +52,14 @@ absl::Status ValidateMappingOptions(const MappingOptions& o) {
     return absl::InvalidArgumentError(
         absl::StrCat("mapping.local_min_score must be in (0, 1), got ", o.local_min_score));
   }
+  if (!(o.local_wide_window_xy > 0.0) || o.local_wide_window_xy > o.max_window_xy) {
+    return absl::InvalidArgumentError(absl::StrCat(
+        "mapping.local_wide_window_xy must be in (0, max_window_xy], got ", o.local_wide_window_xy));
+  }
+  if (!(o.local_wide_window_theta > 0.0) || o.local_wide_window_theta > M_PI) {
+    return absl::InvalidArgumentError(absl::StrCat(
+        "mapping.local_wide_window_theta must be in (0, pi], got ", o.local_wide_window_theta));
+  }
   if (o.local_map_nodes < 1 || o.local_map_nodes > 200) {
     return absl::InvalidArgumentError(
         absl::StrCat("mapping.local_map_nodes must be in [1, 200], got ", o.local_map_nodes));

@@ -74,6 +74,14 @@ struct MappingOptions {
   // them out everywhere folded freiburg-campus-medium (0.28 -> 2.35 m, seed 1). With
   // local_learned_prior it is done where the session has shown its EKF better on x and y.
   bool local_ignore_edge_translation = false;
+  // A local match whose best heading lies on its window's edge, or that found nothing scoring
+  // local_min_score (the prior's heading was off by more than the window: the robot turned where
+  // its odometry saw no turn, wheels slipping on the spot), is matched again in a window
+  // local_wide_window_xy (m) and local_wide_window_theta (rad) either way, the prior as uncertain
+  // as that window, and the better-scoring match is kept.
+  bool local_widen_at_heading_edge = true;
+  double local_wide_window_xy = 0.5;
+  double local_wide_window_theta = 0.6;
   int local_map_nodes = 12;
   double local_window_sigmas = 3.0;
   double local_window_min_xy = 0.1;
