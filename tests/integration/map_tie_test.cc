@@ -39,6 +39,29 @@ std::map<double, cli::Pose2> ByStamp(const fs::path& tum) {
   return out;
 }
 
+// Where two trajectories share a stamp: position differences (summed, worst) and the worst
+// heading difference.
+struct Disagreement {
+  double sum = 0, worst = 0, worst_heading = 0;
+  int compared = 0;
+};
+
+Disagreement Compare(const std::map<double, cli::Pose2>& a,
+                     const std::map<double, cli::Pose2>& b) {
+  Disagreement d;
+  for (const auto& [stamp, pose] : a) {
+    auto it = b.find(stamp);
+    if (it == b.end()) continue;
+    const double error = std::hypot(pose.x - it->second.x, pose.y - it->second.y);
+    d.sum += error;
+    d.worst = std::max(d.worst, error);
+    d.worst_heading = std::max(
+        d.worst_heading, std::abs(std::remainder(pose.theta - it->second.theta, 2 * M_PI)));
+    ++d.compared;
+  }
+  return d;
+}
+
 TEST(MapTieTest, TheSecondRobotOfAcesIsTiedInAndAgreesWithOneSession) {
   const fs::path log = fs::path(WAYMARK_SHARED_DIR) / "data/laser/aces/aces.clf.bz2";
   if (!fs::exists(log)) GTEST_SKIP() << log << " not present";
@@ -84,36 +107,15 @@ TEST(MapTieTest, TheSecondRobotOfAcesIsTiedInAndAgreesWithOneSession) {
   const std::map<double, cli::Pose2> merged = ByStamp(dir / "r2_map.txt");
   const std::map<double, cli::Pose2> single = ByStamp(dir / "single" / "trajectory.txt");
   ASSERT_EQ(merged.size(), 1500u);
-  double sum = 0, worst = 0, worst_heading = 0;
-  int compared = 0;
-  for (const auto& [stamp, pose] : merged) {
-    auto it = single.find(stamp);
-    if (it == single.end()) continue;
-    const double error = std::hypot(pose.x - it->second.x, pose.y - it->second.y);
-    sum += error;
-    worst = std::max(worst, error);
-    worst_heading = std::max(
-        worst_heading, std::abs(std::remainder(pose.theta - it->second.theta, 2 * M_PI)));
-    ++compared;
-  }
-  ASSERT_GE(compared, 1400);
+  const Disagreement all = Compare(merged, single);
+  ASSERT_GE(all.compared, 1400);
   // Where both robots drove (scans 1000-1500), robot 2 in the map frame against robot 1: what the
   // tie itself gets right. Measured 2026-12-07 (ACES): mean 0.068 m, worst 0.112 m; the floors
   // are 1.5 times that. A tie a degree off moves the overlap's far end (15 m away) by 0.26 m.
-  const std::map<double, cli::Pose2> first = ByStamp(dir / "r1" / "trajectory.txt");
-  double overlap_sum = 0, overlap_worst = 0;
-  int overlapping = 0;
-  for (const auto& [stamp, pose] : merged) {
-    auto it = first.find(stamp);
-    if (it == first.end()) continue;
-    const double error = std::hypot(pose.x - it->second.x, pose.y - it->second.y);
-    overlap_sum += error;
-    overlap_worst = std::max(overlap_worst, error);
-    ++overlapping;
-  }
-  ASSERT_GE(overlapping, 450);
-  EXPECT_LT(overlap_sum / overlapping, 0.10);
-  EXPECT_LT(overlap_worst, 0.17);
+  const Disagreement overlap = Compare(merged, ByStamp(dir / "r1" / "trajectory.txt"));
+  ASSERT_GE(overlap.compared, 450);
+  EXPECT_LT(overlap.sum / overlap.compared, 0.10);
+  EXPECT_LT(overlap.worst, 0.17);
   // Against the single session over all of robot 2's scans: where robot 2 drives alone the two
   // sessions' graphs differ, each right on the relations (0.037 m on ACES's for both), so this
   // measures the graphs' own disagreement more than the tie. Measured: mean 0.159 m, worst 0.280
@@ -122,9 +124,9 @@ TEST(MapTieTest, TheSecondRobotOfAcesIsTiedInAndAgreesWithOneSession) {
   // the front end's wider window for a turn its prior missed (3 of ACES's 1426 local matches),
   // mean 0.370, worst 0.646. The floors: 1.5 times the largest measured. Without the tie there
   // is no map-frame trajectory at all (`--frame map` refuses).
-  EXPECT_LT(sum / compared, 0.56);
-  EXPECT_LT(worst, 0.97);
-  EXPECT_LT(worst_heading, 0.056);
+  EXPECT_LT(all.sum / all.compared, 0.56);
+  EXPECT_LT(all.worst, 0.97);
+  EXPECT_LT(all.worst_heading, 0.056);
 
   // The merged grid: both trajectories in one grid of the map frame.
   const nlohmann::json grid =
