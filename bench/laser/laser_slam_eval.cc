@@ -500,10 +500,7 @@ int Run(const Args& args) {
   const double applied_lag = args.odometry_lag_auto ? lag.lag_scans : args.odometry_lag;
   adapters::ShiftOdometry(applied_lag, &log.lasers);
   if (lag.decided()) {
-    std::cerr << "note: the log pairs each scan with the odometry of the scan "
-              << std::abs(lag.lag_scans) << (lag.lag_scans < 0 ? " after" : " before") << " it ("
-              << lag.for_lag << " of " << lag.for_lag + lag.for_in_step
-              << " turning scan pairs turn nearer the laser so); "
+    std::cerr << "note: " << adapters::DescribeOdometryLag(lag) << ": "
               << (applied_lag == lag.lag_scans ? std::string("moved back (--odometry-lag 0: as logged)")
                                                : absl::StrFormat("--odometry-lag %g given", applied_lag))
               << "\n";

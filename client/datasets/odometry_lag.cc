@@ -5,6 +5,8 @@
 #include <cmath>
 #include <cstdlib>
 
+#include "absl/strings/str_format.h"
+
 namespace waymark::adapters {
 namespace {
 
@@ -34,10 +36,6 @@ double Log10SignTest(int wins, int n) {
   }
   return std::min(0.0, log_sum / std::log(10.0));
 }
-
-}  // namespace
-
-namespace {
 
 // Wall directions, in bins of kBinRad over [0, pi): translation leaves them as they are, so the
 // shift between two scans' histograms is the laser's turn alone.
@@ -83,11 +81,9 @@ std::vector<double> DirectionHistogram(const CarmenLaser& l) {
   return smooth;
 }
 
-}  // namespace
-
-double ScanRotation(const CarmenLaser& a, const CarmenLaser& b, double max_shift_rad) {
-  if (a.ranges.size() < 10 || !(a.angle_increment > 0) || !(b.angle_increment > 0)) return 0.0;
-  const std::vector<double> ha = DirectionHistogram(a), hb = DirectionHistogram(b);
+// The shift (rad) that best overlays histogram hb on ha (see ScanRotation).
+double HistogramShift(const std::vector<double>& ha, const std::vector<double>& hb,
+                      double max_shift_rad) {
   const int max_shift = std::min(kBins / 4, static_cast<int>(max_shift_rad / kBinRad));
   // A robot turning by d sees every wall direction turn by -d: hb(x) = ha(x + d).
   std::vector<double> score(2 * max_shift + 1, 0.0);
@@ -113,7 +109,7 @@ double ScanRotation(const CarmenLaser& a, const CarmenLaser& b, double max_shift
   return shift * kBinRad;
 }
 
-namespace {
+bool HasBeams(const CarmenLaser& l) { return l.ranges.size() >= 10 && l.angle_increment > 0; }
 
 CarmenPose PoseAt(const std::vector<CarmenPose>& poses, double at) {
   const int n = static_cast<int>(poses.size());
@@ -127,19 +123,33 @@ CarmenPose PoseAt(const std::vector<CarmenPose>& poses, double at) {
           WrapAngle(a.theta + f * WrapAngle(b.theta - a.theta))};
 }
 
-std::vector<CarmenPose> OdometryOf(const std::vector<CarmenLaser>& lasers) {
+// One pose field of every laser (odom_pose or laser_pose).
+std::vector<CarmenPose> PosesOf(const std::vector<CarmenLaser>& lasers,
+                                CarmenPose CarmenLaser::*field) {
   std::vector<CarmenPose> poses;
   poses.reserve(lasers.size());
-  for (const CarmenLaser& l : lasers) poses.push_back(l.odom_pose);
+  for (const CarmenLaser& l : lasers) poses.push_back(l.*field);
   return poses;
 }
 
 }  // namespace
 
+double ScanRotation(const CarmenLaser& a, const CarmenLaser& b, double max_shift_rad) {
+  if (!HasBeams(a) || !HasBeams(b)) return 0.0;
+  return HistogramShift(DirectionHistogram(a), DirectionHistogram(b), max_shift_rad);
+}
+
 void OdometryLagEstimator::Add(const CarmenLaser& laser) {
   window_.push_back(laser);
   if (window_.size() < kWindow) return;
-  if (window_.size() > kWindow) window_.pop_front();
+  if (window_.size() > kWindow) {
+    window_.pop_front();
+    // The pair's first scan was the last pair's second: its histogram, if that pair made one.
+    first_histogram_ = std::move(second_histogram_);
+  } else {
+    first_histogram_.clear();
+  }
+  second_histogram_.clear();
   // The pair (i, i + 1) with i = kMaxOdometryLagScans, its odometry lagged both ways.
   const int i = kMaxOdometryLagScans;
   Misses turn;
@@ -150,7 +160,10 @@ void OdometryLagEstimator::Add(const CarmenLaser& laser) {
     any_turn = any_turn || std::abs(turn[l]) >= kTurningBeams * window_[i].angle_increment;
   }
   if (!any_turn) return;  // no lag would turn: the pair cannot tell them apart
-  const double turned = ScanRotation(window_[i], window_[i + 1], kMaxTurnPerScan);
+  if (!HasBeams(window_[i]) || !HasBeams(window_[i + 1])) return;
+  if (first_histogram_.empty()) first_histogram_ = DirectionHistogram(window_[i]);
+  second_histogram_ = DirectionHistogram(window_[i + 1]);
+  const double turned = HistogramShift(first_histogram_, second_histogram_, kMaxTurnPerScan);
   if (std::abs(turned) < kTurningBeams * window_[i].angle_increment) return;
   for (int l = 0; l < kLags; ++l) turn[l] = std::abs(WrapAngle(turned - turn[l]));
   misses_.push_back(turn);
@@ -217,12 +230,18 @@ absl::StatusOr<OdometryLag> EstimateOdometryLagOfLog(const std::string& path) {
   return estimator.Result();
 }
 
+std::string DescribeOdometryLag(const OdometryLag& lag) {
+  return absl::StrFormat(
+      "the log pairs each scan with the odometry of the scan %d %s it (%d of %d turning scan "
+      "pairs turn nearer the laser so; chance 1e%.0f)",
+      std::abs(lag.lag_scans), lag.lag_scans < 0 ? "after" : "before", lag.for_lag,
+      lag.for_lag + lag.for_in_step, lag.log10_chance);
+}
+
 void ShiftOdometry(double lag_scans, std::vector<CarmenLaser>* lasers) {
   if (lag_scans == 0 || lasers->empty()) return;
-  const std::vector<CarmenPose> odometry = OdometryOf(*lasers);
-  std::vector<CarmenPose> laser;
-  laser.reserve(lasers->size());
-  for (const CarmenLaser& l : *lasers) laser.push_back(l.laser_pose);
+  const std::vector<CarmenPose> odometry = PosesOf(*lasers, &CarmenLaser::odom_pose);
+  const std::vector<CarmenPose> laser = PosesOf(*lasers, &CarmenLaser::laser_pose);
   for (size_t i = 0; i < lasers->size(); ++i) {
     (*lasers)[i].odom_pose = PoseAt(odometry, static_cast<double>(i) + lag_scans);
     (*lasers)[i].laser_pose = PoseAt(laser, static_cast<double>(i) + lag_scans);

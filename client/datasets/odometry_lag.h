@@ -61,6 +61,9 @@ class OdometryLagEstimator {
   static constexpr size_t kWindow = 2 * kMaxOdometryLagScans + 2;
   using Misses = std::array<double, kLags>;  // per lag: its odometry's turn off the laser's
   std::deque<CarmenLaser> window_;
+  // The wall-direction histograms of the current pair's two scans (empty: not made yet), so
+  // that each scan's is made once.
+  std::vector<double> first_histogram_, second_histogram_;
   std::vector<Misses> misses_;
 };
 
@@ -69,6 +72,10 @@ OdometryLag EstimateOdometryLag(const std::vector<CarmenLaser>& lasers);
 // Over the laser lines of the log at `path` (plain, .gz or .bz2), read in file order; the
 // reader's error when it cannot be opened or a line is broken.
 absl::StatusOr<OdometryLag> EstimateOdometryLagOfLog(const std::string& path);
+
+// "the log pairs each scan with the odometry of the scan 1 after it (... turning scan pairs turn
+// nearer the laser so; chance 1e-36)": what a decided lag says to the person replaying the log.
+std::string DescribeOdometryLag(const OdometryLag& lag);
 
 // Moves each laser's odometry (and its logged laser pose with it, so that the mounting between
 // the two stays) to where the log has it lag_scans scans later: interpolated between the two

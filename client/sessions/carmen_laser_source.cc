@@ -74,12 +74,8 @@ LaserSourceCounts CarmenLaserSource::counts() const {
 std::vector<std::string> CarmenLaserSource::Warnings() const {
   std::vector<std::string> warnings;
   if (lag_.decided()) {
-    warnings.push_back(fmt::format(
-        "the log pairs each scan with the odometry of the scan {} {} it ({} of {} turning scan "
-        "pairs turn nearer the laser so; chance 1e{:.0f}): moved back (--odometry-lag 0 keeps "
-        "the log's pairing)",
-        std::abs(lag_.lag_scans), lag_.lag_scans < 0 ? "after" : "before", lag_.for_lag,
-        lag_.for_lag + lag_.for_in_step, lag_.log10_chance));
+    warnings.push_back(adapters::DescribeOdometryLag(lag_) +
+                       ": moved back (--odometry-lag 0 keeps the log's pairing)");
   }
   const CarmenLogReader& reader = feed_->reader();
   if (reader.malformed_lines() == 0) return warnings;
