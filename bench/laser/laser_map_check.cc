@@ -83,6 +83,7 @@ nlohmann::json MappingJson(const ls::MappingBackend& backend) {
           {"local_unmatched", stats.local_unmatched},
           {"local_odometry_wins", stats.local_odometry_wins},
           {"local_widened", stats.local_widened},
+          {"local_unmatched_odometry", stats.local_unmatched_odometry},
           {"local_ekf_trusted", stats.local_ekf_trusted},
           {"local_ekf_redecided", stats.local_ekf_redecided},
           {"local_edge_translations_dropped", stats.local_edge_translations_dropped},

@@ -181,6 +181,7 @@ bool SetMappingOption(const std::string& assignment, ls::MappingOptions* m) {
       {"local_odometry_hypothesis", &m->local_odometry_hypothesis},
       {"local_learned_prior", &m->local_learned_prior},
       {"local_widen_at_heading_edge", &m->local_widen_at_heading_edge},
+      {"local_unmatched_odometry", &m->local_unmatched_odometry},
       {"local_ignore_edge_translation", &m->local_ignore_edge_translation},
       {"global_within_window", &m->global_within_window},
       {"window_through_ties", &m->window_through_ties},

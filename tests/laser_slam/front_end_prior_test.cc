@@ -1,6 +1,7 @@
 // The front end's prior (issue 33, fourth part): what the session learns of the EKF's steps from
 // their disagreement with the local matches (ekf_step_agreement.h), matches whose best pose lies
-// on their window's edge, and a turn the odometry did not see (issue 33, tenth part).
+// on their window's edge, a turn the odometry did not see (issue 33, tenth part), and an EKF
+// jump on a scan the local map cannot place.
 
 #include <cmath>
 #include <optional>
@@ -249,6 +250,55 @@ TEST(FrontEndTest, ATurnTheOdometryDidNotSeeIsFoundInAWiderWindow) {
   EXPECT_GT(UnseenTurnHeadingError(false, 0.4), 0.2);
   // Nothing unseen: the same either way.
   EXPECT_LT(UnseenTurnHeadingError(true, 0.0), 0.03);
+}
+
+// A robot drives 0.5 m a step down a room with pillars with exact odometry; at step 15 its EKF
+// jumps `jump` m sideways (a wrong association) and stays there, and that step's scan holds
+// nothing the local map can place (a blinded scanner). Returns the graph's step onto that node;
+// `odometry_steps` the steps the odometry chained.
+Pose2 StepOntoAnUnplacedScan(bool unmatched_odometry, double jump, int* odometry_steps = nullptr) {
+  MappingOptions options;
+  options.local_unmatched_odometry = unmatched_odometry;
+  options.min_loop_travel = 1e4;  // the front end alone
+  MappingBackend backend(options);
+  std::vector<Wall> walls = Box(0.0, 0.0, 30.0, 9.0);
+  for (double x = 3.0; x < 30.0; x += 4.3) {
+    for (const Wall& w : Box(x, 0.0, x + 0.3, 0.4)) walls.push_back(w);
+    for (const Wall& w : Box(x + 1.5, 8.6, x + 1.9, 9.0)) walls.push_back(w);
+  }
+  std::mt19937 rng(9);
+  const auto truth = [](int i) { return Pose2{1.0 + 0.5 * i, 2.5, 0.0}; };
+  for (int i = 0; i < 30; ++i) {
+    ScanMotion motion;
+    if (i > 0) {
+      motion.increment = Relative(truth(i - 1), truth(i));
+      motion.covariance = Eigen::Vector3d(1e-4, 1e-4, 4e-6).asDiagonal();
+    }
+    const Pose2 ekf = i < 15 ? truth(i) : Compose(truth(i), Pose2{0.0, jump, 0.0});
+    const PointCloud points = i == 15 ? PointCloud{} : NoisyScan(walls, truth(i), &rng);
+    backend.AddScan(i + 1, i, ekf, points, motion);
+  }
+  backend.Flush();
+  if (odometry_steps) *odometry_steps = backend.Stats().local_unmatched_odometry;
+  const std::vector<NodeView> nodes = backend.Nodes();
+  for (size_t k = 1; k < nodes.size(); ++k) {
+    if (nodes[k].scan == 16) return Relative(nodes[k - 1].global, nodes[k].global);
+  }
+  ADD_FAILURE() << "no node for scan 16";
+  return Pose2{};
+}
+
+TEST(FrontEndTest, AnEkfJumpOnAScanNothingPlacesGivesWayToTheOdometry) {
+  // The odometry's noise (1 cm) cannot explain a 3 m step sideways: the odometry's step is kept.
+  int odometry_steps = 0;
+  const Pose2 kept = StepOntoAnUnplacedScan(true, 3.0, &odometry_steps);
+  EXPECT_NEAR(kept.x, 0.5, 0.05);
+  EXPECT_NEAR(kept.y, 0.0, 0.05);
+  EXPECT_EQ(odometry_steps, 1);
+  // Without it the EKF's jump is the step (before).
+  EXPECT_NEAR(StepOntoAnUnplacedScan(false, 3.0).y, 3.0, 0.05);
+  // An EKF step within the odometry's noise is the EKF's either way.
+  EXPECT_NEAR(StepOntoAnUnplacedScan(true, 0.01).y, 0.01, 0.005);
 }
 
 TEST(LocalMatcherTest, ABestHeadingOnTheWindowsEdgeIsSaidSo) {

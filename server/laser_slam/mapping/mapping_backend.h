@@ -79,9 +79,11 @@ struct MappingStats {
   int closures_switched_off = 0;  // accepted, then found inconsistent by the graph
   int optimizations = 0;
   int local_matches = 0;        // nodes whose chain constraint comes from local matching
-  int local_unmatched = 0;      // nodes left with the EKF's step (nothing scored local_min_score)
+  int local_unmatched = 0;      // nodes left with the prior's step (nothing scored local_min_score)
   int local_odometry_wins = 0;  // matches around the odometry's step that beat the EKF's
   int local_widened = 0;  // matches taken from the wide window (local_widen_at_heading_edge)
+  // Of those, steps the odometry chained (local_unmatched_odometry): the EKF's was off.
+  int local_unmatched_odometry = 0;
   int local_ekf_trusted = 0;    // steps whose EKF was trusted on an axis (ekf_step_agreement.h)
   int local_edge_translations_dropped = 0;  // matches on their window's edge, translation unused
   int local_ekf_redecided = 0;  // earlier steps made the EKF's when it was first trusted

@@ -50,6 +50,8 @@ void MappingBackend::MatchLocalMap(int index) {
   // The odometry's step as a second hypothesis (MappingOptions::local_odometry_hypothesis).
   std::optional<Pose2> odometry_hypothesis;
   Eigen::Vector3d odometry_sigma;
+  // The odometry's step where the EKF's leaves it by more than its own noise allows.
+  std::optional<Pose2> odometry_instead;
   {
     std::lock_guard<std::mutex> lock(mu_);
     const Node& previous = nodes_[index - 1];
@@ -81,10 +83,10 @@ void MappingBackend::MatchLocalMap(int index) {
     window = LocalWindow(sigma);
     odometry_sigma = nodes_[index].odometry_variance.cwiseSqrt().cwiseMax(floor);
     if (options_.local_prior == MappingOptions::LocalPrior::kEkfWithinOdometry &&
-        options_.local_odometry_hypothesis &&
         (disagreement.array().abs() > options_.local_window_sigmas * odometry_sigma.array())
             .any()) {
-      odometry_hypothesis = odometry_step;
+      if (options_.local_odometry_hypothesis) odometry_hypothesis = odometry_step;
+      if (options_.local_unmatched_odometry) odometry_instead = odometry_step;
     }
   }
   LocalMatchSettings settings;
@@ -134,11 +136,14 @@ void MappingBackend::MatchLocalMap(int index) {
   if (trust.translation_dropped) ++stats_.local_edge_translations_dropped;
   GraphConstraint& c = constraints_[chain];
   if (!match) {
-    // The prior alone: with the odometry prior, its step and its noise replace the EKF's.
+    // The prior alone: with the odometry prior, its step and its noise replace the EKF's. An
+    // EKF step the odometry's noise cannot explain (its association went wrong: freiburg-campus
+    // at high noise stepped 16 m where the wheels said 1 m) gives way to the odometry's.
     if (options_.local_prior != MappingOptions::LocalPrior::kEkf) {
-      c.relative = step;
-      c.sigma = step_sigma;
-      nodes_[index].global = Compose(nodes_[index - 1].global, step);
+      c.relative = odometry_instead ? *odometry_instead : step;
+      c.sigma = odometry_instead ? odometry_sigma : step_sigma;
+      nodes_[index].global = Compose(nodes_[index - 1].global, c.relative);
+      if (odometry_instead) ++stats_.local_unmatched_odometry;
       FollowPredecessorsLocked(index + 1);
     }
     ++stats_.local_unmatched;

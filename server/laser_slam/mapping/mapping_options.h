@@ -57,6 +57,12 @@ struct MappingOptions {
   // from 0.180 to 0.153 m and from 0.148 to 0.177 m: the hard rows flip either way, and no gain
   // shows above that chaos (docs/laser-slam.md).
   bool local_odometry_hypothesis = false;
+  // With kEkfWithinOdometry: a scan the local map cannot place (no match in its window) is
+  // chained by the odometry's step and noise, instead of the EKF's, where the two disagree by
+  // more than local_window_sigmas of the odometry's noise on any axis. The EKF's step is then
+  // the one in doubt (a wrong association moved it metres), the odometry's error is what its
+  // noise model says. Off: the EKF's step with that disagreement as its sigma (before).
+  bool local_unmatched_odometry = true;
   // With kEkfWithinOdometry: the EKF's step trusted to the variance the session's matches show
   // it has (ekf_step_agreement.h), on the axes where that is below the matches' own and the
   // prior's and the EKF is not biased against them, when the step stays within
