@@ -204,6 +204,16 @@ TEST(FrontEndTest, AnEkfTheMatchesShowExactKeepsItsStepsDownALongRoom) {
   EXPECT_LT(learned_sum, 0.75 * fused_sum);
 }
 
+// A room 30 m by 9 m with pillars along both long walls, 4.3 m apart.
+std::vector<Wall> RoomWithPillars() {
+  std::vector<Wall> walls = Box(0.0, 0.0, 30.0, 9.0);
+  for (double x = 3.0; x < 30.0; x += 4.3) {
+    for (const Wall& w : Box(x, 0.0, x + 0.3, 0.4)) walls.push_back(w);
+    for (const Wall& w : Box(x + 1.5, 8.6, x + 1.9, 9.0)) walls.push_back(w);
+  }
+  return walls;
+}
+
 // A robot drives 0.5 m a step down a room with pillars and, at step 20, turns by `slip` rad
 // that neither its odometry nor its EKF sees (wheels slipping on the spot); both carry on from
 // the heading they believe. Returns how far the graph's heading change from the first node to the
@@ -213,11 +223,7 @@ double UnseenTurnHeadingError(bool widen, double slip) {
   options.local_widen_at_heading_edge = widen;
   options.min_loop_travel = 1e4;  // the front end alone
   MappingBackend backend(options);
-  std::vector<Wall> walls = Box(0.0, 0.0, 30.0, 9.0);
-  for (double x = 3.0; x < 30.0; x += 4.3) {
-    for (const Wall& w : Box(x, 0.0, x + 0.3, 0.4)) walls.push_back(w);
-    for (const Wall& w : Box(x + 1.5, 8.6, x + 1.9, 9.0)) walls.push_back(w);
-  }
+  const std::vector<Wall> walls = RoomWithPillars();
   std::mt19937 rng(5);
   std::vector<Pose2> truths, believed;
   for (int i = 0; i < 40; ++i) {
@@ -261,11 +267,7 @@ Pose2 StepOntoAnUnplacedScan(bool unmatched_odometry, double jump, int* odometry
   options.local_unmatched_odometry = unmatched_odometry;
   options.min_loop_travel = 1e4;  // the front end alone
   MappingBackend backend(options);
-  std::vector<Wall> walls = Box(0.0, 0.0, 30.0, 9.0);
-  for (double x = 3.0; x < 30.0; x += 4.3) {
-    for (const Wall& w : Box(x, 0.0, x + 0.3, 0.4)) walls.push_back(w);
-    for (const Wall& w : Box(x + 1.5, 8.6, x + 1.9, 9.0)) walls.push_back(w);
-  }
+  const std::vector<Wall> walls = RoomWithPillars();
   std::mt19937 rng(9);
   const auto truth = [](int i) { return Pose2{1.0 + 0.5 * i, 2.5, 0.0}; };
   for (int i = 0; i < 30; ++i) {
