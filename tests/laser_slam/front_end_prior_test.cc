@@ -204,6 +204,14 @@ TEST(FrontEndTest, AnEkfTheMatchesShowExactKeepsItsStepsDownALongRoom) {
   EXPECT_LT(learned_sum, 0.75 * fused_sum);
 }
 
+// An odometry step `step` whose session model is precise (1 cm, 2 mrad).
+ScanMotion PreciseOdometry(const Pose2& step) {
+  ScanMotion motion;
+  motion.increment = step;
+  motion.covariance = Eigen::Vector3d(1e-4, 1e-4, 4e-6).asDiagonal();
+  return motion;
+}
+
 // A room 30 m by 9 m with pillars along both long walls, 4.3 m apart.
 std::vector<Wall> RoomWithPillars() {
   std::vector<Wall> walls = Box(0.0, 0.0, 30.0, 9.0);
@@ -233,11 +241,7 @@ double UnseenTurnHeadingError(bool widen, double slip) {
     // What the robot believes: every step as the truth's but the slip's turn.
     Pose2 step = i == 0 ? Pose2{} : Relative(truths.back(), truth);
     if (i == 20) step.theta = 0.0;
-    ScanMotion motion;
-    if (i > 0) {
-      motion.increment = step;
-      motion.covariance = Eigen::Vector3d(1e-4, 1e-4, 4e-6).asDiagonal();
-    }
+    const ScanMotion motion = i > 0 ? PreciseOdometry(step) : ScanMotion{};
     believed.push_back(i == 0 ? truth : Compose(believed.back(), step));
     truths.push_back(truth);
     backend.AddScan(i + 1, i, believed.back(), NoisyScan(walls, truth, &rng), motion);
@@ -271,11 +275,8 @@ Pose2 StepOntoAnUnplacedScan(bool unmatched_odometry, double jump, int* odometry
   std::mt19937 rng(9);
   const auto truth = [](int i) { return Pose2{1.0 + 0.5 * i, 2.5, 0.0}; };
   for (int i = 0; i < 30; ++i) {
-    ScanMotion motion;
-    if (i > 0) {
-      motion.increment = Relative(truth(i - 1), truth(i));
-      motion.covariance = Eigen::Vector3d(1e-4, 1e-4, 4e-6).asDiagonal();
-    }
+    const ScanMotion motion =
+        i > 0 ? PreciseOdometry(Relative(truth(i - 1), truth(i))) : ScanMotion{};
     const Pose2 ekf = i < 15 ? truth(i) : Compose(truth(i), Pose2{0.0, jump, 0.0});
     const PointCloud points = i == 15 ? PointCloud{} : NoisyScan(walls, truth(i), &rng);
     backend.AddScan(i + 1, i, ekf, points, motion);

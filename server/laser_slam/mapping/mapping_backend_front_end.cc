@@ -47,11 +47,11 @@ void MappingBackend::MatchLocalMap(int index) {
   Eigen::Vector3d disagreement = Eigen::Vector3d::Zero();
   std::shared_ptr<const PointCloud> query;
   int chain = -1;
-  // The odometry's step as a second hypothesis (MappingOptions::local_odometry_hypothesis).
-  std::optional<Pose2> odometry_hypothesis;
+  // The odometry's step where the EKF's leaves it by more than the odometry's noise allows: a
+  // second hypothesis (local_odometry_hypothesis), and the step of a scan nothing places
+  // (local_unmatched_odometry).
+  std::optional<Pose2> odometry_apart;
   Eigen::Vector3d odometry_sigma;
-  // The odometry's step where the EKF's leaves it by more than its own noise allows.
-  std::optional<Pose2> odometry_instead;
   {
     std::lock_guard<std::mutex> lock(mu_);
     const Node& previous = nodes_[index - 1];
@@ -85,8 +85,7 @@ void MappingBackend::MatchLocalMap(int index) {
     if (options_.local_prior == MappingOptions::LocalPrior::kEkfWithinOdometry &&
         (disagreement.array().abs() > options_.local_window_sigmas * odometry_sigma.array())
             .any()) {
-      if (options_.local_odometry_hypothesis) odometry_hypothesis = odometry_step;
-      if (options_.local_unmatched_odometry) odometry_instead = odometry_step;
+      odometry_apart = odometry_step;
     }
   }
   LocalMatchSettings settings;
@@ -113,10 +112,10 @@ void MappingBackend::MatchLocalMap(int index) {
     }
   }
   bool odometry_won = false;
-  if (odometry_hypothesis) {
+  if (odometry_apart && options_.local_odometry_hypothesis) {
     // The walls decide between the two steps: the better-scoring match is kept.
     std::optional<LocalMatchResult> around_odometry =
-        MatchLocally(thinned, *query, *odometry_hypothesis,
+        MatchLocally(thinned, *query, *odometry_apart,
                      odometry_sigma.cwiseAbs2().asDiagonal(), LocalWindow(odometry_sigma),
                      settings);
     if (around_odometry && (!match || around_odometry->score > match->score)) {
@@ -140,10 +139,11 @@ void MappingBackend::MatchLocalMap(int index) {
     // EKF step the odometry's noise cannot explain (its association went wrong: freiburg-campus
     // at high noise stepped 16 m where the wheels said 1 m) gives way to the odometry's.
     if (options_.local_prior != MappingOptions::LocalPrior::kEkf) {
-      c.relative = odometry_instead ? *odometry_instead : step;
-      c.sigma = odometry_instead ? odometry_sigma : step_sigma;
+      const bool by_odometry = odometry_apart && options_.local_unmatched_odometry;
+      c.relative = by_odometry ? *odometry_apart : step;
+      c.sigma = by_odometry ? odometry_sigma : step_sigma;
       nodes_[index].global = Compose(nodes_[index - 1].global, c.relative);
-      if (odometry_instead) ++stats_.local_unmatched_odometry;
+      if (by_odometry) ++stats_.local_unmatched_odometry;
       FollowPredecessorsLocked(index + 1);
     }
     ++stats_.local_unmatched;
