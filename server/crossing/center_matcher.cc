@@ -171,40 +171,46 @@ std::vector<int> CenterMatcher::CountMatches(const cv::Mat& query, double ratio)
   std::vector<float> norms(query.rows);
   for (int r = 0; r < query.rows; ++r) norms[r] = static_cast<float>(projected.row(r).dot(projected.row(r)));
 
-  std::vector<uint32_t> hits;
-  for (size_t c = 0; c < centers_.size(); ++c) {
-    const Center& center = centers_[c];
-    if (center.span.count < 2) continue;  // no second neighbour: nothing matches (MatchViewExact)
-    for (int r = 0; r < query.rows; ++r) {
-      const uint8_t* q = query.ptr<uint8_t>(r);
-      bool inside = !balls;
-      if (balls) {
-        hits.clear();
-        ProjectedHits(minus_twice.ptr<float>(r), norms[r], center.projected.data(),
-                      center.norms.data(), center.neighbour_sq.data(), center.padded, scale,
-                      kSlack, &hits);
-        for (uint32_t i : hits) {
-          if (i >= center.span.count) continue;  // padding
-          const float threshold = scale * center.neighbour_sq[i] + kSlack;
-          if (static_cast<float>(SquaredL2(q, store_.Get(center.span.first + i))) < threshold) {
-            inside = true;
-            break;
+  // The centres are independent: on OpenCV's worker threads (a busy server runs them inline), each
+  // range writing only its own counts, so the counts do not depend on the threads. The clustering
+  // of one view waits for the previous one's, so it is enrollment's serial stage.
+  cv::parallel_for_(cv::Range(0, static_cast<int>(centers_.size())), [&](const cv::Range& range) {
+    std::vector<uint32_t> hits;
+    for (int c = range.start; c < range.end; ++c) {
+      const Center& center = centers_[c];
+      if (center.span.count < 2) continue;  // no second neighbour: nothing matches (MatchViewExact)
+      for (int r = 0; r < query.rows; ++r) {
+        const uint8_t* q = query.ptr<uint8_t>(r);
+        bool inside = !balls;
+        if (balls) {
+          hits.clear();
+          ProjectedHits(minus_twice.ptr<float>(r), norms[r], center.projected.data(),
+                        center.norms.data(), center.neighbour_sq.data(), center.padded, scale,
+                        kSlack, &hits);
+          for (uint32_t i : hits) {
+            if (i >= center.span.count) continue;  // padding
+            const float threshold = scale * center.neighbour_sq[i] + kSlack;
+            if (static_cast<float>(SquaredL2(q, store_.Get(center.span.first + i))) < threshold) {
+              inside = true;
+              break;
+            }
           }
         }
+        if (!inside) continue;
+        const TwoNearest best = FindTwoNearest(q, store_, center.span);
+        if (PassesRatio(best.first, best.second, ratio)) ++counts[c];
       }
-      if (!inside) continue;
-      const TwoNearest best = FindTwoNearest(q, store_, center.span);
-      if (PassesRatio(best.first, best.second, ratio)) ++counts[c];
     }
-  }
+  });
   return counts;
 }
 
 size_t CenterMatcher::memory_bytes() const {
   size_t bytes = basis_.total() * basis_.elemSize();
   for (const Center& c : centers_) {
-    bytes += sizeof(Center) +
-             (c.projected.capacity() + c.norms.capacity() + c.neighbour_sq.capacity()) * sizeof(float);
+    bytes +=
+        sizeof(Center) +
+        (c.projected.capacity() + c.norms.capacity() + c.neighbour_sq.capacity()) * sizeof(float);
   }
   return bytes;
 }
