@@ -208,9 +208,8 @@ std::vector<int> CenterMatcher::CountMatches(const cv::Mat& query, double ratio)
 size_t CenterMatcher::memory_bytes() const {
   size_t bytes = basis_.total() * basis_.elemSize();
   for (const Center& c : centers_) {
-    bytes +=
-        sizeof(Center) +
-        (c.projected.capacity() + c.norms.capacity() + c.neighbour_sq.capacity()) * sizeof(float);
+    bytes += sizeof(Center) +
+             (c.projected.capacity() + c.norms.capacity() + c.neighbour_sq.capacity()) * sizeof(float);
   }
   return bytes;
 }
