@@ -29,7 +29,8 @@ uint32_t NextRandom(uint32_t* state) {  // xorshift32: small, fast, deterministi
 struct Branch {
   int32_t bound;  // squared distance from the query to the splitting plane
   uint16_t tree;
-  uint32_t node;
+  uint32_t node;  // the subtree's node (unused when it is a leaf)
+  uint32_t first, last;  // its range of the tree's permutation
   bool operator>(const Branch& other) const { return bound > other.bound; }
 };
 
@@ -58,12 +59,13 @@ KdForest::KdForest(const DescriptorStore& store, std::vector<uint32_t> ids, int 
   for (size_t t = 0; t < trees_.size(); ++t) {
     Tree& tree = trees_[t];
     tree.ids = t + 1 < trees_.size() ? ids : std::move(ids);
-    tree.nodes.reserve(2 * n / leaf_size_ + 1);
-    if (n > 0) BuildNode(&tree, 0, n, &rng);
+    tree.nodes.reserve(n / leaf_size_ + 1);
+    BuildNode(&tree, 0, n, &rng);
     Pack(&tree);
     // Leaves hold fewer than leaf_size on average, so the reserve was short and the vector had
     // doubled: give back what the tree does not use.
     tree.nodes.shrink_to_fit();
+    tree.wide_left.shrink_to_fit();
   }
 }
 
@@ -87,12 +89,22 @@ std::vector<uint32_t> KdForest::ids() const {
   return out;
 }
 
+uint32_t KdForest::LeftSize(const Tree& tree, uint32_t node) {
+  const Node& n = tree.nodes[node];
+  if (n.left != Node::kWideLeft) return n.left;
+  const auto it = std::lower_bound(
+      tree.wide_left.begin(), tree.wide_left.end(), node,
+      [](const std::pair<uint32_t, uint32_t>& entry, uint32_t key) { return entry.first < key; });
+  return it->second;
+}
+
 uint32_t KdForest::BuildNode(Tree* tree, uint32_t first, uint32_t last, uint32_t* rng) {
+  if (last - first <= static_cast<uint32_t>(leaf_size_)) return kNoNode;
   const uint32_t index = static_cast<uint32_t>(tree->nodes.size());
+  // A leaf of equal descriptors stays one up to this size (what the first layout's 16-bit leaf
+  // count could say; kept so that the trees stay the same).
   constexpr uint32_t kMaxLeaf = std::numeric_limits<uint16_t>::max();
-  tree->nodes.push_back(
-      Node{Node::kLeaf, 0, static_cast<uint16_t>(std::min(last - first, kMaxLeaf)), first});
-  if (last - first <= static_cast<uint32_t>(leaf_size_)) return index;
+  tree->nodes.push_back(Node{Node::kLeaf, 0, 0, 0});
 
   // Mean and variance per dimension over a sample of the node's descriptors, in integers: sums
   // and sums of squares (at most a few hundred samples of 255^2 fit in 32 bits) vectorise, and
@@ -130,13 +142,18 @@ uint32_t KdForest::BuildNode(Tree* tree, uint32_t first, uint32_t last, uint32_t
   uint32_t mid = static_cast<uint32_t>(middle - tree->ids.begin());
   if (mid == first || mid == last) mid = first + count / 2;  // degenerate: split by position
 
-  BuildNode(tree, first, mid, rng);  // the left child: node index + 1
-  const uint32_t right = BuildNode(tree, mid, last, rng);
   Node& node = tree->nodes[index];
   node.dim = static_cast<uint8_t>(dim);
   node.value = split;
-  node.count = 0;
-  node.index = right;
+  if (mid - first < Node::kWideLeft) {
+    node.left = static_cast<uint16_t>(mid - first);
+  } else {
+    node.left = Node::kWideLeft;
+    tree->wide_left.emplace_back(index, mid - first);  // in preorder: sorted by node
+  }
+  BuildNode(tree, first, mid, rng);  // the left child: node index + 1
+  const uint32_t right = BuildNode(tree, mid, last, rng);
+  tree->nodes[index].right = right;  // (the children may have moved the vector)
   return index;
 }
 
@@ -144,42 +161,50 @@ void KdForest::Search(const uint8_t* query, int checks, KnnList* result) const {
   if (size() == 0) return;
   std::priority_queue<Branch, std::vector<Branch>, std::greater<Branch>> branches;
   int checked = 0;
-  // Descends from `node` to a leaf, queueing the far side of every split on the way.
-  auto descend = [&](uint16_t t, uint32_t node) {
+  // Descends from the subtree (`node`, ids [first, last)) to a leaf, queueing the far side of
+  // every split on the way.
+  auto descend = [&](uint16_t t, uint32_t node, uint32_t first, uint32_t last) {
     const Tree& tree = trees_[t];
-    while (tree.nodes[node].dim != Node::kLeaf) {
+    while (last - first > static_cast<uint32_t>(leaf_size_) &&
+           tree.nodes[node].dim != Node::kLeaf) {
       const Node& n = tree.nodes[node];
+      const uint32_t mid = first + LeftSize(tree, node);
       const int diff = static_cast<int>(query[n.dim]) - static_cast<int>(n.value);
       const bool go_left = diff <= 0;
-      const uint32_t near = go_left ? node + 1 : n.index;
-      const uint32_t far = go_left ? n.index : node + 1;
       const int32_t bound = go_left ? (diff - 1) * (diff - 1) : diff * diff;
       if (!result->full() || bound < result->worst()) {
-        branches.push(Branch{bound, t, far});
+        branches.push(go_left ? Branch{bound, t, n.right, mid, last}
+                              : Branch{bound, t, node + 1, first, mid});
       }
-      node = near;
+      if (go_left) {
+        last = mid;
+        ++node;
+      } else {
+        first = mid;
+        node = n.right;
+      }
     }
-    const Node& leaf = tree.nodes[node];
-    for (uint32_t i = leaf.index; i < leaf.index + leaf.count; ++i) {
+    for (uint32_t i = first; i < last; ++i) {
       const uint32_t id = Id(tree, i);
       result->Offer(id, SquaredL2(query, store_.Get(id)));
       ++checked;
     }
   };
-  for (uint16_t t = 0; t < trees_.size(); ++t) descend(t, 0);
+  for (uint16_t t = 0; t < trees_.size(); ++t) descend(t, 0, 0, size_);
   while (!branches.empty() && checked < checks) {
     const Branch b = branches.top();
     branches.pop();
     if (result->full() && b.bound >= result->worst()) break;
-    descend(b.tree, b.node);
+    descend(b.tree, b.node, b.first, b.last);
   }
 }
 
 size_t KdForest::memory_bytes() const {
   size_t bytes = 0;
   for (const Tree& t : trees_) {
-    bytes += t.nodes.capacity() * sizeof(Node) + t.ids.capacity() * sizeof(uint32_t) +
-             t.packed.capacity();
+    bytes += t.nodes.capacity() * sizeof(Node) +
+             t.wide_left.capacity() * sizeof(std::pair<uint32_t, uint32_t>) +
+             t.ids.capacity() * sizeof(uint32_t) + t.packed.capacity();
   }
   return bytes;
 }

@@ -8,6 +8,7 @@
 
 #include <cstdint>
 #include <cstring>
+#include <utility>
 #include <vector>
 
 #include "server/crossing/descriptor_store.h"
@@ -50,33 +51,45 @@ class KdForest {
   size_t memory_bytes() const;
 
  private:
-  // 8 bytes where the first layout took 12 (issue 34: the forests are the biggest thing beside
-  // the descriptors). Nodes are stored in preorder, so an inner node's left child is the next
-  // node and only the right one needs an index.
+  // Only inner nodes are stored (issue 34: the forests are the biggest thing beside the
+  // descriptors). A subtree of at most leaf_size ids is always a leaf, so it needs no node: the
+  // search knows each subtree's range of the tree's permutation (the left child takes the first
+  // `left` ids of its parent's range) and scans a range that small. Nodes are in preorder, so an
+  // inner node's left child is the next node and only the right one needs an index. Where every
+  // node, leaves included, took 8 bytes, only the inner ones do: half as many nodes, and the
+  // trees, hence every search, are the same.
   struct Node {
+    // A leaf of more than leaf_size ids: descriptors equal on every sampled dimension.
     static constexpr uint8_t kLeaf = 255;
+    // `left` too large for 16 bits: the size is in Tree::wide_left (only the top few levels).
+    static constexpr uint16_t kWideLeft = 0xFFFF;
     uint8_t dim;     // split dimension, or kLeaf
-    uint8_t value;   // inner node: descriptors with value <= it go left
-    uint16_t count;  // leaf: how many ids
-    uint32_t index;  // inner node: its right child; leaf: its first id in the tree's permutation
+    uint8_t value;   // descriptors with value <= it go left
+    uint16_t left;   // ids in the left subtree, or kWideLeft
+    uint32_t right;  // the right child's node, when the right subtree is larger than a leaf
   };
   static_assert(sizeof(Node) == 8);
-  // A tree's permutation of the ids (leaves are slices of it). Once built, it is held as 3-byte
-  // offsets from the smallest id when the ids span fewer than 2^24 (every level of a database of
-  // up to about 45,000 views): 12 instead of 16 bytes per descriptor for 4 trees (issue 34).
+  // A tree's permutation of the ids (a subtree is a slice of it). Once built, it is held as
+  // 3-byte offsets from the smallest id when the ids span fewer than 2^24 (every level of a
+  // database of up to about 45,000 views): 12 instead of 16 bytes per descriptor for 4 trees.
   struct Tree {
     std::vector<Node> nodes;
-    std::vector<uint32_t> ids;   // while building, or when the ids span too much to pack
+    std::vector<std::pair<uint32_t, uint32_t>> wide_left;  // (node, left size), by node
+    std::vector<uint32_t> ids;    // while building, or when the ids span too much to pack
     std::vector<uint8_t> packed;  // 3 bytes per id, little-endian, then one byte of padding
   };
+  static constexpr uint32_t kNoNode = 0xFFFFFFFFu;
   uint32_t Id(const Tree& tree, uint32_t i) const {
     if (tree.packed.empty()) return tree.ids[i];
     uint32_t offset;
     std::memcpy(&offset, tree.packed.data() + 3 * static_cast<size_t>(i), sizeof offset);
     return base_ + (offset & 0xFFFFFFu);
   }
+  static uint32_t LeftSize(const Tree& tree, uint32_t node);
   void Pack(Tree* tree) const;
 
+  // Builds the subtree of ids [first, last); returns its node, or kNoNode for a leaf of at most
+  // leaf_size ids.
   uint32_t BuildNode(Tree* tree, uint32_t first, uint32_t last, uint32_t* rng);
 
   const DescriptorStore& store_;

@@ -18,7 +18,7 @@ uint32_t ViewDatabase::AddView(int64_t view_id, int64_t crossing_id, double head
   entry.span.count = static_cast<uint32_t>(continuous.rows);
   entry.span.first =
       index_.Add(continuous.ptr<uint8_t>(), entry.span.count, slot, defer_indexing);
-  entry.points = std::move(points);
+  entry.points = CompactPoints(points);
   entry.hue_hist = std::move(hue_hist);
   spans_.push_back(entry.span);
   views_.push_back(std::move(entry));
@@ -129,7 +129,7 @@ size_t ViewDatabase::memory_bytes() const {
   size_t bytes = index_.store().descriptor_bytes() + index_.memory_bytes() +
                  centers_.memory_bytes() + global_.memory_bytes();
   for (const ViewEntry& v : views_) {
-    bytes += sizeof(ViewEntry) + v.points.capacity() * sizeof(cv::Point2f) +
+    bytes += sizeof(ViewEntry) + v.points.memory_bytes() +
              v.hue_hist.capacity() * sizeof(float) + v.global_sample.total() * v.global_sample.elemSize();
   }
   return bytes;

@@ -13,6 +13,7 @@
 #include <opencv2/core.hpp>
 
 #include "server/crossing/center_matcher.h"
+#include "server/crossing/compact_points.h"
 #include "server/crossing/descriptor_index.h"
 #include "server/crossing/features.h"
 #include "server/crossing/global_index.h"
@@ -30,7 +31,7 @@ struct ViewEntry {
   // Carried for the caller, never used by matching or clustering.
   std::string position;
   ViewSpan span;            // descriptors in the index's store
-  std::vector<cv::Point2f> points;  // keypoint positions at working resolution
+  CompactPoints points;     // keypoint positions at working resolution
   std::vector<float> hue_hist;
   int cluster = -1;         // index into clusters()
   // Retrieval mode: a few of the view's dense descriptors (EvenRows), what a retrained vocabulary

@@ -164,7 +164,8 @@ RemainingViews CopyViewsExcept(const crossing::ViewDatabase& source,
     }
     const uint32_t slot =
         remaining.views->AddView(v.view_id, v.crossing_id, v.heading_deg, source.Descriptors(s),
-                                 v.points, v.hue_hist, /*defer_indexing=*/true);
+                                 v.points.ToVector(), v.hue_hist,
+                                 /*defer_indexing=*/true);
     remaining.views->SetPosition(slot, v.position);
     remaining.views->SetGlobalSample(slot, v.global_sample);
     remaining.views->SetGlobalCode(slot, source.global_code(s));
