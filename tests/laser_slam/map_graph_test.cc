@@ -4,10 +4,13 @@
 // to meet both ends.
 
 #include "server/laser_slam/mapping/map_graph.h"
+#include "server/laser_slam/mapping/map_graph_cache.h"
 
 #include <gtest/gtest.h>
 
 #include <cmath>
+#include <functional>
+#include <memory>
 #include <vector>
 
 #include "server/laser_slam/geometry.h"
@@ -144,6 +147,71 @@ TEST(MapGraphTest, AgreeingSamplesMoveNothing) {
     }
   }
   EXPECT_TRUE(SolveMapGraph({}).empty());
+}
+
+// The kept solution (map_graph_cache.h): reads of an unchanged map reuse it, and any change of
+// an input the solver reads (a node's pose, a new sample, a closure) solves again, giving what a
+// fresh solve gives.
+bool SameSolution(const std::vector<std::vector<OriginSample>>& a,
+                  const std::vector<std::vector<OriginSample>>& b) {
+  if (a.size() != b.size()) return false;
+  for (size_t t = 0; t < a.size(); ++t) {
+    if (a[t].size() != b[t].size()) return false;
+    for (size_t i = 0; i < a[t].size(); ++i) {
+      const OriginSample &x = a[t][i], &y = b[t][i];
+      if (x.scan != y.scan || x.map_pose.x != y.map_pose.x || x.map_pose.y != y.map_pose.y ||
+          x.map_pose.theta != y.map_pose.theta || x.origin.x != y.origin.x ||
+          x.origin.y != y.origin.y || x.origin.theta != y.origin.theta) {
+        return false;
+      }
+    }
+  }
+  return true;
+}
+
+TEST(MapGraphCacheTest, AnUnchangedMapIsSolvedOnceAndAnyChangeSolvesAgain) {
+  OpenLoop w = MakeOpenLoop();
+  MapGraphCache cache;
+  const auto first = cache.Solve(w.map);
+  EXPECT_TRUE(SameSolution(first, SolveMapGraph(w.map)));
+  EXPECT_TRUE(SameSolution(cache.Solve(w.map), first));
+  EXPECT_TRUE(SameSolution(cache.Solve(w.map), first));
+  EXPECT_EQ(cache.stats().solved, 1u);
+  EXPECT_EQ(cache.stats().reused, 2u);
+
+  // A node's points are not read by the solver: new points, the kept solution.
+  w.map[1].nodes[3].points = std::make_shared<const PointCloud>();
+  cache.Solve(w.map);
+  EXPECT_EQ(cache.stats().solved, 1u);
+
+  // Each input the solver reads, changed in turn: solved again, as a fresh solve.
+  std::vector<std::function<void(OpenLoop*)>> changes = {
+      [](OpenLoop* m) { m->map[0].nodes[10].global.x += 1e-6; },
+      [](OpenLoop* m) { m->map[1].nodes[2].step_sigma.x() += 0.01; },
+      [](OpenLoop* m) { m->map[1].samples.pop_back(); },
+      [](OpenLoop* m) { m->map[1].samples[0].map_pose.theta += 0.001; },
+      [](OpenLoop* m) {
+        GraphConstraint closure;
+        closure.kind = GraphConstraint::Kind::kLoop;
+        closure.from = 0;
+        closure.to = static_cast<int>(m->map[0].nodes.size()) - 1;
+        closure.sigma = Eigen::Vector3d(0.05, 0.05, 0.01);
+        m->map[0].loops = {closure};
+      },
+      [](OpenLoop* m) { m->map[0].loops[0].enabled = false; },
+      [](OpenLoop* m) { m->map[1].origin.y += 0.5; },
+      [](OpenLoop* m) { m->map[1].nodes.pop_back(); },
+      [](OpenLoop* m) { m->map.pop_back(); },
+  };
+  std::uint64_t solved = 1;
+  for (size_t c = 0; c < changes.size(); ++c) {
+    changes[c](&w);
+    const auto again = cache.Solve(w.map);
+    EXPECT_EQ(cache.stats().solved, ++solved) << "change " << c;
+    EXPECT_TRUE(SameSolution(again, SolveMapGraph(w.map))) << "change " << c;
+    cache.Solve(w.map);
+    EXPECT_EQ(cache.stats().solved, solved) << "change " << c << ", read again";
+  }
 }
 
 }  // namespace

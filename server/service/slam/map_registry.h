@@ -28,6 +28,7 @@
 
 #include "absl/status/status.h"
 #include "absl/status/statusor.h"
+#include "server/laser_slam/mapping/map_graph_cache.h"
 #include "server/laser_slam/mapping/mapping_backend.h"
 #include "server/laser_slam/mapping/trajectory_follow.h"
 #include "server/laser_slam/mapping/trajectory_tie.h"
@@ -155,6 +156,10 @@ class MapRegistry {
   // of its ttl. A lease lost to another server is logged, and the map's samples are read from
   // the store again from then on.
   bool Own(const std::string& map);
+  // How often the map's graph was solved and its kept solution reused (map_graph_cache.h);
+  // nullopt before the first read that placed the map by its graph.
+  std::optional<laser_slam::MapGraphCache::Stats> GraphStats(const std::string& name) const;
+
   // Gives up the maps' leases this server holds (a clean shutdown: the next owner need not wait
   // for them to expire).
   void ReleaseLeases();
@@ -169,7 +174,7 @@ class MapRegistry {
   storage::MapStore* const store_;
   SessionLeases* const leases_;
   bool map_graph_ = true;
-  mutable std::mutex mutex_;  // guards members_, followed_, searches_, owned_
+  mutable std::mutex mutex_;  // guards members_, followed_, searches_, owned_, graphs_
   std::map<std::string, std::shared_ptr<MapMembership>> members_;  // by session id
   // Followed trajectories: their origin samples, and the origin and sample count last written to
   // the store. `here`: followed by this server (the store's copy is older); otherwise the store's
@@ -186,6 +191,10 @@ class MapRegistry {
   std::map<std::string, Followed> followed_;  // by session id; guarded by mutex_
   // Sessions searched for here and not yet tied in: how the searches went.
   std::map<std::string, v1::MapMatchStats> searches_;  // guarded by mutex_
+  // The map's graph with its kept solution (created on first use); null with map_graph_ off.
+  std::shared_ptr<laser_slam::MapGraphCache> Graph(const std::string& name);
+  // By map name; guarded by mutex_ (each cache guards its own solution).
+  std::map<std::string, std::shared_ptr<laser_slam::MapGraphCache>> graphs_;
   // The maps whose lease this server holds, with when (steady clock, s) to renew it.
   std::map<std::string, double> owned_;  // guarded by mutex_
   // Fills each tied-in trajectory's origin_samples (`map` is `record` as ToProto made it): this
