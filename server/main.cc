@@ -5,7 +5,7 @@
 //                  [--max-message-mb 32] [--max-streams-per-robot 8] [--stream-idle-seconds 300]
 //                  [--metrics-listen HOST:PORT] [--live [HOST:]PORT] [--slam-queue 64]
 //                  [--slam-workers N] [--slam-checkpoint-seconds 30] [--max-sessions 64]
-//                  [--slam-journal true] [--slam-checkpoint-journal-mb 64] [--slam-map-tie true] [--slam-map-tie-outvote true] [--slam-map-tie-verify true] [--slam-map-follow true] [--slam-map-graph true] [--slam-map-follow-graph false]
+//                  [--slam-journal true] [--slam-checkpoint-journal-mb 64] [--slam-map-tie true] [--slam-map-tie-outvote true] [--slam-map-tie-verify true] [--slam-map-follow true] [--slam-map-graph true]
 //   waymark-server --db FILE token create NAME --role admin|mapper|robot|viewer [--robot-id ID]
 //   waymark-server --db FILE token list | token revoke NAME
 //
@@ -388,10 +388,6 @@ int main(int argc, char** argv) {
                  "place a shared map's trajectories by one pose graph over all of them, so that "
                  "a robot that drives a loop another robot left open closes it (false: each "
                  "followed robot is bent to meet the others, which hold still)")
-      ->capture_default_str();
-  app.add_option("--slam-map-follow-graph", flags.slam.map_follow_graph,
-                 "match each followed robot against the others placed by the map's pose graph, "
-                 "as the map's grid draws them (false: each placed on its own origins)")
       ->capture_default_str();
   app.add_option("--slam-checkpoint-journal-mb", flags.slam_checkpoint_journal_mb,
                  "also checkpoint a SLAM session once its journal since the last checkpoint "

@@ -227,10 +227,9 @@ std::vector<laser_slam::OriginSample> MapTieWorker::SamplesOf(
 bool MapTieWorker::FollowPass(std::set<std::string>* referenced) {
   if (!options_.follow || !sources_.maps_to_follow || !sources_.follow) return false;
   bool more = false;
-  std::set<std::string> followed, maps_followed;
+  std::set<std::string> followed;
   for (const storage::MapRecord& map : sources_.maps_to_follow()) {
     if (!Owned(map.name)) continue;  // another server of the fleet follows its robots
-    maps_followed.insert(map.name);
     std::vector<const storage::MapTrajectoryRecord*> tied;
     for (const storage::MapTrajectoryRecord& trajectory : map.trajectories) {
       if (trajectory.tie) tied.push_back(&trajectory);
@@ -266,9 +265,6 @@ bool MapTieWorker::FollowPass(std::set<std::string>* referenced) {
   for (auto it = following_.begin(); it != following_.end();) {
     it = followed.count(it->first) ? std::next(it) : following_.erase(it);
   }
-  for (auto it = graphs_.begin(); it != graphs_.end();) {
-    it = maps_followed.count(it->first) ? std::next(it) : graphs_.erase(it);
-  }
   return more;
 }
 
@@ -303,21 +299,9 @@ bool MapTieWorker::FollowTurn(const std::string& map,
     if (j != self) others_nodes += all[j].nodes.size();
   }
   if (following.follow->WantsMap(others_nodes)) {
-    // The others where the map's graph puts them (each node at its solved pose), or each by its
-    // own origins.
-    std::vector<std::vector<laser_slam::OriginSample>> solved;
-    if (options_.follow_by_graph) {
-      std::unique_ptr<laser_slam::MapGraphCache>& graph = graphs_[map];
-      if (graph == nullptr) graph = std::make_unique<laser_slam::MapGraphCache>();
-      solved = graph->Solve(all);
-    }
     std::vector<laser_slam::TiedTrajectory> others;
     for (std::size_t j = 0; j < all.size(); ++j) {
-      if (j == self) continue;
-      others.push_back(all[j]);
-      if (j < solved.size() && solved[j].size() == all[j].nodes.size()) {
-        others.back().samples = std::move(solved[j]);
-      }
+      if (j != self) others.push_back(all[j]);
     }
     if (absl::Status s = following.follow->SetMap(
             laser_slam::MapCloud(others, options_.follow_options.point_cell), others_nodes,

@@ -29,7 +29,6 @@
 
 #include "absl/status/status.h"
 #include "absl/status/statusor.h"
-#include "server/laser_slam/mapping/map_graph_cache.h"
 #include "server/laser_slam/mapping/mapping_backend.h"
 #include "server/laser_slam/mapping/trajectory_follow.h"
 #include "server/laser_slam/mapping/trajectory_tie.h"
@@ -83,9 +82,6 @@ class MapTieWorker {
     // against the others (laser_slam::TrajectoryFollow): its origin becomes piecewise.
     bool follow = true;
     laser_slam::FollowOptions follow_options;
-    // The follow matches a robot against the others placed by the map's pose graph (map_graph.h,
-    // as the map's grid is drawn) instead of each on its own (CurrentOrigins).
-    bool follow_by_graph = false;
   };
 
   // Starts the thread.
@@ -143,8 +139,6 @@ class MapTieWorker {
     bool done = false;
   };
   std::map<std::string, Following> following_;
-  // With Options::follow_by_graph: each map's graph and its last solution, by map name.
-  std::map<std::string, std::unique_ptr<laser_slam::MapGraphCache>> graphs_;
   std::mutex mu_;
   std::condition_variable cv_;
   bool stop_ = false;

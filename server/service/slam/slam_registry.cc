@@ -111,7 +111,6 @@ SlamRegistry::SlamRegistry(std::unique_ptr<storage::SlamStore> store,
     worker_options.follow = options_.map_follow;
     worker_options.tie.outvote_disagreements = options_.map_tie_outvote;
     worker_options.verify_ties = options_.map_tie_verify;
-    worker_options.follow_by_graph = options_.map_follow_graph;
     tie_worker_ = std::make_unique<MapTieWorker>(std::move(sources), worker_options);
   }
   // Idle sessions' time-based checkpoints (a processed scan checks its own session).

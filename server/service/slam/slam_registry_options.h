@@ -41,9 +41,6 @@ struct SlamRegistryOptions {
   // The map's grid, segment map and node_origins from one pose graph over all its trajectories
   // (MapRegistry::set_map_graph); false: each trajectory placed on its own.
   bool map_graph = true;
-  // The follow matches each robot against the others placed by the map's pose graph
-  // (MapTieWorker::Options::follow_by_graph); false: each placed on its own.
-  bool map_follow_graph = false;
   // A tie needs the kept unique matches to outvote the ones disagreeing with it
   // (laser_slam::TieOptions::outvote_disagreements); false: the first agreeing pair ties.
   bool map_tie_outvote = true;
