@@ -1,0 +1,97 @@
+// The map registry's reads of a shared map (issue 38, map_reads.cc) on a real SQLite file, the
+// sessions' nodes faked: the map's pose graph is solved once and its solution reused while
+// nothing it is solved from changes, solved again when a node moves, and let go with the map.
+
+#include <memory>
+#include <string>
+#include <vector>
+
+#include "gtest/gtest.h"
+#include "server/service/slam/map_registry.h"
+#include "storage/map_store.h"
+#include "storage/slam_store.h"
+#include "tests/storage/status_testing.h"
+#include "tests/storage/temp_dir.h"
+
+namespace waymark::service {
+namespace {
+
+namespace ls = waymark::laser_slam;
+using ::waymark::storage::testing::TempDir;
+
+// `count` nodes every 0.5 m along x in the robot's own frame, two scans apart.
+std::vector<ls::NodeView> Straight(int count) {
+  std::vector<ls::NodeView> nodes;
+  for (int i = 0; i < count; ++i) {
+    ls::NodeView node;
+    node.scan = static_cast<std::uint64_t>(2 * i + 1);
+    node.stamp = static_cast<double>(i);
+    node.global = ls::Pose2{0.5 * i, 0.0, 0.0};
+    node.step_sigma = Eigen::Vector3d(0.02, 0.02, 0.005);
+    nodes.push_back(node);
+  }
+  return nodes;
+}
+
+// Every node's origin and map pose, as the answer gives them.
+std::vector<double> NodeOrigins(const v1::Map& map) {
+  std::vector<double> out;
+  for (const v1::MapTrajectory& t : map.trajectories()) {
+    for (const v1::MapOriginSample& s : t.node_origins()) {
+      out.insert(out.end(), {s.origin().x(), s.origin().y(), s.origin().theta(),
+                             s.map_pose().x(), s.map_pose().y(), s.map_pose().theta()});
+    }
+  }
+  return out;
+}
+
+TEST(MapReadsTest, TheGraphIsSolvedOncePerChangeAndLetGoWithTheMap) {
+  TempDir dir;
+  const std::string db = dir.File("w.db");
+  ASSERT_OK_AND_ASSIGN(std::unique_ptr<storage::SlamStore> sessions,
+                       storage::OpenSqliteSlamStore(db));
+  ASSERT_OK_AND_ASSIGN(std::unique_ptr<storage::MapStore> maps, storage::OpenSqliteMapStore(db));
+  for (const std::string id : {"a", "b"}) {
+    storage::SlamSessionRecord session;
+    session.id = id;
+    session.robot_id = "robot-" + id;
+    ASSERT_OK(sessions->CreateSession(session));
+  }
+  MapRegistry registry(maps.get(), nullptr);
+  ASSERT_OK(registry.CreateMap("floor"));
+  ASSERT_OK(registry.Join("floor", "a"));  // the map frame's
+  ASSERT_OK(registry.Join("floor", "b"));
+  ASSERT_OK(registry.Tie("floor", "b", storage::MapTie{0.0, 1.0, 0.0}));
+
+  std::vector<ls::NodeView> a = Straight(20), b = Straight(12);
+  int reads = 0;
+  const MapRegistry::SessionNodes nodes =
+      [&](const std::string& id) -> absl::StatusOr<TrajectoryNodes> {
+    ++reads;
+    return TrajectoryNodes{id == "a" ? a : b, /*resident=*/false, {}};
+  };
+  EXPECT_FALSE(registry.GraphStats("floor").has_value());
+  ASSERT_OK_AND_ASSIGN(v1::Map first, registry.GetMapWithNodeOrigins("floor", nodes));
+  ASSERT_OK_AND_ASSIGN(v1::Map second, registry.GetMapWithNodeOrigins("floor", nodes));
+  EXPECT_EQ(reads, 4);  // the sessions are read every time: only the solve is kept
+  ASSERT_TRUE(registry.GraphStats("floor").has_value());
+  EXPECT_EQ(registry.GraphStats("floor")->solved, 1u);
+  EXPECT_EQ(registry.GraphStats("floor")->reused, 1u);
+  EXPECT_EQ(NodeOrigins(first).size(), 6u * (20 + 12));
+  EXPECT_EQ(NodeOrigins(first), NodeOrigins(second));
+
+  // Robot b's session moved a node (its own closure, say): solved again, the node placed anew.
+  b[5].global.y += 0.2;
+  ASSERT_OK_AND_ASSIGN(v1::Map moved, registry.GetMapWithNodeOrigins("floor", nodes));
+  EXPECT_EQ(registry.GraphStats("floor")->solved, 2u);
+  EXPECT_NE(NodeOrigins(moved), NodeOrigins(first));
+  ASSERT_OK(registry.GetMapWithNodeOrigins("floor", nodes));
+  EXPECT_EQ(registry.GraphStats("floor")->solved, 2u);
+  EXPECT_EQ(registry.GraphStats("floor")->reused, 2u);
+
+  ASSERT_OK(registry.DeleteMap("floor", /*force=*/true));
+  EXPECT_FALSE(registry.GraphStats("floor").has_value());
+}
+
+}  // namespace
+}  // namespace waymark::service
