@@ -1,7 +1,5 @@
 #include "server/laser_slam/mapping/trajectory_follow.h"
 
-#include "server/laser_slam/mapping/map_consistency.h"
-
 #include <algorithm>
 #include <cmath>
 #include <functional>
@@ -89,7 +87,7 @@ bool TrajectoryFollow::WantsMap(std::size_t map_nodes) const {
 }
 
 absl::Status TrajectoryFollow::SetMap(const PointCloud& others, std::size_t map_nodes,
-                                      std::vector<MapPathPoint> path, JumpCheck jump_check) {
+                                      std::vector<MapPathPoint> path) {
   if (others.empty()) return absl::FailedPreconditionError("no other trajectory has points yet");
   LikelihoodGrid fine = BuildLikelihoodGrid(ThinPoints(others, options_.point_cell),
                                             options_.grid_resolution, options_.grid_sigma,
@@ -100,7 +98,6 @@ absl::Status TrajectoryFollow::SetMap(const PointCloud& others, std::size_t map_
   grid_ = std::make_unique<SearchPyramid>(std::move(fine), 6);
   grid_nodes_ = map_nodes;
   path_ = std::move(path);
-  jump_check_ = std::move(jump_check);
   return absl::OkStatus();
 }
 
@@ -207,7 +204,6 @@ bool TrajectoryFollow::Attempt(const std::vector<NodeView>& nodes, int node) {
                          nodes[i].global.y - nodes[i - 1].global.y);
   }
   const Pose2 predicted = Compose(OriginAt(samples_, at.stamp), at.global);
-  const SearchWindow own_window = FollowWindow(options_, travel);
   if (options_.window_for_map_drift && !path_.empty()) {
     const int last_node = NodeOfScan(nodes, last.scan);
     if (last_node >= 0) {
@@ -233,20 +229,6 @@ bool TrajectoryFollow::Attempt(const std::vector<NodeView>& nodes, int node) {
     progress_.reads += rival->candidates * static_cast<std::int64_t>(query.size());
     ++progress_.ambiguous;
     return false;
-  }
-  if (options_.verify_jumps && jump_check_ != nullptr) {
-    const Pose2 offset = Relative(predicted, match->pose);
-    const bool jump = std::hypot(offset.x, offset.y) > own_window.xy ||
-                      std::abs(offset.theta) > own_window.theta;
-    // The robot's newest nodes, two of the self-check's submaps (the fewest it compares), placed
-    // by the match.
-    const int span = 2 * MapConsistencyOptions().submap_nodes;
-    if (jump && !jump_check_(std::vector<NodeView>(nodes.begin() + std::max(0, node + 1 - span),
-                                                   nodes.begin() + node + 1),
-                             Compose(match->pose, Invert(at.global)))) {
-      ++progress_.ambiguous;  // a look-alike place
-      return false;
-    }
   }
   ++progress_.matched;
   samples_.push_back(

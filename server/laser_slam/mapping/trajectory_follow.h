@@ -23,7 +23,6 @@
 // (map_tie_worker.h runs it).
 
 #include <cstdint>
-#include <functional>
 #include <memory>
 #include <vector>
 
@@ -93,12 +92,6 @@ struct FollowOptions {
   // and was placed 10 m off (docs/results.md, "One pose graph for the whole map"). The rival
   // test cannot see a look-alike whose twin the map does not hold.
   bool window_for_map_drift = false;
-  // A match outside the window the robot's own travel gives (one only the map's drift let the
-  // window reach) is kept only when the map's self-check, with the robot's newest nodes placed
-  // by it, finds no new contradicting area (TieKeepsTheMapConsistent, as a tie is checked): a
-  // look-alike whose twin the map does not hold yet puts the robot's way there into the map's
-  // walls. Needs SetMap's jump_check.
-  bool verify_jumps = true;
   double max_window_xy = 2.0;
   double max_window_theta = 0.4;
   double min_score = 0.6;
@@ -148,11 +141,8 @@ class TrajectoryFollow {
   bool WantsMap(std::size_t map_nodes) const;
   // The other tied-in trajectories' points in the map frame (MapCloud without this robot's), and
   // their nodes along their paths (MapPath; empty: the window knows nothing of the map's drift).
-  // `jump_check`: whether the robot's nodes placed by an origin keep the map consistent
-  // (TieKeepsTheMapConsistent over the others: verify_jumps); null, no check.
-  using JumpCheck = std::function<bool(const std::vector<NodeView>& nodes, const Pose2& origin)>;
   absl::Status SetMap(const PointCloud& others, std::size_t map_nodes,
-                      std::vector<MapPathPoint> path = {}, JumpCheck jump_check = nullptr);
+                      std::vector<MapPathPoint> path = {});
 
   // Matches the robot's nodes (its session's graph poses, oldest first, node i staying node i)
   // not looked at yet: at most `max_attempts` windowed matches now. Returns how many nodes it
@@ -171,7 +161,6 @@ class TrajectoryFollow {
   const FollowOptions options_;
   std::unique_ptr<SearchPyramid> grid_;
   std::vector<MapPathPoint> path_;
-  JumpCheck jump_check_;
   std::size_t grid_nodes_ = 0;
   std::vector<OriginSample> samples_;
   int next_node_ = -1;  // the next node to try (-1: the first after the tie's stamp)

@@ -3,7 +3,6 @@
 #include <algorithm>
 #include <cmath>
 #include <iterator>
-#include <optional>
 #include <utility>
 
 #include "absl/strings/str_cat.h"
@@ -148,17 +147,9 @@ void AppendWholeSubmaps(const TiedTrajectory& trajectory, int submap_nodes,
 
 }  // namespace
 
-namespace {
-
-// Contradicting areas (5 m tiles) of the map alone plus the robot alone, and of both together,
-// the robot's nodes placed by `tie`; nullopt where the self-check cannot run.
-struct PlacedCheck {
-  int before = 0;
-  int both = 0;
-  std::string verdict;
-};
-std::optional<PlacedCheck> CheckPlaced(const std::vector<TiedTrajectory>& map,
-                                       const std::vector<NodeView>& joining, const Pose2& tie) {
+bool TieKeepsTheMapConsistent(const std::vector<TiedTrajectory>& map,
+                              const std::vector<NodeView>& joining, const Pose2& tie,
+                              std::string* why) {
   const MapConsistencyOptions options;
   std::vector<NodeView> map_nodes, joining_nodes;
   for (const TiedTrajectory& trajectory : map) {
@@ -171,35 +162,19 @@ std::optional<PlacedCheck> CheckPlaced(const std::vector<TiedTrajectory>& map,
   const absl::StatusOr<MapConsistencyReport> alone_joining =
       CheckMapConsistency(joining_nodes, options);
   const absl::StatusOr<MapConsistencyReport> both = CheckMapConsistency(together, options);
-  if (!alone_map.ok() || !alone_joining.ok() || !both.ok()) return std::nullopt;
-  return PlacedCheck{alone_map->tiles_contradicting + alone_joining->tiles_contradicting,
-                     both->tiles_contradicting, both->verdict};
-}
-
-}  // namespace
-
-bool TieKeepsTheMapConsistent(const std::vector<TiedTrajectory>& map,
-                              const std::vector<NodeView>& joining, const Pose2& tie,
-                              std::string* why) {
-  const std::optional<PlacedCheck> check = CheckPlaced(map, joining, tie);
-  if (!check) return true;  // nothing to say
+  if (!alone_map.ok() || !alone_joining.ok() || !both.ok()) return true;  // nothing to say
+  const int before = alone_map->tiles_contradicting + alone_joining->tiles_contradicting;
   if (why != nullptr) {
-    *why = absl::StrCat(check->both, " areas of 5 m contradict themselves with the robot placed "
-                        "there, against ", check->before, " in the map and the robot alone (",
-                        check->verdict, ")");
+    *why = absl::StrCat(both->tiles_contradicting, " areas of 5 m contradict themselves with the "
+                        "robot placed there, against ", before, " in the map and the robot alone (",
+                        both->verdict, ")");
   }
   // Only a map and a robot that agree with themselves can show that the robot placed there
   // contradicts the map: where either already contradicts itself (noisy odometry, a wrong
   // closure), a right tie adds areas too (fhw-corrected-medium: 10 before, 15 with its right
   // tie), and the check cannot tell.
-  if (check->before > 0) return true;
-  return check->both == 0;
-}
-
-bool PlacementAddsNoContradiction(const std::vector<TiedTrajectory>& map,
-                                  const std::vector<NodeView>& joining, const Pose2& at) {
-  const std::optional<PlacedCheck> check = CheckPlaced(map, joining, at);
-  return !check || check->both <= check->before;
+  if (before > 0) return true;
+  return both->tiles_contradicting == 0;
 }
 
 absl::StatusOr<std::unique_ptr<TrajectoryTie>> TrajectoryTie::Create(const TieOptions& options) {

@@ -120,12 +120,6 @@ bool TieKeepsTheMapConsistent(const std::vector<TiedTrajectory>& map,
                               const std::vector<NodeView>& joining, const Pose2& tie,
                               std::string* why);
 
-// Stricter, for a follow's jump (trajectory_follow.h, verify_jumps): whether placing the robot's
-// nodes at `at` adds no contradicting area to those the map and the robot hold alone, counted
-// even where either contradicts itself already. True where the self-check cannot run.
-bool PlacementAddsNoContradiction(const std::vector<TiedTrajectory>& map,
-                                  const std::vector<NodeView>& joining, const Pose2& at);
-
 // The trajectory's own loop closures that are in force and name two of its nodes.
 std::vector<GraphConstraint> LoopsInForce(const TiedTrajectory& trajectory);
 

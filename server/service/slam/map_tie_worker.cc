@@ -306,10 +306,7 @@ bool MapTieWorker::FollowTurn(const std::string& map,
     if (absl::Status s = following.follow->SetMap(
             laser_slam::MapCloud(others, options_.follow_options.point_cell), others_nodes,
             options_.follow_options.window_for_map_drift ? laser_slam::MapPath(others)
-                                                         : std::vector<laser_slam::MapPathPoint>{},
-            [others](const std::vector<laser_slam::NodeView>& nodes, const laser_slam::Pose2& at) {
-              return laser_slam::PlacementAddsNoContradiction(others, nodes, at);
-            });
+                                                         : std::vector<laser_slam::MapPathPoint>{});
         !s.ok()) {
       spdlog::warn("SLAM map \"{}\": cannot follow session {}: {}", map, session_id,
                    s.ToString());
