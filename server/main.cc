@@ -5,7 +5,7 @@
 //                  [--max-message-mb 32] [--max-streams-per-robot 8] [--stream-idle-seconds 300]
 //                  [--metrics-listen HOST:PORT] [--live [HOST:]PORT] [--slam-queue 64]
 //                  [--slam-workers N] [--slam-checkpoint-seconds 30] [--max-sessions 64]
-//                  [--slam-journal true] [--slam-checkpoint-journal-mb 64] [--slam-map-tie true] [--slam-map-tie-outvote true] [--slam-map-tie-verify true] [--slam-map-follow true] [--slam-map-graph true]
+//                  [--slam-journal true] [--slam-checkpoint-journal-mb 64] [--slam-map-tie true] [--slam-map-tie-outvote true] [--slam-map-tie-verify true] [--slam-map-follow true] [--slam-map-follow-windows narrow] [--slam-map-graph true]
 //   waymark-server --db FILE token create NAME --role admin|mapper|robot|viewer [--robot-id ID]
 //   waymark-server --db FILE token list | token revoke NAME
 //
@@ -389,6 +389,15 @@ int main(int argc, char** argv) {
                  "a robot that drives a loop another robot left open closes it (false: each "
                  "followed robot is bent to meet the others, which hold still)")
       ->capture_default_str();
+  app.add_option_function<std::string>(
+         "--slam-map-follow-windows",
+         [&flags](const std::string& windows) { flags.slam.map_follow_wide = windows == "wide"; },
+         "how far a followed robot is looked for: narrow (at most 2 m and 0.4 rad from where its "
+         "last match puts it; the default) or wide (as far as the other robots' map may have "
+         "drifted, up to 30 m: better merged maps, but a robot can be placed in a look-alike room; "
+         "docs/laser-slam.md)")
+      ->check(CLI::IsMember({"narrow", "wide"}))
+      ->default_str("narrow");
   app.add_option("--slam-checkpoint-journal-mb", flags.slam_checkpoint_journal_mb,
                  "also checkpoint a SLAM session once its journal since the last checkpoint "
                  "holds this many MB (bounds the replay after a crash)")

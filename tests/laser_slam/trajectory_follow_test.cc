@@ -229,6 +229,22 @@ TEST(FollowWindowTest, GrowsWithTheTravelUpToItsCaps) {
 // Two places close together in the map but at the two ends of one robot's loop are that loop
 // apart along the map; places nearest to two different robots' nodes, nothing (the tie and the
 // samples relate those, not a path).
+// The server's --slam-map-follow-windows wide: the map's drift in the window and caps of 30 m and
+// 1.5 rad, every other option as given.
+TEST(FollowWindowTest, TheWideWindowsReachAsFarAsTheMapMayHaveDrifted) {
+  FollowOptions custom;
+  custom.min_score = 0.7;
+  const FollowOptions wide = WideFollowWindows(custom);
+  EXPECT_TRUE(ValidateFollowOptions(wide).ok());
+  EXPECT_TRUE(wide.window_for_map_drift);
+  EXPECT_EQ(wide.min_score, 0.7);
+  // 200 m of travel (the robot's and the map's path): 3 x (0.1 + 0.02 x 200) m, where the
+  // default windows stop at 2 m.
+  EXPECT_NEAR(FollowWindow(wide, 200.0).xy, 12.3, 1e-9);
+  EXPECT_DOUBLE_EQ(FollowWindow(FollowOptions{}, 200.0).xy, 2.0);
+  EXPECT_NEAR(FollowWindow(wide, 1000.0).theta, 1.5, 1e-12);
+}
+
 TEST(FollowWindowTest, TheMapsPathBetweenTwoPlacesIsAlongOneTrajectory) {
   // Robot 0 drives a 10 m x 4 m loop that it did not close: its start at (0, 0), its end at
   // (0, 0.5). Robot 1 stands 20 m east.

@@ -101,6 +101,13 @@ absl::Status TrajectoryFollow::SetMap(const PointCloud& others, std::size_t map_
   return absl::OkStatus();
 }
 
+FollowOptions WideFollowWindows(FollowOptions options) {
+  options.window_for_map_drift = true;
+  options.max_window_xy = 30.0;
+  options.max_window_theta = 1.5;
+  return options;
+}
+
 SearchWindow FollowWindow(const FollowOptions& options, double travel) {
   const double s = options.window_sigmas;
   return SearchWindow{

@@ -10,6 +10,7 @@
 #include <vector>
 
 #include "absl/strings/str_cat.h"
+#include "server/laser_slam/mapping/trajectory_follow.h"
 #include "server/service/slam/exploration_team.h"
 #include "server/service/slam/laser_session_engine.h"
 #include "server/service/slam/map_registry.h"
@@ -111,6 +112,9 @@ SlamRegistry::SlamRegistry(std::unique_ptr<storage::SlamStore> store,
     worker_options.follow = options_.map_follow;
     worker_options.tie.outvote_disagreements = options_.map_tie_outvote;
     worker_options.verify_ties = options_.map_tie_verify;
+    if (options_.map_follow_wide) {
+      worker_options.follow_options = laser_slam::WideFollowWindows(worker_options.follow_options);
+    }
     tie_worker_ = std::make_unique<MapTieWorker>(std::move(sources), worker_options);
   }
   // Idle sessions' time-based checkpoints (a processed scan checks its own session).

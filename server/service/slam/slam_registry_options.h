@@ -41,6 +41,10 @@ struct SlamRegistryOptions {
   // The map's grid, segment map and node_origins from one pose graph over all its trajectories
   // (MapRegistry::set_map_graph); false: each trajectory placed on its own.
   bool map_graph = true;
+  // The follow's wide windows (laser_slam::WideFollowWindows: the map's drift, 30 m caps):
+  // better merged maps where the building has no look-alike rooms, a robot in the wrong room
+  // where it has. False: windows of at most 2 m and 0.4 rad.
+  bool map_follow_wide = false;
   // A tie needs the kept unique matches to outvote the ones disagreeing with it
   // (laser_slam::TieOptions::outvote_disagreements); false: the first agreeing pair ties.
   bool map_tie_outvote = true;
