@@ -22,7 +22,8 @@ CompactPoints::CompactPoints(const std::vector<cv::Point2f>& points) {
   xy_.reserve(2 * points.size());
   for (const cv::Point2f& p : points) {
     for (float v : {p.x, p.y}) {
-      xy_.push_back(static_cast<uint16_t>(std::min<long>(65535, std::lround(std::ldexp(InRange(v), shift)))));
+      const long q = std::lround(std::ldexp(InRange(v), shift));
+      xy_.push_back(static_cast<uint16_t>(std::min<long>(65535, q)));
     }
   }
 }

@@ -21,7 +21,9 @@ namespace waymark::service {
 
 namespace {
 
-bool IsOrigin(const v1::Pose2D& pose) { return pose.x() == 0 && pose.y() == 0 && pose.theta() == 0; }
+bool IsOrigin(const v1::Pose2D& pose) {
+  return pose.x() == 0 && pose.y() == 0 && pose.theta() == 0;
+}
 
 // A map, its tied-in trajectories (indices into map.trajectories()) and how many are not tied
 // in: what the map's grid and segments are drawn from.
