@@ -21,8 +21,8 @@ bool SameBits(const std::vector<double>& a, const std::vector<double>& b) {
          (a.empty() || std::memcmp(a.data(), b.data(), a.size() * sizeof(double)) == 0);
 }
 
-}  // namespace
-
+// Every input SolveMapGraph reads, flattened in a fixed order (counts included, so that two
+// different sets of trajectories never flatten alike).
 std::vector<double> GraphInputs(const std::vector<TiedTrajectory>& trajectories) {
   std::vector<double> out;
   out.push_back(static_cast<double>(trajectories.size()));
@@ -50,6 +50,8 @@ std::vector<double> GraphInputs(const std::vector<TiedTrajectory>& trajectories)
   }
   return out;
 }
+
+}  // namespace
 
 std::vector<std::vector<OriginSample>> MapGraphCache::Solve(
     const std::vector<TiedTrajectory>& trajectories) {

@@ -40,14 +40,10 @@ class MapGraphCache {
   MapGraphOptions options_;
   mutable std::mutex mutex_;
   bool kept_ = false;
-  std::vector<double> inputs_;  // what the kept solution was solved from (GraphInputs)
+  std::vector<double> inputs_;  // what the kept solution was solved from, flattened
   std::vector<std::vector<OriginSample>> solution_;
   Stats stats_;
 };
-
-// Every input SolveMapGraph reads, flattened in a fixed order (counts included, so that two
-// different sets of trajectories never flatten alike).
-std::vector<double> GraphInputs(const std::vector<TiedTrajectory>& trajectories);
 
 }  // namespace waymark::laser_slam
 

@@ -168,6 +168,8 @@ class MapRegistry {
   absl::Status CheckStore() const;
   // Records what `map` says about its sessions' memberships.
   void Remember(const storage::MapRecord& map);
+  // The map's graph with its kept solution (created on first use); null with map_graph_ off.
+  std::shared_ptr<laser_slam::MapGraphCache> Graph(const std::string& name);
 
   bool fleet() const { return leases_ != nullptr && leases_->enabled(); }
 
@@ -191,9 +193,7 @@ class MapRegistry {
   std::map<std::string, Followed> followed_;  // by session id; guarded by mutex_
   // Sessions searched for here and not yet tied in: how the searches went.
   std::map<std::string, v1::MapMatchStats> searches_;  // guarded by mutex_
-  // The map's graph with its kept solution (created on first use); null with map_graph_ off.
-  std::shared_ptr<laser_slam::MapGraphCache> Graph(const std::string& name);
-  // By map name; guarded by mutex_ (each cache guards its own solution).
+  // The map's graphs with their kept solutions, by map name; guarded by mutex_ (each cache guards its own solution).
   std::map<std::string, std::shared_ptr<laser_slam::MapGraphCache>> graphs_;
   // The maps whose lease this server holds, with when (steady clock, s) to renew it.
   std::map<std::string, double> owned_;  // guarded by mutex_
