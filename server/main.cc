@@ -5,7 +5,7 @@
 //                  [--max-message-mb 32] [--max-streams-per-robot 8] [--stream-idle-seconds 300]
 //                  [--metrics-listen HOST:PORT] [--live [HOST:]PORT] [--slam-queue 64]
 //                  [--slam-workers N] [--slam-checkpoint-seconds 30] [--max-sessions 64]
-//                  [--slam-journal true] [--slam-checkpoint-journal-mb 64] [--slam-map-tie true] [--slam-map-tie-outvote true] [--slam-map-tie-verify true] [--slam-map-follow true] [--slam-map-follow-windows narrow] [--slam-map-graph true]
+//                  [--slam-journal true] [--slam-checkpoint-journal-mb 64] [--slam-map-tie true] [--slam-map-tie-outvote true] [--slam-map-tie-verify true] [--slam-map-follow true] [--slam-map-follow-windows narrow] [--slam-map-graph true] [--slam-map-feed-seconds 1]
 //   waymark-server --db FILE token create NAME --role admin|mapper|robot|viewer [--robot-id ID]
 //   waymark-server --db FILE token list | token revoke NAME
 //
@@ -398,6 +398,12 @@ int main(int argc, char** argv) {
          "docs/laser-slam.md)")
       ->check(CLI::IsMember({"narrow", "wide"}))
       ->default_str("narrow");
+  app.add_option("--slam-map-feed-seconds", flags.slam.map_feed_seconds,
+                 "on a fleet, publish a robot's nodes for the server that owns its shared map at "
+                 "most this often, so that the owner ties and follows it as it goes (0: the owner "
+                 "reads the robot's checkpoints only)")
+      ->check(CLI::Range(0.0, 3600.0))
+      ->capture_default_str();
   app.add_option("--slam-checkpoint-journal-mb", flags.slam_checkpoint_journal_mb,
                  "also checkpoint a SLAM session once its journal since the last checkpoint "
                  "holds this many MB (bounds the replay after a crash)")

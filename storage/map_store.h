@@ -53,6 +53,31 @@ struct MapRecord {
   SlamLease lease;
 };
 
+// A trajectory's nodes as the server its robot streams to publishes them for the map's owner on
+// a fleet (the service's map_tie_worker.h), between the session's checkpoints: the nodes' poses
+// and loops (`poses`, rewritten at each publish) and each node's points (one row a node, written
+// once, by the node's scan). Opaque to the store (laser_slam/mapping/node_feed_codec.h).
+struct FeedNodePoints {
+  int64_t scan = 0;
+  std::string points;
+};
+struct TrajectoryFeedUpdate {
+  int64_t scans_processed = 0;  // the session's, when its nodes were read
+  std::string poses;
+  std::vector<FeedNodePoints> added;  // nodes new since the last publish
+  std::vector<int64_t> dropped;       // nodes gone since (pruned), by scan
+  // This server's first publish of the session: every row of points there was goes first (a
+  // server that served the robot before may have left nodes this one never had).
+  bool replace = false;
+};
+struct TrajectoryFeed {
+  int64_t version = 0;  // counts the publishes
+  int64_t scans_processed = 0;
+  double updated_at = 0;  // unix seconds
+  std::string poses;
+  std::vector<FeedNodePoints> points;  // the rows asked for (ReadTrajectoryFeed), by scan
+};
+
 // Every mutating call is one transaction, and each returns the map as it stands after it.
 // The map frame is its first trajectory's: a trajectory that joins (or, when the tied-in ones
 // left, remains in) a map with no trajectory tied in is tied in at the origin, in the same
@@ -95,6 +120,17 @@ class MapStore {
                                                     double ttl_seconds) = 0;
   // Gives the lease up when `owner` holds it (a clean shutdown); OK otherwise.
   virtual absl::Status ReleaseMapLease(const std::string& map, const std::string& owner) = 0;
+
+  // Publishes a session's nodes (one transaction): the feed's version + 1, returned. NOT_FOUND
+  // for an unknown session. The feed goes with its session (deleting the session deletes it).
+  virtual absl::StatusOr<int64_t> PublishTrajectoryFeed(const std::string& session_id,
+                                                        const TrajectoryFeedUpdate& update) = 0;
+  // The session's feed when its version is above `after_version`, with the points of its nodes
+  // whose scan is above `after_scan`; nullopt when it has none or none newer.
+  virtual absl::StatusOr<std::optional<TrajectoryFeed>> ReadTrajectoryFeed(
+      const std::string& session_id, int64_t after_version, int64_t after_scan) = 0;
+  // Deletes the session's feed (its robot left this server: its checkpoint holds the rest).
+  virtual absl::Status DropTrajectoryFeed(const std::string& session_id) = 0;
 };
 
 // A SQLite file's map store (see OpenSqliteSlamStore; it may share the file).

@@ -319,6 +319,25 @@ ALTER TABLE slam_map ADD COLUMN lease_expires_at REAL;
 ALTER TABLE slam_map_trajectory ADD COLUMN follow BLOB;
 )sql";
 
+// v17: a shared map's node feed (map_store.h, TrajectoryFeedUpdate): what the server a robot
+// streams to publishes of its session's nodes for the map's owner, between checkpoints. One row a
+// session (its nodes' poses) and one a node (its points, by scan); both go with the session.
+constexpr absl::string_view kV17SlamMapFeed = R"sql(
+CREATE TABLE slam_map_feed (
+  session_id TEXT PRIMARY KEY REFERENCES slam_session(id) ON DELETE CASCADE,
+  version INTEGER NOT NULL,
+  scans_processed INTEGER NOT NULL,
+  updated_at REAL NOT NULL,
+  poses BLOB NOT NULL
+);
+CREATE TABLE slam_map_feed_node (
+  session_id TEXT NOT NULL REFERENCES slam_session(id) ON DELETE CASCADE,
+  scan INTEGER NOT NULL,
+  points BLOB NOT NULL,
+  PRIMARY KEY (session_id, scan)
+);
+)sql";
+
 absl::Status TooNewError(sqlite::Connection& connection, int version, int latest) {
   return absl::FailedPreconditionError(absl::StrCat(
       "database \"", connection.path(), "\" has schema version ", version,
@@ -347,6 +366,7 @@ const std::vector<absl::string_view>& SchemaMigrations() {
       kV14ViewerTokens,
       kV15SlamMaps,
       kV16SlamMapLeaseAndFollow,
+      kV17SlamMapFeed,
   };
   return *kSteps;
 }

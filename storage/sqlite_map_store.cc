@@ -98,11 +98,7 @@ class SqliteMapStore final : public MapStore {
     ASSIGN_OR_RETURN(Transaction txn, Transaction::Begin(connection_));
     int64_t id = 0;
     ASSIGN_OR_RETURN(MapRecord record, GetMapLocked(map, &id));
-    ASSIGN_OR_RETURN(Statement session,
-                     connection_.Prepare("SELECT 1 FROM slam_session WHERE id = ?"));
-    RETURN_IF_ERROR(session.BindText(1, session_id));
-    ASSIGN_OR_RETURN(StepResult found, session.Step());
-    if (found == StepResult::kDone) return MapSessionNotFound(session_id);
+    RETURN_IF_ERROR(SessionExistsLocked(session_id));
     ASSIGN_OR_RETURN(Statement member,
                      connection_.Prepare("SELECT m.name FROM slam_map_trajectory t JOIN slam_map m "
                                          "ON m.id = t.map_id WHERE t.session_id = ?"));
@@ -210,7 +206,106 @@ class SqliteMapStore final : public MapStore {
     return update.Run();
   }
 
+  absl::StatusOr<int64_t> PublishTrajectoryFeed(const std::string& session_id,
+                                                const TrajectoryFeedUpdate& update) override {
+    std::lock_guard<std::mutex> lock(mutex_);
+    ASSIGN_OR_RETURN(Transaction txn, Transaction::Begin(connection_));
+    RETURN_IF_ERROR(SessionExistsLocked(session_id));
+    ASSIGN_OR_RETURN(Statement drop,
+                     connection_.Prepare(update.replace
+                                             ? "DELETE FROM slam_map_feed_node WHERE session_id = ?"
+                                             : "DELETE FROM slam_map_feed_node WHERE session_id = "
+                                               "? AND scan = ?"));
+    for (std::size_t i = 0; i < (update.replace ? 1 : update.dropped.size()); ++i) {
+      drop.Reset();
+      RETURN_IF_ERROR(drop.BindText(1, session_id));
+      if (!update.replace) RETURN_IF_ERROR(drop.BindInt64(2, update.dropped[i]));
+      RETURN_IF_ERROR(drop.Run());
+    }
+    ASSIGN_OR_RETURN(Statement add,
+                     connection_.Prepare("INSERT OR REPLACE INTO slam_map_feed_node (session_id, "
+                                         "scan, points) VALUES (?, ?, ?)"));
+    for (const FeedNodePoints& node : update.added) {
+      add.Reset();
+      RETURN_IF_ERROR(add.BindText(1, session_id));
+      RETURN_IF_ERROR(add.BindInt64(2, node.scan));
+      RETURN_IF_ERROR(add.BindBlob(3, node.points.data(), node.points.size()));
+      RETURN_IF_ERROR(add.Run());
+    }
+    ASSIGN_OR_RETURN(Statement upsert,
+                     connection_.Prepare(
+                         "INSERT INTO slam_map_feed (session_id, version, scans_processed, "
+                         "updated_at, poses) VALUES (?, 1, ?, ?, ?) ON CONFLICT (session_id) DO "
+                         "UPDATE SET version = slam_map_feed.version + 1, scans_processed = "
+                         "excluded.scans_processed, updated_at = excluded.updated_at, poses = "
+                         "excluded.poses RETURNING version"));
+    RETURN_IF_ERROR(upsert.BindText(1, session_id));
+    RETURN_IF_ERROR(upsert.BindInt64(2, update.scans_processed));
+    RETURN_IF_ERROR(upsert.BindDouble(3, NowSeconds()));
+    RETURN_IF_ERROR(upsert.BindBlob(4, update.poses.data(), update.poses.size()));
+    ASSIGN_OR_RETURN(StepResult row, upsert.Step());
+    if (row != StepResult::kRow) return absl::InternalError("publishing a feed gave no version");
+    const int64_t version = upsert.ColumnInt64(0);
+    upsert.Reset();
+    RETURN_IF_ERROR(txn.Commit());
+    return version;
+  }
+
+  absl::StatusOr<std::optional<TrajectoryFeed>> ReadTrajectoryFeed(const std::string& session_id,
+                                                                   int64_t after_version,
+                                                                   int64_t after_scan) override {
+    std::lock_guard<std::mutex> lock(mutex_);
+    // Both reads in one transaction: the points are those of the poses read.
+    ASSIGN_OR_RETURN(Transaction txn, Transaction::Begin(connection_));
+    ASSIGN_OR_RETURN(Statement select,
+                     connection_.Prepare("SELECT version, scans_processed, updated_at, poses FROM "
+                                         "slam_map_feed WHERE session_id = ? AND version > ?"));
+    RETURN_IF_ERROR(select.BindText(1, session_id));
+    RETURN_IF_ERROR(select.BindInt64(2, after_version));
+    ASSIGN_OR_RETURN(StepResult step, select.Step());
+    if (step == StepResult::kDone) return std::optional<TrajectoryFeed>();
+    TrajectoryFeed feed;
+    feed.version = select.ColumnInt64(0);
+    feed.scans_processed = select.ColumnInt64(1);
+    feed.updated_at = select.ColumnDouble(2);
+    feed.poses = std::string(select.ColumnBlobView(3));
+    ASSIGN_OR_RETURN(Statement points,
+                     connection_.Prepare("SELECT scan, points FROM slam_map_feed_node WHERE "
+                                         "session_id = ? AND scan > ? ORDER BY scan"));
+    RETURN_IF_ERROR(points.BindText(1, session_id));
+    RETURN_IF_ERROR(points.BindInt64(2, after_scan));
+    while (true) {
+      ASSIGN_OR_RETURN(StepResult row, points.Step());
+      if (row == StepResult::kDone) break;
+      feed.points.push_back(
+          FeedNodePoints{points.ColumnInt64(0), std::string(points.ColumnBlobView(1))});
+    }
+    return std::optional<TrajectoryFeed>(std::move(feed));
+  }
+
+  absl::Status DropTrajectoryFeed(const std::string& session_id) override {
+    std::lock_guard<std::mutex> lock(mutex_);
+    ASSIGN_OR_RETURN(Transaction txn, Transaction::Begin(connection_));
+    for (const char* sql : {"DELETE FROM slam_map_feed_node WHERE session_id = ?",
+                            "DELETE FROM slam_map_feed WHERE session_id = ?"}) {
+      ASSIGN_OR_RETURN(Statement drop, connection_.Prepare(sql));
+      RETURN_IF_ERROR(drop.BindText(1, session_id));
+      RETURN_IF_ERROR(drop.Run());
+    }
+    return txn.Commit();
+  }
+
  private:
+  // NOT_FOUND unless the session exists.
+  absl::Status SessionExistsLocked(const std::string& session_id) {
+    ASSIGN_OR_RETURN(Statement session,
+                     connection_.Prepare("SELECT 1 FROM slam_session WHERE id = ?"));
+    RETURN_IF_ERROR(session.BindText(1, session_id));
+    ASSIGN_OR_RETURN(StepResult found, session.Step());
+    if (found == StepResult::kDone) return MapSessionNotFound(session_id);
+    return absl::OkStatus();
+  }
+
   absl::StatusOr<MapRecord> GetMapLocked(const std::string& name, int64_t* id) {
     ASSIGN_OR_RETURN(Statement select,
                      connection_.Prepare(absl::StrCat("SELECT ", kMapColumns,

@@ -12,6 +12,7 @@
 #include "server/laser_slam/geometry.h"
 #include "server/laser_slam/input_bounds.h"
 #include "server/laser_slam/line_extraction.h"
+#include "server/laser_slam/mapping/graph_codec.h"
 #include "server/laser_slam/mapping/point_cloud.h"
 #include "server/laser_slam/motion.h"
 #include "server/laser_slam/odometry_buffer.h"
@@ -421,17 +422,10 @@ const SlamOptions& LaserSlam::options() const { return impl_->options; }
 
 namespace {
 
-void PutPose(BinaryWriter& w, const Pose2& p) {
-  w.Put(p.x);
-  w.Put(p.y);
-  w.Put(p.theta);
-}
-// Every stored pose (the robot's, the trajectory's, a segment's frame) is within the map's bounds
-// (input_bounds.h): a robot pose of 1e300 m, read unchecked, reached the loop search as an
-// infinite scan point (undefined behaviour; found by make fuzz).
-bool GetPose(BinaryReader& r, Pose2* p) {
-  return r.Get(&p->x) && r.Get(&p->y) && r.Get(&p->theta) && PlausibleMapPose(*p);
-}
+// Every stored pose (the robot's, the trajectory's, a segment's frame) is read with GetPose
+// (graph_codec.h), within the map's bounds (input_bounds.h): a robot pose of 1e300 m, read
+// unchecked, reached the loop search as an infinite scan point (undefined behaviour; found by
+// make fuzz).
 
 void PutSegment(BinaryWriter& w, const SegmentEntity& e) {
   w.Put(e.id);

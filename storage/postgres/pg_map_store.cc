@@ -204,6 +204,97 @@ class PostgresMapStore final : public MapStore {
     });
   }
 
+  absl::StatusOr<int64_t> PublishTrajectoryFeed(const std::string& session_id,
+                                                const TrajectoryFeedUpdate& update) override {
+    return pool_->Transaction<int64_t>([&](Connection& connection) -> absl::StatusOr<int64_t> {
+      ASSIGN_OR_RETURN(Result session,
+                       connection.Execute("SELECT 1 FROM slam_session WHERE id = $1",
+                                          Params().Text(session_id)));
+      if (session.rows() == 0) return MapSessionNotFound(session_id);
+      if (update.replace) {
+        RETURN_IF_ERROR(connection
+                            .Execute("DELETE FROM slam_map_feed_node WHERE session_id = $1",
+                                     Params().Text(session_id))
+                            .status());
+      } else if (!update.dropped.empty()) {
+        RETURN_IF_ERROR(connection
+                            .Execute("DELETE FROM slam_map_feed_node WHERE session_id = $1 AND "
+                                     "scan = ANY($2)",
+                                     Params().Text(session_id).Int64Array(update.dropped))
+                            .status());
+      }
+      if (!update.added.empty()) {
+        // One statement for the new nodes: arrays of scans and of points, unnested.
+        std::vector<int64_t> scans;
+        std::vector<absl::string_view> points;
+        for (const FeedNodePoints& node : update.added) {
+          scans.push_back(node.scan);
+          points.push_back(node.points);
+        }
+        RETURN_IF_ERROR(
+            connection
+                .Execute("INSERT INTO slam_map_feed_node (session_id, scan, points) SELECT $1, "
+                         "s, p FROM unnest($2::BIGINT[], $3::BYTEA[]) AS n(s, p) ON CONFLICT "
+                         "(session_id, scan) DO UPDATE SET points = excluded.points",
+                         Params().Text(session_id).Int64Array(scans).BytesArray(points))
+                .status());
+      }
+      ASSIGN_OR_RETURN(
+          Result version,
+          connection.Execute(
+              "INSERT INTO slam_map_feed (session_id, version, scans_processed, updated_at, "
+              "poses) VALUES ($1, 1, $2, $3, $4) ON CONFLICT (session_id) DO UPDATE SET version "
+              "= slam_map_feed.version + 1, scans_processed = excluded.scans_processed, "
+              "updated_at = excluded.updated_at, poses = excluded.poses RETURNING version",
+              Params()
+                  .Text(session_id)
+                  .Int64(update.scans_processed)
+                  .Double(NowSeconds())
+                  .Bytes(update.poses)));
+      if (version.rows() != 1) return absl::InternalError("publishing a feed gave no version");
+      return version.Int64(0, 0);
+    });
+  }
+
+  absl::StatusOr<std::optional<TrajectoryFeed>> ReadTrajectoryFeed(const std::string& session_id,
+                                                                   int64_t after_version,
+                                                                   int64_t after_scan) override {
+    // Both reads in one transaction: the points are those of the poses read.
+    return pool_->Transaction<std::optional<TrajectoryFeed>>(
+        [&](Connection& connection) -> absl::StatusOr<std::optional<TrajectoryFeed>> {
+          ASSIGN_OR_RETURN(Result row,
+                           connection.Execute("SELECT version, scans_processed, updated_at, poses "
+                                              "FROM slam_map_feed WHERE session_id = $1 AND "
+                                              "version > $2",
+                                              Params().Text(session_id).Int64(after_version)));
+          if (row.rows() == 0) return std::optional<TrajectoryFeed>();
+          TrajectoryFeed feed;
+          feed.version = row.Int64(0, 0);
+          feed.scans_processed = row.Int64(0, 1);
+          feed.updated_at = row.Double(0, 2);
+          feed.poses = std::string(row.Bytes(0, 3));
+          ASSIGN_OR_RETURN(Result points,
+                           connection.Execute("SELECT scan, points FROM slam_map_feed_node WHERE "
+                                              "session_id = $1 AND scan > $2 ORDER BY scan",
+                                              Params().Text(session_id).Int64(after_scan)));
+          for (int i = 0; i < points.rows(); ++i) {
+            feed.points.push_back(
+                FeedNodePoints{points.Int64(i, 0), std::string(points.Bytes(i, 1))});
+          }
+          return std::optional<TrajectoryFeed>(std::move(feed));
+        });
+  }
+
+  absl::Status DropTrajectoryFeed(const std::string& session_id) override {
+    return pool_->Transaction([&](Connection& connection) -> absl::Status {
+      for (const char* sql : {"DELETE FROM slam_map_feed_node WHERE session_id = $1",
+                              "DELETE FROM slam_map_feed WHERE session_id = $1"}) {
+        RETURN_IF_ERROR(connection.Execute(sql, Params().Text(session_id)).status());
+      }
+      return absl::OkStatus();
+    });
+  }
+
  private:
   // The map with its trajectories; `lock` locks its row for the rest of the transaction.
   static absl::StatusOr<MapRecord> ReadMap(Connection& connection, const std::string& name,

@@ -181,13 +181,30 @@ ALTER TABLE slam_map ADD COLUMN lease_expires_at DOUBLE PRECISION;
 ALTER TABLE slam_map_trajectory ADD COLUMN follow BYTEA;
 )sql";
 
+// v8: a shared map's node feed, as SQLite's version 17 (storage/migrations.cc, kV17SlamMapFeed).
+constexpr absl::string_view kV8SlamMapFeed = R"sql(
+CREATE TABLE slam_map_feed (
+  session_id TEXT PRIMARY KEY REFERENCES slam_session(id) ON DELETE CASCADE,
+  version BIGINT NOT NULL,
+  scans_processed BIGINT NOT NULL,
+  updated_at DOUBLE PRECISION NOT NULL,
+  poses BYTEA NOT NULL
+);
+CREATE TABLE slam_map_feed_node (
+  session_id TEXT NOT NULL REFERENCES slam_session(id) ON DELETE CASCADE,
+  scan BIGINT NOT NULL,
+  points BYTEA NOT NULL,
+  PRIMARY KEY (session_id, scan)
+);
+)sql";
+
 }  // namespace
 
 const std::vector<absl::string_view>& PostgresMigrations() {
   static const auto* const kSteps =
       new std::vector<absl::string_view>{kV1Tables, kV2SlamJournal, kV3SlamMapCheck,
                                          kV4ViewHeadingKnown, kV5ViewerTokens,
-                                         kV6SlamMaps, kV7SlamMapLeaseAndFollow};
+                                         kV6SlamMaps, kV7SlamMapLeaseAndFollow, kV8SlamMapFeed};
   return *kSteps;
 }
 

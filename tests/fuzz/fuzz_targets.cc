@@ -19,6 +19,7 @@
 #include "server/crossing/features.h"
 #include "server/laser_slam/laser_slam.h"
 #include "server/laser_slam/mapping/localizer.h"
+#include "server/laser_slam/mapping/node_feed_codec.h"
 #include "server/service/slam/slam_params.h"
 #include "server/service/slam/visual_frame_decoder.h"
 #include "server/service/slam/visual_params.h"
@@ -260,6 +261,37 @@ std::vector<std::string> LaserSeeds() {
   return seeds;
 }
 
+// --- A shared map's node feed read back from the database (another server wrote it) ------------
+// The first byte picks the part: the poses (and loops) or one node's points.
+void NodeFeed(const uint8_t* data, size_t size) {
+  if (size == 0) return;
+  const std::string bytes = Text(data + 1, size - 1);
+  if (data[0] % 2 == 0) {
+    auto poses = laser_slam::DecodeFeedPoses(bytes);
+    if (poses.ok()) (void)laser_slam::EncodeFeedPoses(poses->nodes, poses->loops);
+  } else {
+    auto points = laser_slam::DecodeFeedPoints(bytes);
+    if (points.ok()) (void)laser_slam::EncodeFeedPoints(*points);
+  }
+}
+std::vector<std::string> NodeFeedSeeds() {
+  std::vector<laser_slam::NodeView> nodes(3);
+  for (int i = 0; i < 3; ++i) {
+    nodes[i].scan = 2 * i + 1;
+    nodes[i].stamp = 0.5 * i;
+    nodes[i].global = laser_slam::Pose2{0.3 * i, 0.1 * i, 0.05 * i};
+    nodes[i].step_sigma = Eigen::Vector3d(0.01, 0.01, 0.002);
+  }
+  laser_slam::GraphConstraint loop;
+  loop.kind = laser_slam::GraphConstraint::Kind::kLoop;
+  loop.from = 0;
+  loop.to = 2;
+  loop.relative = laser_slam::Pose2{0.6, 0.2, 0.1};
+  laser_slam::PointCloud points = {{1.0f, 2.0f}, {-3.0f, 0.5f}};
+  return {std::string(1, '\0') + laser_slam::EncodeFeedPoses(nodes, {loop}),
+          std::string(1, '\1') + laser_slam::EncodeFeedPoints(points)};
+}
+
 // --- Visual odometry states (a visual session's checkpoint) ------------------------------------
 std::unique_ptr<visual_slam::VisualOdometry> FuzzOdometry() {
   visual_slam::CameraModel camera;
@@ -297,6 +329,7 @@ const std::vector<FuzzTarget>& Targets() {
       {"sensor_data", SensorData, SensorSeeds},
       {"session_config", SessionConfig, SessionSeeds},
       {"laser_checkpoint", LaserCheckpoint, LaserSeeds},
+      {"node_feed", NodeFeed, NodeFeedSeeds},
       {"visual_state", VisualState, VisualSeeds},
       {"image_decoding", ImageDecoding, ImageSeeds},
       CrossingRequestsTarget(),

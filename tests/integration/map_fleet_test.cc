@@ -80,7 +80,8 @@ class MapFleetTest : public ::testing::Test {
 
   void SetUp() override {
     WAYMARK_SKIP_WITHOUT(database_);
-    const std::vector<std::string> flags = {"--slam-workers", "2", "--session-lease-seconds", "2"};
+    std::vector<std::string> flags = {"--slam-workers", "2", "--session-lease-seconds", "2"};
+    flags.insert(flags.end(), extra_flags_.begin(), extra_flags_.end());
     auto a = ServerProcess::Start(testing::ServerBinary(), database_.db(), flags);
     ASSERT_TRUE(a.ok()) << a.status();
     auto b = ServerProcess::Start(testing::ServerBinary(), database_.db(), flags);
@@ -94,6 +95,7 @@ class MapFleetTest : public ::testing::Test {
   }
 
   TestDatabase database_;
+  std::vector<std::string> extra_flags_;  // for both servers
   std::unique_ptr<ServerProcess> a_, b_;
   std::unique_ptr<v1::SlamService::Stub> on_a_, on_b_;
   v1::CreateMapRequest create_;
@@ -255,6 +257,83 @@ TEST_F(MapFleetTest, OneServerAtATimeFollowsAMapsRobotsAndTheNextGoesOnFromItsFo
     EXPECT_NEAR(origin.origin().x(), 0.0, 0.05);
     EXPECT_NEAR(origin.origin().y(), 0.0, 0.05);
     EXPECT_NEAR(origin.origin().theta(), 0.0, 0.02);
+  }
+}
+
+// The servers never checkpoint a session (by time or by scans): what the map's owner knows of
+// a robot on the other server comes from the node feed only (trajectory_feed.h).
+class MapFleetFeedTest : public MapFleetTest {
+ protected:
+  MapFleetFeedTest() {
+    extra_flags_ = {"--slam-checkpoint-seconds", "0", "--slam-checkpoint-scans", "0"};
+  }
+};
+
+// A owns the map (it had two robots of it to follow first); robot 2 then joins on B and drives.
+// A follows robot 2 from the nodes B publishes as they come: robot 2 has no checkpoint at all
+// (with --slam-map-feed-seconds 0 the owner would have no node of it, and no sample).
+TEST_F(MapFleetFeedTest, TheOwnerFollowsARobotOnAnotherServerFromItsPublishedNodes) {
+  v1::CreateSessionRequest join = TestSessionRequest("r1");
+  join.set_map("office");
+  v1::Session first, idle, second;
+  ASSERT_TRUE(on_a_->CreateSession(FleetMapCtx().get(), join, &first).ok());
+  grpc::Status status;
+  FleetMapStream(on_a_.get(), first.session_id(), 0, 12, &status);
+  ASSERT_TRUE(status.ok()) << status.error_message();
+  // A second robot on A, tied in at its creation: A has a map to follow and takes its lease.
+  join.set_robot_id("r0");
+  join.mutable_initial_map_pose();
+  ASSERT_TRUE(on_a_->CreateSession(FleetMapCtx().get(), join, &idle).ok());
+  v1::Map map;
+  ASSERT_TRUE(WaitForMap(
+      on_a_.get(), [&](const v1::Map& m) { return m.owner() == a_->address(); }, &map))
+      << "A never took the map: owner '" << map.owner() << "'\n" << a_->Log();
+
+  // Robot 2 on B, the same room and start as robot 1, in two legs. A follows the first leg.
+  join.set_robot_id("r2");
+  ASSERT_TRUE(on_b_->CreateSession(FleetMapCtx().get(), join, &second).ok());
+  FleetMapStream(on_b_.get(), second.session_id(), 0, 8, &status);
+  ASSERT_TRUE(status.ok()) << status.error_message();
+  const auto second_of = [&](const v1::Map& m) -> const v1::MapTrajectory* {
+    for (const v1::MapTrajectory& t : m.trajectories()) {
+      if (t.session_id() == second.session_id()) return &t;
+    }
+    return nullptr;
+  };
+  const auto followed_past = [&](const v1::Map& m, uint64_t scan) {
+    const v1::MapTrajectory* t = second_of(m);
+    if (m.owner() != a_->address() || t == nullptr) return false;
+    for (const v1::MapOriginSample& sample : t->origin_samples()) {
+      if (sample.scan() > scan) return true;
+    }
+    return false;
+  };
+  // Asked of A, which holds every sample in memory (it stores them again only once they moved the
+  // origin or ten more came).
+  ASSERT_TRUE(WaitForMap(on_a_.get(), [&](const v1::Map& m) { return followed_past(m, 1); }, &map))
+      << "A never followed robot 2's first leg: owner '" << map.owner() << "'\nA:\n"
+      << a_->Log() << "\nB:\n" << b_->Log();
+  // The second leg (scans 9-16) reaches A only as B publishes it: robot 2's record, never
+  // checkpointed, shows nothing new (with --slam-map-feed-seconds 0, A holds the first leg
+  // for good and this waits in vain).
+  FleetMapStream(on_b_.get(), second.session_id(), 8, 8, &status);
+  ASSERT_TRUE(status.ok()) << status.error_message();
+  ASSERT_TRUE(WaitForMap(on_a_.get(), [&](const v1::Map& m) { return followed_past(m, 8); }, &map))
+      << "A never followed robot 2's second leg from B's feed\nA:\n" << a_->Log() << "\nB:\n"
+      << b_->Log();
+  EXPECT_NE(b_->Log().find("publishing session " + second.session_id()), std::string::npos);
+  // Robot 2 was never checkpointed: its record still shows no scan processed.
+  v1::ListSessionsRequest list;
+  list.set_robot_id("r2");
+  v1::ListSessionsResponse listed;
+  ASSERT_TRUE(on_a_->ListSessions(FleetMapCtx().get(), list, &listed).ok());
+  ASSERT_EQ(listed.sessions_size(), 1);
+  EXPECT_EQ(listed.sessions(0).scans_processed(), 0u);
+  // The same room, the same start: every sample says robot 2's frame is the map frame.
+  for (const v1::MapOriginSample& sample : second_of(map)->origin_samples()) {
+    EXPECT_NEAR(sample.origin().x(), 0.0, 0.05);
+    EXPECT_NEAR(sample.origin().y(), 0.0, 0.05);
+    EXPECT_NEAR(sample.origin().theta(), 0.0, 0.02);
   }
 }
 

@@ -11,7 +11,10 @@
 #include <chrono>
 #include <cmath>
 #include <condition_variable>
+#include <algorithm>
+#include <map>
 #include <memory>
+#include <optional>
 #include <mutex>
 #include <string>
 #include <vector>
@@ -128,6 +131,23 @@ OfficeDrives PillarOfficeDrives() {
   return d;
 }
 
+// The map "office" as stored: robot a closed and tied in at the origin with `a_scans` processed,
+// robot b open (on another server) with `b_scans` in its record, tied in when `b_tied`.
+storage::MapRecord OfficeOfTwo(int64_t a_scans, int64_t b_scans, bool b_tied) {
+  storage::MapRecord map;
+  map.name = "office";
+  storage::MapTrajectoryRecord first, second;
+  first.session_id = "a";
+  first.tie = storage::MapTie{};
+  first.session_state = storage::SlamSessionState::kClosed;
+  first.scans_processed = a_scans;
+  second.session_id = "b";
+  second.scans_processed = b_scans;
+  if (b_tied) second.tie = storage::MapTie{};
+  map.trajectories = {first, second};
+  return map;
+}
+
 TEST(MapTieWorkerTest, ASecondRobotIsFoundAndTiedInOnceAtTheTruth) {
   const OfficeDrives d = PillarOfficeDrives();
   const storage::MapTie origin_a{1.0, -2.0, 0.3};
@@ -203,18 +223,10 @@ TEST(MapTieWorkerTest, OnlyAnOwnedMapIsSearchedAndARobotElsewhereIsReadAsItGoesO
     ++passes;
     cv.notify_all();
     if (tied) return std::vector<storage::MapRecord>{};
-    storage::MapRecord map;
-    map.name = "office";
-    storage::MapTrajectoryRecord first, second;
-    first.session_id = "a";
-    first.tie = storage::MapTie{};
-    first.session_state = storage::SlamSessionState::kClosed;
-    first.scans_processed = static_cast<int64_t>(a.back().scan);
-    second.session_id = "b";  // open, on another server
-    second.scans_processed =
-        static_cast<int64_t>(phase == kOwnedAllScans ? b.back().scan : b_start.back().scan);
-    map.trajectories = {first, second};
-    return std::vector<storage::MapRecord>{map};
+    return std::vector<storage::MapRecord>{OfficeOfTwo(
+        static_cast<int64_t>(a.back().scan),
+        static_cast<int64_t>(phase == kOwnedAllScans ? b.back().scan : b_start.back().scan),
+        /*b_tied=*/false)};
   };
   sources.nodes = [&](const std::string& id) -> absl::StatusOr<TrajectoryNodes> {
     std::lock_guard<std::mutex> lock(mu);
@@ -263,6 +275,148 @@ TEST(MapTieWorkerTest, OnlyAnOwnedMapIsSearchedAndARobotElsewhereIsReadAsItGoesO
     EXPECT_EQ(b_reads, 2);
   }
   worker.Stop();
+}
+
+// A feed in memory, as MapStore keeps one (storage/map_store.h: versions, points by scan,
+// pruned rows and a publisher's replace); the store's own test runs the SQL on both backends.
+struct FakeFeeds {
+  struct Feed {
+    int64_t version = 0;
+    int64_t scans = 0;
+    std::string poses;
+    std::map<int64_t, std::string> points;
+  };
+  std::mutex mu;
+  std::map<std::string, Feed> feeds;
+  int publishes = 0;
+
+  absl::StatusOr<int64_t> Publish(const std::string& id,
+                                  const storage::TrajectoryFeedUpdate& update) {
+    std::lock_guard<std::mutex> lock(mu);
+    Feed& feed = feeds[id];
+    if (update.replace) feed.points.clear();
+    for (const int64_t scan : update.dropped) feed.points.erase(scan);
+    for (const storage::FeedNodePoints& node : update.added) feed.points[node.scan] = node.points;
+    feed.scans = update.scans_processed;
+    feed.poses = update.poses;
+    ++publishes;
+    return ++feed.version;
+  }
+  absl::StatusOr<std::optional<storage::TrajectoryFeed>> Read(const std::string& id,
+                                                              int64_t after_version,
+                                                              int64_t after_scan) {
+    std::lock_guard<std::mutex> lock(mu);
+    auto it = feeds.find(id);
+    if (it == feeds.end() || it->second.version <= after_version) {
+      return std::optional<storage::TrajectoryFeed>();
+    }
+    storage::TrajectoryFeed out;
+    out.version = it->second.version;
+    out.scans_processed = it->second.scans;
+    out.poses = it->second.poses;
+    for (const auto& [scan, points] : it->second.points) {
+      if (scan > after_scan) out.points.push_back({scan, points});
+    }
+    return std::optional<storage::TrajectoryFeed>(std::move(out));
+  }
+};
+
+// On a fleet the robot streams to one server and its map's owner is another. Server B holds
+// robot b in memory and does not own the map: it publishes b's nodes as they come. Server A owns
+// the map and holds b only as its stale checkpoint (three nodes, too few to tie it in): it reads
+// the rest from the feed and ties b in at the truth, without a newer checkpoint.
+TEST(MapTieWorkerTest, TheOwnerTiesInARobotElsewhereFromTheNodesItsServerPublishes) {
+  const OfficeDrives d = PillarOfficeDrives();
+  const std::vector<ls::NodeView> b_checkpoint(d.b.begin(), d.b.begin() + 3);
+  FakeFeeds feeds;
+  std::mutex mu;
+  std::condition_variable cv;
+  std::vector<std::pair<std::string, storage::MapTie>> ties;
+  std::size_t b_nodes_now = 3;  // how many nodes robot b has on server B so far
+  int checkpoint_reads = 0;
+
+  // Robot b's checkpoint stopped at its third node.
+  const auto office = [&](bool b_tied) {
+    return std::vector<storage::MapRecord>{OfficeOfTwo(static_cast<int64_t>(d.a.back().scan),
+                                                       static_cast<int64_t>(b_checkpoint.back().scan),
+                                                       b_tied)};
+  };
+
+  // Server B: b in memory, growing by a node a pass; the map owned elsewhere.
+  MapTieWorker::Sources on_b;
+  on_b.maps_to_tie = [&] {
+    std::lock_guard<std::mutex> lock(mu);
+    b_nodes_now = std::min(d.b.size(), b_nodes_now + 1);
+    return ties.empty() ? office(false) : std::vector<storage::MapRecord>{};
+  };
+  on_b.nodes = [&](const std::string& id) -> absl::StatusOr<TrajectoryNodes> {
+    EXPECT_EQ(id, "b") << "server B read a session it does not hold";
+    std::lock_guard<std::mutex> lock(mu);
+    TrajectoryNodes nodes{std::vector<ls::NodeView>(d.b.begin(), d.b.begin() + b_nodes_now),
+                          /*resident=*/true};
+    nodes.scans_processed = static_cast<int64_t>(nodes.nodes.back().scan);
+    return nodes;
+  };
+  on_b.resident = [](const std::string& id) { return id == "b"; };
+  on_b.own = [](const std::string&) { return false; };
+  on_b.holds = [](const std::string&) { return false; };
+  on_b.tie = [](const std::string&, const std::string&, const storage::MapTie&) {
+    ADD_FAILURE() << "server B tied a robot of a map it does not own";
+    return absl::OkStatus();
+  };
+  on_b.publish = [&](const std::string& id, const storage::TrajectoryFeedUpdate& update) {
+    return feeds.Publish(id, update);
+  };
+  on_b.maps_to_publish = [&] {
+    std::lock_guard<std::mutex> lock(mu);
+    return office(!ties.empty());
+  };
+
+  // Server A: the map's owner; a and b only as their checkpoints.
+  MapTieWorker::Sources on_a;
+  on_a.maps_to_tie = [&] {
+    std::lock_guard<std::mutex> lock(mu);
+    cv.notify_all();
+    return ties.empty() ? office(false) : std::vector<storage::MapRecord>{};
+  };
+  on_a.nodes = [&](const std::string& id) -> absl::StatusOr<TrajectoryNodes> {
+    std::lock_guard<std::mutex> lock(mu);
+    if (id == "a") return TrajectoryNodes{d.a, /*resident=*/false};
+    ++checkpoint_reads;
+    return TrajectoryNodes{b_checkpoint, /*resident=*/false};
+  };
+  on_a.resident = [](const std::string&) { return false; };
+  on_a.own = [](const std::string&) { return true; };
+  on_a.tie = [&](const std::string&, const std::string& id, const storage::MapTie& tie) {
+    std::lock_guard<std::mutex> lock(mu);
+    ties.emplace_back(id, tie);
+    cv.notify_all();
+    return absl::OkStatus();
+  };
+  on_a.read_feed = [&](const std::string& id, int64_t after_version, int64_t after_scan) {
+    return feeds.Read(id, after_version, after_scan);
+  };
+
+  MapTieWorker::Options options;
+  options.poll_seconds = 0.01;
+  options.feed_seconds = 0.0001;
+  MapTieWorker server_b(std::move(on_b), options);
+  MapTieWorker server_a(std::move(on_a), options);
+  {
+    // A bound far above what the passes cost, never reached when the feed works.
+    std::unique_lock<std::mutex> lock(mu);
+    EXPECT_TRUE(cv.wait_for(lock, std::chrono::seconds(120), [&] { return !ties.empty(); }))
+        << "no tie from the feed";
+  }
+  server_a.Stop();
+  server_b.Stop();
+  const ls::Pose2 truth = ls::Relative(d.start_a, d.start_b);
+  ExpectTiedAt(ties, truth);
+  EXPECT_LE(checkpoint_reads, 1);  // at most before the first publish
+  std::lock_guard<std::mutex> lock(feeds.mu);
+  EXPECT_GT(feeds.publishes, 1);
+  // Each node's points were published once: the feed holds every node b had.
+  EXPECT_EQ(feeds.feeds["b"].points.size(), b_nodes_now);
 }
 
 TEST(MapTieWorkerTest, StopsWithNothingToDo) {

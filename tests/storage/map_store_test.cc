@@ -7,6 +7,7 @@
 #include <chrono>
 #include <limits>
 #include <memory>
+#include <optional>
 #include <string>
 #include <thread>
 #include <vector>
@@ -286,6 +287,75 @@ TEST_P(MapStoreTest, ATieStoredInPartIsDataLoss) {
   ASSERT_OK(database_.Exec("UPDATE slam_map_trajectory SET tie_y = NULL"));
   EXPECT_EQ(CodeOf(maps_->GetMap("office")), absl::StatusCode::kDataLoss);
   EXPECT_EQ(CodeOf(maps_->ListMaps()), absl::StatusCode::kDataLoss);
+}
+
+// The node feed (a fleet's map owner reads a robot on another server between its checkpoints):
+// versions count the publishes, points are read by scan, pruned nodes and a new publisher's
+// replace take rows away, and the feed goes with its session.
+TEST_P(MapStoreTest, AFeedIsPublishedInPartsAndReadFromAScanOn) {
+  AddSession("s1", "r1");
+  EXPECT_EQ(CodeOf(maps_->PublishTrajectoryFeed("nobody", TrajectoryFeedUpdate{})),
+            absl::StatusCode::kNotFound);
+  ASSERT_OK_AND_ASSIGN(std::optional<TrajectoryFeed> none, maps_->ReadTrajectoryFeed("s1", 0, 0));
+  EXPECT_FALSE(none.has_value());
+
+  TrajectoryFeedUpdate first;
+  first.scans_processed = 12;
+  first.poses = std::string("poses\0one", 9);
+  first.added = {{3, "three"}, {7, std::string("sev\0en", 6)}};
+  ASSERT_OK_AND_ASSIGN(int64_t v1, maps_->PublishTrajectoryFeed("s1", first));
+  EXPECT_EQ(v1, 1);
+  ASSERT_OK_AND_ASSIGN(std::optional<TrajectoryFeed> all, maps_->ReadTrajectoryFeed("s1", 0, 0));
+  ASSERT_TRUE(all.has_value());
+  EXPECT_EQ(all->version, 1);
+  EXPECT_EQ(all->scans_processed, 12);
+  EXPECT_EQ(all->poses, first.poses);
+  ASSERT_EQ(all->points.size(), 2u);
+  EXPECT_EQ(all->points[0].scan, 3);
+  EXPECT_EQ(all->points[0].points, "three");
+  EXPECT_EQ(all->points[1].points, std::string("sev\0en", 6));
+  // Nothing newer than what the reader has.
+  ASSERT_OK_AND_ASSIGN(none, maps_->ReadTrajectoryFeed("s1", 1, 0));
+  EXPECT_FALSE(none.has_value());
+
+  TrajectoryFeedUpdate second;
+  second.scans_processed = 20;
+  second.poses = "poses two";
+  second.added = {{11, "eleven"}};
+  second.dropped = {3};
+  ASSERT_OK_AND_ASSIGN(int64_t v2, maps_->PublishTrajectoryFeed("s1", second));
+  EXPECT_EQ(v2, 2);
+  ASSERT_OK_AND_ASSIGN(std::optional<TrajectoryFeed> newer,
+                       maps_->ReadTrajectoryFeed("s1", 1, 7));
+  ASSERT_TRUE(newer.has_value());
+  EXPECT_EQ(newer->poses, "poses two");
+  ASSERT_EQ(newer->points.size(), 1u);  // only the scans after 7
+  EXPECT_EQ(newer->points[0].scan, 11);
+  ASSERT_OK_AND_ASSIGN(all, maps_->ReadTrajectoryFeed("s1", 0, 0));
+  ASSERT_EQ(all->points.size(), 2u);  // 3 was pruned
+  EXPECT_EQ(all->points[0].scan, 7);
+
+  // Another server's first publish replaces every row of points.
+  TrajectoryFeedUpdate moved;
+  moved.scans_processed = 25;
+  moved.poses = "poses three";
+  moved.added = {{11, "eleven"}, {15, "fifteen"}};
+  moved.replace = true;
+  ASSERT_OK_AND_ASSIGN(int64_t v3, maps_->PublishTrajectoryFeed("s1", moved));
+  EXPECT_EQ(v3, 3);
+  ASSERT_OK_AND_ASSIGN(all, maps_->ReadTrajectoryFeed("s1", 0, 0));
+  ASSERT_EQ(all->points.size(), 2u);
+  EXPECT_EQ(all->points[0].scan, 11);
+  EXPECT_EQ(all->points[1].scan, 15);
+
+  ASSERT_OK(maps_->DropTrajectoryFeed("s1"));
+  ASSERT_OK_AND_ASSIGN(none, maps_->ReadTrajectoryFeed("s1", 0, 0));
+  EXPECT_FALSE(none.has_value());
+  // Published again, then the session deleted: its feed goes with it.
+  ASSERT_OK(maps_->PublishTrajectoryFeed("s1", moved));
+  ASSERT_OK(sessions_->DeleteSession("s1"));
+  ASSERT_OK_AND_ASSIGN(none, maps_->ReadTrajectoryFeed("s1", 0, 0));
+  EXPECT_FALSE(none.has_value());
 }
 
 }  // namespace

@@ -8,6 +8,7 @@
 
 #include "absl/strings/str_cat.h"
 #include "server/common/binary_io.h"
+#include "server/laser_slam/mapping/graph_codec.h"
 #include "server/laser_slam/input_bounds.h"
 
 namespace waymark::laser_slam {
@@ -27,51 +28,6 @@ constexpr std::uint32_t kMagic = 0x5047574d;  // "MWGP"
 // Older checkpoints have nothing pruned and every submap undecided.
 constexpr std::uint32_t kVersion = 6;
 
-void PutPose(BinaryWriter& w, const Pose2& p) {
-  w.Put(p.x);
-  w.Put(p.y);
-  w.Put(p.theta);
-}
-
-// Stored variances: finite and not negative.
-bool GetVariance(BinaryReader& r, Eigen::Vector3d* v) {
-  for (int i = 0; i < 3; ++i) {
-    if (!r.Get(&(*v)(i)) || !std::isfinite((*v)(i)) || (*v)(i) < 0.0) return false;
-  }
-  return true;
-}
-
-// A stored pose, within the bounds of a map (input_bounds.h).
-bool GetPose(BinaryReader& r, Pose2* p) {
-  return r.Get(&p->x) && r.Get(&p->y) && r.Get(&p->theta) && PlausibleMapPose(*p);
-}
-
-void PutConstraint(BinaryWriter& w, const GraphConstraint& c) {
-  w.Put<std::uint8_t>(static_cast<std::uint8_t>(c.kind));
-  w.Put<std::int32_t>(c.from);
-  w.Put<std::int32_t>(c.to);
-  PutPose(w, c.relative);
-  for (int i = 0; i < 3; ++i) w.Put(c.sigma(i));
-  w.Put<std::uint8_t>(c.enabled);
-  w.Put(c.score);
-}
-
-// A stored constraint between two of the `nodes` nodes, with positive finite sigmas.
-bool GetConstraint(BinaryReader& r, int nodes, GraphConstraint* c) {
-  std::uint8_t kind = 0, enabled = 0;
-  if (!r.Get(&kind) || kind > 1 || !r.Get(&c->from) || !r.Get(&c->to) || c->from < 0 ||
-      c->to < 0 || c->from >= nodes || c->to >= nodes || !GetPose(r, &c->relative)) {
-    return false;
-  }
-  for (int i = 0; i < 3; ++i) {
-    if (!r.Get(&c->sigma(i)) || !(c->sigma(i) > 0.0) || !std::isfinite(c->sigma(i))) return false;
-  }
-  if (!r.Get(&enabled) || !r.Get(&c->score)) return false;
-  c->kind = static_cast<GraphConstraint::Kind>(kind);
-  c->enabled = enabled != 0;
-  return true;
-}
-
 }  // namespace
 
 std::string MappingBackend::Serialize() const {
@@ -89,11 +45,7 @@ std::string MappingBackend::Serialize() const {
     w.Put(n.travel);
     PutPose(w, n.local);
     PutPose(w, n.global);
-    w.Put<std::uint32_t>(static_cast<std::uint32_t>(n.points->size()));
-    for (const Eigen::Vector2f& p : *n.points) {
-      w.Put(p.x());
-      w.Put(p.y());
-    }
+    PutPoints(w, *n.points);
     PutPose(w, n.odometry);
     for (int i = 0; i < 3; ++i) w.Put(n.odometry_variance(i));
     w.Put<std::uint8_t>(n.pruned);
@@ -173,21 +125,13 @@ absl::StatusOr<std::unique_ptr<MappingBackend>> MappingBackend::Deserialize(
   b.nodes_.resize(count);
   std::uint64_t previous_scan = 0;
   for (Node& n : b.nodes_) {
-    std::uint32_t points = 0;
     if (!r.Get(&n.scan) || !r.Get(&n.stamp) || !r.Get(&n.travel) || !GetPose(r, &n.local) ||
-        !GetPose(r, &n.global) || !r.Get(&points) || points > 100000 ||
-        points > r.remaining() / (2 * sizeof(float)) || n.scan <= previous_scan) {
+        !GetPose(r, &n.global) || n.scan <= previous_scan) {
       return corrupt("node");
     }
     previous_scan = n.scan;
-    PointCloud cloud(points);
-    for (Eigen::Vector2f& p : cloud) {
-      float x = 0, y = 0;
-      if (!r.Get(&x) || !r.Get(&y) || !PlausibleRobotPoint(x, y)) {
-        return corrupt("node points");
-      }
-      p = Eigen::Vector2f(x, y);
-    }
+    PointCloud cloud;
+    if (!GetPoints(r, 100000, &cloud)) return corrupt("node points");
     n.points = std::make_shared<const PointCloud>(std::move(cloud));
     if (version >= 3) {
       if (!GetPose(r, &n.odometry) || !GetVariance(r, &n.odometry_variance)) {
@@ -207,7 +151,7 @@ absl::StatusOr<std::unique_ptr<MappingBackend>> MappingBackend::Deserialize(
       const int index = static_cast<int>(&n - b.nodes_.data());
       // A pruned node's ends are kept nodes before and after it; a kept node has none.
       if (n.pruned ? (n.anchor < 0 || n.anchor >= index || n.after <= index ||
-                      n.after >= static_cast<int>(count) || points != 0)
+                      n.after >= static_cast<int>(count) || !n.points->empty())
                    : (n.anchor != -1 || n.after != -1)) {
         return corrupt("node pruning");
       }

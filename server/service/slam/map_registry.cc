@@ -371,14 +371,16 @@ std::vector<std::pair<std::string, storage::MapTie>> MapRegistry::TiedMembers(
   return out;
 }
 
-std::vector<storage::MapRecord> MapRegistry::MapsToTie() {
+std::vector<storage::MapRecord> MapRegistry::StoredMapsOf(
+    const std::function<bool(const MapMembership&)>& member,
+    const std::function<bool(const storage::MapRecord&)>& keep) {
   if (store_ == nullptr) return {};
   std::set<std::string> names;
   {
     std::lock_guard<std::mutex> lock(mutex_);
-    for (const auto& [session_id, member] : members_) {
-      if (!member->tied_in()) {
-        if (std::string map = member->map(); !map.empty()) names.insert(std::move(map));
+    for (const auto& [session_id, membership] : members_) {
+      if (member(*membership)) {
+        if (std::string map = membership->map(); !map.empty()) names.insert(std::move(map));
       }
     }
   }
@@ -386,14 +388,29 @@ std::vector<storage::MapRecord> MapRegistry::MapsToTie() {
   for (const std::string& name : names) {
     absl::StatusOr<storage::MapRecord> map = store_->GetMap(name);
     if (!map.ok()) continue;  // deleted meanwhile, or the store is down: the next pass asks again
-    Remember(*map);           // another server of the fleet may have tied one in
-    bool tied = false, untied = false;
-    for (const storage::MapTrajectoryRecord& trajectory : map->trajectories) {
-      (trajectory.tie ? tied : untied) = true;
-    }
-    if (tied && untied) maps.push_back(*std::move(map));
+    // Another server of the fleet may have tied one in, moved origins or stored follows.
+    Remember(*map);
+    if (keep(*map)) maps.push_back(*std::move(map));
   }
   return maps;
+}
+
+namespace {
+int TiedIn(const storage::MapRecord& map) {
+  int tied = 0;
+  for (const storage::MapTrajectoryRecord& trajectory : map.trajectories) {
+    tied += trajectory.tie.has_value() ? 1 : 0;
+  }
+  return tied;
+}
+}  // namespace
+
+std::vector<storage::MapRecord> MapRegistry::MapsToTie() {
+  return StoredMapsOf([](const MapMembership& m) { return !m.tied_in(); },
+                      [](const storage::MapRecord& map) {
+                        const int tied = TiedIn(map);
+                        return tied > 0 && tied < static_cast<int>(map.trajectories.size());
+                      });
 }
 
 absl::Status MapRegistry::Tie(const std::string& map, const std::string& session_id,
@@ -412,28 +429,13 @@ absl::Status MapRegistry::Tie(const std::string& map, const std::string& session
 }
 
 std::vector<storage::MapRecord> MapRegistry::MapsToFollow() {
-  if (store_ == nullptr) return {};
-  std::set<std::string> names;
-  {
-    std::lock_guard<std::mutex> lock(mutex_);
-    for (const auto& [session_id, member] : members_) {
-      if (member->tied_in()) {
-        if (std::string map = member->map(); !map.empty()) names.insert(std::move(map));
-      }
-    }
-  }
-  std::vector<storage::MapRecord> maps;
-  for (const std::string& name : names) {
-    absl::StatusOr<storage::MapRecord> map = store_->GetMap(name);
-    if (!map.ok()) continue;
-    Remember(*map);  // the owner (on a fleet, maybe another server) moved origins, stored follows
-    int tied = 0;
-    for (const storage::MapTrajectoryRecord& trajectory : map->trajectories) {
-      tied += trajectory.tie.has_value() ? 1 : 0;
-    }
-    if (tied >= 2) maps.push_back(*std::move(map));
-  }
-  return maps;
+  return StoredMapsOf([](const MapMembership& m) { return m.tied_in(); },
+                      [](const storage::MapRecord& map) { return TiedIn(map) >= 2; });
+}
+
+std::vector<storage::MapRecord> MapRegistry::MapsWithOthers() {
+  return StoredMapsOf([](const MapMembership&) { return true; },
+                      [](const storage::MapRecord& map) { return map.trajectories.size() >= 2; });
 }
 
 void MapRegistry::Searched(const std::string& session_id,
@@ -484,6 +486,15 @@ absl::Status MapRegistry::Follow(const std::string& map, const std::string& sess
   if (!tied.ok()) return tied.status();
   Remember(*tied);  // its answers carry the latest origin
   return absl::OkStatus();
+}
+
+bool MapRegistry::Holds(const std::string& map) const {
+  if (!fleet() || store_ == nullptr) return true;
+  std::lock_guard<std::mutex> lock(mutex_);
+  auto it = owned_.find(map);
+  // owned_ holds when to renew it, a third of the ttl after it was taken: the lease itself runs
+  // for two thirds more.
+  return it != owned_.end() && SteadySeconds() < it->second + 2.0 * leases_->ttl_seconds() / 3.0;
 }
 
 bool MapRegistry::Own(const std::string& map) {

@@ -138,6 +138,10 @@ class MapRegistry {
   // The maps, as stored, where a session known here is tied in beside other tied-in trajectories:
   // what the tie worker follows after a tie (laser_slam::TrajectoryFollow).
   std::vector<storage::MapRecord> MapsToFollow();
+  // The maps, as stored, of the sessions known here that hold other trajectories too: on a fleet
+  // the tie worker publishes the nodes of those in memory here for the map's owner
+  // (trajectory_feed.h) when another server owns it.
+  std::vector<storage::MapRecord> MapsWithOthers();
   // The session's piecewise origin after its tie (trajectory_follow.h), in memory: map-frame poses
   // and the map's grid use the origin at each pose's stamp. The store keeps the latest origin and
   // the samples with their counts (`progress`), written at the first follow and again when the
@@ -156,6 +160,9 @@ class MapRegistry {
   // of its ttl. A lease lost to another server is logged, and the map's samples are read from
   // the store again from then on.
   bool Own(const std::string& map);
+  // Whether this server holds the map's lease now, as far as it knows (no store call, and never
+  // taking it): what it asks before publishing its robots' nodes for the map's owner.
+  bool Holds(const std::string& map) const;
   // How often the map's graph was solved and its kept solution reused (map_graph_cache.h);
   // nullopt before the first read that placed the map by its graph.
   std::optional<laser_slam::MapGraphCache::Stats> GraphStats(const std::string& name) const;
@@ -172,6 +179,11 @@ class MapRegistry {
   std::shared_ptr<laser_slam::MapGraphCache> Graph(const std::string& name);
 
   bool fleet() const { return leases_ != nullptr && leases_->enabled(); }
+  // The maps (read from the store, and remembered) of the members for which `member` holds, kept
+  // where `keep` holds.
+  std::vector<storage::MapRecord> StoredMapsOf(
+      const std::function<bool(const MapMembership&)>& member,
+      const std::function<bool(const storage::MapRecord&)>& keep);
 
   storage::MapStore* const store_;
   SessionLeases* const leases_;

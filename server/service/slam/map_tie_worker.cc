@@ -17,6 +17,11 @@ constexpr std::int64_t kTurnReads = 20'000'000;
 // Windowed matches one followed session may make in one turn (each a few ms).
 constexpr int kFollowAttempts = 20;
 
+double SteadyNow() {
+  return std::chrono::duration<double>(std::chrono::steady_clock::now().time_since_epoch())
+      .count();
+}
+
 }  // namespace
 
 MapTieWorker::MapTieWorker(Sources sources, Options options)
@@ -57,21 +62,111 @@ void MapTieWorker::Loop() {
 bool MapTieWorker::Moving(const storage::MapTrajectoryRecord& trajectory) const {
   if (sources_.resident(trajectory.session_id)) return true;
   auto it = stored_.find(trajectory.session_id);
-  return it != stored_.end() && trajectory.scans_processed > it->second.scans_processed;
+  if (it == stored_.end()) return false;
+  return trajectory.scans_processed > it->second.scans_processed ||
+         (sources_.read_feed && trajectory.session_state != storage::SlamSessionState::kClosed);
+}
+
+std::optional<TrajectoryNodes> MapTieWorker::FedNodesOf(
+    const storage::MapTrajectoryRecord& trajectory) {
+  if (!sources_.read_feed) return std::nullopt;
+  const std::string& session_id = trajectory.session_id;
+  auto held = stored_.find(session_id);
+  const TrajectoryNodes none;
+  const TrajectoryNodes& nodes = held == stored_.end() ? none : held->second.nodes;
+  const int64_t version = held == stored_.end() ? 0 : held->second.feed_version;
+  // The points of the nodes held are kept; only newer nodes' are read.
+  const int64_t after_scan =
+      nodes.nodes.empty() ? 0 : static_cast<int64_t>(nodes.nodes.back().scan);
+  for (const int64_t from : {after_scan, int64_t{0}}) {
+    absl::StatusOr<std::optional<storage::TrajectoryFeed>> feed =
+        sources_.read_feed(session_id, version, from);
+    if (!feed.ok()) {
+      spdlog::warn("SLAM maps: the nodes published for session {} are not readable: {}",
+                   session_id, feed.status().ToString());
+      return std::nullopt;
+    }
+    // None newer, or behind the checkpoint (its robot's server stopped publishing it).
+    if (!feed->has_value() || (*feed)->scans_processed < trajectory.scans_processed) {
+      return std::nullopt;
+    }
+    absl::StatusOr<TrajectoryNodes> joined = JoinFeed(nodes, **feed);
+    if (joined.ok()) {
+      stored_[session_id] = Stored{*joined, (*feed)->scans_processed, (*feed)->version};
+      return *std::move(joined);
+    }
+    // A node older than those held and not among them (another server's first publish): read
+    // every node's points once more, then give up on this feed.
+    if (from == 0) {
+      spdlog::warn("SLAM maps: the nodes published for session {}: {}", session_id,
+                   joined.status().ToString());
+    }
+  }
+  return std::nullopt;
 }
 
 absl::StatusOr<TrajectoryNodes> MapTieWorker::NodesOf(
     const storage::MapTrajectoryRecord& trajectory) {
   const std::string& session_id = trajectory.session_id;
+  if (!sources_.resident(session_id)) {
+    if (std::optional<TrajectoryNodes> fed = FedNodesOf(trajectory); fed.has_value()) {
+      return *std::move(fed);
+    }
+  }
+  int64_t feed_version = 0;
   if (auto it = stored_.find(session_id); it != stored_.end()) {
-    if (!Moving(trajectory)) return it->second.nodes;
+    // Nothing newer published, and no newer checkpoint: what is held.
+    if (!sources_.resident(session_id) &&
+        trajectory.scans_processed <= it->second.scans_processed) {
+      return it->second.nodes;
+    }
+    feed_version = it->second.feed_version;
     stored_.erase(it);  // its robot came back here, or went on elsewhere: its nodes changed
   }
   absl::StatusOr<TrajectoryNodes> nodes = sources_.nodes(session_id);
   if (nodes.ok() && !nodes->resident) {
-    stored_[session_id] = Stored{*nodes, trajectory.scans_processed};
+    stored_[session_id] = Stored{*nodes, trajectory.scans_processed, feed_version};
   }
   return nodes;
+}
+
+void MapTieWorker::PublishPass(const std::vector<storage::MapRecord>& maps) {
+  if (options_.feed_seconds <= 0.0) return;
+  const double now = SteadyNow();
+  std::set<std::string> published;
+  for (const storage::MapRecord& map : maps) {
+    // The owner reads the sessions in memory here directly. Not Owned(): publishing must never
+    // take a map's lease (a server with nothing to tie or follow would then hold it).
+    if (sources_.holds(map.name)) continue;
+    for (const storage::MapTrajectoryRecord& trajectory : map.trajectories) {
+      const std::string& session_id = trajectory.session_id;
+      if (!sources_.resident(session_id) || !published.insert(session_id).second) continue;
+      Publishing& publishing = publishing_[session_id];
+      if (now - publishing.at < options_.feed_seconds) continue;
+      absl::StatusOr<TrajectoryNodes> nodes = sources_.nodes(session_id);
+      if (!nodes.ok()) continue;  // closed or deleted meanwhile
+      std::optional<storage::TrajectoryFeedUpdate> update = publishing.publisher.Update(*nodes);
+      if (!update.has_value()) continue;
+      absl::StatusOr<int64_t> version = sources_.publish(session_id, *update);
+      if (!version.ok()) {
+        spdlog::warn("SLAM map \"{}\": session {}'s nodes not published for its owner: {}",
+                     map.name, session_id, version.status().ToString());
+        continue;
+      }
+      if (!publishing.publisher.any()) {
+        spdlog::info("SLAM map \"{}\": publishing session {}'s nodes for the server that owns "
+                     "the map",
+                     map.name, session_id);
+      }
+      publishing.publisher.Published(*update);
+      publishing.at = now;
+    }
+  }
+  // Sessions that left this server or whose map is owned here now: the next publish starts
+  // afresh (it replaces what the feed held).
+  for (auto it = publishing_.begin(); it != publishing_.end();) {
+    it = published.count(it->first) ? std::next(it) : publishing_.erase(it);
+  }
 }
 
 bool MapTieWorker::Pass() {
@@ -104,6 +199,10 @@ bool MapTieWorker::Pass() {
     }
   }
   more = FollowPass(&referenced) || more;
+  // After the passes that take or renew the leases of the maps this server works on.
+  if (sources_.publish && sources_.maps_to_publish && sources_.holds) {
+    PublishPass(sources_.maps_to_publish());
+  }
   // Sessions tied in, gone or detached meanwhile; stored nodes nobody reads any more.
   const auto erase_unless = [](auto& by_id, const std::set<std::string>& keep) {
     for (auto it = by_id.begin(); it != by_id.end();) {

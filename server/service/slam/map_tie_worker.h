@@ -22,6 +22,7 @@
 #include <map>
 #include <memory>
 #include <mutex>
+#include <optional>
 #include <set>
 #include <string>
 #include <thread>
@@ -33,6 +34,7 @@
 #include "server/laser_slam/mapping/trajectory_follow.h"
 #include "server/laser_slam/mapping/trajectory_tie.h"
 #include "server/service/slam/folder.h"
+#include "server/service/slam/trajectory_feed.h"
 #include "server/service/slam/trajectory_nodes.h"
 #include "storage/map_store.h"
 
@@ -68,6 +70,20 @@ class MapTieWorker {
                                const std::vector<laser_slam::OriginSample>& samples,
                                const laser_slam::FollowProgress& progress)>
         follow;
+    // On a fleet (both null elsewhere): publishes the nodes of a session in memory here whose map
+    // another server owns (MapStore::PublishTrajectoryFeed), and reads the nodes another server
+    // published of a session of a map owned here (MapStore::ReadTrajectoryFeed), between the
+    // session's checkpoints (trajectory_feed.h).
+    std::function<absl::StatusOr<int64_t>(const std::string& session_id,
+                                          const storage::TrajectoryFeedUpdate& update)>
+        publish;
+    // The maps whose sessions in memory here are published unless this server holds the map's
+    // lease (MapRegistry::MapsWithOthers; `holds`: MapRegistry::Holds, which never takes it).
+    std::function<std::vector<storage::MapRecord>()> maps_to_publish;
+    std::function<bool(const std::string& map)> holds;
+    std::function<absl::StatusOr<std::optional<storage::TrajectoryFeed>>(
+        const std::string& session_id, int64_t after_version, int64_t after_scan)>
+        read_feed;
     // How the searches for a session not yet in its map go, after each one (may be null).
     std::function<void(const std::string& session_id, const laser_slam::TieProgress& progress)>
         searched;
@@ -82,6 +98,9 @@ class MapTieWorker {
     // against the others (laser_slam::TrajectoryFollow): its origin becomes piecewise.
     bool follow = true;
     laser_slam::FollowOptions follow_options;
+    // A session's nodes are published for its map's owner at most this often (s), when they
+    // changed (with Sources::publish).
+    double feed_seconds = 1.0;
   };
 
   // Starts the thread.
@@ -100,6 +119,9 @@ class MapTieWorker {
   void Loop();
   // One pass over the maps to tie; true when some session still has work it could do now.
   bool Pass();
+  // Publishes the nodes of the sessions in memory here whose map (of `maps`) another server owns,
+  // when due.
+  void PublishPass(const std::vector<storage::MapRecord>& maps);
   // One joining session's turn: spends some of its budget, ties it in when found; true when it
   // has more to do now.
   bool Turn(const std::string& map, const storage::MapTrajectoryRecord& trajectory,
@@ -107,7 +129,11 @@ class MapTieWorker {
   absl::StatusOr<TrajectoryNodes> NodesOf(const storage::MapTrajectoryRecord& trajectory);
   // Whether the trajectory's nodes may have changed since they were last read: its session is in
   // memory here, or its record shows more scans than the checkpoint read.
+  // A session another server publishes (Sources::read_feed) may have moved while it is open.
   bool Moving(const storage::MapTrajectoryRecord& trajectory) const;
+  // The nodes another server published of `trajectory`'s session, joined onto those held; nullopt
+  // when there is no feed, none newer, or one behind the session's checkpoint.
+  std::optional<TrajectoryNodes> FedNodesOf(const storage::MapTrajectoryRecord& trajectory);
   bool Owned(const std::string& map) const { return !sources_.own || sources_.own(map); }
   // The following after the tie: one pass over the maps to follow; true when some session has
   // more to do now. `referenced`: the sessions whose nodes it read.
@@ -126,6 +152,7 @@ class MapTieWorker {
   struct Stored {
     TrajectoryNodes nodes;
     int64_t scans_processed = 0;
+    int64_t feed_version = 0;  // the feed's version read last (0: none)
   };
   std::map<std::string, Stored> stored_;
   // Closed sessions searched to their last scan without a tie, with the map's nodes then: their
@@ -139,6 +166,12 @@ class MapTieWorker {
     bool done = false;
   };
   std::map<std::string, Following> following_;
+  // The sessions whose nodes this server publishes, with when (steady clock, s) it last did.
+  struct Publishing {
+    FeedPublisher publisher;
+    double at = -1e9;
+  };
+  std::map<std::string, Publishing> publishing_;
   std::mutex mu_;
   std::condition_variable cv_;
   bool stop_ = false;

@@ -189,6 +189,11 @@ absl::StatusOr<TrajectoryNodes> SessionQueries::TrajectoryNodesOf(const std::str
         absl::StrCat("SLAM session ", QuotedId(session_id), " is not a laser session"));
   }
   TrajectoryNodes out;
+  {
+    // Before the nodes: a feed never claims scans its nodes do not hold yet.
+    std::lock_guard<std::mutex> lock((*session)->engine_mu);
+    out.scans_processed = (*session)->scans_processed;
+  }
   out.nodes = laser->Nodes();
   out.loops = laser->Loops();
   out.resident = table_->Find(session_id).ok();

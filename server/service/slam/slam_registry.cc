@@ -108,10 +108,24 @@ SlamRegistry::SlamRegistry(std::unique_ptr<storage::SlamStore> store,
     sources.searched = [this](const std::string& id, const laser_slam::TieProgress& progress) {
       maps_->Searched(id, progress);
     };
+    if (leases_.enabled() && options_.map_feed_seconds > 0.0) {
+      // Only a fleet has robots on one server and their map's owner on another.
+      storage::MapStore* store = map_store_.get();
+      sources.publish = [store](const std::string& id, const storage::TrajectoryFeedUpdate& update) {
+        return store->PublishTrajectoryFeed(id, update);
+      };
+      sources.maps_to_publish = [this] { return maps_->MapsWithOthers(); };
+      sources.holds = [this](const std::string& map) { return maps_->Holds(map); };
+      sources.read_feed = [store](const std::string& id, int64_t after_version,
+                                  int64_t after_scan) {
+        return store->ReadTrajectoryFeed(id, after_version, after_scan);
+      };
+    }
     MapTieWorker::Options worker_options;
     worker_options.follow = options_.map_follow;
     worker_options.tie.outvote_disagreements = options_.map_tie_outvote;
     worker_options.verify_ties = options_.map_tie_verify;
+    worker_options.feed_seconds = options_.map_feed_seconds;
     if (options_.map_follow_wide) {
       worker_options.follow_options = laser_slam::WideFollowWindows(worker_options.follow_options);
     }

@@ -45,6 +45,10 @@ struct SlamRegistryOptions {
   // better merged maps where the building has no look-alike rooms, a robot in the wrong room
   // where it has. False: windows of at most 2 m and 0.4 rad.
   bool map_follow_wide = false;
+  // On a fleet: a robot's nodes are published for its map's owner at most this often (s), so that
+  // the owner ties and follows it between its checkpoints (trajectory_feed.h); 0: the owner reads
+  // the robot's checkpoints only.
+  double map_feed_seconds = 1.0;
   // A tie needs the kept unique matches to outvote the ones disagreeing with it
   // (laser_slam::TieOptions::outvote_disagreements); false: the first agreeing pair ties.
   bool map_tie_outvote = true;

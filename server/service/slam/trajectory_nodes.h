@@ -1,6 +1,7 @@
 #ifndef WAYMARK_SERVER_SERVICE_SLAM_TRAJECTORY_NODES_H_
 #define WAYMARK_SERVER_SERVICE_SLAM_TRAJECTORY_NODES_H_
 
+#include <cstdint>
 #include <vector>
 
 #include "server/laser_slam/mapping/mapping_backend.h"
@@ -13,7 +14,8 @@ namespace waymark::service {
 // (SessionQueries::TrajectoryNodesOf).
 struct TrajectoryNodes {
   std::vector<laser_slam::NodeView> nodes;
-  bool resident = false;  // false: read from its checkpoint (closed: it no longer changes)
+  bool resident = false;  // false: read from its checkpoint or its feed (trajectory_feed.h)
+  int64_t scans_processed = 0;  // the session's when its nodes were read (at most: read first)
   std::vector<laser_slam::GraphConstraint> loops;
 };
 
