@@ -43,6 +43,7 @@ struct ExploreArgs {
   int robots = 1;
   std::string map;
   bool known_starts = true;
+  std::string record;  // ExploreOptions::record_dir
 };
 
 // A file-loaded world without a `name` line is called after its file.
@@ -253,6 +254,7 @@ int RunExplore(CommandContext& context, const ExploreArgs& args) {
   options.seed = args.seed;
   options.half_degree = args.half_degree;
   options.odometry_error = args.odometry_error;
+  options.record_dir = args.record;
   // Per scan: the server's processing and planning, bounded like any request (--timeout).
   options.answer_timeout =
       context.globals.timeout_s > 0 ? absl::Seconds(context.globals.timeout_s) : absl::Hours(24);
@@ -471,6 +473,10 @@ void AddSimCommands(CLI::App& app, CommandRegistry& registry) {
       ->capture_default_str();
   explore->add_option("--out", args->out_dir,
                       "Output folder (default ./out/sim-<world>-<mode>-s<seed>)");
+  explore->add_option("--record", args->record,
+                      "Also write each robot's odometry and scans as sent, as CARMEN logs "
+                      "DIR/robot<k>.clf: the same robot data replayed later with `waymark slam "
+                      "replay` (e.g. into a map with other server settings)");
   registry.Add(explore, [args](CommandContext& context) { return RunExplore(context, *args); });
 
   CLI::App* worlds = sim->add_subcommand("worlds", "List the built-in worlds");

@@ -378,6 +378,10 @@ void AddSlamCommands(CLI::App& app, CommandRegistry& registry) {
       ->required();
   AddBagTopicFlags(replay, &replay_args->scan_topic, &replay_args->odom_topic);
   replay->add_flag("--realtime", replay_args->realtime, "Send at the log's pace, not full speed");
+  replay->add_option("--speed", replay_args->speed,
+                     "Send at the log's pace times this (e.g. 20: 20 s of the log a second), not "
+                     "full speed")
+      ->check(CLI::PositiveNumber);
   AddRestampFlags(replay, &replay_args->restamp, &replay_args->rate_hz);
   replay
       ->add_option_function<std::string>(

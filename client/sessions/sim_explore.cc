@@ -76,6 +76,9 @@ absl::StatusOr<ExploreResult> RunExploration(client::SlamClient& client,
   std::unique_ptr<client::SensorStream> stream = client.StreamSensorData(
       result.session_id, /*window=*/1, [&](const v1::SlamUpdate& u) { waiter.OnUpdate(u); });
   SimRobotLink robot(sim, *stream, waiter, options.answer_timeout);
+  absl::StatusOr<std::unique_ptr<std::ofstream>> recording = OpenRecording(options, 1);
+  if (!recording.ok()) return recording.status();
+  robot.RecordTo(recording->get());
 
   std::optional<FrameTransform> map_to_world, odometry_to_world;
   // One scan: send it, wait, record it with the map as it is now.

@@ -63,6 +63,9 @@ struct ExploreOptions {
   // odometry), SimOptions defaults at 1.
   double odometry_error = 1.0;
   std::string session_name;  // default "sim explore <world> <mode> s<seed>"
+  // When set, each robot's odometry and scans as sent, as CARMEN logs DIR/robot<k>.clf (k from
+  // 1): the same robot data replayed later (`waymark slam replay`) with other server settings.
+  std::string record_dir;
   absl::Duration answer_timeout = absl::Seconds(120);  // per scan, planner time included
 };
 

@@ -1,5 +1,10 @@
 #include "client/sessions/sim_explore_loop.h"
 
+#include <filesystem>
+
+#include "client/datasets/carmen_keyframes.h"
+#include "client/sim/sim_geometry.h"
+
 namespace waymark::cli {
 
 adapters::SimOptions SimOptionsFor(const ExploreOptions& options) {
@@ -52,6 +57,30 @@ v1::CreateSessionRequest SessionRequest(const adapters::Simulation& sim,
     exploration->set_goal_layer(false);
   }
   return request;
+}
+
+absl::StatusOr<std::unique_ptr<std::ofstream>> OpenRecording(const ExploreOptions& options,
+                                                              int k) {
+  if (options.record_dir.empty()) return nullptr;
+  std::error_code ec;
+  std::filesystem::create_directories(options.record_dir, ec);
+  const std::string path = fmt::format("{}/robot{}.clf", options.record_dir, k);
+  auto out = std::make_unique<std::ofstream>(path);
+  if (ec || !*out) return absl::PermissionDeniedError("cannot write '" + path + "'");
+  *out << "# waymark sim explore: one simulated robot's odometry and scans as sent\n";
+  return out;
+}
+
+void SimRobotLink::RecordScan(const std::vector<float>& ranges) {
+  const adapters::BasePose odometry = sim_.odometry_pose();
+  const adapters::BasePose laser =
+      adapters::geometry::Compose(odometry, sim_.laser_layout().mount);
+  adapters::CarmenLaser line;
+  line.stamp = sim_.now();
+  line.ranges = ranges;
+  line.laser_pose = adapters::CarmenPose{laser.x, laser.y, laser.theta};
+  line.odom_pose = adapters::CarmenPose{odometry.x, odometry.y, odometry.theta};
+  *log_ << adapters::FormatFlaserLine(line, "sim") << "\n";
 }
 
 }  // namespace waymark::cli

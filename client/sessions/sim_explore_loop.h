@@ -9,8 +9,12 @@
 
 #include <condition_variable>
 #include <cstdint>
+#include <fstream>
+#include <memory>
 #include <mutex>
 #include <optional>
+#include <ostream>
+#include <vector>
 #include <string>
 
 #include "absl/status/statusor.h"
@@ -91,6 +95,10 @@ class AnswerWaiter {
   uint64_t answers_ = 0;
 };
 
+// Robot `k`'s (from 1) recording, ExploreOptions::record_dir/robot<k>.clf; null when the run
+// records nothing. PERMISSION_DENIED when it cannot be written.
+absl::StatusOr<std::unique_ptr<std::ofstream>> OpenRecording(const ExploreOptions& options, int k);
+
 // The sensor side of the loop: stamps and messages from the simulation onto the stream.
 class SimRobotLink {
  public:
@@ -98,10 +106,20 @@ class SimRobotLink {
                absl::Duration timeout)
       : sim_(sim), stream_(stream), waiter_(waiter), timeout_(timeout) {}
 
+  // Also writes what it sends to `log` (not owned; null: nothing) as a CARMEN log (ODOM and
+  // FLASER lines, the laser's pose the odometry's composed with its mount): the same robot data
+  // replayed later with `waymark slam replay`, whatever the answers it gets then.
+  void RecordTo(std::ostream* log) { log_ = log; }
+
   absl::Status SendOdometry() {
     v1::Odometry odometry;
     odometry.set_stamp(sim_.now());
     *odometry.mutable_pose() = ToProto(sim_.odometry_pose());
+    if (log_ != nullptr) {
+      const adapters::BasePose p = sim_.odometry_pose();
+      *log_ << fmt::format("ODOM {:.6f} {:.6f} {:.6f} 0 0 0 {:.6f} sim {:.6f}\n", p.x, p.y,
+                           p.theta, sim_.now(), sim_.now());
+    }
     return stream_.SendOdometry(odometry);
   }
 
@@ -112,6 +130,7 @@ class SimRobotLink {
     v1::LaserScan scan;
     scan.set_stamp(sim_.now());
     scan.mutable_ranges()->Assign(reading->ranges.begin(), reading->ranges.end());
+    if (log_ != nullptr) RecordScan(reading->ranges);
     if (absl::Status s = stream_.SendScan(scan); !s.ok()) return s;
     return waiter_.Wait(++scans_, timeout_);
   }
@@ -122,6 +141,9 @@ class SimRobotLink {
   AnswerWaiter& waiter_;
   absl::Duration timeout_;
   uint64_t scans_ = 0;
+  std::ostream* log_ = nullptr;
+
+  void RecordScan(const std::vector<float>& ranges);
 };
 
 }  // namespace waymark::cli

@@ -33,6 +33,7 @@ struct Member {
   std::unique_ptr<AnswerWaiter> waiter;
   std::unique_ptr<client::SensorStream> stream;
   std::unique_ptr<SimRobotLink> link;
+  std::unique_ptr<std::ofstream> recording;  // ExploreOptions::record_dir; null: none
   std::optional<FrameTransform> own_to_world, odometry_to_world;
   std::optional<Pose2> origin;  // its session frame in the map frame (from its last answer)
   // Per scan: where it was in its session frame, and its origin in the map then (tied in only).
@@ -166,6 +167,14 @@ absl::StatusOr<TeamExploreResult> RunTeamExploration(
                                        [waiter](const v1::SlamUpdate& u) { waiter->OnUpdate(u); });
     m.link = std::make_unique<SimRobotLink>(*m.sim, *m.stream, *m.waiter,
                                             options.run.answer_timeout);
+    absl::StatusOr<std::unique_ptr<std::ofstream>> recording =
+        OpenRecording(options.run, static_cast<int>(k) + 1);
+    if (!recording.ok()) {
+      cancel_all();
+      return recording.status();
+    }
+    m.recording = *std::move(recording);
+    m.link->RecordTo(m.recording.get());
     m.out.start = starts[k];
     m.out.run.world = world.name;
     m.out.run.mode = result.mode;

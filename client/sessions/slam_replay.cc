@@ -611,9 +611,10 @@ int RunSlamReplay(CommandContext& context, const ReplayArgs& args, const StopReq
   absl::Status failure;
   report.end = ReplayEnd::kEndOfLog;
   for (bool more = true; more;) {
-    if (args.realtime) {
+    if (args.realtime || args.speed > 0.0) {
+      const double pace = args.speed > 0.0 ? args.speed : 1.0;
       SleepUntil(start + std::chrono::duration_cast<Clock::duration>(
-                             std::chrono::duration<double>(sample.stamp - first_stamp)),
+                             std::chrono::duration<double>((sample.stamp - first_stamp) / pace)),
                  stop);
     }
     if (stop && stop()) {

@@ -90,6 +90,9 @@ struct ReplayArgs {
   std::string robot_id = "replay";
   std::string name;
   bool realtime = false;
+  // At the log's pace times this (> 0; --speed): 20 sends 20 s of the log a second. 0: as
+  // `realtime` says.
+  double speed = 0.0;
   int max_scans = 0;  // 0 = all
   int window = client::kDefaultScanWindow;
   bool show_odometry = false;

@@ -6,11 +6,14 @@
 #include <gmock/gmock.h>
 #include <gtest/gtest.h>
 
+#include <cmath>
+#include <filesystem>
 #include <fstream>
 #include <nlohmann/json.hpp>
 #include <opencv2/imgcodecs.hpp>
 #include <sstream>
 
+#include "client/datasets/carmen_log.h"
 #include "client/lib/channel.h"
 #include "client/cli/cli.h"
 #include "tests/client/fake_slam_service.h"
@@ -46,7 +49,7 @@ class SimExploreTest : public ::testing::Test {
  protected:
   absl::StatusOr<ExploreResult> Explore(
       double duration, v1::ExplorationConfig::Mode mode = v1::ExplorationConfig::WANDER,
-      const v1::ExplorationConfig& exploration = {}) {
+      const v1::ExplorationConfig& exploration = {}, const std::string& record_dir = "") {
     auto world = adapters::ParseWorld(kRoom);
     EXPECT_TRUE(world.ok()) << world.status();
     client::SlamClient client(client::MakeChannel(server_.address()));
@@ -56,6 +59,7 @@ class SimExploreTest : public ::testing::Test {
     options.seed = 7;
     options.answer_timeout = absl::Seconds(10);
     options.exploration = exploration;
+    options.record_dir = record_dir;
     return RunExploration(client, *world, options);
   }
 
@@ -136,6 +140,46 @@ TEST_F(SimExploreTest, GoStopLoopSendsOdometryEveryControlStepAndAScanPerHold) {
   EXPECT_NEAR(summary["cov_trace_mean"].get<double>(), 0.0035, 1e-12);
   EXPECT_EQ(summary["completeness_visible"], result->completeness_visible);
   EXPECT_EQ(summary["visible_wall_share"], result->visible_wall_share);
+}
+
+// --record: what the robot sent, as a CARMEN log that `waymark slam replay` reads back: every
+// odometry message and every scan, at their stamps, the laser's pose the odometry's moved by
+// the simulator's mount (0.16 m ahead), the ranges as sent.
+TEST_F(SimExploreTest, ARecordingHoldsWhatWasSentAsACarmenLog) {
+  server_.service().set_suggestion(Straight());
+  const std::string record = (dir_.path() / "recorded").string();
+  auto result = Explore(20, v1::ExplorationConfig::WANDER, {}, record);
+  ASSERT_TRUE(result.ok()) << result.status();
+  auto reader = adapters::CarmenLogReader::Open(record + "/robot1.clf",
+                                                adapters::CarmenLogReader::Options{false});
+  ASSERT_TRUE(reader.ok()) << reader.status();
+  std::vector<double> scans, odometry;
+  adapters::CarmenRecord line;
+  while (true) {
+    absl::StatusOr<bool> more = (*reader)->Next(&line);
+    ASSERT_TRUE(more.ok()) << more.status();
+    if (!*more) break;
+    if (line.type == adapters::CarmenRecord::Type::kOdometry) {
+      odometry.push_back(line.odometry.stamp);
+      continue;
+    }
+    scans.push_back(line.laser.stamp);
+    EXPECT_EQ(line.laser.ranges.size(), 181u);
+    const adapters::CarmenPose& odom = line.laser.odom_pose;
+    EXPECT_NEAR(line.laser.laser_pose.x, odom.x + 0.16 * std::cos(odom.theta), 1e-5);
+    EXPECT_NEAR(line.laser.laser_pose.y, odom.y + 0.16 * std::sin(odom.theta), 1e-5);
+    EXPECT_NEAR(line.laser.laser_pose.theta, odom.theta, 1e-6);
+  }
+  ASSERT_EQ(scans.size(), server_.service().scan_stamps().size());
+  for (size_t i = 0; i < scans.size(); ++i) {
+    EXPECT_NEAR(scans[i], server_.service().scan_stamps()[i], 1e-6);
+  }
+  ASSERT_EQ(odometry.size(), server_.service().odometry_stamps().size());
+  for (size_t i = 0; i < odometry.size(); ++i) {
+    EXPECT_NEAR(odometry[i], server_.service().odometry_stamps()[i], 1e-6);
+  }
+  // Nothing recorded without --record.
+  EXPECT_FALSE(std::filesystem::exists(dir_.path() / "robot1.clf"));
 }
 
 // The simulated base takes the planner's velocity limits: the paper's 0.15 m/s unless the

@@ -125,6 +125,24 @@ TEST_F(SlamReplayTest, OdometryWarnsAboutBrokenStampsToo) {
   EXPECT_DOUBLE_EQ(poses->back().stamp, 9 / 4.0);
 }
 
+// --speed paces the replay at the log's pace times the factor (here far above the machine's:
+// the pace is not what this asserts) and sends every scan as a full-speed replay does.
+TEST_F(SlamReplayTest, SpeedSendsEveryScanAndRefusesAFactorThatIsNotPositive) {
+  const std::string log = WriteLog(MakeLogWithStamps({0.0, 0.5, 1.0, 1.5, 2.0}));
+  CliResult r = Run({"--json", "slam", "replay", log, "--speed", "1000", "--out",
+                     (dir_.path() / "o").string()});
+  ASSERT_EQ(r.code, 0) << r.err;
+  EXPECT_EQ(r.Json()["scans"], 5);
+  const std::vector<double> sent = server_.service().scan_stamps();
+  ASSERT_EQ(sent.size(), 5u);
+  for (size_t i = 0; i < sent.size(); ++i) EXPECT_DOUBLE_EQ(sent[i], 0.5 * i);
+  for (const char* bad : {"0", "-2"}) {
+    CliResult refused = Run({"slam", "replay", log, "--speed", bad});
+    EXPECT_NE(refused.code, 0) << bad;
+    EXPECT_NE(refused.err.find("--speed"), std::string::npos) << refused.err;
+  }
+}
+
 TEST_F(SlamReplayTest, RestampSendsEveryLineInFileOrderAtTheRate) {
   // infinite-corridor: a few stamps going backwards, then 4294967295 over and over.
   std::vector<double> stamps = {-0.4, -0.9, -1.3};
