@@ -73,7 +73,6 @@ struct TrajectoryFeedUpdate {
 struct TrajectoryFeed {
   int64_t version = 0;  // counts the publishes
   int64_t scans_processed = 0;
-  double updated_at = 0;  // unix seconds
   std::string poses;
   std::vector<FeedNodePoints> points;  // the rows asked for (ReadTrajectoryFeed), by scan
 };
@@ -129,8 +128,6 @@ class MapStore {
   // whose scan is above `after_scan`; nullopt when it has none or none newer.
   virtual absl::StatusOr<std::optional<TrajectoryFeed>> ReadTrajectoryFeed(
       const std::string& session_id, int64_t after_version, int64_t after_scan) = 0;
-  // Deletes the session's feed (its robot left this server: its checkpoint holds the rest).
-  virtual absl::Status DropTrajectoryFeed(const std::string& session_id) = 0;
 };
 
 // A SQLite file's map store (see OpenSqliteSlamStore; it may share the file).

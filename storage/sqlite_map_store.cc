@@ -211,15 +211,19 @@ class SqliteMapStore final : public MapStore {
     std::lock_guard<std::mutex> lock(mutex_);
     ASSIGN_OR_RETURN(Transaction txn, Transaction::Begin(connection_));
     RETURN_IF_ERROR(SessionExistsLocked(session_id));
+    if (update.replace) {
+      ASSIGN_OR_RETURN(Statement all,
+                       connection_.Prepare("DELETE FROM slam_map_feed_node WHERE session_id = ?"));
+      RETURN_IF_ERROR(all.BindText(1, session_id));
+      RETURN_IF_ERROR(all.Run());
+    }
     ASSIGN_OR_RETURN(Statement drop,
-                     connection_.Prepare(update.replace
-                                             ? "DELETE FROM slam_map_feed_node WHERE session_id = ?"
-                                             : "DELETE FROM slam_map_feed_node WHERE session_id = "
-                                               "? AND scan = ?"));
-    for (std::size_t i = 0; i < (update.replace ? 1 : update.dropped.size()); ++i) {
+                     connection_.Prepare("DELETE FROM slam_map_feed_node WHERE session_id = ? "
+                                         "AND scan = ?"));
+    for (const int64_t scan : update.dropped) {
       drop.Reset();
       RETURN_IF_ERROR(drop.BindText(1, session_id));
-      if (!update.replace) RETURN_IF_ERROR(drop.BindInt64(2, update.dropped[i]));
+      RETURN_IF_ERROR(drop.BindInt64(2, scan));
       RETURN_IF_ERROR(drop.Run());
     }
     ASSIGN_OR_RETURN(Statement add,
@@ -258,7 +262,7 @@ class SqliteMapStore final : public MapStore {
     // Both reads in one transaction: the points are those of the poses read.
     ASSIGN_OR_RETURN(Transaction txn, Transaction::Begin(connection_));
     ASSIGN_OR_RETURN(Statement select,
-                     connection_.Prepare("SELECT version, scans_processed, updated_at, poses FROM "
+                     connection_.Prepare("SELECT version, scans_processed, poses FROM "
                                          "slam_map_feed WHERE session_id = ? AND version > ?"));
     RETURN_IF_ERROR(select.BindText(1, session_id));
     RETURN_IF_ERROR(select.BindInt64(2, after_version));
@@ -267,8 +271,7 @@ class SqliteMapStore final : public MapStore {
     TrajectoryFeed feed;
     feed.version = select.ColumnInt64(0);
     feed.scans_processed = select.ColumnInt64(1);
-    feed.updated_at = select.ColumnDouble(2);
-    feed.poses = std::string(select.ColumnBlobView(3));
+    feed.poses = std::string(select.ColumnBlobView(2));
     ASSIGN_OR_RETURN(Statement points,
                      connection_.Prepare("SELECT scan, points FROM slam_map_feed_node WHERE "
                                          "session_id = ? AND scan > ? ORDER BY scan"));
@@ -281,18 +284,6 @@ class SqliteMapStore final : public MapStore {
           FeedNodePoints{points.ColumnInt64(0), std::string(points.ColumnBlobView(1))});
     }
     return std::optional<TrajectoryFeed>(std::move(feed));
-  }
-
-  absl::Status DropTrajectoryFeed(const std::string& session_id) override {
-    std::lock_guard<std::mutex> lock(mutex_);
-    ASSIGN_OR_RETURN(Transaction txn, Transaction::Begin(connection_));
-    for (const char* sql : {"DELETE FROM slam_map_feed_node WHERE session_id = ?",
-                            "DELETE FROM slam_map_feed WHERE session_id = ?"}) {
-      ASSIGN_OR_RETURN(Statement drop, connection_.Prepare(sql));
-      RETURN_IF_ERROR(drop.BindText(1, session_id));
-      RETURN_IF_ERROR(drop.Run());
-    }
-    return txn.Commit();
   }
 
  private:

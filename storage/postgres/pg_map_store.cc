@@ -263,7 +263,7 @@ class PostgresMapStore final : public MapStore {
     return pool_->Transaction<std::optional<TrajectoryFeed>>(
         [&](Connection& connection) -> absl::StatusOr<std::optional<TrajectoryFeed>> {
           ASSIGN_OR_RETURN(Result row,
-                           connection.Execute("SELECT version, scans_processed, updated_at, poses "
+                           connection.Execute("SELECT version, scans_processed, poses "
                                               "FROM slam_map_feed WHERE session_id = $1 AND "
                                               "version > $2",
                                               Params().Text(session_id).Int64(after_version)));
@@ -271,8 +271,7 @@ class PostgresMapStore final : public MapStore {
           TrajectoryFeed feed;
           feed.version = row.Int64(0, 0);
           feed.scans_processed = row.Int64(0, 1);
-          feed.updated_at = row.Double(0, 2);
-          feed.poses = std::string(row.Bytes(0, 3));
+          feed.poses = std::string(row.Bytes(0, 2));
           ASSIGN_OR_RETURN(Result points,
                            connection.Execute("SELECT scan, points FROM slam_map_feed_node WHERE "
                                               "session_id = $1 AND scan > $2 ORDER BY scan",
@@ -283,16 +282,6 @@ class PostgresMapStore final : public MapStore {
           }
           return std::optional<TrajectoryFeed>(std::move(feed));
         });
-  }
-
-  absl::Status DropTrajectoryFeed(const std::string& session_id) override {
-    return pool_->Transaction([&](Connection& connection) -> absl::Status {
-      for (const char* sql : {"DELETE FROM slam_map_feed_node WHERE session_id = $1",
-                              "DELETE FROM slam_map_feed WHERE session_id = $1"}) {
-        RETURN_IF_ERROR(connection.Execute(sql, Params().Text(session_id)).status());
-      }
-      return absl::OkStatus();
-    });
   }
 
  private:

@@ -9,6 +9,7 @@
 #include <vector>
 
 #include "absl/strings/str_cat.h"
+#include "server/common/stopwatch.h"
 #include "server/laser_slam/geometry.h"
 #include "server/service/slam/map_follow_codec.h"
 #include "server/service/slam/slam_params.h"
@@ -41,11 +42,6 @@ v1::Map ToProto(const storage::MapRecord& record) {
   }
   if (!record.lease.owner.empty()) map.set_owner(record.lease.address);
   return map;
-}
-
-double SteadySeconds() {
-  return std::chrono::duration<double>(std::chrono::steady_clock::now().time_since_epoch())
-      .count();
 }
 
 }  // namespace

@@ -8,6 +8,8 @@
 #include <set>
 #include <utility>
 
+#include "server/common/stopwatch.h"
+
 namespace waymark::service {
 namespace {
 
@@ -16,11 +18,6 @@ namespace {
 constexpr std::int64_t kTurnReads = 20'000'000;
 // Windowed matches one followed session may make in one turn (each a few ms).
 constexpr int kFollowAttempts = 20;
-
-double SteadyNow() {
-  return std::chrono::duration<double>(std::chrono::steady_clock::now().time_since_epoch())
-      .count();
-}
 
 }  // namespace
 
@@ -108,7 +105,8 @@ std::optional<TrajectoryNodes> MapTieWorker::FedNodesOf(
 absl::StatusOr<TrajectoryNodes> MapTieWorker::NodesOf(
     const storage::MapTrajectoryRecord& trajectory) {
   const std::string& session_id = trajectory.session_id;
-  if (!sources_.resident(session_id)) {
+  const bool resident = sources_.resident(session_id);
+  if (!resident) {
     if (std::optional<TrajectoryNodes> fed = FedNodesOf(trajectory); fed.has_value()) {
       return *std::move(fed);
     }
@@ -116,8 +114,7 @@ absl::StatusOr<TrajectoryNodes> MapTieWorker::NodesOf(
   int64_t feed_version = 0;
   if (auto it = stored_.find(session_id); it != stored_.end()) {
     // Nothing newer published, and no newer checkpoint: what is held.
-    if (!sources_.resident(session_id) &&
-        trajectory.scans_processed <= it->second.scans_processed) {
+    if (!resident && trajectory.scans_processed <= it->second.scans_processed) {
       return it->second.nodes;
     }
     feed_version = it->second.feed_version;
@@ -132,7 +129,7 @@ absl::StatusOr<TrajectoryNodes> MapTieWorker::NodesOf(
 
 void MapTieWorker::PublishPass(const std::vector<storage::MapRecord>& maps) {
   if (options_.feed_seconds <= 0.0) return;
-  const double now = SteadyNow();
+  const double now = SteadySeconds();
   std::set<std::string> published;
   for (const storage::MapRecord& map : maps) {
     // The owner reads the sessions in memory here directly. Not Owned(): publishing must never

@@ -16,7 +16,7 @@ std::optional<storage::TrajectoryFeedUpdate> FeedPublisher::Update(
   storage::TrajectoryFeedUpdate update;
   update.scans_processed = nodes.scans_processed;
   update.poses = laser_slam::EncodeFeedPoses(nodes.nodes, nodes.loops);
-  update.replace = !any_;
+  update.replace = !any();
   std::set<std::int64_t> now;
   for (const laser_slam::NodeView& node : nodes.nodes) {
     const auto scan = static_cast<std::int64_t>(node.scan);
@@ -42,7 +42,6 @@ void FeedPublisher::Published(const storage::TrajectoryFeedUpdate& update) {
   for (const std::int64_t scan : update.dropped) scans_.erase(scan);
   for (const storage::FeedNodePoints& node : update.added) scans_.insert(node.scan);
   poses_ = update.poses;
-  any_ = true;
 }
 
 absl::StatusOr<TrajectoryNodes> JoinFeed(const TrajectoryNodes& held,

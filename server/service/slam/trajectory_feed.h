@@ -30,12 +30,12 @@ class FeedPublisher {
   std::optional<storage::TrajectoryFeedUpdate> Update(const TrajectoryNodes& nodes) const;
   // `update` (from Update) is in the database.
   void Published(const storage::TrajectoryFeedUpdate& update);
-  bool any() const { return any_; }
+  // Whether it published anything yet.
+  bool any() const { return !poses_.empty(); }
 
  private:
-  bool any_ = false;
   std::set<std::int64_t> scans_;  // the nodes whose points are in the feed
-  std::string poses_;             // the poses last published
+  std::string poses_;             // the poses last published (never empty once published)
 };
 
 // The session's nodes from a feed read (MapStore::ReadTrajectoryFeed) and the nodes held before
