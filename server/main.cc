@@ -5,7 +5,7 @@
 //                  [--max-message-mb 32] [--max-streams-per-robot 8] [--stream-idle-seconds 300]
 //                  [--metrics-listen HOST:PORT] [--live [HOST:]PORT] [--slam-queue 64]
 //                  [--slam-workers N] [--slam-checkpoint-seconds 30] [--max-sessions 64]
-//                  [--slam-journal true] [--slam-checkpoint-journal-mb 64] [--slam-map-tie true] [--slam-map-tie-outvote true] [--slam-map-tie-verify true] [--slam-map-follow true] [--slam-map-follow-windows narrow] [--slam-map-graph true] [--slam-map-feed-seconds 1]
+//                  [--slam-journal true] [--slam-checkpoint-journal-mb 64] [--slam-map-tie true] [--slam-map-tie-outvote true] [--slam-map-tie-verify true] [--slam-map-follow true] [--slam-map-follow-windows uncertainty] [--slam-map-graph true] [--slam-map-feed-seconds 1]
 //   waymark-server --db FILE token create NAME --role admin|mapper|robot|viewer [--robot-id ID]
 //   waymark-server --db FILE token list | token revoke NAME
 //
@@ -391,13 +391,19 @@ int main(int argc, char** argv) {
       ->capture_default_str();
   app.add_option_function<std::string>(
          "--slam-map-follow-windows",
-         [&flags](const std::string& windows) { flags.slam.map_follow_wide = windows == "wide"; },
-         "how far a followed robot is looked for: narrow (at most 2 m and 0.4 rad from where its "
-         "last match puts it; the default) or wide (as far as the other robots' map may have "
-         "drifted, up to 30 m: better merged maps, but a robot can be placed in a look-alike room; "
-         "docs/laser-slam.md)")
-      ->check(CLI::IsMember({"narrow", "wide"}))
-      ->default_str("narrow");
+         [&flags](const std::string& windows) {
+           using Windows = waymark::service::SlamRegistryOptions::FollowWindows;
+           flags.slam.map_follow_windows = windows == "wide"          ? Windows::kWide
+                                           : windows == "uncertainty" ? Windows::kUncertainty
+                                                                      : Windows::kNarrow;
+         },
+         "how far a followed robot is looked for: uncertainty (the default: as far as the "
+         "robot's own and the map's chain uncertainty reach, at least 2 m of travel's drift and "
+         "up to 30 m), narrow (at most 2 m and 0.4 rad from where its last match puts it) or wide "
+         "(as far as the other robots' map may have drifted by its path length, up to 30 m: a "
+         "robot can be placed in a look-alike room); docs/laser-slam.md")
+      ->check(CLI::IsMember({"narrow", "wide", "uncertainty"}))
+      ->default_str("uncertainty");
   app.add_option("--slam-map-feed-seconds", flags.slam.map_feed_seconds,
                  "on a fleet, publish a robot's nodes for the server that owns its shared map at "
                  "most this often, so that the owner ties and follows it as it goes (0: the owner "

@@ -98,13 +98,15 @@ def tie_line(session):
 
 def follow_line(session):
     found = re.search(re.escape(session) + r' \(closed\) followed to its last node: (\d+) windowed '
-                      r'matches, (\d+) origin samples, (\d+) weak, (\d+) ambiguous(?:, (\d+) M)?',
+                      r'matches, (\d+) origin samples, (\d+) weak, (\d+) ambiguous'
+                      r'(?:, (\d+) beyond their uncertainty)?(?:, (\d+) M)?',
                       server_log())
     if not found:
         return None
     return {'windowed': int(found.group(1)), 'samples': int(found.group(2)),
             'weak': int(found.group(3)), 'ambiguous': int(found.group(4)),
-            'mreads': int(found.group(5)) if found.group(5) else None}
+            'beyond': int(found.group(5)) if found.group(5) else 0,
+            'mreads': int(found.group(6)) if found.group(6) else None}
 
 
 # The log as the server reads it: plain, bzip2 or gzip.

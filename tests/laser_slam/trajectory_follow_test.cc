@@ -115,6 +115,57 @@ TEST_F(TrajectoryFollowTest, FollowUpMatchesKeepADriftingRobotOnTheMap) {
   EXPECT_LT(followed.last, 0.08);
 }
 
+// The server's --slam-map-follow-windows narrow: the travel's windows alone keep the drifting
+// robot on the map too.
+TEST_F(TrajectoryFollowTest, TheNarrowWindowsKeepADriftingRobotOnTheMap) {
+  const FollowOptions options = NarrowFollowWindows();
+  EXPECT_FALSE(options.window_from_uncertainty);
+  absl::StatusOr<std::unique_ptr<TrajectoryFollow>> follow =
+      TrajectoryFollow::Create(options, tie_);
+  ASSERT_TRUE(follow.ok()) << follow.status();
+  const size_t map_nodes = map_.front().nodes.size();
+  ASSERT_TRUE((*follow)->SetMap(MapCloud(map_, 0.05), map_nodes, MapPath(map_)).ok());
+  std::vector<NodeView> seen;
+  for (const NodeView& node : nodes_) {
+    seen.push_back(node);
+    (*follow)->Advance(seen, 1);
+  }
+  const FollowProgress& progress = (*follow)->progress();
+  EXPECT_GE(progress.matched, progress.attempts / 2)
+      << "weak " << progress.weak << ", ambiguous " << progress.ambiguous;
+  const Errors followed = ErrorsOf((*follow)->samples(), nodes_, truth_);
+  EXPECT_LT(followed.max, 0.08);
+  EXPECT_LT(followed.last, 0.08);
+}
+
+// The window is searched as a box, but a match in its corner lies farther from where the last
+// sample puts the robot than the uncertainty reaches: with the uncertainty's windows it is
+// refused (a look-alike a few metres off). Here the map is the first robot's shifted 1.2 m in x
+// and in y (1.7 m) and the window reaches about 1.6 m: inside the box, outside the circle.
+TEST_F(TrajectoryFollowTest, AMatchInTheWindowsCornerIsBeyondTheUncertainty) {
+  PointCloud shifted;
+  AppendTransformed(MapCloud(map_, 0.05), Pose2{1.2, 1.2, 0.0}, &shifted);
+  const auto follow_with = [&](FollowOptions options) {
+    options.sigma_xy_floor = 0.5;  // windows of about 1.6 m from the first attempt on
+    absl::StatusOr<std::unique_ptr<TrajectoryFollow>> follow =
+        TrajectoryFollow::Create(options, tie_);
+    EXPECT_TRUE(follow.ok()) << follow.status();
+    EXPECT_TRUE((*follow)->SetMap(shifted, map_.front().nodes.size(), MapPath(map_)).ok());
+    std::vector<NodeView> seen(nodes_.begin(), nodes_.begin() + 6);
+    (*follow)->Advance(seen, 1);
+    return *std::move(follow);
+  };
+  // The travel's windows take the shifted copy.
+  const std::unique_ptr<TrajectoryFollow> travel = follow_with(NarrowFollowWindows());
+  ASSERT_EQ(travel->progress().matched, 1);
+  EXPECT_NEAR(travel->samples().back().map_pose.x - truth_[5].x, 1.2, 0.1);
+  // The uncertainty's (the default) refuse it.
+  const std::unique_ptr<TrajectoryFollow> gated = follow_with(FollowOptions{});
+  EXPECT_EQ(gated->progress().attempts, 1);
+  EXPECT_EQ(gated->progress().matched, 0);
+  EXPECT_EQ(gated->progress().beyond, 1);
+}
+
 // A follow stopped half-way (its server restarted, or another server took the map over) and
 // resumed from its stored samples matches only the nodes after them, and ends with the samples of
 // a follow never interrupted.
@@ -237,6 +288,7 @@ TEST(FollowWindowTest, TheWideWindowsReachAsFarAsTheMapMayHaveDrifted) {
   const FollowOptions wide = WideFollowWindows(custom);
   EXPECT_TRUE(ValidateFollowOptions(wide).ok());
   EXPECT_TRUE(wide.window_for_map_drift);
+  EXPECT_FALSE(wide.window_from_uncertainty);
   EXPECT_EQ(wide.min_score, 0.7);
   // 200 m of travel (the robot's and the map's path): 3 x (0.1 + 0.02 x 200) m, where the
   // default windows stop at 2 m.
@@ -285,6 +337,53 @@ TEST(FollowWindowTest, TheMapsPathBetweenTwoPlacesIsAlongOneTrajectory) {
   // Half way round, the shorter way counts: (10, 2) is 12 m from the start one way and 15 m the
   // other; from the start's neighbour (1, 0), 11 m.
   EXPECT_NEAR(MapTravelBetween(closed, Pose2{1.0, 0.1, 0.0}, Pose2{10.1, 2.0, 0.0}), 11.0, 1e-9);
+}
+
+// The map's uncertainty between two places: each chain step on the way adds its xy variance and
+// its heading variance swung over the distance to the end; a loop its session closed is one
+// place; no one trajectory holding both ends, nothing.
+TEST(FollowWindowTest, TheMapsUncertaintyBetweenTwoPlacesAddsUpItsStepsOnTheWay) {
+  const double xy = 0.02, theta = 0.004;
+  std::vector<TiedTrajectory> map(1);
+  const std::vector<Pose2> loop = PolylinePath({{0, 0}, {10, 0}, {10, 4}, {0, 4}, {0, 0.5}}, 0.5);
+  for (size_t i = 0; i < loop.size(); ++i) {
+    NodeView node;
+    node.scan = i + 1;
+    node.global = loop[i];
+    node.step_sigma = Eigen::Vector3d(xy, xy, theta);
+    map[0].nodes.push_back(node);
+  }
+  const std::vector<MapPathPoint> path = MapPath(map);
+  ASSERT_EQ(path[1].step_sigma, Eigen::Vector3d(xy, xy, theta));
+  // Along the first side from (0, 0) to (5, 0): ten steps, the k-th swung over 5 - 0.5 k metres.
+  double want = 0.0;
+  for (int k = 0; k < 10; ++k) want += xy * xy + theta * theta * std::pow(5.0 - 0.5 * k, 2);
+  const ChainUncertainty::Sigma side = MapUncertaintyBetween(path, Pose2{}, Pose2{5.0, 0.0, 0.0});
+  EXPECT_NEAR(side.xy, std::sqrt(want), 1e-9);
+  EXPECT_NEAR(side.theta, theta * std::sqrt(10.0), 1e-9);
+  // The open loop's two ends, 0.5 m apart in the map: every step of the way round, each swung
+  // over its distance to the end searched.
+  const Pose2 end{0.1, 0.6, 0.0};
+  double round = 0.0;
+  for (size_t k = 0; k + 1 < loop.size(); ++k) {
+    round +=
+        xy * xy + theta * theta * (std::pow(end.x - loop[k].x, 2) + std::pow(end.y - loop[k].y, 2));
+  }
+  const ChainUncertainty::Sigma open = MapUncertaintyBetween(path, Pose2{0.1, 0.0, 0.0}, end);
+  EXPECT_NEAR(open.xy, std::sqrt(round), 1e-9);
+  EXPECT_GT(open.xy, 10.0 * MapUncertaintyBetween(path, Pose2{}, Pose2{0.5, 0.0, 0.0}).xy);
+  // Closed by its session: the two ends are one place.
+  GraphConstraint closure;
+  closure.kind = GraphConstraint::Kind::kLoop;
+  closure.from = static_cast<int>(loop.size()) - 1;
+  closure.to = 0;
+  map[0].loops = {closure};
+  const ChainUncertainty::Sigma closed =
+      MapUncertaintyBetween(MapPath(map), Pose2{0.1, 0.0, 0.0}, Pose2{0.1, 0.6, 0.0});
+  EXPECT_NEAR(closed.xy, 0.0, 1e-12);
+  EXPECT_NEAR(closed.theta, 0.0, 1e-12);
+  const ChainUncertainty::Sigma none = MapUncertaintyBetween({}, Pose2{}, Pose2{1.0, 0.0, 0.0});
+  EXPECT_EQ(none.xy, 0.0);
 }
 
 }  // namespace

@@ -50,17 +50,20 @@ absl::Status ValidateFollowOptions(const FollowOptions& o) {
         {o.sigma_xy_floor, "follow.sigma_xy_floor"},
         {o.sigma_theta_floor, "follow.sigma_theta_floor"},
         {o.max_window_xy, "follow.max_window_xy"}, {o.max_window_theta, "follow.max_window_theta"},
+        {o.max_uncertainty_window_xy, "follow.max_uncertainty_window_xy"},
+        {o.max_uncertainty_window_theta, "follow.max_uncertainty_window_theta"},
         {o.rival_exclusion, "follow.rival_exclusion"}, {o.map_growth, "follow.map_growth"}}) {
     if (absl::Status s = Positive(value, name); !s.ok()) return s;
   }
   if (o.every_nodes < 1 || o.every_nodes > 1000 || o.query_nodes < 1 || o.query_nodes > 50 ||
       o.min_query_points < 1 || o.max_samples < 2 || !(o.sigma_xy_per_metre >= 0) ||
       !(o.sigma_theta_per_metre >= 0) || !(o.min_score > 0 && o.min_score < 1) ||
-      !(o.rival_ratio > 0 && o.rival_ratio <= 1) || o.max_window_theta > M_PI) {
+      !(o.rival_ratio > 0 && o.rival_ratio <= 1) || o.max_window_theta > M_PI ||
+      o.max_uncertainty_window_theta > M_PI) {
     return absl::InvalidArgumentError(
         "follow: every_nodes must be in [1, 1000], query_nodes in [1, 50], max_samples at least "
         "2, the sigmas per metre >= 0, min_score in (0, 1), rival_ratio in (0, 1], "
-        "max_window_theta at most pi");
+        "max_window_theta and max_uncertainty_window_theta at most pi");
   }
   return absl::OkStatus();
 }
@@ -103,8 +106,15 @@ absl::Status TrajectoryFollow::SetMap(const PointCloud& others, std::size_t map_
 
 FollowOptions WideFollowWindows(FollowOptions options) {
   options.window_for_map_drift = true;
+  options.window_from_uncertainty = false;
   options.max_window_xy = 30.0;
   options.max_window_theta = 1.5;
+  return options;
+}
+
+FollowOptions NarrowFollowWindows(FollowOptions options) {
+  options.window_from_uncertainty = false;
+  options.window_for_map_drift = false;
   return options;
 }
 
@@ -117,8 +127,20 @@ SearchWindow FollowWindow(const FollowOptions& options, double travel) {
                s * (options.sigma_theta_floor + options.sigma_theta_per_metre * travel))};
 }
 
-double MapTravelBetween(const std::vector<MapPathPoint>& path, const Pose2& from, const Pose2& to) {
-  // The nearest node to each place; a linear pass (an attempt every few nodes).
+namespace {
+
+// The least cost of a way between the path's nodes nearest to `from` and to `to`, through their
+// trajectory's chain (each step costing step_cost(from index, to index)) and its closures (free),
+// with the sum of side_cost along that way; nullopt where no one trajectory holds both ends.
+// A linear pass for the nearest nodes and Dijkstra within the trajectory: an attempt every few
+// nodes.
+struct WayCost {
+  double cost = 0.0;
+  double side = 0.0;
+};
+std::optional<WayCost> LeastWay(const std::vector<MapPathPoint>& path, const Pose2& from,
+                                const Pose2& to,
+                                const std::function<WayCost(int from, int to)>& step_cost) {
   const auto nearest = [&path](const Pose2& p) {
     const MapPathPoint* best = nullptr;
     double best_sq = 0.0;
@@ -133,39 +155,61 @@ double MapTravelBetween(const std::vector<MapPathPoint>& path, const Pose2& from
   };
   const MapPathPoint* a = nearest(from);
   const MapPathPoint* b = nearest(to);
-  if (a == nullptr || b == nullptr || a->trajectory != b->trajectory) return 0.0;
-  // Dijkstra over the trajectory's points (contiguous in the path): its chain, weighted by the
-  // distance along it, and its closures, weighted 0.
+  if (a == nullptr || b == nullptr || a->trajectory != b->trajectory) return std::nullopt;
   const int start = static_cast<int>(a - path.data());
   const int goal = static_cast<int>(b - path.data());
-  int first = start, last = start;
+  int first = start, last = start;  // the trajectory's points are contiguous in the path
   while (first > 0 && path[first - 1].trajectory == a->trajectory) --first;
   while (last + 1 < static_cast<int>(path.size()) && path[last + 1].trajectory == a->trajectory) {
     ++last;
   }
-  std::vector<double> distance(static_cast<size_t>(last - first + 1),
-                               std::numeric_limits<double>::infinity());
+  std::vector<WayCost> best(static_cast<size_t>(last - first + 1),
+                            WayCost{std::numeric_limits<double>::infinity(), 0.0});
   using Entry = std::pair<double, int>;
   std::priority_queue<Entry, std::vector<Entry>, std::greater<Entry>> queue;
-  distance[start - first] = 0.0;
+  best[start - first] = WayCost{};
   queue.push({0.0, start});
   while (!queue.empty()) {
     // Plain copies, not a structured binding: C++17 lambdas cannot capture bindings (clang).
     const double d = queue.top().first;
     const int i = queue.top().second;
     queue.pop();
-    if (i == goal) return d;
-    if (d > distance[i - first]) continue;
-    const auto relax = [&](int j, double w) {
-      if (j < first || j > last || d + w >= distance[j - first]) return;
-      distance[j - first] = d + w;
-      queue.push({d + w, j});
+    if (i == goal) return best[i - first];
+    if (d > best[i - first].cost) continue;
+    const auto relax = [&](int j, WayCost w) {
+      if (j < first || j > last || d + w.cost >= best[j - first].cost) return;
+      best[j - first] = WayCost{d + w.cost, best[i - first].side + w.side};
+      queue.push({d + w.cost, j});
     };
-    if (i > first) relax(i - 1, std::abs(path[i].along - path[i - 1].along));
-    if (i < last) relax(i + 1, std::abs(path[i + 1].along - path[i].along));
-    for (int j : path[i].closes_to) relax(j, 0.0);
+    if (i > first) relax(i - 1, step_cost(i, i - 1));
+    if (i < last) relax(i + 1, step_cost(i, i + 1));
+    for (int j : path[i].closes_to) relax(j, WayCost{});
   }
-  return std::abs(a->along - b->along);
+  return std::nullopt;  // not reached: the chain joins every point of the trajectory
+}
+
+}  // namespace
+
+double MapTravelBetween(const std::vector<MapPathPoint>& path, const Pose2& from, const Pose2& to) {
+  const std::optional<WayCost> way = LeastWay(path, from, to, [&path](int i, int j) {
+    return WayCost{std::abs(path[j].along - path[i].along), 0.0};
+  });
+  return way ? way->cost : 0.0;
+}
+
+ChainUncertainty::Sigma MapUncertaintyBetween(const std::vector<MapPathPoint>& path,
+                                              const Pose2& from, const Pose2& to) {
+  // The swing of a step's heading error is taken about the node the way comes from, to the end.
+  const std::optional<WayCost> way = LeastWay(path, from, to, [&path, &to](int i, int j) {
+    const Eigen::Vector3d& sigma = path[std::max(i, j)].step_sigma;
+    const double swing_sq = (to.x - path[i].x) * (to.x - path[i].x) +
+                            (to.y - path[i].y) * (to.y - path[i].y);
+    const double xy = std::max(sigma(0), sigma(1));
+    const double theta_sq = sigma(2) * sigma(2);
+    return WayCost{xy * xy + theta_sq * swing_sq, theta_sq};
+  });
+  if (!way) return {};
+  return ChainUncertainty::Sigma{std::sqrt(way->cost), std::sqrt(way->side)};
 }
 
 int TrajectoryFollow::Advance(const std::vector<NodeView>& nodes, int max_attempts) {
@@ -192,6 +236,59 @@ int TrajectoryFollow::Advance(const std::vector<NodeView>& nodes, int max_attemp
   return looked;
 }
 
+SearchWindow TrajectoryFollow::TravelWindow(const std::vector<NodeView>& nodes, int node,
+                                            const Pose2& predicted) const {
+  // How far the origin may have drifted since the last sample: the travel between.
+  const OriginSample& last = samples_.back();
+  double travel = 0.0;
+  for (int i = node; i > 0 && nodes[i].stamp > last.stamp; --i) {
+    travel += std::hypot(nodes[i].global.x - nodes[i - 1].global.x,
+                         nodes[i].global.y - nodes[i - 1].global.y);
+  }
+  if (options_.window_for_map_drift && !path_.empty()) {
+    const int last_node = NodeOfScan(nodes, last.scan);
+    if (last_node >= 0) {
+      travel += MapTravelBetween(
+          path_, Compose(OriginAt(samples_, last.stamp), nodes[last_node].global), predicted);
+    }
+  }
+  return FollowWindow(options_, travel);
+}
+
+SearchWindow TrajectoryFollow::UncertaintyWindow(const std::vector<NodeView>& nodes, int node,
+                                                 const Pose2& predicted) const {
+  // The robot's own chain since the last sample, each step's heading error swung to `node`.
+  const OriginSample& last = samples_.back();
+  const Pose2& end = nodes[node].global;
+  double own_xy = 0.0, own_theta = 0.0;
+  for (int i = node; i > 0 && nodes[i].stamp > last.stamp; --i) {
+    const Pose2& from = nodes[i - 1].global;
+    const Eigen::Vector3d sigma = ChainStepSigma(nodes[i], Relative(from, nodes[i].global));
+    const double xy = std::max(sigma(0), sigma(1));
+    const double theta_sq = sigma(2) * sigma(2);
+    own_xy += xy * xy + theta_sq * ((end.x - from.x) * (end.x - from.x) +
+                                    (end.y - from.y) * (end.y - from.y));
+    own_theta += theta_sq;
+  }
+  ChainUncertainty::Sigma map;
+  const int last_node = NodeOfScan(nodes, last.scan);
+  if (!path_.empty() && last_node >= 0) {
+    map = MapUncertaintyBetween(
+        path_, Compose(OriginAt(samples_, last.stamp), nodes[last_node].global), predicted);
+  }
+  const double s = options_.window_sigmas;
+  const SearchWindow travel = TravelWindow(nodes, node, predicted);
+  return SearchWindow{
+      std::max(travel.xy,
+               std::min(options_.max_uncertainty_window_xy,
+                        s * std::sqrt(options_.sigma_xy_floor * options_.sigma_xy_floor + own_xy +
+                                      map.xy * map.xy))),
+      std::max(travel.theta, std::min(options_.max_uncertainty_window_theta,
+                                       s * std::sqrt(options_.sigma_theta_floor *
+                                                         options_.sigma_theta_floor +
+                                                     own_theta + map.theta * map.theta)))};
+}
+
 bool TrajectoryFollow::Attempt(const std::vector<NodeView>& nodes, int node) {
   const NodeView& at = nodes[node];
   // The query: the newest query_nodes nodes' points in this node's frame.
@@ -203,29 +300,25 @@ bool TrajectoryFollow::Attempt(const std::vector<NodeView>& nodes, int node) {
   query = ThinPoints(query, options_.point_cell);
   if (static_cast<int>(query.size()) < options_.min_query_points) return false;
 
-  // How far the origin may have drifted since the last sample: the travel between.
-  const OriginSample& last = samples_.back();
-  double travel = 0.0;
-  for (int i = node; i > 0 && nodes[i].stamp > last.stamp; --i) {
-    travel += std::hypot(nodes[i].global.x - nodes[i - 1].global.x,
-                         nodes[i].global.y - nodes[i - 1].global.y);
-  }
   const Pose2 predicted = Compose(OriginAt(samples_, at.stamp), at.global);
-  if (options_.window_for_map_drift && !path_.empty()) {
-    const int last_node = NodeOfScan(nodes, last.scan);
-    if (last_node >= 0) {
-      travel += MapTravelBetween(
-          path_, Compose(OriginAt(samples_, last.stamp), nodes[last_node].global), predicted);
-    }
-  }
-  const SearchWindow window = FollowWindow(options_, travel);
-
+  const SearchWindow window = options_.window_from_uncertainty
+                                  ? UncertaintyWindow(nodes, node, predicted)
+                                  : TravelWindow(nodes, node, predicted);
   ++progress_.attempts;
   const std::optional<GridMatch> match =
       MatchInWindow(*grid_, query, predicted, window, options_.min_score);
   if (match) progress_.reads += match->candidates * static_cast<std::int64_t>(query.size());
   if (!match || match->score < options_.min_score) {
     ++progress_.weak;
+    return false;
+  }
+  // The window's box reaches window_sigmas in x and in y, its corners farther: a match there is
+  // farther from the prediction than the uncertainty allows (a look-alike a few metres off, where
+  // the robot drives what the map does not hold yet: `building`, seed 4, 3.2 m at the corner of a
+  // 2.3 m window).
+  if (options_.window_from_uncertainty &&
+      std::hypot(match->pose.x - predicted.x, match->pose.y - predicted.y) > window.xy) {
+    ++progress_.beyond;
     return false;
   }
   // A rival in the same window: the match could slide (a corridor) or be a look-alike nearby.

@@ -7,7 +7,9 @@
 // 3.8 m). Here its recent nodes are matched again, every `every_nodes` nodes, against the OTHER
 // tied-in trajectories' points, in a local window around where its current origin puts them: no
 // global search. The window is three sigmas of how far the origin may have drifted since the
-// last match (a floor plus a share of the travel since), capped. A match counts when it scores
+// last match: a floor plus a share of the travel since, capped, or, where the chains' own
+// uncertainty reaches farther (the robot's since its last match, the map's between there and
+// here), that, with a match beyond three sigmas of it refused. A match counts when it scores
 // at least min_score and no rival pose farther than rival_exclusion in the same window scores
 // rival_ratio of it (a corridor sliding along itself, a look-alike room nearby).
 //
@@ -26,8 +28,11 @@
 #include <memory>
 #include <vector>
 
+#include <Eigen/Core>
+
 #include "absl/status/status.h"
 #include "absl/status/statusor.h"
+#include "server/laser_slam/mapping/chain_uncertainty.h"
 #include "server/laser_slam/mapping/likelihood_grid.h"
 #include "server/laser_slam/mapping/mapping_backend.h"
 #include "server/laser_slam/mapping/point_cloud.h"
@@ -66,6 +71,9 @@ struct MapPathPoint {
   // The points (indices into the path) this node's own session closed a loop with: the map's
   // path between two places takes such a closure as a shortcut.
   std::vector<int> closes_to;
+  // 1 sigma (x, y, theta) of the chain step from the trajectory's point before (ChainStepSigma;
+  // zero for its first): what MapUncertaintyBetween adds up.
+  Eigen::Vector3d step_sigma = Eigen::Vector3d::Zero();
 };
 
 struct FollowOptions {
@@ -92,6 +100,19 @@ struct FollowOptions {
   // and was placed 10 m off (docs/results.md, "One pose graph for the whole map"). The rival
   // test cannot see a look-alike whose twin the map does not hold.
   bool window_for_map_drift = false;
+  // Beyond those windows, as far as the uncertainty the estimates carry reaches (the default;
+  // NarrowFollowWindows turns it off): window_sigmas times the root of the floor squared, the robot's
+  // own chain uncertainty since its last sample (its nodes' step sigmas, with the swing of each
+  // heading error over the distance to the node searched, as the loop search's ChainUncertainty)
+  // and the map's between the last sample's place and the place searched
+  // (MapUncertaintyBetween), capped at max_uncertainty_window_*. A map that closed its loops is
+  // searched no farther than the travel windows reach; one that another robot drove round an open
+  // loop, as far as that robot's steps allow. The travel windows stay the least: a session's
+  // sigmas can be too sure of themselves (a simulated robot replayed at 40x: 2 m off with its
+  // steps claiming 0.2-0.5 m).
+  bool window_from_uncertainty = true;
+  double max_uncertainty_window_xy = 30.0;
+  double max_uncertainty_window_theta = 1.5;
   double max_window_xy = 2.0;
   double max_window_theta = 0.4;
   double min_score = 0.6;
@@ -114,6 +135,11 @@ absl::Status ValidateFollowOptions(const FollowOptions& options);
 // wide, for buildings without look-alike rooms; not the default.
 FollowOptions WideFollowWindows(FollowOptions options = {});
 
+// `options` with the travel's windows only (window_from_uncertainty off, no map drift): at most
+// max_window_xy and max_window_theta, the default before the uncertainty's windows. The server's
+// --slam-map-follow-windows narrow.
+FollowOptions NarrowFollowWindows(FollowOptions options = {});
+
 // The window of an attempt after `travel` metres (the robot's own since its last sample, plus the
 // map's path between there and here): window_sigmas times the floor plus the drift per metre,
 // capped.
@@ -126,11 +152,22 @@ SearchWindow FollowWindow(const FollowOptions& options, double travel);
 // loop apart, however close they are in the map; where that robot closed the loop, they are not.
 double MapTravelBetween(const std::vector<MapPathPoint>& path, const Pose2& from, const Pose2& to);
 
+// How uncertain the map is about where `to` lies from `from`, along the same way through one
+// trajectory (its chain and closures; a closure adds nothing): each chain step on the way adds
+// its xy variance and its heading variance times the squared distance from the step to the end
+// (the swing), the least over the ways (Dijkstra on that variance). Zero where MapTravelBetween
+// is zero for want of one trajectory holding both.
+ChainUncertainty::Sigma MapUncertaintyBetween(const std::vector<MapPathPoint>& path,
+                                              const Pose2& from, const Pose2& to);
+
 struct FollowProgress {
   int attempts = 0;   // windowed matches tried
   int matched = 0;    // ... giving a sample
   int weak = 0;       // ... scoring below min_score (the robot off the others' map)
   int ambiguous = 0;  // ... refused for a rival pose
+  // ... refused as farther from where the last sample puts the robot than window_sigmas of the
+  // uncertainty (window_from_uncertainty: the window is a box for the search, the gate a circle)
+  int beyond = 0;
   std::int64_t reads = 0;  // cell reads (candidates times points)
 };
 
@@ -164,6 +201,13 @@ class TrajectoryFollow {
  private:
   TrajectoryFollow(const FollowOptions& options, const OriginSample& tie)
       : options_(options), samples_{tie} {}
+  // The window of an attempt at node `node`, whose pose the last sample's origin puts at
+  // `predicted`: from the travel since (FollowWindow), or from the uncertainty of the robot's own
+  // chain and of the map's (window_from_uncertainty).
+  SearchWindow TravelWindow(const std::vector<NodeView>& nodes, int node,
+                            const Pose2& predicted) const;
+  SearchWindow UncertaintyWindow(const std::vector<NodeView>& nodes, int node,
+                                 const Pose2& predicted) const;
   // One attempt at node `node`; true when it gave a sample.
   bool Attempt(const std::vector<NodeView>& nodes, int node);
 

@@ -112,8 +112,10 @@ std::vector<MapPathPoint> MapPath(const std::vector<TiedTrajectory>& trajectorie
         along += std::hypot(nodes[i].global.x - nodes[i - 1].global.x,
                             nodes[i].global.y - nodes[i - 1].global.y);
       }
-      path.push_back(
-          MapPathPoint{nodes[i].global.x, nodes[i].global.y, static_cast<int>(t), along, {}});
+      MapPathPoint point{nodes[i].global.x, nodes[i].global.y, static_cast<int>(t), along, {}};
+      if (i > 0)
+        point.step_sigma = ChainStepSigma(nodes[i], Relative(nodes[i - 1].global, nodes[i].global));
+      path.push_back(std::move(point));
     }
     for (const GraphConstraint& loop : LoopsInForce(trajectories[t])) {
       path[first + loop.from].closes_to.push_back(first + loop.to);

@@ -401,8 +401,10 @@ bool MapTieWorker::FollowTurn(const std::string& map,
     }
     if (absl::Status s = following.follow->SetMap(
             laser_slam::MapCloud(others, options_.follow_options.point_cell), others_nodes,
-            options_.follow_options.window_for_map_drift ? laser_slam::MapPath(others)
-                                                         : std::vector<laser_slam::MapPathPoint>{});
+            options_.follow_options.window_for_map_drift ||
+                    options_.follow_options.window_from_uncertainty
+                ? laser_slam::MapPath(others)
+                : std::vector<laser_slam::MapPathPoint>{});
         !s.ok()) {
       spdlog::warn("SLAM map \"{}\": cannot follow session {}: {}", map, session_id,
                    s.ToString());
@@ -426,8 +428,8 @@ bool MapTieWorker::FollowTurn(const std::string& map,
     // What results.md reads: how often a closed robot was matched again after its tie.
     spdlog::info(
         "SLAM map \"{}\": session {} (closed) followed to its last node: {} windowed matches, {} "
-        "origin samples, {} weak, {} ambiguous, {:.0f} M cell reads",
-        map, session_id, p.attempts, p.matched, p.weak, p.ambiguous, p.reads / 1e6);
+        "origin samples, {} weak, {} ambiguous, {} beyond their uncertainty, {:.0f} M cell reads",
+        map, session_id, p.attempts, p.matched, p.weak, p.ambiguous, p.beyond, p.reads / 1e6);
   }
   return looked == kFollowAttempts;
 }

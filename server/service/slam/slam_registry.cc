@@ -126,8 +126,12 @@ SlamRegistry::SlamRegistry(std::unique_ptr<storage::SlamStore> store,
     worker_options.tie.outvote_disagreements = options_.map_tie_outvote;
     worker_options.verify_ties = options_.map_tie_verify;
     worker_options.feed_seconds = options_.map_feed_seconds;
-    if (options_.map_follow_wide) {
+    using Windows = SlamRegistryOptions::FollowWindows;
+    if (options_.map_follow_windows == Windows::kWide) {
       worker_options.follow_options = laser_slam::WideFollowWindows(worker_options.follow_options);
+    } else if (options_.map_follow_windows == Windows::kNarrow) {
+      worker_options.follow_options =
+          laser_slam::NarrowFollowWindows(worker_options.follow_options);
     }
     tie_worker_ = std::make_unique<MapTieWorker>(std::move(sources), worker_options);
   }

@@ -41,10 +41,13 @@ struct SlamRegistryOptions {
   // The map's grid, segment map and node_origins from one pose graph over all its trajectories
   // (MapRegistry::set_map_graph); false: each trajectory placed on its own.
   bool map_graph = true;
-  // The follow's wide windows (laser_slam::WideFollowWindows: the map's drift, 30 m caps):
-  // better merged maps where the building has no look-alike rooms, a robot in the wrong room
-  // where it has. False: windows of at most 2 m and 0.4 rad.
-  bool map_follow_wide = false;
+  // How far a followed robot is looked for (laser_slam::FollowOptions). Uncertainty (the
+  // default): at least the narrow windows, and as far as the robot's own and the map's chain
+  // uncertainty reach, up to 30 m. Narrow (laser_slam::NarrowFollowWindows): at most 2 m and
+  // 0.4 rad. Wide (laser_slam::WideFollowWindows: the map's drift by its path length, 30 m
+  // caps): a robot in the wrong room where the building has look-alike rooms.
+  enum class FollowWindows { kNarrow, kWide, kUncertainty };
+  FollowWindows map_follow_windows = FollowWindows::kUncertainty;
   // On a fleet: a robot's nodes are published for its map's owner at most this often (s), so that
   // the owner ties and follows it between its checkpoints (trajectory_feed.h); 0: the owner reads
   // the robot's checkpoints only.
