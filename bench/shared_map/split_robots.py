@@ -25,7 +25,7 @@ evenly (int(k (S - length) / (N - 1)) for robot k + 1).
 JSON, for robot k >= 2 (rk): rk_tie (from the server's "tied in at" line: tie x, y, theta,
 tied_at_scan, tied_after_s, searches, unique, ambiguous, disagreeing, mreads), rk_follow when the
 server logged "followed to its last node" for it (windowed matches, origin samples, weak,
-ambiguous, mreads; absent with the follow off), and rk_vs_r(k-1)_m. With two robots the fields of
+ambiguous, beyond, mreads; absent with the follow off), and rk_vs_r(k-1)_m. With two robots the fields of
 r2's tie are also at the top level, as before (tie, tied_at_scan, ...)."""
 import argparse, json, math, os, re, subprocess, sys, time
 

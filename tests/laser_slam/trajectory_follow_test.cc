@@ -297,17 +297,26 @@ TEST(FollowWindowTest, TheWideWindowsReachAsFarAsTheMapMayHaveDrifted) {
   EXPECT_NEAR(FollowWindow(wide, 1000.0).theta, 1.5, 1e-12);
 }
 
-TEST(FollowWindowTest, TheMapsPathBetweenTwoPlacesIsAlongOneTrajectory) {
-  // Robot 0 drives a 10 m x 4 m loop that it did not close: its start at (0, 0), its end at
-  // (0, 0.5). Robot 1 stands 20 m east.
-  std::vector<TiedTrajectory> map(2);
+// A robot's nodes along a 10 m x 4 m loop it did not close, 0.5 m apart: its start at (0, 0),
+// its end at (0, 0.5), each step with `step_sigma`.
+std::vector<NodeView> OpenLoopNodes(const Eigen::Vector3d& step_sigma = Eigen::Vector3d::Zero()) {
   const std::vector<Pose2> loop = PolylinePath({{0, 0}, {10, 0}, {10, 4}, {0, 4}, {0, 0.5}}, 0.5);
+  std::vector<NodeView> nodes;
   for (size_t i = 0; i < loop.size(); ++i) {
     NodeView node;
     node.scan = i + 1;
     node.global = loop[i];
-    map[0].nodes.push_back(node);
+    node.step_sigma = step_sigma;
+    nodes.push_back(node);
   }
+  return nodes;
+}
+
+TEST(FollowWindowTest, TheMapsPathBetweenTwoPlacesIsAlongOneTrajectory) {
+  // Robot 0 drives the open loop; robot 1 stands 20 m east.
+  std::vector<TiedTrajectory> map(2);
+  map[0].nodes = OpenLoopNodes();
+  const size_t loop_size = map[0].nodes.size();
   for (int i = 0; i < 5; ++i) {
     NodeView node;
     node.scan = i + 1;
@@ -315,8 +324,8 @@ TEST(FollowWindowTest, TheMapsPathBetweenTwoPlacesIsAlongOneTrajectory) {
     map[1].nodes.push_back(node);
   }
   const std::vector<MapPathPoint> path = MapPath(map);
-  ASSERT_EQ(path.size(), loop.size() + 5);
-  EXPECT_NEAR(path[loop.size() - 1].along, 10.0 + 4.0 + 10.0 + 3.0, 0.5);
+  ASSERT_EQ(path.size(), loop_size + 5);
+  EXPECT_NEAR(path[loop_size - 1].along, 10.0 + 4.0 + 10.0 + 3.0, 0.5);
   EXPECT_EQ(path.back().trajectory, 1);
   EXPECT_NEAR(path.back().along, 4.0, 1e-9);
   // The loop's start and end: 0.5 m apart in the map, 27 m along it.
@@ -329,7 +338,7 @@ TEST(FollowWindowTest, TheMapsPathBetweenTwoPlacesIsAlongOneTrajectory) {
   // place of its map: the way round the loop no longer counts.
   GraphConstraint closure;
   closure.kind = GraphConstraint::Kind::kLoop;
-  closure.from = static_cast<int>(loop.size()) - 1;
+  closure.from = static_cast<int>(loop_size) - 1;
   closure.to = 0;
   map[0].loops = {closure};
   const std::vector<MapPathPoint> closed = MapPath(map);
@@ -345,14 +354,9 @@ TEST(FollowWindowTest, TheMapsPathBetweenTwoPlacesIsAlongOneTrajectory) {
 TEST(FollowWindowTest, TheMapsUncertaintyBetweenTwoPlacesAddsUpItsStepsOnTheWay) {
   const double xy = 0.02, theta = 0.004;
   std::vector<TiedTrajectory> map(1);
-  const std::vector<Pose2> loop = PolylinePath({{0, 0}, {10, 0}, {10, 4}, {0, 4}, {0, 0.5}}, 0.5);
-  for (size_t i = 0; i < loop.size(); ++i) {
-    NodeView node;
-    node.scan = i + 1;
-    node.global = loop[i];
-    node.step_sigma = Eigen::Vector3d(xy, xy, theta);
-    map[0].nodes.push_back(node);
-  }
+  map[0].nodes = OpenLoopNodes(Eigen::Vector3d(xy, xy, theta));
+  std::vector<Pose2> loop;
+  for (const NodeView& node : map[0].nodes) loop.push_back(node.global);
   const std::vector<MapPathPoint> path = MapPath(map);
   ASSERT_EQ(path[1].step_sigma, Eigen::Vector3d(xy, xy, theta));
   // Along the first side from (0, 0) to (5, 0): ten steps, the k-th swung over 5 - 0.5 k metres.
