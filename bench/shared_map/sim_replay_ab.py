@@ -1,18 +1,19 @@
 #!/usr/bin/env python3
-"""Issue 38: one pair of simulated robots, recorded once, followed with one server setting
-(docs/results.md, "Tried, not kept: a jump only where staying is contradicted"). A second live
-`sim explore` run cannot compare two settings: the server's answers steer the robots, so their
-paths part. Here both robots' recorded logs (`waymark sim explore --robots 2 --map M --record
-REC --out RUN`, known starts) are replayed at once into a new map on a fresh waymark-server with
-the given flags, robot 2 at its true start in robot 1's frame, and robot 2's map-frame trajectory
-is scored against its true one.
+"""Issue 38: simulated robots, recorded once, followed with one server setting (docs/results.md,
+"Tried, not kept: a jump only where staying is contradicted"). A second live `sim explore` run
+cannot compare two settings: the server's answers steer the robots, so their paths part. Here
+every robot's recorded log (`waymark sim explore --robots N --map M --record REC --out RUN`,
+known starts) is replayed at once into a new map on a fresh waymark-server with the given flags,
+each robot after the first at its true start in robot 1's frame, and each one's map-frame
+trajectory is scored against its true one.
 
   sim_replay_ab.py REC RUN OUT [--build build] [--port 51230] [--speed 40] [-- SERVER FLAGS...]
 
 --speed: both replays at the simulation's pace times this (0: as fast as the server answers; the
 follow then catches up after the replays, against robot 1's whole map, which is not what a live
 run meets). Prints one JSON line: robot 2's poses matched to the truth, their mean and largest
-position error (m), and the server's "followed to its last node" counts for robot 2."""
+position error (m), and the server's "followed to its last node" counts for robot 2; the same
+for every robot after the first under "robots"."""
 import argparse, json, math, os, re, subprocess, sys, time
 
 argv = sys.argv[1:]
@@ -62,33 +63,42 @@ try:
         if w('map', 'create', 'm').returncode == 0:
             break
         time.sleep(0.2)
-    true1 = tum(a.run + '/robot1/trajectory_true.txt')
-    true2 = tum(a.run + '/robot2/trajectory_true.txt')
-    start1, start2 = true1[min(true1)], true2[min(true2)]
-    at = relative(start1, start2)
-    replay = lambda robot, extra: subprocess.Popen(
-        [W, 'slam', 'replay', f'{a.rec}/robot{robot[1]}.clf', '--map', 'm', '--robot', robot,
-         '--out', f'{a.out}/{robot}', *extra, *speed], env=env, stdout=subprocess.DEVNULL,
-        stderr=open(f'{a.out}/{robot}.err', 'w'))
-    r1 = replay('r1', [])
+    count = len([f for f in os.listdir(a.rec) if re.fullmatch(r'robot\d+\.clf', f)])
+    truth = {k: tum(f'{a.run}/robot{k}/trajectory_true.txt') for k in range(1, count + 1)}
+    start1 = truth[1][min(truth[1])]
+    replay = lambda k, extra: subprocess.Popen(
+        [W, 'slam', 'replay', f'{a.rec}/robot{k}.clf', '--map', 'm', '--robot', f'r{k}',
+         '--out', f'{a.out}/r{k}', *extra, *speed], env=env, stdout=subprocess.DEVNULL,
+        stderr=open(f'{a.out}/r{k}.err', 'w'))
+    replays = [replay(1, [])]
     time.sleep(0.5)  # robot 1 defines the map frame
-    r2 = replay('r2', ['--initial-pose', f'{at[0]:.4f},{at[1]:.4f},{at[2]:.5f}'])
-    r1.wait(); r2.wait()
-    session = json.loads(w('--json', 'map', 'show', 'm').stdout)['trajectories'][1]['session_id']
-    follow = None
-    deadline = time.time() + 300
-    while time.time() < deadline and follow is None:
-        found = re.search(re.escape(session) + r' \(closed\) followed to its last node: (.*)',
-                          open(a.out + '/server.log').read())
-        follow = found.group(1) if found else None
-        time.sleep(0.5)
-    w('slam', 'trajectory', session, '--frame', 'map', '--out', a.out + '/r2_map.txt')
-    errors = [math.dist(p[:2], relative(start1, true2[t])[:2])
-              for t, p in tum(a.out + '/r2_map.txt').items() if t in true2]
+    for k in range(2, count + 1):
+        at = relative(start1, truth[k][min(truth[k])])
+        replays.append(replay(k, ['--initial-pose', f'{at[0]:.4f},{at[1]:.4f},{at[2]:.5f}']))
+        time.sleep(0.3)  # the map's trajectories in the robots' order
+    for r in replays:
+        r.wait()
+    trajectories = json.loads(w('--json', 'map', 'show', 'm').stdout)['trajectories']
+    robots = {}
+    for k in range(2, count + 1):
+        session = trajectories[k - 1]['session_id']
+        follow = None
+        deadline = time.time() + 300
+        while time.time() < deadline and follow is None:
+            found = re.search(re.escape(session) + r' \(closed\) followed to its last node: (.*)',
+                              open(a.out + '/server.log').read())
+            follow = found.group(1) if found else None
+            time.sleep(0.5)
+        w('slam', 'trajectory', session, '--frame', 'map', '--out', f'{a.out}/r{k}_map.txt')
+        errors = [math.dist(p[:2], relative(start1, truth[k][t])[:2])
+                  for t, p in tum(f'{a.out}/r{k}_map.txt').items() if t in truth[k]]
+        robots[f'r{k}'] = {'matched': len(errors),
+                           'mean_m': round(sum(errors) / len(errors), 3) if errors else None,
+                           'max_m': round(max(errors), 3) if errors else None, 'follow': follow}
+    r2 = robots['r2']
     print(json.dumps({'out': a.out, 'server_flags': server_flags, 'speed': a.speed,
-                      'matched': len(errors),
-                      'mean_m': round(sum(errors) / len(errors), 3) if errors else None,
-                      'max_m': round(max(errors), 3) if errors else None, 'r2_follow': follow}))
+                      'matched': r2['matched'], 'mean_m': r2['mean_m'], 'max_m': r2['max_m'],
+                      'r2_follow': r2['follow'], 'robots': robots}))
 finally:
     server.terminate()
     server.wait()
