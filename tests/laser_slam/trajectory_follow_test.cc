@@ -390,5 +390,37 @@ TEST(FollowWindowTest, TheMapsUncertaintyBetweenTwoPlacesAddsUpItsStepsOnTheWay)
   EXPECT_EQ(none.xy, 0.0);
 }
 
+// Across trajectories the way goes through the nodes a follow sample (or the tie) matched to
+// another trajectory's: robot 1 drove 10 m along y = -1.5 and was tied in at its end, 1.5 m from
+// robot 0's loop at (10, 0). Without that sample, or with robot 1 farther than the 2 m a sample's
+// node is related within, nothing relates the two.
+TEST(FollowWindowTest, TheMapsUncertaintyGoesAcrossRobotsThroughTheirSamples) {
+  const double xy = 0.02, theta = 0.004;
+  std::vector<TiedTrajectory> map(2);
+  map[0].nodes = OpenLoopNodes(Eigen::Vector3d(xy, xy, theta));
+  for (int i = 0; i <= 20; ++i) {
+    NodeView node;
+    node.scan = i + 1;
+    node.stamp = i;
+    node.global = Pose2{0.5 * i, -1.5, 0.0};
+    node.step_sigma = Eigen::Vector3d(xy, xy, theta);
+    map[1].nodes.push_back(node);
+  }
+  const Pose2 from{0.0, -1.5, 0.0}, to{10.0, 1.0, 0.0};
+  EXPECT_EQ(MapUncertaintyBetween(MapPath(map), from, to).xy, 0.0);
+  map[1].samples = {OriginSample{21, 20.0, Pose2{}}};
+  // Robot 1's 20 steps, then robot 0's two from (10, 0) to (10, 1), each swung to the end.
+  double want = 0.0;
+  for (int i = 0; i < 20; ++i)
+    want += xy * xy + theta * theta * (std::pow(10.0 - 0.5 * i, 2) + 6.25);
+  want += 2 * xy * xy + theta * theta * (1.0 + 0.25);
+  EXPECT_NEAR(MapUncertaintyBetween(MapPath(map), from, to).xy, std::sqrt(want), 1e-9);
+  // The wide windows' path length stays within one trajectory.
+  EXPECT_EQ(MapTravelBetween(MapPath(map), from, to), 0.0);
+  // Robot 1 3 m from the loop: too far for its sample's node to be related.
+  for (NodeView& node : map[1].nodes) node.global.y = -3.0;
+  EXPECT_EQ(MapUncertaintyBetween(MapPath(map), Pose2{0.0, -3.0, 0.0}, to).xy, 0.0);
+}
+
 }  // namespace
 }  // namespace waymark::laser_slam

@@ -139,7 +139,7 @@ struct WayCost {
   double side = 0.0;
 };
 std::optional<WayCost> LeastWay(const std::vector<MapPathPoint>& path, const Pose2& from,
-                                const Pose2& to,
+                                const Pose2& to, bool across,
                                 const std::function<WayCost(int from, int to)>& step_cost) {
   const auto nearest = [&path](const Pose2& p) {
     const MapPathPoint* best = nullptr;
@@ -155,10 +155,16 @@ std::optional<WayCost> LeastWay(const std::vector<MapPathPoint>& path, const Pos
   };
   const MapPathPoint* a = nearest(from);
   const MapPathPoint* b = nearest(to);
-  if (a == nullptr || b == nullptr || a->trajectory != b->trajectory) return std::nullopt;
+  if (a == nullptr || b == nullptr || (!across && a->trajectory != b->trajectory)) {
+    return std::nullopt;
+  }
   const int start = static_cast<int>(a - path.data());
   const int goal = static_cast<int>(b - path.data());
   int first = start, last = start;  // the trajectory's points are contiguous in the path
+  if (across) {
+    first = 0;
+    last = static_cast<int>(path.size()) - 1;
+  }
   while (first > 0 && path[first - 1].trajectory == a->trajectory) --first;
   while (last + 1 < static_cast<int>(path.size()) && path[last + 1].trajectory == a->trajectory) {
     ++last;
@@ -181,17 +187,21 @@ std::optional<WayCost> LeastWay(const std::vector<MapPathPoint>& path, const Pos
       best[j - first] = WayCost{d + w.cost, best[i - first].side + w.side};
       queue.push({d + w.cost, j});
     };
-    if (i > first) relax(i - 1, step_cost(i, i - 1));
-    if (i < last) relax(i + 1, step_cost(i, i + 1));
+    if (i > first && path[i - 1].trajectory == path[i].trajectory)
+      relax(i - 1, step_cost(i, i - 1));
+    if (i < last && path[i + 1].trajectory == path[i].trajectory) relax(i + 1, step_cost(i, i + 1));
     for (int j : path[i].closes_to) relax(j, WayCost{});
+    if (across) {
+      for (int j : path[i].matched_to) relax(j, WayCost{});
+    }
   }
-  return std::nullopt;  // not reached: the chain joins every point of the trajectory
+  return std::nullopt;  // no way: two trajectories no match relates
 }
 
 }  // namespace
 
 double MapTravelBetween(const std::vector<MapPathPoint>& path, const Pose2& from, const Pose2& to) {
-  const std::optional<WayCost> way = LeastWay(path, from, to, [&path](int i, int j) {
+  const std::optional<WayCost> way = LeastWay(path, from, to, false, [&path](int i, int j) {
     return WayCost{std::abs(path[j].along - path[i].along), 0.0};
   });
   return way ? way->cost : 0.0;
@@ -200,7 +210,7 @@ double MapTravelBetween(const std::vector<MapPathPoint>& path, const Pose2& from
 ChainUncertainty::Sigma MapUncertaintyBetween(const std::vector<MapPathPoint>& path,
                                               const Pose2& from, const Pose2& to) {
   // The swing of a step's heading error is taken about the node the way comes from, to the end.
-  const std::optional<WayCost> way = LeastWay(path, from, to, [&path, &to](int i, int j) {
+  const std::optional<WayCost> way = LeastWay(path, from, to, true, [&path, &to](int i, int j) {
     const Eigen::Vector3d& sigma = path[std::max(i, j)].step_sigma;
     const double swing_sq = (to.x - path[i].x) * (to.x - path[i].x) +
                             (to.y - path[i].y) * (to.y - path[i].y);

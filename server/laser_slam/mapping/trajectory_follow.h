@@ -71,6 +71,9 @@ struct MapPathPoint {
   // The points (indices into the path) this node's own session closed a loop with: the map's
   // path between two places takes such a closure as a shortcut.
   std::vector<int> closes_to;
+  // The points of other trajectories this node's follow samples matched it against (the nearest
+  // to where the sample placed it): MapUncertaintyBetween goes across trajectories through them.
+  std::vector<int> matched_to;
   // 1 sigma (x, y, theta) of the chain step from the trajectory's point before (ChainStepSigma;
   // zero for its first): what MapUncertaintyBetween adds up.
   Eigen::Vector3d step_sigma = Eigen::Vector3d::Zero();
