@@ -131,9 +131,10 @@ namespace {
 
 // The least cost of a way between the path's nodes nearest to `from` and to `to`, through their
 // trajectory's chain (each step costing step_cost(from index, to index)) and its closures (free),
-// with the sum of side_cost along that way; nullopt where no one trajectory holds both ends.
-// A linear pass for the nearest nodes and Dijkstra within the trajectory: an attempt every few
-// nodes.
+// and, `across` trajectories, the nodes their samples relate (free); with the sum of the steps'
+// side costs along that way. nullopt where no way joins the two ends (without `across`: where no
+// one trajectory holds both). A linear pass for the nearest nodes and Dijkstra: an attempt every
+// few nodes.
 struct WayCost {
   double cost = 0.0;
   double side = 0.0;
@@ -187,9 +188,12 @@ std::optional<WayCost> LeastWay(const std::vector<MapPathPoint>& path, const Pos
       best[j - first] = WayCost{d + w.cost, best[i - first].side + w.side};
       queue.push({d + w.cost, j});
     };
-    if (i > first && path[i - 1].trajectory == path[i].trajectory)
-      relax(i - 1, step_cost(i, i - 1));
-    if (i < last && path[i + 1].trajectory == path[i].trajectory) relax(i + 1, step_cost(i, i + 1));
+    // The chain's neighbours (the trajectories lie one after another in the path).
+    for (const int j : {i - 1, i + 1}) {
+      if (j >= first && j <= last && path[j].trajectory == path[i].trajectory) {
+        relax(j, step_cost(i, j));
+      }
+    }
     for (int j : path[i].closes_to) relax(j, WayCost{});
     if (across) {
       for (int j : path[i].matched_to) relax(j, WayCost{});

@@ -155,11 +155,12 @@ SearchWindow FollowWindow(const FollowOptions& options, double travel);
 // loop apart, however close they are in the map; where that robot closed the loop, they are not.
 double MapTravelBetween(const std::vector<MapPathPoint>& path, const Pose2& from, const Pose2& to);
 
-// How uncertain the map is about where `to` lies from `from`, along the same way through one
-// trajectory (its chain and closures; a closure adds nothing): each chain step on the way adds
-// its xy variance and its heading variance times the squared distance from the step to the end
-// (the swing), the least over the ways (Dijkstra on that variance). Zero where MapTravelBetween
-// is zero for want of one trajectory holding both.
+// How uncertain the map is about where `to` lies from `from` (their nearest nodes), along the
+// trajectories' chains, their closures and, between two trajectories, the nodes their follow
+// samples relate (matched_to; a closure or a sample adds nothing): each chain step on the way
+// adds its xy variance and its heading variance times the squared distance from the step to the
+// end (the swing), the least over the ways (Dijkstra on that variance). Zero where no way joins
+// them (two trajectories no sample relates) or there is no path.
 ChainUncertainty::Sigma MapUncertaintyBetween(const std::vector<MapPathPoint>& path,
                                               const Pose2& from, const Pose2& to);
 
