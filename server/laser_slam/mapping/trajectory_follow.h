@@ -110,9 +110,9 @@ struct FollowOptions {
   // and the map's between the last sample's place and the place searched
   // (MapUncertaintyBetween), capped at max_uncertainty_window_*. A map that closed its loops is
   // searched no farther than the travel windows reach; one that another robot drove round an open
-  // loop, as far as that robot's steps allow. The travel windows stay the least: a session's
-  // sigmas can be too sure of themselves (a simulated robot replayed at 40x: 2 m off with its
-  // steps claiming 0.2-0.5 m).
+  // loop, as far as that robot's steps allow. The travel windows stay the least, so the follow
+  // never searches less than it did before (the uncertainty alone is smaller where the steps
+  // matched well; that the floor matters was not shown, docs/results.md).
   bool window_from_uncertainty = true;
   double max_uncertainty_window_xy = 30.0;
   double max_uncertainty_window_theta = 1.5;
