@@ -161,14 +161,14 @@ std::optional<WayCost> LeastWay(const std::vector<MapPathPoint>& path, const Pos
   }
   const int start = static_cast<int>(a - path.data());
   const int goal = static_cast<int>(b - path.data());
-  int first = start, last = start;  // the trajectory's points are contiguous in the path
-  if (across) {
-    first = 0;
-    last = static_cast<int>(path.size()) - 1;
-  }
-  while (first > 0 && path[first - 1].trajectory == a->trajectory) --first;
-  while (last + 1 < static_cast<int>(path.size()) && path[last + 1].trajectory == a->trajectory) {
-    ++last;
+  // The whole path across trajectories; else the start's trajectory (contiguous in the path).
+  int first = 0, last = static_cast<int>(path.size()) - 1;
+  if (!across) {
+    first = last = start;
+    while (first > 0 && path[first - 1].trajectory == a->trajectory) --first;
+    while (last + 1 < static_cast<int>(path.size()) && path[last + 1].trajectory == a->trajectory) {
+      ++last;
+    }
   }
   std::vector<WayCost> best(static_cast<size_t>(last - first + 1),
                             WayCost{std::numeric_limits<double>::infinity(), 0.0});
@@ -216,8 +216,8 @@ ChainUncertainty::Sigma MapUncertaintyBetween(const std::vector<MapPathPoint>& p
   // The swing of a step's heading error is taken about the node the way comes from, to the end.
   const std::optional<WayCost> way = LeastWay(path, from, to, true, [&path, &to](int i, int j) {
     const Eigen::Vector3d& sigma = path[std::max(i, j)].step_sigma;
-    const double swing_sq = (to.x - path[i].x) * (to.x - path[i].x) +
-                            (to.y - path[i].y) * (to.y - path[i].y);
+    const double swing_sq =
+        (to.x - path[i].x) * (to.x - path[i].x) + (to.y - path[i].y) * (to.y - path[i].y);
     const double xy = std::max(sigma(0), sigma(1));
     const double theta_sq = sigma(2) * sigma(2);
     return WayCost{xy * xy + theta_sq * swing_sq, theta_sq};
@@ -271,19 +271,19 @@ SearchWindow TrajectoryFollow::TravelWindow(const std::vector<NodeView>& nodes, 
 
 SearchWindow TrajectoryFollow::UncertaintyWindow(const std::vector<NodeView>& nodes, int node,
                                                  const Pose2& predicted) const {
-  // The robot's own chain since the last sample, each step's heading error swung to `node`.
+  // The robot's own chain since the last sample (its last node before it on), each step's heading
+  // error swung to `node`.
   const OriginSample& last = samples_.back();
-  const Pose2& end = nodes[node].global;
-  double own_xy = 0.0, own_theta = 0.0;
-  for (int i = node; i > 0 && nodes[i].stamp > last.stamp; --i) {
-    const Pose2& from = nodes[i - 1].global;
-    const Eigen::Vector3d sigma = ChainStepSigma(nodes[i], Relative(from, nodes[i].global));
-    const double xy = std::max(sigma(0), sigma(1));
-    const double theta_sq = sigma(2) * sigma(2);
-    own_xy += xy * xy + theta_sq * ((end.x - from.x) * (end.x - from.x) +
-                                    (end.y - from.y) * (end.y - from.y));
-    own_theta += theta_sq;
+  int since = node;
+  while (since > 0 && nodes[since].stamp > last.stamp) --since;
+  ChainUncertainty chain;
+  for (int i = since; i <= node; ++i) {
+    chain.Append(Eigen::Vector2d(nodes[i].global.x, nodes[i].global.y),
+                 i == since
+                     ? Eigen::Vector3d::Zero()
+                     : ChainStepSigma(nodes[i], Relative(nodes[i - 1].global, nodes[i].global)));
   }
+  const ChainUncertainty::Sigma own = chain.Between(0, chain.size() - 1);
   ChainUncertainty::Sigma map;
   const int last_node = NodeOfScan(nodes, last.scan);
   if (!path_.empty() && last_node >= 0) {
@@ -293,14 +293,13 @@ SearchWindow TrajectoryFollow::UncertaintyWindow(const std::vector<NodeView>& no
   const double s = options_.window_sigmas;
   const SearchWindow travel = TravelWindow(nodes, node, predicted);
   return SearchWindow{
-      std::max(travel.xy,
-               std::min(options_.max_uncertainty_window_xy,
-                        s * std::sqrt(options_.sigma_xy_floor * options_.sigma_xy_floor + own_xy +
-                                      map.xy * map.xy))),
-      std::max(travel.theta, std::min(options_.max_uncertainty_window_theta,
-                                       s * std::sqrt(options_.sigma_theta_floor *
-                                                         options_.sigma_theta_floor +
-                                                     own_theta + map.theta * map.theta)))};
+      std::max(travel.xy, std::min(options_.max_uncertainty_window_xy,
+                                   s * std::sqrt(options_.sigma_xy_floor * options_.sigma_xy_floor +
+                                                 own.xy * own.xy + map.xy * map.xy))),
+      std::max(travel.theta,
+               std::min(options_.max_uncertainty_window_theta,
+                        s * std::sqrt(options_.sigma_theta_floor * options_.sigma_theta_floor +
+                                      own.theta * own.theta + map.theta * map.theta)))};
 }
 
 bool TrajectoryFollow::Attempt(const std::vector<NodeView>& nodes, int node) {
