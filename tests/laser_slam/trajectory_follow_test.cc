@@ -71,17 +71,17 @@ class TrajectoryFollowTest : public ::testing::Test {
     const std::vector<Pose2> a = PolylinePath(
         {{2.0, 4.5}, {12.0, 4.5}, {12.0, 7.0}, {3.0, 7.0}, {3.0, 9.0}, {8.0, 10.5}}, 0.25);
     map_ = {TiedTrajectory{Pose2{}, DriftingNodes(walls_, a, 1.0, 0.0)}};
-    const std::vector<Pose2> b =
-        PolylinePath({{15.5, 6.5}, {6.0, 6.5}, {5.0, 4.0}, {13.0, 5.5}, {15.5, 8.0}}, 0.25);
-    for (const Pose2& p : b) truth_.push_back(Relative(a.front(), p));  // in the map frame
+    b_ = PolylinePath({{15.5, 6.5}, {6.0, 6.5}, {5.0, 4.0}, {13.0, 5.5}, {15.5, 8.0}}, 0.25);
+    for (const Pose2& p : b_) truth_.push_back(Relative(a.front(), p));  // in the map frame
     // Robot 2 drifts: 1.5 % long, 0.004 rad per node to the left.
-    nodes_ = DriftingNodes(walls_, b, 1.015, 0.004);
+    nodes_ = DriftingNodes(walls_, b_, 1.015, 0.004);
     // Tied in at its first node, right there (as TrajectoryTie ties in: 2-7 cm on real logs).
     tie_ = OriginSample{nodes_.front().scan, nodes_.front().stamp,
                         Compose(truth_.front(), Invert(nodes_.front().global))};
   }
 
   std::vector<Wall> walls_;
+  std::vector<Pose2> b_;  // robot 2's true poses in the world
   std::vector<TiedTrajectory> map_;
   std::vector<Pose2> truth_;
   std::vector<NodeView> nodes_;
@@ -166,6 +166,75 @@ TEST_F(TrajectoryFollowTest, AMatchInTheWindowsCornerIsBeyondTheUncertainty) {
   EXPECT_EQ(gated->progress().beyond, 1);
 }
 
+// How often the robot is looked at goes by its travel too, not by its nodes alone: a log that
+// keeps one scan per metre (the corrected logs of ../shared) makes every scan a node, and
+// every_nodes of them span four times the travel they span in a raw log. Where the nodes lie
+// 0.25 m apart (the session's node_travel) the travel changes nothing.
+TEST_F(TrajectoryFollowTest, ALogWithAScanPerMetreIsLookedAtAsOftenPerMetre) {
+  const auto attempts = [&](const std::vector<NodeView>& nodes, const std::vector<Pose2>& truth,
+                            FollowOptions options) {
+    const OriginSample tie{nodes.front().scan, nodes.front().stamp,
+                           Compose(truth.front(), Invert(nodes.front().global))};
+    absl::StatusOr<std::unique_ptr<TrajectoryFollow>> follow =
+        TrajectoryFollow::Create(options, tie);
+    EXPECT_TRUE(follow.ok()) << follow.status();
+    EXPECT_TRUE((*follow)->SetMap(MapCloud(map_, 0.05), map_.front().nodes.size()).ok());
+    std::vector<NodeView> seen;
+    for (const NodeView& node : nodes) {
+      seen.push_back(node);
+      (*follow)->Advance(seen, 1);
+    }
+    EXPECT_GE((*follow)->progress().matched, (*follow)->progress().attempts / 2)
+        << "weak " << (*follow)->progress().weak << " ambiguous " << (*follow)->progress().ambiguous
+        << " beyond " << (*follow)->progress().beyond;
+    return (*follow)->progress().attempts;
+  };
+  FollowOptions nodes_only;
+  nodes_only.every_metres = 0.0;
+  // The fixture's nodes, 0.25 m apart (1.5 % long): the same attempts either way.
+  EXPECT_EQ(attempts(nodes_, truth_, FollowOptions{}), attempts(nodes_, truth_, nodes_only));
+  // One node per metre of the same drive, drifting as much per metre as a node of the fixture
+  // drifts per metre in length, a quarter as much in heading (a query spanning 4 m bent by
+  // 0.016 rad per metre finds nothing).
+  std::vector<Pose2> world, sparse_truth;
+  for (size_t i = 0; i < b_.size(); i += 4) {
+    world.push_back(b_[i]);
+    sparse_truth.push_back(truth_[i]);
+  }
+  const std::vector<NodeView> sparse = DriftingNodes(walls_, world, 1.015, 0.004);
+  const int by_nodes = attempts(sparse, sparse_truth, nodes_only);
+  const int by_travel = attempts(sparse, sparse_truth, FollowOptions{});
+  EXPECT_GE(by_nodes, 3);
+  // Every second node (2 m >= 1.25 m) instead of every fifth.
+  EXPECT_GE(by_travel, 2 * by_nodes);
+  EXPECT_LE(by_travel, static_cast<int>(sparse.size()) / 2 + 1);
+}
+
+// A node its session pruned keeps no points. An attempt whose query has too few points is not an
+// attempt: the next node with points is tried at once, not every_nodes later, so how often the
+// robot is matched does not depend on what its session had pruned when the follow got there.
+TEST_F(TrajectoryFollowTest, AnAttemptOnPrunedNodesMovesOnToTheNextNode) {
+  std::vector<NodeView> nodes = nodes_;
+  const auto no_points = std::make_shared<const PointCloud>();
+  for (int i = 1; i <= 11; ++i) nodes[i].points = no_points;
+  FollowOptions options;
+  options.every_metres = 0.0;  // every 5 nodes: 5 and 10 fall on the pruned ones
+  absl::StatusOr<std::unique_ptr<TrajectoryFollow>> follow =
+      TrajectoryFollow::Create(options, tie_);
+  ASSERT_TRUE(follow.ok()) << follow.status();
+  ASSERT_TRUE((*follow)->SetMap(MapCloud(map_, 0.05), map_.front().nodes.size()).ok());
+  std::vector<NodeView> seen;
+  for (size_t i = 0; i < 18; ++i) {
+    seen.push_back(nodes[i]);
+    (*follow)->Advance(seen, 1);
+  }
+  // Node 12 (its own points), then five nodes on: 17.
+  ASSERT_EQ((*follow)->progress().attempts, 2);
+  ASSERT_EQ((*follow)->progress().matched, 2);
+  EXPECT_EQ((*follow)->samples()[1].scan, nodes[12].scan);
+  EXPECT_EQ((*follow)->samples()[2].scan, nodes[17].scan);
+}
+
 // A follow stopped half-way (its server restarted, or another server took the map over) and
 // resumed from its stored samples matches only the nodes after them, and ends with the samples of
 // a follow never interrupted.
@@ -229,6 +298,9 @@ TEST(OriginAtTest, InterpolatesBetweenSamplesAndHoldsOutside) {
   EXPECT_EQ(OriginAt({}, 5.0).x, 0.0);
   FollowOptions bad;
   bad.every_nodes = 0;
+  EXPECT_FALSE(TrajectoryFollow::Create(bad, samples.front()).ok());
+  bad = FollowOptions{};
+  bad.every_metres = std::nan("");
   EXPECT_FALSE(TrajectoryFollow::Create(bad, samples.front()).ok());
 }
 

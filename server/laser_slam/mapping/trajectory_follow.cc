@@ -57,13 +57,13 @@ absl::Status ValidateFollowOptions(const FollowOptions& o) {
   }
   if (o.every_nodes < 1 || o.every_nodes > 1000 || o.query_nodes < 1 || o.query_nodes > 50 ||
       o.min_query_points < 1 || o.max_samples < 2 || !(o.sigma_xy_per_metre >= 0) ||
-      !(o.sigma_theta_per_metre >= 0) || !(o.min_score > 0 && o.min_score < 1) ||
-      !(o.rival_ratio > 0 && o.rival_ratio <= 1) || o.max_window_theta > M_PI ||
-      o.max_uncertainty_window_theta > M_PI) {
+      !(o.sigma_theta_per_metre >= 0) || !(o.every_metres >= 0) ||
+      !(o.min_score > 0 && o.min_score < 1) || !(o.rival_ratio > 0 && o.rival_ratio <= 1) ||
+      o.max_window_theta > M_PI || o.max_uncertainty_window_theta > M_PI) {
     return absl::InvalidArgumentError(
-        "follow: every_nodes must be in [1, 1000], query_nodes in [1, 50], max_samples at least "
-        "2, the sigmas per metre >= 0, min_score in (0, 1), rival_ratio in (0, 1], "
-        "max_window_theta and max_uncertainty_window_theta at most pi");
+        "follow: every_nodes must be in [1, 1000], every_metres >= 0, query_nodes in [1, 50], "
+        "max_samples at least 2, the sigmas per metre >= 0, min_score in (0, 1), rival_ratio in "
+        "(0, 1], max_window_theta and max_uncertainty_window_theta at most pi");
   }
   return absl::OkStatus();
 }
@@ -230,24 +230,46 @@ int TrajectoryFollow::Advance(const std::vector<NodeView>& nodes, int max_attemp
   if (nodes.empty() || grid_ == nullptr) return 0;
   RefreshOrigins(nodes, &samples_);  // the session's closures since moved its nodes
   const int n = static_cast<int>(nodes.size());
-  if (next_node_ < 0) {
-    // The first node after the last sample's (the tie's, unless resumed), plus a stride: that
+  if (last_attempt_ == -2) {
+    // Counted from the first node after the last sample's (the tie's, unless resumed): that
     // sample observed the origin there.
     int first = 0;
     while (first < n && nodes[first].stamp <= samples_.back().stamp) ++first;
     if (first >= n) return 0;
-    next_node_ = first + options_.every_nodes - 1;
+    last_attempt_ = first - 1;
+    next_try_ = first;
   }
   int looked = 0;
   // In node order, at most max_attempts now: a caller behind (a replay faster than the matching)
-  // catches up over later calls, one attempt per every_nodes nodes in all.
-  while (max_attempts > 0 && next_node_ < n) {
-    Attempt(nodes, next_node_);
-    next_node_ += options_.every_nodes;
+  // catches up over later calls, the same attempts in all.
+  for (int node = NextAttempt(nodes); max_attempts > 0 && node >= 0; node = NextAttempt(nodes)) {
+    const int attempts = progress_.attempts;
+    Attempt(nodes, node);
+    next_try_ = node + 1;
+    // Too few points to match (its session pruned the nodes of the query, which keep no points):
+    // the next node is due, so that how often the robot is matched does not depend on what its
+    // session had pruned when the follow got there.
+    if (progress_.attempts == attempts) continue;
+    last_attempt_ = node;
     --max_attempts;
     ++looked;
   }
   return looked;
+}
+
+int TrajectoryFollow::NextAttempt(const std::vector<NodeView>& nodes) const {
+  double travel = 0.0;
+  for (int node = last_attempt_ + 1; node < static_cast<int>(nodes.size()); ++node) {
+    if (node > 0) {
+      travel += std::hypot(nodes[node].global.x - nodes[node - 1].global.x,
+                           nodes[node].global.y - nodes[node - 1].global.y);
+    }
+    if (node >= next_try_ && (node - last_attempt_ >= options_.every_nodes ||
+                              (options_.every_metres > 0 && travel >= options_.every_metres))) {
+      return node;
+    }
+  }
+  return -1;
 }
 
 SearchWindow TrajectoryFollow::TravelWindow(const std::vector<NodeView>& nodes, int node,

@@ -4,14 +4,14 @@
 // A tied-in robot kept on the shared map (issue 38; docs/laser-slam.md, "Maps shared by
 // robots"). TrajectoryTie finds where a joining robot's frame lies in the map once; after it, the
 // robot's own drift carries it away from the other robots' map (ACES split for two robots: up to
-// 3.8 m). Here its recent nodes are matched again, every `every_nodes` nodes, against the OTHER
-// tied-in trajectories' points, in a local window around where its current origin puts them: no
-// global search. The window is three sigmas of how far the origin may have drifted since the
-// last match: a floor plus a share of the travel since, capped, or, where the chains' own
-// uncertainty reaches farther (the robot's since its last match, the map's between there and
-// here), that, with a match beyond three sigmas of it refused. A match counts when it scores
-// at least min_score and no rival pose farther than rival_exclusion in the same window scores
-// rival_ratio of it (a corridor sliding along itself, a look-alike room nearby).
+// 3.8 m). Here its recent nodes are matched again, every `every_nodes` nodes or `every_metres`
+// of travel, against the OTHER tied-in trajectories' points, in a local window around where its
+// current origin puts them: no global search. The window is three sigmas of how far the origin may
+// have drifted since the last match: a floor plus a share of the travel since, capped, or, where
+// the chains' own uncertainty reaches farther (the robot's since its last match, the map's between
+// there and here), that, with a match beyond three sigmas of it refused. A match counts when it
+// scores at least min_score and no rival pose farther than rival_exclusion in the same window
+// scores rival_ratio of it (a corridor sliding along itself, a look-alike room nearby).
 //
 // Each match observes the origin at its node: the match pose in the map frame composed with the
 // inverse of the node's own pose. The origin is then not one transform but piecewise
@@ -81,6 +81,12 @@ struct MapPathPoint {
 
 struct FollowOptions {
   int every_nodes = 5;   // one match attempt every this many nodes (its newest)
+  // ... or sooner, once the robot has travelled this far (m) since the last attempt: what
+  // every_nodes nodes span where the session keeps a node per 0.25 m (MappingOptions::
+  // node_travel), as in a raw log at 5 Hz or faster. A log that keeps one scan per metre or two
+  // (the corrected logs of ../shared) makes each scan a node, and five of them span 4-5 m: the
+  // robot was then looked at a third as often per metre. 0: nodes only.
+  double every_metres = 1.25;
   int query_nodes = 5;   // the query: the points of this many nodes in the newest one's frame
   int min_query_points = 30;
   double point_cell = 0.05;
@@ -212,6 +218,9 @@ class TrajectoryFollow {
                             const Pose2& predicted) const;
   SearchWindow UncertaintyWindow(const std::vector<NodeView>& nodes, int node,
                                  const Pose2& predicted) const;
+  // The next node to try after last_attempt_: every_nodes on, or the first every_metres of
+  // travel on, whichever comes first, and not before next_try_; -1: none of `nodes` yet.
+  int NextAttempt(const std::vector<NodeView>& nodes) const;
   // One attempt at node `node`; true when it gave a sample.
   bool Attempt(const std::vector<NodeView>& nodes, int node);
 
@@ -220,7 +229,10 @@ class TrajectoryFollow {
   std::vector<MapPathPoint> path_;
   std::size_t grid_nodes_ = 0;
   std::vector<OriginSample> samples_;
-  int next_node_ = -1;  // the next node to try (-1: the first after the tie's stamp)
+  // The node after which the next attempt is counted (every_nodes, every_metres); -2: not yet
+  // known (the node before the first after the tie's stamp, or the last sample's when resumed).
+  int last_attempt_ = -2;
+  int next_try_ = 0;  // the nodes before it were tried (with too few points, or matched)
   FollowProgress progress_;
 };
 
