@@ -31,8 +31,9 @@ struct MapTrajectoryRecord {
   int64_t ordinal = 0;   // the join order within the map: 1, 2, 3, ...
   double joined_at = 0;  // unix seconds
   std::optional<MapTie> tie;  // unset = not yet in the map
-  // The follow's origin samples after the tie, encoded by the service (map_follow_codec.h);
-  // empty: none (a tie not followed yet, or one found again, which starts a new follow).
+  // The follow's origin samples after the tie (and the searches that found it), encoded by the
+  // service (map_follow_codec.h); empty: none (a tie with no searches counted here: a known
+  // start, or one stored before the searches were kept).
   std::string follow;
   // Read-only, from the session's row.
   std::string robot_id;

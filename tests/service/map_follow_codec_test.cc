@@ -44,6 +44,25 @@ TEST(MapFollowCodecTest, ARoundTripKeepsEverySampleAndCount) {
   EXPECT_EQ(back->samples[1].map_pose.y, 5.0);
   EXPECT_EQ(back->samples[1].origin.theta, 0.3);
   EXPECT_EQ(back->stats.SerializeAsString(), follow.stats.SerializeAsString());
+  EXPECT_EQ(back->search.tried(), 0u);  // a follow stored before the searches were kept
+}
+
+// What the searches found up to the tie is stored with the tie, before any sample.
+TEST(MapFollowCodecTest, TheSearchesUpToTheTieAreKeptWithoutSamples) {
+  StoredFollow tie;
+  tie.search.set_tried(164);
+  tie.search.set_matched(78);
+  tie.search.set_ambiguous(29);
+  absl::StatusOr<StoredFollow> back = DecodeFollow(EncodeFollow(tie));
+  ASSERT_TRUE(back.ok()) << back.status();
+  EXPECT_TRUE(back->samples.empty());
+  EXPECT_EQ(back->search.SerializeAsString(), tie.search.SerializeAsString());
+  StoredFollow followed = TwoSamples();
+  followed.search = tie.search;
+  back = DecodeFollow(EncodeFollow(followed));
+  ASSERT_TRUE(back.ok()) << back.status();
+  EXPECT_EQ(back->samples.size(), 2u);
+  EXPECT_EQ(back->search.ambiguous(), 29u);
 }
 
 TEST(MapFollowCodecTest, DamagedBytesAndBadSamplesAreDataLoss) {
@@ -82,6 +101,24 @@ TEST(MapFollowCodecTest, TheMapSaysWhenItIsUnsureOfARobot) {
                                                 "map, 3 between look-alike places)"),
             std::string::npos)
       << MapTrajectoryWarning(followed);
+
+  // Tied in after searches that found look-alike places: it may be at one of them, whatever its
+  // follow-up matches say (a half-turned robot in a floor with point symmetry matches as well).
+  v1::MapTrajectory among_twins;
+  among_twins.set_tied_in(true);
+  among_twins.mutable_search()->set_tried(164);
+  among_twins.mutable_search()->set_matched(78);
+  EXPECT_EQ(MapTrajectoryWarning(among_twins), "");
+  among_twins.mutable_search()->set_ambiguous(29);
+  among_twins.mutable_follow()->set_tried(99);
+  among_twins.mutable_follow()->set_matched(53);
+  EXPECT_EQ(MapTrajectoryWarning(among_twins),
+            "tied in after 29 of its 164 searches found look-alike places: it may be at one of "
+            "them");
+  among_twins.mutable_follow()->set_matched(20);
+  const std::string both = MapTrajectoryWarning(among_twins);
+  EXPECT_EQ(both.find("tied in after 29 of its 164"), 0u) << both;
+  EXPECT_NE(both.find("; only 20 of 99 follow-up matches held"), std::string::npos) << both;
 }
 
 }  // namespace

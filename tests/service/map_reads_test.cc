@@ -1,6 +1,7 @@
 // The map registry's reads of a shared map (issue 38, map_reads.cc) on a real SQLite file, the
 // sessions' nodes faked: the map's pose graph is solved once and its solution reused while
-// nothing it is solved from changes, solved again when a node moves, and let go with the map.
+// nothing it is solved from changes, solved again when a node moves, and let go with the map. And
+// a robot found among look-alike places stays marked so after its tie, its follow and a restart.
 
 #include <memory>
 #include <string>
@@ -91,6 +92,66 @@ TEST(MapReadsTest, TheGraphIsSolvedOncePerChangeAndLetGoWithTheMap) {
 
   ASSERT_OK(registry.DeleteMap("floor", /*force=*/true));
   EXPECT_FALSE(registry.GraphStats("floor").has_value());
+}
+
+TEST(MapReadsTest, ATieFoundAmongLookAlikePlacesIsMarkedAfterItsFollowAndARestart) {
+  TempDir dir;
+  const std::string db = dir.File("w.db");
+  ASSERT_OK_AND_ASSIGN(std::unique_ptr<storage::SlamStore> sessions,
+                       storage::OpenSqliteSlamStore(db));
+  ASSERT_OK_AND_ASSIGN(std::unique_ptr<storage::MapStore> maps, storage::OpenSqliteMapStore(db));
+  for (const std::string id : {"a", "b", "c"}) {
+    storage::SlamSessionRecord session;
+    session.id = id;
+    session.robot_id = "robot-" + id;
+    ASSERT_OK(sessions->CreateSession(session));
+  }
+  const auto warning_of = [](const v1::Map& map, const std::string& id) {
+    for (const v1::MapTrajectory& t : map.trajectories()) {
+      if (t.session_id() == id) return t.warning();
+    }
+    return std::string("(no trajectory)");
+  };
+  const std::string twins = "tied in after 29 of its 164 searches found look-alike places";
+  {
+    MapRegistry registry(maps.get(), nullptr);
+    ASSERT_OK(registry.CreateMap("floor"));
+    for (const std::string id : {"a", "b", "c"}) ASSERT_OK(registry.Join("floor", id));
+    // b's searches found look-alikes before its tie; c's did not.
+    ls::TieProgress among_twins;
+    among_twins.searches = 164;
+    among_twins.matches = 78;
+    among_twins.ambiguous = 29;
+    registry.Searched("b", among_twins);
+    ls::TieProgress clear;
+    clear.searches = 6;
+    clear.matches = 6;
+    registry.Searched("c", clear);
+    ASSERT_OK_AND_ASSIGN(v1::Map searching, registry.GetMap("floor"));
+    EXPECT_NE(warning_of(searching, "b").find("29 of 164 searches found look-alike places"),
+              std::string::npos);
+    ASSERT_OK(registry.Tie("floor", "b", storage::MapTie{18.3, 16.1, 3.1}));
+    ASSERT_OK(registry.Tie("floor", "c", storage::MapTie{0.0, 1.0, 0.0}));
+    ASSERT_OK_AND_ASSIGN(v1::Map tied, registry.GetMap("floor"));
+    EXPECT_EQ(warning_of(tied, "b").find(twins), 0u) << warning_of(tied, "b");
+    EXPECT_EQ(warning_of(tied, "c"), "");
+    // Its follow-up matches hold (a half-turned robot's do, in a floor with point symmetry): the
+    // mark stays, and is stored with the samples.
+    ls::FollowProgress holding;
+    holding.attempts = 20;
+    holding.matched = 15;
+    ASSERT_OK(registry.Follow("floor", "b",
+                              {ls::OriginSample{1, 0.0, ls::Pose2{18.3, 16.1, 3.1}},
+                               ls::OriginSample{9, 4.0, ls::Pose2{18.4, 16.1, 3.1}}},
+                              holding));
+    ASSERT_OK_AND_ASSIGN(v1::Map followed, registry.GetMap("floor"));
+    EXPECT_EQ(warning_of(followed, "b").find(twins), 0u) << warning_of(followed, "b");
+  }
+  MapRegistry restarted(maps.get(), nullptr);
+  ASSERT_OK(restarted.Load());
+  ASSERT_OK_AND_ASSIGN(v1::Map loaded, restarted.GetMap("floor"));
+  EXPECT_EQ(warning_of(loaded, "b").find(twins), 0u) << warning_of(loaded, "b");
+  EXPECT_EQ(warning_of(loaded, "c"), "");
 }
 
 }  // namespace

@@ -50,6 +50,7 @@ std::string EncodeFollow(const StoredFollow& follow) {
     SetSample(sample, trajectory.add_origin_samples());
   }
   *trajectory.mutable_follow() = follow.stats;
+  *trajectory.mutable_search() = follow.search;
   return trajectory.SerializeAsString();
 }
 
@@ -58,7 +59,7 @@ absl::StatusOr<StoredFollow> DecodeFollow(const std::string& bytes) {
   if (!trajectory.ParseFromString(bytes)) {
     return absl::DataLossError("a trajectory's stored follow is not a list of origin samples");
   }
-  StoredFollow follow{SamplesOf(trajectory), trajectory.follow()};
+  StoredFollow follow{SamplesOf(trajectory), trajectory.follow(), trajectory.search()};
   for (size_t i = 0; i < follow.samples.size(); ++i) {
     const laser_slam::OriginSample& sample = follow.samples[i];
     if (!std::isfinite(sample.stamp) || !Finite(sample.origin) || !Finite(sample.map_pose) ||
@@ -107,11 +108,16 @@ std::string MapTrajectoryWarning(const v1::MapTrajectory& trajectory) {
                         " searches found look-alike places (a rival nearly as good as the match): "
                         "not tied in until one place wins");
   }
+  std::string warning;
+  if (const v1::MapMatchStats& s = trajectory.search(); s.ambiguous() > 0) {
+    warning = absl::StrCat("tied in after ", s.ambiguous(), " of its ", s.tried(),
+                           " searches found look-alike places: it may be at one of them");
+  }
   const v1::MapMatchStats& f = trajectory.follow();
   constexpr uint32_t kFewest = 10;  // fewer attempts say little either way
-  if (f.tried() < kFewest || 2 * f.matched() >= f.tried()) return "";
-  return absl::StrCat("only ", f.matched(), " of ", f.tried(), " follow-up matches held (", f.weak(),
-                      " off the map, ", f.ambiguous(),
+  if (f.tried() < kFewest || 2 * f.matched() >= f.tried()) return warning;
+  return absl::StrCat(warning, warning.empty() ? "" : "; ", "only ", f.matched(), " of ", f.tried(),
+                      " follow-up matches held (", f.weak(), " off the map, ", f.ambiguous(),
                       " between look-alike places): between them its map-frame pose drifts with "
                       "its own odometry");
 }

@@ -1,10 +1,11 @@
 #ifndef WAYMARK_SERVER_SERVICE_SLAM_MAP_FOLLOW_CODEC_H_
 #define WAYMARK_SERVER_SERVICE_SLAM_MAP_FOLLOW_CODEC_H_
 
-// A trajectory's follow in a shared map (issue 38: the origin samples after its tie, and how the
-// matching went) as the map store keeps it (storage::MapTrajectoryRecord::follow: a MapTrajectory
-// message with only origin_samples and follow set, serialized) and as the API shows it, and the
-// warning a trajectory's counts call for.
+// A trajectory's follow in a shared map (issue 38: the origin samples after its tie, how the
+// matching went, and how the searches up to the tie went) as the map store keeps it
+// (storage::MapTrajectoryRecord::follow: a MapTrajectory message with only origin_samples, follow
+// and search set, serialized) and as the API shows it, and the warning a trajectory's counts call
+// for.
 
 #include <string>
 #include <vector>
@@ -19,6 +20,10 @@ namespace waymark::service {
 struct StoredFollow {
   std::vector<laser_slam::OriginSample> samples;
   v1::MapMatchStats stats;
+  // The global searches that found the robot, up to its tie (MapTrajectory.search): stored with
+  // the tie, before any sample, so that a map can still say after the tie that it was found among
+  // look-alike places.
+  v1::MapMatchStats search;
 };
 
 std::string EncodeFollow(const StoredFollow& follow);
@@ -37,6 +42,9 @@ v1::MapMatchStats Sum(const v1::MapMatchStats& a, const v1::MapMatchStats& b);
 
 // Why the map is unsure of `trajectory` (MapTrajectory.warning), from its counts; empty if not:
 // - not yet in the map, and searches found look-alike places (a tie waits until one place wins);
+// - tied in, and searches before its tie found look-alike places: the place it was tied in at
+//   may be one of them (in a floor with point symmetry a half-turned robot's follow-up matches
+//   hold as well as a right one's, docs/results.md);
 // - followed, and fewer than half of at least 10 follow-up matches held: between the ones that
 //   did its map-frame pose drifts with its odometry.
 std::string MapTrajectoryWarning(const v1::MapTrajectory& trajectory);

@@ -126,7 +126,15 @@ void MapRegistry::Remember(const storage::MapRecord& map) {
       continue;
     }
     absl::StatusOr<StoredFollow> stored = DecodeFollow(trajectory.follow);
-    if (!stored.ok() || stored->samples.empty()) {
+    if (stored.ok() && stored->samples.empty()) {
+      // Tied in and not followed yet: only how the searches went.
+      Followed& entry = followed_[trajectory.session_id];
+      entry = Followed{};
+      entry.search = stored->search;
+      entry.revision = map.revision;
+      continue;
+    }
+    if (!stored.ok()) {
       // The stored origin still holds for every pose; the follow starts again from it.
       spdlog::warn("SLAM map \"{}\": session {}'s stored follow is unreadable ({}); its origin "
                    "holds for every pose",
@@ -139,6 +147,7 @@ void MapRegistry::Remember(const storage::MapRecord& map) {
     entry.stored_count = stored->samples.size();
     entry.samples = std::move(stored->samples);
     entry.stats = stored->stats;
+    entry.search = stored->search;
     entry.here = false;
     entry.revision = map.revision;
   }
@@ -198,6 +207,7 @@ void MapRegistry::AddSamples(const storage::MapRecord& record, v1::Map* map) con
         SetSample(sample, trajectory.add_origin_samples());
       }
       *trajectory.mutable_follow() = it->second.stats;
+      *trajectory.mutable_search() = it->second.search;
     } else if (const std::string& stored = record.trajectories[static_cast<size_t>(i)].follow;
                !stored.empty()) {
       // The store's, written by the map's owner (maybe another server). Unreadable bytes (logged
@@ -208,6 +218,7 @@ void MapRegistry::AddSamples(const storage::MapRecord& record, v1::Map* map) con
           SetSample(sample, trajectory.add_origin_samples());
         }
         *trajectory.mutable_follow() = follow->stats;
+        *trajectory.mutable_search() = follow->search;
       }
     }
     trajectory.set_warning(MapTrajectoryWarning(trajectory));
@@ -412,8 +423,15 @@ std::vector<storage::MapRecord> MapRegistry::MapsToTie() {
 absl::Status MapRegistry::Tie(const std::string& map, const std::string& session_id,
                               const storage::MapTie& tie) {
   if (absl::Status s = CheckStore(); !s.ok()) return s;
-  // A tie found again starts a new follow: the old samples go.
-  absl::StatusOr<storage::MapRecord> tied = store_->TieTrajectory(map, session_id, tie, "");
+  // A tie found again starts a new follow: the old samples go. The searches that found it are
+  // kept with it (a tie among look-alike places stays marked after it).
+  StoredFollow searched;
+  {
+    std::lock_guard<std::mutex> lock(mutex_);
+    if (auto it = searches_.find(session_id); it != searches_.end()) searched.search = it->second;
+  }
+  absl::StatusOr<storage::MapRecord> tied = store_->TieTrajectory(
+      map, session_id, tie, searched.search.tried() > 0 ? EncodeFollow(searched) : "");
   if (!tied.ok()) return tied.status();
   {
     std::lock_guard<std::mutex> lock(mutex_);
@@ -473,7 +491,7 @@ absl::Status MapRegistry::Follow(const std::string& map, const std::string& sess
     if (store) {
       followed.stored = latest;
       followed.stored_count = samples.size();
-      follow = EncodeFollow(StoredFollow{samples, followed.stats});
+      follow = EncodeFollow(StoredFollow{samples, followed.stats, followed.search});
     }
   }
   if (!store) return absl::OkStatus();

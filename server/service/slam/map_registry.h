@@ -201,6 +201,7 @@ class MapRegistry {
     int64_t revision = -1;
     v1::MapMatchStats stats;  // counted in all, `base` by the follows before this server's
     v1::MapMatchStats base;
+    v1::MapMatchStats search;  // the searches up to its tie (StoredFollow::search)
   };
   std::map<std::string, Followed> followed_;  // by session id; guarded by mutex_
   // Sessions searched for here and not yet tied in: how the searches went.
