@@ -46,19 +46,36 @@ std::vector<double> NodeOrigins(const v1::Map& map) {
   return out;
 }
 
-TEST(MapReadsTest, TheGraphIsSolvedOncePerChangeAndLetGoWithTheMap) {
-  TempDir dir;
+// A SQLite file in `dir` with one session per id (robot "robot-<id>") and its map store.
+struct Stores {
+  std::unique_ptr<storage::SlamStore> sessions;
+  std::unique_ptr<storage::MapStore> maps;
+};
+absl::StatusOr<Stores> StoresWithSessions(const TempDir& dir, const std::vector<std::string>& ids) {
   const std::string db = dir.File("w.db");
-  ASSERT_OK_AND_ASSIGN(std::unique_ptr<storage::SlamStore> sessions,
-                       storage::OpenSqliteSlamStore(db));
-  ASSERT_OK_AND_ASSIGN(std::unique_ptr<storage::MapStore> maps, storage::OpenSqliteMapStore(db));
-  for (const std::string id : {"a", "b"}) {
+  Stores out;
+  absl::StatusOr<std::unique_ptr<storage::SlamStore>> sessions = storage::OpenSqliteSlamStore(db);
+  if (!sessions.ok()) return sessions.status();
+  out.sessions = *std::move(sessions);
+  absl::StatusOr<std::unique_ptr<storage::MapStore>> maps = storage::OpenSqliteMapStore(db);
+  if (!maps.ok()) return maps.status();
+  out.maps = *std::move(maps);
+  for (const std::string& id : ids) {
     storage::SlamSessionRecord session;
     session.id = id;
     session.robot_id = "robot-" + id;
-    ASSERT_OK(sessions->CreateSession(session));
+    if (absl::StatusOr<storage::SlamSessionRecord> created = out.sessions->CreateSession(session);
+        !created.ok()) {
+      return created.status();
+    }
   }
-  MapRegistry registry(maps.get(), nullptr);
+  return out;
+}
+
+TEST(MapReadsTest, TheGraphIsSolvedOncePerChangeAndLetGoWithTheMap) {
+  TempDir dir;
+  ASSERT_OK_AND_ASSIGN(Stores stores, StoresWithSessions(dir, {"a", "b"}));
+  MapRegistry registry(stores.maps.get(), nullptr);
   ASSERT_OK(registry.CreateMap("floor"));
   ASSERT_OK(registry.Join("floor", "a"));  // the map frame's
   ASSERT_OK(registry.Join("floor", "b"));
@@ -96,16 +113,7 @@ TEST(MapReadsTest, TheGraphIsSolvedOncePerChangeAndLetGoWithTheMap) {
 
 TEST(MapReadsTest, ATieFoundAmongLookAlikePlacesIsMarkedAfterItsFollowAndARestart) {
   TempDir dir;
-  const std::string db = dir.File("w.db");
-  ASSERT_OK_AND_ASSIGN(std::unique_ptr<storage::SlamStore> sessions,
-                       storage::OpenSqliteSlamStore(db));
-  ASSERT_OK_AND_ASSIGN(std::unique_ptr<storage::MapStore> maps, storage::OpenSqliteMapStore(db));
-  for (const std::string id : {"a", "b", "c"}) {
-    storage::SlamSessionRecord session;
-    session.id = id;
-    session.robot_id = "robot-" + id;
-    ASSERT_OK(sessions->CreateSession(session));
-  }
+  ASSERT_OK_AND_ASSIGN(Stores stores, StoresWithSessions(dir, {"a", "b", "c"}));
   const auto warning_of = [](const v1::Map& map, const std::string& id) {
     for (const v1::MapTrajectory& t : map.trajectories()) {
       if (t.session_id() == id) return t.warning();
@@ -114,7 +122,7 @@ TEST(MapReadsTest, ATieFoundAmongLookAlikePlacesIsMarkedAfterItsFollowAndARestar
   };
   const std::string twins = "tied in after 29 of its 164 searches found look-alike places";
   {
-    MapRegistry registry(maps.get(), nullptr);
+    MapRegistry registry(stores.maps.get(), nullptr);
     ASSERT_OK(registry.CreateMap("floor"));
     for (const std::string id : {"a", "b", "c"}) ASSERT_OK(registry.Join("floor", id));
     // b's searches found look-alikes before its tie; c's did not.
@@ -147,7 +155,7 @@ TEST(MapReadsTest, ATieFoundAmongLookAlikePlacesIsMarkedAfterItsFollowAndARestar
     ASSERT_OK_AND_ASSIGN(v1::Map followed, registry.GetMap("floor"));
     EXPECT_EQ(warning_of(followed, "b").find(twins), 0u) << warning_of(followed, "b");
   }
-  MapRegistry restarted(maps.get(), nullptr);
+  MapRegistry restarted(stores.maps.get(), nullptr);
   ASSERT_OK(restarted.Load());
   ASSERT_OK_AND_ASSIGN(v1::Map loaded, restarted.GetMap("floor"));
   EXPECT_EQ(warning_of(loaded, "b").find(twins), 0u) << warning_of(loaded, "b");
