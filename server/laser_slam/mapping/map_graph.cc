@@ -4,69 +4,14 @@
 #include <cmath>
 #include <cstddef>
 #include <cstdint>
-#include <unordered_map>
 #include <utility>
 
 #include "server/laser_slam/geometry.h"
+#include "server/laser_slam/mapping/pose_cells.h"
 #include "server/laser_slam/mapping/pose_graph.h"
 
 namespace waymark::laser_slam {
 namespace {
-
-// The graph's poses in square cells of the anchor radius, so that the nearest pose within it is
-// among the 3 x 3 cells around a point (a map revisited for hours holds tens of thousands of nodes
-// and as many samples).
-class PoseCells {
- public:
-  // `owner[k]`: the trajectory pose k belongs to.
-  PoseCells(const std::vector<Pose2>& poses, const std::vector<int>& owner, double radius)
-      : poses_(poses), owner_(owner), radius_(radius) {
-    for (size_t k = 0; k < poses.size(); ++k) {
-      cells_[Key(poses[k].x, poses[k].y)].push_back(static_cast<int>(k));
-    }
-  }
-
-  // The nearest pose of a trajectory other than `self` to `at` within the radius (-1: none).
-  int NearestOther(int self, const Pose2& at) const {
-    int best = -1;
-    double best_sq = radius_ * radius_;
-    const auto [cx, cy] = Cell(at.x, at.y);
-    for (std::int64_t dx = -1; dx <= 1; ++dx) {
-      for (std::int64_t dy = -1; dy <= 1; ++dy) {
-        const auto it = cells_.find(Pack(cx + dx, cy + dy));
-        if (it == cells_.end()) continue;
-        for (const int k : it->second) {
-          if (owner_[k] == self) continue;
-          const Pose2& p = poses_[k];
-          const double sq = (p.x - at.x) * (p.x - at.x) + (p.y - at.y) * (p.y - at.y);
-          if (sq <= best_sq) {
-            best_sq = sq;
-            best = k;
-          }
-        }
-      }
-    }
-    return best;
-  }
-
- private:
-  std::pair<std::int64_t, std::int64_t> Cell(double x, double y) const {
-    return {static_cast<std::int64_t>(std::floor(x / radius_)),
-            static_cast<std::int64_t>(std::floor(y / radius_))};
-  }
-  static std::uint64_t Pack(std::int64_t cx, std::int64_t cy) {
-    return (static_cast<std::uint64_t>(cx) << 32) ^ (static_cast<std::uint64_t>(cy) & 0xffffffffu);
-  }
-  std::uint64_t Key(double x, double y) const {
-    const auto [cx, cy] = Cell(x, y);
-    return Pack(cx, cy);
-  }
-
-  const std::vector<Pose2>& poses_;
-  const std::vector<int>& owner_;
-  const double radius_;
-  std::unordered_map<std::uint64_t, std::vector<int>> cells_;
-};
 
 bool Finite(const Pose2& p) {
   return std::isfinite(p.x) && std::isfinite(p.y) && std::isfinite(p.theta);

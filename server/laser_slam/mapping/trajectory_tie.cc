@@ -4,7 +4,6 @@
 #include <cmath>
 #include <cstdint>
 #include <iterator>
-#include <map>
 #include <utility>
 
 #include "absl/strings/str_cat.h"
@@ -13,6 +12,7 @@
 #include "server/laser_slam/mapping/map_consistency.h"
 #include "server/laser_slam/mapping/occupancy_grid.h"
 #include "server/laser_slam/mapping/origin_smoothing.h"
+#include "server/laser_slam/mapping/pose_cells.h"
 #include "server/laser_slam/mapping/search_clock.h"
 #include "server/laser_slam/option_checks.h"
 
@@ -126,42 +126,24 @@ std::vector<MapPathPoint> MapPath(const std::vector<TiedTrajectory>& trajectorie
   }
   // Each follow sample (and the tie) relates its node to the other trajectories' node nearest to
   // where it placed it, looked for within kLinkReach (a match's place is next to the map it
-  // matched). Cells of that size hash the points: samples times a few cells, not times the map.
+  // matched).
   constexpr double kLinkReach = 2.0;
-  const auto cell_of = [](double x, double y) {
-    return std::pair<std::int64_t, std::int64_t>{
-        static_cast<std::int64_t>(std::floor(x / kLinkReach)),
-        static_cast<std::int64_t>(std::floor(y / kLinkReach))};
-  };
-  std::map<std::pair<std::int64_t, std::int64_t>, std::vector<int>> cells;
-  for (int j = 0; j < static_cast<int>(path.size()); ++j) {
-    cells[cell_of(path[j].x, path[j].y)].push_back(j);
+  std::vector<Pose2> at;
+  std::vector<int> owner;
+  at.reserve(path.size());
+  owner.reserve(path.size());
+  for (const MapPathPoint& point : path) {
+    at.push_back(Pose2{point.x, point.y, 0.0});
+    owner.push_back(point.trajectory);
   }
+  const PoseCells cells(at, owner, kLinkReach);
   int first = 0;
   for (size_t t = 0; t < trajectories.size(); ++t) {
     const TiedTrajectory& trajectory = trajectories[t];
     for (const OriginSample& sample : trajectory.samples) {
       const int node = NodeOfScan(trajectory.nodes, sample.scan);
       if (node < 0) continue;
-      const MapPathPoint& at = path[first + node];
-      const auto [cx, cy] = cell_of(at.x, at.y);
-      int nearest = -1;
-      double nearest_sq = kLinkReach * kLinkReach;
-      for (std::int64_t dx = -1; dx <= 1; ++dx) {
-        for (std::int64_t dy = -1; dy <= 1; ++dy) {
-          const auto found = cells.find({cx + dx, cy + dy});
-          if (found == cells.end()) continue;
-          for (int j : found->second) {
-            if (path[j].trajectory == static_cast<int>(t)) continue;
-            const double sq =
-                (path[j].x - at.x) * (path[j].x - at.x) + (path[j].y - at.y) * (path[j].y - at.y);
-            if (sq < nearest_sq) {
-              nearest = j;
-              nearest_sq = sq;
-            }
-          }
-        }
-      }
+      const int nearest = cells.NearestOther(static_cast<int>(t), at[first + node]);
       if (nearest < 0) continue;
       path[first + node].matched_to.push_back(nearest);
       path[nearest].matched_to.push_back(first + node);
