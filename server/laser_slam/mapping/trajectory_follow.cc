@@ -243,13 +243,13 @@ int TrajectoryFollow::Advance(const std::vector<NodeView>& nodes, int max_attemp
   // In node order, at most max_attempts now: a caller behind (a replay faster than the matching)
   // catches up over later calls, the same attempts in all.
   for (int node = NextAttempt(nodes); max_attempts > 0 && node >= 0; node = NextAttempt(nodes)) {
-    const int attempts = progress_.attempts;
-    Attempt(nodes, node);
     next_try_ = node + 1;
+    const PointCloud query = QueryAt(nodes, node);
     // Too few points to match (its session pruned the nodes of the query, which keep no points):
     // the next node is due, so that how often the robot is matched does not depend on what its
     // session had pruned when the follow got there.
-    if (progress_.attempts == attempts) continue;
+    if (static_cast<int>(query.size()) < options_.min_query_points) continue;
+    Attempt(nodes, node, query);
     last_attempt_ = node;
     --max_attempts;
     ++looked;
@@ -324,17 +324,18 @@ SearchWindow TrajectoryFollow::UncertaintyWindow(const std::vector<NodeView>& no
                                       own.theta * own.theta + map.theta * map.theta)))};
 }
 
-bool TrajectoryFollow::Attempt(const std::vector<NodeView>& nodes, int node) {
-  const NodeView& at = nodes[node];
-  // The query: the newest query_nodes nodes' points in this node's frame.
+PointCloud TrajectoryFollow::QueryAt(const std::vector<NodeView>& nodes, int node) const {
   PointCloud query;
   for (int i = std::max(0, node - options_.query_nodes + 1); i <= node; ++i) {
     if (nodes[i].points == nullptr) continue;
-    AppendTransformed(*nodes[i].points, Relative(at.global, nodes[i].global), &query);
+    AppendTransformed(*nodes[i].points, Relative(nodes[node].global, nodes[i].global), &query);
   }
-  query = ThinPoints(query, options_.point_cell);
-  if (static_cast<int>(query.size()) < options_.min_query_points) return false;
+  return ThinPoints(query, options_.point_cell);
+}
 
+bool TrajectoryFollow::Attempt(const std::vector<NodeView>& nodes, int node,
+                               const PointCloud& query) {
+  const NodeView& at = nodes[node];
   const Pose2 predicted = Compose(OriginAt(samples_, at.stamp), at.global);
   const SearchWindow window = options_.window_from_uncertainty
                                   ? UncertaintyWindow(nodes, node, predicted)

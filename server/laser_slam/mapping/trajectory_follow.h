@@ -221,8 +221,12 @@ class TrajectoryFollow {
   // The next node to try after last_attempt_: every_nodes on, or the first every_metres of
   // travel on, whichever comes first, and not before next_try_; -1: none of `nodes` yet.
   int NextAttempt(const std::vector<NodeView>& nodes) const;
-  // One attempt at node `node`; true when it gave a sample.
-  bool Attempt(const std::vector<NodeView>& nodes, int node);
+  // The query of an attempt at node `node`: the newest query_nodes nodes' points in its frame,
+  // thinned to point_cell.
+  PointCloud QueryAt(const std::vector<NodeView>& nodes, int node) const;
+  // One attempt at node `node` with its query (at least min_query_points); true when it gave a
+  // sample.
+  bool Attempt(const std::vector<NodeView>& nodes, int node, const PointCloud& query);
 
   const FollowOptions options_;
   std::unique_ptr<SearchPyramid> grid_;
